@@ -1,0 +1,96 @@
+"""Discretization, the second stage of the pipeline: from a MechanicalSystem and a step h
+to the discrete Lagrangian L_d, the discrete constraints omega_d of (28) (Cortes-Martinez,
+midpoint retraction) and the discrete forces f_d^-/+, each a named CasADi Function whose
+last input is the step h (so that a free final time can make h a decision variable).
+"""
+
+import casadi as ca
+
+from .. import _checks
+from ..system import MechanicalSystem
+from .rules import as_rule, quadrature, virtual_work_split
+
+
+class Discretization:
+    """Discrete data of a mechanical system on a uniform grid of step `h`.
+
+    Build it with `discretize`. With z = (q0, q1, s, ...) for one step [t_k, t_k + h]:
+
+    Attributes
+    ----------
+    system : MechanicalSystem
+    h : float
+        The step.
+    rule : QuadratureRule
+        The quadrature rule; ``rule.order`` is the order of the resulting integrator.
+    n_stages : int
+        Stage unknowns per step (``rule.n_stages * n`` rows of s; 0 for stage-free rules).
+    discrete_lagrangian : casadi.Function
+        ``L_d(q0, q1, s, h)``, scalar.
+    discrete_constraint : casadi.Function
+        ``omega_d(q0, q1, h) = A((q0 + q1)/2) (q1 - q0)/h``, shape (m,): eq. (28) with the
+        midpoint retraction; Delta_Q^d is its zero set.
+    discrete_force : casadi.Function
+        ``f_d(q0, q1, s, u, h) -> (f_minus, f_plus, f_stage)``: the left and right discrete
+        forces (n,) and the force on the stages.
+    """
+
+    def __init__(self, system, h, rule):
+        self.system = system
+        self.h = h
+        self.rule = rule
+        n, n_u = system.n, system.n_u
+        self.n_stages = rule.n_stages * n
+        q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)
+        s, u, hs = ca.SX.sym("s", self.n_stages), ca.SX.sym("u", n_u), ca.SX.sym("h")
+        L_d = quadrature(rule, lambda q, v: system.lagrangian(q, v), q0, q1, s, hs)
+        omega_d = ca.mtimes(system.constraint_matrix((q0 + q1) / 2), (q1 - q0) / hs)
+        forces = virtual_work_split(rule, lambda q, v: system.force(q, v, u), q0, q1, s, hs)
+        self.discrete_lagrangian = ca.Function(
+            "L_d", [q0, q1, s, hs], [L_d], ["q0", "q1", "s", "h"], ["L_d"])
+        self.discrete_constraint = ca.Function(
+            "omega_d", [q0, q1, hs], [omega_d], ["q0", "q1", "h"], ["omega_d"])
+        self.discrete_force = ca.Function(
+            "f_d", [q0, q1, s, u, hs], list(forces),
+            ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"])
+
+    def discrete_cost(self, running_cost):
+        """The step integral C_d(q0, q1, s, u, h) of ``running_cost(q, v, u)`` by this rule."""
+        n, n_u = self.system.n, self.system.n_u
+        q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)
+        s, u, hs = ca.SX.sym("s", self.n_stages), ca.SX.sym("u", n_u), ca.SX.sym("h")
+        C_d = quadrature(self.rule, lambda q, v: running_cost(q, v, u), q0, q1, s, hs)
+        return ca.Function("C_d", [q0, q1, s, u, hs], [C_d], ["q0", "q1", "s", "u", "h"], ["C_d"])
+
+    def __repr__(self):
+        return f"Discretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
+
+
+def discretize(system, h, rule="midpoint"):
+    """Discrete Lagrangian, constraints (28) and forces of `system` on steps of size `h`.
+
+    Parameters
+    ----------
+    system : MechanicalSystem
+    h : float
+        Step size, > 0.
+    rule : str or QuadratureRule
+        ``"midpoint"`` (default) or ``"trapezoid"``, or a rule instance.
+
+    Returns
+    -------
+    Discretization
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from dmoc import MechanicalSystem
+    >>> s = MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v) - 0.5 * ca.dot(q, q), 1)
+    >>> d = discretize(s, 0.1)
+    >>> round(float(d.discrete_lagrangian(0.0, 0.2, [], 0.1)), 6)  # 0.1*(2 - 0.01)
+    0.199
+    """
+    if not isinstance(system, MechanicalSystem):
+        raise TypeError(f"`system` must be a MechanicalSystem; got {type(system).__name__}.")
+    h = _checks.positive_float("h", h)
+    return Discretization(system, h, as_rule(rule))
