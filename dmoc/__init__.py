@@ -2,11 +2,13 @@
 
 from .discrete import Discretization, Midpoint, Trapezoid, discretize
 from .errors import DmocError, SolverError
+from .ocp import OptimalControlProblem
+from .optimize import OptimizationResult, optimize
 from .principle import StepResidual, action_sum, step_residual
 from .simulate import SimulationResult, simulate
 from .system import MechanicalSystem
 from .trajectory import Trajectory
-from . import systems  # noqa: E402  (after MechanicalSystem, which it uses)
+from . import diagnostics, systems
 
 __all__ = [
     "MechanicalSystem",
@@ -19,8 +21,12 @@ __all__ = [
     "step_residual",
     "simulate",
     "SimulationResult",
+    "OptimalControlProblem",
+    "optimize",
+    "OptimizationResult",
     "Trajectory",
     "systems",
+    "diagnostics",
     "DmocError",
     "SolverError",
 ]

@@ -87,8 +87,8 @@ def discretize(system, h, rule="midpoint"):
     >>> from dmoc import MechanicalSystem
     >>> s = MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v) - 0.5 * ca.dot(q, q), 1)
     >>> d = discretize(s, 0.1)
-    >>> round(float(d.discrete_lagrangian(0.0, 0.2, [], 0.1)), 6)  # 0.1*(2 - 0.01)
-    0.199
+    >>> round(float(d.discrete_lagrangian(0.0, 0.2, [], 0.1)), 6)  # 0.1 * (2 - 0.005)
+    0.1995
     """
     if not isinstance(system, MechanicalSystem):
         raise TypeError(f"`system` must be a MechanicalSystem; got {type(system).__name__}.")

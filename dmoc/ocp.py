@@ -1,0 +1,233 @@
+"""Consumer 2 of the step residual, its problem half: OptimalControlProblem builds the DMOC
+nonlinear program (Ober-Bloebaum, Junge & Marsden 2011) whose dynamic constraints are the
+(+)/(-) step residual of (37)/(41), mapped over all steps with `Function.map`, with the
+momentum boundary conditions of `boundary` and Delta_Q^d imposed directly.
+"""
+
+import casadi as ca
+import numpy as np
+
+from . import _checks
+from .boundary import check_allowed_velocity, momentum_conditions
+from .discrete import Discretization
+from .principle import VARIANTS, step_residual
+
+
+class Layout:
+    """Named blocks of a flat vector: name -> (offset, rows, cols), column-major blocks."""
+
+    def __init__(self, blocks):
+        self.blocks, offset = {}, 0
+        for name, (rows, cols) in blocks:
+            self.blocks[name] = (offset, rows, cols)
+            offset += rows * cols
+        self.size = offset
+
+    def slice(self, name):
+        offset, rows, cols = self.blocks[name]
+        return slice(offset, offset + rows * cols)
+
+    def unpack(self, vector, name):
+        """Block `name` of `vector` (CasADi or numpy) as a (rows, cols) matrix."""
+        _, rows, cols = self.blocks[name]
+        part = vector[self.slice(name)]
+        if isinstance(part, np.ndarray):
+            return part.reshape(cols, rows).T
+        return ca.reshape(part, rows, cols)
+
+    def locate(self, index):
+        """(block name, row, column) of a flat index."""
+        for name, (offset, rows, cols) in self.blocks.items():
+            if offset <= index < offset + rows * cols:
+                return name, (index - offset) % rows, (index - offset) // rows
+        raise IndexError(index)
+
+
+class OptimalControlProblem:
+    """A DMOC problem: minimize sum_k C_d(q_k, q_{k+1}, u_k) + terminal cost subject to the
+    step residual of (37)/(41) at every step and the boundary data.
+
+    Parameters
+    ----------
+    disc : Discretization
+        Its step h fixes the duration steps * h, unless `duration` frees it.
+    steps : int
+        Number of steps N.
+    q_start, q_goal : array_like, shape (n,)
+        Boundary configurations; entries None leave that component free.
+    v_start, v_goal : array_like, shape (n,), optional
+        Boundary velocities (default: at rest); entries None are free. They must lie in
+        Delta_Q = ker A(q) when fully given; otherwise A(q) v = 0 is imposed.
+    running_cost : callable, optional
+        ``running_cost(q, v, u)`` (scalar CasADi expression); default |u|^2. Discretized by
+        the rule of `disc` (midpoint: h C(q_{k+1/2}, (q_{k+1} - q_k)/h, u_k)).
+    terminal_cost : callable, optional
+        ``terminal_cost(q, v)`` at (q_N, v_N).
+    control_bounds, state_bounds : pair of array_like, optional
+        (lower, upper), shapes (n_u,) and (n,); None entries are unbounded.
+    path_constraints : callable, optional
+        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint.
+    duration : pair of float, optional
+        (T_min, T_max): free final time, h = T/N becomes a decision variable.
+    variant : {"+", "-"}
+
+    Attributes
+    ----------
+    nlp : dict
+        ``{"x", "f", "g"}`` CasADi MX expressions, for power users (``casadi.nlpsol``).
+    lbx, ubx, lbg, ubg : ndarray
+        Bounds of x and g.
+    x_layout, g_layout : Layout
+        Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``) and of g
+        (``dynamics`` (rows of R, N), ``start``, ``goal``, ``start_velocity``,
+        ``goal_velocity``, ``path``).
+    """
+
+    def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None,
+                 running_cost=None, terminal_cost=None, control_bounds=None,
+                 state_bounds=None, path_constraints=None, duration=None, variant="+"):
+        if not isinstance(disc, Discretization):
+            raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
+        self.disc, sys = disc, disc.system
+        self.steps = N = _checks.positive_int("steps", steps)
+        self.variant = _checks.choice("variant", variant, VARIANTS)
+        self.residual = step_residual(disc, self.variant)
+        n = sys.n
+        self.q_start = _boundary("q_start", q_start, n)
+        self.q_goal = _boundary("q_goal", q_goal, n)
+        self.v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
+        self.v_goal = _boundary("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
+        for end in ("start", "goal"):
+            q, v = getattr(self, "q_" + end), getattr(self, "v_" + end)
+            if np.isfinite(q).all() and np.isfinite(v).all():
+                check_allowed_velocity("v_" + end, sys, q, v)
+        self.duration = _duration(duration, N, disc.h)
+        self._costs = (running_cost or (lambda q, v, u: ca.sumsqr(u)), terminal_cost)
+        self._path = path_constraints
+        self._build(_bounds("control_bounds", control_bounds, sys.n_u),
+                    _bounds("state_bounds", state_bounds, n))
+
+    @property
+    def free_time(self):
+        """True when the final time is a decision variable."""
+        return self.duration is not None
+
+    def _build(self, control_bounds, state_bounds):
+        sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
+        n, m, ns, n_u = sys.n, sys.m, disc.n_stages, sys.n_u
+        start, end, m_start, m_end = momentum_conditions(sys, self.variant)
+        path = _path_function(self._path, sys)
+        velocity_rows = {e: (0 if np.isfinite(getattr(self, "q_" + e)).all()
+                             and np.isfinite(getattr(self, "v_" + e)).all() else m)
+                         for e in ("start", "goal")}
+        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, N + 1)), ("lam", (m, N)),
+                                ("s", (ns, N)), ("u", (n_u, N)), ("v_start", (n, 1)),
+                                ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
+                                ("h", (1 if self.free_time else 0, 1))])
+        self.g_layout = Layout([("dynamics", (R.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
+                                ("start_velocity", (velocity_rows["start"], 1)),
+                                ("goal_velocity", (velocity_rows["goal"], 1)),
+                                ("path", (path.numel_out(0) if path else 0, N))])
+        x = ca.MX.sym("x", self.x_layout.size)
+        X = {name: self.x_layout.unpack(x, name) for name in self.x_layout.blocks}
+        h = X["h"] if self.free_time else disc.h
+        Q, P, U = X["q"], X["p"], X["u"]
+        q0, q1 = Q[:, :N], Q[:, 1:]
+        dynamics = R.function.map(N)(q0, P[:, :N], q1, P[:, 1:], X["lam"], X["s"], U, h)
+        A = sys.constraint_matrix
+        g = {"dynamics": dynamics,
+             "start": start(Q[:, 0], P[:, 0], X["v_start"], X["mu"]),
+             "goal": end(Q[:, N], P[:, N], X["v_goal"], X["nu"]),
+             "start_velocity": ca.mtimes(A(Q[:, 0]), X["v_start"]) if velocity_rows["start"] else ca.MX(0, 1),
+             "goal_velocity": ca.mtimes(A(Q[:, N]), X["v_goal"]) if velocity_rows["goal"] else ca.MX(0, 1),
+             "path": path.map(N)(q0, q1, U, h) if path else ca.MX(0, N)}
+        running, terminal = self._costs
+        f = ca.sum2(disc.discrete_cost(running).map(N)(q0, q1, X["s"], U, h))
+        if terminal is not None:
+            f += _terminal_function(terminal, sys)(Q[:, N], X["v_goal"])
+        self.nlp = {"x": x, "f": f, "g": ca.vertcat(*[ca.vec(g[k]) for k in self.g_layout.blocks])}
+        self._set_bounds(control_bounds, state_bounds)
+
+    def _set_bounds(self, control_bounds, state_bounds):
+        N, lay = self.steps, self.x_layout
+        self.lbx, self.ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
+        for bound, side in ((self.lbx, 0), (self.ubx, 1)):
+            view = {name: self.x_layout.unpack(bound, name) for name in ("q", "u", "v_start", "v_goal", "h")}
+            view["q"][:] = state_bounds[side][:, None]
+            view["u"][:] = control_bounds[side][:, None]
+            for name, col, data in (("q", 0, self.q_start), ("q", N, self.q_goal),
+                                    ("v_start", 0, self.v_start), ("v_goal", 0, self.v_goal)):
+                fixed = np.isfinite(data)
+                view[name][fixed, col] = data[fixed]
+            if self.free_time:
+                view["h"][:] = self.duration[side] / N
+            for name, block in view.items():
+                bound[lay.slice(name)] = block.T.ravel()
+        self.lbg, self.ubg = np.zeros(self.g_layout.size), np.zeros(self.g_layout.size)
+        self.lbg[self.g_layout.slice("path")] = -np.inf
+
+    def __repr__(self):
+        return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
+                f"free_time={self.free_time}, x: {self.x_layout.size}, g: {self.g_layout.size})")
+
+
+def _boundary(name, value, n):
+    """Boundary data of shape (n,) with None entries as NaN (free)."""
+    if value is None:
+        raise ValueError(f"`{name}` is required: an array of shape ({n},), None entries free.")
+    values = np.array([np.nan if x is None else x for x in np.ravel(np.array(value, dtype=object))]
+                      if np.ndim(value) else [value], dtype=object)
+    if np.shape(value) != (n,):
+        raise ValueError(f"`{name}` must have shape ({n},) for this system; got {np.shape(value)}.")
+    return _checks.array(name, values.astype(float), (n,), allow_nan=True)
+
+
+def _bounds(name, value, size):
+    """(lower, upper) arrays of shape (size,) with None/absent entries unbounded."""
+    if value is None:
+        return np.full(size, -np.inf), np.full(size, np.inf)
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        raise ValueError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},).")
+    lower, upper = (np.array([s if x is None else x for x in np.broadcast_to(np.array(v, dtype=object), (size,))],
+                             dtype=float) for v, s in ((value[0], -np.inf), (value[1], np.inf)))
+    if np.isnan(lower).any() or np.isnan(upper).any() or (lower > upper).any():
+        raise ValueError(f"`{name}` must satisfy lower <= upper without NaN; got {lower}, {upper}.")
+    return lower, upper
+
+
+def _duration(duration, N, h):
+    if duration is None:
+        return None
+    if not isinstance(duration, (tuple, list)) or len(duration) != 2:
+        raise ValueError(f"`duration` must be None (fixed, steps * h = {N * h:g}) or a pair "
+                         f"(T_min, T_max) for a free final time; got {duration!r}.")
+    T_min, T_max = (_checks.positive_float("duration", T) for T in duration)
+    if T_min > T_max:
+        raise ValueError(f"`duration` must have T_min <= T_max; got {duration!r}.")
+    return T_min, T_max
+
+
+def _step_symbols(sys):
+    q0, q1 = ca.SX.sym("q0", sys.n), ca.SX.sym("q1", sys.n)
+    return q0, q1, ca.SX.sym("u", sys.n_u), ca.SX.sym("h")
+
+
+def _path_function(path, sys):
+    """g(q0, q1, u, h) = path(q_{k+1/2}, (q1 - q0)/h, u), or None."""
+    if path is None:
+        return None
+    if not callable(path):
+        raise TypeError(f"`path_constraints` must be callable; got {type(path).__name__}.")
+    q0, q1, u, h = _step_symbols(sys)
+    g = ca.vec(ca.SX(path((q0 + q1) / 2, (q1 - q0) / h, u)))
+    return ca.Function("path", [q0, q1, u, h], [g], ["q0", "q1", "u", "h"], ["g"])
+
+
+def _terminal_function(terminal, sys):
+    if not callable(terminal):
+        raise TypeError(f"`terminal_cost` must be callable; got {type(terminal).__name__}.")
+    q, v = ca.SX.sym("q", sys.n), ca.SX.sym("v", sys.n)
+    value = ca.SX(terminal(q, v))
+    if value.shape != (1, 1):
+        raise ValueError(f"`terminal_cost` must return a scalar; got shape {value.shape}.")
+    return ca.Function("terminal_cost", [q, v], [value], ["q", "v"], ["cost"])
