@@ -4,8 +4,9 @@ step residual norms of (37)/(41), each evaluated by mapping a CasADi Function ov
 
 import numpy as np
 
-from .discrete import Discretization
+from .discrete import Discretization, discretize
 from .principle import step_residual
+from .simulate import simulate
 from .trajectory import Trajectory
 
 
@@ -45,3 +46,45 @@ def residual_norms(disc, traj):
     R = step_residual(disc, traj.variant).function.map(traj.steps)
     r = np.array(R(q0, traj.p[:-1].T, q1, traj.p[1:].T, traj.lam.T, traj.s.T, traj.u.T, traj.h))
     return np.abs(r).max(axis=0)
+
+
+def replay_error(problem, result):
+    """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
+    optimal initial state: the two consumers share one residual, so both are at solver
+    tolerance. p_N is left out for variant "-", whose end impulse `simulate` cannot know."""
+    traj = result.trajectory
+    disc = discretize(problem.disc.system, traj.h, problem.disc.rule)
+    replay = simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
+                      variant=traj.variant, throw=False).trajectory
+    if replay.steps < traj.steps:
+        return np.inf, np.inf
+    last = traj.steps + (traj.variant == "+")
+    return (float(np.abs(replay.q - traj.q).max()),
+            float(np.abs(replay.p[:last] - traj.p[:last]).max()))
+
+
+def optimization_summary(problem, result):
+    """Key figures of an optimization result: a dict of cost, IPOPT iterations and status,
+    build and solve times, max |omega_d|, max step residual, max constraint violation of
+    the NLP and the replay errors of `replay_error`."""
+    traj = result.trajectory
+    replay_q, replay_p = replay_error(problem, result)
+    return {"cost": result.cost, "iterations": result.stats["iterations"],
+            "status": result.status, "build_time": result.stats["build_time"],
+            "solve_time": result.stats["solve_time"],
+            "max_omega_d": float(constraint_violation(problem.disc, traj).max()),
+            "max_residual": float(residual_norms(problem.disc, traj).max()),
+            "max_violation": result.stats["max_violation"],
+            "replay_q": replay_q, "replay_p": replay_p}
+
+
+def format_summary(title, figures):
+    """The dict of `optimization_summary` as indented text lines under `title`."""
+    return "\n".join([
+        f"{title}: {figures['status']}",
+        f"  cost                     {figures['cost']:.10f}",
+        f"  IPOPT iterations         {figures['iterations']}",
+        f"  solve time               {figures['solve_time']:.3f} s (build {figures['build_time']:.3f} s)",
+        f"  max constraint violation {figures['max_violation']:.2e} (max |omega_d| {figures['max_omega_d']:.2e})",
+        f"  replay by simulate       max |q - q_opt| = {figures['replay_q']:.2e}, "
+        f"max |p - p_opt| = {figures['replay_p']:.2e}"])

@@ -31,7 +31,7 @@ def plot_controls(traj, *, names=None, title=None, ax=None):
     fig, (ax,) = _figure() if ax is None else (ax.figure, (ax,))
     names = names or [f"u{i}" for i in range(traj.u.shape[1])]
     for i, name in enumerate(names):
-        ax.stairs(traj.u[:, i], traj.t, label=name)
+        ax.stairs(traj.u[:, i], traj.t, baseline=None, label=name)
     ax.set_xlabel("t")
     ax.legend()
     if title:
