@@ -2,6 +2,7 @@
 step residual norms of (37)/(41), each evaluated by mapping a CasADi Function over steps.
 """
 
+import casadi as ca
 import numpy as np
 
 from .discrete import Discretization, discretize
@@ -88,3 +89,28 @@ def format_summary(title, figures):
         f"  max constraint violation {figures['max_violation']:.2e} (max |omega_d| {figures['max_omega_d']:.2e})",
         f"  replay by simulate       max |q - q_opt| = {figures['replay_q']:.2e}, "
         f"max |p - p_opt| = {figures['replay_p']:.2e}"])
+
+
+def symplecticity_defect(disc, q0, p0, *, u=None, variant="+"):
+    """max |J^T Omega J - Omega| for the step map (q0, p0) -> (q1, p1) of an unconstrained
+    system, Omega the matrix of dq ^ dp (20); zero for a variational integrator.
+
+    J comes from the implicit function theorem on the step residual at the computed step.
+    """
+    sys = disc.system
+    if sys.m:
+        raise ValueError("`disc` must have no constraints: with constraints the step map is "
+                         "not symplectic on T*Q.")
+    u = np.zeros(sys.n_u) if u is None else u
+    traj = simulate(disc, q0=q0, p0=p0, steps=1, controls=np.reshape(u, (1, -1)),
+                    variant=variant).trajectory
+    n = sys.n
+    x = ca.SX.sym("x", 2 * n)      # (q0, p0)
+    y = ca.SX.sym("y", 2 * n)      # (q1, p1)
+    R = step_residual(disc, variant)(x[:n], x[n:], y[:n], y[n:], ca.SX(0, 1),
+                                     ca.SX(disc.n_stages, 1), u, disc.h)
+    jac = ca.Function("step_jacobians", [x, y], [ca.jacobian(R, x), ca.jacobian(R, y)])
+    Rx, Ry = (np.array(J) for J in jac(np.r_[traj.q[0], traj.p[0]], np.r_[traj.q[1], traj.p[1]]))
+    J = -np.linalg.solve(Ry, Rx)
+    Omega = np.block([[np.zeros((n, n)), np.eye(n)], [-np.eye(n), np.zeros((n, n))]])
+    return float(np.abs(J.T @ Omega @ J - Omega).max())

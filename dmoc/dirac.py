@@ -1,0 +1,96 @@
+"""Discrete Tulczyjew triples (Section 3, eqs. (14)-(17), (21)) and membership in the
+discrete induced Dirac structures (34)/(35), as checkable objects: every step X_d^k of an
+implicit (+)/(-) discrete Lagrangian system must satisfy (36)/(40).
+
+Coordinates: z = (q0, p0), z+ = (q1, p1) in T*Q x T*Q with Q = R^n; a point of T*(Q x Q)
+is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, a_p, a_q).
+"""
+
+import functools
+
+import casadi as ca
+import numpy as np
+
+from .diagnostics import _checked, constraint_violation
+
+
+def kappa(z, z_plus):
+    """kappa_d(z, z+) = (q0, q1, -p0, p1) in T*(Q x Q), eq. (14)."""
+    (q0, p0), (q1, p1) = z, z_plus
+    return (q0, q1, -p0, p1)
+
+
+def omega_flat_plus(z, z_plus):
+    """Omega_d+^flat(z, z+) = (q0, p1, p0, q1) in T*(Q x Q*), eq. (15)."""
+    (q0, p0), (q1, p1) = z, z_plus
+    return (q0, p1, p0, q1)
+
+
+def omega_flat_minus(z, z_plus):
+    """Omega_d-^flat(z, z+) = (p0, q1, -q0, -p1) in T*(Q* x Q), eq. (16)."""
+    (q0, p0), (q1, p1) = z, z_plus
+    return (p0, q1, -q0, -p1)
+
+
+def kappa_inverse(point):
+    """kappa_d^{-1}(q0, q1, a0, a1) = ((q0, -a0), (q1, a1))."""
+    q0, q1, a0, a1 = point
+    return (q0, -a0), (q1, a1)
+
+
+@functools.lru_cache(maxsize=64)
+def dirac_differential(disc, variant):
+    """D+L_d = gamma_d+ o dL_d or D-L_d = gamma_d- o dL_d (Section 5), with forces, as a
+    CasADi Function ``(q0, q1, s, u, h) -> (c0, c1, c2, c3)``: a point of T*(Q x Q*) for
+    "+" or of T*(Q* x Q) for "-".
+
+    gamma_d+- = Omega_d+-^flat o kappa_d^{-1}; the discrete forces enter dL_d as
+    D1 L_d + f_d^- and D2 L_d + f_d^+ (Lagrange-d'Alembert), as in (37)/(41) with forces:
+    "+" gives (q0, D2 L_d + f^+, -D1 L_d - f^-, q1), "-" gives
+    (-D1 L_d - f^-, q1, -q0, -D2 L_d - f^+).
+    """
+    n, n_u, ns = disc.system.n, disc.system.n_u, disc.n_stages
+    q0, q1, s, u, h = (ca.SX.sym(name, size) for name, size in
+                       (("q0", n), ("q1", n), ("s", ns), ("u", n_u), ("h", 1)))
+    L_d = disc.discrete_lagrangian(q0, q1, s, h)
+    f_minus, f_plus, _ = disc.discrete_force(q0, q1, s, u, h)
+    dL_d = (q0, q1, ca.gradient(L_d, q0) + f_minus, ca.gradient(L_d, q1) + f_plus)
+    flat = omega_flat_plus if variant == "+" else omega_flat_minus
+    return ca.Function("dirac_differential_" + ("plus" if variant == "+" else "minus"), [q0, q1, s, u, h], list(flat(*kappa_inverse(dL_d))),
+                       ["q0", "q1", "s", "u", "h"], ["c0", "c1", "c2", "c3"])
+
+
+def dirac_defect(disc, traj, tol_rank=1e-12):
+    """How far each step of `traj` is from the discrete Dirac structure, shape (N,).
+
+    For variant "+" the test is (36): ((z, z+), D+L_d) in D^{d+} of (34), i.e. (q0, q1) in
+    Delta_Q^d, the base points of D+L_d and of Omega_d+^flat(z, z+) agree, and their
+    difference lies in Delta°_{QxQ*} = {(q, p, A(q)^T lam, 0)} of (32). For "-" it is (40)
+    with (35) and Delta°_{Q*xQ} of (33), the annihilator sitting at q1. The defect is the
+    max-norm of all those mismatches, the annihilator part measured as the distance to
+    range A(q)^T.
+    """
+    _checked(disc, traj)
+    N, plus = traj.steps, traj.variant == "+"
+    alpha = [np.array(c).T for c in dirac_differential(disc, traj.variant).map(N)(
+        traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.u.T, traj.h)]
+    flat = omega_flat_plus if plus else omega_flat_minus
+    target = flat((traj.q[:-1], traj.p[:-1]), (traj.q[1:], traj.p[1:]))
+    diff = [a - t for a, t in zip(alpha, target)]
+    # (34): fibre over q free up to A(q0)^T lam, over p zero; (35): over p zero, over q1 free.
+    base, fibre_zero, fibre_free = (diff[1], diff[3], diff[2]) if plus else (diff[0], diff[2], diff[3])
+    q_ann = traj.q[:-1] if plus else traj.q[1:]
+    A = disc.system.constraint_matrix.map(N)(q_ann.T)
+    omega = constraint_violation(disc, traj)
+    off = [_distance_to_range(np.array(A[:, k * disc.system.n:(k + 1) * disc.system.n]).T,
+                              fibre_free[k], tol_rank) for k in range(N)]
+    return np.max(np.column_stack([np.abs(base).max(axis=1), np.abs(fibre_zero).max(axis=1),
+                                   off, omega]), axis=1)
+
+
+def _distance_to_range(B, x, tol_rank):
+    """max-norm of x minus its least-squares projection on the column space of B."""
+    if B.size == 0:
+        return float(np.abs(x).max())
+    coeff, *_ = np.linalg.lstsq(B, x, rcond=tol_rank)
+    return float(np.abs(x - B @ coeff).max())
