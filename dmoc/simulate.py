@@ -3,6 +3,7 @@ of (37) (variant "+") or (41) (variant "-") by Newton's method (CasADi rootfinde
 whole horizon is one compiled CasADi Function (`mapaccum` over the steps).
 """
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -99,8 +100,8 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     if controls is None:
         controls = np.zeros((steps, sys.n_u))
     controls = _checks.array("controls", controls, (steps, sys.n_u))
-    horizon = _horizon(step_residual(disc, variant), tol, max_iter).mapaccum("horizon", steps)
     residual = step_residual(disc, variant)
+    horizon = _horizon(residual, tol, max_iter).mapaccum("horizon", steps)
     start = np.concatenate([q0, p_start, disc.h * v_guess, np.zeros(sys.m + disc.n_stages)])
     tic = time.perf_counter()
     acc, out = horizon(start, controls.T, disc.h)
@@ -113,6 +114,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     return _finish(traj, rnorm, tol, steps, wall, throw)
 
 
+@functools.lru_cache(maxsize=64)
 def _horizon(residual, tol, max_iter):
     """One step as a Function (state, u, h) -> (next state, outputs) with Newton inside.
 
