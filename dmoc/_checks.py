@@ -79,3 +79,16 @@ def no_unknown_keys(name, given, known):
         raise ValueError(
             f"`{name}` has unknown keys {unknown}; known keys are {sorted(known)}."
         )
+
+
+def array_with_none(name, value, size, fill):
+    """Return `value` (shape (size,), or a scalar broadcast to it) as floats, None -> `fill`."""
+    raw = np.array(value, dtype=object)
+    if raw.ndim == 0:
+        raw = np.full(size, raw.item(), dtype=object)
+    if raw.shape != (size,):
+        raise ValueError(f"`{name}` must have shape ({size},) for this system; got {raw.shape}.")
+    try:
+        return np.array([fill if x is None else float(x) for x in raw], dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must hold real numbers or None; got {value!r}.") from None

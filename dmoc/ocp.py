@@ -102,7 +102,10 @@ class OptimalControlProblem:
             if np.isfinite(q).all() and np.isfinite(v).all():
                 check_allowed_velocity("v_" + end, sys, q, v)
         self.duration = _duration(duration, N, disc.h)
-        self._costs = (running_cost or (lambda q, v, u: ca.sumsqr(u)), terminal_cost)
+        self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
+                                       sys, ("q", "v", "u"))
+        self._terminal = None if terminal_cost is None else _cost_function(
+            "terminal_cost", terminal_cost, sys, ("q", "v"))
         self._path = path_constraints
         self._build(_bounds("control_bounds", control_bounds, sys.n_u),
                     _bounds("state_bounds", state_bounds, n))
@@ -141,10 +144,9 @@ class OptimalControlProblem:
              "start_velocity": ca.mtimes(A(Q[:, 0]), X["v_start"]) if velocity_rows["start"] else ca.MX(0, 1),
              "goal_velocity": ca.mtimes(A(Q[:, N]), X["v_goal"]) if velocity_rows["goal"] else ca.MX(0, 1),
              "path": path.map(N)(q0, q1, U, h) if path else ca.MX(0, N)}
-        running, terminal = self._costs
-        f = ca.sum2(disc.discrete_cost(running).map(N)(q0, q1, X["s"], U, h))
-        if terminal is not None:
-            f += _terminal_function(terminal, sys)(Q[:, N], X["v_goal"])
+        f = ca.sum2(disc.discrete_cost(self._running).map(N)(q0, q1, X["s"], U, h))
+        if self._terminal is not None:
+            f += self._terminal(Q[:, N], X["v_goal"])
         self.nlp = {"x": x, "f": f, "g": ca.vertcat(*[ca.vec(g[k]) for k in self.g_layout.blocks])}
         self._set_bounds(control_bounds, state_bounds)
 
@@ -172,24 +174,22 @@ class OptimalControlProblem:
 
 
 def _boundary(name, value, n):
-    """Boundary data of shape (n,) with None entries as NaN (free)."""
+    """Boundary data of shape (n,) with None entries as NaN (free); never infinite."""
     if value is None:
         raise ValueError(f"`{name}` is required: an array of shape ({n},), None entries free.")
-    values = np.array([np.nan if x is None else x for x in np.ravel(np.array(value, dtype=object))]
-                      if np.ndim(value) else [value], dtype=object)
-    if np.shape(value) != (n,):
-        raise ValueError(f"`{name}` must have shape ({n},) for this system; got {np.shape(value)}.")
-    return _checks.array(name, values.astype(float), (n,), allow_nan=True)
+    if np.ndim(value) == 0:
+        raise ValueError(f"`{name}` must have shape ({n},) for this system; got ().")
+    return _checks.array(name, _checks.array_with_none(name, value, n, np.nan), (n,), allow_nan=True)
 
 
 def _bounds(name, value, size):
-    """(lower, upper) arrays of shape (size,) with None/absent entries unbounded."""
+    """(lower, upper) arrays of shape (size,) with None entries unbounded."""
     if value is None:
         return np.full(size, -np.inf), np.full(size, np.inf)
     if not isinstance(value, (tuple, list)) or len(value) != 2:
         raise ValueError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},).")
-    lower, upper = (np.array([s if x is None else x for x in np.broadcast_to(np.array(v, dtype=object), (size,))],
-                             dtype=float) for v, s in ((value[0], -np.inf), (value[1], np.inf)))
+    lower = _checks.array_with_none(name, value[0], size, -np.inf)
+    upper = _checks.array_with_none(name, value[1], size, np.inf)
     if np.isnan(lower).any() or np.isnan(upper).any() or (lower > upper).any():
         raise ValueError(f"`{name}` must satisfy lower <= upper without NaN; got {lower}, {upper}.")
     return lower, upper
@@ -219,15 +219,25 @@ def _path_function(path, sys):
     if not callable(path):
         raise TypeError(f"`path_constraints` must be callable; got {type(path).__name__}.")
     q0, q1, u, h = _step_symbols(sys)
-    g = ca.vec(ca.SX(path((q0 + q1) / 2, (q1 - q0) / h, u)))
+    try:
+        g = ca.vec(ca.SX(path((q0 + q1) / 2, (q1 - q0) / h, u)))
+    except Exception as err:  # user code: report what it raised, naming the argument
+        raise ValueError(f"`path_constraints` failed on symbols of the system's sizes: "
+                         f"{type(err).__name__}: {err}") from None
     return ca.Function("path", [q0, q1, u, h], [g], ["q0", "q1", "u", "h"], ["g"])
 
 
-def _terminal_function(terminal, sys):
-    if not callable(terminal):
-        raise TypeError(f"`terminal_cost` must be callable; got {type(terminal).__name__}.")
-    q, v = ca.SX.sym("q", sys.n), ca.SX.sym("v", sys.n)
-    value = ca.SX(terminal(q, v))
+def _cost_function(name, cost, sys, args):
+    """A user cost of (q, v[, u]) checked on symbols and wrapped as a scalar Function."""
+    if not callable(cost):
+        raise TypeError(f"`{name}` must be callable; got {type(cost).__name__}.")
+    sizes = {"q": sys.n, "v": sys.n, "u": sys.n_u}
+    symbols = [ca.SX.sym(a, sizes[a]) for a in args]
+    try:
+        value = ca.SX(cost(*symbols))
+    except Exception as err:  # user code: report what it raised, naming the argument
+        raise ValueError(f"`{name}` failed on symbols of the system's sizes: "
+                         f"{type(err).__name__}: {err}") from None
     if value.shape != (1, 1):
-        raise ValueError(f"`terminal_cost` must return a scalar; got shape {value.shape}.")
-    return ca.Function("terminal_cost", [q, v], [value], ["q", "v"], ["cost"])
+        raise ValueError(f"`{name}` must return a scalar; got shape {value.shape}.")
+    return ca.Function(name, symbols, [value], list(args), ["cost"])

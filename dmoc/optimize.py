@@ -15,8 +15,10 @@ from .ocp import OptimalControlProblem
 from .errors import SolverError
 from .trajectory import Trajectory
 
+# honor_original_bounds: IPOPT relaxes bounds by bound_relax_factor while iterating; project
+# the final point back so that bounds on states, controls and the final time hold exactly.
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
-                         "max_iter": 1000}
+                         "max_iter": 1000, "honor_original_bounds": "yes"}
 
 
 @dataclass
@@ -108,6 +110,8 @@ def _solver(problem, options):
     try:
         return ca.nlpsol("dmoc", "ipopt", problem.nlp, opts)
     except RuntimeError as err:
+        if "option" not in str(err).lower():
+            raise
         raise ValueError(f"`options` were rejected by CasADi/IPOPT: {err}") from None
 
 
