@@ -31,11 +31,25 @@ def nonnegative_int(name, value):
     return int(value)
 
 
-def positive_float(name, value):
-    """Return `value` as float if it is a finite real number > 0."""
+def _real(name, value):
+    """`value` as a float: a real number or a 0-d real array, never a bool."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and np.isrealobj(value):
+        value = value.item()
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"`{name}` must be a real number; got {type(value).__name__}.")
-    value = float(value)
+    return float(value)
+
+
+def boolean(name, value):
+    """Return `value` if it is a bool."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"`{name}` must be True or False; got {value!r}.")
+    return bool(value)
+
+
+def positive_float(name, value):
+    """Return `value` as float if it is a finite real number > 0."""
+    value = _real(name, value)
     if not np.isfinite(value) or value <= 0.0:
         raise ValueError(f"`{name}` must be finite and positive; got {value!r}.")
     return value
@@ -43,9 +57,7 @@ def positive_float(name, value):
 
 def finite_float(name, value):
     """Return `value` as float if it is a finite real number."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"`{name}` must be a real number; got {type(value).__name__}.")
-    value = float(value)
+    value = _real(name, value)
     if not np.isfinite(value):
         raise ValueError(f"`{name}` must be finite; got {value!r}.")
     return value

@@ -76,6 +76,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     """
     if not isinstance(problem, OptimalControlProblem):
         raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")
+    throw = _checks.boolean("throw", throw)
     if guess is not None and not isinstance(guess, Trajectory):
         raise TypeError(f"`guess` must be a Trajectory or None; got {type(guess).__name__}.")
     tic = time.perf_counter()

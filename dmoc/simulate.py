@@ -95,6 +95,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     steps = _checks.positive_int("steps", steps)
     tol = _checks.positive_float("tol", tol)
     max_iter = _checks.positive_int("max_iter", max_iter)
+    throw = _checks.boolean("throw", throw)
     q0 = _checks.array("q0", q0, (sys.n,))
     p_start, v_guess = start_momentum(sys, q0, v0, p0)
     if controls is None:

@@ -79,6 +79,9 @@ class MechanicalSystem:
 def _evaluate(name, fun, args, shape, problems, default=None):
     """Call a user callable on symbols; check it returns an SX of `shape` (or its transpose)."""
     if fun is None:
+        if default is None:
+            problems.append(f"`{name}` is required: a callable returning a CasADi expression.")
+            return ca.SX.zeros(*shape)
         return default
     if not callable(fun):
         problems.append(f"`{name}` must be callable; got {type(fun).__name__}.")

@@ -61,7 +61,9 @@ class Trajectory:
         self.h = float(self.h)
         self.variant = _checks.choice("variant", self.variant, ("+", "-"))
         self.mu = np.zeros(m) if self.mu is None else _checks.array("mu", self.mu, (m,), allow_nan=True)
-        self.s = np.zeros((N, 0)) if self.s is None else np.asarray(self.s, dtype=float).reshape(N, -1)
+        self.s = np.asarray(np.zeros((N, 0)) if self.s is None else self.s, dtype=float)
+        n_s = self.s.shape[1] if self.s.ndim == 2 else 0
+        self.s = _checks.array("s", self.s.reshape(N, n_s), (N, n_s), allow_nan=True)
 
     @property
     def steps(self):
@@ -69,8 +71,9 @@ class Trajectory:
         return self.q.shape[0] - 1
 
     def save(self, path):
-        """Write every field to an uncompressed .npz file at `path` (exact round trip)."""
-        np.savez(path, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
+        """Write every field to an uncompressed .npz file at exactly `path` (exact round trip)."""
+        with open(path, "wb") as file:
+            np.savez(file, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
 
     @classmethod
     def load(cls, path):
