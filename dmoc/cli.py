@@ -9,7 +9,7 @@ import sys
 import numpy as np
 
 from . import diagnostics, discretize, optimize, problems, simulate, systems
-from .plotting import plot_controls, plot_path, plot_series
+from .plotting import plot_path, plot_series, save_trajectory_plots
 
 # Unforced demo runs: (name, system, its closed-form solution, q0, v0, final time).
 _DEMOS = (
@@ -56,11 +56,20 @@ def optimization_demo(out, steps):
             result = optimize(problem)
             figures = diagnostics.optimization_summary(problem, result)
             lines.append(diagnostics.format_summary(f"{name} (variant {variant}, N = {steps})", figures))
-        traj = result.trajectory
-        plot_path(traj, title=f"{name}: optimal path").savefig(out / f"{name}_path.png", dpi=120)
-        plot_controls(traj, title=f"{name}: optimal controls").savefig(out / f"{name}_controls.png", dpi=120)
-        traj.save(out / f"{name}.npz")
+        save_trajectory_plots(result.trajectory, out, name)
+        result.trajectory.save(out / f"{name}.npz")
     return lines
+
+
+def example_arguments(description, argv=None):
+    """Parse the options shared by the example scripts: ``--steps`` and ``--out``."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--steps", type=int, default=100, help="DMOC steps (default: 100)")
+    parser.add_argument("--out", default="dmoc-output", help="output folder (default: dmoc-output)")
+    args = parser.parse_args(argv)
+    if args.steps < 1:
+        parser.error("--steps must be a positive integer")
+    return args
 
 
 def main(argv=None):

@@ -53,3 +53,10 @@ def plot_series(t, series, *, ylabel, logy=False, title=None, ax=None):
     if title:
         ax.set_title(title)
     return fig
+
+
+def save_trajectory_plots(traj, out, name, *, control_names=None):
+    """Write `{name}_path.png` and `{name}_controls.png` of `traj` into the folder `out`."""
+    plot_path(traj, title=f"{name}: path").savefig(out / f"{name}_path.png", dpi=120)
+    plot_controls(traj, names=control_names, title=f"{name}: controls").savefig(
+        out / f"{name}_controls.png", dpi=120)

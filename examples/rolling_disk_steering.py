@@ -7,33 +7,27 @@ torque and a steering torque. The optimal controls are replayed by `dmoc.simulat
 Run:  python examples/rolling_disk_steering.py [--steps 100] [--out dmoc-output]
 """
 
-import argparse
 import pathlib
 
 import dmoc
+from dmoc.cli import example_arguments
 from dmoc.diagnostics import format_summary, optimization_summary
-from dmoc.plotting import plot_controls, plot_path
+from dmoc.plotting import save_trajectory_plots
 from dmoc.problems import rolling_disk_steering
 
 
 def main(steps=100, out="dmoc-output"):
     problem = rolling_disk_steering(steps)
     result = dmoc.optimize(problem)
-    traj = result.trajectory
     print(format_summary(f"rolling-disk steering, N = {steps}", optimization_summary(problem, result)))
-    print(f"  final rolling angle      {traj.q[-1, 2]:.6f} rad (free)")
+    print(f"  final rolling angle      {result.trajectory.q[-1, 2]:.6f} rad (free)")
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    plot_path(traj, title="rolling disk: optimal path").savefig(out / "rolling_disk_steering_path.png", dpi=120)
-    plot_controls(traj, names=["rolling torque", "steering torque"],
-                  title="rolling disk: optimal controls").savefig(out / "rolling_disk_steering_controls.png", dpi=120)
-    traj.save(out / "rolling_disk_steering.npz")
+    save_trajectory_plots(result.trajectory, out, "rolling_disk_steering",
+                          control_names=["rolling torque", "steering torque"])
+    result.trajectory.save(out / "rolling_disk_steering.npz")
     return result
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=100)
-    parser.add_argument("--out", default="dmoc-output")
-    args = parser.parse_args()
-    main(args.steps, args.out)
+    main(**vars(example_arguments(__doc__.splitlines()[0])))
