@@ -1,13 +1,12 @@
 """Consumer 1 of the step residual: the Dirac integrator. Each step solves the residual R
-of (37) (variant "+") or (41) (variant "-") by Newton's method (CasADi rootfinder), and the
-whole horizon is one compiled CasADi Function (`mapaccum` over the steps).
+of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.stepper`), the
+horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
 """
 
 import functools
 import time
 from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
 
 from . import _checks
@@ -15,6 +14,7 @@ from .boundary import start_momentum
 from .discrete import Discretization
 from .errors import SolverError
 from .principle import VARIANTS, step_residual
+from .stepper import DiracStepper
 from .trajectory import Trajectory
 
 
@@ -31,8 +31,9 @@ class SimulationResult:
         ``"converged"`` or ``"newton_failed"``.
     message : str
     stats : dict
-        ``steps`` requested, ``completed_steps``, ``max_residual`` (max-norm of R over the
-        completed steps), ``wall_time`` in seconds.
+        ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
+        Newton redid), ``max_residual`` (max-norm of R over the completed steps),
+        ``wall_time`` in seconds (building the compiled step included).
     """
 
     trajectory: Trajectory
@@ -43,7 +44,7 @@ class SimulationResult:
 
 
 def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
-             throw=True, tol=1e-12, max_iter=50):
+             throw=True, tol=1e-12, max_iter=50, jit=False):
     """Simulate the implicit discrete Lagrange-d'Alembert equations (37) or (41).
 
     Parameters
@@ -62,10 +63,14 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     throw : bool
         Raise SolverError on a Newton failure (default); else return it with success=False.
     tol : float
-        Newton stops when the residual max-norm is below `tol`; a step whose residual
-        stays above 1000 tol counts as failed.
+        Newton's target for the residual max-norm; a step whose residual stays above
+        1000 tol counts as failed.
     max_iter : int
-        Newton iterations per step.
+        Iterations of the line-search Newton that redoes a step the fast path (three
+        unrolled Newton iterations) did not converge.
+    jit : bool
+        Compile the fast step to C with the system's C compiler (CasADi's "shell"
+        compiler; about 0.5 s once per discretization, then several times faster steps).
 
     Returns
     -------
@@ -73,9 +78,10 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
 
     Notes
     -----
-    Variant "+": given (q_k, p_k, u_k), Newton solves R = 0 for (q_{k+1}, p_{k+1}, lam_k).
+    Variant "+": given (q_k, p_k, u_k), Newton solves R = 0 for (q_{k+1}, lam_k), and
+    p_{k+1} follows from the "right" rows (see `dmoc.stepper`).
     Variant "-": p_k of (41) is fixed only up to A(q_k)^T mu by the previous step, so each
-    step solves R for (q_{k+1}, p_{k+1}, mu) with p_k = p_k' - A(q_k)^T mu, p_k' the momentum
+    step solves R for (q_{k+1}, mu) with p_k = p_k' - A(q_k)^T mu, p_k' the momentum
     carried in; mu is the previous step's multiplier (lam_{k-1}), and at k = 0 it is the
     initial impulse ``trajectory.mu``. Nothing fixes the impulse at q_N, so a (-) run ends
     with lam_{N-1} = 0 and p_N = D2 L_d + f_d^+ (the next step would apply it).
@@ -102,46 +108,21 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         controls = np.zeros((steps, sys.n_u))
     controls = _checks.array("controls", controls, (steps, sys.n_u))
     residual = step_residual(disc, variant)
-    horizon = _horizon(residual, tol, max_iter).mapaccum("horizon", steps)
-    start = np.concatenate([q0, p_start, disc.h * v_guess, np.zeros(sys.m + disc.n_stages)])
     tic = time.perf_counter()
-    acc, out = horizon(start, controls.T, disc.h)
+    stepper = _stepper(residual, tol, max_iter, _checks.boolean("jit", jit))
+    start = np.concatenate([q0, p_start, disc.h * v_guess, np.zeros(sys.m + disc.n_stages)])
+    acc, out, failed_rnorm, redone = stepper.run(start, controls, disc.h)
     wall = time.perf_counter() - tic
-    acc, out = np.array(acc).T, np.array(out).T
-    rnorm = out[:, -1]
-    bad = ~np.isfinite(rnorm) | (rnorm > 1e3 * tol) | ~np.isfinite(acc).all(axis=1)
-    k = int(np.argmax(bad)) if bad.any() else steps
-    traj = _assemble(residual, disc, q0, p_start, controls[:k], acc[:k], out[:k])
-    return _finish(traj, rnorm, tol, steps, wall, throw)
+    k = acc.shape[0]
+    traj = _assemble(residual, disc, q0, p_start, controls[:k], acc, out)
+    stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
+             "max_residual": float(out[:, -2].max()) if k else 0.0, "wall_time": wall}
+    return _finish(traj, stats, failed_rnorm, tol, throw)
 
 
 @functools.lru_cache(maxsize=64)
-def _horizon(residual, tol, max_iter):
-    """One step as a Function (state, u, h) -> (next state, outputs) with Newton inside.
-
-    state = (q_k, p_k', dq_k, nu_k, s_k) carries the warm start; outputs are
-    (p_k, nu_k, s_k, |R|_inf).
-    """
-    n, m, ns = residual.n, residual.m, residual.n_stages
-    y = ca.SX.sym("y", 2 * n + m + ns)            # unknowns (q1, p1, nu, s)
-    q0, pc0, u, h = ca.SX.sym("q0", n), ca.SX.sym("p0", n), ca.SX.sym("u", residual.n_u), ca.SX.sym("h")
-    q1, p1, nu, s = ca.vertsplit(y, [0, n, 2 * n, 2 * n + m, y.numel()]) if ns else (*ca.vertsplit(y, [0, n, 2 * n, 2 * n + m]), ca.SX(0, 1))
-    if residual.variant == "+":
-        p0, lam = pc0, nu
-    else:
-        p0, lam = pc0 - ca.mtimes(residual.disc.system.constraint_matrix(q0).T, nu), ca.SX.zeros(m)
-    G = ca.Function("G", [y, ca.vertcat(q0, pc0, u, h)], [residual(q0, p0, q1, p1, lam, s, u, h)])
-    newton = ca.rootfinder("newton_step", "newton", G, {
-        "abstol": tol, "abstolStep": 1e-3 * tol, "max_iter": max_iter, "error_on_fail": False})
-    state, U, H = ca.MX.sym("state", 3 * n + m + ns), ca.MX.sym("u", residual.n_u), ca.MX.sym("h")
-    Q0, PC0, DQ, NU, S = ca.vertsplit(state, [0, n, 2 * n, 3 * n, 3 * n + m, 3 * n + m + ns])
-    params = ca.vertcat(Q0, PC0, U, H)
-    sol = newton(ca.vertcat(Q0 + DQ, PC0, NU, S), params)
-    Q1, P1, NU1, S1 = ca.vertsplit(sol, [0, n, 2 * n, 2 * n + m, 2 * n + m + ns])
-    P0 = PC0 if residual.variant == "+" else PC0 - ca.mtimes(residual.disc.system.constraint_matrix(Q0).T, NU1)
-    rnorm = ca.norm_inf(G(sol, params))
-    return ca.Function("dirac_step", [state, U, H],
-                       [ca.vertcat(Q1, P1, Q1 - Q0, NU1, S1), ca.vertcat(P0, NU1, S1, rnorm)])
+def _stepper(residual, tol, max_iter, jit):
+    return DiracStepper(residual, tol, max_iter, jit)
 
 
 def _assemble(residual, disc, q0, p_start, controls, acc, out):
@@ -160,18 +141,16 @@ def _assemble(residual, disc, q0, p_start, controls, acc, out):
     return Trajectory(t, q, p, lam, controls, disc.h, "-", mu, s)
 
 
-def _finish(traj, rnorm, tol, steps, wall, throw):
+def _finish(traj, stats, failed_rnorm, tol, throw):
     """Report success, or the failed step with the trajectory before it."""
-    k = traj.steps
-    stats = {"steps": steps, "completed_steps": k,
-             "max_residual": float(np.max(rnorm[:k])) if k else 0.0, "wall_time": wall}
+    k, steps = traj.steps, stats["steps"]
     if k == steps:
         return SimulationResult(traj, True, "converged",
                                 f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)
     result = SimulationResult(
         traj, False, "newton_failed",
         f"Newton did not converge at step {k} (t = {k * traj.h:.6g}): residual max-norm "
-        f"{rnorm[k]:.3e} > {1e3 * tol:.1e} after the iteration limit. The trajectory up to "
+        f"{failed_rnorm:.3e} > {1e3 * tol:.1e} after the iteration limit. The trajectory up to "
         f"step {k} is in `.result.trajectory`; try a smaller step h or check the controls.",
         stats)
     if throw:
