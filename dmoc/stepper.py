@@ -109,6 +109,22 @@ class DiracStepper:
         rnorm, update = out[:, -2], out[:, -1]
         return np.isfinite(out).all(axis=1) & (rnorm <= 1e3 * self.tol) & (update <= 1e-6)
 
+    def _chunk(self, c, state, controls, h):
+        """c fast steps from `state` as one compiled mapaccum call, evaluated through
+        CasADi's buffer interface straight into numpy arrays (time-major (c, size))."""
+        if c not in self._chunks:
+            self._chunks[c] = self.fast.mapaccum("horizon", c).buffer()
+        buffer, evaluate = self._chunks[c]
+        args = [np.ascontiguousarray(a, dtype=float) for a in (state, controls, np.full(c, h))]
+        acc = np.empty((c, self.state_size))
+        out = np.empty((c, sum(self.sizes) + 2))
+        for i, a in enumerate(args):
+            buffer.set_arg(i, memoryview(a))
+        buffer.set_res(0, memoryview(acc))
+        buffer.set_res(1, memoryview(out))
+        evaluate()
+        return acc, out
+
     def run(self, start, controls, h):
         """Steps from state `start` under `controls` (N, n_u), stopping at the first step
         that neither Newton path converges.
@@ -121,9 +137,7 @@ class DiracStepper:
         N, k, state, redone = controls.shape[0], 0, start, 0
         while k < N:
             c = min(CHUNK, N - k)
-            if c not in self._chunks:
-                self._chunks[c] = self.fast.mapaccum("horizon", c)
-            acc, out = (np.array(x).T for x in self._chunks[c](state, controls[k:k + c].T, h))
+            acc, out = self._chunk(c, state, controls[k:k + c], h)
             ok = self.accepted(out)
             j = int(np.argmin(ok)) if not ok.all() else c
             states.append(acc[:j]), outputs.append(out[:j])
