@@ -22,7 +22,6 @@ ODE, and on the DAE it drifts off the constraint.
 import argparse
 import os
 import platform
-import sys
 import time
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):

@@ -65,8 +65,9 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         (e.g. the knife edge sliding straight sideways).
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
-        and ``"expand"`` (bool, default False: keep the mapped MX graph, whose build time barely grows with N;
-        True expands it to SX, faster per iteration but slower to build).
+        and ``"expand"`` (bool, default False: keep the mapped MX graph; True expands it
+        to SX, 1.3-3x faster per IPOPT iteration but 2.7-3.8x slower to build at N >= 400;
+        both build times grow linearly with N, see docs/performance.md).
     throw : bool
         Raise SolverError when IPOPT fails (default); else return with success=False.
 
