@@ -98,17 +98,22 @@ class OptimalControlProblem:
         self.v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
         self.v_goal = _boundary("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
         for end in ("start", "goal"):
-            q, v = getattr(self, "q_" + end), getattr(self, "v_" + end)
-            if np.isfinite(q).all() and np.isfinite(v).all():
-                check_allowed_velocity("v_" + end, sys, q, v)
+            if self._fully_given(end):
+                check_allowed_velocity("v_" + end, sys, getattr(self, "q_" + end),
+                                       getattr(self, "v_" + end))
         self.duration = _duration(duration, N, disc.h)
         self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
                                        sys, ("q", "v", "u"))
         self._terminal = None if terminal_cost is None else _cost_function(
             "terminal_cost", terminal_cost, sys, ("q", "v"))
-        self._path = path_constraints
+        self._path = _path_function(path_constraints, sys)
         self._build(_bounds("control_bounds", control_bounds, sys.n_u),
                     _bounds("state_bounds", state_bounds, n))
+
+    def _fully_given(self, end):
+        """True when q and v at `end` ("start" or "goal") have no free entries."""
+        return bool(np.isfinite(getattr(self, "q_" + end)).all()
+                    and np.isfinite(getattr(self, "v_" + end)).all())
 
     @property
     def free_time(self):
@@ -119,10 +124,8 @@ class OptimalControlProblem:
         sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
         n, m, ns, n_u = sys.n, sys.m, disc.n_stages, sys.n_u
         start, end, m_start, m_end = momentum_conditions(sys, self.variant)
-        path = _path_function(self._path, sys)
-        velocity_rows = {e: (0 if np.isfinite(getattr(self, "q_" + e)).all()
-                             and np.isfinite(getattr(self, "v_" + e)).all() else m)
-                         for e in ("start", "goal")}
+        path = self._path
+        velocity_rows = {e: 0 if self._fully_given(e) else m for e in ("start", "goal")}
         self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, N + 1)), ("lam", (m, N)),
                                 ("s", (ns, N)), ("u", (n_u, N)), ("v_start", (n, 1)),
                                 ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
