@@ -80,6 +80,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     throw = _checks.boolean("throw", throw)
     if guess is not None and not isinstance(guess, Trajectory):
         raise TypeError(f"`guess` must be a Trajectory or None; got {type(guess).__name__}.")
+    if options is not None and not isinstance(options, dict):
+        raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     tic = time.perf_counter()
     solver = _solver(problem, dict(options or {}))
     build_time = time.perf_counter() - tic
