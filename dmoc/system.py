@@ -4,6 +4,7 @@ f(q, v, u), each turned once into a named CasADi Function.
 """
 
 import casadi as ca
+import numpy as np
 
 from . import _checks
 
@@ -62,13 +63,15 @@ class MechanicalSystem:
         A = _evaluate_constraints(constraints, q, self.n, problems)
         f = _evaluate("force", force, (q, v, u), (self.n, 1), problems, default=ca.SX.zeros(self.n))
         self.names = _coordinate_names(names, self.n, problems)
+        self.lagrangian = _function("lagrangian", "L", [q, v], L, ["q", "v"], problems)
+        self.constraint_matrix = _function("constraints", "A", [q], A, ["q"], problems)
+        self.force = _function("force", "f", [q, v, u], f, ["q", "v", "u"], problems)
+        if not problems:
+            _check_rank(self.constraint_matrix, self.n, problems)
         if problems:
             raise ValueError("MechanicalSystem is invalid:\n  - " + "\n  - ".join(problems))
         self.m = A.shape[0]
         p = ca.gradient(L, v)
-        self.lagrangian = ca.Function("L", [q, v], [L], ["q", "v"], ["L"])
-        self.constraint_matrix = ca.Function("A", [q], [A], ["q"], ["A"])
-        self.force = ca.Function("f", [q, v, u], [f], ["q", "v", "u"], ["f"])
         self.momentum = ca.Function("momentum", [q, v], [p], ["q", "v"], ["p"])
         self.energy = ca.Function("energy", [q, v], [ca.dot(v, p) - L], ["q", "v"], ["E"])
 
@@ -117,6 +120,28 @@ def _evaluate_constraints(constraints, q, n, problems):
         problems.append(f"`constraints` must return an (m, {n}) matrix; got {A.shape}.")
         return ca.SX(0, n)
     return A
+
+
+def _function(name, label, inputs, output, input_names, problems):
+    """A named Function of `output`, or None and a problem if it uses undeclared symbols."""
+    try:
+        return ca.Function(label, inputs, [output], input_names, [label])
+    except RuntimeError:
+        free = [str(x) for x in ca.symvar(output) if not any(ca.depends_on(x, i) for i in inputs)]
+        problems.append(f"`{name}` uses symbols that are not its arguments: {free}; build it "
+                        f"from the arguments it is called with.")
+        return None
+
+
+def _check_rank(constraint_matrix, n, problems):
+    """A problem if the rows of A(q) are dependent at random configurations (the step
+    equations would then be singular)."""
+    rng = np.random.default_rng(0)
+    m = constraint_matrix.size1_out(0)
+    ranks = [np.linalg.matrix_rank(np.array(constraint_matrix(rng.normal(size=n)))) for _ in range(3)]
+    if m and max(ranks) < m:
+        problems.append(f"`constraints` must have linearly independent rows: A(q) has rank "
+                        f"{max(ranks)} < m = {m} at random q; drop the redundant rows.")
 
 
 def _coordinate_names(names, n, problems):

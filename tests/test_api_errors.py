@@ -364,3 +364,18 @@ def test_lc_circuit_like_lagrangian(variant):
                                rtol=0, atol=1e-12)
     np.testing.assert_allclose(res.trajectory.p[:, 1], 0.0, rtol=0, atol=1e-12)
     assert np.ptp(q[:, 0]) > 0.5                     # it oscillates
+
+
+def test_mechanical_system_rejects_undeclared_symbols():
+    stray = ca.SX.sym("stray")
+    with pytest.raises(ValueError, match=r"`lagrangian` uses symbols .*stray") as info:
+        dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v) + stray * q[0], 2,
+                              force=lambda q, v, u: ca.vertcat(stray, 0))
+    assert "`force` uses symbols" in str(info.value)     # every problem, at once
+
+
+def test_mechanical_system_rejects_dependent_constraint_rows():
+    with pytest.raises(ValueError, match=r"`constraints` must have linearly independent rows"):
+        dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 3,
+                              constraints=lambda q: ca.vertcat(ca.horzcat(1, 0, q[0]),
+                                                               ca.horzcat(2, 0, 2 * q[0])))
