@@ -28,7 +28,7 @@ def energy(disc, traj):
     transform and works for degenerate Lagrangians.
     """
     q0, q1 = _checked(disc, traj)
-    E = disc.system.energy.map(traj.steps)((q0 + q1) / 2, (q1 - q0) / traj.h)
+    E = disc.system.energy.map(traj.steps)((q0 + q1) / 2, traj.velocities.T)
     return np.array(E).ravel()
 
 

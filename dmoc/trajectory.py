@@ -70,6 +70,16 @@ class Trajectory:
         """Number of steps N."""
         return self.q.shape[0] - 1
 
+    @property
+    def velocities(self):
+        """Step velocities (q_{k+1} - q_k)/h, shape (N, n): the velocity of each step at
+        its midpoint, the one the midpoint rule and the retraction (28) use.
+
+        >>> Trajectory([0, 1], [[0.0], [2.0]], [[0.0], [0.0]], [], [], 1.0, "+").velocities
+        array([[2.]])
+        """
+        return np.diff(self.q, axis=0) / self.h
+
     def save(self, path):
         """Write every field to an uncompressed .npz file at exactly `path` (exact round trip)."""
         with open(path, "wb") as file:
