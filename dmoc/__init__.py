@@ -8,7 +8,7 @@ from .principle import StepResidual, action_sum, step_residual
 from .simulate import SimulationResult, simulate
 from .system import MechanicalSystem
 from .trajectory import Trajectory
-from . import diagnostics, systems
+from . import diagnostics, dirac, systems
 
 __all__ = [
     "MechanicalSystem",
@@ -27,6 +27,7 @@ __all__ = [
     "Trajectory",
     "systems",
     "diagnostics",
+    "dirac",
     "DmocError",
     "SolverError",
 ]

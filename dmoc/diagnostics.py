@@ -5,20 +5,25 @@ step residual norms of (37)/(41), each evaluated by mapping a CasADi Function ov
 import casadi as ca
 import numpy as np
 
+from . import _checks
 from .discrete import Discretization, discretize
 from .principle import step_residual
 from .simulate import simulate
 from .trajectory import Trajectory
 
 
-def _checked(disc, traj):
+def check_trajectory(disc, traj):
+    """Raise unless `traj` fits `disc` (sizes of q, lam, u, s); return its number of steps."""
     if not isinstance(disc, Discretization):
         raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
     if not isinstance(traj, Trajectory):
         raise TypeError(f"`traj` must be a Trajectory; got {type(traj).__name__}.")
-    if traj.q.shape[1] != disc.system.n:
-        raise ValueError(f"`traj` has n = {traj.q.shape[1]}; the system has n = {disc.system.n}.")
-    return traj.q[:-1].T, traj.q[1:].T
+    sizes = {"q": disc.system.n, "lam": disc.system.m, "u": disc.system.n_u, "s": disc.n_stages}
+    for name, size in sizes.items():
+        if getattr(traj, name).shape[1] != size:
+            raise ValueError(f"`traj.{name}` has {getattr(traj, name).shape[1]} columns; "
+                             f"this discretization has {size}.")
+    return traj.steps
 
 
 def energy(disc, traj):
@@ -27,25 +32,27 @@ def energy(disc, traj):
     Evaluated at ((q_k + q_{k+1})/2, (q_{k+1} - q_k)/h), so it needs no Legendre
     transform and works for degenerate Lagrangians.
     """
-    q0, q1 = _checked(disc, traj)
-    E = disc.system.energy.map(traj.steps)((q0 + q1) / 2, traj.velocities.T)
+    if not check_trajectory(disc, traj):
+        return np.zeros(0)
+    E = disc.system.energy.map(traj.steps)((traj.q[:-1] + traj.q[1:]).T / 2, traj.velocities.T)
     return np.array(E).ravel()
 
 
 def constraint_violation(disc, traj):
     """max_a |omega_d^a(q_k, q_{k+1})| of (28) for each step, shape (N,)."""
-    q0, q1 = _checked(disc, traj)
-    if disc.system.m == 0:
+    if not check_trajectory(disc, traj) or disc.system.m == 0:
         return np.zeros(traj.steps)
-    omega = np.array(disc.discrete_constraint.map(traj.steps)(q0, q1, traj.h))
+    omega = np.array(disc.discrete_constraint.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.h))
     return np.abs(omega).max(axis=0)
 
 
 def residual_norms(disc, traj):
     """Max-norm of the step residual R of (37)/(41) at every step, shape (N,)."""
-    q0, q1 = _checked(disc, traj)
+    if not check_trajectory(disc, traj):
+        return np.zeros(0)
     R = step_residual(disc, traj.variant).function.map(traj.steps)
-    r = np.array(R(q0, traj.p[:-1].T, q1, traj.p[1:].T, traj.lam.T, traj.s.T, traj.u.T, traj.h))
+    r = np.array(R(traj.q[:-1].T, traj.p[:-1].T, traj.q[1:].T, traj.p[1:].T, traj.lam.T,
+                   traj.s.T, traj.u.T, traj.h))
     return np.abs(r).max(axis=0)
 
 
@@ -98,10 +105,10 @@ def symplecticity_defect(disc, q0, p0, *, u=None, variant="+"):
     J comes from the implicit function theorem on the step residual at the computed step.
     """
     sys = disc.system
-    if sys.m:
-        raise ValueError("`disc` must have no constraints: with constraints the step map is "
-                         "not symplectic on T*Q.")
-    u = np.zeros(sys.n_u) if u is None else u
+    if sys.m or disc.n_stages:
+        raise ValueError("`disc` must have no constraints and no stages: with constraints the "
+                         "step map is not symplectic on T*Q.")
+    u = np.zeros(sys.n_u) if u is None else _checks.array("u", u, (sys.n_u,))
     traj = simulate(disc, q0=q0, p0=p0, steps=1, controls=np.reshape(u, (1, -1)),
                     variant=variant).trajectory
     n = sys.n

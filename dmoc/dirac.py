@@ -11,7 +11,7 @@ import functools
 import casadi as ca
 import numpy as np
 
-from .diagnostics import _checked, constraint_violation
+from .diagnostics import check_trajectory, constraint_violation
 
 
 def kappa(z, z_plus):
@@ -49,6 +49,9 @@ def dirac_differential(disc, variant):
     "+" gives (q0, D2 L_d + f^+, -D1 L_d - f^-, q1), "-" gives
     (-D1 L_d - f^-, q1, -q0, -D2 L_d - f^+).
     """
+    if disc.n_stages:
+        raise ValueError("`disc` must be a stage-free rule: D+-L_d of a stage rule needs the "
+                         "stages eliminated first.")
     n, n_u, ns = disc.system.n, disc.system.n_u, disc.n_stages
     q0, q1, s, u, h = (ca.SX.sym(name, size) for name, size in
                        (("q0", n), ("q1", n), ("s", ns), ("u", n_u), ("h", 1)))
@@ -68,24 +71,27 @@ def dirac_defect(disc, traj, tol_rank=1e-12):
     difference lies in Delta°_{QxQ*} = {(q, p, A(q)^T lam, 0)} of (32). For "-" it is (40)
     with (35) and Delta°_{Q*xQ} of (33), the annihilator sitting at q1. The defect is the
     max-norm of all those mismatches, the annihilator part measured as the distance to
-    range A(q)^T.
+    range A(q)^T. (In these coordinates the q-components of D+-L_d and Omega_d+-^flat agree
+    identically; the content is the p-component, the annihilator and omega_d.)
     """
-    _checked(disc, traj)
+    if not check_trajectory(disc, traj):
+        return np.zeros(0)
     N, plus = traj.steps, traj.variant == "+"
     alpha = [np.array(c).T for c in dirac_differential(disc, traj.variant).map(N)(
         traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.u.T, traj.h)]
     flat = omega_flat_plus if plus else omega_flat_minus
     target = flat((traj.q[:-1], traj.p[:-1]), (traj.q[1:], traj.p[1:]))
     diff = [a - t for a, t in zip(alpha, target)]
-    # (34): fibre over q free up to A(q0)^T lam, over p zero; (35): over p zero, over q1 free.
-    base, fibre_zero, fibre_free = (diff[1], diff[3], diff[2]) if plus else (diff[0], diff[2], diff[3])
+    # (34): the fibre over q (component 2) is free up to A(q0)^T lam, the rest must vanish;
+    # (35): the fibre over q (component 3) is free up to A(q1)^T lam.
+    free = 2 if plus else 3
+    vanish = np.column_stack([np.abs(d).max(axis=1) for i, d in enumerate(diff) if i != free])
     q_ann = traj.q[:-1] if plus else traj.q[1:]
     A = disc.system.constraint_matrix.map(N)(q_ann.T)
     omega = constraint_violation(disc, traj)
     off = [_distance_to_range(np.array(A[:, k * disc.system.n:(k + 1) * disc.system.n]).T,
-                              fibre_free[k], tol_rank) for k in range(N)]
-    return np.max(np.column_stack([np.abs(base).max(axis=1), np.abs(fibre_zero).max(axis=1),
-                                   off, omega]), axis=1)
+                              diff[free][k], tol_rank) for k in range(N)]
+    return np.max(np.column_stack([vanish, off, omega]), axis=1)
 
 
 def _distance_to_range(B, x, tol_rank):

@@ -11,6 +11,7 @@ from . import _checks
 from .boundary import check_allowed_velocity, momentum_conditions
 from .discrete import Discretization
 from .principle import VARIANTS, step_residual
+from .system import named_function
 
 
 class Layout:
@@ -154,6 +155,12 @@ class OptimalControlProblem:
         self._set_bounds(control_bounds, state_bounds)
 
     def _set_bounds(self, control_bounds, state_bounds):
+        for name in ("q_start", "q_goal"):
+            data = getattr(self, name)
+            outside = np.isfinite(data) & ((data < state_bounds[0]) | (data > state_bounds[1]))
+            if outside.any():
+                raise ValueError(f"`{name}` must lie within `state_bounds`; entries "
+                                 f"{np.flatnonzero(outside).tolist()} do not.")
         N, lay = self.steps, self.x_layout
         self.lbx, self.ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
         for bound, side in ((self.lbx, 0), (self.ubx, 1)):
@@ -166,8 +173,6 @@ class OptimalControlProblem:
                 view[name][fixed, col] = data[fixed]
             if self.free_time:
                 view["h"][:] = self.duration[side] / N
-            for name, block in view.items():
-                bound[lay.slice(name)] = block.T.ravel()
         self.lbg, self.ubg = np.zeros(self.g_layout.size), np.zeros(self.g_layout.size)
         self.lbg[self.g_layout.slice("path")] = -np.inf
 
@@ -227,7 +232,16 @@ def _path_function(path, sys):
     except Exception as err:  # user code: report what it raised, naming the argument
         raise ValueError(f"`path_constraints` failed on symbols of the system's sizes: "
                          f"{type(err).__name__}: {err}") from None
-    return ca.Function("path", [q0, q1, u, h], [g], ["q0", "q1", "u", "h"], ["g"])
+    return _named_function("path_constraints", [q0, q1, u, h], g, ["q0", "q1", "u", "h"])
+
+
+def _named_function(name, inputs, output, input_names):
+    """`system.named_function`, raising its problem as a ValueError naming the callable."""
+    problems = []
+    function = named_function(name, name, inputs, output, input_names, problems)
+    if problems:
+        raise ValueError(problems[0])
+    return function
 
 
 def _cost_function(name, cost, sys, args):
@@ -243,4 +257,4 @@ def _cost_function(name, cost, sys, args):
                          f"{type(err).__name__}: {err}") from None
     if value.shape != (1, 1):
         raise ValueError(f"`{name}` must return a scalar; got shape {value.shape}.")
-    return ca.Function(name, symbols, [value], list(args), ["cost"])
+    return _named_function(name, symbols, value, list(args))

@@ -107,7 +107,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
 
 
 def _solver(problem, options):
-    expand = bool(options.pop("expand", False))
+    expand = _checks.boolean("options['expand']", options.pop("expand", False))
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
             **{"ipopt." + k: v for k, v in merged.items()}}
@@ -150,7 +150,7 @@ def initial_guess(problem, guess=None):
     lay, N, sys = problem.x_layout, problem.steps, problem.disc.system
     x = np.zeros(lay.size)
     tau = np.linspace(0.0, 1.0, N + 1)
-    h = problem.disc.h
+    h = problem.disc.h if guess is None else guess.h
     if problem.free_time:
         h = float(np.clip(h, *(T / N for T in problem.duration)))
     if guess is None:
@@ -172,6 +172,8 @@ def initial_guess(problem, guess=None):
 
 
 def _check_guess(problem, guess):
+    if guess.steps < 1:
+        raise ValueError("`guess` must have at least one step; got a trajectory of 0 steps.")
     sizes = {"q": problem.disc.system.n, "lam": problem.disc.system.m,
              "u": problem.disc.system.n_u, "s": problem.disc.n_stages}
     for name, size in sizes.items():
@@ -190,13 +192,13 @@ def _default_path(problem, tau):
 def _resampled(guess, tau):
     """Guess blocks (time-major) on the problem's normalized grid tau."""
     N = len(tau) - 1
+    mu = {"mu": guess.mu[None, :]} if guess.variant == "-" else {}
     if guess.steps == N:
-        blocks = {"q": guess.q, "p": guess.p, "lam": guess.lam, "u": guess.u, "s": guess.s}
-        return {**blocks, "mu": guess.mu[None, :]} if guess.variant == "-" else blocks
+        return {"q": guess.q, "p": guess.p, "lam": guess.lam, "u": guess.u, "s": guess.s, **mu}
     old = np.linspace(0.0, 1.0, guess.steps + 1)
     mid_new, mid_old = (tau[:-1] + tau[1:]) / 2, (old[:-1] + old[1:]) / 2
     knots = {k: np.column_stack([np.interp(tau, old, c) for c in getattr(guess, k).T])
              for k in ("q", "p")}
     steps = {k: np.column_stack([np.interp(mid_new, mid_old, c) for c in getattr(guess, k).T]
                                 or [np.zeros(N)]) for k in ("lam", "u", "s")}
-    return {**knots, **{k: v[:, : getattr(guess, k).shape[1]] for k, v in steps.items()}}
+    return {**knots, **{k: v[:, : getattr(guess, k).shape[1]] for k, v in steps.items()}, **mu}

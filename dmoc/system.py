@@ -63,9 +63,9 @@ class MechanicalSystem:
         A = _evaluate_constraints(constraints, q, self.n, problems)
         f = _evaluate("force", force, (q, v, u), (self.n, 1), problems, default=ca.SX.zeros(self.n))
         self.names = _coordinate_names(names, self.n, problems)
-        self.lagrangian = _function("lagrangian", "L", [q, v], L, ["q", "v"], problems)
-        self.constraint_matrix = _function("constraints", "A", [q], A, ["q"], problems)
-        self.force = _function("force", "f", [q, v, u], f, ["q", "v", "u"], problems)
+        self.lagrangian = named_function("lagrangian", "L", [q, v], L, ["q", "v"], problems)
+        self.constraint_matrix = named_function("constraints", "A", [q], A, ["q"], problems)
+        self.force = named_function("force", "f", [q, v, u], f, ["q", "v", "u"], problems)
         if not problems:
             _check_rank(self.constraint_matrix, self.n, problems)
         if problems:
@@ -122,8 +122,9 @@ def _evaluate_constraints(constraints, q, n, problems):
     return A
 
 
-def _function(name, label, inputs, output, input_names, problems):
-    """A named Function of `output`, or None and a problem if it uses undeclared symbols."""
+def named_function(name, label, inputs, output, input_names, problems):
+    """A Function `label` of `output` built from the user callable `name`; None and a
+    problem appended to `problems` if the callable used symbols other than its arguments."""
     try:
         return ca.Function(label, inputs, [output], input_names, [label])
     except RuntimeError:

@@ -45,25 +45,21 @@ class Trajectory:
     s: np.ndarray = field(default=None)
 
     def __post_init__(self):
-        self.q = np.asarray(self.q, dtype=float)
-        if self.q.ndim != 2:
-            raise ValueError(f"`q` must have shape (N+1, n); got {self.q.shape}.")
-        N1, n = self.q.shape
-        N = N1 - 1
+        # NaN is allowed in the arrays: the last iterate of a failed solve may hold it, and
+        # is kept rather than lost. Every array is copied, never a view of solver memory.
+        q = np.array(self.q, dtype=float)
+        if q.ndim != 2 or q.shape[0] < 1:
+            raise ValueError(f"`q` must have shape (N+1, n); got {q.shape}.")
+        self.q = _checks.array("q", q, q.shape, allow_nan=True)
+        N1, n = q.shape
         self.t = _checks.array("t", self.t, (N1,), allow_nan=True)
         self.p = _checks.array("p", self.p, (N1, n), allow_nan=True)
-        self.lam = np.asarray(self.lam, dtype=float)
-        m = self.lam.shape[1] if self.lam.ndim == 2 else 0
-        self.lam = _checks.array("lam", self.lam.reshape(N, m), (N, m), allow_nan=True)
-        self.u = np.asarray(self.u, dtype=float)
-        n_u = self.u.shape[1] if self.u.ndim == 2 else 0
-        self.u = _checks.array("u", self.u.reshape(N, n_u), (N, n_u), allow_nan=True)
-        self.h = float(self.h)
+        self.lam, self.u, self.s = (_per_step(name, value, N1 - 1) for name, value in
+                                    (("lam", self.lam), ("u", self.u), ("s", self.s)))
+        self.h = _checks.positive_float("h", self.h)
         self.variant = _checks.choice("variant", self.variant, ("+", "-"))
+        m = self.lam.shape[1]
         self.mu = np.zeros(m) if self.mu is None else _checks.array("mu", self.mu, (m,), allow_nan=True)
-        self.s = np.asarray(np.zeros((N, 0)) if self.s is None else self.s, dtype=float)
-        n_s = self.s.shape[1] if self.s.ndim == 2 else 0
-        self.s = _checks.array("s", self.s.reshape(N, n_s), (N, n_s), allow_nan=True)
 
     @property
     def steps(self):
@@ -97,3 +93,13 @@ class Trajectory:
     def __repr__(self):
         return (f"Trajectory(steps={self.steps}, n={self.q.shape[1]}, m={self.lam.shape[1]}, "
                 f"n_u={self.u.shape[1]}, h={self.h}, variant={self.variant!r})")
+
+
+def _per_step(name, value, N):
+    """A per-step array of shape (N, k); empty input (or None) means k = 0."""
+    data = np.array(np.zeros((N, 0)) if value is None else value, dtype=float)
+    if data.size == 0:
+        data = data.reshape(N, 0) if N else np.zeros((0, data.shape[-1] if data.ndim == 2 else 0))
+    if data.ndim != 2 or data.shape[0] != N:
+        raise ValueError(f"`{name}` must have shape ({N}, k), one row per step; got {data.shape}.")
+    return _checks.array(name, data, data.shape, allow_nan=True)
