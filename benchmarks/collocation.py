@@ -14,7 +14,8 @@ hermite_simpson  separated form: midpoint states x_{k+1/2} and midpoint controls
                  cost h/6 (|u_k|^2 + 4 |u_{k+1/2}|^2 + |u_{k+1}|^2);
                  controls piecewise QUADRATIC through u_k, u_{k+1/2}, u_{k+1}.
 
-Nothing here imports dmoc: the problems are written out from their equations of motion.
+The problems are written out from their equations of motion; the only thing taken from
+dmoc is its default IPOPT options, so that every method is solved alike.
 """
 
 import math

@@ -68,13 +68,11 @@ def array(name, value, shape, *, allow_nan=False):
 
     `allow_nan` lets NaN stand for "free" entries (never infinities).
     """
-    try:
-        out = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise TypeError(
-            f"`{name}` must be an array of real numbers of shape {shape}; "
-            f"got {type(value).__name__}."
-        ) from None
+    raw = np.asarray(value)
+    if raw.dtype.kind not in "iuf":     # no strings, booleans or objects passed off as numbers
+        raise TypeError(f"`{name}` must be an array of real numbers of shape {tuple(shape)}; "
+                        f"got {type(value).__name__} of {raw.dtype}.")
+    out = np.array(raw, dtype=float)
     if out.shape != tuple(shape):
         raise ValueError(f"`{name}` must have shape {tuple(shape)} for this system; got {out.shape}.")
     bad = np.isinf(out) if allow_nan else ~np.isfinite(out)

@@ -48,17 +48,18 @@ def simulation_demo(out, steps):
 
 
 def optimization_demo(out, steps):
-    """Solve the two DMOC examples with both variants; return summary lines, save plots."""
+    """Solve the two DMOC examples with both variants; return summary lines, save plots and
+    the trajectory of each variant (the positions coincide, the momenta do not)."""
     lines = []
     for name, make in (("knife_edge_parking", problems.knife_edge_parking),
                        ("rolling_disk_steering", problems.rolling_disk_steering)):
-        for variant in ("+", "-"):
+        for variant, suffix in (("+", "plus"), ("-", "minus")):
             problem = make(steps, variant=variant)
             result = optimize(problem)
             figures = diagnostics.optimization_summary(problem, result)
             lines.append(diagnostics.format_summary(f"{name} (variant {variant}, N = {steps})", figures))
+            result.trajectory.save(out / f"{name}_{suffix}.npz")
         save_trajectory_plots(result.trajectory, out, name)
-        result.trajectory.save(out / f"{name}.npz")
     return lines
 
 

@@ -1,5 +1,5 @@
 """The compiled step of the Dirac integrator: one step of the residual of (37)/(41) solved
-for (q_{k+1}, nu, s) by Newton's method, over a horizon with `mapaccum`. Used by
+for (q_{k+1} - q_k, nu, s) by Newton's method, over a horizon with `mapaccum`. Used by
 `simulate`; it owns no mechanics, only the solution of the shared StepResidual.
 
 Each step solves n + m (+ stages) equations for the increment q_{k+1} - q_k and the
@@ -15,7 +15,8 @@ import casadi as ca
 import numpy as np
 
 FAST_ITERATIONS = 3
-CHUNK = 1000
+CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most
+                  # log2(CHUNK) + 1 horizons are ever built per stepper
 
 
 class DiracStepper:
@@ -62,7 +63,7 @@ class DiracStepper:
                            ["y", "params"], ["g", "p1"])
 
     def _wrap(self, state, params, sol, update):
-        """Next state and outputs from a solution y = (q1, nu, s) of the step equations."""
+        """Next state and outputs from a solution y = (dq, nu, s) of the step equations."""
         (n, m, ns), R = self.sizes, self.residual
         g, p1 = self.equations(sol, params)
         q0, pc0 = state[:n], state[n:2 * n]
@@ -74,7 +75,7 @@ class DiracStepper:
     def _symbols(self, kind):
         state = kind.sym("state", self.state_size)
         u, h = kind.sym("u", self.residual.n_u), kind.sym("h")
-        n, m = self.sizes[:2]
+        n = self.sizes[0]
         guess = state[2 * n:]
         return state, u, h, ca.vertcat(state[:2 * n], u, h), guess
 
@@ -132,11 +133,11 @@ class DiracStepper:
         Returns (states (k, state_size), outputs (k, ...), rnorm of the failed step or
         None, number of steps redone by the robust path).
         """
-        n, m, ns = self.sizes
-        states, outputs = [np.zeros((0, self.state_size))], [np.zeros((0, n + m + ns + 2))]
+        states = [np.zeros((0, self.state_size))]
+        outputs = [np.zeros((0, sum(self.sizes) + 2))]
         N, k, state, redone = controls.shape[0], 0, start, 0
         while k < N:
-            c = min(CHUNK, N - k)
+            c = min(CHUNK, 1 << ((N - k).bit_length() - 1))
             acc, out = self._chunk(c, state, controls[k:k + c], h)
             ok = self.accepted(out)
             j = int(np.argmin(ok)) if not ok.all() else c

@@ -422,9 +422,8 @@ def test_bad_arguments_are_rejected_by_name(kwargs, error, name):
         "running_cost-not-scalar"])
 def test_more_bad_arguments_are_rejected_by_name(kwargs, error, name):
     """Same rule as above (STYLE.md, Errors: ValueError/TypeError at the boundary, the
-    message names the argument). At the time of writing dmoc lets a non-scalar running cost
-    through to IPOPT (which then blames `options`) and lets numpy/Python errors that do not
-    name the argument escape for the other three."""
+    message names the argument), for mistakes that would otherwise surface as numpy or
+    Python errors, or reach IPOPT, without naming the argument."""
     with pytest.raises(error, match=f"`{name}`"):
         dmoc.OptimalControlProblem(_knife_disc(), 20, **{**BASE, **kwargs})
 

@@ -60,7 +60,7 @@ def test_path_constraint_at_step_midpoints(free):
     problem = _parking(path_constraints=lambda q, v, u: ca.vertcat(q[2] - limit, -q[2] - limit))
     result = dmoc.optimize(problem)
     q = result.trajectory.q
-    theta_mid = (q[:-1, 2] + q[1:, 2]) / 2               # imposed where the rule samples
+    theta_mid = (q[:-1, 2] + q[1:, 2]) / 2               # path constraints act at step midpoints
     assert np.abs(theta_mid).max() <= limit + 1e-9
     assert np.isclose(np.abs(theta_mid).max(), limit, atol=1e-8)
     assert result.cost > unconstrained.cost
@@ -86,9 +86,16 @@ def test_terminal_penalty_scales_the_hard_goal_optimum(weight):
 
 def test_free_goal_velocity():
     """Arrive at (0, 1, 0) with the velocity along the blade free: the final velocity lies in
-    Delta_Q(q_N), the replay matches, and the effort is no higher than rest to rest."""
+    Delta_Q(q_N), the replay matches, the effort is no higher than rest to rest, and the
+    force along the blade obeys transversality: u0(T) = 0, so u0 on the last step is O(h)."""
     problem = _parking(v_goal=[None, None, 0.0])
     result = dmoc.optimize(problem)
+    finer = dmoc.optimize(dmoc.OptimalControlProblem(
+        dmoc.discretize(dmoc.systems.knife_edge(), 4.0 / (2 * N)), 2 * N,
+        q_start=[0, 0, 0], q_goal=[0, 1, 0], v_goal=[None, None, 0.0]))
+    last, last_finer = abs(result.trajectory.u[-1, 0]), abs(finer.trajectory.u[-1, 0])
+    assert last < 0.1 * np.abs(result.trajectory.u[:, 0]).max()
+    assert last / last_finer == pytest.approx(2.0, abs=0.1)
     traj = result.trajectory
     v_N = problem.x_layout.unpack(result.x, "v_goal")[:, 0]
     A = np.array(problem.disc.system.constraint_matrix(traj.q[-1]))

@@ -58,19 +58,25 @@ def test_easy_steps_take_the_fast_path():
 
 @pytest.mark.parametrize("variant", ["+", "-"])
 def test_chunk_boundaries_are_seamless(variant):
-    """A run longer than one compiled chunk equals two runs glued at an arbitrary step."""
+    """A run longer than one compiled chunk equals two runs glued at an arbitrary step,
+    each of them crossing chunk boundaries too. For "-" the second run's initial impulse
+    is the multiplier the first run left at 0 at its last knot."""
     disc = dmoc.discretize(dmoc.systems.rolling_disk(), 0.01)
-    steps, cut = CHUNK + 700, 1234
+    steps, cut = CHUNK + 700, 600
     controls = np.column_stack([np.sin(0.01 * np.arange(steps)), np.cos(0.02 * np.arange(steps))])
-    whole = dmoc.simulate(disc, q0=[0, 0, 0, 0], v0=[1, 0, 1, 0.5], steps=steps,
-                          controls=controls, variant="+").trajectory
-    first = dmoc.simulate(disc, q0=[0, 0, 0, 0], v0=[1, 0, 1, 0.5], steps=cut,
-                          controls=controls[:cut], variant="+").trajectory
+    start = dict(q0=[0, 0, 0, 0], v0=[1, 0, 1, 0.5], variant=variant)
+    whole = dmoc.simulate(disc, steps=steps, controls=controls, **start).trajectory
+    first = dmoc.simulate(disc, steps=cut, controls=controls[:cut], **start).trajectory
     second = dmoc.simulate(disc, q0=first.q[-1], p0=first.p[-1], steps=steps - cut,
                            controls=controls[cut:], variant=variant).trajectory
     assert np.abs(np.vstack([first.q, second.q[1:]]) - whole.q).max() < 1e-12
+    assert np.abs(np.vstack([first.p[:-1], second.p]) - whole.p).max() < 1e-12
     if variant == "+":
-        assert np.abs(np.vstack([first.p, second.p[1:]]) - whole.p).max() < 1e-12
+        assert np.abs(np.vstack([first.lam, second.lam]) - whole.lam).max() < 1e-12
+    else:
+        glued = np.vstack([first.lam[:-1], second.mu, second.lam])
+        assert np.abs(glued - whole.lam).max() < 1e-12
+        assert np.abs(first.mu - whole.mu).max() < 1e-12
 
 
 @pytest.mark.parametrize("variant", ["+", "-"])

@@ -35,10 +35,12 @@ class Discretization:
         forces (n,) and the force on the stages.
     """
 
-    def __init__(self, system, h, rule):
+    def __init__(self, system, h, rule="midpoint"):
+        if not isinstance(system, MechanicalSystem):
+            raise TypeError(f"`system` must be a MechanicalSystem; got {type(system).__name__}.")
         self.system = system
-        self.h = h
-        self.rule = rule
+        self.h = _checks.positive_float("h", h)
+        self.rule = rule = as_rule(rule)
         n, n_u = system.n, system.n_u
         self.n_stages = rule.n_stages * n
         q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)
@@ -90,7 +92,4 @@ def discretize(system, h, rule="midpoint"):
     >>> round(float(d.discrete_lagrangian(0.0, 0.2, [], 0.1)), 6)  # 0.1 * (2 - 0.005)
     0.1995
     """
-    if not isinstance(system, MechanicalSystem):
-        raise TypeError(f"`system` must be a MechanicalSystem; got {type(system).__name__}.")
-    h = _checks.positive_float("h", h)
-    return Discretization(system, h, as_rule(rule))
+    return Discretization(system, h, rule)

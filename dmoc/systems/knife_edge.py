@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 
 from .. import _checks
+from ..boundary import constraint_violation_tolerance
 from ..system import MechanicalSystem
 
 _SERIES_BELOW = 0.1  # |x| below which (x - sin x) / x^3 is summed as a series
@@ -163,9 +164,9 @@ def _times(t):
 
 
 def _check_velocity(residual, scale, what):
-    """Raise ValueError naming `v0` if |residual| > 1e-9 * max(1, scale)."""
+    """Raise ValueError naming `v0` if |residual| exceeds the library's tolerance on A(q) v."""
     residual = float(np.max(np.abs(residual)))
-    if residual > 1e-9 * max(1.0, float(scale)):
+    if residual > constraint_violation_tolerance(float(scale)):
         raise ValueError(f"`v0` must satisfy {what}; the residual is {residual:.3e}. "
                          "Hint: choose v0 in ker A(q0).")
 
