@@ -38,7 +38,8 @@ class DiracStepper:
         self._chunks = {}
 
     def _equations(self):
-        """G(y, params) -> (g, p1) with y = (dq, nu, s), params = (q0, p0', u, h).
+        """G(y, params) -> (g, p0, p1) with y = (dq, nu, s), params = (q0, p0', u, h):
+        the equations, the momentum p_k they use (p0' less the (-) impulse) and p_{k+1}.
 
         The unknown is the increment dq = q1 - q0, substituted symbolically so that the
         velocities inside the residual are dq/h exactly (CasADi simplifies (q0 + dq) - q0):
@@ -59,16 +60,15 @@ class DiracStepper:
             raise RuntimeError("the residual's right rows must be (...) - p1")
         rows = [r[R.rows[k]] for k in ("left", "stage", "constraint")]
         return ca.Function("step_equations", [y, ca.vertcat(q0, pc0, u, h)],
-                           [ca.vertcat(*rows), ca.substitute(right, p1, ca.SX.zeros(n))],
-                           ["y", "params"], ["g", "p1"])
+                           [ca.vertcat(*rows), p0, ca.substitute(right, p1, ca.SX.zeros(n))],
+                           ["y", "params"], ["g", "p0", "p1"])
 
     def _wrap(self, state, params, sol, update):
         """Next state and outputs from a solution y = (dq, nu, s) of the step equations."""
-        (n, m, ns), R = self.sizes, self.residual
-        g, p1 = self.equations(sol, params)
-        q0, pc0 = state[:n], state[n:2 * n]
+        n, m, ns = self.sizes
+        g, p0, p1 = self.equations(sol, params)
+        q0 = state[:n]
         dq, nu, s = ca.vertsplit(sol, [0, n, n + m, n + m + ns])
-        p0 = pc0 if R.variant == "+" else pc0 - ca.mtimes(R.disc.system.constraint_matrix(q0).T, nu)
         return (ca.vertcat(q0 + dq, p1, dq, nu, s),
                 ca.vertcat(p0, nu, s, ca.norm_inf(g), update))
 
