@@ -1,5 +1,6 @@
-"""Momentum boundary data shared by both consumers (THEORY.md, "Optimal control"):
-p_0 = dL/dv(q_0, v_0) at the start, and p_N - dL/dv(q_N, v_N) in Delta°_Q(q_N) at the end.
+"""Momentum boundary data shared by both consumers (docs/theory.md, "Conventions"):
+p_0 = dL/dv(q_0, v_0) at the start, and p_N - dL/dv(q_N, v_N) in Delta°_Q(q_N) at the end,
+with the impulses where the formulation puts them.
 """
 
 import casadi as ca
@@ -50,33 +51,16 @@ def check_allowed_velocity(name, system, q, v):
             f"allowed velocities are ker A(q) (the rows of A are the constraint one-forms).")
 
 
-def momentum_conditions(system, variant):
-    """Symbolic momentum boundary conditions of the (+)/(-) principle, for the optimizer.
+def momentum_condition(system, label, multiplier, sign):
+    """The momentum boundary row ``label(q, p, v, multiplier) -> p - dL/dv(q, v) + sign A(q)^T
+    multiplier`` (shape (n,)) and the multiplier's size (m, or 0 when `sign` is 0).
 
-    Returns
-    -------
-    start, end : casadi.Function
-        ``start(q, p, v, mu) -> r`` and ``end(q, p, v, nu) -> r``, r of shape (n,).
-    m_start, m_end : int
-        Sizes of the impulse multipliers mu and nu (m or 0).
-
-    Notes
-    -----
-    (+): p_0 = dL/dv(q_0, v_0) and p_N = dL/dv(q_N, v_N) + A(q_N)^T nu: lam_k of (37) sits
-    at q_k, so the impulse at q_N is a boundary unknown.
-    (-): p_0 = dL/dv(q_0, v_0) - A(q_0)^T mu and p_N = dL/dv(q_N, v_N): lam_k of (41) sits
-    at q_{k+1}, so lam_{N-1} is the impulse at q_N and the start needs one (the initial
-    impulse of THEORY.md, as in `simulate`).
+    The formulations (`dmoc.formulations`) say which end carries an impulse and with which
+    sign: (+) p_N = dL/dv(q_N, v_N) + A(q_N)^T nu, (-) p_0 = dL/dv(q_0, v_0) - A(q_0)^T mu.
     """
-    n, m = system.n, system.m
-    q, p, v, mult = ca.SX.sym("q", n), ca.SX.sym("p", n), ca.SX.sym("v", n), ca.SX.sym("mult", m)
-    impulse = ca.mtimes(system.constraint_matrix(q).T, mult)
-    free = p - system.momentum(q, v)
-    zero = ca.SX.sym("none", 0)
-    if variant == "+":
-        start = ca.Function("start_momentum", [q, p, v, zero], [free], ["q", "p", "v", "mu"], ["r"])
-        end = ca.Function("end_momentum", [q, p, v, mult], [free - impulse], ["q", "p", "v", "nu"], ["r"])
-        return start, end, 0, m
-    start = ca.Function("start_momentum", [q, p, v, mult], [free + impulse], ["q", "p", "v", "mu"], ["r"])
-    end = ca.Function("end_momentum", [q, p, v, zero], [free], ["q", "p", "v", "nu"], ["r"])
-    return start, end, m, 0
+    n, size = system.n, system.m if sign else 0
+    q, p, v, mult = ca.SX.sym("q", n), ca.SX.sym("p", n), ca.SX.sym("v", n), ca.SX.sym(multiplier, size)
+    r = p - system.momentum(q, v)
+    if sign:
+        r = r + sign * ca.mtimes(system.constraint_matrix(q).T, mult)
+    return ca.Function(label, [q, p, v, mult], [r], ["q", "p", "v", multiplier], ["r"]), size

@@ -7,6 +7,7 @@ import numpy as np
 
 from . import _checks
 from .discrete import Discretization, discretize
+from .formulations import as_formulation
 from .principle import step_residual
 from .simulate import simulate
 from .trajectory import Trajectory
@@ -51,22 +52,23 @@ def residual_norms(disc, traj):
     if not check_trajectory(disc, traj):
         return np.zeros(0)
     R = step_residual(disc, traj.variant).function.map(traj.steps)
-    r = np.array(R(traj.q[:-1].T, traj.p[:-1].T, traj.q[1:].T, traj.p[1:].T, traj.lam.T,
-                   traj.s.T, traj.u.T, traj.h))
+    r = np.array(R(q0=traj.q[:-1].T, p0=traj.p[:-1].T, q1=traj.q[1:].T, p1=traj.p[1:].T,
+                   lam=traj.lam.T, s=traj.s.T, u=traj.u.T, h=traj.h)["r"])
     return np.abs(r).max(axis=0)
 
 
 def replay_error(problem, result):
     """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
     optimal initial state: the two consumers share one residual, so both are at solver
-    tolerance. p_N is left out for variant "-", whose end impulse `simulate` cannot know."""
+    tolerance. p_N is left out where the formulation puts the end impulse into it (variant
+    "-"), which `simulate` cannot know."""
     traj = result.trajectory
     disc = discretize(problem.disc.system, traj.h, problem.disc.rule)
     replay = simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
                       variant=traj.variant, throw=False).trajectory
     if replay.steps < traj.steps:
         return np.inf, np.inf
-    last = traj.steps + (traj.variant == "+")
+    last = traj.steps + as_formulation(traj.variant).end_momentum_determined
     return (float(np.abs(replay.q - traj.q).max()),
             float(np.abs(replay.p[:last] - traj.p[:last]).max()))
 
@@ -114,8 +116,8 @@ def symplecticity_defect(disc, q0, p0, *, u=None, variant="+"):
     n = sys.n
     x = ca.SX.sym("x", 2 * n)      # (q0, p0)
     y = ca.SX.sym("y", 2 * n)      # (q1, p1)
-    R = step_residual(disc, variant)(x[:n], x[n:], y[:n], y[n:], ca.SX(0, 1),
-                                     ca.SX(disc.n_stages, 1), u, disc.h)
+    R = step_residual(disc, variant)(q0=x[:n], p0=x[n:], q1=y[:n], p1=y[n:], lam=ca.SX(0, 1),
+                                     s=ca.SX(0, 1), u=u, h=disc.h)
     jac = ca.Function("step_jacobians", [x, y], [ca.jacobian(R, x), ca.jacobian(R, y)])
     Rx, Ry = (np.array(J) for J in jac(np.r_[traj.q[0], traj.p[0]], np.r_[traj.q[1], traj.p[1]]))
     J = -np.linalg.solve(Ry, Rx)

@@ -1,4 +1,5 @@
-"""Discrete Tulczyjew triples (Section 3, eqs. (14)-(17), (21)) and membership in the
+"""Discrete Tulczyjew triples (Section 3, eqs. (14)-(17), (21); the maps live in
+`dmoc.tulczyjew`) and membership in the
 discrete induced Dirac structures (34)/(35), as checkable objects: every step X_d^k of an
 implicit (+)/(-) discrete Lagrangian system must satisfy (36)/(40).
 
@@ -6,39 +7,19 @@ Coordinates: z = (q0, p0), z+ = (q1, p1) in T*Q x T*Q with Q = R^n; a point of T
 is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, a_p, a_q).
 """
 
-import functools
-
 import casadi as ca
 import numpy as np
 
+from ._cache import BoundedCache
 from .diagnostics import check_trajectory, constraint_violation
+from .formulations import as_formulation
+from .tulczyjew import kappa, kappa_inverse, omega_flat_minus, omega_flat_plus
+
+__all__ = ["kappa", "kappa_inverse", "omega_flat_plus", "omega_flat_minus",
+           "dirac_differential", "dirac_defect"]
+_DIFFERENTIALS = BoundedCache(32)
 
 
-def kappa(z, z_plus):
-    """kappa_d(z, z+) = (q0, q1, -p0, p1) in T*(Q x Q), eq. (14)."""
-    (q0, p0), (q1, p1) = z, z_plus
-    return (q0, q1, -p0, p1)
-
-
-def omega_flat_plus(z, z_plus):
-    """Omega_d+^flat(z, z+) = (q0, p1, p0, q1) in T*(Q x Q*), eq. (15)."""
-    (q0, p0), (q1, p1) = z, z_plus
-    return (q0, p1, p0, q1)
-
-
-def omega_flat_minus(z, z_plus):
-    """Omega_d-^flat(z, z+) = (p0, q1, -q0, -p1) in T*(Q* x Q), eq. (16)."""
-    (q0, p0), (q1, p1) = z, z_plus
-    return (p0, q1, -q0, -p1)
-
-
-def kappa_inverse(point):
-    """kappa_d^{-1}(q0, q1, a0, a1) = ((q0, -a0), (q1, a1))."""
-    q0, q1, a0, a1 = point
-    return (q0, -a0), (q1, a1)
-
-
-@functools.lru_cache(maxsize=64)
 def dirac_differential(disc, variant):
     """D+L_d = gamma_d+ o dL_d or D-L_d = gamma_d- o dL_d (Section 5), with forces, as a
     CasADi Function ``(q0, q1, s, u, h) -> (c0, c1, c2, c3)``: a point of T*(Q x Q*) for
@@ -52,14 +33,19 @@ def dirac_differential(disc, variant):
     if disc.n_stages:
         raise ValueError("`disc` must be a stage-free rule: D+-L_d of a stage rule needs the "
                          "stages eliminated first.")
+    formulation = as_formulation(variant)
+    return _DIFFERENTIALS.get((disc.key, formulation), lambda: _differential(disc, formulation))
+
+
+def _differential(disc, formulation):
     n, n_u, ns = disc.system.n, disc.system.n_u, disc.n_stages
     q0, q1, s, u, h = (ca.SX.sym(name, size) for name, size in
                        (("q0", n), ("q1", n), ("s", ns), ("u", n_u), ("h", 1)))
     L_d = disc.discrete_lagrangian(q0, q1, s, h)
     f_minus, f_plus, _ = disc.discrete_force(q0, q1, s, u, h)
     dL_d = (q0, q1, ca.gradient(L_d, q0) + f_minus, ca.gradient(L_d, q1) + f_plus)
-    flat = omega_flat_plus if variant == "+" else omega_flat_minus
-    return ca.Function("dirac_differential_" + ("plus" if variant == "+" else "minus"), [q0, q1, s, u, h], list(flat(*kappa_inverse(dL_d))),
+    return ca.Function("dirac_differential_" + formulation.label, [q0, q1, s, u, h],
+                       list(formulation.omega_flat(*kappa_inverse(dL_d))),
                        ["q0", "q1", "s", "u", "h"], ["c0", "c1", "c2", "c3"])
 
 
@@ -76,17 +62,16 @@ def dirac_defect(disc, traj, tol_rank=1e-12):
     """
     if not check_trajectory(disc, traj):
         return np.zeros(0)
-    N, plus = traj.steps, traj.variant == "+"
-    alpha = [np.array(c).T for c in dirac_differential(disc, traj.variant).map(N)(
+    N, formulation = traj.steps, as_formulation(traj.variant)
+    alpha = [np.array(c).T for c in dirac_differential(disc, formulation).map(N)(
         traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.u.T, traj.h)]
-    flat = omega_flat_plus if plus else omega_flat_minus
-    target = flat((traj.q[:-1], traj.p[:-1]), (traj.q[1:], traj.p[1:]))
+    target = formulation.omega_flat((traj.q[:-1], traj.p[:-1]), (traj.q[1:], traj.p[1:]))
     diff = [a - t for a, t in zip(alpha, target)]
     # (34): the fibre over q (component 2) is free up to A(q0)^T lam, the rest must vanish;
     # (35): the fibre over q (component 3) is free up to A(q1)^T lam.
-    free = 2 if plus else 3
+    free = formulation.free_component
     vanish = np.column_stack([np.abs(d).max(axis=1) for i, d in enumerate(diff) if i != free])
-    q_ann = traj.q[:-1] if plus else traj.q[1:]
+    q_ann = (traj.q[:-1], traj.q[1:])[formulation.multiplier_node]
     A = disc.system.constraint_matrix.map(N)(q_ann.T)
     omega = constraint_violation(disc, traj)
     off = [_distance_to_range(np.array(A[:, k * disc.system.n:(k + 1) * disc.system.n]).T,

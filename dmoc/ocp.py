@@ -8,40 +8,12 @@ import casadi as ca
 import numpy as np
 
 from . import _checks
-from .boundary import check_allowed_velocity, momentum_conditions
+from ._symbolic import checked_function
+from .boundary import check_allowed_velocity
 from .discrete import Discretization
-from .principle import VARIANTS, step_residual
-from .system import named_function
-
-
-class Layout:
-    """Named blocks of a flat vector: name -> (offset, rows, cols), column-major blocks."""
-
-    def __init__(self, blocks):
-        self.blocks, offset = {}, 0
-        for name, (rows, cols) in blocks:
-            self.blocks[name] = (offset, rows, cols)
-            offset += rows * cols
-        self.size = offset
-
-    def slice(self, name):
-        offset, rows, cols = self.blocks[name]
-        return slice(offset, offset + rows * cols)
-
-    def unpack(self, vector, name):
-        """Block `name` of `vector` (CasADi or numpy) as a (rows, cols) matrix."""
-        _, rows, cols = self.blocks[name]
-        part = vector[self.slice(name)]
-        if isinstance(part, np.ndarray):
-            return part.reshape(cols, rows).T
-        return ca.reshape(part, rows, cols)
-
-    def locate(self, index):
-        """(block name, row, column) of a flat index."""
-        for name, (offset, rows, cols) in self.blocks.items():
-            if offset <= index < offset + rows * cols:
-                return name, (index - offset) % rows, (index - offset) // rows
-        raise IndexError(index)
+from .formulations import as_formulation
+from .layout import Layout
+from .principle import step_residual
 
 
 class OptimalControlProblem:
@@ -70,7 +42,9 @@ class OptimalControlProblem:
         ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint.
     duration : pair of float, optional
         (T_min, T_max): free final time, h = T/N becomes a decision variable.
-    variant : {"+", "-"}
+    variant : {"+", "-"} or Formulation
+        The form of the step equations and of the momentum boundary rows
+        (`dmoc.formulations`).
 
     Attributes
     ----------
@@ -91,8 +65,8 @@ class OptimalControlProblem:
             raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
         self.disc, sys = disc, disc.system
         self.steps = N = _checks.positive_int("steps", steps)
-        self.variant = _checks.choice("variant", variant, VARIANTS)
-        self.residual = step_residual(disc, self.variant)
+        self.formulation = as_formulation(variant)
+        self.residual = step_residual(disc, self.formulation)
         n = sys.n
         self.q_start = _boundary("q_start", q_start, n)
         self.q_goal = _boundary("q_goal", q_goal, n)
@@ -107,7 +81,7 @@ class OptimalControlProblem:
                                        sys, ("q", "v", "u"))
         self._terminal = None if terminal_cost is None else _cost_function(
             "terminal_cost", terminal_cost, sys, ("q", "v"))
-        self._path = _path_function(path_constraints, sys)
+        self._path = None if path_constraints is None else _path_function(path_constraints, sys)
         self._build(_bounds("control_bounds", control_bounds, sys.n_u),
                     _bounds("state_bounds", state_bounds, n))
 
@@ -117,6 +91,11 @@ class OptimalControlProblem:
                     and np.isfinite(getattr(self, "v_" + end)).all())
 
     @property
+    def variant(self):
+        """The formulation's name, ``"+"`` or ``"-"``."""
+        return self.formulation.name
+
+    @property
     def free_time(self):
         """True when the final time is a decision variable."""
         return self.duration is not None
@@ -124,7 +103,7 @@ class OptimalControlProblem:
     def _build(self, control_bounds, state_bounds):
         sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
         n, m, ns, n_u = sys.n, sys.m, disc.n_stages, sys.n_u
-        start, end, m_start, m_end = momentum_conditions(sys, self.variant)
+        start, end, m_start, m_end = self.formulation.momentum_conditions(sys)
         path = self._path
         velocity_rows = {e: 0 if self._fully_given(e) else m for e in ("start", "goal")}
         self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, N + 1)), ("lam", (m, N)),
@@ -140,7 +119,8 @@ class OptimalControlProblem:
         h = X["h"] if self.free_time else disc.h
         Q, P, U = X["q"], X["p"], X["u"]
         q0, q1 = Q[:, :N], Q[:, 1:]
-        dynamics = R.function.map(N)(q0, P[:, :N], q1, P[:, 1:], X["lam"], X["s"], U, h)
+        dynamics = R.function.map(N)(q0=q0, p0=P[:, :N], q1=q1, p1=P[:, 1:], lam=X["lam"],
+                                     s=X["s"], u=U, h=h)["r"]
         A = sys.constraint_matrix
         g = {"dynamics": dynamics,
              "start": start(Q[:, 0], P[:, 0], X["v_start"], X["mu"]),
@@ -215,46 +195,16 @@ def _duration(duration, N, h):
     return T_min, T_max
 
 
-def _step_symbols(sys):
-    q0, q1 = ca.SX.sym("q0", sys.n), ca.SX.sym("q1", sys.n)
-    return q0, q1, ca.SX.sym("u", sys.n_u), ca.SX.sym("h")
-
-
 def _path_function(path, sys):
-    """g(q0, q1, u, h) = path(q_{k+1/2}, (q1 - q0)/h, u), or None."""
-    if path is None:
-        return None
-    if not callable(path):
-        raise TypeError(f"`path_constraints` must be callable; got {type(path).__name__}.")
-    q0, q1, u, h = _step_symbols(sys)
-    try:
-        g = ca.vec(ca.SX(path((q0 + q1) / 2, (q1 - q0) / h, u)))
-    except Exception as err:  # user code: report what it raised, naming the argument
-        raise ValueError(f"`path_constraints` failed on symbols of the system's sizes: "
-                         f"{type(err).__name__}: {err}") from None
-    return _named_function("path_constraints", [q0, q1, u, h], g, ["q0", "q1", "u", "h"])
-
-
-def _named_function(name, inputs, output, input_names):
-    """`system.named_function`, raising its problem as a ValueError naming the callable."""
-    problems = []
-    function = named_function(name, name, inputs, output, input_names, problems)
-    if problems:
-        raise ValueError(problems[0])
-    return function
+    """g(q0, q1, u, h) = path(q_{k+1/2}, (q1 - q0)/h, u), flattened to a column."""
+    q0, q1, u, h = ca.SX.sym("q0", sys.n), ca.SX.sym("q1", sys.n), ca.SX.sym("u", sys.n_u), ca.SX.sym("h")
+    at_midpoint = checked_function("path_constraints", path, (ca.SX.sym("q", sys.n), ca.SX.sym("v", sys.n), u),
+                                   ("q", "v", "u"), None)
+    g = at_midpoint((q0 + q1) / 2, (q1 - q0) / h, u)
+    return ca.Function("path_constraints", [q0, q1, u, h], [g], ["q0", "q1", "u", "h"], ["g"])
 
 
 def _cost_function(name, cost, sys, args):
     """A user cost of (q, v[, u]) checked on symbols and wrapped as a scalar Function."""
-    if not callable(cost):
-        raise TypeError(f"`{name}` must be callable; got {type(cost).__name__}.")
     sizes = {"q": sys.n, "v": sys.n, "u": sys.n_u}
-    symbols = [ca.SX.sym(a, sizes[a]) for a in args]
-    try:
-        value = ca.SX(cost(*symbols))
-    except Exception as err:  # user code: report what it raised, naming the argument
-        raise ValueError(f"`{name}` failed on symbols of the system's sizes: "
-                         f"{type(err).__name__}: {err}") from None
-    if value.shape != (1, 1):
-        raise ValueError(f"`{name}` must return a scalar; got shape {value.shape}.")
-    return _named_function(name, symbols, value, list(args))
+    return checked_function(name, cost, [ca.SX.sym(a, sizes[a]) for a in args], args, (1, 1))

@@ -139,9 +139,9 @@ def trajectory_from_x(problem, x):
     """The Trajectory held in an NLP vector x of `problem`."""
     lay, N = problem.x_layout, problem.steps
     h = float(lay.unpack(x, "h")[0, 0]) if problem.free_time else problem.disc.h
-    mu = lay.unpack(x, "mu")[:, 0] if problem.variant == "-" else None
+    mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else None
     return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, lay.unpack(x, "p").T,
-                      lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.variant,
+                      lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
                       mu, lay.unpack(x, "s").T)
 
 
@@ -192,7 +192,7 @@ def _default_path(problem, tau):
 def _resampled(guess, tau):
     """Guess blocks (time-major) on the problem's normalized grid tau."""
     N = len(tau) - 1
-    mu = {"mu": guess.mu[None, :]} if guess.variant == "-" else {}
+    mu = {"mu": guess.mu[None, :]}     # zeros for a formulation without a start impulse
     if guess.steps == N:
         return {"q": guess.q, "p": guess.p, "lam": guess.lam, "u": guess.u, "s": guess.s, **mu}
     old = np.linspace(0.0, 1.0, guess.steps + 1)

@@ -2,16 +2,15 @@
 (46)/(47), built as CasADi expressions with the momenta p_k as variables, and the ONE step
 residual obtained from them by automatic differentiation under d'Alembert variations.
 Both consumers, `simulate` and `OptimalControlProblem`, use this residual and nothing else.
+Which sum, and where its multiplier sits, is the formulation's (`dmoc.formulations`).
 """
-
-import functools
 
 import casadi as ca
 
-from . import _checks
+from ._cache import BoundedCache
 from .discrete import Discretization
-
-VARIANTS = ("+", "-")
+from .formulations import as_formulation
+from .layout import Layout
 
 
 def action_sum(disc, variant, q, q_aux, p, s, h):
@@ -20,7 +19,7 @@ def action_sum(disc, variant, q, q_aux, p, s, h):
     Parameters
     ----------
     disc : Discretization
-    variant : {"+", "-"}
+    variant : {"+", "-"} or Formulation
     q : list of N+1 column expressions (n,)
         q_0 ... q_N.
     q_aux : list of N column expressions (n,)
@@ -38,23 +37,26 @@ def action_sum(disc, variant, q, q_aux, p, s, h):
         (46): sum_k L_d(q_k, q_k^+) + p_{k+1} . (q_{k+1} - q_k^+)
         (47): sum_k L_d(q_{k+1}^-, q_{k+1}) - p_k . (q_k - q_{k+1}^-)
     """
-    L_d = disc.discrete_lagrangian
-    if variant == "+":
-        terms = [L_d(q[k], q_aux[k], s[k], h) + ca.dot(p[k], q[k + 1] - q_aux[k])
-                 for k in range(len(q_aux))]
-    else:
-        terms = [L_d(q_aux[k], q[k + 1], s[k], h) - ca.dot(p[k], q[k] - q_aux[k])
-                 for k in range(len(q_aux))]
-    return sum(terms)
+    return as_formulation(variant).action_sum(disc.discrete_lagrangian, q, q_aux, p, s, h)
 
 
 class StepResidual:
     """The step residual R of the (+) or (-) discrete LDAP principle, eqs. (37) and (41).
 
-    ``function(q0, p0, q1, p1, lam, s, u, h) -> r`` is one CasADi Function, r of size
-    2n + n_stages + m, with rows in this order (``rows`` maps names to slices):
+    ``function(q0, p0, q1, p1, lam, s, u, h) -> r`` is one CasADi Function with named
+    inputs (blocks and sizes in `inputs`) and r of size 2n + n_stages + m, rows in the
+    order of `row_layout`: ``"left"`` (n), ``"right"`` (n), ``"stage"`` (n_stages),
+    ``"constraint"`` (m). It depends on the system, the rule and the formulation only;
+    the step h is an input, so discretizations at every h share it.
 
-    ``"left"`` (n), ``"right"`` (n), ``"stage"`` (n_stages), ``"constraint"`` (m).
+    Attributes
+    ----------
+    formulation : Formulation
+    system : MechanicalSystem
+    rule : QuadratureRule
+    inputs, row_layout : Layout
+        Named blocks of the inputs and of r; ``rows`` is ``row_layout.slices()``.
+    function : casadi.Function
 
     Notes
     -----
@@ -77,67 +79,71 @@ class StepResidual:
     def __init__(self, disc, variant="+"):
         if not isinstance(disc, Discretization):
             raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
-        self.disc = disc
-        self.variant = _checks.choice("variant", variant, VARIANTS)
+        self.formulation = as_formulation(variant)
+        self.system, self.rule = disc.system, disc.rule
+        self.key = (disc.key, self.formulation)
         sys = disc.system
         self.n, self.m, self.n_u, self.n_stages = sys.n, sys.m, sys.n_u, disc.n_stages
         n, ns = self.n, self.n_stages
-        self.rows = {"left": slice(0, n), "right": slice(n, 2 * n),
-                     "stage": slice(2 * n, 2 * n + ns),
-                     "constraint": slice(2 * n + ns, 2 * n + ns + self.m)}
-        self.size = 2 * n + ns + self.m
-        self.function = self._build()
+        self.inputs = Layout([("q0", n), ("p0", n), ("q1", n), ("p1", n), ("lam", self.m),
+                              ("s", ns), ("u", self.n_u), ("h", 1)])
+        self.row_layout = Layout([("left", n), ("right", n), ("stage", ns), ("constraint", self.m)])
+        self.rows = self.row_layout.slices()
+        self.size = self.row_layout.size
+        self.function = self._build(disc)
 
-    def _build(self):
-        n, m, ns, sys, disc = self.n, self.m, self.n_stages, self.disc.system, self.disc
-        sym = {name: ca.SX.sym(name, n) for name in ("q0", "p0", "q1", "p1", "aux", "a", "b", "c")}
-        lam, s, s_other = ca.SX.sym("lam", m), ca.SX.sym("s", ns), ca.SX.sym("s_other", ns)
-        u, h = ca.SX.sym("u", sys.n_u), ca.SX.sym("h")
-        q0, p0, q1, p1, aux = (sym[k] for k in ("q0", "p0", "q1", "p1", "aux"))
-        if self.variant == "+":   # window: steps k-1 and k; a = q_{k-1}, b = q_{k-1}^+
-            S = action_sum(disc, "+", [sym["a"], q0, q1], [sym["b"], aux], [p0, p1],
-                           [s_other, s], h)
-            f_minus, f_plus, f_stage = disc.discrete_force(q0, aux, s, u, h)
-            left = ca.gradient(S, q0) + f_minus - ca.mtimes(sys.constraint_matrix(q0).T, lam)
-            right = ca.gradient(S, aux) + f_plus
-        else:                     # window: steps k and k+1; b = q_{k+2}^-, c = q_{k+2}
-            S = action_sum(disc, "-", [q0, q1, sym["c"]], [aux, sym["b"]], [p0, p1],
-                           [s, s_other], h)
-            f_minus, f_plus, f_stage = disc.discrete_force(aux, q1, s, u, h)
-            left = ca.gradient(S, aux) + f_minus
-            right = ca.gradient(S, q1) + f_plus - ca.mtimes(sys.constraint_matrix(q1).T, lam)
-        stage = ca.gradient(S, s) + f_stage if ns else ca.SX(0, 1)
-        # Stationarity under delta p: the discrete second-order curve condition.
-        curve = ca.gradient(S, p1 if self.variant == "+" else p0)
-        solved_aux = q1 if self.variant == "+" else q0
-        r = ca.vertcat(left, right, stage, disc.discrete_constraint(q0, q1, h))
-        r = ca.substitute(r, aux, solved_aux)
-        _check_window(r, curve, aux, solved_aux, [sym["a"], sym["b"], sym["c"], s_other])
-        return ca.Function("step_residual", [q0, p0, q1, p1, lam, s, u, h], [r],
-                           ["q0", "p0", "q1", "p1", "lam", "s", "u", "h"], ["r"])
+    @property
+    def variant(self):
+        """The formulation's name, ``"+"`` or ``"-"``."""
+        return self.formulation.name
 
-    def __call__(self, q0, p0, q1, p1, lam, s, u, h):
-        """Evaluate R numerically or symbolically; see `function`."""
-        return self.function(q0, p0, q1, p1, lam, s, u, h)
+    def _build(self, disc):
+        x = {name: ca.SX.sym(name, self.inputs.numel(name)) for name in self.inputs.blocks}
+        sym = {**x, **{k: ca.SX.sym(k, self.n) for k in ("aux", "a", "b", "c")},
+               "s_other": ca.SX.sym("s_other", self.n_stages)}
+        window = self.formulation.window(disc.discrete_lagrangian, sym)
+        x_minus, x_plus = window.ends
+        f_minus, f_plus, f_stage = disc.discrete_force(x_minus, x_plus, x["s"], x["u"], x["h"])
+        S = window.action
+        rows = [ca.gradient(S, x_minus) + f_minus, ca.gradient(S, x_plus) + f_plus]
+        node = self.formulation.multiplier_node
+        q_node = (x["q0"], x["q1"])[node]
+        rows[node] = rows[node] - ca.mtimes(self.system.constraint_matrix(q_node).T, x["lam"])
+        stage = ca.gradient(S, x["s"]) + f_stage if self.n_stages else ca.SX(0, 1)
+        r = ca.vertcat(rows[0], rows[1], stage, disc.discrete_constraint(x["q0"], x["q1"], x["h"]))
+        r = ca.substitute(r, window.aux, window.solved)
+        _check_window(r, ca.gradient(S, window.curve), window)
+        names = list(self.inputs.blocks)
+        return ca.Function("step_residual", [x[k] for k in names], [r], names, ["r"])
+
+    def __call__(self, *args, **blocks):
+        """Evaluate R numerically or symbolically, positionally in the order of `inputs`
+        or by block name; returns r."""
+        if blocks:
+            return self.function(**blocks)["r"]
+        return self.function(*args)
 
     def __repr__(self):
-        return f"StepResidual(variant={self.variant!r}, n={self.n}, m={self.m}, n_stages={self.n_stages})"
+        return (f"StepResidual({self.formulation!r}, n={self.n}, m={self.m}, "
+                f"n_stages={self.n_stages})")
 
 
-def _check_window(r, curve, aux, solved_aux, others):
+def _check_window(r, curve, window):
     """Internal invariant: the curve condition is solved by the substitution, and the
     residual of step k does not involve the neighbouring step's variables."""
-    if not ca.simplify(ca.substitute(curve, aux, solved_aux)).is_zero():
+    if not ca.simplify(ca.substitute(curve, window.aux, window.solved)).is_zero():
         raise RuntimeError("the discrete second-order curve condition was not eliminated")
-    if any(ca.depends_on(r, x) for x in others if x.numel()):
+    if any(ca.depends_on(r, x) for x in window.neighbours if x.numel()):
         raise RuntimeError("the step residual depends on a neighbouring step")
 
 
+_RESIDUALS = BoundedCache(32)
+
+
 def step_residual(disc, variant="+"):
-    """The StepResidual of `disc` for `variant`, built once per discretization and variant."""
-    return _cached_residual(disc, _checks.choice("variant", variant, VARIANTS))
-
-
-@functools.lru_cache(maxsize=64)
-def _cached_residual(disc, variant):
-    return StepResidual(disc, variant)
+    """The StepResidual of `disc` for `variant`, built once per system, rule and formulation
+    (whatever the step h: it is an input of the residual)."""
+    if not isinstance(disc, Discretization):
+        raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
+    formulation = as_formulation(variant)
+    return _RESIDUALS.get((disc.key, formulation), lambda: StepResidual(disc, formulation))

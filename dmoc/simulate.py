@@ -3,17 +3,18 @@ of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.stepper`),
 horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
 """
 
-import functools
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import _checks
+from ._cache import BoundedCache
 from .boundary import start_momentum
 from .discrete import Discretization
 from .errors import SolverError
-from .principle import VARIANTS, step_residual
+from .formulations import as_formulation
+from .principle import step_residual
 from .stepper import DiracStepper
 from .trajectory import Trajectory
 
@@ -59,7 +60,8 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         Number of steps N.
     controls : array_like, shape (N, n_u), optional
         Controls u_k held on [t_k, t_{k+1}]; zeros by default.
-    variant : {"+", "-"}
+    variant : {"+", "-"} or Formulation
+        The form of the equations (`dmoc.formulations`).
     throw : bool
         Raise SolverError on a Newton failure (default); else return it with success=False.
     tol : float
@@ -97,7 +99,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     if not isinstance(disc, Discretization):
         raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
     sys = disc.system
-    variant = _checks.choice("variant", variant, VARIANTS)
+    formulation = as_formulation(variant)
     steps = _checks.positive_int("steps", steps)
     tol = _checks.positive_float("tol", tol)
     max_iter = _checks.positive_int("max_iter", max_iter)
@@ -107,38 +109,34 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     if controls is None:
         controls = np.zeros((steps, sys.n_u))
     controls = _checks.array("controls", controls, (steps, sys.n_u))
-    residual = step_residual(disc, variant)
+    residual = step_residual(disc, formulation)
     tic = time.perf_counter()
-    stepper = _stepper(residual, tol, max_iter, _checks.boolean("jit", jit))
-    start = np.concatenate([q0, p_start, disc.h * v_guess, np.zeros(sys.m + disc.n_stages)])
+    stepper = _STEPPERS.get((residual.key, tol, max_iter, _checks.boolean("jit", jit)),
+                            lambda: DiracStepper(residual, tol, max_iter, jit))
+    start = np.zeros(stepper.state.size)
+    for name, value in (("q", q0), ("p", p_start), ("dq", disc.h * v_guess)):
+        start[stepper.state.slice(name)] = value
     acc, out, failed_rnorm, redone = stepper.run(start, controls, disc.h)
     wall = time.perf_counter() - tic
     k = acc.shape[0]
-    traj = _assemble(residual, disc, q0, p_start, controls[:k], acc, out)
+    traj = _assemble(stepper, formulation, disc.h, q0, p_start, controls[:k], acc, out)
+    rnorm = stepper.out.split(out)["rnorm"]
     stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
-             "max_residual": float(out[:, -2].max()) if k else 0.0, "wall_time": wall}
+             "max_residual": float(rnorm.max()) if k else 0.0, "wall_time": wall}
     return _finish(traj, stats, failed_rnorm, tol, throw)
 
 
-@functools.lru_cache(maxsize=64)
-def _stepper(residual, tol, max_iter, jit):
-    return DiracStepper(residual, tol, max_iter, jit)
+_STEPPERS = BoundedCache(16)     # keyed by (residual key, tol, max_iter, jit): h is an input
 
 
-def _assemble(residual, disc, q0, p_start, controls, acc, out):
+def _assemble(stepper, formulation, h, q0, p_start, controls, acc, out):
     """Trajectory from the horizon's per-step states and outputs (time-major arrays)."""
-    n, m, ns = residual.n, residual.m, residual.n_stages
-    N = acc.shape[0]
-    q = np.vstack([q0, acc[:, :n]])
-    p_carried = np.vstack([p_start, acc[:, n:2 * n]])
-    p_used, nu, s = out[:, :n], out[:, n:n + m], out[:, n + m:n + m + ns]
-    t = disc.h * np.arange(N + 1)
-    if residual.variant == "+":
-        return Trajectory(t, q, p_carried, nu, controls, disc.h, "+", None, s)
-    p = np.vstack([p_used, p_carried[-1:]])
-    lam = np.vstack([nu[1:], np.zeros((min(N, 1), m))])
-    mu = nu[0] if N else None
-    return Trajectory(t, q, p, lam, controls, disc.h, "-", mu, s)
+    state, per_step = stepper.state.split(acc), stepper.out.split(out)
+    q = np.vstack([q0, state["q"]])
+    p_carried = np.vstack([p_start, state["p"]])
+    p, lam, mu = formulation.trajectory_blocks(p_carried, per_step["p0"], per_step["nu"])
+    t = h * np.arange(acc.shape[0] + 1)
+    return Trajectory(t, q, p, lam, controls, h, formulation.name, mu, per_step["s"])
 
 
 def _finish(traj, stats, failed_rnorm, tol, throw):

@@ -1,18 +1,19 @@
-"""The compiled step of the Dirac integrator: one step of the residual of (37)/(41) solved
-for (q_{k+1} - q_k, nu, s) by Newton's method, over a horizon with `mapaccum`. Used by
-`simulate`; it owns no mechanics, only the solution of the shared StepResidual.
+"""The compiled step of the Dirac integrator: one step of the shared StepResidual solved by
+Newton's method, over a horizon with `mapaccum`. Used by `simulate`; it owns no mechanics:
+the residual says which rows to solve, the formulation how the carried momentum and the
+multiplier it solves for enter the step (`Formulation.step_momentum`).
 
-Each step solves n + m (+ stages) equations for the increment q_{k+1} - q_k and the
-multiplier: every residual row but "right", in which
-p_{k+1} enters linearly (-p1), so p_{k+1} follows explicitly. Variant "+": the unknown
-nu is lam_k. Variant "-": nu is the impulse mu with p_k = p_k' - A(q_k)^T mu (p_k' the
-momentum carried in), and the residual's lam (at q_{k+1}) is left to the next step.
-A fast path runs FAST_ITERATIONS unrolled Newton iterations (pure SX, optionally compiled to C);
-a step it does not converge is redone by CasADi's line-search Newton rootfinder.
+Each step solves every residual row but "right" for y = (dq, nu, ds): the increment
+q_{k+1} - q_k, the multiplier nu at q_k and the stage values less q_k; p_{k+1} enters the
+"right" rows linearly (-p1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
+Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
+redone by CasADi's line-search Newton rootfinder.
 """
 
 import casadi as ca
 import numpy as np
+
+from .layout import Layout
 
 FAST_ITERATIONS = 3
 CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most
@@ -20,41 +21,41 @@ CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so
 
 
 class DiracStepper:
-    """Step map (q_k, p_k', u_k) -> (q_{k+1}, p_{k+1}', ...) of a StepResidual.
+    """Step map (q_k, p_k', u_k, h) -> (q_{k+1}, p_{k+1}', ...) of a StepResidual.
 
-    State (carried from step to step): (q_k, p_k', dq_k, nu_k, s_k), where the previous
-    increment dq_k = q_k - q_{k-1}, nu_k and s_k serve as the Newton warm start. Per-step output: (p_k, nu_k, s_k,
-    residual max-norm, relative size of the last Newton update).
+    Blocks (``state``, carried from step to step): q (q_k), p (p_k', the momentum carried
+    in), and the Newton warm start dq (the previous increment), nu, ds. Blocks of the
+    per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
+    solved rows), update (relative size of the last Newton update). The step h is an
+    input, so one stepper serves every h.
     """
 
     def __init__(self, residual, tol, max_iter, jit=False):
         self.residual, self.tol = residual, tol
         n, m, ns = residual.n, residual.m, residual.n_stages
-        self.sizes = (n, m, ns)
-        self.state_size = 3 * n + m + ns
+        self.unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
+        self.state = Layout([("q", n), ("p", n), *((k, self.unknowns.numel(k)) for k in self.unknowns.blocks)])
+        self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1)])
         self.equations = self._equations()
         self.fast = self._fast_step(jit)
         self.robust = self._robust_step(max_iter)
         self._chunks = {}
 
     def _equations(self):
-        """G(y, params) -> (g, p0, p1) with y = (dq, nu, s), params = (q0, p0', u, h):
-        the equations, the momentum p_k they use (p0' less the (-) impulse) and p_{k+1}.
+        """G(y, params) -> (g, p0, p1) with params = (q0, p0', u, h): the equations, the
+        momentum p_k they use and p_{k+1}.
 
-        The unknown is the increment dq = q1 - q0, substituted symbolically so that the
-        velocities inside the residual are dq/h exactly (CasADi simplifies (q0 + dq) - q0):
-        no cancellation when |q| is large, and p1 carries no rounding of q1.
+        The unknowns are the increments dq = q1 - q0 and ds = s - (q0, ..., q0), substituted
+        symbolically so that the velocities inside the residual are exact combinations of
+        dq/h and ds/h (CasADi simplifies (q0 + dq) - q0): no cancellation when |q| is large,
+        p1 carries no rounding of q1, and the previous step's increments are a warm start.
         """
-        R, (n, m, ns) = self.residual, self.sizes
-        y, q0, pc0 = ca.SX.sym("y", n + m + ns), ca.SX.sym("q0", n), ca.SX.sym("p0", n)
+        R, n = self.residual, self.residual.n
+        y, q0, pc0 = ca.SX.sym("y", self.unknowns.size), ca.SX.sym("q0", n), ca.SX.sym("p0", n)
         u, h, p1 = ca.SX.sym("u", R.n_u), ca.SX.sym("h"), ca.SX.sym("p1", n)
-        dq, nu, s = ca.vertsplit(y, [0, n, n + m, n + m + ns])
-        q1 = q0 + dq
-        if R.variant == "+":
-            p0, lam = pc0, nu
-        else:
-            p0, lam = pc0 - ca.mtimes(R.disc.system.constraint_matrix(q0).T, nu), ca.SX.zeros(m)
-        r = R(q0, p0, q1, p1, lam, s, u, h)
+        Y = self.unknowns.split(y)
+        p0, lam = R.formulation.step_momentum(R.system, q0, pc0, Y["nu"])
+        r = R(q0=q0, p0=p0, q1=q0 + Y["dq"], p1=p1, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h)
         right = r[R.rows["right"]]
         if not ca.is_equal(ca.jacobian(right, p1), -ca.SX.eye(n), 2):
             raise RuntimeError("the residual's right rows must be (...) - p1")
@@ -63,21 +64,26 @@ class DiracStepper:
                            [ca.vertcat(*rows), p0, ca.substitute(right, p1, ca.SX.zeros(n))],
                            ["y", "params"], ["g", "p0", "p1"])
 
+    def _stages(self, q0, ds):
+        """The stage values s = (q0, ..., q0) + ds."""
+        return ca.repmat(q0, ds.numel() // q0.numel(), 1) + ds
+
     def _wrap(self, state, params, sol, update):
-        """Next state and outputs from a solution y = (dq, nu, s) of the step equations."""
-        n, m, ns = self.sizes
+        """Next state and outputs from a solution y = (dq, nu, ds) of the step equations."""
         g, p0, p1 = self.equations(sol, params)
-        q0 = state[:n]
-        dq, nu, s = ca.vertsplit(sol, [0, n, n + m, n + m + ns])
-        return (ca.vertcat(q0 + dq, p1, dq, nu, s),
-                ca.vertcat(p0, nu, s, ca.norm_inf(g), update))
+        Y = self.unknowns.split(sol)
+        q0 = self.state.split(state)["q"]
+        return (self.state.join({"q": q0 + Y["dq"], "p": p1, **Y}),
+                self.out.join({"p0": p0, "nu": Y["nu"], "s": self._stages(q0, Y["ds"]),
+                               "rnorm": ca.norm_inf(g), "update": update}))
 
     def _symbols(self, kind):
-        state = kind.sym("state", self.state_size)
+        """(state, u, h, params, warm start) symbols of kind SX or MX."""
+        state = kind.sym("state", self.state.size)
         u, h = kind.sym("u", self.residual.n_u), kind.sym("h")
-        n = self.sizes[0]
-        guess = state[2 * n:]
-        return state, u, h, ca.vertcat(state[:2 * n], u, h), guess
+        X = self.state.split(state)
+        guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
+        return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
 
     def _fast_step(self, jit):
         state, u, h, params, y = self._symbols(ca.SX)
@@ -107,8 +113,9 @@ class DiracStepper:
 
     def accepted(self, out):
         """Which per-step outputs (rows of `out`) count as converged."""
-        rnorm, update = out[:, -2], out[:, -1]
-        return np.isfinite(out).all(axis=1) & (rnorm <= 1e3 * self.tol) & (update <= 1e-6)
+        blocks = self.out.split(out)
+        return (np.isfinite(out).all(axis=1) & (blocks["rnorm"][:, 0] <= 1e3 * self.tol)
+                & (blocks["update"][:, 0] <= 1e-6))
 
     def _chunk(self, c, state, controls, h):
         """c fast steps from `state` as one compiled mapaccum call, evaluated through
@@ -117,8 +124,8 @@ class DiracStepper:
             self._chunks[c] = self.fast.mapaccum("horizon", c).buffer()
         buffer, evaluate = self._chunks[c]
         args = [np.ascontiguousarray(a, dtype=float) for a in (state, controls, np.full(c, h))]
-        acc = np.empty((c, self.state_size))
-        out = np.empty((c, sum(self.sizes) + 2))
+        acc = np.empty((c, self.state.size))
+        out = np.empty((c, self.out.size))
         for i, a in enumerate(args):
             buffer.set_arg(i, memoryview(a))
         buffer.set_res(0, memoryview(acc))
@@ -130,11 +137,11 @@ class DiracStepper:
         """Steps from state `start` under `controls` (N, n_u), stopping at the first step
         that neither Newton path converges.
 
-        Returns (states (k, state_size), outputs (k, ...), rnorm of the failed step or
+        Returns (states (k, state.size), outputs (k, out.size), rnorm of the failed step or
         None, number of steps redone by the robust path).
         """
-        states = [np.zeros((0, self.state_size))]
-        outputs = [np.zeros((0, sum(self.sizes) + 2))]
+        states = [np.zeros((0, self.state.size))]
+        outputs = [np.zeros((0, self.out.size))]
         N, k, state, redone = controls.shape[0], 0, start, 0
         while k < N:
             c = min(CHUNK, 1 << ((N - k).bit_length() - 1))
@@ -146,7 +153,8 @@ class DiracStepper:
             if j < c:       # redo step k with the line-search Newton
                 acc1, out1 = (np.array(x).T for x in self.robust(state, controls[k], h))
                 if not self.accepted(out1)[0]:
-                    return np.vstack(states), np.vstack(outputs), float(out1[0, -2]), redone
+                    rnorm = float(self.out.split(out1)["rnorm"][0, 0])
+                    return np.vstack(states), np.vstack(outputs), rnorm, redone
                 states.append(acc1), outputs.append(out1)
                 state, k, redone = acc1[0], k + 1, redone + 1
         return np.vstack(states), np.vstack(outputs), None, redone

@@ -3,10 +3,13 @@ constraint one-forms A(q) whose rows are the omega^a of (27), and a generalized 
 f(q, v, u), each turned once into a named CasADi Function.
 """
 
+import hashlib
+
 import casadi as ca
 import numpy as np
 
 from . import _checks
+from ._symbolic import user_function
 
 
 class MechanicalSystem:
@@ -37,6 +40,9 @@ class MechanicalSystem:
     lagrangian, constraint_matrix, force, momentum, energy : casadi.Function
         ``L(q, v)``, ``A(q)`` (m, n), ``f(q, v, u)`` (n,), ``p = dL/dv(q, v)`` (n,) and
         ``E = v . dL/dv - L`` built once on symbols of the declared sizes.
+    key : str
+        A fingerprint of L, A and f (not of `names`): systems with equal data share their
+        step residuals and compiled steps.
 
     Raises
     ------
@@ -59,79 +65,37 @@ class MechanicalSystem:
         v = ca.SX.sym("v", self.n)
         u = ca.SX.sym("u", self.n_u)
         problems = []
-        L = _evaluate("lagrangian", lagrangian, (q, v), (1, 1), problems)
-        A = _evaluate_constraints(constraints, q, self.n, problems)
-        f = _evaluate("force", force, (q, v, u), (self.n, 1), problems, default=ca.SX.zeros(self.n))
+        if lagrangian is None:
+            problems.append("`lagrangian` is required: a callable returning a CasADi expression.")
+        else:
+            self.lagrangian = user_function("lagrangian", lagrangian, (q, v), ("q", "v"),
+                                            (1, 1), problems, label="L")
+        self.constraint_matrix = ca.Function("A", [q], [ca.SX(0, self.n)], ["q"], ["A"]) \
+            if constraints is None else user_function(
+                "constraints", constraints, (q,), ("q",), (None, self.n), problems, label="A")
+        self.force = ca.Function("f", [q, v, u], [ca.SX.zeros(self.n)], ["q", "v", "u"], ["f"]) \
+            if force is None else user_function(
+                "force", force, (q, v, u), ("q", "v", "u"), (self.n, 1), problems, label="f")
         self.names = _coordinate_names(names, self.n, problems)
-        self.lagrangian = named_function("lagrangian", "L", [q, v], L, ["q", "v"], problems)
-        self.constraint_matrix = named_function("constraints", "A", [q], A, ["q"], problems)
-        self.force = named_function("force", "f", [q, v, u], f, ["q", "v", "u"], problems)
         if not problems:
             _check_rank(self.constraint_matrix, self.n, problems)
         if problems:
             raise ValueError("MechanicalSystem is invalid:\n  - " + "\n  - ".join(problems))
-        self.m = A.shape[0]
+        self.m = self.constraint_matrix.size1_out(0)
+        L = self.lagrangian(q, v)
         p = ca.gradient(L, v)
         self.momentum = ca.Function("momentum", [q, v], [p], ["q", "v"], ["p"])
         self.energy = ca.Function("energy", [q, v], [ca.dot(v, p) - L], ["q", "v"], ["E"])
+        self.key = _fingerprint(self.lagrangian, self.constraint_matrix, self.force)
 
     def __repr__(self):
         return f"MechanicalSystem(n={self.n}, m={self.m}, n_u={self.n_u}, names={self.names})"
 
 
-def _evaluate(name, fun, args, shape, problems, default=None):
-    """Call a user callable on symbols; check it returns an SX of `shape` (or its transpose)."""
-    if fun is None:
-        if default is None:
-            problems.append(f"`{name}` is required: a callable returning a CasADi expression.")
-            return ca.SX.zeros(*shape)
-        return default
-    if not callable(fun):
-        problems.append(f"`{name}` must be callable; got {type(fun).__name__}.")
-        return default if default is not None else ca.SX.zeros(*shape)
-    try:
-        out = ca.SX(fun(*args))
-    except Exception as err:  # any failure inside user code is reported, not swallowed
-        problems.append(f"`{name}` failed on symbols of the declared sizes: {type(err).__name__}: {err}")
-        return default if default is not None else ca.SX.zeros(*shape)
-    if out.shape == shape[::-1] and shape[0] != shape[1]:
-        out = out.T
-    if out.shape != shape:
-        problems.append(f"`{name}` must return shape {shape}; got {out.shape}.")
-        return default if default is not None else ca.SX.zeros(*shape)
-    return out
-
-
-def _evaluate_constraints(constraints, q, n, problems):
-    """Evaluate A(q); it must have n columns (a single row may be given as a vector)."""
-    if constraints is None:
-        return ca.SX(0, n)
-    if not callable(constraints):
-        problems.append(f"`constraints` must be callable; got {type(constraints).__name__}.")
-        return ca.SX(0, n)
-    try:
-        A = ca.SX(constraints(q))
-    except Exception as err:  # reported with the other problems
-        problems.append(f"`constraints` failed on a symbol q of shape ({n}, 1): {type(err).__name__}: {err}")
-        return ca.SX(0, n)
-    if A.shape == (n, 1) and n != 1:
-        A = A.T
-    if A.shape[1] != n:
-        problems.append(f"`constraints` must return an (m, {n}) matrix; got {A.shape}.")
-        return ca.SX(0, n)
-    return A
-
-
-def named_function(name, label, inputs, output, input_names, problems):
-    """A Function `label` of `output` built from the user callable `name`; None and a
-    problem appended to `problems` if the callable used symbols other than its arguments."""
-    try:
-        return ca.Function(label, inputs, [output], input_names, [label])
-    except RuntimeError:
-        free = [str(x) for x in ca.symvar(output) if not any(ca.depends_on(x, i) for i in inputs)]
-        problems.append(f"`{name}` uses symbols that are not its arguments: {free}; build it "
-                        f"from the arguments it is called with.")
-        return None
+def _fingerprint(*functions):
+    """A value that identifies the system's data: equal for systems built from the same
+    expressions, so that residuals and compiled steps are shared between them."""
+    return hashlib.sha256("".join(f.serialize() for f in functions).encode()).hexdigest()
 
 
 def _check_rank(constraint_matrix, n, problems):

@@ -5,7 +5,7 @@ Oracles, none taken from the code under test:
   optimal controls, and the discrete equations (37)/(41), omega_d (28) and the momentum
   boundary conditions written out by hand below for the midpoint rule;
 - the (+) and (-) problems, which must give the same positions, controls and cost, with
-  momenta related by p^- = p^+ - A(q)^T lam^+ (THEORY.md);
+  momenta related by p^- = p^+ - A(q)^T lam^+ (docs/theory.md);
 - closed forms: turning the knife edge in place or sliding it along its blade reduces to a
   double integrator whose discrete optimum is an equality-constrained QP solved here by a
   KKT linear solve with numpy, and whose continuous optimum is 12 J^2 Theta^2 / T^3
@@ -267,7 +267,7 @@ def test_knots_satisfy_hand_written_discrete_equations(name, variant):
 @pytest.mark.parametrize("name", ["knife", "disk"])
 def test_variants_agree(name):
     """Same positions, controls and cost; p^-_k = p^+_k - A(q_k)^T lam^+_k, the (-) start
-    impulse is lam^+_0 and lam^-_k = lam^+_{k+1} (THEORY.md)."""
+    impulse is lam^+_0 and lam^-_k = lam^+_{k+1} (docs/theory.md)."""
     N = 100
     (_, plus), (_, minus) = solved(name, "+", N), solved(name, "-", N)
     P, M = plus.trajectory, minus.trajectory
@@ -421,7 +421,7 @@ def test_bad_arguments_are_rejected_by_name(kwargs, error, name):
 ], ids=["q_start-not-numbers", "control_bounds-shape", "running_cost-not-callable",
         "running_cost-not-scalar"])
 def test_more_bad_arguments_are_rejected_by_name(kwargs, error, name):
-    """Same rule as above (STYLE.md, Errors: ValueError/TypeError at the boundary, the
+    """Same rule as above (the style guide, Errors: ValueError/TypeError at the boundary, the
     message names the argument), for mistakes that would otherwise surface as numpy or
     Python errors, or reach IPOPT, without naming the argument."""
     with pytest.raises(error, match=f"`{name}`"):

@@ -9,7 +9,7 @@ Oracles, none taken from the code under test:
 - the closed forms (37) and (41) assembled from them, and the sums (46)/(47) by hand;
 - Stormer-Verlet written out by hand (trapezoid L_d of a separable L);
 - DOP853 at rtol = atol = 1e-13 for the continuous equations of a pendulum-like system;
-- (+) and (-) runs of the same data, which must agree as THEORY.md states.
+- (+) and (-) runs of the same data, which must agree as docs/theory.md states.
 """
 
 import functools

@@ -33,6 +33,10 @@ class Discretization:
     discrete_force : casadi.Function
         ``f_d(q0, q1, s, u, h) -> (f_minus, f_plus, f_stage)``: the left and right discrete
         forces (n,) and the force on the stages.
+    key : tuple
+        ``(system.key, rule)``: what the step residual and the compiled steps depend on.
+        Every Function above takes h as an input, so discretizations that differ only in
+        h share them.
     """
 
     def __init__(self, system, h, rule="midpoint"):
@@ -41,6 +45,7 @@ class Discretization:
         self.system = system
         self.h = _checks.positive_float("h", h)
         self.rule = rule = as_rule(rule)
+        self.key = (system.key, rule)
         n, n_u = system.n, system.n_u
         self.n_stages = rule.n_stages * n
         q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)

@@ -1,39 +1,108 @@
-"""Quadrature rules that turn continuous data into discrete data on one step [t_k, t_k + h].
-
-A rule samples the curve q(t) on the step at quadrature points; the discrete Lagrangian,
-the discrete forces f_d^-/+ (as virtual work) and discrete running costs are all weighted
-sums over those points, so adding a rule means listing its points. Rules with internal
-stages declare ``n_stages`` extra configuration unknowns per step (none yet).
+"""Quadrature rules: how a rule turns continuous data into discrete data on one step
+[t_k, t_k + h]. A rule is a value that declares its properties: the nodes of its
+interpolating polynomial q(t) (the end points q_k, q_{k+1} and, between them, the stage
+unknowns of the residual), its quadrature points and weights, its order and stage count.
+The discrete Lagrangian, the discrete forces f_d^-/+ (as virtual work) and discrete running
+costs are all the same weighted sum over the quadrature points, so adding a rule means
+listing its nodes and points (docs/theory.md, "Rules").
 """
 
+from dataclasses import dataclass
+
 import casadi as ca
+import numpy as np
 
 from .. import _checks
 
 
+@dataclass(frozen=True)
 class QuadratureRule:
-    """A quadrature rule on linear interpolation between q0 and q1.
+    """A quadrature rule on a polynomial interpolant of q over one step.
 
-    Subclasses set ``name``, ``order`` (global order of the resulting integrator) and
-    ``points``: pairs (c, b) meaning the sample q0 + c (q1 - q0) with weight b h, velocity
-    (q1 - q0)/h at every point.
+    Parameters
+    ----------
+    name : str
+    order : int
+        Global order of the resulting integrator.
+    nodes : tuple of float
+        Interpolation nodes c in [0, 1], first 0 and last 1: q(t_k + c h) passes through
+        q_k, the stage values Q_1 ... Q_{n_stages} (unknowns of the residual) and q_{k+1}.
+    points : tuple of (float, float)
+        Quadrature points (c, b): the sample q(t_k + c h), q'(t_k + c h), weight b h.
+
+    Attributes
+    ----------
+    n_stages : int
+        Interior nodes, each an unknown configuration (n rows) of every step.
+
+    Examples
+    --------
+    >>> rule = QuadratureRule("simpson", 4, (0.0, 0.5, 1.0), ((0.0, 1/6), (0.5, 2/3), (1.0, 1/6)))
+    >>> rule.n_stages
+    1
     """
 
-    name = None
-    order = None
-    points = ()
-    n_stages = 0
+    name: str
+    order: int
+    nodes: tuple = (0.0, 1.0)
+    points: tuple = ()
+
+    def __post_init__(self):
+        nodes = tuple(float(c) for c in self.nodes)
+        if len(nodes) < 2 or nodes[0] != 0.0 or nodes[-1] != 1.0 or np.any(np.diff(nodes) <= 0):
+            raise ValueError(f"`nodes` must increase from 0 to 1; got {self.nodes!r}.")
+        points = tuple((float(c), float(b)) for c, b in self.points)
+        if not points or abs(sum(b for _, b in points) - 1.0) > 1e-12:
+            raise ValueError(f"`points` must be (c, b) pairs with weights summing to 1; got {self.points!r}.")
+        object.__setattr__(self, "nodes", nodes)
+        object.__setattr__(self, "points", points)
+
+    @property
+    def n_stages(self):
+        return len(self.nodes) - 2
 
     def samples(self, q0, q1, s, h):
         """Quadrature points of one step: a list of (weight, q, v).
 
-        `s` holds the stage unknowns (``n_stages * n`` rows, empty here).
+        q(c) = q0 + sum_i l_i(c) (Q_i - q0) and v(c) = sum_i l_i'(c) (Q_i - q0) / h over the
+        nodes after the first (Q = stages of `s`, then q1), l_i the Lagrange basis of the
+        nodes: written in increments from q0, so a linear rule's velocity is exactly
+        (q1 - q0)/h. `s` holds the stage values, ``n_stages * n`` rows, stage by stage.
         """
-        v = (q1 - q0) / h
-        return [(b * h, q0 + c * (q1 - q0), v) for c, b in self.points]
+        n = q0.shape[0]
+        ends = [s[j * n:(j + 1) * n] - q0 for j in range(self.n_stages)] + [q1 - q0]
+        out = []
+        for c, b in self.points:
+            value, slope = _lagrange_basis(self.nodes, c)
+            q = q0 + _combination(value[1:], ends)
+            v = _combination(slope[1:], ends) / h
+            out.append((b * h, q, v))
+        return out
 
     def __repr__(self):
-        return f"{type(self).__name__}()"
+        return f"QuadratureRule({self.name!r}, order={self.order}, n_stages={self.n_stages})"
+
+
+def _lagrange_basis(nodes, c):
+    """Values l_i(c) and derivatives l_i'(c) of the Lagrange basis on `nodes`."""
+    nodes = np.asarray(nodes)
+    value, slope = np.ones(len(nodes)), np.zeros(len(nodes))
+    for i, ci in enumerate(nodes):
+        others = np.delete(nodes, i)
+        denominator = np.prod(ci - others)
+        value[i] = np.prod(c - others) / denominator
+        slope[i] = sum(np.prod(np.delete(c - others, j)) for j in range(len(others))) / denominator
+    return value, slope
+
+
+def _combination(coefficients, terms):
+    """sum_i a_i x_i with zero coefficients dropped and unit ones not multiplied (exact
+    expressions for linear interpolation: q0 + (q1 - q0), not q0 + 1.0 * (q1 - q0))."""
+    total = 0
+    for a, x in zip(coefficients, terms):
+        if a != 0.0:
+            total = total + (x if a == 1.0 else a * x)
+    return total if not isinstance(total, int) else ca.SX.zeros(terms[0].shape)
 
 
 class Midpoint(QuadratureRule):
@@ -43,9 +112,11 @@ class Midpoint(QuadratureRule):
     2
     """
 
-    name = "midpoint"
-    order = 2
-    points = ((0.5, 1.0),)
+    def __init__(self):
+        super().__init__("midpoint", 2, (0.0, 1.0), ((0.5, 1.0),))
+
+    def __repr__(self):
+        return "Midpoint()"
 
 
 class Trapezoid(QuadratureRule):
@@ -57,12 +128,14 @@ class Trapezoid(QuadratureRule):
     2
     """
 
-    name = "trapezoid"
-    order = 2
-    points = ((0.0, 0.5), (1.0, 0.5))
+    def __init__(self):
+        super().__init__("trapezoid", 2, (0.0, 1.0), ((0.0, 0.5), (1.0, 0.5)))
+
+    def __repr__(self):
+        return "Trapezoid()"
 
 
-RULES = {rule.name: rule for rule in (Midpoint, Trapezoid)}
+RULES = {rule().name: rule for rule in (Midpoint, Trapezoid)}
 
 
 def as_rule(rule):

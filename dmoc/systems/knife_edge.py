@@ -35,7 +35,7 @@ def knife_edge(mass=1.0, inertia=1.0, incline=0.0, gravity=9.81):
 
     Notes
     -----
-    With a = g sin(alpha) (see THEORY.md and [1]_):
+    With a = g sin(alpha) (docs/theory.md and [1]_):
 
         L(q, v) = m/2 (xdot^2 + ydot^2) + J/2 thetadot^2 - m a x,
         A(q) = [-sin(theta), cos(theta), 0]      (no sideways slip),

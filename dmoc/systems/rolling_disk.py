@@ -34,7 +34,7 @@ def rolling_disk(mass=1.0, radius=1.0, roll_inertia=None, steer_inertia=None):
 
     Notes
     -----
-    Following THEORY.md and [1]_:
+    Following docs/theory.md and [1]_:
 
         L(q, v) = m/2 (xdot^2 + ydot^2) + I/2 thetadot^2 + J/2 phidot^2,
         A(q) = [[1, 0, -R cos(phi), 0], [0, 1, -R sin(phi), 0]],

@@ -1,0 +1,205 @@
+"""Formulations of the implicit discrete equations as values: the (+) form (37) from the
+discrete Lagrange-d'Alembert-Pontryagin sum (46) and the (-) form (41) from (47). Each
+formulation owns every convention that depends on it: the action sum it differentiates,
+the node whose variations are restricted to Delta_Q (the d'Alembert multiplier sits there),
+the impulses at the start and the end, the momentum boundary rows of the optimizer, how a
+solved step fills a Trajectory, and its Dirac differential (36)/(40). The principle, the
+stepper, `simulate`, the optimizer, the diagnostics and `dmoc.dirac` ask it and never
+compare variant strings (docs/theory.md, "Conventions").
+"""
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from . import _checks
+from .boundary import momentum_condition
+from .tulczyjew import omega_flat_minus, omega_flat_plus
+
+
+@dataclass(frozen=True)
+class Window:
+    """Two consecutive steps of an action sum, as the principle differentiates them.
+
+    Attributes
+    ----------
+    action : casadi.SX
+        The sum over the window.
+    ends : (casadi.SX, casadi.SX)
+        The variables whose variations give the step's "left" and "right" rows.
+    curve : casadi.SX
+        The momentum whose variation gives the discrete second-order curve condition.
+    aux, solved : casadi.SX
+        The auxiliary configuration and its value from the curve condition.
+    neighbours : tuple of casadi.SX
+        Variables of the other step of the window, which the residual must not involve.
+    """
+
+    action: object
+    ends: tuple
+    curve: object
+    aux: object
+    solved: object
+    neighbours: tuple
+
+
+@dataclass(frozen=True)
+class Formulation:
+    """A form of the implicit discrete Lagrange-d'Alembert equations; see the subclasses.
+
+    Attributes
+    ----------
+    name : str
+        ``"+"`` or ``"-"``: the string accepted at the public API, stored as
+        ``Trajectory.variant``.
+    label : str
+        A word for file and Function names (``"plus"``, ``"minus"``).
+    multiplier_node : int
+        0 if lam_k multiplies A(q_k) in the "left" row, 1 if A(q_{k+1}) in the "right" row.
+    start_impulse, end_impulse : int
+        Sign of the boundary impulse A(q)^T mu at q_0, A(q)^T nu at q_N in the momentum
+        boundary rows (0: none; see `momentum_conditions`).
+    end_momentum_determined : bool
+        Whether a simulation's p_N equals the optimizer's (False when the impulse at q_N,
+        which no N-step simulation can know, is part of p_N).
+    """
+
+    name = None
+    label = None
+    multiplier_node = None
+    start_impulse = 0
+    end_impulse = 0
+    end_momentum_determined = True
+
+    def window(self, discrete_lagrangian, sym):
+        """The Window of the action sum around step k from the symbols `sym` (a dict:
+        q0, p0, q1, p1, aux, a, b, c of shape (n,), s, s_other of shape (n_stages,), h)."""
+        raise NotImplementedError
+
+    def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
+        """The discrete action sum of this form; see `dmoc.principle.action_sum`."""
+        raise NotImplementedError
+
+    def step_momentum(self, system, q0, p_carried, nu):
+        """(p_k, lam_k) of the step equations from the momentum carried into step k and the
+        multiplier `nu` the simulator solves for (the multiplier at q_k)."""
+        raise NotImplementedError
+
+    def trajectory_blocks(self, p_carried, p_used, nu):
+        """(p, lam, mu) of a Trajectory from a simulation's per-step blocks: `p_carried`
+        (N+1, n) carried momenta, `p_used` (N, n) the p_k the step equations used, `nu`
+        (N, m) the multipliers at q_k."""
+        raise NotImplementedError
+
+    def momentum_conditions(self, system):
+        """The optimizer's momentum boundary rows.
+
+        Returns
+        -------
+        start, end : casadi.Function
+            ``start(q, p, v, mu) -> r`` and ``end(q, p, v, nu) -> r``, r of shape (n,):
+            p - dL/dv(q, v) + start_impulse A(q)^T mu at q_0 and
+            p - dL/dv(q, v) + end_impulse A(q)^T nu at q_N.
+        m_start, m_end : int
+            Sizes of mu and nu (m where the impulse is present, else 0).
+        """
+        start, m_start = momentum_condition(system, "start_momentum", "mu", self.start_impulse)
+        end, m_end = momentum_condition(system, "end_momentum", "nu", self.end_impulse)
+        return start, end, m_start, m_end
+
+    def omega_flat(self, z, z_plus):
+        """Omega_d+^flat or Omega_d-^flat of (15)/(16): the Dirac structure's target."""
+        raise NotImplementedError
+
+    @property
+    def free_component(self):
+        """Index of the component of D+-L_d - Omega^flat allowed in Delta° (the fibre over
+        the d'Alembert node): 2 (over q_k in T*(Q x Q*)) or 3 (over q_{k+1} in T*(Q* x Q))."""
+        return 2 + self.multiplier_node
+
+    def __repr__(self):
+        return f"{type(self).__name__}()"
+
+
+class LagrangianPlus(Formulation):
+    """The (+) form: (37) from the discrete LDAP sum (46), Dirac structure D^{d+} (36).
+
+    lam_k multiplies A(q_k) in the row of d/dq_k; p_0 is the momentum of the initial
+    velocity, and the impulse at q_N is a boundary unknown of the optimizer:
+    p_N = dL/dv(q_N, v_N) + A(q_N)^T nu.
+    """
+
+    name, label, multiplier_node, end_impulse = "+", "plus", 0, -1
+
+    def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
+        return sum(discrete_lagrangian(q[k], q_aux[k], s[k], h) + ca.dot(p[k], q[k + 1] - q_aux[k])
+                   for k in range(len(q_aux)))
+
+    def window(self, discrete_lagrangian, sym):
+        # steps k-1 and k; a = q_{k-1}, b = q_{k-1}^+, aux = q_k^+
+        action = self.action_sum(discrete_lagrangian, [sym["a"], sym["q0"], sym["q1"]],
+                                 [sym["b"], sym["aux"]], [sym["p0"], sym["p1"]],
+                                 [sym["s_other"], sym["s"]], sym["h"])
+        return Window(action, (sym["q0"], sym["aux"]), sym["p1"], sym["aux"], sym["q1"],
+                      (sym["a"], sym["b"], sym["c"], sym["s_other"]))
+
+    def step_momentum(self, system, q0, p_carried, nu):
+        return p_carried, nu
+
+    def trajectory_blocks(self, p_carried, p_used, nu):
+        return p_carried, nu, None
+
+    def omega_flat(self, z, z_plus):
+        return omega_flat_plus(z, z_plus)
+
+
+class LagrangianMinus(Formulation):
+    """The (-) form: (41) from the discrete LDAP sum (47), Dirac structure D^{d-} (40).
+
+    lam_k multiplies A(q_{k+1}) in the row of d/dq_{k+1}, so the impulse at q_k is the
+    previous step's multiplier; the start needs an impulse mu,
+    p_0 = dL/dv(q_0, v_0) - A(q_0)^T mu, and lam_{N-1} is the impulse at q_N. A simulation
+    applies mu at the start (`Trajectory.mu`) and ends with lam_{N-1} = 0.
+    """
+
+    name, label, multiplier_node, start_impulse = "-", "minus", 1, 1
+    end_momentum_determined = False
+
+    def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
+        return sum(discrete_lagrangian(q_aux[k], q[k + 1], s[k], h) - ca.dot(p[k], q[k] - q_aux[k])
+                   for k in range(len(q_aux)))
+
+    def window(self, discrete_lagrangian, sym):
+        # steps k and k+1; aux = q_{k+1}^-, b = q_{k+2}^-, c = q_{k+2}
+        action = self.action_sum(discrete_lagrangian, [sym["q0"], sym["q1"], sym["c"]],
+                                 [sym["aux"], sym["b"]], [sym["p0"], sym["p1"]],
+                                 [sym["s"], sym["s_other"]], sym["h"])
+        return Window(action, (sym["aux"], sym["q1"]), sym["p0"], sym["aux"], sym["q0"],
+                      (sym["a"], sym["b"], sym["c"], sym["s_other"]))
+
+    def step_momentum(self, system, q0, p_carried, nu):
+        impulse = ca.mtimes(system.constraint_matrix(q0).T, nu)
+        return p_carried - impulse, ca.SX.zeros(*nu.shape)
+
+    def trajectory_blocks(self, p_carried, p_used, nu):
+        m, N = nu.shape[1], nu.shape[0]
+        lam = np.vstack([nu[1:], np.zeros((min(N, 1), m))])
+        return np.vstack([p_used, p_carried[-1:]]), lam, (nu[0] if N else None)
+
+    def omega_flat(self, z, z_plus):
+        return omega_flat_minus(z, z_plus)
+
+
+FORMULATIONS = {f.name: f for f in (LagrangianPlus(), LagrangianMinus())}
+
+
+def as_formulation(variant):
+    """The Formulation of `variant`: an instance, or one of the names in FORMULATIONS.
+
+    >>> as_formulation("-").multiplier_node
+    1
+    """
+    if isinstance(variant, Formulation):
+        return variant
+    return FORMULATIONS[_checks.choice("variant", variant, tuple(FORMULATIONS))]
