@@ -7,6 +7,7 @@ last input is the step h (so that a free final time can make h a decision variab
 import casadi as ca
 
 from .. import _checks
+from .._cache import BoundedCache
 from ..system import MechanicalSystem
 from .rules import as_rule, quadrature, virtual_work_split
 
@@ -46,20 +47,9 @@ class Discretization:
         self.h = _checks.positive_float("h", h)
         self.rule = rule = as_rule(rule)
         self.key = (system.key, rule)
-        n, n_u = system.n, system.n_u
-        self.n_stages = rule.n_stages * n
-        q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)
-        s, u, hs = ca.SX.sym("s", self.n_stages), ca.SX.sym("u", n_u), ca.SX.sym("h")
-        L_d = quadrature(rule, lambda q, v: system.lagrangian(q, v), q0, q1, s, hs)
-        omega_d = ca.mtimes(system.constraint_matrix((q0 + q1) / 2), (q1 - q0) / hs)
-        forces = virtual_work_split(rule, lambda q, v: system.force(q, v, u), q0, q1, s, hs)
-        self.discrete_lagrangian = ca.Function(
-            "L_d", [q0, q1, s, hs], [L_d], ["q0", "q1", "s", "h"], ["L_d"])
-        self.discrete_constraint = ca.Function(
-            "omega_d", [q0, q1, hs], [omega_d], ["q0", "q1", "h"], ["omega_d"])
-        self.discrete_force = ca.Function(
-            "f_d", [q0, q1, s, u, hs], list(forces),
-            ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"])
+        self.n_stages = rule.n_stages * system.n
+        self.discrete_lagrangian, self.discrete_constraint, self.discrete_force = \
+            _DISCRETE_DATA.get(self.key, lambda: _discrete_data(system, rule))
 
     def discrete_cost(self, running_cost):
         """The step integral C_d(q0, q1, s, u, h) of ``running_cost(q, v, u)`` by this rule."""
@@ -71,6 +61,24 @@ class Discretization:
 
     def __repr__(self):
         return f"Discretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
+
+
+_DISCRETE_DATA = BoundedCache(32)
+
+
+def _discrete_data(system, rule):
+    """(L_d, omega_d, f_d) of `system` by `rule`, h an input: built once per system key
+    and rule, shared by discretizations at every h."""
+    n, n_u, ns = system.n, system.n_u, rule.n_stages * system.n
+    q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)
+    s, u, hs = ca.SX.sym("s", ns), ca.SX.sym("u", n_u), ca.SX.sym("h")
+    L_d = quadrature(rule, lambda q, v: system.lagrangian(q, v), q0, q1, s, hs)
+    omega_d = ca.mtimes(system.constraint_matrix((q0 + q1) / 2), (q1 - q0) / hs)
+    forces = virtual_work_split(rule, lambda q, v: system.force(q, v, u), q0, q1, s, hs)
+    return (ca.Function("L_d", [q0, q1, s, hs], [L_d], ["q0", "q1", "s", "h"], ["L_d"]),
+            ca.Function("omega_d", [q0, q1, hs], [omega_d], ["q0", "q1", "h"], ["omega_d"]),
+            ca.Function("f_d", [q0, q1, s, u, hs], list(forces),
+                        ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"]))
 
 
 def discretize(system, h, rule="midpoint"):
