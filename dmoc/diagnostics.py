@@ -19,7 +19,7 @@ def check_trajectory(disc, traj):
         raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
     if not isinstance(traj, Trajectory):
         raise TypeError(f"`traj` must be a Trajectory; got {type(traj).__name__}.")
-    sizes = {"q": disc.system.n, "lam": disc.system.m, "u": disc.system.n_u, "s": disc.n_stages}
+    sizes = {"q": disc.system.n, "lam": disc.n_multipliers, "u": disc.n_controls, "s": disc.n_stages}
     for name, size in sizes.items():
         if getattr(traj, name).shape[1] != size:
             raise ValueError(f"`traj.{name}` has {getattr(traj, name).shape[1]} columns; "
@@ -30,20 +30,22 @@ def check_trajectory(disc, traj):
 def energy(disc, traj):
     """Energy E = v . dL/dv - L at each step's midpoint, shape (N,).
 
-    Evaluated at ((q_k + q_{k+1})/2, (q_{k+1} - q_k)/h), so it needs no Legendre
-    transform and works for degenerate Lagrangians.
+    Evaluated on the rule's interpolant in the middle of the step (for linear rules at
+    ((q_k + q_{k+1})/2, (q_{k+1} - q_k)/h)), so it needs no Legendre transform and works
+    for degenerate Lagrangians.
     """
     if not check_trajectory(disc, traj):
         return np.zeros(0)
-    E = disc.system.energy.map(traj.steps)((traj.q[:-1] + traj.q[1:]).T / 2, traj.velocities.T)
-    return np.array(E).ravel()
+    q, v = disc.midpoint_state.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
+    return np.array(disc.system.energy.map(traj.steps)(q, v)).ravel()
 
 
 def constraint_violation(disc, traj):
-    """max_a |omega_d^a(q_k, q_{k+1})| of (28) for each step, shape (N,)."""
+    """max_a |omega_d^a| of (28) (or of the stage rule's moment rows) for each step, shape (N,)."""
     if not check_trajectory(disc, traj) or disc.system.m == 0:
         return np.zeros(traj.steps)
-    omega = np.array(disc.discrete_constraint.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.h))
+    omega = np.array(disc.discrete_constraint.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T,
+                                                               traj.s.T, traj.h))
     return np.abs(omega).max(axis=0)
 
 

@@ -83,13 +83,14 @@ class Formulation:
 
     def step_momentum(self, system, q0, p_carried, nu):
         """(p_k, lam_k) of the step equations from the momentum carried into step k and the
-        multiplier `nu` the simulator solves for (the multiplier at q_k)."""
+        multipliers `nu` the simulator solves for: the impulse at q_k (first m rows), then
+        those at the interior nodes."""
         raise NotImplementedError
 
-    def trajectory_blocks(self, p_carried, p_used, nu):
+    def trajectory_blocks(self, p_carried, p_used, nu, m):
         """(p, lam, mu) of a Trajectory from a simulation's per-step blocks: `p_carried`
         (N+1, n) carried momenta, `p_used` (N, n) the p_k the step equations used, `nu`
-        (N, m) the multipliers at q_k."""
+        (N, n_lam) the multipliers solved for (the first m at q_k)."""
         raise NotImplementedError
 
     def momentum_conditions(self, system):
@@ -147,8 +148,8 @@ class LagrangianPlus(Formulation):
     def step_momentum(self, system, q0, p_carried, nu):
         return p_carried, nu
 
-    def trajectory_blocks(self, p_carried, p_used, nu):
-        return p_carried, nu, None
+    def trajectory_blocks(self, p_carried, p_used, nu, m):
+        return p_carried, nu, np.zeros(m)
 
     def omega_flat(self, z, z_plus):
         return omega_flat_plus(z, z_plus)
@@ -179,13 +180,14 @@ class LagrangianMinus(Formulation):
                       (sym["a"], sym["b"], sym["c"], sym["s_other"]))
 
     def step_momentum(self, system, q0, p_carried, nu):
-        impulse = ca.mtimes(system.constraint_matrix(q0).T, nu)
-        return p_carried - impulse, ca.SX.zeros(*nu.shape)
+        at_q0, interior = ca.vertsplit(nu, [0, system.m, nu.numel()])
+        impulse = ca.mtimes(system.constraint_matrix(q0).T, at_q0)
+        return p_carried - impulse, ca.vertcat(ca.SX.zeros(system.m), interior)
 
-    def trajectory_blocks(self, p_carried, p_used, nu):
-        m, N = nu.shape[1], nu.shape[0]
-        lam = np.vstack([nu[1:], np.zeros((min(N, 1), m))])
-        return np.vstack([p_used, p_carried[-1:]]), lam, (nu[0] if N else None)
+    def trajectory_blocks(self, p_carried, p_used, nu, m):
+        N = nu.shape[0]
+        node = np.vstack([nu[1:, :m], np.zeros((min(N, 1), m))])
+        return np.vstack([p_used, p_carried[-1:]]), np.hstack([node, nu[:, m:]]), (nu[0, :m] if N else None)
 
     def omega_flat(self, z, z_plus):
         return omega_flat_minus(z, z_plus)

@@ -33,13 +33,15 @@ class OptimalControlProblem:
         Delta_Q = ker A(q) when fully given; otherwise A(q) v = 0 is imposed.
     running_cost : callable, optional
         ``running_cost(q, v, u)`` (scalar CasADi expression); default |u|^2. Discretized by
-        the rule of `disc` (midpoint: h C(q_{k+1/2}, (q_{k+1} - q_k)/h, u_k)).
+        the rule of `disc` at its quadrature points, u interpolated from the step's
+        control values (midpoint: h C(q_{k+1/2}, (q_{k+1} - q_k)/h, u_k)).
     terminal_cost : callable, optional
         ``terminal_cost(q, v)`` at (q_N, v_N).
     control_bounds, state_bounds : pair of array_like, optional
         (lower, upper), shapes (n_u,) and (n,); None entries are unbounded.
     path_constraints : callable, optional
-        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint.
+        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint (on the
+        rule's interpolant, u interpolated there).
     duration : pair of float, optional
         (T_min, T_max): free final time, h = T/N becomes a decision variable.
     variant : {"+", "-"} or Formulation
@@ -81,7 +83,7 @@ class OptimalControlProblem:
                                        sys, ("q", "v", "u"))
         self._terminal = None if terminal_cost is None else _cost_function(
             "terminal_cost", terminal_cost, sys, ("q", "v"))
-        self._path = None if path_constraints is None else _path_function(path_constraints, sys)
+        self._path = None if path_constraints is None else _path_function(path_constraints, disc)
         self._build(_bounds("control_bounds", control_bounds, sys.n_u),
                     _bounds("state_bounds", state_bounds, n))
 
@@ -102,12 +104,12 @@ class OptimalControlProblem:
 
     def _build(self, control_bounds, state_bounds):
         sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
-        n, m, ns, n_u = sys.n, sys.m, disc.n_stages, sys.n_u
+        n, m, ns = sys.n, sys.m, disc.n_stages
         start, end, m_start, m_end = self.formulation.momentum_conditions(sys)
         path = self._path
         velocity_rows = {e: 0 if self._fully_given(e) else m for e in ("start", "goal")}
-        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, N + 1)), ("lam", (m, N)),
-                                ("s", (ns, N)), ("u", (n_u, N)), ("v_start", (n, 1)),
+        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, N + 1)), ("lam", (disc.n_multipliers, N)),
+                                ("s", (ns, N)), ("u", (disc.n_controls, N)), ("v_start", (n, 1)),
                                 ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                 ("h", (1 if self.free_time else 0, 1))])
         self.g_layout = Layout([("dynamics", (R.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
@@ -127,7 +129,7 @@ class OptimalControlProblem:
              "goal": end(Q[:, N], P[:, N], X["v_goal"], X["nu"]),
              "start_velocity": ca.mtimes(A(Q[:, 0]), X["v_start"]) if velocity_rows["start"] else ca.MX(0, 1),
              "goal_velocity": ca.mtimes(A(Q[:, N]), X["v_goal"]) if velocity_rows["goal"] else ca.MX(0, 1),
-             "path": path.map(N)(q0, q1, U, h) if path else ca.MX(0, N)}
+             "path": path.map(N)(q0, q1, X["s"], U, h) if path else ca.MX(0, N)}
         f = ca.sum2(disc.discrete_cost(self._running).map(N)(q0, q1, X["s"], U, h))
         if self._terminal is not None:
             f += self._terminal(Q[:, N], X["v_goal"])
@@ -146,7 +148,7 @@ class OptimalControlProblem:
         for bound, side in ((self.lbx, 0), (self.ubx, 1)):
             view = {name: self.x_layout.unpack(bound, name) for name in ("q", "u", "v_start", "v_goal", "h")}
             view["q"][:] = state_bounds[side][:, None]
-            view["u"][:] = control_bounds[side][:, None]
+            view["u"][:] = np.tile(control_bounds[side], len(self.disc.rule.control_nodes))[:, None]
             for name, col, data in (("q", 0, self.q_start), ("q", N, self.q_goal),
                                     ("v_start", 0, self.v_start), ("v_goal", 0, self.v_goal)):
                 fixed = np.isfinite(data)
@@ -195,13 +197,17 @@ def _duration(duration, N, h):
     return T_min, T_max
 
 
-def _path_function(path, sys):
-    """g(q0, q1, u, h) = path(q_{k+1/2}, (q1 - q0)/h, u), flattened to a column."""
-    q0, q1, u, h = ca.SX.sym("q0", sys.n), ca.SX.sym("q1", sys.n), ca.SX.sym("u", sys.n_u), ca.SX.sym("h")
-    at_midpoint = checked_function("path_constraints", path, (ca.SX.sym("q", sys.n), ca.SX.sym("v", sys.n), u),
-                                   ("q", "v", "u"), None)
-    g = at_midpoint((q0 + q1) / 2, (q1 - q0) / h, u)
-    return ca.Function("path_constraints", [q0, q1, u, h], [g], ["q0", "q1", "u", "h"], ["g"])
+def _path_function(path, disc):
+    """g(q0, q1, s, u, h) = path(q, v, u) in the middle of the step (on the rule's
+    interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), flattened to a column."""
+    sys = disc.system
+    at_midpoint = checked_function("path_constraints", path, [ca.SX.sym(a, k) for a, k in (
+        ("q", sys.n), ("v", sys.n), ("u", sys.n_u))], ("q", "v", "u"), None)
+    q0, q1, s, u, h = (ca.SX.sym(a, k) for a, k in (
+        ("q0", sys.n), ("q1", sys.n), ("s", disc.n_stages), ("u", disc.n_controls), ("h", 1)))
+    q, v = disc.midpoint_state(q0, q1, s, h)
+    g = at_midpoint(q, v, disc.rule.control_at(u, 0.5))
+    return ca.Function("path_constraints", [q0, q1, s, u, h], [g], ["q0", "q1", "s", "u", "h"], ["g"])
 
 
 def _cost_function(name, cost, sys, args):

@@ -139,10 +139,10 @@ def trajectory_from_x(problem, x):
     """The Trajectory held in an NLP vector x of `problem`."""
     lay, N = problem.x_layout, problem.steps
     h = float(lay.unpack(x, "h")[0, 0]) if problem.free_time else problem.disc.h
-    mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else None
+    mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
     return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, lay.unpack(x, "p").T,
                       lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
-                      mu, lay.unpack(x, "s").T)
+                      mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)
 
 
 def initial_guess(problem, guess=None):
@@ -157,16 +157,16 @@ def initial_guess(problem, guess=None):
         q = _default_path(problem, tau)
         v = np.gradient(q, h, axis=0)
         p = np.array(sys.momentum.map(N + 1)(q.T, v.T)).T
-        blocks = {"q": q, "p": p}
+        blocks = {"q": q, "p": p, "s": _stages_on_chords(problem.disc.rule, q)}
     else:
         _check_guess(problem, guess)
-        blocks = _resampled(guess, tau)
+        blocks = _resampled(problem, guess, tau)
     blocks["v_start"] = np.nan_to_num(problem.v_start)[None, :]
     blocks["v_goal"] = np.nan_to_num(problem.v_goal)[None, :]
     if problem.free_time:
         blocks["h"] = np.array([[h]])
     for name, values in blocks.items():
-        if values is not None and lay.slice(name).stop > lay.slice(name).start:
+        if values is not None and lay.numel(name):
             x[lay.slice(name)] = np.asarray(values, dtype=float).ravel()
     return np.clip(x, problem.lbx, problem.ubx)
 
@@ -174,12 +174,12 @@ def initial_guess(problem, guess=None):
 def _check_guess(problem, guess):
     if guess.steps < 1:
         raise ValueError("`guess` must have at least one step; got a trajectory of 0 steps.")
-    sizes = {"q": problem.disc.system.n, "lam": problem.disc.system.m,
-             "u": problem.disc.system.n_u, "s": problem.disc.n_stages}
-    for name, size in sizes.items():
-        if getattr(guess, name).shape[1] != size:
-            raise ValueError(f"`guess` must have {name} with {size} columns for this problem; "
-                             f"got {getattr(guess, name).shape[1]}.")
+    n, n_u = problem.disc.system.n, problem.disc.system.n_u
+    if guess.q.shape[1] != n:
+        raise ValueError(f"`guess` must have q with {n} columns for this problem; got {guess.q.shape[1]}.")
+    if guess.u.shape[1] != n_u * len(guess.control_nodes):
+        raise ValueError(f"`guess` must have u with {n_u} columns per control node for this "
+                         f"problem; got {guess.u.shape[1]} for {len(guess.control_nodes)} nodes.")
 
 
 def _default_path(problem, tau):
@@ -189,16 +189,38 @@ def _default_path(problem, tau):
     return start + np.outer(tau, goal - start) + bump * np.sin(np.pi * tau)[:, None]
 
 
-def _resampled(guess, tau):
-    """Guess blocks (time-major) on the problem's normalized grid tau."""
-    N = len(tau) - 1
-    mu = {"mu": guess.mu[None, :]}     # zeros for a formulation without a start impulse
-    if guess.steps == N:
-        return {"q": guess.q, "p": guess.p, "lam": guess.lam, "u": guess.u, "s": guess.s, **mu}
+def _stages_on_chords(rule, q):
+    """Stage values on the chord of each step, (N, n_stages * n): q_k + c (q_{k+1} - q_k)
+    at the rule's interior nodes."""
+    chords = [q[:-1] + c * (q[1:] - q[:-1]) for c in rule.nodes[1:-1]]
+    return np.hstack(chords) if chords else np.zeros((q.shape[0] - 1, 0))
+
+
+def _resampled(problem, guess, tau):
+    """Guess blocks (time-major) on the problem's normalized grid tau, from a guess on any
+    grid and with any rule: q, p interpolated at the knots, the controls evaluated by the
+    guess's own interpolation (`Trajectory.control`) at the problem's control nodes, stages
+    and multipliers kept where their layout matches, else stages on the chords."""
+    disc, N = problem.disc, len(tau) - 1
+    same_grid = guess.steps == N
     old = np.linspace(0.0, 1.0, guess.steps + 1)
-    mid_new, mid_old = (tau[:-1] + tau[1:]) / 2, (old[:-1] + old[1:]) / 2
-    knots = {k: np.column_stack([np.interp(tau, old, c) for c in getattr(guess, k).T])
-             for k in ("q", "p")}
-    steps = {k: np.column_stack([np.interp(mid_new, mid_old, c) for c in getattr(guess, k).T]
-                                or [np.zeros(N)]) for k in ("lam", "u", "s")}
-    return {**knots, **{k: v[:, : getattr(guess, k).shape[1]] for k, v in steps.items()}, **mu}
+    knots = {k: getattr(guess, k) if same_grid else
+             np.column_stack([np.interp(tau, old, c) for c in getattr(guess, k).T]) for k in ("q", "p")}
+    same_rule = (same_grid and guess.s.shape[1] == disc.n_stages
+                 and guess.control_nodes == disc.rule.control_nodes)
+    if same_rule:
+        u = guess.u
+    else:
+        times = guess.t[0] + (guess.t[-1] - guess.t[0]) * (
+            tau[:-1, None] + np.asarray(disc.rule.control_nodes)[None, :] / N)
+        u = guess.control(times.ravel()).reshape(N, -1)
+    lam = None
+    if guess.lam.shape[1] == disc.n_multipliers:
+        mid_new, mid_old = (tau[:-1] + tau[1:]) / 2, (old[:-1] + old[1:]) / 2
+        lam = guess.lam if same_grid else np.column_stack(
+            [np.interp(mid_new, mid_old, c) for c in guess.lam.T] or [np.zeros(N)])[:, :disc.n_multipliers]
+    blocks = {**knots, "u": u, "lam": lam,
+              "s": guess.s if same_rule else _stages_on_chords(disc.rule, knots["q"])}
+    if guess.mu.shape == (problem.x_layout.numel("mu"),):
+        blocks["mu"] = guess.mu[None, :]
+    return blocks

@@ -44,10 +44,11 @@ class StepResidual:
     """The step residual R of the (+) or (-) discrete LDAP principle, eqs. (37) and (41).
 
     ``function(q0, p0, q1, p1, lam, s, u, h) -> r`` is one CasADi Function with named
-    inputs (blocks and sizes in `inputs`) and r of size 2n + n_stages + m, rows in the
+    inputs (blocks and sizes in `inputs`) and r of size 2n + n_stages + n_lam, rows in the
     order of `row_layout`: ``"left"`` (n), ``"right"`` (n), ``"stage"`` (n_stages),
-    ``"constraint"`` (m). It depends on the system, the rule and the formulation only;
-    the step h is an input, so discretizations at every h share it.
+    ``"constraint"`` (n_lam = m per multiplier node). It depends on the system, the rule
+    and the formulation only; the step h is an input, so discretizations at every h share
+    it.
 
     Attributes
     ----------
@@ -70,7 +71,10 @@ class StepResidual:
     (-): left  = p0 + D1 L_d(q0, q1) + f_d^-                   (d/dq_{k+1}^-)
          right = D2 L_d(q0, q1) + f_d^+ - p1 - A(q1)^T lam     (d/dq_{k+1})
 
-    and constraint = omega_d(q0, q1) (28). The conditions from varying the p's, q_{k+1} =
+    and constraint = omega_d(q0, q1) (28). A rule with interior nodes Q_j adds the stage
+    rows dL_d/dQ_j + f_d^{s,j} - A(Q_j)^T lam_j (d'Alembert variations at the stages too),
+    lam = (lam at the end node, lam_1, ...), and its moment constraints (docs/theory.md,
+    "Stage rules"). The conditions from varying the p's, q_{k+1} =
     q_k^+ and q_k = q_{k+1}^-, are solved exactly by substitution. So lam_k is the
     multiplier at q_k for (+) and at q_{k+1} for (-); with the same data the (-) lam_k
     equals the (+) lam_{k+1}.
@@ -83,11 +87,13 @@ class StepResidual:
         self.system, self.rule = disc.system, disc.rule
         self.key = (disc.key, self.formulation)
         sys = disc.system
-        self.n, self.m, self.n_u, self.n_stages = sys.n, sys.m, sys.n_u, disc.n_stages
+        self.n, self.m, self.n_stages = sys.n, sys.m, disc.n_stages
+        self.n_lam, self.n_controls = disc.n_multipliers, disc.n_controls
         n, ns = self.n, self.n_stages
-        self.inputs = Layout([("q0", n), ("p0", n), ("q1", n), ("p1", n), ("lam", self.m),
-                              ("s", ns), ("u", self.n_u), ("h", 1)])
-        self.row_layout = Layout([("left", n), ("right", n), ("stage", ns), ("constraint", self.m)])
+        self.inputs = Layout([("q0", n), ("p0", n), ("q1", n), ("p1", n), ("lam", self.n_lam),
+                              ("s", ns), ("u", self.n_controls), ("h", 1)])
+        self.row_layout = Layout([("left", n), ("right", n), ("stage", ns),
+                                  ("constraint", self.n_lam)])
         self.rows = self.row_layout.slices()
         self.size = self.row_layout.size
         self.function = self._build(disc)
@@ -106,11 +112,16 @@ class StepResidual:
         f_minus, f_plus, f_stage = disc.discrete_force(x_minus, x_plus, x["s"], x["u"], x["h"])
         S = window.action
         rows = [ca.gradient(S, x_minus) + f_minus, ca.gradient(S, x_plus) + f_plus]
+        A, m = self.system.constraint_matrix, self.m
         node = self.formulation.multiplier_node
-        q_node = (x["q0"], x["q1"])[node]
-        rows[node] = rows[node] - ca.mtimes(self.system.constraint_matrix(q_node).T, x["lam"])
+        nodes = self.rule.node_values(x["q0"], x["q1"], x["s"])
+        impulses = [x["lam"][j * m:(j + 1) * m] for j in range(self.rule.n_multiplier_nodes)]
+        rows[node] = rows[node] - ca.mtimes(A((nodes[0], nodes[-1])[node]).T, impulses[0])
         stage = ca.gradient(S, x["s"]) + f_stage if self.n_stages else ca.SX(0, 1)
-        r = ca.vertcat(rows[0], rows[1], stage, disc.discrete_constraint(x["q0"], x["q1"], x["h"]))
+        if self.n_stages and m:    # d'Alembert variations at the interior nodes too
+            stage = stage - ca.vertcat(*[ca.mtimes(A(Q).T, lam) for Q, lam in zip(nodes[1:-1], impulses[1:])])
+        r = ca.vertcat(rows[0], rows[1], stage,
+                       disc.discrete_constraint(x["q0"], x["q1"], x["s"], x["h"]))
         r = ca.substitute(r, window.aux, window.solved)
         _check_window(r, ca.gradient(S, window.curve), window)
         names = list(self.inputs.blocks)

@@ -58,8 +58,11 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         `v0` must lie in Delta_Q(q0) = ker A(q0).
     steps : int
         Number of steps N.
-    controls : array_like, shape (N, n_u), optional
-        Controls u_k held on [t_k, t_{k+1}]; zeros by default.
+    controls : array_like, shape (N, disc.n_controls) or (N, n_u), optional
+        The controls of each step at the rule's control nodes, node by node (for the
+        midpoint and trapezoid rules one control u_k held on [t_k, t_{k+1}]); a shape
+        (N, n_u) array is held over each step for any rule. Zeros by default. A
+        Trajectory's ``u`` has this form, so ``controls=traj.u`` replays it.
     variant : {"+", "-"} or Formulation
         The form of the equations (`dmoc.formulations`).
     throw : bool
@@ -106,9 +109,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     throw = _checks.boolean("throw", throw)
     q0 = _checks.array("q0", q0, (sys.n,))
     p_start, v_guess = start_momentum(sys, q0, v0, p0)
-    if controls is None:
-        controls = np.zeros((steps, sys.n_u))
-    controls = _checks.array("controls", controls, (steps, sys.n_u))
+    controls = step_controls(disc, controls, steps)
     residual = step_residual(disc, formulation)
     tic = time.perf_counter()
     stepper = _STEPPERS.get((residual.key, tol, max_iter, _checks.boolean("jit", jit)),
@@ -119,7 +120,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     acc, out, failed_rnorm, redone = stepper.run(start, controls, disc.h)
     wall = time.perf_counter() - tic
     k = acc.shape[0]
-    traj = _assemble(stepper, formulation, disc.h, q0, p_start, controls[:k], acc, out)
+    traj = _assemble(stepper, formulation, disc, q0, p_start, controls[:k], acc, out)
     rnorm = stepper.out.split(out)["rnorm"]
     stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
              "max_residual": float(rnorm.max()) if k else 0.0, "wall_time": wall}
@@ -129,14 +130,28 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
 _STEPPERS = BoundedCache(16)     # keyed by (residual key, tol, max_iter, jit): h is an input
 
 
-def _assemble(stepper, formulation, h, q0, p_start, controls, acc, out):
+def step_controls(disc, controls, steps):
+    """`controls` as an array (steps, disc.n_controls): zeros if None; a control held over
+    each step, shape (steps, n_u), is repeated at every control node of the rule."""
+    n_u, nodes = disc.system.n_u, len(disc.rule.control_nodes)
+    if controls is None:
+        return np.zeros((steps, disc.n_controls))
+    if nodes > 1 and np.shape(controls) == (steps, n_u):
+        controls = np.tile(_checks.array("controls", controls, (steps, n_u)), (1, nodes))
+    return _checks.array("controls", controls, (steps, disc.n_controls))
+
+
+def _assemble(stepper, formulation, disc, q0, p_start, controls, acc, out):
     """Trajectory from the horizon's per-step states and outputs (time-major arrays)."""
+    h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
     q = np.vstack([q0, state["q"]])
     p_carried = np.vstack([p_start, state["p"]])
-    p, lam, mu = formulation.trajectory_blocks(p_carried, per_step["p0"], per_step["nu"])
+    p, lam, mu = formulation.trajectory_blocks(p_carried, per_step["p0"], per_step["nu"],
+                                               stepper.residual.m)
     t = h * np.arange(acc.shape[0] + 1)
-    return Trajectory(t, q, p, lam, controls, h, formulation.name, mu, per_step["s"])
+    return Trajectory(t, q, p, lam, controls, h, formulation.name, mu, per_step["s"],
+                      disc.rule.control_nodes)
 
 
 def _finish(traj, stats, failed_rnorm, tol, throw):

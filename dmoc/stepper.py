@@ -32,7 +32,7 @@ class DiracStepper:
 
     def __init__(self, residual, tol, max_iter, jit=False):
         self.residual, self.tol = residual, tol
-        n, m, ns = residual.n, residual.m, residual.n_stages
+        n, m, ns = residual.n, residual.n_lam, residual.n_stages
         self.unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
         self.state = Layout([("q", n), ("p", n), *((k, self.unknowns.numel(k)) for k in self.unknowns.blocks)])
         self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1)])
@@ -52,7 +52,7 @@ class DiracStepper:
         """
         R, n = self.residual, self.residual.n
         y, q0, pc0 = ca.SX.sym("y", self.unknowns.size), ca.SX.sym("q0", n), ca.SX.sym("p0", n)
-        u, h, p1 = ca.SX.sym("u", R.n_u), ca.SX.sym("h"), ca.SX.sym("p1", n)
+        u, h, p1 = ca.SX.sym("u", R.n_controls), ca.SX.sym("h"), ca.SX.sym("p1", n)
         Y = self.unknowns.split(y)
         p0, lam = R.formulation.step_momentum(R.system, q0, pc0, Y["nu"])
         r = R(q0=q0, p0=p0, q1=q0 + Y["dq"], p1=p1, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h)
@@ -80,7 +80,7 @@ class DiracStepper:
     def _symbols(self, kind):
         """(state, u, h, params, warm start) symbols of kind SX or MX."""
         state = kind.sym("state", self.state.size)
-        u, h = kind.sym("u", self.residual.n_u), kind.sym("h")
+        u, h = kind.sym("u", self.residual.n_controls), kind.sym("h")
         X = self.state.split(state)
         guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
         return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
@@ -134,7 +134,7 @@ class DiracStepper:
         return acc, out
 
     def run(self, start, controls, h):
-        """Steps from state `start` under `controls` (N, n_u), stopping at the first step
+        """Steps from state `start` under `controls` (N, n_controls), stopping at the first step
         that neither Newton path converges.
 
         Returns (states (k, state.size), outputs (k, out.size), rnorm of the failed step or

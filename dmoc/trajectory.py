@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from . import _checks
+from .formulations import FORMULATIONS
 
 
 @dataclass(eq=False)
@@ -23,15 +24,22 @@ class Trajectory:
         Momenta p_k.
     lam : ndarray, shape (N, m)
         Constraint multipliers of each step: at q_k for variant "+", at q_{k+1} for "-".
-    u : ndarray, shape (N, n_u)
-        Controls, constant on [t_k, t_{k+1}].
+    u : ndarray, shape (N, len(control_nodes) * n_u)
+        Controls of each step at its control nodes, node by node: u(t_k + c_j h) = u[k,
+        j n_u:(j+1) n_u]; between them u(t) is their Lagrange interpolant on the step
+        (`control`). With ``control_nodes = (0.5,)`` a control held on [t_k, t_{k+1}].
     h : float
         Step size.
     variant : {"+", "-"}
+        Name of the formulation (`dmoc.formulations`) whose equations the steps solve.
     mu : ndarray, shape (m,)
-        Initial impulse of a (-) run: p_0 = p_start - A(q_0)^T mu (zeros for "+").
+        Initial impulse of a (-) run: p_0 = p_start - A(q_0)^T mu (zeros for "+"; default
+        zeros of lam's width).
     s : ndarray, shape (N, n_stages)
         Stage unknowns of each step (empty columns for stage-free rules).
+    control_nodes : tuple of float
+        Step times c in [0, 1] of the controls in `u` (the rule's ``control_nodes``);
+        default ``(0.5,)``, one control held over each step.
     """
 
     t: np.ndarray
@@ -43,6 +51,7 @@ class Trajectory:
     variant: str
     mu: np.ndarray = field(default=None)
     s: np.ndarray = field(default=None)
+    control_nodes: tuple = (0.5,)
 
     def __post_init__(self):
         # NaN is allowed in the arrays: the last iterate of a failed solve may hold it, and
@@ -57,9 +66,13 @@ class Trajectory:
         self.lam, self.u, self.s = (_per_step(name, value, N1 - 1) for name, value in
                                     (("lam", self.lam), ("u", self.u), ("s", self.s)))
         self.h = _checks.positive_float("h", self.h)
-        self.variant = _checks.choice("variant", self.variant, ("+", "-"))
-        m = self.lam.shape[1]
-        self.mu = np.zeros(m) if self.mu is None else _checks.array("mu", self.mu, (m,), allow_nan=True)
+        self.variant = _checks.choice("variant", self.variant, tuple(FORMULATIONS))
+        self.control_nodes = tuple(float(c) for c in np.ravel(self.control_nodes))
+        if not self.control_nodes or self.u.shape[1] % len(self.control_nodes):
+            raise ValueError(f"`u` must have a multiple of len(control_nodes) = "
+                             f"{len(self.control_nodes)} columns; got {self.u.shape[1]}.")
+        self.mu = (np.zeros(self.lam.shape[1]) if self.mu is None else
+                   _checks.array("mu", self.mu, (np.size(self.mu),), allow_nan=True))
 
     @property
     def steps(self):
@@ -76,6 +89,28 @@ class Trajectory:
         """
         return np.diff(self.q, axis=0) / self.h
 
+    def control(self, t):
+        """The control u(t), shape (len(t), n_u): on each step the Lagrange interpolant of
+        its values at `control_nodes` (a held control for ``(0.5,)``); a time on a knot
+        belongs to the step that starts there (the last knot to the last step).
+
+        >>> traj = Trajectory([0, 1, 2], [[0.0]] * 3, [[0.0]] * 3, [[], []], [[0.0, 2.0], [2.0, 4.0]],
+        ...                   1.0, "+", control_nodes=(0.0, 1.0))
+        >>> traj.control([0.25, 1.5, 2.0])[:, 0]
+        array([0.5, 3. , 4. ])
+        """
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        nodes = np.asarray(self.control_nodes)
+        k = np.clip(np.floor((t - self.t[0]) / self.h).astype(int), 0, max(self.steps - 1, 0))
+        tau = (t - self.t[k]) / self.h
+        values = self.u[k].reshape(len(t), len(nodes), -1)
+        basis = np.ones((len(t), len(nodes)))
+        for j, c in enumerate(nodes):
+            for i, other in enumerate(nodes):
+                if i != j:
+                    basis[:, j] *= (tau - other) / (c - other)
+        return np.einsum("tj,tju->tu", basis, values)
+
     def save(self, path):
         """Write every field to an uncompressed .npz file at exactly `path` (exact round trip)."""
         with open(path, "wb") as file:
@@ -85,7 +120,7 @@ class Trajectory:
     def load(cls, path):
         """Read a Trajectory written by `save`."""
         with np.load(path, allow_pickle=False) as data:
-            values = {f.name: data[f.name] for f in fields(cls)}
+            values = {f.name: data[f.name] for f in fields(cls) if f.name in data.files}
         values["h"] = float(values["h"])
         values["variant"] = str(values["variant"])
         return cls(**values)

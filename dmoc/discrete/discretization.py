@@ -1,7 +1,8 @@
 """Discretization, the second stage of the pipeline: from a MechanicalSystem and a step h
 to the discrete Lagrangian L_d, the discrete constraints omega_d of (28) (Cortes-Martinez,
-midpoint retraction) and the discrete forces f_d^-/+, each a named CasADi Function whose
-last input is the step h (so that a free final time can make h a decision variable).
+midpoint retraction, or their stage-rule extension) and the discrete forces f_d^-/+, each a
+named CasADi Function whose last input is the step h (so that one Function serves every h
+and a free final time can make h a decision variable).
 """
 
 import casadi as ca
@@ -26,14 +27,24 @@ class Discretization:
         The quadrature rule; ``rule.order`` is the order of the resulting integrator.
     n_stages : int
         Stage unknowns per step (``rule.n_stages * n`` rows of s; 0 for stage-free rules).
+    n_multipliers : int
+        d'Alembert multipliers per step (``rule.n_multiplier_nodes * m`` rows of lam: the
+        formulation's end node, then the interior nodes).
+    n_controls : int
+        Control values per step (``len(rule.control_nodes) * n_u`` rows of u, node by node).
     discrete_lagrangian : casadi.Function
         ``L_d(q0, q1, s, h)``, scalar.
     discrete_constraint : casadi.Function
-        ``omega_d(q0, q1, h) = A((q0 + q1)/2) (q1 - q0)/h``, shape (m,): eq. (28) with the
-        midpoint retraction; Delta_Q^d is its zero set.
+        ``omega_d(q0, q1, s, h)``, shape (n_multipliers,): for stage-free rules eq. (28)
+        with the midpoint retraction, A((q0 + q1)/2) (q1 - q0)/h; for stage rules the
+        Legendre moments of A(q) q' along the interpolant (`QuadratureRule.discrete_constraint`).
+        Delta_Q^d is its zero set.
     discrete_force : casadi.Function
         ``f_d(q0, q1, s, u, h) -> (f_minus, f_plus, f_stage)``: the left and right discrete
-        forces (n,) and the force on the stages.
+        forces (n,) and the force on the stages (n_stages,).
+    midpoint_state : casadi.Function
+        ``(q0, q1, s, h) -> (q, v)``: the interpolant and its velocity at the middle of the
+        step (for linear rules (q0 + q1)/2 and (q1 - q0)/h).
     key : tuple
         ``(system.key, rule)``: what the step residual and the compiled steps depend on.
         Every Function above takes h as an input, so discretizations that differ only in
@@ -48,16 +59,17 @@ class Discretization:
         self.rule = rule = as_rule(rule)
         self.key = (system.key, rule)
         self.n_stages = rule.n_stages * system.n
-        self.discrete_lagrangian, self.discrete_constraint, self.discrete_force = \
-            _DISCRETE_DATA.get(self.key, lambda: _discrete_data(system, rule))
+        self.n_multipliers = rule.n_multiplier_nodes * system.m
+        self.n_controls = len(rule.control_nodes) * system.n_u
+        (self.discrete_lagrangian, self.discrete_constraint, self.discrete_force,
+         self.midpoint_state) = _DISCRETE_DATA.get(self.key, lambda: _discrete_data(system, rule))
 
     def discrete_cost(self, running_cost):
-        """The step integral C_d(q0, q1, s, u, h) of ``running_cost(q, v, u)`` by this rule."""
-        n, n_u = self.system.n, self.system.n_u
-        q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)
-        s, u, hs = ca.SX.sym("s", self.n_stages), ca.SX.sym("u", n_u), ca.SX.sym("h")
-        C_d = quadrature(self.rule, lambda q, v: running_cost(q, v, u), q0, q1, s, hs)
-        return ca.Function("C_d", [q0, q1, s, u, hs], [C_d], ["q0", "q1", "s", "u", "h"], ["C_d"])
+        """The step integral C_d(q0, q1, s, u, h) of ``running_cost(q, v, u)`` by this rule,
+        u the control interpolated at each quadrature point."""
+        q0, q1, s, u, h = _step_symbols(self.system, self.rule)
+        C_d = quadrature(self.rule, running_cost, q0, q1, s, u, h)
+        return ca.Function("C_d", [q0, q1, s, u, h], [C_d], ["q0", "q1", "s", "u", "h"], ["C_d"])
 
     def __repr__(self):
         return f"Discretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
@@ -66,19 +78,27 @@ class Discretization:
 _DISCRETE_DATA = BoundedCache(32)
 
 
+def _step_symbols(system, rule):
+    """Symbols (q0, q1, s, u, h) of one step."""
+    n = system.n
+    return (ca.SX.sym("q0", n), ca.SX.sym("q1", n), ca.SX.sym("s", rule.n_stages * n),
+            ca.SX.sym("u", len(rule.control_nodes) * system.n_u), ca.SX.sym("h"))
+
+
 def _discrete_data(system, rule):
-    """(L_d, omega_d, f_d) of `system` by `rule`, h an input: built once per system key
-    and rule, shared by discretizations at every h."""
-    n, n_u, ns = system.n, system.n_u, rule.n_stages * system.n
-    q0, q1 = ca.SX.sym("q0", n), ca.SX.sym("q1", n)
-    s, u, hs = ca.SX.sym("s", ns), ca.SX.sym("u", n_u), ca.SX.sym("h")
-    L_d = quadrature(rule, lambda q, v: system.lagrangian(q, v), q0, q1, s, hs)
-    omega_d = ca.mtimes(system.constraint_matrix((q0 + q1) / 2), (q1 - q0) / hs)
-    forces = virtual_work_split(rule, lambda q, v: system.force(q, v, u), q0, q1, s, hs)
-    return (ca.Function("L_d", [q0, q1, s, hs], [L_d], ["q0", "q1", "s", "h"], ["L_d"]),
-            ca.Function("omega_d", [q0, q1, hs], [omega_d], ["q0", "q1", "h"], ["omega_d"]),
-            ca.Function("f_d", [q0, q1, s, u, hs], list(forces),
-                        ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"]))
+    """(L_d, omega_d, f_d, midpoint state) of `system` by `rule`, h an input: built once
+    per system key and rule, shared by discretizations at every h."""
+    q0, q1, s, u, h = _step_symbols(system, rule)
+    L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
+    omega_d = rule.discrete_constraint(system.constraint_matrix, q0, q1, s, h)
+    forces = virtual_work_split(rule, system.force, q0, q1, s, u, h)
+    (_, q_mid, v_mid, _), = rule.samples(q0, q1, s, h, ((0.5, 1.0),))
+    return (ca.Function("L_d", [q0, q1, s, h], [L_d], ["q0", "q1", "s", "h"], ["L_d"]),
+            ca.Function("omega_d", [q0, q1, s, h], [omega_d], ["q0", "q1", "s", "h"], ["omega_d"]),
+            ca.Function("f_d", [q0, q1, s, u, h], list(forces),
+                        ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"]),
+            ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],
+                        ["q0", "q1", "s", "h"], ["q", "v"]))
 
 
 def discretize(system, h, rule="midpoint"):
@@ -90,7 +110,8 @@ def discretize(system, h, rule="midpoint"):
     h : float
         Step size, > 0.
     rule : str or QuadratureRule
-        ``"midpoint"`` (default) or ``"trapezoid"``, or a rule instance.
+        A name in `dmoc.discrete.RULES` (``"midpoint"``, the default, ``"trapezoid"``,
+        ``"lobatto3"``, ``"lobatto4"``) or a rule instance.
 
     Returns
     -------
