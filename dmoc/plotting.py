@@ -262,7 +262,7 @@ def save_trajectory_plots(traj, out, name, *, disc=None, names=None, control_nam
     out : str or pathlib.Path
         Output folder.
     name : str
-        Prefix of the files: ``{name}_path.png``, ``{name}_states.png``,
+        Prefix of the files: ``{name}_path.png`` (when n >= 2), ``{name}_states.png``,
         ``{name}_controls.png`` (when there are controls) and, given `disc`,
         ``{name}_constraint.png`` (when there are constraints) and ``{name}_energy.png``.
     disc : Discretization, optional
@@ -281,10 +281,12 @@ def save_trajectory_plots(traj, out, name, *, disc=None, names=None, control_nam
     """
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    labels = tuple(names[:2]) if names else ("x", "y")
-    figures = {"path": plot_path(traj, heading=heading, goal=goal, labels=labels,
-                                 title=f"{name}: path"),
-               "states": plot_states(traj, names=names, title=f"{name}: states")}
+    figures = {}
+    if traj.q.shape[1] >= 2:
+        labels = tuple(names[:2]) if names else ("x", "y")
+        figures["path"] = plot_path(traj, heading=heading, goal=goal, labels=labels,
+                                    title=f"{name}: path")
+    figures["states"] = plot_states(traj, names=names, title=f"{name}: states")
     if traj.u.shape[1]:
         figures["controls"] = plot_controls(traj, names=control_names, title=f"{name}: controls")
     if disc is not None and traj.steps:

@@ -81,8 +81,9 @@ def _write(out, prefix, disc, traj, summary, spec, goal, animate):
 def run_simulate(args):
     """``dmoc simulate SYSTEM``; returns the exit code."""
     spec, system, out, prefix = _setup(args)
-    q0 = _default("--start", args.start, spec.start, system.names)
-    v0 = _default("--velocity", args.velocity, spec.velocity or (0.0,) * system.n, system.names)
+    zeros = (0.0,) * system.n
+    q0 = _default("--start", args.start, spec.start or zeros, system.names)
+    v0 = _default("--velocity", args.velocity, spec.velocity or zeros, system.names)
     controls = arguments.load_controls(args.controls, system.n_u) if args.controls else None
     steps = args.steps or (len(controls) if controls is not None else 1000)
     if controls is not None and len(controls) != steps:
@@ -110,7 +111,8 @@ def run_simulate(args):
 def run_optimize(args):
     """``dmoc optimize SYSTEM``; returns the exit code."""
     spec, system, out, prefix = _setup(args)
-    q_start = _default("--start", args.start, spec.start, system.names, free=True)
+    q_start = _default("--start", args.start, spec.start or (0.0,) * system.n, system.names,
+                       free=True)
     q_goal = _default("--goal", args.goal, spec.goal, system.names, free=True)
     steps = args.steps or 100
     disc = discretize(system, args.duration / steps, args.rule)

@@ -53,7 +53,7 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
         written += save_trajectory_plots(traj, out, name, disc=disc, names=names,
                                          control_names=control_names, heading=spec.heading,
                                          goal=goal)
-        if gif:
+        if gif and traj.q.shape[1] >= 2:
             written.append(animate(traj, out / f"{name}.gif", shape=spec.shape,
                                    heading=spec.heading, roll=spec.roll, goal=goal,
                                    title=name))
