@@ -162,7 +162,7 @@ def _log_series(ax, t, values, label):
 
 
 def plot_constraint_violation(disc, traj, *, title=None, ax=None):
-    """max_a |omega_d^a(q_k, q_{k+1})| of (28) at each step on a log scale.
+    """The violation max_a abs(omega_d^a(q_k, q_{k+1})) of (28) at each step, log scale.
 
     Parameters
     ----------
@@ -183,7 +183,8 @@ def plot_constraint_violation(disc, traj, *, title=None, ax=None):
 
 
 def plot_energy_error(disc, traj, *, title=None, ax=None):
-    """|E - E_0| on a log scale, E evaluated at the step midpoints (`diagnostics.energy`).
+    """The energy error abs(E - E_0) on a log scale, E at the step midpoints
+    (`diagnostics.energy`).
 
     Parameters
     ----------

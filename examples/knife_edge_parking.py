@@ -3,7 +3,7 @@ Parallel parking of a knife edge
 ================================
 
 DMOC moves a knife edge rest-to-rest from (x, y, theta) = (0, 0, 0) to (0, 1, 0) in 4 s,
-with m = J = 1, minimizing the integral of |u|^2. The blade cannot slide sideways, so it
+with m = J = 1, minimizing the integral of the squared norm of u. The blade cannot slide sideways, so it
 must turn, drive, turn back and drive again. The optimal controls are then replayed by the
 Dirac integrator (`dmoc.simulate`), which solves the very same step residual, and must
 reproduce the optimized trajectory.

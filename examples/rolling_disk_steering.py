@@ -4,7 +4,7 @@ Steering a vertical rolling disk
 
 DMOC moves a vertical rolling disk rest-to-rest from the origin with heading 0 to x = 1,
 y = 1, heading pi/2 in 4 s, with the rolling angle left free, minimizing the integral of
-|u|^2. The disk rolls without slipping (two nonholonomic constraints); the controls are a
+the squared norm of u. The disk rolls without slipping (two nonholonomic constraints); the controls are a
 rolling torque and a steering torque. The optimal controls are replayed by
 `dmoc.simulate`.
 
