@@ -294,7 +294,8 @@ def save_trajectory_plots(traj, out, name, *, disc=None, names=None, control_nam
         if disc.system.m:
             figures["constraint"] = plot_constraint_violation(
                 disc, traj, title=f"{name}: discrete constraint violation")
-        figures["energy"] = plot_energy_error(disc, traj, title=f"{name}: energy error")
+        energy = "energy change (controls do work)" if np.any(traj.u) else "energy error"
+        figures["energy"] = plot_energy_error(disc, traj, title=f"{name}: {energy}")
     written = []
     for kind, fig in figures.items():
         written.append(out / f"{name}_{kind}.png")
