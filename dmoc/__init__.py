@@ -8,7 +8,7 @@ from .principle import StepResidual, action_sum, step_residual
 from .simulate import SimulationResult, simulate
 from .system import MechanicalSystem
 from .trajectory import Trajectory
-from . import diagnostics, dirac, systems
+from . import animation, diagnostics, dirac, plotting, systems
 
 __all__ = [
     "MechanicalSystem",
@@ -28,6 +28,8 @@ __all__ = [
     "systems",
     "diagnostics",
     "dirac",
+    "plotting",
+    "animation",
     "DmocError",
     "SolverError",
 ]

@@ -45,6 +45,5 @@ def test_demo_command_writes_summary(tmp_path, capsys):
 
 
 def test_demo_command_rejects_bad_steps(capsys):
-    with pytest.raises(SystemExit):
-        main(["demo", "--steps", "0"])
+    assert main(["demo", "--steps", "0"]) == 2
     assert "--steps" in capsys.readouterr().err

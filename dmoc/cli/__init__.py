@@ -1,0 +1,100 @@
+"""The ``dmoc`` command (also ``python -m dmoc``), a thin front end over the public API:
+``dmoc systems`` lists the built-in systems, ``dmoc simulate SYSTEM`` runs the Dirac
+integrator, ``dmoc optimize SYSTEM`` solves a DMOC problem, ``dmoc demo`` runs both on the
+built-ins. SYSTEM is a built-in name or ``path/to/file.py:factory``.
+
+Exit codes: 0 success; 1 the solver failed (its status is printed and what was computed
+is written); 2 a bad argument (one line naming it).
+"""
+
+import argparse
+import importlib.metadata
+import sys
+
+from . import arguments, commands, demo, registry
+from .arguments import Parser, UsageError, positive_float, positive_int
+
+__all__ = ["main", "example_arguments"]
+
+
+def _version():
+    try:
+        return importlib.metadata.version("dmoc")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+def _common(sub):
+    """Options shared by simulate and optimize."""
+    sub.add_argument("system", metavar="SYSTEM",
+                     help=f"{' or '.join(registry.BUILT_IN)} (see `dmoc systems`), or path/to/file.py:factory")
+    sub.add_argument("--param", action="append", metavar="NAME=VALUE",
+                     help="a system parameter, e.g. --param mass=2 (repeatable)")
+    sub.add_argument("--start", metavar="Q", help="start configuration, comma-separated")
+    sub.add_argument("--steps", type=positive_int, metavar="N", help="number of steps N")
+    sub.add_argument("--rule", choices=("midpoint", "trapezoid"), default="midpoint",
+                     help="quadrature rule of the discrete Lagrangian (default: midpoint)")
+    sub.add_argument("--variant", choices=("+", "-"), default="+",
+                     help="(+) equations (37) or (-) equations (41) (default: +)")
+    sub.add_argument("--out", metavar="DIR", help="write trajectory (.npz, .csv), summary "
+                     "(.json) and plots (.png) into DIR")
+    sub.add_argument("--animate", action="store_true", help="also write a GIF (needs --out)")
+    sub.add_argument("--verbose", action="store_true", help="more output (IPOPT's iteration log)")
+
+
+def build_parser():
+    """The argument parser of the ``dmoc`` command."""
+    parser = Parser(prog="dmoc", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"dmoc {_version()}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub.add_parser("systems", help="list the built-in systems, their parameters and defaults")
+    sim = sub.add_parser("simulate", help="simulate a system with the Dirac integrator",
+                         description=commands.run_simulate.__doc__)
+    _common(sim)
+    sim.add_argument("--velocity", metavar="V", help="start velocity in Delta_Q, comma-separated")
+    sim.add_argument("--duration", type=positive_float, default=10.0, metavar="T",
+                     help="final time T, h = T/N (default: 10)")
+    sim.add_argument("--controls", metavar="FILE", help="controls u_k, one row per step "
+                     "(.npy, or .csv/.txt with an optional header); N defaults to its rows")
+    opt = sub.add_parser("optimize", help="solve a rest-to-rest DMOC problem with IPOPT",
+                         description=commands.run_optimize.__doc__)
+    _common(opt)
+    opt.add_argument("--goal", metavar="Q", help="goal configuration; entries 'free' are free")
+    opt.add_argument("--duration", type=positive_float, default=4.0, metavar="T",
+                     help="fixed final time T, h = T/N (default: 4)")
+    opt.add_argument("--max-iter", type=positive_int, default=1000, metavar="K",
+                     help="IPOPT iteration limit (default: 1000)")
+    dem = sub.add_parser("demo", help="simulate and optimize the built-in systems; write a summary and plots")
+    dem.add_argument("--out", default="dmoc-output", metavar="DIR", help="output folder (default: dmoc-output)")
+    dem.add_argument("--steps", type=positive_int, default=1000, help="simulation steps (default: 1000)")
+    dem.add_argument("--opt-steps", type=positive_int, default=100, help="DMOC steps (default: 100)")
+    return parser
+
+
+def main(argv=None):
+    """Entry point of the ``dmoc`` command; returns the exit code (0, 1 or 2)."""
+    try:
+        args = build_parser().parse_args(argv)
+        if args.command == "systems":
+            print(registry.describe())
+            return 0
+        run = {"simulate": commands.run_simulate, "optimize": commands.run_optimize,
+               "demo": demo.run_demo}[args.command]
+        return run(args)
+    except UsageError as err:
+        print(f"dmoc: error: {err}", file=sys.stderr)
+        return 2
+    except SystemExit as done:          # --help and --version
+        return done.code
+
+
+def example_arguments(description, argv=None):
+    """Parse the options shared by the example scripts: ``--steps`` and ``--out``.
+
+    `description` (the script's docstring) is shown in full by ``--help``.
+    """
+    parser = argparse.ArgumentParser(description=description,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--steps", type=positive_int, default=100, help="DMOC steps (default: 100)")
+    parser.add_argument("--out", default="dmoc-output", help="output folder (default: dmoc-output)")
+    return parser.parse_args(argv)

@@ -1,0 +1,147 @@
+"""``dmoc simulate`` and ``dmoc optimize``: set up a system from its name and the options,
+run the simulator or the optimizer with ``throw=False``, print a summary and write the
+output files. Returns the exit code: 0 on success, 1 when the solver failed (what was
+computed is still written).
+"""
+
+import contextlib
+import re
+import sys
+import time
+
+import numpy as np
+
+from .. import diagnostics
+from ..discrete import discretize
+from ..ocp import OptimalControlProblem
+from ..optimize import optimize
+from ..simulate import simulate
+from . import arguments, output, registry
+from .arguments import UsageError
+
+
+def log(message):
+    """Progress on stderr, so stdout keeps only the results."""
+    print(f"dmoc: {message}", file=sys.stderr, flush=True)
+
+
+@contextlib.contextmanager
+def options_named(mapping):
+    """Turn a ValueError/TypeError of the library into a UsageError naming the CLI option
+    that fed the argument the library names (its message quotes it in backticks)."""
+    try:
+        yield
+    except (ValueError, TypeError) as err:
+        message = str(err).splitlines()[0].rstrip(".")
+        quoted = re.search(r"`([^`]+)`", message)
+        name = quoted.group(1) if quoted else None
+        raise UsageError(mapping.get(name, "SYSTEM"), message) from None
+
+
+def _setup(args):
+    """(spec, system, output folder or None, file prefix) from the common options."""
+    spec = registry.resolve(args.system)
+    system = registry.build(spec, arguments.params(args.param))
+    if args.animate and not args.out:
+        raise UsageError("--animate", "needs --out DIR to write the GIF into")
+    out = arguments.output_folder("--out", args.out) if args.out else None
+    prefix = re.sub(r"\W+", "_", args.system.rpartition(":")[2] or args.system)
+    return spec, system, out, prefix
+
+
+def _default(option, value, spec_value, names, *, free=False):
+    if value is not None:
+        return arguments.vector(option, value, names, free=free)
+    if spec_value is None:
+        raise UsageError(option, "is required for a system from a file")
+    return np.array([np.nan if s is None else s for s in spec_value], dtype=float)
+
+
+def _report(summary, success, status, message, files):
+    width = max(map(len, summary))
+    for key, value in summary.items():
+        shown = f"{value:.6g}" if isinstance(value, float) else value
+        print(f"{key:{width}s}  {shown}")
+    for path in files:
+        print(f"wrote {path}")
+    if not success:
+        log(f"solver failed ({status}): {message}")
+    return 0 if success else 1
+
+
+def _write(out, prefix, disc, traj, summary, spec, goal, animate):
+    if out is None:
+        return []
+    names = disc.system.names
+    control_names = spec.control_names or tuple(f"u{i}" for i in range(disc.system.n_u))
+    return output.write_all(out, prefix, disc, traj, summary, spec, names=names,
+                            control_names=control_names, goal=goal, gif=animate)
+
+
+def run_simulate(args):
+    """``dmoc simulate SYSTEM``; returns the exit code."""
+    spec, system, out, prefix = _setup(args)
+    zeros = (0.0,) * system.n
+    q0 = _default("--start", args.start, spec.start or zeros, system.names)
+    v0 = _default("--velocity", args.velocity, spec.velocity or zeros, system.names)
+    controls = arguments.load_controls(args.controls, system.n_u) if args.controls else None
+    steps = args.steps or (len(controls) if controls is not None else 1000)
+    if controls is not None and len(controls) != steps:
+        raise UsageError("--controls", f"must have one row per step, {steps} rows; got {len(controls)}")
+    disc = discretize(system, args.duration / steps, args.rule)
+    log(f"simulating {steps} steps of {args.system} (h = {disc.h:.4g}, variant {args.variant})")
+    tic = time.perf_counter()
+    with options_named({"q0": "--start", "v0": "--velocity", "controls": "--controls"}):
+        result = simulate(disc, q0=q0, v0=v0, steps=steps, controls=controls,
+                          variant=args.variant, throw=False)
+    log(f"done in {time.perf_counter() - tic:.2f} s")
+    traj = result.trajectory
+    summary = {"command": "simulate", "system": args.system, "status": result.status,
+               "success": result.success, "steps": steps,
+               "completed_steps": result.stats["completed_steps"], "h": disc.h,
+               "rule": args.rule, "variant": args.variant,
+               "wall_time": result.stats["wall_time"],
+               "max_constraint_violation": float(diagnostics.constraint_violation(disc, traj).max(initial=0.0)),
+               "energy_drift": output.energy_drift(disc, traj),
+               "max_residual": result.stats["max_residual"]}
+    files = _write(out, prefix, disc, traj, summary, spec, None, args.animate)
+    return _report(summary, result.success, result.status, result.message, files)
+
+
+def run_optimize(args):
+    """``dmoc optimize SYSTEM``; returns the exit code."""
+    spec, system, out, prefix = _setup(args)
+    q_start = _default("--start", args.start, spec.start or (0.0,) * system.n, system.names,
+                       free=True)
+    q_goal = _default("--goal", args.goal, spec.goal, system.names, free=True)
+    steps = args.steps or 100
+    disc = discretize(system, args.duration / steps, args.rule)
+    with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--start",
+                        "v_goal": "--goal"}):
+        problem = OptimalControlProblem(disc, steps, q_start=q_start, q_goal=q_goal,
+                                        variant=args.variant)
+    options = {"max_iter": args.max_iter, "print_level": 5 if args.verbose else 0}
+    log(f"optimizing {args.system} over {steps} steps (T = {args.duration:g}) with IPOPT"
+        + ("" if args.verbose else "; --verbose shows its iteration log"))
+    result = optimize(problem, options=options, throw=False)
+    log(f"IPOPT: {result.status} after {result.stats['iterations']} iterations "
+        f"in {result.stats['solve_time']:.2f} s")
+    summary = {"command": "optimize", "system": args.system, "status": result.status,
+               "success": result.success, "steps": steps, "duration": args.duration,
+               "rule": args.rule, "variant": args.variant, **_figures(problem, result)}
+    files = _write(out, prefix, disc, result.trajectory, summary, spec, q_goal, args.animate)
+    return _report(summary, result.success, result.status, result.message, files)
+
+
+def _figures(problem, result):
+    """`diagnostics.optimization_summary` plus the energy drift; for a last iterate that
+    holds NaN only what IPOPT reported (nothing can be replayed from it)."""
+    traj = result.trajectory
+    if not (np.isfinite(traj.q).all() and np.isfinite(traj.p).all()):
+        return {"cost": result.cost, "iterations": result.stats["iterations"],
+                "build_time": result.stats["build_time"], "solve_time": result.stats["solve_time"],
+                "max_violation": result.stats["max_violation"]}
+    figures = diagnostics.optimization_summary(problem, result)
+    del figures["status"]
+    figures["energy_drift"] = output.energy_drift(problem.disc, traj)
+    return figures

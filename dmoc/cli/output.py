@@ -1,0 +1,60 @@
+"""What ``--out`` and ``--animate`` write: the trajectory as .npz (exact, `Trajectory.load`)
+and as .csv with named columns, a JSON summary, the plots and the GIF.
+"""
+
+import json
+import math
+
+import numpy as np
+
+from .. import diagnostics
+from ..animation import animate
+from ..plotting import save_trajectory_plots
+
+
+def energy_drift(disc, traj):
+    """max_k |E_k - E_0| over the step-midpoint energies (0 for fewer than two steps)."""
+    E = diagnostics.energy(disc, traj)
+    return float(np.abs(E - E[0]).max()) if E.size else 0.0
+
+
+def csv_columns(traj, names, control_names):
+    """Column names and the (N+1, columns) table: t, q, p at the knots; lam and u of step
+    k on row k (the last row holds NaN there: there is no step after t_N)."""
+    def per_step(a):
+        return np.vstack([a, np.full((1, a.shape[1]), np.nan)])
+
+    header = (["t", *names, *(f"p_{s}" for s in names),
+               *(f"lam_{a}" for a in range(traj.lam.shape[1])), *control_names])
+    table = np.column_stack([traj.t, traj.q, traj.p, per_step(traj.lam), per_step(traj.u)])
+    return header, table
+
+
+def _json_value(value):
+    """JSON-safe values: non-finite floats become null (strict JSON has no inf or NaN)."""
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    return value
+
+
+def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goal=None,
+              gif=False):
+    """Write every output file of one run into `out`; return the paths written."""
+    written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
+    traj.save(written[0])
+    header, table = csv_columns(traj, names, control_names)
+    np.savetxt(written[1], table, delimiter=",", header=",".join(header), comments="",
+               fmt="%.17g")
+    written[2].write_text(json.dumps({k: _json_value(v) for k, v in summary.items()},
+                                     indent=2) + "\n")
+    if np.isfinite(traj.q).all():
+        written += save_trajectory_plots(traj, out, name, disc=disc, names=names,
+                                         control_names=control_names, heading=spec.heading,
+                                         goal=goal)
+        if gif and traj.q.shape[1] >= 2:
+            written.append(animate(traj, out / f"{name}.gif", shape=spec.shape,
+                                   heading=spec.heading, roll=spec.roll, goal=goal,
+                                   title=name))
+    return written

@@ -1,0 +1,124 @@
+"""The systems the command line knows: the built-ins by name, with their parameters, default
+boundary data, control names and how to draw them, and user systems given as
+``path/to/file.py:factory``.
+"""
+
+import importlib.util
+import inspect
+import pathlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import systems
+from ..system import MechanicalSystem
+from .arguments import UsageError
+
+
+@dataclass(frozen=True)
+class SystemSpec:
+    """A system for the command line: its factory and what the CLI needs around it.
+
+    Attributes
+    ----------
+    factory : callable
+        Keyword parameters -> MechanicalSystem.
+    summary : str
+        One line for ``dmoc systems``.
+    start, velocity, goal : tuple of float or None
+        Default start configuration and velocity (simulate) and goal (optimize); None
+        entries of `goal` are free.
+    control_names : tuple of str
+        Names of the controls (CSV columns, plot legends).
+    shape : {"blade", "coin", "point"}
+        How `dmoc.animation.animate` draws it.
+    heading, roll : int or None
+        Columns of q holding the heading and the rolling angle.
+    """
+
+    factory: object
+    summary: str
+    start: tuple = None
+    velocity: tuple = None
+    goal: tuple = None
+    control_names: tuple = None
+    shape: str = "point"
+    heading: int = None
+    roll: int = None
+
+    def parameters(self):
+        """{name: default} of the factory's parameters."""
+        return {name: p.default for name, p in inspect.signature(self.factory).parameters.items()
+                if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+
+
+BUILT_IN = {
+    "knife-edge": SystemSpec(
+        systems.knife_edge, "knife edge (Chaplygin sleigh blade) on an inclined plane; "
+        "q = (x, y, theta), m = 1 constraint, u = (force along the blade, torque)",
+        start=(0.0, 0.0, 0.0), velocity=(1.0, 0.0, 1.0), goal=(0.0, 1.0, 0.0),
+        control_names=("force", "torque"), shape="blade", heading=2),
+    "rolling-disk": SystemSpec(
+        systems.rolling_disk, "vertical disk rolling without slipping; q = (x, y, theta, "
+        "phi), theta rolling angle, phi heading, m = 2, u = (rolling torque, steering torque)",
+        start=(0.0, 0.0, 0.0, 0.0), velocity=(1.0, 0.0, 1.0, 0.5),
+        goal=(1.0, 1.0, None, np.pi / 2), control_names=("roll_torque", "steer_torque"),
+        shape="coin", heading=3, roll=2),
+}
+
+
+def resolve(name):
+    """The SystemSpec of a built-in name or of ``path/to/file.py:factory``."""
+    if name in BUILT_IN:
+        return BUILT_IN[name]
+    file, sep, attr = name.rpartition(":")
+    if not sep or not file.endswith(".py"):
+        raise UsageError("SYSTEM", f"must be one of {', '.join(BUILT_IN)} or "
+                         f"path/to/file.py:factory; got {name!r}")
+    path = pathlib.Path(file)
+    if not path.is_file():
+        raise UsageError("SYSTEM", f"file {file!r} does not exist")
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except Exception as err:  # the user's file: say what broke, in one line
+        raise UsageError("SYSTEM", f"importing {file} failed: {type(err).__name__}: {err}") from None
+    factory = getattr(module, attr, None)
+    if not callable(factory):
+        raise UsageError("SYSTEM", f"{file} has no callable {attr!r}")
+    return SystemSpec(factory, (inspect.getdoc(factory) or attr).splitlines()[0])
+
+
+def build(spec, params):
+    """Call the factory of `spec` with the ``--param`` values; check it gives a system."""
+    known = spec.parameters()
+    for key in params:
+        if key not in known:
+            raise UsageError("--param", f"{key!r} is not a parameter of this system; its "
+                             f"parameters are {', '.join(known) or 'none'}")
+    try:
+        system = spec.factory(**params)
+    except (ValueError, TypeError) as err:
+        raise UsageError("--param", str(err).rstrip(".")) from None
+    if not isinstance(system, MechanicalSystem):
+        raise UsageError("SYSTEM", f"the factory must return a MechanicalSystem; got "
+                         f"{type(system).__name__}")
+    return system
+
+
+def describe():
+    """Text of ``dmoc systems``: every built-in with its parameters and defaults."""
+    lines = []
+    for name, spec in BUILT_IN.items():
+        system = spec.factory()
+        params = ", ".join(f"{k}={v}" for k, v in spec.parameters().items())
+        goal = ",".join("free" if g is None else f"{g:g}" for g in spec.goal)
+        lines += [f"{name}", f"  {spec.summary}",
+                  f"  coordinates: {', '.join(system.names)}; controls: {', '.join(spec.control_names)}",
+                  f"  parameters (--param NAME=VALUE): {params}",
+                  f"  defaults: --start {','.join(f'{s:g}' for s in spec.start)} "
+                  f"--velocity {','.join(f'{s:g}' for s in spec.velocity)} --goal {goal}", ""]
+    lines.append("Your own system: SYSTEM = path/to/file.py:factory, a function returning a "
+                 "dmoc.MechanicalSystem (its keyword arguments become --param names).")
+    return "\n".join(lines)
