@@ -126,7 +126,8 @@ def plot_states(traj, *, names=None, title=None):
 
 
 def plot_controls(traj, *, names=None, title=None, ax=None):
-    """The piecewise-constant controls u_k of a Trajectory against time.
+    """The controls u(t) of a Trajectory against time: held controls as steps, controls at
+    a stage rule's nodes as their interpolant on each step (`Trajectory.control`).
 
     Parameters
     ----------
@@ -141,9 +142,15 @@ def plot_controls(traj, *, names=None, title=None, ax=None):
     matplotlib.figure.Figure
     """
     fig, ax = _axes(ax)
-    names = names or [f"u{i}" for i in range(traj.u.shape[1])]
-    for i, name in enumerate(names):
-        ax.stairs(traj.u[:, i], traj.t, baseline=None, label=name)
+    n_u = traj.u.shape[1] // len(traj.control_nodes)
+    names = names or [f"u{i}" for i in range(n_u)]
+    if traj.control_nodes == (0.5,):
+        for i, name in enumerate(names):
+            ax.stairs(traj.u[:, i], traj.t, baseline=None, label=name)
+    else:
+        t = np.linspace(traj.t[0], traj.t[-1], 8 * traj.steps + 1)
+        for i, name in enumerate(names):
+            ax.plot(t, traj.control(t)[:, i], label=name)
     ax.set_xlabel("t")
     ax.set_ylabel("u")
     return _finish(fig, ax, title)
