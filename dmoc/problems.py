@@ -8,8 +8,9 @@ from .ocp import OptimalControlProblem
 from .systems import knife_edge, rolling_disk
 
 
-def knife_edge_parking(steps=100, *, duration=4.0, variant="+", rule="midpoint"):
-    """Rest-to-rest parallel parking of the knife edge, (0, 0, 0) -> (0, 1, 0).
+def knife_edge_parking(steps=100, *, goal=(0.0, 1.0, 0.0), duration=4.0, variant="+",
+                       rule="midpoint"):
+    """Rest-to-rest parallel parking of the knife edge, (0, 0, 0) -> `goal` = (x, y, theta).
 
     m = J = 1, fixed `duration`, minimizing int |u|^2 dt; returns an OptimalControlProblem.
 
@@ -17,7 +18,7 @@ def knife_edge_parking(steps=100, *, duration=4.0, variant="+", rule="midpoint")
     20
     """
     disc = discretize(knife_edge(mass=1.0, inertia=1.0), duration / steps, rule)
-    return OptimalControlProblem(disc, steps, q_start=[0.0, 0.0, 0.0], q_goal=[0.0, 1.0, 0.0],
+    return OptimalControlProblem(disc, steps, q_start=[0.0, 0.0, 0.0], q_goal=goal,
                                  variant=variant)
 
 
