@@ -185,7 +185,7 @@ def _connect(client):
     """(Client, whether this call owns it and must close it)."""
     if client is None:
         cluster = distributed.LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1,
-                                           processes=True, dashboard_address=None)
+                                           processes=True, dashboard_address=":0")
         return distributed.Client(cluster), True
     if isinstance(client, str):
         return distributed.Client(client), True
