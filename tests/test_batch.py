@@ -14,10 +14,9 @@ distributed = pytest.importorskip("distributed")
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from dmoc.problems import knife_edge_parking  # noqa: E402
+from dmoc.problems import knife_edge_parking, parking_goals  # noqa: E402
 
-GOALS = [(x, y, theta) for x in np.linspace(-0.5, 0.5, 4) for y in np.linspace(0.5, 2.0, 4)
-         for theta in np.linspace(-np.pi / 4, np.pi / 4, 4)]
+GOALS = parking_goals()
 
 
 def _cluster(**scheduler_kwargs):
