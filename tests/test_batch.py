@@ -2,7 +2,9 @@
 input order; a failing solve, an exception in a task and a killed worker stay confined to
 their own result. The oracle is the serial in-process `dmoc.optimize` / `dmoc.simulate`."""
 
+import importlib.util
 import os
+import pathlib
 import signal
 import subprocess
 import sys
@@ -190,3 +192,23 @@ def test_simulate_many_rejects_bad_arguments():
         batch.simulate_many([disc, disc], [run])
     with pytest.raises(TypeError, match="`runs` must be a sequence of dict"):
         batch.simulate_many(disc, [run, 3])
+
+
+def test_motion_primitives_example(client, tmp_path, capsys):
+    spec = importlib.util.spec_from_file_location(
+        "motion_primitives", pathlib.Path(__file__).parents[1] / "examples" / "motion_primitives.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    waves = example.waves()
+    assert [len(w) for w in waves] == [1, 8, 16]
+    for d, wave in enumerate(waves[1:], start=1):       # each warm start was solved before
+        assert all(near in {c for c, _ in waves[d - 1]} for _, near in wave)
+    solved = example.main(steps=20, out=tmp_path, client=client)
+    assert len(solved) == 25 and all(r.success for r in solved.values())
+    for (i, j), result in solved.items():               # mirror symmetry (y, theta) -> (-y, -theta)
+        assert abs(result.cost - solved[4 - i, 4 - j].cost) <= 1e-8 * result.cost
+        saved = dmoc.Trajectory.load(tmp_path / "motion_primitives" / f"y{i}_theta{j}.npz")
+        assert np.array_equal(saved.q, result.trajectory.q)
+    assert len((tmp_path / "motion_primitives.csv").read_text().splitlines()) == 26
+    assert (tmp_path / "motion_primitives.png").stat().st_size > 1000
+    assert "25/25 primitives solved" in capsys.readouterr().out
