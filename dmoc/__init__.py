@@ -1,5 +1,7 @@
 """dmoc: discrete Dirac mechanics for simulation and optimal control of constrained systems."""
 
+import importlib
+
 from .discrete import Discretization, Midpoint, Trapezoid, discretize
 from .errors import DmocError, SolverError
 from .ocp import OptimalControlProblem
@@ -33,3 +35,10 @@ __all__ = [
     "DmocError",
     "SolverError",
 ]
+
+
+def __getattr__(name):
+    """`dmoc.batch` is imported on first use, so that ``import dmoc`` never imports dask."""
+    if name == "batch":
+        return importlib.import_module(".batch", __name__)
+    raise AttributeError(f"module 'dmoc' has no attribute {name!r}")

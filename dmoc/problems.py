@@ -8,8 +8,9 @@ from .ocp import OptimalControlProblem
 from .systems import knife_edge, rolling_disk
 
 
-def knife_edge_parking(steps=100, *, duration=4.0, variant="+", rule="midpoint"):
-    """Rest-to-rest parallel parking of the knife edge, (0, 0, 0) -> (0, 1, 0).
+def knife_edge_parking(steps=100, *, goal=(0.0, 1.0, 0.0), duration=4.0, variant="+",
+                       rule="midpoint"):
+    """Rest-to-rest parallel parking of the knife edge, (0, 0, 0) -> `goal` = (x, y, theta).
 
     m = J = 1, fixed `duration`, minimizing int |u|^2 dt; returns an OptimalControlProblem.
 
@@ -17,8 +18,20 @@ def knife_edge_parking(steps=100, *, duration=4.0, variant="+", rule="midpoint")
     20
     """
     disc = discretize(knife_edge(mass=1.0, inertia=1.0), duration / steps, rule)
-    return OptimalControlProblem(disc, steps, q_start=[0.0, 0.0, 0.0], q_goal=[0.0, 1.0, 0.0],
+    return OptimalControlProblem(disc, steps, q_start=[0.0, 0.0, 0.0], q_goal=goal,
                                  variant=variant)
+
+
+def parking_goals():
+    """64 goals (x, y, theta) for `knife_edge_parking`, shape (64, 3): a 4 x 4 x 4 grid of
+    x in [-0.5, 0.5], y in [0.5, 2] and theta in [-pi/4, pi/4], the batch of the batch
+    tests and benchmark.
+
+    >>> parking_goals().shape
+    (64, 3)
+    """
+    axes = np.linspace(-0.5, 0.5, 4), np.linspace(0.5, 2.0, 4), np.linspace(-np.pi / 4, np.pi / 4, 4)
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
 
 def rolling_disk_steering(steps=100, *, duration=4.0, variant="+", rule="midpoint"):
