@@ -97,4 +97,4 @@ def main(steps=40, out="dmoc-output", client=None):
 
 
 if __name__ == "__main__":
-    main(**vars(example_arguments(__doc__.splitlines()[0])))
+    main(**vars(example_arguments(__doc__)))
