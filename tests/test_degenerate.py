@@ -20,6 +20,7 @@ from scipy.linalg import expm
 
 import dmoc
 from dmoc.diagnostics import replay_error
+from dmoc.discrete import QuadratureRule
 from dmoc.systems import lc_circuit, lc_circuit_solution, point_vortices, point_vortices_solution
 
 L0, C1, C2 = 0.8, 0.5, 1.5
@@ -230,6 +231,10 @@ def test_trapezoid_refused_on_lc_circuit():
     assert "rule='midpoint'" in message
     with pytest.raises(ValueError, match=r"\('q_1', 'q_2'\)"):
         dmoc.Discretization(system, 0.1, dmoc.Trapezoid())
+    # An interior node does not help while the end-point rows still lack q_{k+1}.
+    simpson = QuadratureRule("lobatto3", 4, (0.0, 0.5, 1.0), ((0.0, 1 / 6), (0.5, 2 / 3), (1.0, 1 / 6)))
+    with pytest.raises(ValueError, match=r"`rule` 'lobatto3'.*\('q_1', 'q_2'\)"):
+        dmoc.discretize(system, 0.1, simpson)
 
 
 @pytest.mark.parametrize("consumer", ["simulate", "OptimalControlProblem"])
