@@ -1,6 +1,10 @@
-"""A lattice of knife-edge motion primitives: rest-to-rest DMOC solves from (0, 0, 0) to
+"""
+A fan of knife-edge motion primitives on Dask
+=============================================
+
+A lattice of knife-edge motion primitives: rest-to-rest DMOC solves from (0, 0, 0) to
 (1.5, y, theta) for 5 lateral offsets y in [-1, 1] and 5 goal headings theta in
-[-pi/2, pi/2], in 3 s, minimizing int |u|^2 dt, solved as batches on dask.distributed.
+[-pi/2, pi/2], in 3 s, minimizing the integral of the squared norm of u, solved as batches on dask.distributed.
 
 Warm starts in waves: the straight primitive (y, theta) = (0, 0) is the seed (wave 0, the
 default guess); wave d holds the primitives d grid cells away from it (Chebyshev distance),

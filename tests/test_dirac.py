@@ -107,3 +107,29 @@ def test_symplecticity_defect_rejects_constraints():
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
     with pytest.raises(ValueError, match="disc"):
         symplecticity_defect(disc, [0, 0, 0], [1, 0, 0])
+
+
+@pytest.mark.parametrize("name", ["knife_edge", "rolling_disk"])
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_defect_sees_a_kick_only_the_annihilator_distance_can_see(name, variant):
+    """A kick to the momentum at the d'Alembert node that enters one component only: the
+    free one (the fibre allowed to differ by A(q)^T lam). For (+) that is p_0, which enters
+    only step 0, as component 2 = -D1 L_d - f^- - p_0 (free up to A(q_0)^T lam); for (-)
+    it is p_N, which enters only step N-1, as component 3 = -D2 L_d - f^+ + p_N (free up
+    to A(q_N)^T lam). Every other mismatch and omega_d stay exactly as they were, so only
+    the distance to range A(q)^T can flag it: a kick in ker A(q) (orthogonal to the range)
+    is seen at its full size, and a kick in range A(q)^T is not seen at all."""
+    system, q0, v0 = _runs()[name]
+    disc = dmoc.discretize(system, 0.05)
+    traj = dmoc.simulate(disc, q0=q0, v0=v0, steps=40, variant=variant).trajectory
+    node, step = (0, 0) if variant == "+" else (traj.steps, traj.steps - 1)
+    A = np.array(system.constraint_matrix(traj.q[node]))
+    off_range = np.linalg.svd(A)[2][-1] * 1e-6          # in ker A, orthogonal to range A^T
+    in_range = A.T @ np.linspace(1.0, 2.0, A.shape[0]) * 1e-3
+    p = traj.p.copy()
+    traj.p[node] = p[node] + off_range
+    defect = dirac_defect(disc, traj)
+    assert defect[step] == pytest.approx(np.abs(off_range).max(), rel=1e-6)
+    assert np.delete(defect, step).max() < 1e-12
+    traj.p[node] = p[node] + in_range
+    assert dirac_defect(disc, traj).max() < 1e-12

@@ -47,3 +47,21 @@ def test_demo_command_writes_summary(tmp_path, capsys):
 def test_demo_command_rejects_bad_steps(capsys):
     assert main(["demo", "--steps", "0"]) == 2
     assert "--steps" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name, files", [
+    ("lc_circuit", ["charges", "energy", "steering", "controls"]),
+    ("point_vortices", ["pair", "triple"]),
+])
+def test_degenerate_example_runs_and_saves(name, files, tmp_path, capsys):
+    result = _load(name).main(steps=40, out=tmp_path)
+    printed = capsys.readouterr().out
+    assert printed == (tmp_path / f"{name}_summary.txt").read_text()
+    for suffix in files:
+        assert (tmp_path / f"{name}_{suffix}.png").stat().st_size > 1000
+    if name == "lc_circuit":
+        assert result.success and "replay by simulate" in printed
+        assert np.allclose(Trajectory.load(tmp_path / "lc_circuit_steering.npz").q[-1],
+                           [1.0, 0.25, 0.75], rtol=0, atol=1e-12)
+    else:
+        assert "Omega: measured" in printed and result.steps == 400

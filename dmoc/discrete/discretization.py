@@ -10,6 +10,7 @@ import casadi as ca
 from .. import _checks
 from .._cache import BoundedCache
 from ..system import MechanicalSystem
+from .degenerate import check_one_step_map
 from .rules import as_rule, quadrature, virtual_work_split
 
 
@@ -63,6 +64,7 @@ class Discretization:
         self.n_controls = len(rule.control_nodes) * system.n_u
         (self.discrete_lagrangian, self.discrete_constraint, self.discrete_force,
          self.midpoint_state) = _DISCRETE_DATA.get(self.key, lambda: _discrete_data(system, rule))
+        check_one_step_map(self)
 
     def discrete_cost(self, running_cost):
         """The step integral C_d(q0, q1, s, u, h) of ``running_cost(q, v, u)`` by this rule,

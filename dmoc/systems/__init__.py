@@ -1,10 +1,14 @@
 """Example systems for the first stage of the pipeline: each constructor returns a
 MechanicalSystem (L, the constraint one-forms A(q) of (27), a control force f) and comes with
-the exact solution of its unforced Lagrange-d'Alembert equations, an oracle for measuring the
+the exact solution of its unforced Lagrange-d'Alembert equations (for the degenerate LC circuit
+and point vortices, docs/degenerate.md), an oracle for measuring the
 order, constraint error and energy error of the discrete principles (46)/(47).
 """
 
 from .knife_edge import knife_edge, knife_edge_solution
+from .lc_circuit import lc_circuit, lc_circuit_solution
+from .point_vortices import point_vortices, point_vortices_solution
 from .rolling_disk import rolling_disk, rolling_disk_solution
 
-__all__ = ["knife_edge", "knife_edge_solution", "rolling_disk", "rolling_disk_solution"]
+__all__ = ["knife_edge", "knife_edge_solution", "lc_circuit", "lc_circuit_solution",
+           "point_vortices", "point_vortices_solution", "rolling_disk", "rolling_disk_solution"]
