@@ -28,16 +28,15 @@ def check_trajectory(disc, traj):
 
 
 def energy(disc, traj):
-    """Energy E = v . dL/dv - L at each step's midpoint, shape (N,).
-
-    Evaluated on the rule's interpolant in the middle of the step (for linear rules at
-    ((q_k + q_{k+1})/2, (q_{k+1} - q_k)/h)), so it needs no Legendre transform and works
-    for degenerate Lagrangians.
+    """Energy E = v . dL/dv - L of each step, shape (N,): averaged over the step by the
+    rule's quadrature on its interpolant (`Discretization.step_energy`; for the midpoint
+    rule E at ((q_k + q_{k+1})/2, (q_{k+1} - q_k)/h)), accurate at the rule's order. It
+    needs no Legendre transform and works for degenerate Lagrangians.
     """
     if not check_trajectory(disc, traj):
         return np.zeros(0)
-    q, v = disc.midpoint_state.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
-    return np.array(disc.system.energy.map(traj.steps)(q, v)).ravel()
+    E = disc.step_energy.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
+    return np.array(E).ravel()
 
 
 def constraint_violation(disc, traj):
@@ -47,6 +46,31 @@ def constraint_violation(disc, traj):
     omega = np.array(disc.discrete_constraint.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T,
                                                                traj.s.T, traj.h))
     return np.abs(omega).max(axis=0)
+
+
+def mean_momenta(disc, traj):
+    """Momenta at the nodes q_0 ... q_{N-1} that approximate the continuous p(t_k) at the
+    rule's order, shape (N, n): at interior nodes the mean of the momenta before and after
+    the constraint impulse, p_k + impulse_side A(q_k)^T iota_k; at q_0 the momentum before
+    the first impulse, the start datum (dL/dv(q_0, v_0) of a simulation or of the boundary
+    rows).
+
+    p_k of the (+) form is the momentum just before the impulse at q_k, p_k of the (-)
+    form the one just after; each differs from p(t_k) by half the impulse, O(h) when the
+    constraint force is not zero. The mean needs no Legendre transform and converges at
+    order 2 for the midpoint and trapezoid rules and 4 for the Lobatto rules (measured;
+    docs/theory.md, "Stage rules"). Without constraints it is p_k.
+    """
+    if not check_trajectory(disc, traj):
+        return np.zeros((0, disc.system.n))
+    formulation, N = as_formulation(traj.variant), traj.steps
+    iota = formulation.node_impulses(traj.lam, traj.mu, disc.system.m)
+    A = np.array(disc.system.constraint_matrix.map(N)(traj.q[:-1].T))      # (m, N n)
+    n = disc.system.n
+    forces = np.array([A[:, k * n:(k + 1) * n].T @ iota[k] for k in range(N)]).reshape(N, n)
+    side = np.full((N, 1), formulation.impulse_side)
+    side[0] += 0.5
+    return traj.p[:-1] + side * forces
 
 
 def residual_norms(disc, traj):
@@ -106,22 +130,25 @@ def symplecticity_defect(disc, q0, p0, *, u=None, variant="+"):
     """max |J^T Omega J - Omega| for the step map (q0, p0) -> (q1, p1) of an unconstrained
     system, Omega the matrix of dq ^ dp (20); zero for a variational integrator.
 
-    J comes from the implicit function theorem on the step residual at the computed step.
+    J comes from the implicit function theorem on the step residual at the computed step,
+    the stage unknowns of a stage rule eliminated with (q1, p1). `u` holds the step's
+    controls, shape (disc.n_controls,) (default zeros).
     """
     sys = disc.system
-    if sys.m or disc.n_stages:
-        raise ValueError("`disc` must have no constraints and no stages: with constraints the "
-                         "step map is not symplectic on T*Q.")
-    u = np.zeros(sys.n_u) if u is None else _checks.array("u", u, (sys.n_u,))
+    if sys.m:
+        raise ValueError("`disc` must have no constraints: with constraints the step map is "
+                         "not symplectic on T*Q.")
+    u = np.zeros(disc.n_controls) if u is None else _checks.array("u", u, (disc.n_controls,))
     traj = simulate(disc, q0=q0, p0=p0, steps=1, controls=np.reshape(u, (1, -1)),
                     variant=variant).trajectory
     n = sys.n
-    x = ca.SX.sym("x", 2 * n)      # (q0, p0)
-    y = ca.SX.sym("y", 2 * n)      # (q1, p1)
-    R = step_residual(disc, variant)(q0=x[:n], p0=x[n:], q1=y[:n], p1=y[n:], lam=ca.SX(0, 1),
-                                     s=ca.SX(0, 1), u=u, h=disc.h)
+    x = ca.SX.sym("x", 2 * n)                       # (q0, p0)
+    y = ca.SX.sym("y", 2 * n + disc.n_stages)       # (q1, p1, s)
+    R = step_residual(disc, variant)(q0=x[:n], p0=x[n:], q1=y[:n], p1=y[n:2 * n], lam=ca.SX(0, 1),
+                                     s=y[2 * n:], u=u, h=disc.h)
     jac = ca.Function("step_jacobians", [x, y], [ca.jacobian(R, x), ca.jacobian(R, y)])
-    Rx, Ry = (np.array(J) for J in jac(np.r_[traj.q[0], traj.p[0]], np.r_[traj.q[1], traj.p[1]]))
-    J = -np.linalg.solve(Ry, Rx)
+    Rx, Ry = (np.array(J) for J in jac(np.r_[traj.q[0], traj.p[0]],
+                                        np.r_[traj.q[1], traj.p[1], traj.s[0]]))
+    J = -np.linalg.solve(Ry, Rx)[:2 * n]
     Omega = np.block([[np.zeros((n, n)), np.eye(n)], [-np.eye(n), np.zeros((n, n))]])
     return float(np.abs(J.T @ Omega @ J - Omega).max())

@@ -63,6 +63,10 @@ class Formulation:
     end_momentum_determined : bool
         Whether a simulation's p_N equals the optimizer's (False when the impulse at q_N,
         which no N-step simulation can know, is part of p_N).
+    impulse_side : float
+        p_k of this form is the momentum before (+: -1/2) or after (-: +1/2) the impulse
+        A(q_k)^T iota_k at q_k; p_k + impulse_side A(q_k)^T iota_k is the mean of the two
+        (`dmoc.diagnostics.mean_momenta`).
     """
 
     name = None
@@ -71,6 +75,7 @@ class Formulation:
     start_impulse = 0
     end_impulse = 0
     end_momentum_determined = True
+    impulse_side = None
 
     def window(self, discrete_lagrangian, sym):
         """The Window of the action sum around step k from the symbols `sym` (a dict:
@@ -85,6 +90,11 @@ class Formulation:
         """(p_k, lam_k) of the step equations from the momentum carried into step k and the
         multipliers `nu` the simulator solves for: the impulse at q_k (first m rows), then
         those at the interior nodes."""
+        raise NotImplementedError
+
+    def node_impulses(self, lam, mu, m):
+        """The impulses iota_k at q_0 ... q_{N-1}, shape (N, m), from a Trajectory's
+        `lam` (N, n_lam) and `mu` (m,)."""
         raise NotImplementedError
 
     def trajectory_blocks(self, p_carried, p_used, nu, m):
@@ -131,7 +141,7 @@ class LagrangianPlus(Formulation):
     p_N = dL/dv(q_N, v_N) + A(q_N)^T nu.
     """
 
-    name, label, multiplier_node, end_impulse = "+", "plus", 0, -1
+    name, label, multiplier_node, end_impulse, impulse_side = "+", "plus", 0, -1, -0.5
 
     def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
         return sum(discrete_lagrangian(q[k], q_aux[k], s[k], h) + ca.dot(p[k], q[k + 1] - q_aux[k])
@@ -147,6 +157,9 @@ class LagrangianPlus(Formulation):
 
     def step_momentum(self, system, q0, p_carried, nu):
         return p_carried, nu
+
+    def node_impulses(self, lam, mu, m):
+        return lam[:, :m]
 
     def trajectory_blocks(self, p_carried, p_used, nu, m):
         return p_carried, nu, np.zeros(m)
@@ -164,7 +177,7 @@ class LagrangianMinus(Formulation):
     applies mu at the start (`Trajectory.mu`) and ends with lam_{N-1} = 0.
     """
 
-    name, label, multiplier_node, start_impulse = "-", "minus", 1, 1
+    name, label, multiplier_node, start_impulse, impulse_side = "-", "minus", 1, 1, 0.5
     end_momentum_determined = False
 
     def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
@@ -183,6 +196,9 @@ class LagrangianMinus(Formulation):
         at_q0, interior = ca.vertsplit(nu, [0, system.m, nu.numel()])
         impulse = ca.mtimes(system.constraint_matrix(q0).T, at_q0)
         return p_carried - impulse, ca.vertcat(ca.SX.zeros(system.m), interior)
+
+    def node_impulses(self, lam, mu, m):
+        return np.vstack([mu[None, :m], lam[:-1, :m]])
 
     def trajectory_blocks(self, p_carried, p_used, nu, m):
         N = nu.shape[0]

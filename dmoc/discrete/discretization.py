@@ -46,6 +46,10 @@ class Discretization:
     midpoint_state : casadi.Function
         ``(q0, q1, s, h) -> (q, v)``: the interpolant and its velocity at the middle of the
         step (for linear rules (q0 + q1)/2 and (q1 - q0)/h).
+    step_energy : casadi.Function
+        ``(q0, q1, s, h) -> E``: the energy v . dL/dv - L averaged over the step by the
+        rule's quadrature, sum_i b_i E(q(c_i), q'(c_i)); for the midpoint rule E at the
+        midpoint. It needs no Legendre transform.
     key : tuple
         ``(system.key, rule)``: what the step residual and the compiled steps depend on.
         Every Function above takes h as an input, so discretizations that differ only in
@@ -63,7 +67,8 @@ class Discretization:
         self.n_multipliers = rule.n_multiplier_nodes * system.m
         self.n_controls = len(rule.control_nodes) * system.n_u
         (self.discrete_lagrangian, self.discrete_constraint, self.discrete_force,
-         self.midpoint_state) = _DISCRETE_DATA.get(self.key, lambda: _discrete_data(system, rule))
+         self.midpoint_state, self.step_energy) = _DISCRETE_DATA.get(
+            self.key, lambda: _discrete_data(system, rule))
         check_one_step_map(self)
 
     def discrete_cost(self, running_cost):
@@ -88,10 +93,11 @@ def _step_symbols(system, rule):
 
 
 def _discrete_data(system, rule):
-    """(L_d, omega_d, f_d, midpoint state) of `system` by `rule`, h an input: built once
-    per system key and rule, shared by discretizations at every h."""
+    """(L_d, omega_d, f_d, midpoint state, step energy) of `system` by `rule`, h an input:
+    built once per system key and rule, shared by discretizations at every h."""
     q0, q1, s, u, h = _step_symbols(system, rule)
     L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
+    E = quadrature(rule, lambda q, v, _: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
     omega_d = rule.discrete_constraint(system.constraint_matrix, q0, q1, s, h)
     forces = virtual_work_split(rule, system.force, q0, q1, s, u, h)
     (_, q_mid, v_mid, _), = rule.samples(q0, q1, s, h, ((0.5, 1.0),))
@@ -100,7 +106,8 @@ def _discrete_data(system, rule):
             ca.Function("f_d", [q0, q1, s, u, h], list(forces),
                         ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"]),
             ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],
-                        ["q0", "q1", "s", "h"], ["q", "v"]))
+                        ["q0", "q1", "s", "h"], ["q", "v"]),
+            ca.Function("step_energy", [q0, q1, s, h], [E], ["q0", "q1", "s", "h"], ["E"]))
 
 
 def discretize(system, h, rule="midpoint"):
