@@ -215,14 +215,17 @@ def test_step_equations_written_by_hand(variant):
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
 
 
-def test_variants_agree():
-    """Same positions; p^(-)_k = p^(+)_k - A(q_k)^T lam^(+)_k with A = dg/dq by hand."""
-    disc = dmoc.discretize(bead(), 0.05, "trapezoid")
+@pytest.mark.parametrize("rule", ["trapezoid", "lobatto3"])
+def test_variants_agree(rule):
+    """Same positions (and stages); p^(-)_k = p^(+)_k - A(q_k)^T lam^(+)_k, lam^(+)_k the
+    multiplier at q_k, with A = dg/dq by hand."""
+    disc = dmoc.discretize(bead(), 0.05, rule)
     plus, minus = (dmoc.simulate(disc, q0=BEAD_Q0, v0=BEAD_V0, steps=200, variant=v).trajectory
                    for v in VARIANTS)
     np.testing.assert_allclose(minus.q, plus.q, atol=1e-12)
+    np.testing.assert_allclose(minus.s, plus.s, atol=1e-12)
     G = np.column_stack([1 - 3 * plus.q[:-1, 0] ** 2, np.ones(200)])
-    np.testing.assert_allclose(minus.p[:-1], plus.p[:-1] - G * plus.lam, atol=1e-11)
+    np.testing.assert_allclose(minus.p[:-1], plus.p[:-1] - G * plus.lam[:, :1], atol=1e-11)
 
 
 def test_initial_data_checked():
