@@ -2,7 +2,7 @@
 
 import importlib
 
-from .discrete import Discretization, Midpoint, Trapezoid, discretize
+from .discrete import Discretization, Lobatto3, Lobatto4, Midpoint, Trapezoid, discretize
 from .errors import DmocError, SolverError
 from .ocp import OptimalControlProblem
 from .optimize import OptimizationResult, optimize
@@ -18,6 +18,8 @@ __all__ = [
     "discretize",
     "Midpoint",
     "Trapezoid",
+    "Lobatto3",
+    "Lobatto4",
     "StepResidual",
     "action_sum",
     "step_residual",

@@ -111,7 +111,8 @@ class Formulation:
         start, end : casadi.Function
             ``start(q, p, v, mu) -> r`` and ``end(q, p, v, nu) -> r``, r of shape (n,):
             p - dL/dv(q, v) + start_impulse A(q)^T mu at q_0 and
-            p - dL/dv(q, v) + end_impulse A(q)^T nu at q_N.
+            p - dL/dv(q, v) + end_impulse A(q)^T nu at q_N, A(q) holding every constraint
+            one-form (dg/dq of holonomic constraints included).
         m_start, m_end : int
             Sizes of mu and nu (m where the impulse is present, else 0).
         """

@@ -9,7 +9,7 @@ import numpy as np
 
 from . import _checks
 from ._symbolic import checked_function
-from .boundary import check_allowed_velocity
+from .boundary import check_allowed_velocity, check_holonomic_boundary
 from .discrete import Discretization
 from .formulations import as_formulation
 from .layout import Layout
@@ -74,6 +74,7 @@ class OptimalControlProblem:
         self.q_goal = _boundary("q_goal", q_goal, n)
         self.v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
         self.v_goal = _boundary("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
+        check_holonomic_boundary(sys, self.q_start, self.q_goal)
         for end in ("start", "goal"):
             if self._fully_given(end):
                 check_allowed_velocity("v_" + end, sys, getattr(self, "q_" + end),

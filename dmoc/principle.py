@@ -71,7 +71,10 @@ class StepResidual:
     (-): left  = p0 + D1 L_d(q0, q1) + f_d^-                   (d/dq_{k+1}^-)
          right = D2 L_d(q0, q1) + f_d^+ - p1 - A(q1)^T lam     (d/dq_{k+1})
 
-    and constraint = omega_d(q0, q1) (28). A rule with interior nodes Q_j adds the stage
+    and constraint = omega_d(q0, q1) (28). A(q) holds every constraint one-form of the
+    system: the nonholonomic rows, then dg/dq of the holonomic constraints g(q) = 0, whose
+    constraint rows are g(q1) itself (g(q0) is the previous step's), so g(q_k) = 0 holds
+    exactly at every node (the SHAKE/RATTLE positions, docs/holonomic.md). A rule with interior nodes Q_j adds the stage
     rows dL_d/dQ_j + f_d^{s,j} - A(Q_j)^T lam_j (d'Alembert variations at the stages too),
     lam = (lam at the end node, lam_1, ...), and its moment constraints (docs/theory.md,
     "Stage rules"). The conditions from varying the p's, q_{k+1} =

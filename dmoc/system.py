@@ -1,6 +1,7 @@
 """Continuous mechanical data, the first stage of the pipeline: a Lagrangian L(q, v),
-constraint one-forms A(q) whose rows are the omega^a of (27), and a generalized force
-f(q, v, u), each turned once into a named CasADi Function.
+constraint one-forms A(q) whose rows are the omega^a of (27), holonomic constraints g(q) = 0
+(whose one-forms dg join them), and a generalized force f(q, v, u), each turned once into a
+named CasADi Function.
 """
 
 import hashlib
@@ -23,8 +24,12 @@ class MechanicalSystem:
     n : int
         Dimension of the configuration space.
     constraints : callable, optional
-        ``constraints(q)`` returning the (m, n) matrix A(q) whose rows are the constraint
-        one-forms omega^a (27): allowed velocities are ker A(q), constraint forces A(q)^T lam.
+        ``constraints(q)`` returning the (m - k, n) matrix of the nonholonomic constraint
+        one-forms omega^a (27).
+    holonomic : callable, optional
+        ``holonomic(q)`` returning g(q), shape (k,): the configurations are restricted to
+        g(q) = 0. The discretization keeps g(q_j) = 0 at every node exactly (not only its
+        one-forms dg = dg/dq dq), see docs/holonomic.md.
     force : callable, optional
         ``force(q, v, u)`` returning the generalized force, shape (n,), with u of shape
         (n_u, 1).
@@ -36,13 +41,20 @@ class MechanicalSystem:
     Attributes
     ----------
     n, m, n_u : int
-        Sizes of q, of lam (number of constraints) and of u.
+        Sizes of q, of lam (number of constraint one-forms, nonholonomic and holonomic) and
+        of u.
+    n_holonomic : int
+        k, the number of holonomic constraints (the last k of the m one-forms).
     lagrangian, constraint_matrix, force, momentum, energy : casadi.Function
         ``L(q, v)``, ``A(q)`` (m, n), ``f(q, v, u)`` (n,), ``p = dL/dv(q, v)`` (n,) and
-        ``E = v . dL/dv - L`` built once on symbols of the declared sizes.
+        ``E = v . dL/dv - L`` built once on symbols of the declared sizes. The rows of A(q)
+        are all the constraint one-forms: those of `constraints`, then dg/dq (k, n).
+        Allowed velocities are ker A(q), constraint forces A(q)^T lam.
+    nonholonomic_matrix, holonomic : casadi.Function
+        ``A_nh(q)`` (m - k, n), the rows given by `constraints`, and ``g(q)`` (k,).
     key : str
-        A fingerprint of L, A and f (not of `names`): systems with equal data share their
-        step residuals and compiled steps.
+        A fingerprint of L, A_nh, g and f (not of `names`): systems with equal data share
+        their step residuals and compiled steps.
 
     Raises
     ------
@@ -56,9 +68,14 @@ class MechanicalSystem:
     ...                      constraints=lambda q: ca.horzcat(1, -1))
     >>> (s.n, s.m, s.n_u)
     (2, 1, 0)
+    >>> bead = MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v) - q[1], 2,
+    ...                         holonomic=lambda q: q[1] - q[0] ** 3)
+    >>> (bead.m, bead.n_holonomic)
+    (1, 1)
     """
 
-    def __init__(self, lagrangian, n, *, constraints=None, force=None, n_u=0, names=None):
+    def __init__(self, lagrangian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
+                 names=None):
         self.n = _checks.positive_int("n", n)
         self.n_u = _checks.nonnegative_int("n_u", n_u)
         q = ca.SX.sym("q", self.n)
@@ -70,26 +87,58 @@ class MechanicalSystem:
         else:
             self.lagrangian = user_function("lagrangian", lagrangian, (q, v), ("q", "v"),
                                             (1, 1), problems, label="L")
-        self.constraint_matrix = ca.Function("A", [q], [ca.SX(0, self.n)], ["q"], ["A"]) \
-            if constraints is None else user_function(
-                "constraints", constraints, (q,), ("q",), (None, self.n), problems, label="A")
+        (self.nonholonomic_matrix, self.holonomic,
+         self.constraint_matrix) = constraint_functions(q, constraints, holonomic, problems)
         self.force = ca.Function("f", [q, v, u], [ca.SX.zeros(self.n)], ["q", "v", "u"], ["f"]) \
             if force is None else user_function(
                 "force", force, (q, v, u), ("q", "v", "u"), (self.n, 1), problems, label="f")
         self.names = _coordinate_names(names, self.n, problems)
         if not problems:
-            _check_rank(self.constraint_matrix, self.n, problems)
+            _check_rank(self.constraint_matrix, self.n, self.holonomic.numel_out(0), problems)
         if problems:
             raise ValueError("MechanicalSystem is invalid:\n  - " + "\n  - ".join(problems))
         self.m = self.constraint_matrix.size1_out(0)
+        self.n_holonomic = self.holonomic.numel_out(0)
         L = self.lagrangian(q, v)
         p = ca.gradient(L, v)
         self.momentum = ca.Function("momentum", [q, v], [p], ["q", "v"], ["p"])
         self.energy = ca.Function("energy", [q, v], [ca.dot(v, p) - L], ["q", "v"], ["E"])
-        self.key = _fingerprint(self.lagrangian, self.constraint_matrix, self.force)
+        self.key = _fingerprint(self.lagrangian, self.nonholonomic_matrix, self.holonomic,
+                                self.force)
 
     def __repr__(self):
-        return f"MechanicalSystem(n={self.n}, m={self.m}, n_u={self.n_u}, names={self.names})"
+        return (f"MechanicalSystem(n={self.n}, m={self.m}, n_holonomic={self.n_holonomic}, "
+                f"n_u={self.n_u}, names={self.names})")
+
+
+def constraint_functions(q, constraints, holonomic, problems):
+    """The constraint data of a system on Q = R^n from the user's callables.
+
+    Parameters
+    ----------
+    q : casadi.SX, shape (n, 1)
+    constraints, holonomic : callable or None
+        ``constraints(q) -> A_nh`` (m - k, n) and ``holonomic(q) -> g`` (k,).
+    problems : list of str
+        Messages are appended here (the caller raises them together).
+
+    Returns
+    -------
+    nonholonomic, holonomic, one_forms : casadi.Function or None
+        ``A_nh(q)``, ``g(q)`` and ``A(q) = [A_nh(q); dg/dq(q)]`` (m, n), the one-forms at
+        the d'Alembert node; None where a callable failed. Shared by every system class,
+        so the Lagrangian and Hamiltonian sides take the same arguments.
+    """
+    n = q.numel()
+    A_nh = ca.Function("A_nh", [q], [ca.SX(0, n)], ["q"], ["A_nh"]) if constraints is None \
+        else user_function("constraints", constraints, (q,), ("q",), (None, n), problems,
+                           label="A_nh")
+    g = ca.Function("g", [q], [ca.SX(0, 1)], ["q"], ["g"]) if holonomic is None \
+        else user_function("holonomic", holonomic, (q,), ("q",), (None, 1), problems, label="g")
+    if A_nh is None or g is None:
+        return A_nh, g, None
+    A = ca.vertcat(A_nh(q), ca.jacobian(g(q), q))
+    return A_nh, g, ca.Function("A", [q], [A], ["q"], ["A"])
 
 
 def _fingerprint(*functions):
@@ -98,15 +147,17 @@ def _fingerprint(*functions):
     return hashlib.sha256("".join(f.serialize() for f in functions).encode()).hexdigest()
 
 
-def _check_rank(constraint_matrix, n, problems):
-    """A problem if the rows of A(q) are dependent at random configurations (the step
-    equations would then be singular)."""
+def _check_rank(constraint_matrix, n, n_holonomic, problems):
+    """A problem if the constraint one-forms (the rows of A(q), dg/dq included) are dependent
+    at random configurations (the step equations would then be singular)."""
     rng = np.random.default_rng(0)
     m = constraint_matrix.size1_out(0)
     ranks = [np.linalg.matrix_rank(np.array(constraint_matrix(rng.normal(size=n)))) for _ in range(3)]
     if m and max(ranks) < m:
-        problems.append(f"`constraints` must have linearly independent rows: A(q) has rank "
-                        f"{max(ranks)} < m = {m} at random q; drop the redundant rows.")
+        rows = "`constraints` must have linearly independent rows" if not n_holonomic else \
+            "the rows of `constraints` and of dg/dq of `holonomic` must be linearly independent"
+        problems.append(f"{rows}: A(q) has rank {max(ranks)} < m = {m} at random q; drop the "
+                        f"redundant rows.")
 
 
 def _coordinate_names(names, n, problems):

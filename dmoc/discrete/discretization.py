@@ -30,15 +30,18 @@ class Discretization:
         Stage unknowns per step (``rule.n_stages * n`` rows of s; 0 for stage-free rules).
     n_multipliers : int
         d'Alembert multipliers per step (``rule.n_multiplier_nodes * m`` rows of lam: the
-        formulation's end node, then the interior nodes).
+        formulation's end node, then the interior nodes; m counts the nonholonomic and the
+        holonomic one-forms, so k holonomic constraints add k per node).
     n_controls : int
         Control values per step (``len(rule.control_nodes) * n_u`` rows of u, node by node).
     discrete_lagrangian : casadi.Function
         ``L_d(q0, q1, s, h)``, scalar.
     discrete_constraint : casadi.Function
-        ``omega_d(q0, q1, s, h)``, shape (n_multipliers,): for stage-free rules eq. (28)
-        with the midpoint retraction, A((q0 + q1)/2) (q1 - q0)/h; for stage rules the
-        Legendre moments of A(q) q' along the interpolant (`QuadratureRule.discrete_constraint`).
+        ``omega_d(q0, q1, s, h)``, shape (n_multipliers,): first the nonholonomic rows, for
+        stage-free rules eq. (28) with the midpoint retraction, A_nh((q0 + q1)/2) (q1 - q0)/h,
+        for stage rules the Legendre moments of A_nh(q) q' along the interpolant
+        (`QuadratureRule.discrete_constraint`); then the holonomic rows g at every node
+        after q0 (`QuadratureRule.holonomic_constraint`; g(q1) for stage-free rules).
         Delta_Q^d is its zero set.
     discrete_force : casadi.Function
         ``f_d(q0, q1, s, u, h) -> (f_minus, f_plus, f_stage)``: the left and right discrete
@@ -98,7 +101,8 @@ def _discrete_data(system, rule):
     q0, q1, s, u, h = _step_symbols(system, rule)
     L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
     E = quadrature(rule, lambda q, v, _: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
-    omega_d = rule.discrete_constraint(system.constraint_matrix, q0, q1, s, h)
+    omega_d = ca.vertcat(rule.discrete_constraint(system.nonholonomic_matrix, q0, q1, s, h),
+                         rule.holonomic_constraint(system.holonomic, q0, q1, s))
     forces = virtual_work_split(rule, system.force, q0, q1, s, u, h)
     (_, q_mid, v_mid, _), = rule.samples(q0, q1, s, h, ((0.5, 1.0),))
     return (ca.Function("L_d", [q0, q1, s, h], [L_d], ["q0", "q1", "s", "h"], ["L_d"]),

@@ -124,6 +124,13 @@ class QuadratureRule:
         return ca.vertcat(*[_combination([b * legendre.legval(2 * c - 1, np.eye(l + 1)[l])
                                           for c, b in self.constraint_points], Av) for l in moments])
 
+    def holonomic_constraint(self, g, q0, q1, s):
+        """The holonomic constraint rows of one step, (n_multiplier_nodes * k,): g at every
+        node after the first, [g(Q_1), ..., g(Q_{n_stages}), g(q1)] (g(q0) is the previous
+        step's, or the initial data's). One set of k rows per multiplier node, so with the
+        multipliers on dg/dq at those nodes every step stays square."""
+        return ca.vertcat(*[g(Q) for Q in self.node_values(q0, q1, s)[1:]])
+
     def __repr__(self):
         return f"QuadratureRule({self.name!r}, order={self.order}, n_stages={self.n_stages})"
 

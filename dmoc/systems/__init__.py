@@ -1,7 +1,8 @@
 """Example systems for the first stage of the pipeline: each constructor returns a
 MechanicalSystem (L, the constraint one-forms A(q) of (27), a control force f) and comes with
 the exact solution of its unforced Lagrange-d'Alembert equations (for the degenerate LC circuit
-and point vortices, docs/degenerate.md), an oracle for measuring the
+and point vortices, docs/degenerate.md) or, for the spherical pendulum with its holonomic
+constraint, its conserved quantities (docs/holonomic.md), an oracle for measuring the
 order, constraint error and energy error of the discrete principles (46)/(47).
 """
 
@@ -9,6 +10,8 @@ from .knife_edge import knife_edge, knife_edge_solution
 from .lc_circuit import lc_circuit, lc_circuit_solution
 from .point_vortices import point_vortices, point_vortices_solution
 from .rolling_disk import rolling_disk, rolling_disk_solution
+from .spherical_pendulum import spherical_pendulum
 
 __all__ = ["knife_edge", "knife_edge_solution", "lc_circuit", "lc_circuit_solution",
-           "point_vortices", "point_vortices_solution", "rolling_disk", "rolling_disk_solution"]
+           "point_vortices", "point_vortices_solution", "rolling_disk", "rolling_disk_solution",
+           "spherical_pendulum"]
