@@ -2,20 +2,24 @@
 
 import importlib
 
-from .discrete import Discretization, Lobatto3, Lobatto4, Midpoint, Trapezoid, discretize
+from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
+                       Trapezoid, discrete_legendre, discretize)
 from .errors import DmocError, SolverError
 from .ocp import OptimalControlProblem
 from .optimize import OptimizationResult, optimize
 from .principle import StepResidual, action_sum, step_residual
 from .simulate import SimulationResult, simulate
-from .system import MechanicalSystem
+from .system import HamiltonianSystem, MechanicalSystem
 from .trajectory import Trajectory
 from . import animation, diagnostics, dirac, plotting, systems
 
 __all__ = [
     "MechanicalSystem",
+    "HamiltonianSystem",
     "Discretization",
     "discretize",
+    "discrete_legendre",
+    "HamiltonianDiscretization",
     "Midpoint",
     "Trapezoid",
     "Lobatto3",

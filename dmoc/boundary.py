@@ -8,7 +8,6 @@ dg/dq(q) v = 0).
 
 import casadi as ca
 import numpy as np
-import scipy.linalg
 
 from . import _checks
 
@@ -19,7 +18,8 @@ def constraint_violation_tolerance(scale):
 
 
 def start_momentum(system, q0, v0, p0):
-    """Initial momentum from exactly one of `v0` (then p_0 = dL/dv(q0, v0)) or `p0`.
+    """Initial momentum from exactly one of `v0` (then p_0 = dL/dv(q0, v0); a
+    MechanicalSystem only) or `p0`.
 
     Returns
     -------
@@ -39,6 +39,9 @@ def start_momentum(system, q0, v0, p0):
     check_configuration("q0", system, q0)
     if p0 is not None:
         return _checks.array("p0", p0, (n,)), np.zeros(n)
+    if not hasattr(system, "lagrangian"):
+        raise ValueError("give `p0` (initial momentum) for a HamiltonianSystem: `v0` would need "
+                         "the inverse of v = dH/dp(q, p), which dmoc does not form.")
     v0 = _checks.array("v0", v0, (n,))
     check_allowed_velocity("v0", system, q0, v0)
     return np.array(system.momentum(q0, v0)).ravel(), v0
@@ -75,8 +78,10 @@ def check_configuration(name, system, q):
 
 
 def momentum_condition(system, label, multiplier, sign):
-    """The momentum boundary row ``label(q, p, v, multiplier) -> p - dL/dv(q, v) + sign A(q)^T
-    multiplier`` (shape (n,)) and the multiplier's size (m, or 0 when `sign` is 0).
+    """The momentum boundary row ``label(q, p, v, multiplier) -> r`` (shape (n,)) and the
+    multiplier's size (m, or 0 when `sign` is 0): r = 0 says that p + sign A(q)^T
+    multiplier is the momentum of v at q (`system.momentum_residual`: p - dL/dv(q, v) for a
+    MechanicalSystem, dH/dp(q, p) - v for a HamiltonianSystem).
 
     The formulations (`dmoc.formulations`) say which end carries an impulse and with which
     sign: (+) p_N = dL/dv(q_N, v_N) + A(q_N)^T nu, (-) p_0 = dL/dv(q_0, v_0) - A(q_0)^T mu,
@@ -84,9 +89,8 @@ def momentum_condition(system, label, multiplier, sign):
     """
     n, size = system.n, system.m if sign else 0
     q, p, v, mult = ca.SX.sym("q", n), ca.SX.sym("p", n), ca.SX.sym("v", n), ca.SX.sym(multiplier, size)
-    r = p - system.momentum(q, v)
-    if sign:
-        r = r + sign * ca.mtimes(system.constraint_matrix(q).T, mult)
+    impulse = sign * ca.mtimes(system.constraint_matrix(q).T, mult) if sign else 0
+    r = system.momentum_residual(q, p + impulse, v)
     return ca.Function(label, [q, p, v, mult], [r], ["q", "p", "v", multiplier], ["r"]), size
 
 
@@ -129,10 +133,21 @@ def check_holonomic_boundary(system, q_start, q_goal):
     if len(given) <= n - k:
         return
     jacobian = np.array(system.constraint_matrix(np.nan_to_num(q_goal)))[system.m - k:]
-    _, _, pivots = scipy.linalg.qr(jacobian[:, given], pivoting=True)
-    free = sorted(int(i) for i in given[pivots[:len(given) - (n - k)]])
+    free = sorted(int(i) for i in given[_pivot_columns(jacobian[:, given], len(given) - (n - k))])
     raise ValueError(
         f"`q_goal` over-determines the holonomic constraints: the step rows impose the k = {k} "
         f"equations g(q_N) = 0, so at most n - k = {n - k} of its entries can be given; it gives "
         f"{len(given)}. Leave entries {free} {tuple(system.names[i] for i in free)} free "
         f"(None): the goal set is the same, and the NLP stays regular.")
+
+
+def _pivot_columns(matrix, count):
+    """Indices of `count` columns of `matrix` chosen as QR with column pivoting chooses
+    them: each the column of largest norm after removing the span of those chosen."""
+    rest, chosen = np.array(matrix, dtype=float), []
+    for _ in range(count):
+        j = int(np.argmax(np.linalg.norm(rest, axis=0)))
+        chosen.append(j)
+        e = rest[:, j] / np.linalg.norm(rest[:, j])
+        rest = rest - np.outer(e, e @ rest)
+    return np.array(chosen, dtype=int)

@@ -6,7 +6,7 @@ import casadi as ca
 import numpy as np
 
 from . import _checks
-from .discrete import Discretization, discretize
+from .discrete import Discretization
 from .formulations import as_formulation
 from .principle import step_residual
 from .simulate import simulate
@@ -35,7 +35,8 @@ def energy(disc, traj):
     """
     if not check_trajectory(disc, traj):
         return np.zeros(0)
-    E = disc.step_energy.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
+    E = disc.step_energy.map(traj.steps)(traj.q[:-1].T, traj.p[:-1].T, traj.q[1:].T,
+                                         traj.p[1:].T, traj.s.T, traj.h)
     return np.array(E).ravel()
 
 
@@ -63,7 +64,7 @@ def mean_momenta(disc, traj):
     """
     if not check_trajectory(disc, traj):
         return np.zeros((0, disc.system.n))
-    formulation, N = as_formulation(traj.variant), traj.steps
+    formulation, N = as_formulation(traj.variant, disc), traj.steps
     iota = formulation.node_impulses(traj.lam, traj.mu, disc.system.m)
     A = np.array(disc.system.constraint_matrix.map(N)(traj.q[:-1].T))      # (m, N n)
     n = disc.system.n
@@ -89,12 +90,12 @@ def replay_error(problem, result):
     tolerance. p_N is left out where the formulation puts the end impulse into it (variant
     "-"), which `simulate` cannot know."""
     traj = result.trajectory
-    disc = discretize(problem.disc.system, traj.h, problem.disc.rule)
+    disc = problem.disc.with_step(traj.h)
     replay = simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
                       variant=traj.variant, throw=False).trajectory
     if replay.steps < traj.steps:
         return np.inf, np.inf
-    last = traj.steps + as_formulation(traj.variant).end_momentum_determined
+    last = traj.steps + as_formulation(traj.variant, problem.disc).end_momentum_determined
     return (float(np.abs(replay.q - traj.q).max()),
             float(np.abs(replay.p[:last] - traj.p[:last]).max()))
 

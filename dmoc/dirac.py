@@ -7,13 +7,12 @@ Coordinates: z = (q0, p0), z+ = (q1, p1) in T*Q x T*Q with Q = R^n; a point of T
 is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, a_p, a_q).
 """
 
-import casadi as ca
 import numpy as np
 
 from ._cache import BoundedCache
 from .diagnostics import check_trajectory, constraint_violation
 from .formulations import as_formulation
-from .tulczyjew import kappa, kappa_inverse, omega_flat_minus, omega_flat_plus
+from .tulczyjew import kappa, kappa_inverse, omega_flat_minus, omega_flat_plus  # noqa: F401 (re-exported)
 
 __all__ = ["kappa", "kappa_inverse", "omega_flat_plus", "omega_flat_minus",
            "dirac_differential", "dirac_defect"]
@@ -21,32 +20,23 @@ _DIFFERENTIALS = BoundedCache(32)
 
 
 def dirac_differential(disc, variant):
-    """D+L_d = gamma_d+ o dL_d or D-L_d = gamma_d- o dL_d (Section 5), with forces, as a
-    CasADi Function ``(q0, q1, s, u, h) -> (c0, c1, c2, c3)``: a point of T*(Q x Q*) for
+    """The Dirac differential of a step's generating function, with forces, as a CasADi
+    Function ``(q0, p0, q1, p1, s, u, h) -> (c0, c1, c2, c3)``: a point of T*(Q x Q*) for
     "+" or of T*(Q* x Q) for "-".
 
-    gamma_d+- = Omega_d+-^flat o kappa_d^{-1}; the discrete forces enter dL_d as
-    D1 L_d + f_d^- and D2 L_d + f_d^+ (Lagrange-d'Alembert), as in (37)/(41) with forces:
-    "+" gives (q0, D2 L_d + f^+, -D1 L_d - f^-, q1), "-" gives
-    (-D1 L_d - f^-, q1, -q0, -D2 L_d - f^+).
+    Lagrangian forms: D+-L_d = gamma_d+- o dL_d (Section 5), gamma_d+- = Omega_d+-^flat o
+    kappa_d^{-1}, the discrete forces entering dL_d as D1 L_d + f_d^- and D2 L_d + f_d^+:
+    "+" gives (q0, D2 L_d + f^+, -D1 L_d - f^-, q1), "-" gives (-D1 L_d - f^-, q1, -q0,
+    -D2 L_d - f^+). Hamiltonian forms: dH_d+(q0, p1) = (q0, p1, D1 H_d+ - f_d^-, D2 H_d+)
+    of (38), dH_d-(p0, q1) = (p0, q1, D1 H_d-, D2 H_d- - f_d^+) of (42), at the solved
+    stages of a stage rule (H_d is extremal in them).
     """
-    if disc.n_stages:
-        raise ValueError("`disc` must be a stage-free rule: D+-L_d of a stage rule needs the "
-                         "stages eliminated first.")
-    formulation = as_formulation(variant)
-    return _DIFFERENTIALS.get((disc.key, formulation), lambda: _differential(disc, formulation))
-
-
-def _differential(disc, formulation):
-    n, n_u, ns = disc.system.n, disc.system.n_u, disc.n_stages
-    q0, q1, s, u, h = (ca.SX.sym(name, size) for name, size in
-                       (("q0", n), ("q1", n), ("s", ns), ("u", n_u), ("h", 1)))
-    L_d = disc.discrete_lagrangian(q0, q1, s, h)
-    f_minus, f_plus, _ = disc.discrete_force(q0, q1, s, u, h)
-    dL_d = (q0, q1, ca.gradient(L_d, q0) + f_minus, ca.gradient(L_d, q1) + f_plus)
-    return ca.Function("dirac_differential_" + formulation.label, [q0, q1, s, u, h],
-                       list(formulation.omega_flat(*kappa_inverse(dL_d))),
-                       ["q0", "q1", "s", "u", "h"], ["c0", "c1", "c2", "c3"])
+    if disc.n_multipliers > disc.system.m:
+        raise ValueError("`disc` must not have multipliers at interior nodes (a Lagrangian stage "
+                         "rule with constraints): its Dirac structure needs the stage-augmented "
+                         "annihilator.")
+    formulation = as_formulation(variant, disc)
+    return _DIFFERENTIALS.get((disc.key, formulation), lambda: formulation.dirac_differential(disc))
 
 
 def dirac_defect(disc, traj, tol_rank=1e-12):
@@ -62,9 +52,9 @@ def dirac_defect(disc, traj, tol_rank=1e-12):
     """
     if not check_trajectory(disc, traj):
         return np.zeros(0)
-    N, formulation = traj.steps, as_formulation(traj.variant)
+    N, formulation = traj.steps, as_formulation(traj.variant, disc)
     alpha = [np.array(c).T for c in dirac_differential(disc, formulation).map(N)(
-        traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.u.T, traj.h)]
+        traj.q[:-1].T, traj.p[:-1].T, traj.q[1:].T, traj.p[1:].T, traj.s.T, traj.u.T, traj.h)]
     target = formulation.omega_flat((traj.q[:-1], traj.p[:-1]), (traj.q[1:], traj.p[1:]))
     diff = [a - t for a, t in zip(alpha, target)]
     # (34): the fibre over q (component 2) is free up to A(q0)^T lam, the rest must vanish;

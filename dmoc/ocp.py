@@ -67,7 +67,7 @@ class OptimalControlProblem:
             raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
         self.disc, sys = disc, disc.system
         self.steps = N = _checks.positive_int("steps", steps)
-        self.formulation = as_formulation(variant)
+        self.formulation = as_formulation(variant, disc)
         self.residual = step_residual(disc, self.formulation)
         n = sys.n
         self.q_start = _boundary("q_start", q_start, n)

@@ -157,7 +157,7 @@ def initial_guess(problem, guess=None):
         q = _default_path(problem, tau)
         v = np.gradient(q, h, axis=0)
         p = np.array(sys.momentum.map(N + 1)(q.T, v.T)).T
-        blocks = {"q": q, "p": p, "s": _stages_on_chords(problem.disc.rule, q)}
+        blocks = {"q": q, "p": p, "s": problem.disc.rule.stage_guess(q, p)}
     else:
         _check_guess(problem, guess)
         blocks = _resampled(problem, guess, tau)
@@ -189,13 +189,6 @@ def _default_path(problem, tau):
     return start + np.outer(tau, goal - start) + bump * np.sin(np.pi * tau)[:, None]
 
 
-def _stages_on_chords(rule, q):
-    """Stage values on the chord of each step, (N, n_stages * n): q_k + c (q_{k+1} - q_k)
-    at the rule's interior nodes."""
-    chords = [q[:-1] + c * (q[1:] - q[:-1]) for c in rule.nodes[1:-1]]
-    return np.hstack(chords) if chords else np.zeros((q.shape[0] - 1, 0))
-
-
 def _resampled(problem, guess, tau):
     """Guess blocks (time-major) on the problem's normalized grid tau, from a guess on any
     grid and with any rule: q, p interpolated at the knots, the controls evaluated by the
@@ -220,7 +213,7 @@ def _resampled(problem, guess, tau):
         lam = guess.lam if same_grid else np.column_stack(
             [np.interp(mid_new, mid_old, c) for c in guess.lam.T] or [np.zeros(N)])[:, :disc.n_multipliers]
     blocks = {**knots, "u": u, "lam": lam,
-              "s": guess.s if same_rule else _stages_on_chords(disc.rule, knots["q"])}
+              "s": guess.s if same_rule else disc.rule.stage_guess(knots["q"], knots["p"])}
     if guess.mu.shape == (problem.x_layout.numel("mu"),):
         blocks["mu"] = guess.mu[None, :]
     return blocks

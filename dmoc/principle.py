@@ -37,7 +37,7 @@ def action_sum(disc, variant, q, q_aux, p, s, h):
         (46): sum_k L_d(q_k, q_k^+) + p_{k+1} . (q_{k+1} - q_k^+)
         (47): sum_k L_d(q_{k+1}^-, q_{k+1}) - p_k . (q_k - q_{k+1}^-)
     """
-    return as_formulation(variant).action_sum(disc.discrete_lagrangian, q, q_aux, p, s, h)
+    return as_formulation(variant, disc).action_sum(disc.discrete_lagrangian, q, q_aux, p, s, h)
 
 
 class StepResidual:
@@ -86,7 +86,7 @@ class StepResidual:
     def __init__(self, disc, variant="+"):
         if not isinstance(disc, Discretization):
             raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
-        self.formulation = as_formulation(variant)
+        self.formulation = as_formulation(variant, disc)
         self.system, self.rule = disc.system, disc.rule
         self.key = (disc.key, self.formulation)
         sys = disc.system
@@ -108,26 +108,18 @@ class StepResidual:
 
     def _build(self, disc):
         x = {name: ca.SX.sym(name, self.inputs.numel(name)) for name in self.inputs.blocks}
-        sym = {**x, **{k: ca.SX.sym(k, self.n) for k in ("aux", "a", "b", "c")},
-               "s_other": ca.SX.sym("s_other", self.n_stages)}
-        window = self.formulation.window(disc.discrete_lagrangian, sym)
-        x_minus, x_plus = window.ends
-        f_minus, f_plus, f_stage = disc.discrete_force(x_minus, x_plus, x["s"], x["u"], x["h"])
-        S = window.action
-        rows = [ca.gradient(S, x_minus) + f_minus, ca.gradient(S, x_plus) + f_plus]
+        left, right, stage = self.formulation.variational_rows(disc, x)
+        rows = [left, right]
         A, m = self.system.constraint_matrix, self.m
+        impulses = ca.vertsplit(x["lam"], list(range(0, self.n_lam + 1, m)) if m else [0, 0])
         node = self.formulation.multiplier_node
-        nodes = self.rule.node_values(x["q0"], x["q1"], x["s"])
-        impulses = [x["lam"][j * m:(j + 1) * m] for j in range(self.rule.n_multiplier_nodes)]
-        rows[node] = rows[node] - ca.mtimes(A((nodes[0], nodes[-1])[node]).T, impulses[0])
-        stage = ca.gradient(S, x["s"]) + f_stage if self.n_stages else ca.SX(0, 1)
-        if self.n_stages and m:    # d'Alembert variations at the interior nodes too
-            stage = stage - ca.vertcat(*[ca.mtimes(A(Q).T, lam) for Q, lam in zip(nodes[1:-1], impulses[1:])])
+        rows[node] = rows[node] - ca.mtimes(A((x["q0"], x["q1"])[node]).T, impulses[0])
+        if len(impulses) > 1:      # a stage rule: d'Alembert variations at the interior nodes too
+            interior = self.rule.node_values(x["q0"], x["q1"], x["s"])[1:-1]
+            stage = stage - ca.vertcat(*[ca.mtimes(A(Q).T, lam) for Q, lam in zip(interior, impulses[1:])])
         r = ca.vertcat(rows[0], rows[1], stage,
                        disc.discrete_constraint(x["q0"], x["q1"], x["s"], x["h"]))
-        r = ca.substitute(r, window.aux, window.solved)
-        _check_window(r, ca.gradient(S, window.curve), window)
-        r = ca.cse(r)     # AD of the window repeats subexpressions: 294 -> 185 operations (lobatto3, knife edge)
+        r = ca.cse(r)     # AD of the sums repeats subexpressions: 294 -> 185 operations (lobatto3, knife edge)
         names = list(self.inputs.blocks)
         return ca.Function("step_residual", [x[k] for k in names], [r], names, ["r"])
 
@@ -143,15 +135,6 @@ class StepResidual:
                 f"n_stages={self.n_stages})")
 
 
-def _check_window(r, curve, window):
-    """Internal invariant: the curve condition is solved by the substitution, and the
-    residual of step k does not involve the neighbouring step's variables."""
-    if not ca.simplify(ca.substitute(curve, window.aux, window.solved)).is_zero():
-        raise RuntimeError("the discrete second-order curve condition was not eliminated")
-    if any(ca.depends_on(r, x) for x in window.neighbours if x.numel()):
-        raise RuntimeError("the step residual depends on a neighbouring step")
-
-
 _RESIDUALS = BoundedCache(32)
 
 
@@ -160,5 +143,5 @@ def step_residual(disc, variant="+"):
     (whatever the step h: it is an input of the residual)."""
     if not isinstance(disc, Discretization):
         raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
-    formulation = as_formulation(variant)
+    formulation = as_formulation(variant, disc)
     return _RESIDUALS.get((disc.key, formulation), lambda: StepResidual(disc, formulation))

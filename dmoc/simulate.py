@@ -102,7 +102,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     if not isinstance(disc, Discretization):
         raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
     sys = disc.system
-    formulation = as_formulation(variant)
+    formulation = as_formulation(variant, disc)
     steps = _checks.positive_int("steps", steps)
     tol = _checks.positive_float("tol", tol)
     max_iter = _checks.positive_int("max_iter", max_iter)

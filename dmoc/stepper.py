@@ -3,9 +3,10 @@ Newton's method, over a horizon with `mapaccum`. Used by `simulate`; it owns no 
 the residual says which rows to solve, the formulation how the carried momentum and the
 multiplier it solves for enter the step (`Formulation.step_momentum`).
 
-Each step solves every residual row but "right" for y = (dq, nu, ds): the increment
-q_{k+1} - q_k, the multiplier nu at q_k and the stage values less q_k; p_{k+1} enters the
-"right" rows linearly (-p1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
+Each step solves every residual row but "right" for y = (dq, nu, ds): the increment of
+the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
+q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
+(-p1 or -q1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
 Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
 redone by CasADi's line-search Newton rootfinder.
 """
@@ -42,27 +43,35 @@ class DiracStepper:
         self._chunks = {}
 
     def _equations(self):
-        """G(y, params) -> (g, p0, p1) with params = (q0, p0', u, h): the equations, the
-        momentum p_k they use and p_{k+1}.
+        """G(y, params) -> (g, p0, q1, p1) with params = (q0, p0', u, h): the equations, the
+        momentum p_k they use and the next state.
 
-        The unknowns are the increments dq = q1 - q0 and ds = s - (q0, ..., q0), substituted
-        symbolically so that the velocities inside the residual are exact combinations of
-        dq/h and ds/h (CasADi simplifies (q0 + dq) - q0): no cancellation when |q| is large,
-        p1 carries no rounding of q1, and the previous step's increments are a warm start.
+        The residual's "right" rows give one end variable explicitly (the formulation's
+        `explicit`: p1 for the Lagrangian forms and (43), q1 for (39)); the unknown dq is the
+        increment of the other one from its value at the start of the step. Increments are
+        substituted symbolically so that the velocities inside the residual are exact
+        combinations of dq/h and ds/h (CasADi simplifies (q0 + dq) - q0): no cancellation
+        when |q| is large, no rounding of q1 carried into p1, and the previous step's
+        increments are a warm start.
         """
         R, n = self.residual, self.residual.n
         y, q0, pc0 = ca.SX.sym("y", self.unknowns.size), ca.SX.sym("q0", n), ca.SX.sym("p0", n)
-        u, h, p1 = ca.SX.sym("u", R.n_controls), ca.SX.sym("h"), ca.SX.sym("p1", n)
+        u, h = ca.SX.sym("u", R.n_controls), ca.SX.sym("h")
         Y = self.unknowns.split(y)
         p0, lam = R.formulation.step_momentum(R.system, q0, pc0, Y["nu"])
-        r = R(q0=q0, p0=p0, q1=q0 + Y["dq"], p1=p1, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h)
+        explicit = R.formulation.explicit
+        implicit, start = ("q1", q0) if explicit == "p1" else ("p1", p0)
+        end = ca.SX.sym(explicit, n)
+        ends = {implicit: start + Y["dq"], explicit: end}
+        r = R(q0=q0, p0=p0, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h, **ends)
         right = r[R.rows["right"]]
-        if not ca.is_equal(ca.jacobian(right, p1), -ca.SX.eye(n), 2):
-            raise RuntimeError("the residual's right rows must be (...) - p1")
-        rows = [r[R.rows[k]] for k in ("left", "stage", "constraint")]
+        if not ca.is_equal(ca.jacobian(right, end), -ca.SX.eye(n), 2):
+            raise RuntimeError(f"the residual's right rows must be (...) - {explicit}")
+        ends[explicit] = ca.substitute(right, end, ca.SX.zeros(n))
+        rows = ca.vertcat(*[r[R.rows[k]] for k in ("left", "stage", "constraint")])
         return ca.Function("step_equations", [y, ca.vertcat(q0, pc0, u, h)],
-                           [ca.vertcat(*rows), p0, ca.substitute(right, p1, ca.SX.zeros(n))],
-                           ["y", "params"], ["g", "p0", "p1"])
+                           [ca.substitute(rows, end, ends[explicit]), p0, ends["q1"], ends["p1"]],
+                           ["y", "params"], ["g", "p0", "q1", "p1"])
 
     def _stages(self, q0, ds):
         """The stage values s = (q0, ..., q0) + ds."""
@@ -70,10 +79,10 @@ class DiracStepper:
 
     def _wrap(self, state, params, sol, update):
         """Next state and outputs from a solution y = (dq, nu, ds) of the step equations."""
-        g, p0, p1 = self.equations(sol, params)
+        g, p0, q1, p1 = self.equations(sol, params)
         Y = self.unknowns.split(sol)
         q0 = self.state.split(state)["q"]
-        return (self.state.join({"q": q0 + Y["dq"], "p": p1, **Y}),
+        return (self.state.join({"q": q1, "p": p1, **Y}),
                 self.out.join({"p0": p0, "nu": Y["nu"], "s": self._stages(q0, Y["ds"]),
                                "rnorm": ca.norm_inf(g), "update": update}))
 

@@ -106,8 +106,90 @@ class MechanicalSystem:
         self.key = _fingerprint(self.lagrangian, self.nonholonomic_matrix, self.holonomic,
                                 self.force)
 
+    def momentum_residual(self, q, p, v):
+        """p - dL/dv(q, v): zero when p is the momentum of the velocity v at q."""
+        return p - self.momentum(q, v)
+
     def __repr__(self):
         return (f"MechanicalSystem(n={self.n}, m={self.m}, n_holonomic={self.n_holonomic}, "
+                f"n_u={self.n_u}, names={self.names})")
+
+
+class HamiltonianSystem:
+    """A Hamiltonian system with linear velocity constraints, holonomic constraints and
+    forces, on T*Q with Q = R^n: the data of the implicit Hamiltonian systems that (38)/(42)
+    discretize.
+
+    Parameters
+    ----------
+    hamiltonian : callable
+        ``hamiltonian(q, p)`` with column symbols q, p of shape (n, 1), a scalar expression.
+    n : int
+    constraints, holonomic : callable, optional
+        As for `MechanicalSystem`: A_nh(q) (m - k, n) and g(q) (k,).
+    force : callable, optional
+        ``force(q, p, u)``, shape (n,).
+    n_u : int, optional
+    names : sequence of str, optional
+
+    Attributes
+    ----------
+    n, m, n_u, n_holonomic, names, key
+        As for `MechanicalSystem`.
+    hamiltonian, constraint_matrix, nonholonomic_matrix, holonomic, force : casadi.Function
+        ``H(q, p)``, ``A(q)`` (m, n), ``A_nh(q)``, ``g(q)``, ``f(q, p, u)``.
+    velocity : casadi.Function
+        ``v = dH/dp(q, p)`` (n,).
+    momentum : casadi.Function
+        ``p(q, v)`` by one Newton step on dH/dp(q, p) = v from p = 0: exact when H is
+        quadratic in p (mechanical systems), a guess otherwise; used for initial guesses.
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> s = HamiltonianSystem(lambda q, p: 0.5 * ca.dot(p, p) - ca.cos(q[0]), 1)
+    >>> float(s.velocity(0.3, 2.0))
+    2.0
+    """
+
+    def __init__(self, hamiltonian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
+                 names=None):
+        self.n = _checks.positive_int("n", n)
+        self.n_u = _checks.nonnegative_int("n_u", n_u)
+        q, p, u = ca.SX.sym("q", self.n), ca.SX.sym("p", self.n), ca.SX.sym("u", self.n_u)
+        problems = []
+        if hamiltonian is None:
+            problems.append("`hamiltonian` is required: a callable returning a CasADi expression.")
+        else:
+            self.hamiltonian = user_function("hamiltonian", hamiltonian, (q, p), ("q", "p"),
+                                             (1, 1), problems, label="H")
+        (self.nonholonomic_matrix, self.holonomic,
+         self.constraint_matrix) = constraint_functions(q, constraints, holonomic, problems)
+        self.force = ca.Function("f", [q, p, u], [ca.SX.zeros(self.n)], ["q", "p", "u"], ["f"]) \
+            if force is None else user_function(
+                "force", force, (q, p, u), ("q", "p", "u"), (self.n, 1), problems, label="f")
+        self.names = _coordinate_names(names, self.n, problems)
+        if not problems:
+            _check_rank(self.constraint_matrix, self.n, self.holonomic.numel_out(0), problems)
+        if problems:
+            raise ValueError("HamiltonianSystem is invalid:\n  - " + "\n  - ".join(problems))
+        self.m = self.constraint_matrix.size1_out(0)
+        self.n_holonomic = self.holonomic.numel_out(0)
+        v = ca.SX.sym("v", self.n)
+        dH = ca.gradient(self.hamiltonian(q, p), p)
+        self.velocity = ca.Function("velocity", [q, p], [dH], ["q", "p"], ["v"])
+        at_rest = ca.substitute(dH, p, ca.SX.zeros(self.n))
+        step = ca.solve(ca.substitute(ca.jacobian(dH, p), p, ca.SX.zeros(self.n)), v - at_rest)
+        self.momentum = ca.Function("momentum", [q, v], [step], ["q", "v"], ["p"])
+        self.key = _fingerprint(self.hamiltonian, self.nonholonomic_matrix, self.holonomic,
+                                self.force)
+
+    def momentum_residual(self, q, p, v):
+        """dH/dp(q, p) - v: zero when p is the momentum of the velocity v at q."""
+        return self.velocity(q, p) - v
+
+    def __repr__(self):
+        return (f"HamiltonianSystem(n={self.n}, m={self.m}, n_holonomic={self.n_holonomic}, "
                 f"n_u={self.n_u}, names={self.names})")
 
 

@@ -5,11 +5,14 @@ named CasADi Function whose last input is the step h (so that one Function serve
 and a free final time can make h a decision variable).
 """
 
+import copy
+
 import casadi as ca
 
 from .. import _checks
 from .._cache import BoundedCache
-from ..system import MechanicalSystem
+from ..formulations import FORMULATIONS
+from ..system import HamiltonianSystem, MechanicalSystem
 from .degenerate import check_one_step_map
 from .rules import as_rule, quadrature, virtual_work_split
 
@@ -50,7 +53,7 @@ class Discretization:
         ``(q0, q1, s, h) -> (q, v)``: the interpolant and its velocity at the middle of the
         step (for linear rules (q0 + q1)/2 and (q1 - q0)/h).
     step_energy : casadi.Function
-        ``(q0, q1, s, h) -> E``: the energy v . dL/dv - L averaged over the step by the
+        ``(q0, p0, q1, p1, s, h) -> E`` (p unused): the energy v . dL/dv - L averaged over the step by the
         rule's quadrature, sum_i b_i E(q(c_i), q'(c_i)); for the midpoint rule E at the
         midpoint. It needs no Legendre transform.
     key : tuple
@@ -59,9 +62,12 @@ class Discretization:
         h share them.
     """
 
+    formulations = FORMULATIONS       # the Lagrangian family, (37)/(41)
+
     def __init__(self, system, h, rule="midpoint"):
         if not isinstance(system, MechanicalSystem):
-            raise TypeError(f"`system` must be a MechanicalSystem; got {type(system).__name__}.")
+            raise TypeError(f"`system` must be a MechanicalSystem or a HamiltonianSystem; got "
+                        f"{type(system).__name__}.")
         self.system = system
         self.h = _checks.positive_float("h", h)
         self.rule = rule = as_rule(rule)
@@ -73,6 +79,13 @@ class Discretization:
          self.midpoint_state, self.step_energy) = _DISCRETE_DATA.get(
             self.key, lambda: _discrete_data(system, rule))
         check_one_step_map(self)
+
+    def with_step(self, h):
+        """The same discretization at the step `h` (sharing every Function: h is an input),
+        e.g. to replay a free-time optimum."""
+        other = copy.copy(self)
+        other.h = _checks.positive_float("h", h)
+        return other
 
     def discrete_cost(self, running_cost):
         """The step integral C_d(q0, q1, s, u, h) of ``running_cost(q, v, u)`` by this rule,
@@ -99,6 +112,7 @@ def _discrete_data(system, rule):
     """(L_d, omega_d, f_d, midpoint state, step energy) of `system` by `rule`, h an input:
     built once per system key and rule, shared by discretizations at every h."""
     q0, q1, s, u, h = _step_symbols(system, rule)
+    p0, p1 = ca.SX.sym("p0", system.n), ca.SX.sym("p1", system.n)
     L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
     E = quadrature(rule, lambda q, v, _: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
     omega_d = ca.vertcat(rule.discrete_constraint(system.nonholonomic_matrix, q0, q1, s, h),
@@ -111,24 +125,36 @@ def _discrete_data(system, rule):
                         ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"]),
             ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],
                         ["q0", "q1", "s", "h"], ["q", "v"]),
-            ca.Function("step_energy", [q0, q1, s, h], [E], ["q0", "q1", "s", "h"], ["E"]))
+            ca.Function("step_energy", [q0, p0, q1, p1, s, h], [E],
+                        ["q0", "p0", "q1", "p1", "s", "h"], ["E"]))
 
 
 def discretize(system, h, rule="midpoint"):
-    """Discrete Lagrangian, constraints (28) and forces of `system` on steps of size `h`.
+    """Discrete Lagrangian (or discrete Hamiltonians), constraints (28) and forces of
+    `system` on steps of size `h`.
 
     Parameters
     ----------
-    system : MechanicalSystem
+    system : MechanicalSystem or HamiltonianSystem
     h : float
         Step size, > 0.
-    rule : str or QuadratureRule
-        A name in `dmoc.discrete.RULES` (``"midpoint"``, the default, ``"trapezoid"``,
-        ``"lobatto3"``, ``"lobatto4"``) or a rule instance.
+    rule : str or QuadratureRule or HamiltonianRule
+        For a MechanicalSystem a name in `dmoc.discrete.RULES` (``"midpoint"``, the
+        default, ``"trapezoid"``, ``"lobatto3"``, ``"lobatto4"``) or a rule instance; for a
+        HamiltonianSystem a name in `dmoc.discrete.HAMILTONIAN_RULES` (``"midpoint"``,
+        ``"symplectic-euler"``) or a HamiltonianRule.
 
     Returns
     -------
-    Discretization
+    Discretization or HamiltonianDiscretization
+
+    Raises
+    ------
+    ValueError
+        An unknown rule, a step that is not positive, or a rule that gives no one-step map
+        for a degenerate Lagrangian (`dmoc.discrete.degenerate`).
+    TypeError
+        `system` of another type.
 
     Examples
     --------
@@ -139,4 +165,7 @@ def discretize(system, h, rule="midpoint"):
     >>> round(float(d.discrete_lagrangian(0.0, 0.2, [], 0.1)), 6)  # 0.1 * (2 - 0.005)
     0.1995
     """
+    if isinstance(system, HamiltonianSystem):
+        from .hamiltonian import HamiltonianDiscretization    # it subclasses Discretization
+        return HamiltonianDiscretization(system, h, rule)
     return Discretization(system, h, rule)

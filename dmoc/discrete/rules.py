@@ -115,6 +115,12 @@ class QuadratureRule:
         values = [u[j * n_u:(j + 1) * n_u] for j in range(k)]
         return _combination(_lagrange_basis(self.control_nodes, c)[0], values) if n_u else u
 
+    def stage_guess(self, q, p):
+        """Stage values on the chord of each step for an initial guess from knot values q
+        (N+1, n): q_k + c (q_{k+1} - q_k) at the interior nodes, shape (N, n_stages * n)."""
+        chords = [q[:-1] + c * (q[1:] - q[:-1]) for c in self.nodes[1:-1]]
+        return np.hstack(chords) if chords else np.zeros((q.shape[0] - 1, 0))
+
     def discrete_constraint(self, A, q0, q1, s, h):
         """The discrete constraint rows of one step, (n_multiplier_nodes * m,): the Legendre
         moments sum_i b_i P_l(2 c_i - 1) A(q(c_i)) q'(c_i), l = 0 ... n_multiplier_nodes - 1,

@@ -1,11 +1,8 @@
-"""Formulations of the implicit discrete equations as values: the (+) form (37) from the
-discrete Lagrange-d'Alembert-Pontryagin sum (46) and the (-) form (41) from (47). Each
-formulation owns every convention that depends on it: the action sum it differentiates,
-the node whose variations are restricted to Delta_Q (the d'Alembert multiplier sits there),
+"""The conventions every formulation shares, by sign: where the d'Alembert multiplier sits,
 the impulses at the start and the end, the momentum boundary rows of the optimizer, how a
-solved step fills a Trajectory, and its Dirac differential (36)/(40). The principle, the
-stepper, `simulate`, the optimizer, the diagnostics and `dmoc.dirac` ask it and never
-compare variant strings (docs/theory.md, "Conventions").
+solved step fills a Trajectory and which Dirac structure it lies in ((34)/(36) and
+(38) for "+", (35)/(40) and (42) for "-"). The Lagrangian and Hamiltonian forms add the
+action sum they differentiate (`dmoc.formulations.lagrangian`, `.hamiltonian`).
 """
 
 from dataclasses import dataclass
@@ -13,35 +10,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from . import _checks
-from .boundary import momentum_condition
-from .tulczyjew import omega_flat_minus, omega_flat_plus
-
-
-@dataclass(frozen=True)
-class Window:
-    """Two consecutive steps of an action sum, as the principle differentiates them.
-
-    Attributes
-    ----------
-    action : casadi.SX
-        The sum over the window.
-    ends : (casadi.SX, casadi.SX)
-        The variables whose variations give the step's "left" and "right" rows.
-    curve : casadi.SX
-        The momentum whose variation gives the discrete second-order curve condition.
-    aux, solved : casadi.SX
-        The auxiliary configuration and its value from the curve condition.
-    neighbours : tuple of casadi.SX
-        Variables of the other step of the window, which the residual must not involve.
-    """
-
-    action: object
-    ends: tuple
-    curve: object
-    aux: object
-    solved: object
-    neighbours: tuple
+from ..boundary import momentum_condition
+from ..tulczyjew import omega_flat_minus, omega_flat_plus
 
 
 @dataclass(frozen=True)
@@ -67,6 +37,9 @@ class Formulation:
         p_k of this form is the momentum before (+: -1/2) or after (-: +1/2) the impulse
         A(q_k)^T iota_k at q_k; p_k + impulse_side A(q_k)^T iota_k is the mean of the two
         (`dmoc.diagnostics.mean_momenta`).
+    explicit : {"p1", "q1"}
+        The end variable the step's "right" rows give explicitly, as (...) - p1 or
+        (...) - q1; the simulator solves the other rows for the rest.
     """
 
     name = None
@@ -77,13 +50,18 @@ class Formulation:
     end_momentum_determined = True
     impulse_side = None
 
-    def window(self, discrete_lagrangian, sym):
-        """The Window of the action sum around step k from the symbols `sym` (a dict:
-        q0, p0, q1, p1, aux, a, b, c of shape (n,), s, s_other of shape (n_stages,), h)."""
+    explicit = "p1"
+
+    def variational_rows(self, disc, x):
+        """The rows (left, right, stage) of step k from the stationarity of this form's sum,
+        forces included and d'Alembert multipliers not yet (the principle adds those and
+        the constraint rows); `x` holds the residual's input symbols by block name."""
         raise NotImplementedError
 
-    def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
-        """The discrete action sum of this form; see `dmoc.principle.action_sum`."""
+    def dirac_differential(self, disc):
+        """The Dirac differential of the form's generating function at a step, with forces,
+        as a Function ``(q0, p0, q1, p1, s, u, h) -> (c0, c1, c2, c3)``: a point of
+        T*(Q x Q*) for "+" or of T*(Q* x Q) for "-", compared with `omega_flat`."""
         raise NotImplementedError
 
     def step_momentum(self, system, q0, p_carried, nu):
@@ -134,27 +112,15 @@ class Formulation:
         return f"{type(self).__name__}()"
 
 
-class LagrangianPlus(Formulation):
-    """The (+) form: (37) from the discrete LDAP sum (46), Dirac structure D^{d+} (36).
+class PlusForm(Formulation):
+    """The conventions of the (+) forms (37) and (39), Dirac structure D^{d+} (36)/(38).
 
     lam_k multiplies A(q_k) in the row of d/dq_k; p_0 is the momentum of the initial
-    velocity, and the impulse at q_N is a boundary unknown of the optimizer:
+    data, and the impulse at q_N is a boundary unknown of the optimizer:
     p_N = dL/dv(q_N, v_N) + A(q_N)^T nu.
     """
 
     name, label, multiplier_node, end_impulse, impulse_side = "+", "plus", 0, -1, -0.5
-
-    def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
-        return sum(discrete_lagrangian(q[k], q_aux[k], s[k], h) + ca.dot(p[k], q[k + 1] - q_aux[k])
-                   for k in range(len(q_aux)))
-
-    def window(self, discrete_lagrangian, sym):
-        # steps k-1 and k; a = q_{k-1}, b = q_{k-1}^+, aux = q_k^+
-        action = self.action_sum(discrete_lagrangian, [sym["a"], sym["q0"], sym["q1"]],
-                                 [sym["b"], sym["aux"]], [sym["p0"], sym["p1"]],
-                                 [sym["s_other"], sym["s"]], sym["h"])
-        return Window(action, (sym["q0"], sym["aux"]), sym["p1"], sym["aux"], sym["q1"],
-                      (sym["a"], sym["b"], sym["c"], sym["s_other"]))
 
     def step_momentum(self, system, q0, p_carried, nu):
         return p_carried, nu
@@ -169,8 +135,8 @@ class LagrangianPlus(Formulation):
         return omega_flat_plus(z, z_plus)
 
 
-class LagrangianMinus(Formulation):
-    """The (-) form: (41) from the discrete LDAP sum (47), Dirac structure D^{d-} (40).
+class MinusForm(Formulation):
+    """The conventions of the (-) forms (41) and (43), Dirac structure D^{d-} (40)/(42).
 
     lam_k multiplies A(q_{k+1}) in the row of d/dq_{k+1}, so the impulse at q_k is the
     previous step's multiplier; the start needs an impulse mu,
@@ -180,18 +146,6 @@ class LagrangianMinus(Formulation):
 
     name, label, multiplier_node, start_impulse, impulse_side = "-", "minus", 1, 1, 0.5
     end_momentum_determined = False
-
-    def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
-        return sum(discrete_lagrangian(q_aux[k], q[k + 1], s[k], h) - ca.dot(p[k], q[k] - q_aux[k])
-                   for k in range(len(q_aux)))
-
-    def window(self, discrete_lagrangian, sym):
-        # steps k and k+1; aux = q_{k+1}^-, b = q_{k+2}^-, c = q_{k+2}
-        action = self.action_sum(discrete_lagrangian, [sym["q0"], sym["q1"], sym["c"]],
-                                 [sym["aux"], sym["b"]], [sym["p0"], sym["p1"]],
-                                 [sym["s"], sym["s_other"]], sym["h"])
-        return Window(action, (sym["aux"], sym["q1"]), sym["p0"], sym["aux"], sym["q0"],
-                      (sym["a"], sym["b"], sym["c"], sym["s_other"]))
 
     def step_momentum(self, system, q0, p_carried, nu):
         at_q0, interior = ca.vertsplit(nu, [0, system.m, nu.numel()])
@@ -208,17 +162,3 @@ class LagrangianMinus(Formulation):
 
     def omega_flat(self, z, z_plus):
         return omega_flat_minus(z, z_plus)
-
-
-FORMULATIONS = {f.name: f for f in (LagrangianPlus(), LagrangianMinus())}
-
-
-def as_formulation(variant):
-    """The Formulation of `variant`: an instance, or one of the names in FORMULATIONS.
-
-    >>> as_formulation("-").multiplier_node
-    1
-    """
-    if isinstance(variant, Formulation):
-        return variant
-    return FORMULATIONS[_checks.choice("variant", variant, tuple(FORMULATIONS))]
