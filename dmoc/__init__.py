@@ -11,7 +11,7 @@ from .principle import StepResidual, action_sum, step_residual
 from .simulate import SimulationResult, simulate
 from .system import HamiltonianSystem, MechanicalSystem
 from .trajectory import Trajectory
-from . import animation, diagnostics, dirac, plotting, systems
+from . import animation, diagnostics, dirac, formulations, plotting, problems, systems
 
 __all__ = [
     "MechanicalSystem",

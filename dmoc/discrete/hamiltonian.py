@@ -272,12 +272,27 @@ def discrete_legendre(disc):
     if disc.n_multipliers > disc.system.m:
         raise ValueError(f"`disc` must have a stage-free rule when it has constraints: rule "
                          f"{disc.rule.name!r} puts multipliers at its interior nodes.")
-    out = HamiltonianDiscretization.__new__(HamiltonianDiscretization)
-    rule = LegendreRule(disc.rule)
-    out._setup(disc.system, disc.h, rule,
-               _HAMILTONIAN_DATA.get((disc.system.key, rule), lambda: _legendre_data(disc)))
-    out.discrete_cost = disc.discrete_cost
-    return out
+    return LegendreDiscretization(disc)
+
+
+class LegendreDiscretization(HamiltonianDiscretization):
+    """The HamiltonianDiscretization of `discrete_legendre`: stages (Q, sigma), the running
+    cost integrated by the Lagrangian rule on (q0, q1, sigma)."""
+
+    def __init__(self, lagrangian):
+        rule = LegendreRule(lagrangian.rule)
+        self.lagrangian = lagrangian
+        self._setup(lagrangian.system, lagrangian.h, rule, _HAMILTONIAN_DATA.get(
+            (lagrangian.system.key, rule), lambda: _legendre_data(lagrangian)))
+
+    def discrete_cost(self, running_cost):
+        """C_d of the Lagrangian rule, the stage block Q (= the end configuration) left out."""
+        C = self.lagrangian.discrete_cost(running_cost)
+        n = self.system.n
+        q0, q1, s, u, h = (ca.SX.sym(k, size) for k, size in (
+            ("q0", n), ("q1", n), ("s", self.n_stages), ("u", self.n_controls), ("h", 1)))
+        return ca.Function("C_d", [q0, q1, s, u, h], [C(q0, q1, s[n:], u, h)],
+                           ["q0", "q1", "s", "u", "h"], ["C_d"])
 
 
 def _legendre_data(disc):
@@ -304,4 +319,5 @@ def _legendre_data(disc):
 
 
 __all__ = ["HamiltonianRule", "SymplecticEuler", "HamiltonianMidpoint", "LegendreRule",
-           "HAMILTONIAN_RULES", "HamiltonianDiscretization", "discrete_legendre"]
+           "HAMILTONIAN_RULES", "HamiltonianDiscretization", "LegendreDiscretization",
+           "discrete_legendre"]
