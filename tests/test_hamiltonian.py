@@ -163,3 +163,20 @@ def test_bad_hamiltonian_inputs():
         dmoc.simulate(disc, q0=[0.0], p0=[1.0], steps=3, variant=dmoc.formulations.LagrangianPlus())
     with pytest.raises(ValueError, match="stage-free rule"):
         dmoc.discrete_legendre(dmoc.discretize(knife_edge(), 0.1, "lobatto3"))
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_holonomic_hamiltonian_spherical_pendulum(variant):
+    """H = abs(p)^2/2 + z with g = abs(q)^2 - 1 kept at every node, the vertical angular
+    momentum x p_y - y p_x conserved (Noether: the discretization is rotation invariant)."""
+    system = dmoc.HamiltonianSystem(lambda q, p: ca.dot(p, p) / 2 + 9.81 * q[2], 3,
+                                    holonomic=lambda q: ca.dot(q, q) - 1)
+    disc = dmoc.discretize(system, 0.01, "midpoint")
+    q0 = np.array([np.sin(1.0), 0.0, -np.cos(1.0)])
+    p0 = np.array([0.0, 1.2, 0.0])                      # tangent: d/dt abs(q)^2 = 0
+    traj = dmoc.simulate(disc, q0=q0, p0=p0, steps=2000, variant=variant).trajectory
+    assert np.abs(np.sum(traj.q ** 2, axis=1) - 1).max() < 1e-12
+    pbar = diagnostics.mean_momenta(disc, traj)
+    Lz = traj.q[:-1, 0] * pbar[:, 1] - traj.q[:-1, 1] * pbar[:, 0]
+    assert np.abs(Lz - Lz[0]).max() < 1e-12 * max(1.0, abs(Lz[0]))
+    assert dirac_defect(disc, traj).max() < 1e-10
