@@ -76,35 +76,13 @@ class MechanicalSystem:
 
     def __init__(self, lagrangian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
                  names=None):
-        self.n = _checks.positive_int("n", n)
-        self.n_u = _checks.nonnegative_int("n_u", n_u)
-        q = ca.SX.sym("q", self.n)
-        v = ca.SX.sym("v", self.n)
-        u = ca.SX.sym("u", self.n_u)
-        problems = []
-        if lagrangian is None:
-            problems.append("`lagrangian` is required: a callable returning a CasADi expression.")
-        else:
-            self.lagrangian = user_function("lagrangian", lagrangian, (q, v), ("q", "v"),
-                                            (1, 1), problems, label="L")
-        (self.nonholonomic_matrix, self.holonomic,
-         self.constraint_matrix) = constraint_functions(q, constraints, holonomic, problems)
-        self.force = ca.Function("f", [q, v, u], [ca.SX.zeros(self.n)], ["q", "v", "u"], ["f"]) \
-            if force is None else user_function(
-                "force", force, (q, v, u), ("q", "v", "u"), (self.n, 1), problems, label="f")
-        self.names = _coordinate_names(names, self.n, problems)
-        if not problems:
-            _check_rank(self.constraint_matrix, self.n, self.holonomic.numel_out(0), problems)
-        if problems:
-            raise ValueError("MechanicalSystem is invalid:\n  - " + "\n  - ".join(problems))
-        self.m = self.constraint_matrix.size1_out(0)
-        self.n_holonomic = self.holonomic.numel_out(0)
+        q, v = _build_data(self, "MechanicalSystem", ("lagrangian", "L", lagrangian, "v"), n,
+                           constraints, holonomic, force, n_u, names)
         L = self.lagrangian(q, v)
         p = ca.gradient(L, v)
         self.momentum = ca.Function("momentum", [q, v], [p], ["q", "v"], ["p"])
         self.energy = ca.Function("energy", [q, v], [ca.dot(v, p) - L], ["q", "v"], ["E"])
-        self.key = _fingerprint(self.lagrangian, self.nonholonomic_matrix, self.holonomic,
-                                self.force)
+        self.key = _fingerprint(self.lagrangian, self.nonholonomic_matrix, self.holonomic, self.force)
 
     def momentum_residual(self, q, p, v):
         """p - dL/dv(q, v): zero when p is the momentum of the velocity v at q."""
@@ -154,35 +132,15 @@ class HamiltonianSystem:
 
     def __init__(self, hamiltonian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
                  names=None):
-        self.n = _checks.positive_int("n", n)
-        self.n_u = _checks.nonnegative_int("n_u", n_u)
-        q, p, u = ca.SX.sym("q", self.n), ca.SX.sym("p", self.n), ca.SX.sym("u", self.n_u)
-        problems = []
-        if hamiltonian is None:
-            problems.append("`hamiltonian` is required: a callable returning a CasADi expression.")
-        else:
-            self.hamiltonian = user_function("hamiltonian", hamiltonian, (q, p), ("q", "p"),
-                                             (1, 1), problems, label="H")
-        (self.nonholonomic_matrix, self.holonomic,
-         self.constraint_matrix) = constraint_functions(q, constraints, holonomic, problems)
-        self.force = ca.Function("f", [q, p, u], [ca.SX.zeros(self.n)], ["q", "p", "u"], ["f"]) \
-            if force is None else user_function(
-                "force", force, (q, p, u), ("q", "p", "u"), (self.n, 1), problems, label="f")
-        self.names = _coordinate_names(names, self.n, problems)
-        if not problems:
-            _check_rank(self.constraint_matrix, self.n, self.holonomic.numel_out(0), problems)
-        if problems:
-            raise ValueError("HamiltonianSystem is invalid:\n  - " + "\n  - ".join(problems))
-        self.m = self.constraint_matrix.size1_out(0)
-        self.n_holonomic = self.holonomic.numel_out(0)
+        q, p = _build_data(self, "HamiltonianSystem", ("hamiltonian", "H", hamiltonian, "p"), n,
+                           constraints, holonomic, force, n_u, names)
         v = ca.SX.sym("v", self.n)
         dH = ca.gradient(self.hamiltonian(q, p), p)
         self.velocity = ca.Function("velocity", [q, p], [dH], ["q", "p"], ["v"])
         at_rest = ca.substitute(dH, p, ca.SX.zeros(self.n))
         step = ca.solve(ca.substitute(ca.jacobian(dH, p), p, ca.SX.zeros(self.n)), v - at_rest)
         self.momentum = ca.Function("momentum", [q, v], [step], ["q", "v"], ["p"])
-        self.key = _fingerprint(self.hamiltonian, self.nonholonomic_matrix, self.holonomic,
-                                self.force)
+        self.key = _fingerprint(self.hamiltonian, self.nonholonomic_matrix, self.holonomic, self.force)
 
     def momentum_residual(self, q, p, v):
         """dH/dp(q, p) - v: zero when p is the momentum of the velocity v at q."""
@@ -191,6 +149,38 @@ class HamiltonianSystem:
     def __repr__(self):
         return (f"HamiltonianSystem(n={self.n}, m={self.m}, n_holonomic={self.n_holonomic}, "
                 f"n_u={self.n_u}, names={self.names})")
+
+
+def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, names):
+    """Set the data every system class shares on `system` (n, n_u, the primary Function L
+    or H, the constraints, the force, names, m, n_holonomic), reporting every problem at
+    once; return the symbols (q, x), x the second argument (v or p) of L or H and f.
+
+    `primary` is (argument name, Function label, callable, name of x)."""
+    system.n = _checks.positive_int("n", n)
+    system.n_u = _checks.nonnegative_int("n_u", n_u)
+    name, label, fun, second = primary
+    q, x, u = ca.SX.sym("q", system.n), ca.SX.sym(second, system.n), ca.SX.sym("u", system.n_u)
+    problems = []
+    if fun is None:
+        problems.append(f"`{name}` is required: a callable returning a CasADi expression.")
+    else:
+        setattr(system, name, user_function(name, fun, (q, x), ("q", second), (1, 1), problems,
+                                            label=label))
+    (system.nonholonomic_matrix, system.holonomic,
+     system.constraint_matrix) = constraint_functions(q, constraints, holonomic, problems)
+    args = ("q", second, "u")
+    system.force = ca.Function("f", [q, x, u], [ca.SX.zeros(system.n)], args, ["f"]) \
+        if force is None else user_function("force", force, (q, x, u), args, (system.n, 1),
+                                            problems, label="f")
+    system.names = _coordinate_names(names, system.n, problems)
+    if not problems:
+        _check_rank(system.constraint_matrix, system.n, system.holonomic.numel_out(0), problems)
+    if problems:
+        raise ValueError(f"{kind} is invalid:\n  - " + "\n  - ".join(problems))
+    system.m = system.constraint_matrix.size1_out(0)
+    system.n_holonomic = system.holonomic.numel_out(0)
+    return q, x
 
 
 def constraint_functions(q, constraints, holonomic, problems):
