@@ -3,7 +3,7 @@
 import importlib
 
 from .discrete import Discretization, Lobatto3, Lobatto4, Midpoint, Trapezoid, discretize
-from .errors import DmocError, SolverError
+from .errors import DmocError, InputError, InputTypeError, SolverError, TrajectoryFileError
 from .ocp import OptimalControlProblem
 from .optimize import OptimizationResult, optimize
 from .principle import StepResidual, action_sum, step_residual
@@ -35,6 +35,9 @@ __all__ = [
     "plotting",
     "animation",
     "DmocError",
+    "InputError",
+    "InputTypeError",
+    "TrajectoryFileError",
     "SolverError",
 ]
 

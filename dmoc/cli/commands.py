@@ -57,6 +57,11 @@ def _default(option, value, spec_value, names, *, free=False):
     return np.array([np.nan if s is None else s for s in spec_value], dtype=float)
 
 
+def _with_none(q):
+    """A vector of the command line with its free (NaN) entries as None, the API's mark."""
+    return [None if np.isnan(x) else float(x) for x in q]
+
+
 def _report(summary, success, status, message, files):
     width = max(map(len, summary))
     for key, value in summary.items():
@@ -118,8 +123,8 @@ def run_optimize(args):
     disc = discretize(system, args.duration / steps, args.rule)
     with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--start",
                         "v_goal": "--goal"}):
-        problem = OptimalControlProblem(disc, steps, q_start=q_start, q_goal=q_goal,
-                                        variant=args.variant)
+        problem = OptimalControlProblem(disc, steps, q_start=_with_none(q_start),
+                                        q_goal=_with_none(q_goal), variant=args.variant)
     options = {"max_iter": args.max_iter, "print_level": 5 if args.verbose else 0}
     log(f"optimizing {args.system} over {steps} steps (T = {args.duration:g}) with IPOPT"
         + ("" if args.verbose else "; --verbose shows its iteration log"))
