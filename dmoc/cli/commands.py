@@ -93,7 +93,8 @@ def run_simulate(args):
     steps = args.steps or (len(controls) if controls is not None else 1000)
     if controls is not None and len(controls) != steps:
         raise UsageError("--controls", f"must have one row per step, {steps} rows; got {len(controls)}")
-    disc = discretize(system, args.duration / steps, args.rule)
+    with options_named({"rule": "--rule", "h": "--duration"}):
+        disc = discretize(system, args.duration / steps, args.rule)
     log(f"simulating {steps} steps of {args.system} (h = {disc.h:.4g}, variant {args.variant})")
     tic = time.perf_counter()
     with options_named({"q0": "--start", "v0": "--velocity", "controls": "--controls"}):
@@ -120,7 +121,8 @@ def run_optimize(args):
                        free=True)
     q_goal = _default("--goal", args.goal, spec.goal, system.names, free=True)
     steps = args.steps or 100
-    disc = discretize(system, args.duration / steps, args.rule)
+    with options_named({"rule": "--rule", "h": "--duration"}):
+        disc = discretize(system, args.duration / steps, args.rule)
     with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--start",
                         "v_goal": "--goal"}):
         problem = OptimalControlProblem(disc, steps, q_start=_with_none(q_start),
