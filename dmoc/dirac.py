@@ -10,8 +10,11 @@ is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, 
 import casadi as ca
 import numpy as np
 
+from . import _checks
 from ._cache import BoundedCache
 from .diagnostics import check_trajectory, constraint_violation
+from .discrete import Discretization
+from .errors import InputError
 from .formulations import as_formulation
 from .tulczyjew import kappa, kappa_inverse, omega_flat_minus, omega_flat_plus
 
@@ -30,8 +33,9 @@ def dirac_differential(disc, variant):
     "+" gives (q0, D2 L_d + f^+, -D1 L_d - f^-, q1), "-" gives
     (-D1 L_d - f^-, q1, -q0, -D2 L_d - f^+).
     """
+    _checks.instance("disc", disc, Discretization, "a Discretization")
     if disc.n_stages:
-        raise ValueError("`disc` must be a stage-free rule: D+-L_d of a stage rule needs the "
+        raise InputError("`disc` must be a stage-free rule: D+-L_d of a stage rule needs the "
                          "stages eliminated first.")
     formulation = as_formulation(variant)
     return _DIFFERENTIALS.get((disc.key, formulation), lambda: _differential(disc, formulation))
@@ -60,6 +64,7 @@ def dirac_defect(disc, traj, tol_rank=1e-12):
     range A(q)^T. (In these coordinates the q-components of D+-L_d and Omega_d+-^flat agree
     identically; the content is the p-component, the annihilator and omega_d.)
     """
+    tol_rank = _checks.positive_float("tol_rank", tol_rank)
     if not check_trajectory(disc, traj):
         return np.zeros(0)
     N, formulation = traj.steps, as_formulation(traj.variant)

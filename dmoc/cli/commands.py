@@ -79,8 +79,12 @@ def _write(out, prefix, disc, traj, summary, spec, goal, animate):
         return []
     names = disc.system.names
     control_names = spec.control_names or tuple(f"u{i}" for i in range(disc.system.n_u))
-    return output.write_all(out, prefix, disc, traj, summary, spec, names=names,
-                            control_names=control_names, goal=goal, gif=animate)
+    try:
+        return output.write_all(out, prefix, disc, traj, summary, spec, names=names,
+                                control_names=control_names, goal=goal, gif=animate)
+    except OSError as err:  # disk full, folder removed: every file is whole or untouched
+        raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
+                         f"files already there are complete (each write is atomic)") from None
 
 
 def run_simulate(args):
