@@ -103,7 +103,7 @@ def array(name, value, shape, *, allow_nan=False):
     bad = np.isinf(out) if allow_nan else ~np.isfinite(out)
     if bad.any():
         where = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise InputError(f"`{name}` must be finite; entry {where} is {out[where]!r}.")
+        raise InputError(f"`{name}` must be finite; entry {where} is {float(out[where])!r}.")
     return out
 
 
@@ -130,7 +130,8 @@ def array_with_none(name, value, size, fill):
         if x is not None and (isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real)):
             raise InputTypeError(f"`{name}` must hold real numbers or None; entry {i} is {x!r}.")
         if x is not None and np.isnan(x):
-            raise InputError(f"`{name}` entry {i} is NaN; only None marks an entry as free.")
+            raise InputError(f"`{name}` entry {i} is NaN; only None leaves an entry free "
+                             f"(unbounded, for bounds).")
     return np.array([fill if x is None else float(x) for x in raw], dtype=float)
 
 

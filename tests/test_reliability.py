@@ -81,7 +81,7 @@ def test_complex_start_is_refused(disc):
 
 @pytest.mark.parametrize("name", ["q_goal", "q_start", "v_goal", "v_start"])
 @pytest.mark.parametrize("entry, error, words", [
-    (np.nan, dmoc.InputError, "NaN; only None marks an entry as free"),
+    (np.nan, dmoc.InputError, "NaN; only None leaves an entry free"),
     (True, dmoc.InputTypeError, "entry 1 is True"),
     ("0.5", dmoc.InputTypeError, "entry 1 is '0.5'"),
 ])
