@@ -4,7 +4,7 @@ import importlib
 
 from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
                        Trapezoid, discrete_legendre, discretize)
-from .errors import DmocError, SolverError
+from .errors import DmocError, InputError, InputTypeError, SolverError, TrajectoryFileError
 from .ocp import OptimalControlProblem
 from .optimize import OptimizationResult, optimize
 from .principle import StepResidual, action_sum, step_residual
@@ -39,6 +39,9 @@ __all__ = [
     "plotting",
     "animation",
     "DmocError",
+    "InputError",
+    "InputTypeError",
+    "TrajectoryFileError",
     "SolverError",
 ]
 

@@ -71,8 +71,8 @@ def optimize_many(problems, *, guesses=None, options=None, client=None, progress
     if len(guesses) != len(problems):
         raise ValueError(f"`guesses` must have one entry per problem ({len(problems)}); "
                          f"got {len(guesses)}.")
-    if options is not None and not isinstance(options, dict):
-        raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
+    if options is not None:
+        options = _checks.ipopt_options("options", options)
     tasks = [(pack_problem(problem), guess, options) for problem, guess in zip(problems, guesses)]
     return _run(_optimize_task, tasks, OptimizationResult, client, progress, "optimize")
 

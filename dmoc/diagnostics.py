@@ -7,7 +7,9 @@ import numpy as np
 
 from . import _checks
 from .discrete import Discretization
+from .errors import InputError
 from .formulations import as_formulation
+from .ocp import OptimalControlProblem
 from .principle import step_residual
 from .simulate import simulate
 from .trajectory import Trajectory
@@ -15,14 +17,12 @@ from .trajectory import Trajectory
 
 def check_trajectory(disc, traj):
     """Raise unless `traj` fits `disc` (sizes of q, lam, u, s); return its number of steps."""
-    if not isinstance(disc, Discretization):
-        raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
-    if not isinstance(traj, Trajectory):
-        raise TypeError(f"`traj` must be a Trajectory; got {type(traj).__name__}.")
+    _checks.instance("disc", disc, Discretization, "a Discretization")
+    _checks.instance("traj", traj, Trajectory, "a Trajectory")
     sizes = {"q": disc.system.n, "lam": disc.n_multipliers, "u": disc.n_controls, "s": disc.n_stages}
     for name, size in sizes.items():
         if getattr(traj, name).shape[1] != size:
-            raise ValueError(f"`traj.{name}` has {getattr(traj, name).shape[1]} columns; "
+            raise InputError(f"`traj.{name}` has {getattr(traj, name).shape[1]} columns; "
                              f"this discretization has {size}.")
     return traj.steps
 
@@ -89,7 +89,9 @@ def replay_error(problem, result):
     optimal initial state: the two consumers share one residual, so both are at solver
     tolerance. p_N is left out where the formulation puts the end impulse into it (variant
     "-"), which `simulate` cannot know."""
-    traj = result.trajectory
+    _checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+    traj = _checks.instance("result.trajectory", getattr(result, "trajectory", None), Trajectory,
+                            "a Trajectory (give the OptimizationResult of `problem`)")
     disc = problem.disc.with_step(traj.h)
     replay = simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
                       variant=traj.variant, throw=False).trajectory
@@ -135,9 +137,9 @@ def symplecticity_defect(disc, q0, p0, *, u=None, variant="+"):
     the stage unknowns of a stage rule eliminated with (q1, p1). `u` holds the step's
     controls, shape (disc.n_controls,) (default zeros).
     """
-    sys = disc.system
+    sys = _checks.instance("disc", disc, Discretization, "a Discretization").system
     if sys.m:
-        raise ValueError("`disc` must have no constraints: with constraints the step map is "
+        raise InputError("`disc` must have no constraints: with constraints the step map is "
                          "not symplectic on T*Q.")
     u = np.zeros(disc.n_controls) if u is None else _checks.array("u", u, (disc.n_controls,))
     traj = simulate(disc, q0=q0, p0=p0, steps=1, controls=np.reshape(u, (1, -1)),

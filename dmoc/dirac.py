@@ -9,8 +9,11 @@ is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, 
 
 import numpy as np
 
+from . import _checks
 from ._cache import BoundedCache
 from .diagnostics import check_trajectory, constraint_violation
+from .discrete import Discretization
+from .errors import InputError
 from .formulations import as_formulation
 from .tulczyjew import kappa, kappa_inverse, omega_flat_minus, omega_flat_plus  # noqa: F401 (re-exported)
 
@@ -31,8 +34,9 @@ def dirac_differential(disc, variant):
     of (38), dH_d-(p0, q1) = (p0, q1, D1 H_d-, D2 H_d- - f_d^+) of (42), at the solved
     stages of a stage rule (H_d is extremal in them).
     """
+    _checks.instance("disc", disc, Discretization, "a Discretization")
     if disc.n_multipliers > disc.system.m:
-        raise ValueError("`disc` must not have multipliers at interior nodes (a Lagrangian stage "
+        raise InputError("`disc` must not have multipliers at interior nodes (a Lagrangian stage "
                          "rule with constraints): its Dirac structure needs the stage-augmented "
                          "annihilator.")
     formulation = as_formulation(variant, disc)
@@ -50,6 +54,7 @@ def dirac_defect(disc, traj, tol_rank=1e-12):
     range A(q)^T. (In these coordinates the q-components of D+-L_d and Omega_d+-^flat agree
     identically; the content is the p-component, the annihilator and omega_d.)
     """
+    tol_rank = _checks.positive_float("tol_rank", tol_rank)
     if not check_trajectory(disc, traj):
         return np.zeros(0)
     N, formulation = traj.steps, as_formulation(traj.variant, disc)

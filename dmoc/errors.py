@@ -1,12 +1,32 @@
-"""Exceptions raised by dmoc.
+"""Exceptions raised by dmoc (the taxonomy of docs/errors.md).
 
-`SolverError` is raised when a consumer of the step residual (the simulator's Newton
-iteration or the optimizer's IPOPT run) fails; it keeps what was computed in `.result`.
+Every error dmoc raises on its own account is a `DmocError`. A bad argument is an
+`InputError` (a wrong value: shape, range, NaN, an unknown choice) or an `InputTypeError`
+(a wrong kind of object); they are also `ValueError` and `TypeError`, so code that catches
+the built-in exceptions keeps working. A file that is not a dmoc trajectory is a
+`TrajectoryFileError`. `SolverError` is raised when a consumer of the step residual (the
+simulator's Newton iteration or the optimizer's IPOPT run) fails; it keeps what was
+computed in `.result`.
 """
 
 
 class DmocError(Exception):
     """Base class of every error dmoc raises on its own account."""
+
+
+class InputError(DmocError, ValueError):
+    """An argument has a wrong value: its message names the argument, what was expected and
+    what was given, e.g. "`q0` must have shape (3,) for this system; got (2,)."."""
+
+
+class InputTypeError(DmocError, TypeError):
+    """An argument is the wrong kind of object (a string for a number, a symbolic
+    expression for an array, a list for a Trajectory); the message names it."""
+
+
+class TrajectoryFileError(InputError):
+    """A file given to `Trajectory.load` is missing, truncated, empty or not written by
+    `Trajectory.save`; the message names the file and says which."""
 
 
 class SolverError(DmocError):

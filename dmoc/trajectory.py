@@ -2,12 +2,19 @@
 to .npz that round-trips exactly.
 """
 
+import zipfile
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from . import _checks
+from ._files import atomic_write
+from .errors import InputError, InputTypeError, TrajectoryFileError
 from .formulations import FORMULATIONS
+
+# max |t_k - t_0 - k h| allowed, relative to |t_0| + N h: rounding of t_0 + k h, of
+# np.linspace and of cumulative sums of h stay far below it; a grid of another h does not.
+TIME_GRID_RTOL = 1e-10
 
 
 @dataclass(eq=False)
@@ -54,23 +61,21 @@ class Trajectory:
     control_nodes: tuple = (0.5,)
 
     def __post_init__(self):
-        # NaN is allowed in the arrays: the last iterate of a failed solve may hold it, and
-        # is kept rather than lost. Every array is copied, never a view of solver memory.
-        q = np.array(self.q, dtype=float)
+        # NaN is allowed in q, p, lam, u, s, mu: the last iterate of a failed solve may hold
+        # it, and is kept rather than lost. Every array is copied, never a view of solver
+        # memory. Complex numbers, strings and ragged rows are refused (`_checks.real_array`).
+        q = _checks.real_array("q", self.q, "an array of real numbers of shape (N+1, n)")
         if q.ndim != 2 or q.shape[0] < 1:
-            raise ValueError(f"`q` must have shape (N+1, n); got {q.shape}.")
+            raise InputError(f"`q` must have shape (N+1, n); got {q.shape}.")
         self.q = _checks.array("q", q, q.shape, allow_nan=True)
         N1, n = q.shape
-        self.t = _checks.array("t", self.t, (N1,), allow_nan=True)
+        self.h = _checks.positive_float("h", self.h)
+        self.t = _time_grid(self.t, N1, self.h)
         self.p = _checks.array("p", self.p, (N1, n), allow_nan=True)
         self.lam, self.u, self.s = (_per_step(name, value, N1 - 1) for name, value in
                                     (("lam", self.lam), ("u", self.u), ("s", self.s)))
-        self.h = _checks.positive_float("h", self.h)
         self.variant = _checks.choice("variant", self.variant, tuple(FORMULATIONS))
-        self.control_nodes = tuple(float(c) for c in np.ravel(self.control_nodes))
-        if not self.control_nodes or self.u.shape[1] % len(self.control_nodes):
-            raise ValueError(f"`u` must have a multiple of len(control_nodes) = "
-                             f"{len(self.control_nodes)} columns; got {self.u.shape[1]}.")
+        self.control_nodes = _control_nodes(self.control_nodes, self.u.shape[1])
         self.mu = (np.zeros(self.lam.shape[1]) if self.mu is None else
                    _checks.array("mu", self.mu, (np.size(self.mu),), allow_nan=True))
 
@@ -112,29 +117,93 @@ class Trajectory:
         return np.einsum("tj,tju->tu", basis, values)
 
     def save(self, path):
-        """Write every field to an uncompressed .npz file at exactly `path` (exact round trip)."""
-        with open(path, "wb") as file:
-            np.savez(file, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
+        """Write every field to an uncompressed .npz file at exactly `path` (exact round
+        trip). The write is atomic: a temporary file renamed over `path`, so a failure
+        half-way leaves a previous file at `path` intact."""
+        arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
+        with atomic_write(path) as file:
+            np.savez(file, **arrays)
 
     @classmethod
     def load(cls, path):
-        """Read a Trajectory written by `save`."""
-        with np.load(path, allow_pickle=False) as data:
-            values = {f.name: data[f.name] for f in fields(cls) if f.name in data.files}
-        values["h"] = float(values["h"])
+        """Read a Trajectory written by `save`; never unpickles.
+
+        Raises
+        ------
+        FileNotFoundError
+            If there is no file at `path`.
+        TrajectoryFileError
+            If the file is empty, truncated, corrupted or not written by `save`.
+        """
+        with open(path, "rb") as file:
+            head = file.read(4)
+        if head != b"PK\x03\x04":         # every .npz file is a zip archive
+            _invalid(path, "it is empty" if not head else "it is not an .npz (zip) archive")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                names = set(data.files)
+                values = {name: data[name] for name in names & _FIELDS}
+        except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as err:
+            _invalid(path, f"it is truncated or corrupted ({type(err).__name__}: {err})")
+        missing, unknown = _REQUIRED - names, names - _FIELDS
+        if missing or unknown:
+            _invalid(path, f"it lacks the fields {sorted(missing)}" if missing else
+                     f"it holds fields a Trajectory does not have: {sorted(unknown)}")
+        for name in ("h", "variant"):
+            if values[name].shape != ():
+                _invalid(path, f"`{name}` must be a single value; got shape {values[name].shape}")
+        values["h"] = values["h"].item()
         values["variant"] = str(values["variant"])
-        return cls(**values)
+        try:
+            return cls(**values)
+        except (InputError, InputTypeError) as err:
+            _invalid(path, f"its fields do not form a trajectory: {err}")
 
     def __repr__(self):
         return (f"Trajectory(steps={self.steps}, n={self.q.shape[1]}, m={self.lam.shape[1]}, "
                 f"n_u={self.u.shape[1]}, h={self.h}, variant={self.variant!r})")
 
 
+_REQUIRED = {"t", "q", "p", "lam", "u", "h", "variant"}
+_FIELDS = {f.name for f in fields(Trajectory)}
+
+
+def _invalid(path, reason):
+    raise TrajectoryFileError(f"{str(path)!r} is not a valid dmoc trajectory file "
+                              f"(one written by Trajectory.save): {reason}.")
+
+
+def _time_grid(t, N1, h):
+    """The knot times, shape (N+1,): finite and equal to t_0 + k h within TIME_GRID_RTOL."""
+    t = _checks.array("t", t, (N1,))
+    k = np.arange(N1)
+    off = np.abs(t - (t[0] + k * h))
+    if off.max() > TIME_GRID_RTOL * (abs(t[0]) + (N1 - 1) * h):
+        j = int(np.argmax(off))
+        raise InputError(f"`t` must be the grid t_0 + k h with h = {h!r}; t[{j}] = {float(t[j])!r} "
+                         f"is {off[j]:.3g} off (a grid of another step, or `h` not "
+                         f"(t[-1] - t[0])/N?).")
+    return t
+
+
+def _control_nodes(nodes, columns):
+    """`nodes` as a tuple of distinct step times in [0, 1] that divides the u columns."""
+    nodes = _checks.real_array("control_nodes", nodes, "a sequence of step times in [0, 1]")
+    nodes = tuple(float(c) for c in np.ravel(nodes))
+    if not nodes or not all(0.0 <= c <= 1.0 for c in nodes) or len(set(nodes)) < len(nodes):
+        raise InputError(f"`control_nodes` must be distinct step times in [0, 1]; got {nodes}.")
+    if columns % len(nodes):
+        raise InputError(f"`u` must have a multiple of len(control_nodes) = {len(nodes)} "
+                         f"columns; got {columns}.")
+    return nodes
+
+
 def _per_step(name, value, N):
     """A per-step array of shape (N, k); empty input (or None) means k = 0."""
-    data = np.array(np.zeros((N, 0)) if value is None else value, dtype=float)
+    data = _checks.real_array(name, np.zeros((N, 0)) if value is None else value,
+                              f"an array of real numbers of shape ({N}, k)")
     if data.size == 0:
         data = data.reshape(N, 0) if N else np.zeros((0, data.shape[-1] if data.ndim == 2 else 0))
     if data.ndim != 2 or data.shape[0] != N:
-        raise ValueError(f"`{name}` must have shape ({N}, k), one row per step; got {data.shape}.")
+        raise InputError(f"`{name}` must have shape ({N}, k), one row per step; got {data.shape}.")
     return _checks.array(name, data, data.shape, allow_nan=True)

@@ -135,11 +135,6 @@ def test_bad_solver_options(disc, name, value):
         simulate_with(disc, **{name: value})
 
 
-def test_unknown_option_rejected(disc):
-    with pytest.raises(TypeError, match="tolerance"):
-        simulate_with(disc, tolerance=1e-9)
-
-
 def test_wrong_object_types(disc):
     with pytest.raises(TypeError, match="`disc` must be a Discretization"):
         dmoc.simulate(knife_edge(), **GOOD)

@@ -41,7 +41,7 @@ def test_trajectory_owns_its_arrays():
 
 
 def test_diagnostics_check_every_size(knife):
-    free = dmoc.Trajectory(np.arange(3.0), np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((2, 0)),
+    free = dmoc.Trajectory(0.1 * np.arange(3.0), np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((2, 0)),
                            np.zeros((2, 2)), 0.1, "+")
     for check in (diagnostics.residual_norms, diagnostics.constraint_violation, dirac_defect):
         with pytest.raises(ValueError, match=r"`traj.lam`"):

@@ -74,14 +74,16 @@ def load_controls(file, n_u):
     """Controls u_k from a .npy file or a text/CSV file (an optional header line is
     skipped), shape (N, n_u)."""
     path = pathlib.Path(file)
-    if not path.is_file():
+    if not path.exists():
         raise UsageError("--controls", f"file {file!r} does not exist")
+    if not path.is_file():
+        raise UsageError("--controls", f"{file!r} is not a file")
     try:
         if path.suffix == ".npy":
             u = np.load(path, allow_pickle=False)
         else:
             u = _load_text(path)
-    except ValueError as err:
+    except (ValueError, EOFError, OSError) as err:
         raise UsageError("--controls", f"cannot read {file}: {err}") from None
     u = np.asarray(u, dtype=float)
     if u.ndim == 1 and n_u == 1:
@@ -95,11 +97,16 @@ def load_controls(file, n_u):
 
 
 def _load_text(path):
-    lines = path.read_text().splitlines()
+    """Rows of numbers of a text file, its first line skipped if it is not numbers."""
+    lines = [line for line in path.read_text().splitlines() if line.strip()]
+    if not lines:
+        raise ValueError("it is empty")
     delimiter = "," if "," in "".join(lines[:2]) else None
     try:
         return np.loadtxt(lines, delimiter=delimiter, ndmin=1)
     except ValueError:
+        if len(lines) < 2:
+            raise ValueError("it holds no rows of numbers") from None
         return np.loadtxt(lines[1:], delimiter=delimiter, ndmin=1)
 
 

@@ -57,6 +57,11 @@ def _default(option, value, spec_value, names, *, free=False):
     return np.array([np.nan if s is None else s for s in spec_value], dtype=float)
 
 
+def _with_none(q):
+    """A vector of the command line with its free (NaN) entries as None, the API's mark."""
+    return [None if np.isnan(x) else float(x) for x in q]
+
+
 def _report(summary, success, status, message, files):
     width = max(map(len, summary))
     for key, value in summary.items():
@@ -74,8 +79,12 @@ def _write(out, prefix, disc, traj, summary, spec, goal, animate):
         return []
     names = disc.system.names
     control_names = spec.control_names or tuple(f"u{i}" for i in range(disc.system.n_u))
-    return output.write_all(out, prefix, disc, traj, summary, spec, names=names,
-                            control_names=control_names, goal=goal, gif=animate)
+    try:
+        return output.write_all(out, prefix, disc, traj, summary, spec, names=names,
+                                control_names=control_names, goal=goal, gif=animate)
+    except OSError as err:  # disk full, folder removed: every file is whole or untouched
+        raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
+                         f"files already there are complete (each write is atomic)") from None
 
 
 def run_simulate(args):
@@ -88,7 +97,8 @@ def run_simulate(args):
     steps = args.steps or (len(controls) if controls is not None else 1000)
     if controls is not None and len(controls) != steps:
         raise UsageError("--controls", f"must have one row per step, {steps} rows; got {len(controls)}")
-    disc = discretize(system, args.duration / steps, args.rule)
+    with options_named({"rule": "--rule", "h": "--duration"}):
+        disc = discretize(system, args.duration / steps, args.rule)
     log(f"simulating {steps} steps of {args.system} (h = {disc.h:.4g}, variant {args.variant})")
     tic = time.perf_counter()
     with options_named({"q0": "--start", "v0": "--velocity", "controls": "--controls"}):
@@ -115,11 +125,12 @@ def run_optimize(args):
                        free=True)
     q_goal = _default("--goal", args.goal, spec.goal, system.names, free=True)
     steps = args.steps or 100
-    disc = discretize(system, args.duration / steps, args.rule)
+    with options_named({"rule": "--rule", "h": "--duration"}):
+        disc = discretize(system, args.duration / steps, args.rule)
     with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--start",
                         "v_goal": "--goal"}):
-        problem = OptimalControlProblem(disc, steps, q_start=q_start, q_goal=q_goal,
-                                        variant=args.variant)
+        problem = OptimalControlProblem(disc, steps, q_start=_with_none(q_start),
+                                        q_goal=_with_none(q_goal), variant=args.variant)
     options = {"max_iter": args.max_iter, "print_level": 5 if args.verbose else 0}
     log(f"optimizing {args.system} over {steps} steps (T = {args.duration:g}) with IPOPT"
         + ("" if args.verbose else "; --verbose shows its iteration log"))

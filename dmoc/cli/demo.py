@@ -6,6 +6,7 @@ variants, replays each optimum, and writes a summary and plots.
 import numpy as np
 
 from .. import diagnostics, problems, systems
+from .._files import atomic_write, write_text
 from ..discrete import discretize
 from ..optimize import optimize
 from ..plotting import plot_energy_error, plot_path, save_trajectory_plots
@@ -43,10 +44,15 @@ def simulation_demo(out, steps):
                         title=f"{name}: simulated path ({steps} steps)")
         fig.axes[0].plot(q_exact[:, 0], q_exact[:, 1], "k--", lw=0.8, label="exact")
         fig.axes[0].legend()
-        fig.savefig(out / f"{name}_simulated_path.png", dpi=120)
-        plot_energy_error(disc, traj, title=f"{name}: energy error").savefig(
-            out / f"{name}_energy.png", dpi=120)
+        _save_png(fig, out / f"{name}_simulated_path.png")
+        _save_png(plot_energy_error(disc, traj, title=f"{name}: energy error"),
+                  out / f"{name}_energy.png")
     return lines
+
+
+def _save_png(fig, path):
+    with atomic_write(path) as file:
+        fig.savefig(file, format="png", dpi=120)
 
 
 def optimization_demo(out, steps):
@@ -82,7 +88,7 @@ def run_demo(args):
     lines += ["", "DMOC: optimal control with the same step residual, replayed by the simulator"]
     optimized, ok = optimization_demo(out, args.opt_steps)
     summary = "\n".join(lines + optimized)
-    (out / "summary.txt").write_text(summary + "\n")
+    write_text(out / "summary.txt", summary + "\n")
     print(summary)
     print(f"\nwrote {out / 'summary.txt'} and plots in {out}/")
     return 0 if ok else 1

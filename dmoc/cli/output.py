@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from .. import diagnostics
+from .._files import atomic_write, write_text
 from ..animation import animate
 from ..plotting import save_trajectory_plots
 
@@ -41,14 +42,16 @@ def _json_value(value):
 
 def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goal=None,
               gif=False):
-    """Write every output file of one run into `out`; return the paths written."""
+    """Write every output file of one run into `out` (the trajectory, table and summary
+    atomically: a failed write leaves an earlier file in place); return the paths written."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
-    np.savetxt(written[1], table, delimiter=",", header=",".join(header), comments="",
-               fmt="%.17g")
-    written[2].write_text(json.dumps({k: _json_value(v) for k, v in summary.items()},
-                                     indent=2) + "\n")
+    with atomic_write(written[1], "w") as file:
+        np.savetxt(file, table, delimiter=",", header=",".join(header), comments="",
+                   fmt="%.17g")
+    write_text(written[2], json.dumps({k: _json_value(v) for k, v in summary.items()},
+                                      indent=2) + "\n")
     if np.isfinite(traj.q).all():
         written += save_trajectory_plots(traj, out, name, disc=disc, names=names,
                                          control_names=control_names, heading=spec.heading,

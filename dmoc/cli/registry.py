@@ -101,6 +101,8 @@ def build(spec, params):
         system = spec.factory(**params)
     except (ValueError, TypeError) as err:
         raise UsageError("--param", str(err).rstrip(".")) from None
+    except Exception as err:  # the user's factory: say what broke, in one line
+        raise UsageError("SYSTEM", f"the factory raised {type(err).__name__}: {err}") from None
     if not isinstance(system, MechanicalSystem):
         raise UsageError("SYSTEM", f"the factory must return a MechanicalSystem; got "
                          f"{type(system).__name__}")

@@ -1,0 +1,185 @@
+"""Reliability defects whose fix lives in the core (stepper, simulate, ocp, optimize,
+system): each test states the behaviour issue 16 asks for and is marked
+``xfail(strict=True)`` with the file the fix belongs in, so it fails the moment the defect
+is fixed and its marker must then be removed (docs/verification.md, "Bad inputs").
+
+Oracles, none taken from the code under test: a force sqrt(u) that is NaN exactly at the
+step whose control is negative; the knife edge's invariance under translation (its L and
+A(q) depend on theta only) and under scaling of mass and inertia together (the motion
+does not change); messages by content.
+"""
+
+import os
+import tempfile
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import dmoc
+from dmoc import diagnostics
+from dmoc.systems import knife_edge
+
+
+def xfail(where, what):
+    return pytest.mark.xfail(strict=True, reason=f"fix in {where}: {what}")
+
+
+@pytest.fixture(scope="module")
+def disc():
+    return dmoc.discretize(knife_edge(), 0.1)
+
+
+def problem(disc, **kwargs):
+    return dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 0.1, 0], **kwargs)
+
+
+# ---------------------------------------------------------------------------------------
+# simulate: NaN at the step where it appears, never success
+
+
+def sqrt_force():
+    """L = v^2/2 with the force sqrt(u): NaN exactly at a step whose control is < 0."""
+    system = dmoc.MechanicalSystem(lambda q, v: 0.5 * v[0] ** 2, 1,
+                                   force=lambda q, v, u: ca.sqrt(u[0]), n_u=1)
+    return dmoc.discretize(system, 0.1)
+
+
+@xfail("dmoc/stepper.py (accepted) and dmoc/simulate.py",
+       "accept a step only if the next state is finite; name the non-finite quantity")
+@pytest.mark.parametrize("k", [9, 4])
+def test_nan_force_fails_at_its_own_step(k):
+    controls = np.ones((10, 1))
+    controls[k] = -1.0
+    result = dmoc.simulate(sqrt_force(), q0=[0.0], v0=[1.0], steps=10, controls=controls,
+                           throw=False)
+    assert result.success is False
+    assert result.stats["completed_steps"] == k == result.trajectory.steps
+    assert np.isfinite(result.trajectory.q).all() and np.isfinite(result.trajectory.p).all()
+    assert f"step {k}" in result.message and "NaN" in result.message
+
+
+# ---------------------------------------------------------------------------------------
+# Tolerances that follow the scale of the data
+
+
+@xfail("dmoc/stepper.py", "Newton's acceptance relative to the size of the momenta and forces")
+@pytest.mark.parametrize("scale", [1e8])
+def test_mass_scale_does_not_change_the_motion(scale):
+    q0, v0 = [0, 0, 0.3], [np.cos(0.3), np.sin(0.3), 1.0]
+    runs = [dmoc.simulate(dmoc.discretize(knife_edge(mass=s, inertia=s, incline=0.0), 0.1),
+                          q0=q0, v0=v0, steps=20, throw=False) for s in (1.0, scale)]
+    assert runs[1].success, runs[1].message
+    np.testing.assert_allclose(runs[1].trajectory.q, runs[0].trajectory.q, rtol=0, atol=1e-10)
+
+
+@xfail("dmoc/stepper.py", "Newton's acceptance relative to the size of the forces")
+def test_large_legitimate_forces_converge(disc):
+    result = dmoc.simulate(disc, q0=[0, 0, 0], v0=[1, 0, 1], steps=20,
+                           controls=np.full((20, 2), 1e7), throw=False)
+    assert result.success, result.message
+    assert diagnostics.constraint_violation(disc, result.trajectory).max() < 1e-6
+
+
+@xfail("dmoc/optimize.py", "IPOPT tolerances (tol, constr_viol_tol) scaled by the data, or NLP scaling")
+def test_optimum_is_translation_invariant():
+    disc = dmoc.discretize(knife_edge(), 0.04)
+    shift = np.array([1e6, 1e6, 0.0])
+    results = [dmoc.optimize(dmoc.OptimalControlProblem(disc, 20, q_start=d, q_goal=d + [0, 1, 0]),
+                             throw=False) for d in (np.zeros(3), shift)]
+    assert results[1].success, results[1].message
+    assert results[1].cost == pytest.approx(results[0].cost, rel=1e-6)
+
+
+# ---------------------------------------------------------------------------------------
+# optimize: options and solver messages
+
+
+@xfail("dmoc/optimize.py (_solver)", "validate with dmoc._checks.ipopt_options before nlpsol")
+@pytest.mark.parametrize("options, error, words", [
+    ({"max_iter": None}, TypeError, r"`options\['max_iter'\]`"),
+    ({3: 1}, TypeError, "string keys"),
+])
+def test_options_of_the_wrong_kind_are_named(disc, options, error, words):
+    with pytest.raises(error, match=words):
+        dmoc.optimize(problem(disc), options=options)
+
+
+@xfail("dmoc/optimize.py (_solver)", "catch the RuntimeError of a wrong option type too; "
+       "first line names the option")
+@pytest.mark.parametrize("options, name", [({"max_iter": "many"}, "max_iter"),
+                                           ({"mu_strategy": "nonsense"}, "mu_strategy")])
+def test_rejected_option_is_named_on_the_first_line(disc, options, name, capfd):
+    with pytest.raises(ValueError) as info:
+        dmoc.optimize(problem(disc), options=options)
+    capfd.readouterr()
+    assert name in str(info.value).splitlines()[0]
+
+
+@xfail("dmoc/optimize.py", "stats of this solve only (iter_count missing -> 0); no "
+       "'most violated' from a point IPOPT never evaluated")
+def test_invalid_option_at_solve_time_reports_this_solve(disc, capfd):
+    dmoc.optimize(problem(disc), options={"max_iter": 3}, throw=False)
+    result = dmoc.optimize(problem(disc), options={"linear_solver": "ma57"}, throw=False)
+    capfd.readouterr()
+    assert result.status == "Invalid_Option"
+    assert result.stats["iterations"] == 0 and "after 3 iterations" not in result.message
+
+
+@xfail("dmoc/optimize.py (most_violated)", "on Invalid_Number_Detected say which function "
+       "returned NaN/Inf instead of 'dynamics at step 0, violation 0'")
+def test_invalid_number_names_the_non_finite_value(capfd):
+    tiny = dmoc.discretize(knife_edge(), 1e-302)
+    result = dmoc.optimize(dmoc.OptimalControlProblem(tiny, 5, q_start=[0, 0, 0],
+                                                      q_goal=[0, 0.1, 0]), throw=False)
+    capfd.readouterr()
+    assert result.status == "Invalid_Number_Detected"
+    assert "0.00e+00" not in result.message and ("NaN" in result.message or "Inf" in result.message)
+
+
+@xfail("dmoc/ocp.py (_bounds)", "refuse lower = +inf or upper = -inf naming `control_bounds`")
+@pytest.mark.parametrize("bounds", [([np.inf] * 2, [np.inf] * 2), ([-np.inf] * 2, [-np.inf] * 2)])
+def test_infinite_bounds_on_the_wrong_side(disc, bounds):
+    with pytest.raises(ValueError, match="`control_bounds`"):
+        problem(disc, control_bounds=bounds)
+
+
+# ---------------------------------------------------------------------------------------
+# Inputs that reach CasADi or numpy unchecked
+
+
+@xfail("dmoc/simulate.py (step_controls)", "np.shape(controls) before _checks.array raises "
+       "numpy's ragged-array error for rules with several control nodes")
+def test_ragged_controls_with_lobatto():
+    disc = dmoc.discretize(knife_edge(), 0.1, "lobatto3")
+    with pytest.raises(dmoc.InputError, match="`controls`.*ragged"):
+        dmoc.simulate(disc, q0=[0, 0, 0], v0=[1, 0, 1], steps=3, controls=[[0, 0], [0], [0, 0]])
+
+
+@xfail("dmoc/system.py", "check names is a sequence of n strings; a TypeError naming `names`")
+def test_names_of_the_wrong_kind():
+    with pytest.raises((TypeError, ValueError), match="`names`"):
+        dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 2, names=5)
+
+
+@xfail("dmoc/system.py or dmoc/discrete/degenerate.py", "refuse a Lagrangian that does not "
+       "depend on v (no step map: 'simulates' q = 0.1, 9.3, 18.9, ...)")
+def test_lagrangian_without_velocities():
+    system = dmoc.MechanicalSystem(lambda q, v: ca.sin(q[0]), 1)
+    with pytest.raises(ValueError, match="`lagrangian`"):
+        dmoc.simulate(dmoc.discretize(system, 0.1), q0=[0.1], v0=[0.0], steps=3)
+
+
+@xfail("dmoc/stepper.py", "jit: compile in a temporary directory (jit_options 'directory'), "
+       "not the working directory")
+def test_jit_without_a_usable_working_directory():
+    here = os.getcwd()
+    gone = tempfile.mkdtemp()
+    os.chdir(gone)
+    os.rmdir(gone)
+    try:
+        result = dmoc.simulate(dmoc.discretize(knife_edge(mass=1.9), 0.1), q0=[0, 0, 0],
+                               v0=[1, 0, 1], steps=3, jit=True)
+    finally:
+        os.chdir(here)
+    assert result.success
