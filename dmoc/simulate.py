@@ -136,7 +136,11 @@ def step_controls(disc, controls, steps):
     n_u, nodes = disc.system.n_u, len(disc.rule.control_nodes)
     if controls is None:
         return np.zeros((steps, disc.n_controls))
-    if nodes > 1 and np.shape(controls) == (steps, n_u):
+    try:
+        shape = np.shape(controls)
+    except ValueError:           # ragged: `_checks.array` below names it
+        shape = None
+    if nodes > 1 and shape == (steps, n_u):
         controls = np.tile(_checks.array("controls", controls, (steps, n_u)), (1, nodes))
     return _checks.array("controls", controls, (steps, disc.n_controls))
 

@@ -165,8 +165,12 @@ def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, na
     if fun is None:
         problems.append(f"`{name}` is required: a callable returning a CasADi expression.")
     else:
-        setattr(system, name, user_function(name, fun, (q, x), ("q", second), (1, 1), problems,
-                                            label=label))
+        primary_function = user_function(name, fun, (q, x), ("q", second), (1, 1), problems,
+                                         label=label)
+        setattr(system, name, primary_function)
+        if primary_function is not None and not ca.depends_on(primary_function(q, x), x):
+            problems.append(f"`{name}` must depend on the {'velocities v' if second == 'v' else 'momenta p'}: "
+                            f"without them there is no motion to discretize (no step map).")
     (system.nonholonomic_matrix, system.holonomic,
      system.constraint_matrix) = constraint_functions(q, constraints, holonomic, problems)
     args = ("q", second, "u")
@@ -234,6 +238,9 @@ def _check_rank(constraint_matrix, n, n_holonomic, problems):
 
 def _coordinate_names(names, n, problems):
     if names is None:
+        return tuple(f"q{i}" for i in range(n))
+    if isinstance(names, str) or not hasattr(names, "__iter__"):
+        problems.append(f"`names` must be a sequence of {n} strings; got {names!r}.")
         return tuple(f"q{i}" for i in range(n))
     names = tuple(names)
     if len(names) != n or not all(isinstance(s, str) for s in names):
