@@ -203,3 +203,20 @@ def test_subprocess_exit_codes_and_no_traceback(tmp_path):
     assert failed.returncode == 1 and "Maximum_Iterations_Exceeded" in failed.stderr
     assert (tmp_path / "o" / "rolling_disk_summary.json").exists()
     assert "Traceback" not in bad.stderr + failed.stderr
+
+
+@pytest.mark.parametrize("system", ["spherical-pendulum", "lc-circuit"])
+def test_later_built_ins_simulate_and_optimize(system, tmp_path, capsys):
+    assert main(["simulate", system, "--steps", "50", "--out", str(tmp_path / "s")]) == 0
+    assert main(["optimize", system, "--steps", "20", "--out", str(tmp_path / "o")]) == 0
+    summary = json.loads(next((tmp_path / "o").glob("*_summary.json")).read_text())
+    assert summary["success"] and summary["replay_q"] < 1e-8
+
+
+def test_stage_rule_csv_names_the_controls_by_node(tmp_path, capsys):
+    assert main(["optimize", "knife-edge", "--rule", "lobatto3", "--steps", "12",
+                 "--out", str(tmp_path)]) == 0
+    header = (tmp_path / "knife_edge.csv").read_text().splitlines()[0].split(",")
+    assert header[-6:] == ["force@0", "torque@0", "force@0.5", "torque@0.5", "force@1", "torque@1"]
+    table = np.loadtxt(tmp_path / "knife_edge.csv", delimiter=",", skiprows=1)
+    assert table.shape[1] == len(header)

@@ -11,6 +11,7 @@ import argparse
 import importlib.metadata
 import sys
 
+from ..discrete import RULES
 from . import arguments, commands, demo, registry
 from .arguments import Parser, UsageError, positive_float, positive_int
 
@@ -32,7 +33,7 @@ def _common(sub):
                      help="a system parameter, e.g. --param mass=2 (repeatable)")
     sub.add_argument("--start", metavar="Q", help="start configuration, comma-separated")
     sub.add_argument("--steps", type=positive_int, metavar="N", help="number of steps N")
-    sub.add_argument("--rule", choices=("midpoint", "trapezoid"), default="midpoint",
+    sub.add_argument("--rule", choices=tuple(RULES), default="midpoint",
                      help="quadrature rule of the discrete Lagrangian (default: midpoint)")
     sub.add_argument("--variant", choices=("+", "-"), default="+",
                      help="(+) equations (37) or (-) equations (41) (default: +)")

@@ -21,12 +21,16 @@ def energy_drift(disc, traj):
 
 def csv_columns(traj, names, control_names):
     """Column names and the (N+1, columns) table: t, q, p at the knots; lam and u of step
-    k on row k (the last row holds NaN there: there is no step after t_N)."""
+    k on row k (the last row holds NaN there: there is no step after t_N). Controls at a
+    stage rule's nodes are named by node, e.g. ``force@0.5`` (the step time t_k + 0.5 h)."""
     def per_step(a):
         return np.vstack([a, np.full((1, a.shape[1]), np.nan)])
 
+    nodes = traj.control_nodes
+    controls = list(control_names) if nodes == (0.5,) else [
+        f"{name}@{c:.4g}" for c in nodes for name in control_names]
     header = (["t", *names, *(f"p_{s}" for s in names),
-               *(f"lam_{a}" for a in range(traj.lam.shape[1])), *control_names])
+               *(f"lam_{a}" for a in range(traj.lam.shape[1])), *controls])
     table = np.column_stack([traj.t, traj.q, traj.p, per_step(traj.lam), per_step(traj.u)])
     return header, table
 

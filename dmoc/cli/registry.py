@@ -64,6 +64,16 @@ BUILT_IN = {
         start=(0.0, 0.0, 0.0, 0.0), velocity=(1.0, 0.0, 1.0, 0.5),
         goal=(1.0, 1.0, None, np.pi / 2), control_names=("roll_torque", "steer_torque"),
         shape="coin", heading=3, roll=2),
+    "spherical-pendulum": SystemSpec(
+        systems.spherical_pendulum, "spherical pendulum in Cartesian coordinates q = (x, y, z), "
+        "z up, holonomic abs(q)^2 = l^2 kept exactly, u = horizontal force (x, y)",
+        start=(float(np.sin(1.0)), 0.0, float(-np.cos(1.0))), velocity=(0.0, 1.2, 0.0),
+        goal=(0.0, float(np.sin(1.0)), None), control_names=("force_x", "force_y")),
+    "lc-circuit": SystemSpec(
+        systems.lc_circuit, "LC circuit, two capacitors in parallel (a degenerate Lagrangian); "
+        "q = charges (q_L, q_1, q_2), Kirchhoff's current law as the constraint, u = source voltage",
+        start=(0.1, 0.05, 0.05), velocity=(0.3, 0.15, 0.15), goal=(1.0, 0.5, 0.5),
+        control_names=("voltage",)),
 }
 
 
