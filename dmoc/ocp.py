@@ -4,6 +4,9 @@ nonlinear program (Ober-Bloebaum, Junge & Marsden 2011) whose dynamic constraint
 momentum boundary conditions of `boundary` and Delta_Q^d imposed directly.
 """
 
+import copy
+import hashlib
+
 import casadi as ca
 import numpy as np
 
@@ -69,7 +72,20 @@ class OptimalControlProblem:
         self.steps = N = _checks.positive_int("steps", steps)
         self.formulation = as_formulation(variant)
         self.residual = step_residual(disc, self.formulation)
-        n = sys.n
+        n, self._structure = sys.n, None
+        self.duration = _duration(duration, N, disc.h)
+        self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
+                                       sys, ("q", "v", "u"))
+        self._terminal = None if terminal_cost is None else _cost_function(
+            "terminal_cost", terminal_cost, sys, ("q", "v"))
+        self._path = None if path_constraints is None else _path_function(path_constraints, disc)
+        self._bound_data = (_bounds("control_bounds", control_bounds, sys.n_u),
+                            _bounds("state_bounds", state_bounds, n))
+        self._set_boundary(q_start, q_goal, v_start, v_goal)
+        self._build()
+
+    def _set_boundary(self, q_start, q_goal, v_start, v_goal):
+        n, sys = self.disc.system.n, self.disc.system
         self.q_start = _boundary("q_start", q_start, n)
         self.q_goal = _boundary("q_goal", q_goal, n)
         self.v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
@@ -78,14 +94,43 @@ class OptimalControlProblem:
             if self._fully_given(end):
                 check_allowed_velocity("v_" + end, sys, getattr(self, "q_" + end),
                                        getattr(self, "v_" + end))
-        self.duration = _duration(duration, N, disc.h)
-        self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
-                                       sys, ("q", "v", "u"))
-        self._terminal = None if terminal_cost is None else _cost_function(
-            "terminal_cost", terminal_cost, sys, ("q", "v"))
-        self._path = None if path_constraints is None else _path_function(path_constraints, disc)
-        self._build(_bounds("control_bounds", control_bounds, sys.n_u),
-                    _bounds("state_bounds", state_bounds, n))
+
+    def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None):
+        """This problem with new boundary data; arguments left None keep this problem's.
+
+        The boundary data enter the NLP only through the bounds lbx = ubx, so the copy
+        shares this problem's NLP (and `structure`, hence its compiled solver and a warm
+        start from this problem's optimum) unless an end changes between fully given and
+        partly free (then the velocity rows A(q) v = 0 appear or vanish and the NLP is
+        rebuilt).
+
+        Examples
+        --------
+        >>> import dmoc, dmoc.problems
+        >>> problem = dmoc.problems.knife_edge_parking(20)
+        >>> moved = problem.with_boundary(q_goal=[0.2, 1.0, 0.0])
+        >>> moved.q_goal.tolist(), moved.structure == problem.structure
+        ([0.2, 1.0, 0.0], True)
+        """
+        new = copy.copy(self)
+        given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal}
+        new._set_boundary(**{k: getattr(self, k) if v is None else v for k, v in given.items()})
+        if all(new._fully_given(e) == self._fully_given(e) for e in ("start", "goal")):
+            new._set_bounds()
+        else:
+            new._structure = None
+            new._build()
+        return new
+
+    @property
+    def structure(self):
+        """A key of the NLP by value (SHA-256 of the serialized x -> (f, g) graph): problems
+        with equal keys differ at most in lbx, ubx, lbg, ubg, so `optimize` reuses one
+        compiled solver for them and warm-starts one from the other's optimum."""
+        if self._structure is None:
+            graph = ca.Function("nlp", [self.nlp["x"]], [self.nlp["f"], self.nlp["g"]])
+            self._structure = hashlib.sha256(graph.serialize().encode()).hexdigest()
+        return self._structure
 
     def _fully_given(self, end):
         """True when q and v at `end` ("start" or "goal") have no free entries."""
@@ -102,7 +147,7 @@ class OptimalControlProblem:
         """True when the final time is a decision variable."""
         return self.duration is not None
 
-    def _build(self, control_bounds, state_bounds):
+    def _build(self):
         sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
         n, m, ns = sys.n, sys.m, disc.n_stages
         start, end, m_start, m_end = self.formulation.momentum_conditions(sys)
@@ -134,9 +179,10 @@ class OptimalControlProblem:
         if self._terminal is not None:
             f += self._terminal(Q[:, N], X["v_goal"])
         self.nlp = {"x": x, "f": f, "g": ca.vertcat(*[ca.vec(g[k]) for k in self.g_layout.blocks])}
-        self._set_bounds(control_bounds, state_bounds)
+        self._set_bounds()
 
-    def _set_bounds(self, control_bounds, state_bounds):
+    def _set_bounds(self):
+        control_bounds, state_bounds = self._bound_data
         for name in ("q_start", "q_goal"):
             data = getattr(self, name)
             outside = np.isfinite(data) & ((data < state_bounds[0]) | (data > state_bounds[1]))

@@ -4,21 +4,29 @@ the optimal Trajectory, or raises SolverError carrying the last iterate and nami
 violated constraint group (dynamics at step k, boundary, path).
 """
 
+import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import casadi as ca
 import numpy as np
 
 from . import _checks
+from ._cache import BoundedCache
 from .ocp import OptimalControlProblem
 from .errors import SolverError
+from .guess import initial_guess, start_point
 from .trajectory import Trajectory
 
 # honor_original_bounds: IPOPT relaxes bounds by bound_relax_factor while iterating; project
 # the final point back so that bounds on states, controls and the final time hold exactly.
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "honor_original_bounds": "yes"}
+# A start from a previous optimum with its multipliers: IPOPT takes x, lam_g and the bound
+# multipliers as given and starts with a small barrier parameter, instead of pushing the
+# point into the interior and re-estimating the multipliers.
+WARM_START_OPTIONS = {"warm_start_init_point": "yes", "mu_init": 1e-6,
+                      "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6}
 
 
 @dataclass
@@ -35,12 +43,19 @@ class OptimizationResult:
         IPOPT's return status, e.g. ``"Solve_Succeeded"``.
     message : str
     stats : dict
-        ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver),
-        ``solve_time`` (wall seconds in IPOPT), ``max_violation`` (of all constraints),
-        ``most_violated`` (group, step, row).
-    x : ndarray
+        ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
+        when a solver of the same structure and options was reused), ``solver_reused``,
+        ``warm_start`` (True when IPOPT started from a previous optimum's x and
+        multipliers), ``solve_time`` (wall seconds in IPOPT), ``max_violation`` (of all
+        constraints), ``most_violated`` (group, step, row).
+    x : ndarray, shape (problem.x_layout.size,)
         The raw NLP vector; ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the
         end impulse ``"nu"``).
+    lam_x, lam_g : ndarray, shapes like x and like problem.g_layout
+        IPOPT's multipliers of the bounds and of the constraints at `x`.
+    structure : str
+        The problem's `structure` key: a result warm-starts (primal and dual) any problem
+        with the same key, e.g. one from ``problem.with_boundary(...)``.
     """
 
     trajectory: Trajectory
@@ -50,6 +65,29 @@ class OptimizationResult:
     message: str
     stats: dict = field(default_factory=dict)
     x: np.ndarray = None
+    lam_x: np.ndarray = None
+    lam_g: np.ndarray = None
+    structure: str = ""
+
+    def save(self, path):
+        """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
+        fields (so `Trajectory.load` reads it too), x, the multipliers, cost, status,
+        message, structure and stats (as JSON)."""
+        traj = {f.name: np.asarray(getattr(self.trajectory, f.name)) for f in fields(Trajectory)}
+        extra = {"result_" + k: np.asarray(getattr(self, k))
+                 for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure")}
+        with open(path, "wb") as file:
+            np.savez(file, **traj, **extra, result_stats=json.dumps(self.stats, default=str))
+
+    @classmethod
+    def load(cls, path):
+        """Read a result written by `save`; ``optimize(problem, guess=loaded)`` warm-starts
+        as from the result itself."""
+        with np.load(path, allow_pickle=False) as data:
+            extra = {k[len("result_"):]: data[k] for k in data.files if k.startswith("result_")}
+        return cls(Trajectory.load(path), float(extra["cost"]), bool(extra["success"]),
+                   str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
+                   extra["x"], extra["lam_x"], extra["lam_g"], str(extra["structure"]))
 
 
 def optimize(problem, *, guess=None, options=None, throw=True):
@@ -58,11 +96,14 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     Parameters
     ----------
     problem : OptimalControlProblem
-    guess : Trajectory, optional
-        Initial guess (resampled in time if its number of steps differs). By default the
-        configurations interpolate linearly between the boundary data, bent by a small
-        sine bump so the guess avoids points where the constraint Jacobian is singular
-        (e.g. the knife edge sliding straight sideways).
+    guess : Trajectory or OptimizationResult, optional
+        Initial guess. A Trajectory is resampled in time if its number of steps differs.
+        An OptimizationResult of a problem with the same `structure` (the same problem
+        with new boundary data or bounds, or a result saved and loaded) warm-starts IPOPT
+        from its x and multipliers; any other result is used through its trajectory. By
+        default the configurations interpolate linearly between the boundary data, bent
+        by a small sine bump so the guess avoids points where the constraint Jacobian is
+        singular (e.g. the knife edge sliding straight sideways).
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
         and ``"expand"`` (bool, default False: keep the mapped MX graph; True expands it
@@ -74,49 +115,76 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     Returns
     -------
     OptimizationResult
+
+    Notes
+    -----
+    The solver (``casadi.nlpsol``) is created once per problem structure and options and
+    kept in a bounded cache: boundary data, bounds and the guess are solver inputs, so
+    re-solving the same problem, or one from ``problem.with_boundary(...)``, skips the
+    build. A warm start uses a second solver of that structure with
+    ``WARM_START_OPTIONS`` (also built once).
     """
     if not isinstance(problem, OptimalControlProblem):
         raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")
     throw = _checks.boolean("throw", throw)
-    if guess is not None and not isinstance(guess, Trajectory):
-        raise TypeError(f"`guess` must be a Trajectory or None; got {type(guess).__name__}.")
+    if guess is not None and not isinstance(guess, (Trajectory, OptimizationResult)):
+        raise TypeError(f"`guess` must be a Trajectory, an OptimizationResult or None; "
+                        f"got {type(guess).__name__}.")
     if options is not None and not isinstance(options, dict):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
+    x0, lam_x0, lam_g0 = start_point(problem, guess)
+    warm = lam_g0 is not None
     tic = time.perf_counter()
-    solver = _solver(problem, dict(options or {}))
+    solver, reused = _solver(problem, dict(options or {}), warm)
     build_time = time.perf_counter() - tic
-    x0 = initial_guess(problem, guess)
+    inputs = {"x0": x0, "lbx": problem.lbx, "ubx": problem.ubx, "lbg": problem.lbg, "ubg": problem.ubg}
+    if warm:
+        inputs.update(lam_x0=lam_x0, lam_g0=lam_g0)
     tic = time.perf_counter()
-    sol = solver(x0=x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg, ubg=problem.ubg)
+    sol = solver(**inputs)
     solve_time = time.perf_counter() - tic
     x = np.array(sol["x"]).ravel()
     st = solver.stats()
     worst = most_violated(problem, np.array(sol["g"]).ravel())
     stats = {"iterations": st.get("iter_count"), "return_status": st["return_status"],
-             "build_time": build_time, "solve_time": solve_time,
+             "build_time": 0.0 if reused else build_time, "solver_reused": reused,
+             "warm_start": warm, "solve_time": solve_time,
              "max_violation": worst[0], "most_violated": worst[1]}
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
     message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
                f"cost {float(sol['f']):.10g}{where}.")
-    result = OptimizationResult(traj, float(sol["f"]), success, st["return_status"], message, stats, x)
+    result = OptimizationResult(traj, float(sol["f"]), success, st["return_status"], message, stats,
+                                x, np.array(sol["lam_x"]).ravel(), np.array(sol["lam_g"]).ravel(),
+                                problem.structure)
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result
 
 
-def _solver(problem, options):
+_SOLVERS = BoundedCache(8)     # keyed by (problem.structure, options, warm start)
+
+
+def _solver(problem, options, warm):
+    """(nlpsol for `problem` with `options`, whether it came from the cache)."""
     expand = _checks.boolean("options['expand']", options.pop("expand", False))
-    merged = {**DEFAULT_IPOPT_OPTIONS, **options}
+    merged = {**DEFAULT_IPOPT_OPTIONS, **(WARM_START_OPTIONS if warm else {}), **options}
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
             **{"ipopt." + k: v for k, v in merged.items()}}
-    try:
-        return ca.nlpsol("dmoc", "ipopt", problem.nlp, opts)
-    except RuntimeError as err:
-        if "option" not in str(err).lower():
-            raise
-        raise ValueError(f"`options` were rejected by CasADi/IPOPT: {err}") from None
+    built = []
+
+    def build():
+        built.append(True)
+        try:
+            return ca.nlpsol("dmoc", "ipopt", problem.nlp, opts)
+        except RuntimeError as err:
+            if "option" not in str(err).lower():
+                raise
+            raise ValueError(f"`options` were rejected by CasADi/IPOPT: {err}") from None
+
+    solver = _SOLVERS.get((problem.structure, repr(sorted(opts.items()))), build)
+    return solver, not built
 
 
 def most_violated(problem, g):
@@ -143,84 +211,3 @@ def trajectory_from_x(problem, x):
     return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, lay.unpack(x, "p").T,
                       lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
                       mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)
-
-
-def initial_guess(problem, guess=None):
-    """The NLP start vector from a Trajectory, or the default guess (see `optimize`)."""
-    lay, N, sys = problem.x_layout, problem.steps, problem.disc.system
-    x = np.zeros(lay.size)
-    tau = np.linspace(0.0, 1.0, N + 1)
-    h = problem.disc.h if guess is None else guess.h
-    if problem.free_time:
-        h = float(np.clip(h, *(T / N for T in problem.duration)))
-    if guess is None:
-        q = _default_path(problem, tau)
-        v = np.gradient(q, h, axis=0)
-        p = np.array(sys.momentum.map(N + 1)(q.T, v.T)).T
-        blocks = {"q": q, "p": p, "s": _stages_on_chords(problem.disc.rule, q)}
-    else:
-        _check_guess(problem, guess)
-        blocks = _resampled(problem, guess, tau)
-    blocks["v_start"] = np.nan_to_num(problem.v_start)[None, :]
-    blocks["v_goal"] = np.nan_to_num(problem.v_goal)[None, :]
-    if problem.free_time:
-        blocks["h"] = np.array([[h]])
-    for name, values in blocks.items():
-        if values is not None and lay.numel(name):
-            x[lay.slice(name)] = np.asarray(values, dtype=float).ravel()
-    return np.clip(x, problem.lbx, problem.ubx)
-
-
-def _check_guess(problem, guess):
-    if guess.steps < 1:
-        raise ValueError("`guess` must have at least one step; got a trajectory of 0 steps.")
-    n, n_u = problem.disc.system.n, problem.disc.system.n_u
-    if guess.q.shape[1] != n:
-        raise ValueError(f"`guess` must have q with {n} columns for this problem; got {guess.q.shape[1]}.")
-    if guess.u.shape[1] != n_u * len(guess.control_nodes):
-        raise ValueError(f"`guess` must have u with {n_u} columns per control node for this "
-                         f"problem; got {guess.u.shape[1]} for {len(guess.control_nodes)} nodes.")
-
-
-def _default_path(problem, tau):
-    start = np.where(np.isfinite(problem.q_start), problem.q_start, np.nan_to_num(problem.q_goal))
-    goal = np.where(np.isfinite(problem.q_goal), problem.q_goal, start)
-    bump = 0.1 * max(1.0, float(np.max(np.abs(goal - start))))
-    return start + np.outer(tau, goal - start) + bump * np.sin(np.pi * tau)[:, None]
-
-
-def _stages_on_chords(rule, q):
-    """Stage values on the chord of each step, (N, n_stages * n): q_k + c (q_{k+1} - q_k)
-    at the rule's interior nodes."""
-    chords = [q[:-1] + c * (q[1:] - q[:-1]) for c in rule.nodes[1:-1]]
-    return np.hstack(chords) if chords else np.zeros((q.shape[0] - 1, 0))
-
-
-def _resampled(problem, guess, tau):
-    """Guess blocks (time-major) on the problem's normalized grid tau, from a guess on any
-    grid and with any rule: q, p interpolated at the knots, the controls evaluated by the
-    guess's own interpolation (`Trajectory.control`) at the problem's control nodes, stages
-    and multipliers kept where their layout matches, else stages on the chords."""
-    disc, N = problem.disc, len(tau) - 1
-    same_grid = guess.steps == N
-    old = np.linspace(0.0, 1.0, guess.steps + 1)
-    knots = {k: getattr(guess, k) if same_grid else
-             np.column_stack([np.interp(tau, old, c) for c in getattr(guess, k).T]) for k in ("q", "p")}
-    same_rule = (same_grid and guess.s.shape[1] == disc.n_stages
-                 and guess.control_nodes == disc.rule.control_nodes)
-    if same_rule:
-        u = guess.u
-    else:
-        times = guess.t[0] + (guess.t[-1] - guess.t[0]) * (
-            tau[:-1, None] + np.asarray(disc.rule.control_nodes)[None, :] / N)
-        u = guess.control(times.ravel()).reshape(N, -1)
-    lam = None
-    if guess.lam.shape[1] == disc.n_multipliers:
-        mid_new, mid_old = (tau[:-1] + tau[1:]) / 2, (old[:-1] + old[1:]) / 2
-        lam = guess.lam if same_grid else np.column_stack(
-            [np.interp(mid_new, mid_old, c) for c in guess.lam.T] or [np.zeros(N)])[:, :disc.n_multipliers]
-    blocks = {**knots, "u": u, "lam": lam,
-              "s": guess.s if same_rule else _stages_on_chords(disc.rule, knots["q"])}
-    if guess.mu.shape == (problem.x_layout.numel("mu"),):
-        blocks["mu"] = guess.mu[None, :]
-    return blocks

@@ -7,15 +7,21 @@ Each step solves every residual row but "right" for y = (dq, nu, ds): the increm
 q_{k+1} - q_k, the multiplier nu at q_k and the stage values less q_k; p_{k+1} enters the
 "right" rows linearly (-p1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
 Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
-redone by CasADi's line-search Newton rootfinder.
+redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's horizons of
+1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc.compiled`).
 """
+
+import time
 
 import casadi as ca
 import numpy as np
 
+from . import compiled
 from .layout import Layout
 
 FAST_ITERATIONS = 3
+MINOR_UNKNOWNS = 6  # up to this many unknowns, J^{-1} by cofactors costs fewer operations than QR
+NATIVE_AFTER_SECONDS = 0.5
 CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most
                   # log2(CHUNK) + 1 horizons are ever built per stepper
 
@@ -28,18 +34,37 @@ class DiracStepper:
     per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
     solved rows), update (relative size of the last Newton update). The step h is an
     input, so one stepper serves every h.
+
+    `native` picks how the fast path's horizons run: True, as the compiled C `library`
+    (`dmoc.compiled.Library`, compiled now unless cached on disk); False, in CasADi's
+    virtual machine; None, compiled if the library is cached, else as soon as this
+    stepper has spent NATIVE_AFTER_SECONDS in the virtual machine (about what compiling
+    costs, so a run never costs more than about twice the better choice; also mid-run;
+    without a C compiler it stays in the virtual machine). `native` says how the horizons
+    run now; both ways compute the same thing, so switching changes no result.
     """
 
-    def __init__(self, residual, tol, max_iter, jit=False):
+    def __init__(self, residual, tol, max_iter, native=False):
         self.residual, self.tol = residual, tol
         n, m, ns = residual.n, residual.n_lam, residual.n_stages
         self.unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
         self.state = Layout([("q", n), ("p", n), *((k, self.unknowns.numel(k)) for k in self.unknowns.blocks)])
         self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1)])
         self.equations = self._equations()
-        self.fast = self._fast_step(jit)
+        self.fast = self._fast_step()
         self.robust = self._robust_step(max_iter)
-        self._chunks = {}
+        horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in _chunk_sizes()]
+        self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
+        self._chunks = {f.numel_in(2): f.buffer() for f in horizons}
+        self.native, self.vm_seconds = False, 0.0
+        self._auto = native is None and self.library.path is not None
+        if native or (self._auto and self.library.cached()):
+            self._go_native()
+
+    def _go_native(self):
+        """Evaluate the horizons from now on with the compiled library."""
+        self._chunks = {c: f.buffer() for c, f in zip(_chunk_sizes(), self.library.load().values())}
+        self.native = True
 
     def _equations(self):
         """G(y, params) -> (g, p0, p1) with params = (q0, p0', u, h): the equations, the
@@ -85,19 +110,20 @@ class DiracStepper:
         guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
         return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
 
-    def _fast_step(self, jit):
+    def _fast_step(self):
         state, u, h, params, y = self._symbols(ca.SX)
         ys = ca.SX.sym("y", y.numel())
         g = self.equations(ys, params)[0]
-        newton_data = ca.Function("newton_data", [ys, params], [g, ca.jacobian(g, ys)])
+        J = ca.jacobian(g, ys)
+        by_minors = ys.numel() <= MINOR_UNKNOWNS
+        newton_data = ca.Function("newton_data", [ys, params], [g, ca.inv_minor(J) if by_minors else J])
         for _ in range(FAST_ITERATIONS):
-            g, J = newton_data(y, params)
-            delta = ca.solve(J, g)
+            g, K = newton_data(y, params)
+            delta = ca.mtimes(K, g) if by_minors else ca.solve(K, g)
             y = y - delta
         update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
-        options = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O2"]}} if jit else {}
-        return ca.Function("dirac_step_fast", [state, u, h], list(self._wrap(state, params, y, update)),
-                           ["state", "u", "h"], ["next", "out"], options)
+        outputs = ca.cse(list(self._wrap(state, params, y, update)))   # sin(q_k) once, not per iteration
+        return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
     def _robust_step(self, max_iter):
         state, u, h, params, guess = self._symbols(ca.MX)
@@ -118,10 +144,8 @@ class DiracStepper:
                 & (blocks["update"][:, 0] <= 1e-6))
 
     def _chunk(self, c, state, controls, h):
-        """c fast steps from `state` as one compiled mapaccum call, evaluated through
-        CasADi's buffer interface straight into numpy arrays (time-major (c, size))."""
-        if c not in self._chunks:
-            self._chunks[c] = self.fast.mapaccum("horizon", c).buffer()
+        """c fast steps from `state` as one mapaccum call, evaluated through CasADi's
+        buffer interface straight into numpy arrays (time-major (c, size))."""
         buffer, evaluate = self._chunks[c]
         args = [np.ascontiguousarray(a, dtype=float) for a in (state, controls, np.full(c, h))]
         acc = np.empty((c, self.state.size))
@@ -145,7 +169,12 @@ class DiracStepper:
         N, k, state, redone = controls.shape[0], 0, start, 0
         while k < N:
             c = min(CHUNK, 1 << ((N - k).bit_length() - 1))
+            if self._auto and not self.native and self.vm_seconds >= NATIVE_AFTER_SECONDS:
+                self._go_native()
+            tic = time.perf_counter()
             acc, out = self._chunk(c, state, controls[k:k + c], h)
+            if not self.native:
+                self.vm_seconds += time.perf_counter() - tic
             ok = self.accepted(out)
             j = int(np.argmin(ok)) if not ok.all() else c
             states.append(acc[:j]), outputs.append(out[:j])
@@ -158,3 +187,8 @@ class DiracStepper:
                 states.append(acc1), outputs.append(out1)
                 state, k, redone = acc1[0], k + 1, redone + 1
         return np.vstack(states), np.vstack(outputs), None, redone
+
+
+def _chunk_sizes():
+    """The horizon lengths `run` uses: 1, 2, 4, ..., CHUNK."""
+    return [1 << i for i in range(CHUNK.bit_length())]
