@@ -126,8 +126,8 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         start[stepper.state.slice(name)] = value
     acc, out, failed_rnorm, redone = stepper.run(start, controls, disc.h)
     wall = time.perf_counter() - tic
-    k = acc.shape[0]
-    traj = _assemble(stepper, formulation, disc, q0, p_start, controls[:k], acc, out)
+    k = out.shape[0]
+    traj = _assemble(stepper, formulation, disc, controls[:k], acc, out)
     rnorm = stepper.out.split(out)["rnorm"]
     stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
              "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
@@ -159,16 +159,15 @@ def step_controls(disc, controls, steps):
     return _checks.array("controls", controls, (steps, disc.n_controls))
 
 
-def _assemble(stepper, formulation, disc, q0, p_start, controls, acc, out):
-    """Trajectory from the horizon's per-step states and outputs (time-major arrays)."""
+def _assemble(stepper, formulation, disc, controls, acc, out):
+    """Trajectory from the horizon's states (the start first) and per-step outputs
+    (time-major arrays)."""
     h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
-    q = np.vstack([q0, state["q"]])
-    p_carried = np.vstack([p_start, state["p"]])
-    p, lam, mu = formulation.trajectory_blocks(p_carried, per_step["p0"], per_step["nu"],
+    p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
                                                stepper.residual.m)
-    t = h * np.arange(acc.shape[0] + 1)
-    return Trajectory(t, q, p, lam, controls, h, formulation.name, mu, per_step["s"],
+    t = h * np.arange(acc.shape[0])
+    return Trajectory(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
                       disc.rule.control_nodes)
 
 

@@ -20,7 +20,7 @@ from . import compiled
 from .layout import Layout
 
 FAST_ITERATIONS = 3
-MINOR_UNKNOWNS = 6  # up to this many unknowns, J^{-1} by cofactors costs fewer operations than QR
+MINOR_UNKNOWNS = 6  # blocks up to this size are inverted by cofactors: fewer operations than QR
 NATIVE_AFTER_SECONDS = 0.5
 CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most
                   # log2(CHUNK) + 1 horizons are ever built per stepper
@@ -114,16 +114,35 @@ class DiracStepper:
         state, u, h, params, y = self._symbols(ca.SX)
         ys = ca.SX.sym("y", y.numel())
         g = self.equations(ys, params)[0]
-        J = ca.jacobian(g, ys)
-        by_minors = ys.numel() <= MINOR_UNKNOWNS
-        newton_data = ca.Function("newton_data", [ys, params], [g, ca.inv_minor(J) if by_minors else J])
+        newton_update = ca.Function("newton_update", [ys, params], [self._newton_update(g, ys)])
         for _ in range(FAST_ITERATIONS):
-            g, K = newton_data(y, params)
-            delta = ca.mtimes(K, g) if by_minors else ca.solve(K, g)
+            delta = newton_update(y, params)
             y = y - delta
         update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
         outputs = ca.cse(list(self._wrap(state, params, y, update)))   # sin(q_k) once, not per iteration
         return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
+
+    def _newton_update(self, g, y):
+        """J^{-1} g, J = dg/dy, in few operations: the equations are (left, stage) rows and
+        constraint rows, the unknowns positions x = (dq, ds) and multipliers nu, and J =
+        [H G; C 0] (omega_d does not involve nu), so nu follows from the m x m Schur
+        complement C H^{-1} G, H^{-1} and its inverse by cofactors when they are small;
+        QR otherwise. A singular H (a degenerate Lagrangian) gives a non-finite step, which
+        the line-search Newton redoes."""
+        J, lay = ca.jacobian(g, y), self.unknowns
+        x = [i for name in ("dq", "ds") for i in range(lay.slice(name).start, lay.slice(name).stop)]
+        nu, k = list(range(lay.slice("nu").start, lay.slice("nu").stop)), len(x)
+        if k > MINOR_UNKNOWNS or len(nu) > MINOR_UNKNOWNS or J[k:, nu].nnz():
+            return ca.solve(J, g)
+        if not nu:
+            return ca.mtimes(ca.inv_minor(J), g)
+        H_inv = ca.inv_minor(J[:k, x])
+        G, C, r_x, r_nu = J[:k, nu], J[k:, x], g[:k], g[k:]
+        d_nu = ca.mtimes(ca.inv_minor(ca.mtimes([C, H_inv, G])), ca.mtimes([C, H_inv, r_x]) - r_nu)
+        delta = ca.SX.zeros(y.numel())
+        delta[x] = ca.mtimes(H_inv, r_x - ca.mtimes(G, d_nu))
+        delta[nu] = d_nu
+        return delta
 
     def _robust_step(self, max_iter):
         state, u, h, params, guess = self._symbols(ca.MX)
@@ -143,50 +162,47 @@ class DiracStepper:
         return (np.isfinite(out).all(axis=1) & (blocks["rnorm"][:, 0] <= 1e3 * self.tol)
                 & (blocks["update"][:, 0] <= 1e-6))
 
-    def _chunk(self, c, state, controls, h):
-        """c fast steps from `state` as one mapaccum call, evaluated through CasADi's
-        buffer interface straight into numpy arrays (time-major (c, size))."""
+    def _chunk(self, state, controls, steps, acc, out):
+        """len(steps) fast steps from `state` as one mapaccum call, evaluated through
+        CasADi's buffer interface straight into the rows of the time-major arrays `acc`
+        and `out` (C-contiguous, so the rows of a chunk are one block of memory)."""
+        c = len(steps)
         buffer, evaluate = self._chunks[c]
-        args = [np.ascontiguousarray(a, dtype=float) for a in (state, controls, np.full(c, h))]
-        acc = np.empty((c, self.state.size))
-        out = np.empty((c, self.out.size))
-        for i, a in enumerate(args):
-            buffer.set_arg(i, memoryview(a))
+        for i, a in enumerate((state, controls, steps)):
+            buffer.set_arg(i, memoryview(np.ascontiguousarray(a, dtype=float)))
         buffer.set_res(0, memoryview(acc))
         buffer.set_res(1, memoryview(out))
         evaluate()
-        return acc, out
 
     def run(self, start, controls, h):
         """Steps from state `start` under `controls` (N, n_controls), stopping at the first step
         that neither Newton path converges.
 
-        Returns (states (k, state.size), outputs (k, out.size), rnorm of the failed step or
-        None, number of steps redone by the robust path).
+        Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
+        the failed step or None, number of steps redone by the robust path).
         """
-        states = [np.zeros((0, self.state.size))]
-        outputs = [np.zeros((0, self.out.size))]
-        N, k, state, redone = controls.shape[0], 0, start, 0
+        N, k, redone = controls.shape[0], 0, 0
+        acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
+        acc[0] = start
+        steps = np.full(min(N, CHUNK), float(h))
         while k < N:
             c = min(CHUNK, 1 << ((N - k).bit_length() - 1))
             if self._auto and not self.native and self.vm_seconds >= NATIVE_AFTER_SECONDS:
                 self._go_native()
             tic = time.perf_counter()
-            acc, out = self._chunk(c, state, controls[k:k + c], h)
+            self._chunk(acc[k], controls[k:k + c], steps[:c], acc[k + 1:k + 1 + c], out[k:k + c])
             if not self.native:
                 self.vm_seconds += time.perf_counter() - tic
-            ok = self.accepted(out)
+            ok = self.accepted(out[k:k + c])
             j = int(np.argmin(ok)) if not ok.all() else c
-            states.append(acc[:j]), outputs.append(out[:j])
-            state, k = (acc[j - 1] if j else state), k + j
+            k += j
             if j < c:       # redo step k with the line-search Newton
-                acc1, out1 = (np.array(x).T for x in self.robust(state, controls[k], h))
+                acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
                 if not self.accepted(out1)[0]:
-                    rnorm = float(self.out.split(out1)["rnorm"][0, 0])
-                    return np.vstack(states), np.vstack(outputs), rnorm, redone
-                states.append(acc1), outputs.append(out1)
-                state, k, redone = acc1[0], k + 1, redone + 1
-        return np.vstack(states), np.vstack(outputs), None, redone
+                    return acc[:k + 1], out[:k], float(self.out.split(out1)["rnorm"][0, 0]), redone
+                acc[k + 1], out[k] = acc1[0], out1[0]
+                k, redone = k + 1, redone + 1
+        return acc, out, None, redone
 
 
 def _chunk_sizes():
