@@ -41,9 +41,9 @@ def initial_guess(problem, guess=None):
     blocks["v_goal"] = np.nan_to_num(problem.v_goal)[None, :]
     if problem.free_time:
         blocks["h"] = np.array([[h]])
-    for name, values in blocks.items():
-        if values is not None and lay.numel(name):
-            x[lay.slice(name)] = np.asarray(values, dtype=float).ravel()
+    for name, values in blocks.items():      # time-major values; a block of fewer columns
+        if values is not None and lay.numel(name):     # (p_0 of substituted momenta) takes the first
+            x[lay.slice(name)] = np.asarray(values, dtype=float)[:lay.blocks[name][2]].ravel()
     return np.clip(x, problem.lbx, problem.ubx)
 
 

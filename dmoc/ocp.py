@@ -15,8 +15,12 @@ from ._symbolic import checked_function
 from .boundary import check_allowed_velocity
 from .discrete import Discretization
 from .formulations import as_formulation
+from ._momentum import explicit_momentum, solved_rows
 from .layout import Layout
 from .principle import step_residual
+
+
+MOMENTA = ("substituted", "variables")
 
 
 class OptimalControlProblem:
@@ -65,13 +69,15 @@ class OptimalControlProblem:
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
-                 state_bounds=None, path_constraints=None, duration=None, variant="+"):
+                 state_bounds=None, path_constraints=None, duration=None, variant="+",
+                 momenta="substituted"):
         if not isinstance(disc, Discretization):
             raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
         self.disc, sys = disc, disc.system
         self.steps = N = _checks.positive_int("steps", steps)
         self.formulation = as_formulation(variant)
         self.residual = step_residual(disc, self.formulation)
+        self.momenta_substituted = _checks.choice("momenta", momenta, MOMENTA) == "substituted"
         n, self._structure = sys.n, None
         self.duration = _duration(duration, N, disc.h)
         self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
@@ -153,21 +159,24 @@ class OptimalControlProblem:
         start, end, m_start, m_end = self.formulation.momentum_conditions(sys)
         path = self._path
         velocity_rows = {e: 0 if self._fully_given(e) else m for e in ("start", "goal")}
-        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, N + 1)), ("lam", (disc.n_multipliers, N)),
+        substituted = self.momenta_substituted
+        self.dynamics_rows = solved_rows(R) if substituted else R.row_layout
+        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, 1 if substituted else N + 1)),
+                                ("lam", (disc.n_multipliers, N)),
                                 ("s", (ns, N)), ("u", (disc.n_controls, N)), ("v_start", (n, 1)),
                                 ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                 ("h", (1 if self.free_time else 0, 1))])
-        self.g_layout = Layout([("dynamics", (R.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
+        self.g_layout = Layout([("dynamics", (self.dynamics_rows.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
                                 ("start_velocity", (velocity_rows["start"], 1)),
                                 ("goal_velocity", (velocity_rows["goal"], 1)),
                                 ("path", (path.numel_out(0) if path else 0, N))])
         x = ca.MX.sym("x", self.x_layout.size)
         X = {name: self.x_layout.unpack(x, name) for name in self.x_layout.blocks}
         h = X["h"] if self.free_time else disc.h
-        Q, P, U = X["q"], X["p"], X["u"]
+        Q, U = X["q"], X["u"]
         q0, q1 = Q[:, :N], Q[:, 1:]
-        dynamics = R.function.map(N)(q0=q0, p0=P[:, :N], q1=q1, p1=P[:, 1:], lam=X["lam"],
-                                     s=X["s"], u=U, h=h)["r"]
+        dynamics, P = self._dynamics(X, h)
+        self._momenta = ca.Function("momenta", [x], [P])
         A = sys.constraint_matrix
         g = {"dynamics": dynamics,
              "start": start(Q[:, 0], P[:, 0], X["v_start"], X["mu"]),
@@ -180,6 +189,25 @@ class OptimalControlProblem:
             f += self._terminal(Q[:, N], X["v_goal"])
         self.nlp = {"x": x, "f": f, "g": ca.vertcat(*[ca.vec(g[k]) for k in self.g_layout.blocks])}
         self._set_bounds()
+
+    def _dynamics(self, X, h):
+        """(rows of R at every step, (n, N+1) momenta). Substituted: p_0 is the variable
+        block "p" and p_{k+1} = D2 L_d + f_d^+ (- A^T lam for (-)) the explicit "right" rows
+        of step k (`dmoc._momentum`), so those rows hold by construction and the others
+        are imposed; else all rows, with every p_k a variable."""
+        N, R, Q = self.steps, self.residual, X["q"]
+        steps = {"q0": Q[:, :N], "q1": Q[:, 1:], "lam": X["lam"], "s": X["s"], "u": X["u"], "h": h}
+        if not self.momenta_substituted:
+            P = X["p"]
+            return R.function.map(N)(p0=P[:, :N], p1=P[:, 1:], **steps)["r"], P
+        split = explicit_momentum(R)
+        P = ca.horzcat(X["p"], _mapped_output(split, "p1", N, steps))
+        return _mapped_output(split, "rows", N, {"p0": P[:, :N], **steps}), P
+
+    def momenta(self, x):
+        """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
+        they are variables, computed from x when substituted)."""
+        return np.array(self._momenta(x)).T
 
     def _set_bounds(self):
         control_bounds, state_bounds = self._bound_data
@@ -260,3 +288,13 @@ def _cost_function(name, cost, sys, args):
     """A user cost of (q, v[, u]) checked on symbols and wrapped as a scalar Function."""
     sizes = {"q": sys.n, "v": sys.n, "u": sys.n_u}
     return checked_function(name, cost, [ca.SX.sym(a, sizes[a]) for a in args], args, (1, 1))
+
+
+def _mapped_output(function, name, N, args):
+    """Output `name` of `function` mapped over N steps of `args`, as an SX Function of the
+    inputs that output uses only (the p1 of `explicit_momentum` takes no p0)."""
+    inputs = dict(zip(function.name_in(), function.sx_in()))
+    out = function(**inputs)[name]
+    used = [k for k, x in inputs.items() if ca.depends_on(out, x)]
+    single = ca.Function(name, [inputs[k] for k in used], [out], used, [name])
+    return single.map(N)(**{k: args[k] for k in used})[name]

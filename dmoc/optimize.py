@@ -196,8 +196,9 @@ def most_violated(problem, g):
     i = int(np.argmax(violation))
     group, row, col = problem.g_layout.locate(i)
     if group == "dynamics":
-        name = next(k for k, s in problem.residual.rows.items() if s.start <= row < s.stop)
-        return float(violation[i]), f"dynamics at step {col} ({name} row {row - problem.residual.rows[name].start})"
+        rows = problem.dynamics_rows.slices()
+        name = next(k for k, s in rows.items() if s.start <= row < s.stop)
+        return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
     if group == "path":
         return float(violation[i]), f"path constraint {row} at step {col}"
     return float(violation[i]), f"boundary condition '{group}' row {row}"
@@ -208,6 +209,6 @@ def trajectory_from_x(problem, x):
     lay, N = problem.x_layout, problem.steps
     h = float(lay.unpack(x, "h")[0, 0]) if problem.free_time else problem.disc.h
     mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
-    return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, lay.unpack(x, "p").T,
+    return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, problem.momenta(x),
                       lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
                       mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)

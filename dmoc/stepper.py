@@ -5,7 +5,7 @@ multiplier it solves for enter the step (`Formulation.step_momentum`).
 
 Each step solves every residual row but "right" for y = (dq, nu, ds): the increment
 q_{k+1} - q_k, the multiplier nu at q_k and the stage values less q_k; p_{k+1} enters the
-"right" rows linearly (-p1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
+"right" rows linearly (-p1), so it follows explicitly (`dmoc._momentum`). A fast path runs FAST_ITERATIONS unrolled
 Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
 redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's horizons of
 1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc.compiled`).
@@ -17,6 +17,7 @@ import casadi as ca
 import numpy as np
 
 from . import compiled
+from ._momentum import explicit_momentum
 from .layout import Layout
 
 FAST_ITERATIONS = 3
@@ -77,16 +78,11 @@ class DiracStepper:
         """
         R, n = self.residual, self.residual.n
         y, q0, pc0 = ca.SX.sym("y", self.unknowns.size), ca.SX.sym("q0", n), ca.SX.sym("p0", n)
-        u, h, p1 = ca.SX.sym("u", R.n_controls), ca.SX.sym("h"), ca.SX.sym("p1", n)
+        u, h = ca.SX.sym("u", R.n_controls), ca.SX.sym("h")
         Y = self.unknowns.split(y)
         p0, lam = R.formulation.step_momentum(R.system, q0, pc0, Y["nu"])
-        r = R(q0=q0, p0=p0, q1=q0 + Y["dq"], p1=p1, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h)
-        right = r[R.rows["right"]]
-        if not ca.is_equal(ca.jacobian(right, p1), -ca.SX.eye(n), 2):
-            raise RuntimeError("the residual's right rows must be (...) - p1")
-        rows = [r[R.rows[k]] for k in ("left", "stage", "constraint")]
-        return ca.Function("step_equations", [y, ca.vertcat(q0, pc0, u, h)],
-                           [ca.vertcat(*rows), p0, ca.substitute(right, p1, ca.SX.zeros(n))],
+        rows, p1 = explicit_momentum(R)(q0, p0, q0 + Y["dq"], lam, self._stages(q0, Y["ds"]), u, h)
+        return ca.Function("step_equations", [y, ca.vertcat(q0, pc0, u, h)], [rows, p0, p1],
                            ["y", "params"], ["g", "p0", "p1"])
 
     def _stages(self, q0, ds):
