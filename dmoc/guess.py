@@ -13,12 +13,13 @@ def start_point(problem, guess):
     OptimizationResult. A result of a problem with the same NLP structure
     (``result.structure == problem.structure``) is taken as it is, its x clipped into the
     new bounds (new boundary data) and its multipliers kept; any other guess gives its
-    trajectory, resampled, and no multipliers (None)."""
+    trajectory, resampled, and zero multipliers (a cold start)."""
+    cold = np.zeros(problem.lbx.size), np.zeros(problem.lbg.size)
     if guess is None or isinstance(guess, Trajectory):
-        return initial_guess(problem, guess), None, None
+        return (initial_guess(problem, guess),) + cold
     if guess.structure == problem.structure and guess.lam_g is not None:
         return np.clip(guess.x, problem.lbx, problem.ubx), guess.lam_x, guess.lam_g
-    return initial_guess(problem, guess.trajectory), None, None
+    return (initial_guess(problem, guess.trajectory),) + cold
 
 
 def initial_guess(problem, guess=None):

@@ -20,13 +20,12 @@ from .trajectory import Trajectory
 
 # honor_original_bounds: IPOPT relaxes bounds by bound_relax_factor while iterating; project
 # the final point back so that bounds on states, controls and the final time hold exactly.
+# warm_start_init_point: IPOPT starts from the multipliers passed in (zero for a cold start,
+# which changes nothing on equality-constrained problems; a previous optimum's for a warm
+# start), so one solver serves both.
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
-                         "max_iter": 1000, "honor_original_bounds": "yes"}
-# A start from a previous optimum with its multipliers: IPOPT takes x, lam_g and the bound
-# multipliers as given and starts with a small barrier parameter, instead of pushing the
-# point into the interior and re-estimating the multipliers.
-WARM_START_OPTIONS = {"warm_start_init_point": "yes", "mu_init": 1e-6,
-                      "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6}
+                         "max_iter": 1000, "honor_original_bounds": "yes",
+                         "warm_start_init_point": "yes"}
 
 
 @dataclass
@@ -121,8 +120,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     The solver (``casadi.nlpsol``) is created once per problem structure and options and
     kept in a bounded cache: boundary data, bounds and the guess are solver inputs, so
     re-solving the same problem, or one from ``problem.with_boundary(...)``, skips the
-    build. A warm start uses a second solver of that structure with
-    ``WARM_START_OPTIONS`` (also built once).
+    build; a warm start runs the same solver from the previous optimum's multipliers.
     """
     if not isinstance(problem, OptimalControlProblem):
         raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")
@@ -133,22 +131,20 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     if options is not None and not isinstance(options, dict):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     x0, lam_x0, lam_g0 = start_point(problem, guess)
-    warm = lam_g0 is not None
     tic = time.perf_counter()
-    solver, reused = _solver(problem, dict(options or {}), warm)
+    solver, reused = _solver(problem, dict(options or {}))
     build_time = time.perf_counter() - tic
-    inputs = {"x0": x0, "lbx": problem.lbx, "ubx": problem.ubx, "lbg": problem.lbg, "ubg": problem.ubg}
-    if warm:
-        inputs.update(lam_x0=lam_x0, lam_g0=lam_g0)
     tic = time.perf_counter()
-    sol = solver(**inputs)
+    sol = solver(x0=x0, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx, ubx=problem.ubx,
+                 lbg=problem.lbg, ubg=problem.ubg)
     solve_time = time.perf_counter() - tic
     x = np.array(sol["x"]).ravel()
     st = solver.stats()
     worst = most_violated(problem, np.array(sol["g"]).ravel())
     stats = {"iterations": st.get("iter_count"), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
-             "warm_start": warm, "solve_time": solve_time,
+             "warm_start": isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g,
+             "solve_time": solve_time,
              "max_violation": worst[0], "most_violated": worst[1]}
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
@@ -163,13 +159,13 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     return result
 
 
-_SOLVERS = BoundedCache(8)     # keyed by (problem.structure, options, warm start)
+_SOLVERS = BoundedCache(8)     # keyed by (problem.structure, options)
 
 
-def _solver(problem, options, warm):
+def _solver(problem, options):
     """(nlpsol for `problem` with `options`, whether it came from the cache)."""
     expand = _checks.boolean("options['expand']", options.pop("expand", False))
-    merged = {**DEFAULT_IPOPT_OPTIONS, **(WARM_START_OPTIONS if warm else {}), **options}
+    merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
             **{"ipopt." + k: v for k, v in merged.items()}}
     built = []
