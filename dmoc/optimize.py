@@ -45,8 +45,11 @@ class OptimizationResult:
         ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
         when a solver of the same structure and options was reused), ``solver_reused``,
         ``warm_start`` (True when IPOPT started from a previous optimum's x and
-        multipliers), ``solve_time`` (wall seconds in IPOPT), ``max_violation`` (of all
-        constraints), ``most_violated`` (group, step, row).
+        multipliers), ``solve_time`` (wall seconds in IPOPT), ``function_time`` (the part
+        of it spent evaluating the NLP functions and derivatives; the rest is mostly the
+        linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
+        whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
+        added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row).
     x : ndarray, shape (problem.x_layout.size,)
         The raw NLP vector; ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the
         end impulse ``"nu"``).
@@ -144,7 +147,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     stats = {"iterations": st.get("iter_count"), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
              "warm_start": isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g,
-             "solve_time": solve_time,
+             "solve_time": solve_time, **_linear_algebra(st),
              "max_violation": worst[0], "most_violated": worst[1]}
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
@@ -181,6 +184,16 @@ def _solver(problem, options):
 
     solver = _SOLVERS.get((problem.structure, repr(sorted(opts.items()))), build)
     return solver, not built
+
+
+def _linear_algebra(st):
+    """What IPOPT's KKT solves cost and needed: seconds outside function evaluations, and
+    the iterations whose KKT matrix had the wrong inertia, so that IPOPT added delta_w I to
+    the Hessian block (its largest delta_w)."""
+    delta = st.get("iterations", {}).get("regularization_size", [])
+    evaluations = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
+    return {"function_time": evaluations, "regularized_iterations": sum(d > 0 for d in delta),
+            "max_regularization": max(delta, default=0.0)}
 
 
 def most_violated(problem, g):

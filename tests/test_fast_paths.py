@@ -105,6 +105,10 @@ def test_resolve_with_new_boundary_data_equals_a_fresh_problem(variant):
     again = dmoc.optimize(moved)
     fresh = dmoc.optimize(dmoc.problems.knife_edge_parking(40, goal=NEIGHBOUR, variant=variant))
     assert again.stats["solver_reused"] and again.stats["build_time"] == 0.0
+    assert 0 < again.stats["function_time"] < again.stats["solve_time"]
+    regularized = again.stats["regularized_iterations"]
+    assert 0 <= regularized <= again.stats["iterations"]
+    assert (regularized == 0) == (again.stats["max_regularization"] == 0)
     assert np.abs(again.x - fresh.x).max() <= 1e-10
     np.testing.assert_array_equal(moved.q_goal, NEIGHBOUR)
     np.testing.assert_array_equal(problem.q_goal, GOAL)                # the original is untouched
