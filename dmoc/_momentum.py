@@ -7,9 +7,11 @@ of carrying them as variables.
 
 import casadi as ca
 
+from ._cache import BoundedCache
 from .layout import Layout
 
 SOLVED_ROWS = ("left", "stage", "constraint")
+_SPLITS = BoundedCache(64)      # keyed by (residual key, output): built once per residual
 
 
 def explicit_momentum(residual):
@@ -20,6 +22,22 @@ def explicit_momentum(residual):
     Raises RuntimeError unless the "right" rows are exactly (...) - p1 with (...) free of
     p0 (true of (37) and (41)), so that the split is exact.
     """
+    return _SPLITS.get((residual.key, None), lambda: _split(residual))
+
+
+def single_output(residual, name):
+    """Output `name` ("rows" or "p1") of `explicit_momentum` alone, as an SX Function of
+    the inputs it uses (p1 takes no p0)."""
+    def build():
+        split = explicit_momentum(residual)
+        inputs = dict(zip(split.name_in(), split.sx_in()))
+        out = split(**inputs)[name]
+        used = [k for k, x in inputs.items() if ca.depends_on(out, x)]
+        return ca.Function(name, [inputs[k] for k in used], [out], used, [name])
+    return _SPLITS.get((residual.key, name), build)
+
+
+def _split(residual):
     R = residual
     x = {name: ca.SX.sym(name, R.inputs.numel(name)) for name in R.inputs.blocks}
     r = R.function(**x)["r"]

@@ -15,7 +15,7 @@ from ._symbolic import checked_function
 from .boundary import check_allowed_velocity
 from .discrete import Discretization
 from .formulations import as_formulation
-from ._momentum import explicit_momentum, solved_rows
+from ._momentum import single_output, solved_rows
 from .layout import Layout
 from .principle import step_residual
 
@@ -200,9 +200,8 @@ class OptimalControlProblem:
         if not self.momenta_substituted:
             P = X["p"]
             return R.function.map(N)(p0=P[:, :N], p1=P[:, 1:], **steps)["r"], P
-        split = explicit_momentum(R)
-        P = ca.horzcat(X["p"], _mapped_output(split, "p1", N, steps))
-        return _mapped_output(split, "rows", N, {"p0": P[:, :N], **steps}), P
+        P = ca.horzcat(X["p"], _mapped_output(R, "p1", N, steps))
+        return _mapped_output(R, "rows", N, {"p0": P[:, :N], **steps}), P
 
     def momenta(self, x):
         """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
@@ -290,11 +289,7 @@ def _cost_function(name, cost, sys, args):
     return checked_function(name, cost, [ca.SX.sym(a, sizes[a]) for a in args], args, (1, 1))
 
 
-def _mapped_output(function, name, N, args):
-    """Output `name` of `function` mapped over N steps of `args`, as an SX Function of the
-    inputs that output uses only (the p1 of `explicit_momentum` takes no p0)."""
-    inputs = dict(zip(function.name_in(), function.sx_in()))
-    out = function(**inputs)[name]
-    used = [k for k, x in inputs.items() if ca.depends_on(out, x)]
-    single = ca.Function(name, [inputs[k] for k in used], [out], used, [name])
-    return single.map(N)(**{k: args[k] for k in used})[name]
+def _mapped_output(residual, name, N, args):
+    """Output `name` of the residual's `explicit_momentum` mapped over N steps of `args`."""
+    single = single_output(residual, name)
+    return single.map(N)(**{k: args[k] for k in single.name_in()})[name]
