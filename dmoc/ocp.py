@@ -54,6 +54,11 @@ class OptimalControlProblem:
     variant : {"+", "-"} or Formulation
         The form of the step equations and of the momentum boundary rows
         (`dmoc.formulations`).
+    momenta : {"substituted", "variables"}
+        "substituted" (default): only p_0 is a variable; p_{k+1} = D2 L_d + f_d^+ (- A^T lam
+        for (-)) follows from step k's explicit "right" rows, which then hold by
+        construction, and the other rows are imposed (a smaller NLP: n fewer variables
+        and rows per step). "variables": every p_k a variable and all rows imposed.
 
     Attributes
     ----------
@@ -62,9 +67,14 @@ class OptimalControlProblem:
     lbx, ubx, lbg, ubg : ndarray
         Bounds of x and g.
     x_layout, g_layout : Layout
-        Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``) and of g
-        (``dynamics`` (rows of R, N), ``start``, ``goal``, ``start_velocity``,
+        Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` is p_0
+        alone when the momenta are substituted, see `momenta(x)`) and of g (``dynamics``
+        (rows of R in `dynamics_rows`, N), ``start``, ``goal``, ``start_velocity``,
         ``goal_velocity``, ``path``).
+    dynamics_rows : Layout
+        The residual rows imposed at each step (all of R, or all but "right").
+    structure : str
+        A key of the NLP by value; see `with_boundary` and `dmoc.optimize`.
     """
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None,
