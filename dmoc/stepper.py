@@ -12,6 +12,7 @@ redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's hori
 """
 
 import time
+import warnings
 
 import casadi as ca
 import numpy as np
@@ -63,8 +64,17 @@ class DiracStepper:
             self._go_native()
 
     def _go_native(self):
-        """Evaluate the horizons from now on with the compiled library."""
-        self._chunks = {c: f.buffer() for c, f in zip(_chunk_sizes(), self.library.load().values())}
+        """Evaluate the horizons from now on with the compiled library. When compiling fails,
+        `native=True` raises; the automatic choice warns and keeps the virtual machine."""
+        try:
+            library = self.library.load()
+        except RuntimeError as err:
+            if not self._auto:
+                raise
+            warnings.warn(f"{err}\nSimulating in CasADi's virtual machine instead.", RuntimeWarning)
+            self._auto = False
+            return
+        self._chunks = {c: f.buffer() for c, f in zip(_chunk_sizes(), library.values())}
         self.native = True
 
     def _equations(self):

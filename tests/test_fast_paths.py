@@ -4,6 +4,7 @@ the optimizer's re-solve with a reused solver and its primal-dual warm start aga
 fresh problem solved cold. Iteration counts and identities only, no timing."""
 
 import importlib
+import shutil
 
 import numpy as np
 import pytest
@@ -155,3 +156,16 @@ def test_with_boundary_rebuilds_when_an_end_becomes_free():
     assert abs(dmoc.optimize(free).cost - dmoc.optimize(direct).cost) <= 1e-12
     with pytest.raises(ValueError, match="v_goal"):
         problem.with_boundary(v_goal=[0.0, 1.0, 0.0])
+
+
+@pytest.mark.skipif(not shutil.which("false"), reason="no `false` command")
+def test_a_failing_compiler_warns_and_falls_back(fresh_steppers, monkeypatch):
+    monkeypatch.setenv("CC", "false")                  # a "compiler" that always fails
+    monkeypatch.setattr(stepper_module, "NATIVE_AFTER_SECONDS", 0.0)
+    make, q0, v0 = CASES["inclined knife edge"]
+    disc = dmoc.discretize(make(), 0.02)
+    with pytest.warns(RuntimeWarning, match="virtual machine instead"):
+        result = _run(disc, q0, v0, "+", None)
+    assert result.success and result.stats["native"] is False
+    with pytest.raises(RuntimeError, match="compiling"):
+        _run(disc, q0, v0, "+", True)
