@@ -9,11 +9,12 @@ final-state error of the optimal controls re-simulated on the continuous reduced
 (scipy DOP853, rtol = atol = 1e-12, interval by interval, controls interpolated as each
 method defines them). Every method runs with and without ``expand`` (MX graph vs SX).
 
-    python benchmarks/dmoc_vs_collocation.py            # N in 25 ... 800
+    python benchmarks/dmoc_vs_collocation.py            # N in 25 ... 1600
     python benchmarks/dmoc_vs_collocation.py --quick    # N in 25, 50, 100
 """
 
 import argparse
+import importlib
 import os
 import platform
 import time
@@ -32,7 +33,7 @@ import dmoc  # noqa: E402
 import collocation  # noqa: E402
 from collocation import IPOPT_OPTIONS  # noqa: E402
 
-FULL_STEPS = (25, 50, 100, 200, 400, 800)
+FULL_STEPS = (25, 50, 100, 200, 400, 800, 1600)
 QUICK_STEPS = (25, 50, 100)
 REFERENCE_STEPS = 3200
 REFERENCE_OPTIONS = {"tol": 1e-13, "constr_viol_tol": 1e-13}
@@ -40,6 +41,7 @@ REFERENCE_OPTIONS = {"tol": 1e-13, "constr_viol_tol": 1e-13}
 defect rows is only good to ~1e-8 (sum of multiplier x residual), the floor seen in the
 Hermite-Simpson rows at large N."""
 METHODS = ("dmoc", "trapezoid", "hermite_simpson")
+OPTIMIZE = importlib.import_module("dmoc.optimize")   # the module (dmoc.optimize is the function)
 LABELS = {"dmoc": "dmoc", "trapezoid": "trap", "hermite_simpson": "hs"}
 
 
@@ -101,6 +103,8 @@ def solve_dmoc(case, steps, expand):
                                      q_goal=list(case.q_goal), variant="+")
     construct_time = time.perf_counter() - tic
     res = dmoc.optimize(ocp, options={"expand": expand, **IPOPT_OPTIONS}, throw=False)
+    if hasattr(OPTIMIZE, "_SOLVERS"):     # every repeat builds its solver, as the baselines do
+        OPTIMIZE._SOLVERS = type(OPTIMIZE._SOLVERS)(OPTIMIZE._SOLVERS.maxsize)
     u = res.trajectory.u
     return Run("dmoc", expand, steps, construct_time, res.stats["build_time"],
                res.stats["solve_time"], res.stats["iterations"], res.cost, res.success,

@@ -1,20 +1,26 @@
-"""Benchmark: the cost of one implicit Dirac step against one explicit RK4 step, knife edge.
+"""Benchmark: the cost of one implicit Dirac step against one explicit RK4 step, on the
+inclined knife edge and the vertical rolling disk.
 
-Dirac step: ``dmoc.simulate`` (midpoint rule, variant "+"): n + m = 4 equations of (37)
-in the increment q1 - q0 and lam, three unrolled Newton iterations, evaluated over the
-horizon in compiled ``mapaccum`` chunks; "dirac-jit" compiles the step to C (jit=True).
-Baselines, each an SX step Function compiled with ``mapaccum``: "rk4-ode", classical RK4
-on the hand-reduced ODE (x, y, theta, sigma, omega); "rk4-dae", RK4 on the index-1
+Dirac step: ``dmoc.simulate`` (midpoint rule, variant "+"), three unrolled Newton
+iterations on the n + m equations of (37) in the increment q1 - q0 and lam, the residual
+max-norm of every step checked, evaluated over the horizon in ``mapaccum`` chunks:
+"dirac" is the default path (``jit=None``: the compiled C library, cached on disk by an
+earlier run, see dmoc.compiled), "dirac-jit" with ``jit=True``, "dirac-vm" the same step
+in CasADi's virtual machine (``jit=False``: what runs without a C compiler). Run against
+an older checkout (PYTHONPATH), "dirac" is whatever that version's default is. Baselines, each an SX step Function run
+with ``mapaccum``: "rk4-ode", classical RK4 on the hand-reduced ODE (knife edge: x, y,
+theta, sigma, omega; disk: x, y, theta, phi, Omega, w); "rk4-dae", RK4 on the index-1
 Lagrange-d'Alembert DAE built from the same MechanicalSystem (a KKT solve per stage),
-what a user with only L, A(q), f writes. All start from q0 = (0, 0, 0), v0 = (1, 0, 1)
-(the unit circle), zero controls, h = 0.01, for 10^4 and 10^5 steps.
+what a user with only L, A(q), f writes. h = 0.01, zero controls, 10^4 and 10^5 steps.
 
 Reported per step: evaluation only (for dmoc ``stats["wall_time"]``, the step already
 built by a warm-up call; for RK4 the mapaccum call) and total (the whole ``simulate``
-call; for RK4 building the mapaccum plus the call). Best of `--repeat` runs. The
-final-position error against the exact solution (dmoc.systems.knife_edge_solution) is
-context: the Dirac step is second order and keeps omega_d = 0; RK4 is fourth order on the
-ODE, and on the DAE it drifts off the constraint.
+call; for RK4 building the mapaccum plus the call). Best of `--repeat` runs. Then, each
+in a fresh process: the peak resident memory of a 10^6-step default run, and the first
+default run ever of 10^6 steps (an empty cache directory: 0.5 s in the virtual machine,
+then compiling, then C). The final-position error against the exact solution is context:
+the Dirac step is second order and keeps omega_d = 0; RK4 is fourth order on the ODE, and
+on the DAE it drifts off the constraint.
 
     python benchmarks/step_cost.py
 """
@@ -22,7 +28,11 @@ ODE, and on the DAE it drifts off the constraint.
 import argparse
 import os
 import platform
+import subprocess
+import sys
+import tempfile
 import time
+from dataclasses import dataclass
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -31,113 +41,180 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc.systems import knife_edge, knife_edge_solution  # noqa: E402
+from dmoc.systems import knife_edge, knife_edge_solution, rolling_disk, rolling_disk_solution  # noqa: E402
 
 H = 0.01
-Q0 = np.array([0.0, 0.0, 0.0])
-V0 = np.array([1.0, 0.0, 1.0])
+INCLINE, GRAVITY = 0.2, 9.81
 
 
-def rk4_step(mass=1.0, inertia=1.0):
-    """(x, u, h) -> x_next: one classical RK4 step of the reduced knife-edge ODE."""
-    x, u, h = ca.SX.sym("x", 5), ca.SX.sym("u", 2), ca.SX.sym("h")
-    z = ca.SX.sym("z", 5)
-    F = ca.Function("f", [z, u], [ca.vertcat(z[3] * ca.cos(z[2]), z[3] * ca.sin(z[2]), z[4],
-                                             u[0] / mass, u[1] / inertia)])
+@dataclass(frozen=True)
+class Case:
+    """A system, its start, its hand-reduced ODE (z, u) -> z' and the exact solution."""
+
+    system: object            # () -> MechanicalSystem
+    q0: tuple
+    v0: tuple
+    z0: tuple                 # start of the reduced ODE
+    reduced: object           # (z, u) -> list of z' entries (CasADi)
+    exact: object             # t -> q(t)
+
+
+def knife_edge_ode(z, u, a=GRAVITY * np.sin(INCLINE)):
+    """(x, y, theta, sigma, omega)' with m = J = 1, gravity -a along x."""
+    return [z[3] * ca.cos(z[2]), z[3] * ca.sin(z[2]), z[4], u[0] - a * ca.cos(z[2]), u[1]]
+
+
+def rolling_disk_ode(z, u, roll=1.5, steer=0.25):
+    """(x, y, theta, phi, Omega, w)' with m = R = 1, I = 1/2, J = 1/4."""
+    return [ca.cos(z[3]) * z[4], ca.sin(z[3]) * z[4], z[4], z[5], u[0] / roll, u[1] / steer]
+
+
+CASES = {
+    "inclined knife edge": Case(
+        lambda: knife_edge(incline=INCLINE, gravity=GRAVITY), (0.0, 0.0, 0.0), (1.0, 0.0, 1.0),
+        (0.0, 0.0, 0.0, 1.0, 1.0), knife_edge_ode,
+        lambda t: knife_edge_solution(t, (0.0, 0.0, 0.0), (1.0, 0.0, 1.0), incline=INCLINE,
+                                      gravity=GRAVITY)[0][0]),
+    "rolling disk": Case(
+        rolling_disk, (0.0, 0.0, 0.0, 0.0), (1.0, 0.0, 1.0, 0.5), (0.0, 0.0, 0.0, 0.0, 1.0, 0.5),
+        rolling_disk_ode,
+        lambda t: rolling_disk_solution(t, (0.0, 0.0, 0.0, 0.0), (1.0, 0.0, 1.0, 0.5))[0][0]),
+}
+
+
+def rk4(name, f, x, u, h):
+    """(x, u, h) -> x_next: one classical RK4 step of x' = f(x, u) (SX)."""
+    z = ca.SX.sym("z", x.numel())
+    F = ca.Function("f", [z, u], [ca.vertcat(*f(z, u))])
     k1 = F(x, u)
     k2 = F(x + h / 2 * k1, u)
     k3 = F(x + h / 2 * k2, u)
     k4 = F(x + h * k3, u)
-    return ca.Function("rk4_step", [x, u, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)],
-                       ["x", "u", "h"], ["x_next"])
+    return ca.Function(name, [x, u, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+
+
+def rk4_step(case):
+    """RK4 on the hand-reduced ODE of `case`."""
+    x, u, h = ca.SX.sym("x", len(case.z0)), ca.SX.sym("u", 2), ca.SX.sym("h")
+    return rk4("rk4_step", case.reduced, x, u, h)
 
 
 def dae_rk4_step(system):
-    """(x, u, h) -> x_next: RK4 on the Lagrange-d'Alembert DAE of `system` in index-1 form.
+    """RK4 on the Lagrange-d'Alembert DAE of `system` in index-1 form.
 
     x = (q, v); the acceleration comes from the KKT system
     [M A^T; A 0] [a; -lam] = [f + dL/dq - (d/dq dL/dv) v; -(dA/dq v) v], M = d^2L/dv^2:
     what a user with only L, A(q), f(q, v, u) writes for an explicit integrator.
     """
     n, m = system.n, system.m
-    q, v, u, h = ca.SX.sym("q", n), ca.SX.sym("v", n), ca.SX.sym("u", system.n_u), ca.SX.sym("h")
+    q, v, u = ca.SX.sym("q", n), ca.SX.sym("v", n), ca.SX.sym("u", system.n_u)
     L, A = system.lagrangian(q, v), system.constraint_matrix(q)
     p = ca.gradient(L, v)
     M, C = ca.jacobian(p, v), ca.jacobian(p, q)
     rhs = ca.vertcat(system.force(q, v, u) + ca.gradient(L, q) - ca.mtimes(C, v),
                      -ca.mtimes(ca.jacobian(ca.mtimes(A, v), q), v))
-    kkt = ca.blockcat([[M, A.T], [A, ca.SX.zeros(m, m)]])
-    acc = ca.solve(kkt, rhs)[:n]
-    x = ca.vertcat(q, v)
-    F = ca.Function("f", [x, u], [ca.vertcat(v, acc)])
-    k1 = F(x, u)
-    k2 = F(x + h / 2 * k1, u)
-    k3 = F(x + h / 2 * k2, u)
-    k4 = F(x + h * k3, u)
-    return ca.Function("dae_rk4_step", [x, u, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    acc = ca.solve(ca.blockcat([[M, A.T], [A, ca.SX.zeros(m, m)]]), rhs)[:n]
+    state = ca.Function("qv", [q, v, u], [ca.vertcat(v, acc)])
+    x = ca.SX.sym("x", 2 * n)
+    return rk4("dae_rk4_step", lambda z, w: ca.vertsplit(state(z[:n], z[n:], w)), x, u, ca.SX.sym("h"))
 
 
-DISC = dmoc.discretize(knife_edge(), H)
-
-
-def time_dirac(steps, jit=False):
-    """(evaluation seconds, total seconds, final q) of dmoc.simulate over `steps`.
-
-    The discretization is built once (outside the timing, as a user re-running would);
-    a first call compiles the step (and, with jit, the C code) before the timed runs.
-    """
+def time_dirac(disc, case, steps, **jit):
+    """(evaluation seconds, total seconds, final q, max residual, native) of one simulate."""
     tic = time.perf_counter()
-    res = dmoc.simulate(DISC, q0=Q0, v0=V0, steps=steps, jit=jit)
+    res = dmoc.simulate(disc, q0=case.q0, v0=case.v0, steps=steps, **jit)
     total = time.perf_counter() - tic
     if not res.success:
         raise RuntimeError(res.message)
-    return res.stats["wall_time"], total, res.trajectory.q[-1]
+    return (res.stats["wall_time"], total, res.trajectory.q[-1], res.stats["max_residual"],
+            res.stats.get("native", jit.get("jit", False)))
 
 
-def time_mapaccum(step, x0, steps):
-    """(evaluation seconds, total seconds, final q) of a step Function over `steps`."""
+def time_mapaccum(step, x0, steps, n):
+    """(evaluation seconds, total seconds, final q, nan, False) of a step Function over `steps`."""
     tic = time.perf_counter()
     horizon = step.mapaccum("horizon", steps)
     built = time.perf_counter()
     X = horizon(x0, np.zeros((2, steps)), H)
     done = time.perf_counter()
-    return done - built, done - tic, np.array(X[:3, -1]).ravel()
+    return done - built, done - tic, np.array(X[:n, -1]).ravel(), float("nan"), False
 
 
-METHODS = {
-    "dirac": lambda steps: time_dirac(steps),
-    "dirac-jit": lambda steps: time_dirac(steps, jit=True),
-    "rk4-ode": lambda steps: time_mapaccum(rk4_step(), np.concatenate([Q0, [V0[0], V0[2]]]), steps),
-    "rk4-dae": lambda steps: time_mapaccum(dae_rk4_step(knife_edge()), np.concatenate([Q0, V0]), steps),
-}
+def methods(case):
+    disc, system = dmoc.discretize(case.system(), H), case.system()
+    n, rk, dae = system.n, rk4_step(case), dae_rk4_step(system)
+    return {
+        "dirac": lambda steps: time_dirac(disc, case, steps),
+        "dirac-jit": lambda steps: time_dirac(disc, case, steps, jit=True),
+        "dirac-vm": lambda steps: time_dirac(disc, case, steps, jit=False),
+        "rk4-ode": lambda steps: time_mapaccum(rk, np.array(case.z0), steps, n),
+        "rk4-dae": lambda steps: time_mapaccum(dae, np.concatenate([case.q0, case.v0]), steps, n),
+    }
 
 
 def best(repeat, fun, steps):
     runs = [fun(steps) for _ in range(repeat)]
-    return min(r[0] for r in runs), min(r[1] for r in runs), runs[-1][2]
+    return (min(r[0] for r in runs), min(r[1] for r in runs)) + runs[-1][2:]
+
+
+def fresh_process(*args, env=None):
+    """Run this script with `args` in a new process; its stdout."""
+    return subprocess.run([sys.executable, __file__, *args], check=True, capture_output=True,
+                          text=True, env={**os.environ, **(env or {})}).stdout.strip()
+
+
+def one_run(name, steps):
+    """(this process) `steps` default steps of case `name`: wall seconds, peak RSS MB, native."""
+    case = CASES[name]
+    disc = dmoc.discretize(case.system(), H)
+    tic = time.perf_counter()
+    res = dmoc.simulate(disc, q0=case.q0, v0=case.v0, steps=steps)
+    wall = time.perf_counter() - tic
+    with open("/proc/self/status") as status:      # VmHWM: this process's peak RSS (Linux)
+        peak = next(int(line.split()[1]) for line in status if line.startswith("VmHWM")) / 1024
+    print(f"{wall:.4f} {peak:.1f} {res.stats.get('native', False)} {res.stats['max_residual']:.2e}")
+
+
+def table(repeat, name):
+    case = CASES[name]
+    funs = methods(case)
+    for fun in reversed(funs.values()):          # build, compile (jit=True before the default
+        fun(10)                                  # path), load libraries, outside the timing
+    print(f"\n{name}")
+    head = (f"{'steps':>7}  {'method':<10}{'eval us/step':>14}{'total us/step':>15}"
+            f"{'eval ratio':>12}{'total ratio':>13}{'max residual':>14}{'native':>8}{'|q(T)-q_exact|':>16}")
+    print(head + "\n" + "-" * len(head))
+    for steps in (10**4, 10**5):
+        q_exact = case.exact(steps * H)
+        runs = {method: best(repeat, fun, steps) for method, fun in funs.items()}
+        rk = runs["rk4-ode"]
+        for method, (ev, tot, q, rnorm, native) in runs.items():
+            print(f"{steps:>7}  {method:<10}{1e6 * ev / steps:>14.2f}{1e6 * tot / steps:>15.2f}"
+                  f"{ev / rk[0]:>12.2f}{tot / rk[1]:>13.2f}{rnorm:>14.1e}{str(native):>8}"
+                  f"{np.linalg.norm(q - q_exact):>16.2e}")
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--one-run":
+        one_run(argv[1], int(argv[2]))
+        return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs per case; best is kept (default 5)")
     args = parser.parse_args(argv)
-    print(f"python {platform.python_version()}, casadi {ca.__version__}, "
-          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}; h = {H}, zero controls")
-    for fun in METHODS.values():                    # load libraries, compile, outside the timing
-        fun(10)
-    head = (f"{'steps':>7}  {'method':<10}{'eval us/step':>14}{'total us/step':>15}"
-            f"{'eval ratio':>12}{'total ratio':>13}{'|q(T)-q_exact|':>16}")
-    print(head + "\n" + "-" * len(head))
-    for steps in (10**4, 10**5):
-        q_exact = knife_edge_solution(steps * H, Q0, V0)[0][0]
-        runs = {name: best(args.repeat, fun, steps) for name, fun in METHODS.items()}
-        rk4 = runs["rk4-ode"]
-        for name, (ev, tot, q) in runs.items():
-            print(f"{steps:>7}  {name:<10}{1e6 * ev / steps:>14.2f}{1e6 * tot / steps:>15.2f}"
-                  f"{ev / rk4[0]:>12.1f}{tot / rk4[1]:>13.1f}"
-                  f"{np.linalg.norm(q - q_exact):>16.2e}")
-    print("ratios: against rk4-ode (RK4 on the hand-reduced ODE) at the same number of steps;")
-    print("rk4-dae: RK4 on the index-1 Lagrange-d'Alembert DAE built from the same MechanicalSystem.")
+    print(f"dmoc from {os.path.dirname(dmoc.__file__)}; python {platform.python_version()}, "
+          f"casadi {ca.__version__}, load average {'%.2f %.2f %.2f' % os.getloadavg()}; "
+          f"h = {H}, zero controls")
+    for name in CASES:
+        table(args.repeat, name)
+    print("ratios: against rk4-ode (RK4 on the hand-reduced ODE) at the same number of steps.")
+    print("\nfresh processes (default path: wall s, peak RSS MB, native, max residual):")
+    for name in CASES:
+        print(f"  {name}, 10^6 steps, library cached: {fresh_process('--one-run', name, str(10**6))}")
+        with tempfile.TemporaryDirectory() as empty:
+            first = fresh_process("--one-run", name, str(10**6), env={"DMOC_CACHE_DIR": empty})
+        print(f"  {name}, 10^6 steps, first run ever (empty cache): {first}")
+    print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 
 if __name__ == "__main__":

@@ -4,6 +4,9 @@ nonlinear program (Ober-Bloebaum, Junge & Marsden 2011) whose dynamic constraint
 momentum boundary conditions of `boundary` and Delta_Q^d imposed directly.
 """
 
+import copy
+import hashlib
+
 import casadi as ca
 import numpy as np
 
@@ -12,8 +15,12 @@ from ._symbolic import checked_function
 from .boundary import check_allowed_velocity, check_holonomic_boundary
 from .discrete import Discretization
 from .formulations import as_formulation
+from ._momentum import single_output, solved_rows, substitutable
 from .layout import Layout
 from .principle import step_residual
+
+
+MOMENTA = ("substituted", "variables")
 
 
 class OptimalControlProblem:
@@ -47,6 +54,13 @@ class OptimalControlProblem:
     variant : {"+", "-"} or Formulation
         The form of the step equations and of the momentum boundary rows
         (`dmoc.formulations`).
+    momenta : {"substituted", "variables"}
+        "substituted" (default): only p_0 is a variable; p_{k+1} = D2 L_d + f_d^+ (- A^T lam
+        for (-)) follows from step k's explicit "right" rows, which then hold by
+        construction, and the other rows are imposed (a smaller NLP: n fewer variables
+        and rows per step). "variables": every p_k a variable and all rows imposed. A
+        formulation whose p_{k+1} is not explicit or depends on p_k (the Hamiltonian
+        forms (39), (43)) always carries the momenta as variables.
 
     Attributes
     ----------
@@ -55,21 +69,42 @@ class OptimalControlProblem:
     lbx, ubx, lbg, ubg : ndarray
         Bounds of x and g.
     x_layout, g_layout : Layout
-        Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``) and of g
-        (``dynamics`` (rows of R, N), ``start``, ``goal``, ``start_velocity``,
+        Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` is p_0
+        alone when the momenta are substituted, see `momenta(x)`) and of g (``dynamics``
+        (rows of R in `dynamics_rows`, N), ``start``, ``goal``, ``start_velocity``,
         ``goal_velocity``, ``path``).
+    dynamics_rows : Layout
+        The residual rows imposed at each step (all of R, or all but "right").
+    structure : str
+        A key of the NLP by value; see `with_boundary` and `dmoc.optimize`.
     """
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
-                 state_bounds=None, path_constraints=None, duration=None, variant="+"):
+                 state_bounds=None, path_constraints=None, duration=None, variant="+",
+                 momenta="substituted"):
         if not isinstance(disc, Discretization):
             raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
         self.disc, sys = disc, disc.system
         self.steps = N = _checks.positive_int("steps", steps)
         self.formulation = as_formulation(variant, disc)
         self.residual = step_residual(disc, self.formulation)
-        n = sys.n
+        self.momenta_substituted = (_checks.choice("momenta", momenta, MOMENTA) == "substituted"
+                                    and substitutable(self.residual))
+        n, self._structure = sys.n, None
+        self.duration = _duration(duration, N, disc.h)
+        self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
+                                       sys, ("q", "v", "u"))
+        self._terminal = None if terminal_cost is None else _cost_function(
+            "terminal_cost", terminal_cost, sys, ("q", "v"))
+        self._path = None if path_constraints is None else _path_function(path_constraints, disc)
+        self._bound_data = (_bounds("control_bounds", control_bounds, sys.n_u),
+                            _bounds("state_bounds", state_bounds, n))
+        self._set_boundary(q_start, q_goal, v_start, v_goal)
+        self._build()
+
+    def _set_boundary(self, q_start, q_goal, v_start, v_goal):
+        n, sys = self.disc.system.n, self.disc.system
         self.q_start = _boundary("q_start", q_start, n)
         self.q_goal = _boundary("q_goal", q_goal, n)
         self.v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
@@ -79,14 +114,43 @@ class OptimalControlProblem:
             if self._fully_given(end):
                 check_allowed_velocity("v_" + end, sys, getattr(self, "q_" + end),
                                        getattr(self, "v_" + end))
-        self.duration = _duration(duration, N, disc.h)
-        self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
-                                       sys, ("q", "v", "u"))
-        self._terminal = None if terminal_cost is None else _cost_function(
-            "terminal_cost", terminal_cost, sys, ("q", "v"))
-        self._path = None if path_constraints is None else _path_function(path_constraints, disc)
-        self._build(_bounds("control_bounds", control_bounds, sys.n_u),
-                    _bounds("state_bounds", state_bounds, n))
+
+    def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None):
+        """This problem with new boundary data; arguments left None keep this problem's.
+
+        The boundary data enter the NLP only through the bounds lbx = ubx, so the copy
+        shares this problem's NLP (and `structure`, hence its compiled solver and a warm
+        start from this problem's optimum) unless an end changes between fully given and
+        partly free (then the velocity rows A(q) v = 0 appear or vanish and the NLP is
+        rebuilt).
+
+        Examples
+        --------
+        >>> import dmoc, dmoc.problems
+        >>> problem = dmoc.problems.knife_edge_parking(20)
+        >>> moved = problem.with_boundary(q_goal=[0.2, 1.0, 0.0])
+        >>> moved.q_goal.tolist(), moved.structure == problem.structure
+        ([0.2, 1.0, 0.0], True)
+        """
+        new = copy.copy(self)
+        given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal}
+        new._set_boundary(**{k: getattr(self, k) if v is None else v for k, v in given.items()})
+        if all(new._fully_given(e) == self._fully_given(e) for e in ("start", "goal")):
+            new._set_bounds()
+        else:
+            new._structure = None
+            new._build()
+        return new
+
+    @property
+    def structure(self):
+        """A key of the NLP by value (SHA-256 of the serialized x -> (f, g) graph): problems
+        with equal keys differ at most in lbx, ubx, lbg, ubg, so `optimize` reuses one
+        compiled solver for them and warm-starts one from the other's optimum."""
+        if self._structure is None:
+            graph = ca.Function("nlp", [self.nlp["x"]], [self.nlp["f"], self.nlp["g"]])
+            self._structure = hashlib.sha256(graph.serialize().encode()).hexdigest()
+        return self._structure
 
     def _fully_given(self, end):
         """True when q and v at `end` ("start" or "goal") have no free entries."""
@@ -103,27 +167,30 @@ class OptimalControlProblem:
         """True when the final time is a decision variable."""
         return self.duration is not None
 
-    def _build(self, control_bounds, state_bounds):
+    def _build(self):
         sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
         n, m, ns = sys.n, sys.m, disc.n_stages
         start, end, m_start, m_end = self.formulation.momentum_conditions(sys)
         path = self._path
         velocity_rows = {e: 0 if self._fully_given(e) else m for e in ("start", "goal")}
-        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, N + 1)), ("lam", (disc.n_multipliers, N)),
+        substituted = self.momenta_substituted
+        self.dynamics_rows = solved_rows(R) if substituted else R.row_layout
+        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, 1 if substituted else N + 1)),
+                                ("lam", (disc.n_multipliers, N)),
                                 ("s", (ns, N)), ("u", (disc.n_controls, N)), ("v_start", (n, 1)),
                                 ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                 ("h", (1 if self.free_time else 0, 1))])
-        self.g_layout = Layout([("dynamics", (R.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
+        self.g_layout = Layout([("dynamics", (self.dynamics_rows.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
                                 ("start_velocity", (velocity_rows["start"], 1)),
                                 ("goal_velocity", (velocity_rows["goal"], 1)),
                                 ("path", (path.numel_out(0) if path else 0, N))])
         x = ca.MX.sym("x", self.x_layout.size)
         X = {name: self.x_layout.unpack(x, name) for name in self.x_layout.blocks}
         h = X["h"] if self.free_time else disc.h
-        Q, P, U = X["q"], X["p"], X["u"]
+        Q, U = X["q"], X["u"]
         q0, q1 = Q[:, :N], Q[:, 1:]
-        dynamics = R.function.map(N)(q0=q0, p0=P[:, :N], q1=q1, p1=P[:, 1:], lam=X["lam"],
-                                     s=X["s"], u=U, h=h)["r"]
+        dynamics, P = self._dynamics(X, h)
+        self._momenta = ca.Function("momenta", [x], [P])
         A = sys.constraint_matrix
         g = {"dynamics": dynamics,
              "start": start(Q[:, 0], P[:, 0], X["v_start"], X["mu"]),
@@ -135,9 +202,28 @@ class OptimalControlProblem:
         if self._terminal is not None:
             f += self._terminal(Q[:, N], X["v_goal"])
         self.nlp = {"x": x, "f": f, "g": ca.vertcat(*[ca.vec(g[k]) for k in self.g_layout.blocks])}
-        self._set_bounds(control_bounds, state_bounds)
+        self._set_bounds()
 
-    def _set_bounds(self, control_bounds, state_bounds):
+    def _dynamics(self, X, h):
+        """(rows of R at every step, (n, N+1) momenta). Substituted: p_0 is the variable
+        block "p" and p_{k+1} = D2 L_d + f_d^+ (- A^T lam for (-)) the explicit "right" rows
+        of step k (`dmoc._momentum`), so those rows hold by construction and the others
+        are imposed; else all rows, with every p_k a variable."""
+        N, R, Q = self.steps, self.residual, X["q"]
+        steps = {"q0": Q[:, :N], "q1": Q[:, 1:], "lam": X["lam"], "s": X["s"], "u": X["u"], "h": h}
+        if not self.momenta_substituted:
+            P = X["p"]
+            return R.function.map(N)(p0=P[:, :N], p1=P[:, 1:], **steps)["r"], P
+        P = ca.horzcat(X["p"], _mapped_output(R, "p1", N, steps))
+        return _mapped_output(R, "rows", N, {"p0": P[:, :N], **steps}), P
+
+    def momenta(self, x):
+        """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
+        they are variables, computed from x when substituted)."""
+        return np.array(self._momenta(x)).T
+
+    def _set_bounds(self):
+        control_bounds, state_bounds = self._bound_data
         for name in ("q_start", "q_goal"):
             data = getattr(self, name)
             outside = np.isfinite(data) & ((data < state_bounds[0]) | (data > state_bounds[1]))
@@ -215,3 +301,9 @@ def _cost_function(name, cost, sys, args):
     """A user cost of (q, v[, u]) checked on symbols and wrapped as a scalar Function."""
     sizes = {"q": sys.n, "v": sys.n, "u": sys.n_u}
     return checked_function(name, cost, [ca.SX.sym(a, sizes[a]) for a in args], args, (1, 1))
+
+
+def _mapped_output(residual, name, N, args):
+    """Output `name` of the residual's `explicit_end` mapped over N steps of `args`."""
+    single = single_output(residual, name)
+    return single.map(N)(**{k: args[k] for k in single.name_in()})[name]

@@ -4,21 +4,29 @@ the optimal Trajectory, or raises SolverError carrying the last iterate and nami
 violated constraint group (dynamics at step k, boundary, path).
 """
 
+import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import casadi as ca
 import numpy as np
 
 from . import _checks
+from ._cache import BoundedCache
 from .ocp import OptimalControlProblem
 from .errors import SolverError
-from .trajectory import Trajectory
+from .guess import initial_guess, start_point
+from ._files import atomic_write
+from .trajectory import RESULT_PREFIX, Trajectory
 
 # honor_original_bounds: IPOPT relaxes bounds by bound_relax_factor while iterating; project
 # the final point back so that bounds on states, controls and the final time hold exactly.
+# warm_start_init_point: IPOPT starts from the multipliers passed in (zero for a cold start,
+# which changes nothing on equality-constrained problems; a previous optimum's for a warm
+# start), so one solver serves both.
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
-                         "max_iter": 1000, "honor_original_bounds": "yes"}
+                         "max_iter": 1000, "honor_original_bounds": "yes",
+                         "warm_start_init_point": "yes"}
 
 
 @dataclass
@@ -35,12 +43,22 @@ class OptimizationResult:
         IPOPT's return status, e.g. ``"Solve_Succeeded"``.
     message : str
     stats : dict
-        ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver),
-        ``solve_time`` (wall seconds in IPOPT), ``max_violation`` (of all constraints),
-        ``most_violated`` (group, step, row).
-    x : ndarray
+        ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
+        when a solver of the same structure and options was reused), ``solver_reused``,
+        ``warm_start`` (True when IPOPT started from a previous optimum's x and
+        multipliers), ``solve_time`` (wall seconds in IPOPT), ``function_time`` (the part
+        of it spent evaluating the NLP functions and derivatives; the rest is mostly the
+        linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
+        whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
+        added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row).
+    x : ndarray, shape (problem.x_layout.size,)
         The raw NLP vector; ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the
         end impulse ``"nu"``).
+    lam_x, lam_g : ndarray, shapes like x and like problem.g_layout
+        IPOPT's multipliers of the bounds and of the constraints at `x`.
+    structure : str
+        The problem's `structure` key: a result warm-starts (primal and dual) any problem
+        with the same key, e.g. one from ``problem.with_boundary(...)``.
     """
 
     trajectory: Trajectory
@@ -50,6 +68,30 @@ class OptimizationResult:
     message: str
     stats: dict = field(default_factory=dict)
     x: np.ndarray = None
+    lam_x: np.ndarray = None
+    lam_g: np.ndarray = None
+    structure: str = ""
+
+    def save(self, path):
+        """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
+        fields (so `Trajectory.load` reads it too), x, the multipliers, cost, status,
+        message, structure and stats (as JSON)."""
+        traj = {f.name: np.asarray(getattr(self.trajectory, f.name)) for f in fields(Trajectory)}
+        extra = {RESULT_PREFIX + k: np.asarray(getattr(self, k))
+                 for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure")}
+        extra[RESULT_PREFIX + "stats"] = json.dumps(self.stats, default=str)
+        with atomic_write(path) as file:
+            np.savez(file, **traj, **extra)
+
+    @classmethod
+    def load(cls, path):
+        """Read a result written by `save`; ``optimize(problem, guess=loaded)`` warm-starts
+        as from the result itself."""
+        with np.load(path, allow_pickle=False) as data:
+            extra = {k[len(RESULT_PREFIX):]: data[k] for k in data.files if k.startswith(RESULT_PREFIX)}
+        return cls(Trajectory.load(path), float(extra["cost"]), bool(extra["success"]),
+                   str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
+                   extra["x"], extra["lam_x"], extra["lam_g"], str(extra["structure"]))
 
 
 def optimize(problem, *, guess=None, options=None, throw=True):
@@ -58,11 +100,14 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     Parameters
     ----------
     problem : OptimalControlProblem
-    guess : Trajectory, optional
-        Initial guess (resampled in time if its number of steps differs). By default the
-        configurations interpolate linearly between the boundary data, bent by a small
-        sine bump so the guess avoids points where the constraint Jacobian is singular
-        (e.g. the knife edge sliding straight sideways).
+    guess : Trajectory or OptimizationResult, optional
+        Initial guess. A Trajectory is resampled in time if its number of steps differs.
+        An OptimizationResult of a problem with the same `structure` (the same problem
+        with new boundary data or bounds, or a result saved and loaded) warm-starts IPOPT
+        from its x and multipliers; any other result is used through its trajectory. By
+        default the configurations interpolate linearly between the boundary data, bent
+        by a small sine bump so the guess avoids points where the constraint Jacobian is
+        singular (e.g. the knife edge sliding straight sideways).
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
         and ``"expand"`` (bool, default False: keep the mapped MX graph; True expands it
@@ -74,49 +119,83 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     Returns
     -------
     OptimizationResult
+
+    Notes
+    -----
+    The solver (``casadi.nlpsol``) is created once per problem structure and options and
+    kept in a bounded cache: boundary data, bounds and the guess are solver inputs, so
+    re-solving the same problem, or one from ``problem.with_boundary(...)``, skips the
+    build; a warm start runs the same solver from the previous optimum's multipliers.
     """
     if not isinstance(problem, OptimalControlProblem):
         raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")
     throw = _checks.boolean("throw", throw)
-    if guess is not None and not isinstance(guess, Trajectory):
-        raise TypeError(f"`guess` must be a Trajectory or None; got {type(guess).__name__}.")
+    if guess is not None and not isinstance(guess, (Trajectory, OptimizationResult)):
+        raise TypeError(f"`guess` must be a Trajectory, an OptimizationResult or None; "
+                        f"got {type(guess).__name__}.")
     if options is not None and not isinstance(options, dict):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
+    x0, lam_x0, lam_g0 = start_point(problem, guess)
     tic = time.perf_counter()
-    solver = _solver(problem, dict(options or {}))
+    solver, reused = _solver(problem, dict(options or {}))
     build_time = time.perf_counter() - tic
-    x0 = initial_guess(problem, guess)
     tic = time.perf_counter()
-    sol = solver(x0=x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg, ubg=problem.ubg)
+    sol = solver(x0=x0, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx, ubx=problem.ubx,
+                 lbg=problem.lbg, ubg=problem.ubg)
     solve_time = time.perf_counter() - tic
     x = np.array(sol["x"]).ravel()
     st = solver.stats()
     worst = most_violated(problem, np.array(sol["g"]).ravel())
     stats = {"iterations": st.get("iter_count"), "return_status": st["return_status"],
-             "build_time": build_time, "solve_time": solve_time,
+             "build_time": 0.0 if reused else build_time, "solver_reused": reused,
+             "warm_start": isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g,
+             "solve_time": solve_time, **_linear_algebra(st),
              "max_violation": worst[0], "most_violated": worst[1]}
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
     message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
                f"cost {float(sol['f']):.10g}{where}.")
-    result = OptimizationResult(traj, float(sol["f"]), success, st["return_status"], message, stats, x)
+    result = OptimizationResult(traj, float(sol["f"]), success, st["return_status"], message, stats,
+                                x, np.array(sol["lam_x"]).ravel(), np.array(sol["lam_g"]).ravel(),
+                                problem.structure)
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result
 
 
+_SOLVERS = BoundedCache(8)     # keyed by (problem.structure, options)
+
+
 def _solver(problem, options):
+    """(nlpsol for `problem` with `options`, whether it came from the cache)."""
     expand = _checks.boolean("options['expand']", options.pop("expand", False))
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
             **{"ipopt." + k: v for k, v in merged.items()}}
-    try:
-        return ca.nlpsol("dmoc", "ipopt", problem.nlp, opts)
-    except RuntimeError as err:
-        if "option" not in str(err).lower():
-            raise
-        raise ValueError(f"`options` were rejected by CasADi/IPOPT: {err}") from None
+    built = []
+
+    def build():
+        built.append(True)
+        try:
+            return ca.nlpsol("dmoc", "ipopt", problem.nlp, opts)
+        except RuntimeError as err:
+            if "option" not in str(err).lower():
+                raise
+            raise ValueError(f"`options` were rejected by CasADi/IPOPT: {err}") from None
+
+    solver = _SOLVERS.get((problem.structure, repr(sorted(opts.items()))), build)
+    return solver, not built
+
+
+def _linear_algebra(st):
+    """What IPOPT's KKT solves cost and needed: seconds outside function evaluations, and
+    the iterations whose KKT matrix had the wrong inertia, so that IPOPT added delta_w I to
+    the Hessian block (its largest delta_w)."""
+    delta = st.get("iterations", {}).get("regularization_size", [])
+    evaluations = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
+    return {"function_time": evaluations, "regularized_iterations": sum(d > 0 for d in delta),
+            "max_regularization": max(delta, default=0.0)}
 
 
 def most_violated(problem, g):
@@ -128,8 +207,9 @@ def most_violated(problem, g):
     i = int(np.argmax(violation))
     group, row, col = problem.g_layout.locate(i)
     if group == "dynamics":
-        name = next(k for k, s in problem.residual.rows.items() if s.start <= row < s.stop)
-        return float(violation[i]), f"dynamics at step {col} ({name} row {row - problem.residual.rows[name].start})"
+        rows = problem.dynamics_rows.slices()
+        name = next(k for k, s in rows.items() if s.start <= row < s.stop)
+        return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
     if group == "path":
         return float(violation[i]), f"path constraint {row} at step {col}"
     return float(violation[i]), f"boundary condition '{group}' row {row}"
@@ -140,80 +220,6 @@ def trajectory_from_x(problem, x):
     lay, N = problem.x_layout, problem.steps
     h = float(lay.unpack(x, "h")[0, 0]) if problem.free_time else problem.disc.h
     mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
-    return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, lay.unpack(x, "p").T,
+    return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, problem.momenta(x),
                       lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
                       mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)
-
-
-def initial_guess(problem, guess=None):
-    """The NLP start vector from a Trajectory, or the default guess (see `optimize`)."""
-    lay, N, sys = problem.x_layout, problem.steps, problem.disc.system
-    x = np.zeros(lay.size)
-    tau = np.linspace(0.0, 1.0, N + 1)
-    h = problem.disc.h if guess is None else guess.h
-    if problem.free_time:
-        h = float(np.clip(h, *(T / N for T in problem.duration)))
-    if guess is None:
-        q = _default_path(problem, tau)
-        v = np.gradient(q, h, axis=0)
-        p = np.array(sys.momentum.map(N + 1)(q.T, v.T)).T
-        blocks = {"q": q, "p": p, "s": problem.disc.rule.stage_guess(q, p)}
-    else:
-        _check_guess(problem, guess)
-        blocks = _resampled(problem, guess, tau)
-    blocks["v_start"] = np.nan_to_num(problem.v_start)[None, :]
-    blocks["v_goal"] = np.nan_to_num(problem.v_goal)[None, :]
-    if problem.free_time:
-        blocks["h"] = np.array([[h]])
-    for name, values in blocks.items():
-        if values is not None and lay.numel(name):
-            x[lay.slice(name)] = np.asarray(values, dtype=float).ravel()
-    return np.clip(x, problem.lbx, problem.ubx)
-
-
-def _check_guess(problem, guess):
-    if guess.steps < 1:
-        raise ValueError("`guess` must have at least one step; got a trajectory of 0 steps.")
-    n, n_u = problem.disc.system.n, problem.disc.system.n_u
-    if guess.q.shape[1] != n:
-        raise ValueError(f"`guess` must have q with {n} columns for this problem; got {guess.q.shape[1]}.")
-    if guess.u.shape[1] != n_u * len(guess.control_nodes):
-        raise ValueError(f"`guess` must have u with {n_u} columns per control node for this "
-                         f"problem; got {guess.u.shape[1]} for {len(guess.control_nodes)} nodes.")
-
-
-def _default_path(problem, tau):
-    start = np.where(np.isfinite(problem.q_start), problem.q_start, np.nan_to_num(problem.q_goal))
-    goal = np.where(np.isfinite(problem.q_goal), problem.q_goal, start)
-    bump = 0.1 * max(1.0, float(np.max(np.abs(goal - start))))
-    return start + np.outer(tau, goal - start) + bump * np.sin(np.pi * tau)[:, None]
-
-
-def _resampled(problem, guess, tau):
-    """Guess blocks (time-major) on the problem's normalized grid tau, from a guess on any
-    grid and with any rule: q, p interpolated at the knots, the controls evaluated by the
-    guess's own interpolation (`Trajectory.control`) at the problem's control nodes, stages
-    and multipliers kept where their layout matches, else stages on the chords."""
-    disc, N = problem.disc, len(tau) - 1
-    same_grid = guess.steps == N
-    old = np.linspace(0.0, 1.0, guess.steps + 1)
-    knots = {k: getattr(guess, k) if same_grid else
-             np.column_stack([np.interp(tau, old, c) for c in getattr(guess, k).T]) for k in ("q", "p")}
-    same_rule = (same_grid and guess.s.shape[1] == disc.n_stages
-                 and guess.control_nodes == disc.rule.control_nodes)
-    if same_rule:
-        u = guess.u
-    else:
-        times = guess.t[0] + (guess.t[-1] - guess.t[0]) * (
-            tau[:-1, None] + np.asarray(disc.rule.control_nodes)[None, :] / N)
-        u = guess.control(times.ravel()).reshape(N, -1)
-    lam = None
-    if guess.lam.shape[1] == disc.n_multipliers:
-        mid_new, mid_old = (tau[:-1] + tau[1:]) / 2, (old[:-1] + old[1:]) / 2
-        lam = guess.lam if same_grid else np.column_stack(
-            [np.interp(mid_new, mid_old, c) for c in guess.lam.T] or [np.zeros(N)])[:, :disc.n_multipliers]
-    blocks = {**knots, "u": u, "lam": lam,
-              "s": guess.s if same_rule else disc.rule.stage_guess(knots["q"], knots["p"])}
-    if guess.mu.shape == (problem.x_layout.numel("mu"),):
-        blocks["mu"] = guess.mu[None, :]
-    return blocks

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _checks
+from . import _checks, compiled
 from ._cache import BoundedCache
 from .boundary import start_momentum
 from .discrete import Discretization
@@ -33,8 +33,9 @@ class SimulationResult:
     message : str
     stats : dict
         ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
-        Newton redid), ``max_residual`` (max-norm of R over the completed steps),
-        ``wall_time`` in seconds (building the compiled step included).
+        Newton redid), ``max_residual`` (max-norm of R over the completed steps, checked
+        at every step on both paths), ``native`` (True when the fast path ended the run as
+        compiled C), ``wall_time`` in seconds (building or loading the compiled step included).
     """
 
     trajectory: Trajectory
@@ -45,7 +46,7 @@ class SimulationResult:
 
 
 def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
-             throw=True, tol=1e-12, max_iter=50, jit=False):
+             throw=True, tol=1e-12, max_iter=50, jit=None):
     """Simulate the implicit discrete Lagrange-d'Alembert equations (37) or (41).
 
     Parameters
@@ -73,9 +74,14 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     max_iter : int
         Iterations of the line-search Newton that redoes a step the fast path (three
         unrolled Newton iterations) did not converge.
-    jit : bool
-        Compile the fast step to C with the system's C compiler (CasADi's "shell"
-        compiler; about 0.5 s once per discretization, then several times faster steps).
+    jit : bool or None
+        Run the fast path as C code, compiled once per step Function with the system's C
+        compiler and cached on disk across calls and processes (`dmoc.compiled`; about
+        0.5 s the first time ever, then a 10 ms load), several times faster per step than
+        CasADi's virtual machine, with the same results. None (default): C when it is
+        cached, else once this process has spent 0.5 s (about the cost of compiling) in the
+        virtual machine on this step Function, mid-run if need be; without a C compiler,
+        always the virtual machine. True: C now (an error without a compiler); False: never.
 
     Returns
     -------
@@ -112,22 +118,34 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     controls = step_controls(disc, controls, steps)
     residual = step_residual(disc, formulation)
     tic = time.perf_counter()
-    stepper = _STEPPERS.get((residual.key, tol, max_iter, _checks.boolean("jit", jit)),
-                            lambda: DiracStepper(residual, tol, max_iter, jit))
+    native = _native(jit)
+    stepper = _STEPPERS.get((residual.key, tol, max_iter, native),
+                            lambda: DiracStepper(residual, tol, max_iter, native))
     start = np.zeros(stepper.state.size)
     for name, value in (("q", q0), ("p", p_start), ("dq", disc.h * v_guess)):
         start[stepper.state.slice(name)] = value
     acc, out, failed_rnorm, redone = stepper.run(start, controls, disc.h)
     wall = time.perf_counter() - tic
-    k = acc.shape[0]
-    traj = _assemble(stepper, formulation, disc, q0, p_start, controls[:k], acc, out)
+    k = out.shape[0]
+    traj = _assemble(stepper, formulation, disc, controls[:k], acc, out)
     rnorm = stepper.out.split(out)["rnorm"]
     stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
-             "max_residual": float(rnorm.max()) if k else 0.0, "wall_time": wall}
+             "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
+             "wall_time": wall}
     return _finish(traj, stats, failed_rnorm, tol, throw)
 
 
-_STEPPERS = BoundedCache(16)     # keyed by (residual key, tol, max_iter, jit): h is an input
+_STEPPERS = BoundedCache(16)     # keyed by (residual key, tol, max_iter, native): h is an input
+
+
+def _native(jit):
+    """`jit` checked: None, or True (then a C compiler must exist), or False."""
+    if jit is None:
+        return None
+    if _checks.boolean("jit", jit) and compiled.compiler() is None:
+        raise ValueError("`jit=True` needs a C compiler: none found (set CC to one, or use "
+                         "jit=None to fall back to CasADi's virtual machine).")
+    return jit
 
 
 def step_controls(disc, controls, steps):
@@ -145,16 +163,15 @@ def step_controls(disc, controls, steps):
     return _checks.array("controls", controls, (steps, disc.n_controls))
 
 
-def _assemble(stepper, formulation, disc, q0, p_start, controls, acc, out):
-    """Trajectory from the horizon's per-step states and outputs (time-major arrays)."""
+def _assemble(stepper, formulation, disc, controls, acc, out):
+    """Trajectory from the horizon's states (the start first) and per-step outputs
+    (time-major arrays)."""
     h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
-    q = np.vstack([q0, state["q"]])
-    p_carried = np.vstack([p_start, state["p"]])
-    p, lam, mu = formulation.trajectory_blocks(p_carried, per_step["p0"], per_step["nu"],
+    p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
                                                stepper.residual.m)
-    t = h * np.arange(acc.shape[0] + 1)
-    return Trajectory(t, q, p, lam, controls, h, formulation.name, mu, per_step["s"],
+    t = h * np.arange(acc.shape[0])
+    return Trajectory(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
                       disc.rule.control_nodes)
 
 

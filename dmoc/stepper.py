@@ -8,15 +8,23 @@ the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multip
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
 (-p1 or -q1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
 Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
-redone by CasADi's line-search Newton rootfinder.
+redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's horizons of
+1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc.compiled`).
 """
+
+import time
+import warnings
 
 import casadi as ca
 import numpy as np
 
+from . import compiled
+from ._momentum import explicit_end
 from .layout import Layout
 
 FAST_ITERATIONS = 3
+MINOR_UNKNOWNS = 6  # blocks up to this size are inverted by cofactors: fewer operations than QR
+NATIVE_AFTER_SECONDS = 0.5
 CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most
                   # log2(CHUNK) + 1 horizons are ever built per stepper
 
@@ -29,18 +37,46 @@ class DiracStepper:
     per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
     solved rows), update (relative size of the last Newton update). The step h is an
     input, so one stepper serves every h.
+
+    `native` picks how the fast path's horizons run: True, as the compiled C `library`
+    (`dmoc.compiled.Library`, compiled now unless cached on disk); False, in CasADi's
+    virtual machine; None, compiled if the library is cached, else as soon as this
+    stepper has spent NATIVE_AFTER_SECONDS in the virtual machine (about what compiling
+    costs, so a run never costs more than about twice the better choice; also mid-run;
+    without a C compiler it stays in the virtual machine). `native` says how the horizons
+    run now; both ways compute the same thing, so switching changes no result.
     """
 
-    def __init__(self, residual, tol, max_iter, jit=False):
+    def __init__(self, residual, tol, max_iter, native=False):
         self.residual, self.tol = residual, tol
         n, m, ns = residual.n, residual.n_lam, residual.n_stages
         self.unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
         self.state = Layout([("q", n), ("p", n), *((k, self.unknowns.numel(k)) for k in self.unknowns.blocks)])
         self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1)])
         self.equations = self._equations()
-        self.fast = self._fast_step(jit)
+        self.fast = self._fast_step()
         self.robust = self._robust_step(max_iter)
-        self._chunks = {}
+        horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in _chunk_sizes()]
+        self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
+        self._chunks = {f.numel_in(2): f.buffer() for f in horizons}
+        self.native, self.vm_seconds = False, 0.0
+        self._auto = native is None and self.library.path is not None
+        if native or (self._auto and self.library.cached()):
+            self._go_native()
+
+    def _go_native(self):
+        """Evaluate the horizons from now on with the compiled library. When compiling fails,
+        `native=True` raises; the automatic choice warns and keeps the virtual machine."""
+        try:
+            library = self.library.load()
+        except RuntimeError as err:
+            if not self._auto:
+                raise
+            warnings.warn(f"{err}\nSimulating in CasADi's virtual machine instead.", RuntimeWarning)
+            self._auto = False
+            return
+        self._chunks = {c: f.buffer() for c, f in zip(_chunk_sizes(), library.values())}
+        self.native = True
 
     def _equations(self):
         """G(y, params) -> (g, p0, q1, p1) with params = (q0, p0', u, h): the equations, the
@@ -61,16 +97,11 @@ class DiracStepper:
         p0, lam = R.formulation.step_momentum(R.system, q0, pc0, Y["nu"])
         explicit = R.formulation.explicit
         implicit, start = ("q1", q0) if explicit == "p1" else ("p1", p0)
-        end = ca.SX.sym(explicit, n)
-        ends = {implicit: start + Y["dq"], explicit: end}
-        r = R(q0=q0, p0=p0, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h, **ends)
-        right = r[R.rows["right"]]
-        if not ca.is_equal(ca.jacobian(right, end), -ca.SX.eye(n), 2):
-            raise RuntimeError(f"the residual's right rows must be (...) - {explicit}")
-        ends[explicit] = ca.substitute(right, end, ca.SX.zeros(n))
-        rows = ca.vertcat(*[r[R.rows[k]] for k in ("left", "stage", "constraint")])
+        ends = {implicit: start + Y["dq"]}
+        out = explicit_end(R)(q0=q0, p0=p0, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h, **ends)
+        ends[explicit] = out[explicit]
         return ca.Function("step_equations", [y, ca.vertcat(q0, pc0, u, h)],
-                           [ca.substitute(rows, end, ends[explicit]), p0, ends["q1"], ends["p1"]],
+                           [out["rows"], p0, ends["q1"], ends["p1"]],
                            ["y", "params"], ["g", "p0", "q1", "p1"])
 
     def _stages(self, q0, ds):
@@ -94,19 +125,39 @@ class DiracStepper:
         guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
         return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
 
-    def _fast_step(self, jit):
+    def _fast_step(self):
         state, u, h, params, y = self._symbols(ca.SX)
         ys = ca.SX.sym("y", y.numel())
         g = self.equations(ys, params)[0]
-        newton_data = ca.Function("newton_data", [ys, params], [g, ca.jacobian(g, ys)])
+        newton_update = ca.Function("newton_update", [ys, params], [self._newton_update(g, ys)])
         for _ in range(FAST_ITERATIONS):
-            g, J = newton_data(y, params)
-            delta = ca.solve(J, g)
+            delta = newton_update(y, params)
             y = y - delta
         update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
-        options = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O2"]}} if jit else {}
-        return ca.Function("dirac_step_fast", [state, u, h], list(self._wrap(state, params, y, update)),
-                           ["state", "u", "h"], ["next", "out"], options)
+        outputs = ca.cse(list(self._wrap(state, params, y, update)))   # sin(q_k) once, not per iteration
+        return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
+
+    def _newton_update(self, g, y):
+        """J^{-1} g, J = dg/dy, in few operations: the equations are (left, stage) rows and
+        constraint rows, the unknowns positions x = (dq, ds) and multipliers nu, and J =
+        [H G; C 0] (omega_d does not involve nu), so nu follows from the m x m Schur
+        complement C H^{-1} G, H^{-1} and its inverse by cofactors when they are small;
+        QR otherwise. A singular H (a degenerate Lagrangian) gives a non-finite step, which
+        the line-search Newton redoes."""
+        J, lay = ca.jacobian(g, y), self.unknowns
+        x = [i for name in ("dq", "ds") for i in range(lay.slice(name).start, lay.slice(name).stop)]
+        nu, k = list(range(lay.slice("nu").start, lay.slice("nu").stop)), len(x)
+        if k > MINOR_UNKNOWNS or len(nu) > MINOR_UNKNOWNS or J[k:, nu].nnz():
+            return ca.solve(J, g)
+        if not nu:
+            return ca.mtimes(ca.inv_minor(J), g)
+        H_inv = ca.inv_minor(J[:k, x])
+        G, C, r_x, r_nu = J[:k, nu], J[k:, x], g[:k], g[k:]
+        d_nu = ca.mtimes(ca.inv_minor(ca.mtimes([C, H_inv, G])), ca.mtimes([C, H_inv, r_x]) - r_nu)
+        delta = ca.SX.zeros(y.numel())
+        delta[x] = ca.mtimes(H_inv, r_x - ca.mtimes(G, d_nu))
+        delta[nu] = d_nu
+        return delta
 
     def _robust_step(self, max_iter):
         state, u, h, params, guess = self._symbols(ca.MX)
@@ -126,44 +177,49 @@ class DiracStepper:
         return (np.isfinite(out).all(axis=1) & (blocks["rnorm"][:, 0] <= 1e3 * self.tol)
                 & (blocks["update"][:, 0] <= 1e-6))
 
-    def _chunk(self, c, state, controls, h):
-        """c fast steps from `state` as one compiled mapaccum call, evaluated through
-        CasADi's buffer interface straight into numpy arrays (time-major (c, size))."""
-        if c not in self._chunks:
-            self._chunks[c] = self.fast.mapaccum("horizon", c).buffer()
+    def _chunk(self, state, controls, steps, acc, out):
+        """len(steps) fast steps from `state` as one mapaccum call, evaluated through
+        CasADi's buffer interface straight into the rows of the time-major arrays `acc`
+        and `out` (C-contiguous, so the rows of a chunk are one block of memory)."""
+        c = len(steps)
         buffer, evaluate = self._chunks[c]
-        args = [np.ascontiguousarray(a, dtype=float) for a in (state, controls, np.full(c, h))]
-        acc = np.empty((c, self.state.size))
-        out = np.empty((c, self.out.size))
-        for i, a in enumerate(args):
-            buffer.set_arg(i, memoryview(a))
+        for i, a in enumerate((state, controls, steps)):
+            buffer.set_arg(i, memoryview(np.ascontiguousarray(a, dtype=float)))
         buffer.set_res(0, memoryview(acc))
         buffer.set_res(1, memoryview(out))
         evaluate()
-        return acc, out
 
     def run(self, start, controls, h):
         """Steps from state `start` under `controls` (N, n_controls), stopping at the first step
         that neither Newton path converges.
 
-        Returns (states (k, state.size), outputs (k, out.size), rnorm of the failed step or
-        None, number of steps redone by the robust path).
+        Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
+        the failed step or None, number of steps redone by the robust path).
         """
-        states = [np.zeros((0, self.state.size))]
-        outputs = [np.zeros((0, self.out.size))]
-        N, k, state, redone = controls.shape[0], 0, start, 0
+        N, k, redone = controls.shape[0], 0, 0
+        acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
+        acc[0] = start
+        steps = np.full(min(N, CHUNK), float(h))
         while k < N:
             c = min(CHUNK, 1 << ((N - k).bit_length() - 1))
-            acc, out = self._chunk(c, state, controls[k:k + c], h)
-            ok = self.accepted(out)
+            if self._auto and not self.native and self.vm_seconds >= NATIVE_AFTER_SECONDS:
+                self._go_native()
+            tic = time.perf_counter()
+            self._chunk(acc[k], controls[k:k + c], steps[:c], acc[k + 1:k + 1 + c], out[k:k + c])
+            if not self.native:
+                self.vm_seconds += time.perf_counter() - tic
+            ok = self.accepted(out[k:k + c])
             j = int(np.argmin(ok)) if not ok.all() else c
-            states.append(acc[:j]), outputs.append(out[:j])
-            state, k = (acc[j - 1] if j else state), k + j
+            k += j
             if j < c:       # redo step k with the line-search Newton
-                acc1, out1 = (np.array(x).T for x in self.robust(state, controls[k], h))
+                acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
                 if not self.accepted(out1)[0]:
-                    rnorm = float(self.out.split(out1)["rnorm"][0, 0])
-                    return np.vstack(states), np.vstack(outputs), rnorm, redone
-                states.append(acc1), outputs.append(out1)
-                state, k, redone = acc1[0], k + 1, redone + 1
-        return np.vstack(states), np.vstack(outputs), None, redone
+                    return acc[:k + 1], out[:k], float(self.out.split(out1)["rnorm"][0, 0]), redone
+                acc[k + 1], out[k] = acc1[0], out1[0]
+                k, redone = k + 1, redone + 1
+        return acc, out, None, redone
+
+
+def _chunk_sizes():
+    """The horizon lengths `run` uses: 1, 2, 4, ..., CHUNK."""
+    return [1 << i for i in range(CHUNK.bit_length())]

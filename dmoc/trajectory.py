@@ -145,7 +145,8 @@ class Trajectory:
                 values = {name: data[name] for name in names & _FIELDS}
         except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as err:
             _invalid(path, f"it is truncated or corrupted ({type(err).__name__}: {err})")
-        missing, unknown = _REQUIRED - names, names - _FIELDS
+        missing = _REQUIRED - names
+        unknown = {k for k in names - _FIELDS if not k.startswith(RESULT_PREFIX)}
         if missing or unknown:
             _invalid(path, f"it lacks the fields {sorted(missing)}" if missing else
                      f"it holds fields a Trajectory does not have: {sorted(unknown)}")
@@ -165,6 +166,7 @@ class Trajectory:
 
 
 _REQUIRED = {"t", "q", "p", "lam", "u", "h", "variant"}
+RESULT_PREFIX = "result_"       # the fields `OptimizationResult.save` adds to a trajectory file
 _FIELDS = {f.name for f in fields(Trajectory)}
 
 

@@ -81,7 +81,6 @@ def test_large_legitimate_forces_converge(disc):
     assert diagnostics.constraint_violation(disc, result.trajectory).max() < 1e-6
 
 
-@xfail("dmoc/optimize.py", "IPOPT tolerances (tol, constr_viol_tol) scaled by the data, or NLP scaling")
 def test_optimum_is_translation_invariant():
     disc = dmoc.discretize(knife_edge(), 0.04)
     shift = np.array([1e6, 1e6, 0.0])
@@ -116,8 +115,6 @@ def test_rejected_option_is_named_on_the_first_line(disc, options, name, capfd):
     assert name in str(info.value).splitlines()[0]
 
 
-@xfail("dmoc/optimize.py", "stats of this solve only (iter_count missing -> 0); no "
-       "'most violated' from a point IPOPT never evaluated")
 def test_invalid_option_at_solve_time_reports_this_solve(disc, capfd):
     dmoc.optimize(problem(disc), options={"max_iter": 3}, throw=False)
     result = dmoc.optimize(problem(disc), options={"linear_solver": "ma57"}, throw=False)
@@ -166,8 +163,6 @@ def test_lagrangian_without_velocities():
         dmoc.simulate(dmoc.discretize(system, 0.1), q0=[0.1], v0=[0.0], steps=3)
 
 
-@xfail("dmoc/stepper.py", "jit: compile in a temporary directory (jit_options 'directory'), "
-       "not the working directory")
 def test_jit_without_a_usable_working_directory():
     here = os.getcwd()
     gone = tempfile.mkdtemp()

@@ -1,0 +1,98 @@
+"""Benchmark: re-solving a DMOC problem with new boundary data, cold and warm-started,
+against its first solve.
+
+For knife-edge parking and rolling-disk steering (dmoc.problems, midpoint rule, variant
+"+") at each N: "first" builds the problem for goal A and solves it (the process's first
+solve of that structure: the NLP solver is created); "re-solve" builds the problem for a
+neighbouring goal B anew and solves it from the default guess; "warm" solves B from A's
+optimum (``guess=result``: x and IPOPT's multipliers; on a checkout without dual warm
+starts, its trajectory); "primal" solves B from A's trajectory only. Reported: wall time of
+construction + optimize (best of `--repeat`, each repeat in a fresh process so that
+"first" really is first), IPOPT iterations, and the ratios to "first" (time) and to
+"re-solve" (iterations).
+
+    python benchmarks/resolve.py
+    PYTHONPATH=/path/to/other/checkout python benchmarks/resolve.py   # compare checkouts
+"""
+
+import argparse
+import os
+import platform
+import subprocess
+import sys
+import time
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import casadi as ca  # noqa: E402
+import numpy as np  # noqa: E402
+
+import dmoc  # noqa: E402
+import dmoc.problems  # noqa: E402
+
+CASES = {
+    "knife edge": lambda N, goal: dmoc.problems.knife_edge_parking(N, goal=goal),
+    "rolling disk": lambda N, goal: dmoc.OptimalControlProblem(
+        dmoc.discretize(dmoc.systems.rolling_disk(mass=1.0, radius=1.0), 4.0 / N), N,
+        q_start=[0.0] * 4, q_goal=goal),
+}
+GOALS = {"knife edge": ((0.0, 1.0, 0.0), (0.1, 1.1, 0.1)),
+         "rolling disk": ((1.0, 1.0, None, np.pi / 2), (1.1, 0.9, None, np.pi / 2 + 0.1))}
+STEPS = (100, 400, 1000)
+RUNS = ("first", "re-solve", "warm", "primal")
+
+
+def timed(make, guess=None):
+    """(seconds for construction + optimize, result)."""
+    tic = time.perf_counter()
+    result = dmoc.optimize(make(), guess=guess)
+    return time.perf_counter() - tic, result
+
+
+def one_process(name, N):
+    """(this process) the four runs of case `name` at N: 'seconds iterations' each."""
+    a, b = GOALS[name]
+    make = CASES[name]
+    first = timed(lambda: make(N, a))
+    resolve = timed(lambda: make(N, b))
+    dual = first[1] if hasattr(first[1], "lam_g") else first[1].trajectory
+    warm = timed(lambda: make(N, b), dual)
+    primal = timed(lambda: make(N, b), first[1].trajectory)
+    for seconds, result in (first, resolve, warm, primal):
+        if not result.success:
+            raise RuntimeError(result.message)
+    assert abs(warm[1].cost - resolve[1].cost) < 1e-8
+    print(*(f"{s:.5f} {r.stats['iterations']}" for s, r in (first, resolve, warm, primal)))
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--one":
+        one_process(argv[1], int(argv[2]))
+        return
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeat", type=int, default=3, help="fresh processes per case (default 3)")
+    args = parser.parse_args(argv)
+    print(f"dmoc from {os.path.dirname(dmoc.__file__)}; python {platform.python_version()}, "
+          f"casadi {ca.__version__}; load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    head = (f"{'case':<14}{'N':>6}" + "".join(f"{r + ' s':>12}{'it':>4}" for r in RUNS)
+            + f"{'re/first':>10}{'warm/first':>11}{'warm it/re it':>15}")
+    print(head + "\n" + "-" * len(head))
+    for name in CASES:
+        for N in STEPS:
+            rows = []
+            for _ in range(args.repeat):
+                out = subprocess.run([sys.executable, __file__, "--one", name, str(N)], check=True,
+                                     capture_output=True, text=True).stdout.split()
+                rows.append([float(v) for v in out])
+            best = np.min(rows, axis=0)
+            seconds, its = best[0::2], best[1::2]
+            print(f"{name:<14}{N:>6}" + "".join(f"{s:>12.4f}{int(i):>4}" for s, i in zip(seconds, its))
+                  + f"{seconds[1] / seconds[0]:>10.2f}{seconds[2] / seconds[0]:>11.2f}"
+                  f"{its[2] / its[1]:>15.2f}")
+    print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
+
+
+if __name__ == "__main__":
+    main()

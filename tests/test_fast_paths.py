@@ -1,0 +1,171 @@
+"""The fast paths give what the plain paths give: the simulator's compiled C step (cached
+on disk) against CasADi's virtual machine, with the fallback when no compiler exists; and
+the optimizer's re-solve with a reused solver and its primal-dual warm start against a
+fresh problem solved cold. Iteration counts and identities only, no timing."""
+
+import importlib
+import shutil
+
+import numpy as np
+import pytest
+
+import dmoc
+import dmoc.problems
+from dmoc import compiled
+from dmoc import stepper as stepper_module
+from dmoc._cache import BoundedCache
+
+simulate_module = importlib.import_module("dmoc.simulate")
+
+CASES = {
+    "inclined knife edge": (lambda: dmoc.systems.knife_edge(incline=0.2), [0, 0, 0.1],
+                            [np.cos(0.1), np.sin(0.1), 1.0]),
+    "rolling disk": (dmoc.systems.rolling_disk, [0, 0, 0, 0], [1.0, 0.0, 1.0, 0.5]),
+}
+
+
+@pytest.fixture
+def fresh_steppers(monkeypatch, tmp_path):
+    """An empty stepper cache and an empty on-disk cache directory for this test."""
+    monkeypatch.setattr(simulate_module, "_STEPPERS", BoundedCache(16))
+    monkeypatch.setenv("DMOC_CACHE_DIR", str(tmp_path))
+    return tmp_path
+
+
+def _run(disc, q0, v0, variant, jit, steps=300):
+    controls = np.column_stack([np.sin(0.02 * np.arange(steps)), np.ones(steps)])
+    return dmoc.simulate(disc, q0=q0, v0=v0, steps=steps, controls=controls, variant=variant, jit=jit)
+
+
+needs_compiler = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
+
+
+@needs_compiler
+@pytest.mark.parametrize("name", CASES)
+def test_compiled_step_is_bit_identical_to_the_virtual_machine(fresh_steppers, name):
+    make, q0, v0 = CASES[name]
+    disc = dmoc.discretize(make(), 0.02)
+    for variant in ("+", "-"):
+        vm, native = (_run(disc, q0, v0, variant, jit) for jit in (False, True))
+        assert (vm.stats["native"], native.stats["native"]) == (False, True)
+        for field in ("q", "p", "lam", "mu"):
+            np.testing.assert_array_equal(getattr(vm.trajectory, field), getattr(native.trajectory, field))
+        assert vm.stats["max_residual"] == native.stats["max_residual"] < 1e-12
+    assert len(list(fresh_steppers.glob("dirac_step-*.so"))) == 2      # one library per variant
+
+
+@needs_compiler
+def test_library_is_reused_from_disk_and_default_loads_it(fresh_steppers, monkeypatch):
+    make, q0, v0 = CASES["inclined knife edge"]
+    disc = dmoc.discretize(make(), 0.02)
+    assert _run(disc, q0, v0, "+", None).stats["native"] is False     # not cached, not long yet
+    first = _run(disc, q0, v0, "+", True)
+    (library,) = fresh_steppers.glob("dirac_step-*.so")
+    stamp = library.stat().st_mtime_ns
+    monkeypatch.setattr(simulate_module, "_STEPPERS", BoundedCache(16))   # a "new process"
+    again = _run(disc, q0, v0, "+", None)
+    assert again.stats["native"] is True and library.stat().st_mtime_ns == stamp
+    np.testing.assert_array_equal(again.trajectory.q, first.trajectory.q)
+
+
+@needs_compiler
+def test_default_switches_to_compiled_code_mid_run(fresh_steppers, monkeypatch):
+    monkeypatch.setattr(stepper_module, "NATIVE_AFTER_SECONDS", 0.0)
+    make, q0, v0 = CASES["rolling disk"]
+    disc = dmoc.discretize(make(), 0.02)
+    switched = _run(disc, q0, v0, "+", None, steps=3000)
+    vm = _run(disc, q0, v0, "+", False, steps=3000)
+    assert switched.stats["native"] is True
+    np.testing.assert_array_equal(switched.trajectory.q, vm.trajectory.q)
+
+
+def test_without_a_compiler_the_default_falls_back_and_jit_true_says_why(fresh_steppers, monkeypatch):
+    monkeypatch.setenv("CC", "")
+    assert compiled.compiler() is None
+    make, q0, v0 = CASES["inclined knife edge"]
+    disc = dmoc.discretize(make(), 0.02)
+    result = _run(disc, q0, v0, "+", None)
+    assert result.success and result.stats["native"] is False
+    assert result.stats["max_residual"] < 1e-12
+    with pytest.raises(ValueError, match="C compiler"):
+        _run(disc, q0, v0, "+", True)
+    assert not list(fresh_steppers.glob("*.so"))
+
+
+# --- re-solving and warm starts -------------------------------------------------------------
+
+GOAL, NEIGHBOUR = (0.0, 1.0, 0.0), (0.1, 1.1, 0.1)
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_resolve_with_new_boundary_data_equals_a_fresh_problem(variant):
+    problem = dmoc.problems.knife_edge_parking(40, goal=GOAL, variant=variant)
+    dmoc.optimize(problem)
+    moved = problem.with_boundary(q_goal=NEIGHBOUR)
+    assert moved.structure == problem.structure and moved.nlp is problem.nlp
+    again = dmoc.optimize(moved)
+    fresh = dmoc.optimize(dmoc.problems.knife_edge_parking(40, goal=NEIGHBOUR, variant=variant))
+    assert again.stats["solver_reused"] and again.stats["build_time"] == 0.0
+    assert 0 < again.stats["function_time"] < again.stats["solve_time"]
+    regularized = again.stats["regularized_iterations"]
+    assert 0 <= regularized <= again.stats["iterations"]
+    assert (regularized == 0) == (again.stats["max_regularization"] == 0)
+    assert np.abs(again.x - fresh.x).max() <= 1e-10
+    np.testing.assert_array_equal(moved.q_goal, NEIGHBOUR)
+    np.testing.assert_array_equal(problem.q_goal, GOAL)                # the original is untouched
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_warm_start_from_the_neighbouring_optimum_halves_the_iterations(variant):
+    problem = dmoc.problems.knife_edge_parking(60, goal=GOAL, variant=variant)
+    neighbour = dmoc.optimize(problem)
+    moved = problem.with_boundary(q_goal=NEIGHBOUR)
+    cold = dmoc.optimize(moved)
+    warm = dmoc.optimize(moved, guess=neighbour)
+    assert warm.stats["warm_start"] and not cold.stats["warm_start"]
+    assert 2 * warm.stats["iterations"] <= cold.stats["iterations"]
+    assert abs(warm.cost - cold.cost) <= 1e-10
+    assert np.abs(warm.trajectory.q - cold.trajectory.q).max() <= 1e-8
+
+
+def test_saved_result_warm_starts_and_another_grid_is_resampled(tmp_path):
+    problem = dmoc.problems.knife_edge_parking(30)
+    result = dmoc.optimize(problem)
+    result.save(tmp_path / "opt.npz")
+    loaded = dmoc.OptimizationResult.load(tmp_path / "opt.npz")
+    for name in ("x", "lam_x", "lam_g"):
+        np.testing.assert_array_equal(getattr(loaded, name), getattr(result, name))
+    assert (loaded.cost, loaded.status, loaded.structure) == (result.cost, result.status, result.structure)
+    np.testing.assert_array_equal(dmoc.Trajectory.load(tmp_path / "opt.npz").q, result.trajectory.q)
+    moved = problem.with_boundary(q_goal=NEIGHBOUR)
+    from_file, from_memory = (dmoc.optimize(moved, guess=g) for g in (loaded, result))
+    assert from_file.stats["warm_start"]
+    np.testing.assert_array_equal(from_file.x, from_memory.x)
+    finer = dmoc.problems.knife_edge_parking(45)            # another grid: primal resampled
+    resampled = dmoc.optimize(finer, guess=loaded)
+    assert not resampled.stats["warm_start"]
+    assert abs(resampled.cost - dmoc.optimize(finer).cost) <= 1e-10
+
+
+def test_with_boundary_rebuilds_when_an_end_becomes_free():
+    problem = dmoc.problems.knife_edge_parking(30)
+    free = problem.with_boundary(q_goal=[0.0, 1.0, None])
+    assert free.structure != problem.structure and free.g_layout.numel("goal_velocity") == 1
+    direct = dmoc.OptimalControlProblem(problem.disc, 30, q_start=[0, 0, 0], q_goal=[0.0, 1.0, None])
+    assert free.structure == direct.structure
+    assert abs(dmoc.optimize(free).cost - dmoc.optimize(direct).cost) <= 1e-12
+    with pytest.raises(ValueError, match="v_goal"):
+        problem.with_boundary(v_goal=[0.0, 1.0, 0.0])
+
+
+@pytest.mark.skipif(not shutil.which("false"), reason="no `false` command")
+def test_a_failing_compiler_warns_and_falls_back(fresh_steppers, monkeypatch):
+    monkeypatch.setenv("CC", "false")                  # a "compiler" that always fails
+    monkeypatch.setattr(stepper_module, "NATIVE_AFTER_SECONDS", 0.0)
+    make, q0, v0 = CASES["inclined knife edge"]
+    disc = dmoc.discretize(make(), 0.02)
+    with pytest.warns(RuntimeWarning, match="virtual machine instead"):
+        result = _run(disc, q0, v0, "+", None)
+    assert result.success and result.stats["native"] is False
+    with pytest.raises(RuntimeError, match="compiling"):
+        _run(disc, q0, v0, "+", True)
