@@ -269,6 +269,9 @@ def _bounds(name, value, size):
     upper = _checks.array_with_none(name, value[1], size, np.inf)
     if np.isnan(lower).any() or np.isnan(upper).any() or (lower > upper).any():
         raise ValueError(f"`{name}` must satisfy lower <= upper without NaN; got {lower}, {upper}.")
+    if (lower == np.inf).any() or (upper == -np.inf).any():
+        raise ValueError(f"`{name}` must have lower bounds below +inf and upper bounds above "
+                         f"-inf (None or -inf/+inf there means unbounded); got {lower}, {upper}.")
     return lower, upper
 
 

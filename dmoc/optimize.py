@@ -133,6 +133,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     if guess is not None and not isinstance(guess, (Trajectory, OptimizationResult)):
         raise TypeError(f"`guess` must be a Trajectory, an OptimizationResult or None; "
                         f"got {type(guess).__name__}.")
+    options = None if options is None else _checks.ipopt_options("options", options)
     if options is not None and not isinstance(options, dict):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     x0, lam_x0, lam_g0 = start_point(problem, guess)
@@ -146,7 +147,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     x = np.array(sol["x"]).ravel()
     st = solver.stats()
     worst = most_violated(problem, np.array(sol["g"]).ravel())
-    stats = {"iterations": st.get("iter_count"), "return_status": st["return_status"],
+    stats = {"iterations": _iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
              "warm_start": isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g,
              "solve_time": solve_time, **_linear_algebra(st),
@@ -154,6 +155,10 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
+    if st["return_status"] == "Invalid_Number_Detected":
+        where = ("; an NLP function (dynamics, cost or their derivatives) returned NaN or Inf "
+                 "at the start point or an iterate: check the data's scale (h, bounds) and "
+                 "the system's functions there")
     message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
                f"cost {float(sol['f']):.10g}{where}.")
     result = OptimizationResult(traj, float(sol["f"]), success, st["return_status"], message, stats,
@@ -180,12 +185,37 @@ def _solver(problem, options):
         try:
             return ca.nlpsol("dmoc", "ipopt", problem.nlp, opts)
         except RuntimeError as err:
-            if "option" not in str(err).lower():
+            culprit = _rejected_option(options)
+            if culprit is None and "option" not in str(err).lower():
                 raise
-            raise ValueError(f"`options` were rejected by CasADi/IPOPT: {err}") from None
+            which = (f"`options` entry {culprit!r} = {options[culprit]!r}" if culprit is not None
+                     else "`options`")
+            raise ValueError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
+                             f"for the allowed values).\n{err}") from None
 
     solver = _SOLVERS.get((problem.structure, repr(sorted(opts.items()))), build)
     return solver, not built
+
+
+def _rejected_option(options):
+    """The first of the user's IPOPT `options` that IPOPT refuses on its own (tried on a
+    one-variable NLP), or None."""
+    x = ca.SX.sym("x")
+    for key, value in options.items():
+        try:
+            ca.nlpsol("probe", "ipopt", {"x": x, "f": x ** 2},
+                      {"print_time": False, "ipopt." + key: value, "ipopt.print_level": 0,
+                       "ipopt.sb": "yes"})
+        except RuntimeError:
+            return key
+    return None
+
+
+def _iteration_count(st):
+    """IPOPT's iteration count of this solve: 0 when it stopped before iterating (e.g.
+    Invalid_Option), where CasADi's `iter_count` is left uninitialized."""
+    count = st.get("iter_count", 0) if st.get("iterations") else 0
+    return count if isinstance(count, int) and count >= 0 else 0
 
 
 def _linear_algebra(st):

@@ -29,7 +29,7 @@ class SimulationResult:
         All steps that converged (all of them when `success`).
     success : bool
     status : str
-        ``"converged"`` or ``"newton_failed"``.
+        ``"converged"``, ``"newton_failed"`` or ``"non_finite"`` (a step produced NaN/Inf).
     message : str
     stats : dict
         ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
@@ -181,11 +181,18 @@ def _finish(traj, stats, failed_rnorm, tol, throw):
     if k == steps:
         return SimulationResult(traj, True, "converged",
                                 f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)
+    where = f"at step {k} (t = {k * traj.h:.6g})"
+    if np.isnan(failed_rnorm):
+        status, what = "non_finite", (
+            f"step {k} turned NaN or Inf (t = {k * traj.h:.6g}): the residual, the next state or "
+            f"the multipliers are not finite; check the force and the controls of step {k}.")
+    else:
+        status, what = "newton_failed", (
+            f"Newton did not converge {where}: residual max-norm {failed_rnorm:.3e} > 1000 tol "
+            f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; try a "
+            f"smaller step h or check the controls.")
     result = SimulationResult(
-        traj, False, "newton_failed",
-        f"Newton did not converge at step {k} (t = {k * traj.h:.6g}): residual max-norm "
-        f"{failed_rnorm:.3e} > {1e3 * tol:.1e} after the iteration limit. The trajectory up to "
-        f"step {k} is in `.result.trajectory`; try a smaller step h or check the controls.",
+        traj, False, status, what + f" The trajectory up to step {k} is in `.result.trajectory`.",
         stats)
     if throw:
         raise SolverError(result.message, result)

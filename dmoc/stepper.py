@@ -171,11 +171,18 @@ class DiracStepper:
                            list(self._wrap(state, params, sol, ca.MX(0))),
                            ["state", "u", "h"], ["next", "out"])
 
-    def accepted(self, out):
-        """Which per-step outputs (rows of `out`) count as converged."""
-        blocks = self.out.split(out)
-        return (np.isfinite(out).all(axis=1) & (blocks["rnorm"][:, 0] <= 1e3 * self.tol)
-                & (blocks["update"][:, 0] <= 1e-6))
+    def accepted(self, out, states):
+        """Which steps count as converged, from their outputs (rows of `out`) and the states
+        they lead to (rows of `states`): everything finite (CasADi's max-norm skips NaN, so
+        the state itself is checked), the residual below 1000 tol relative to the size of
+        the momenta (1 + max abs(p_k), max abs(p_{k+1})), the last Newton update small."""
+        blocks, next_p = self.out.split(out), self.state.split(states)["p"]
+        scale = 1.0 + np.maximum(np.abs(blocks["p0"]).max(axis=1, initial=0.0),
+                                 np.abs(next_p).max(axis=1, initial=0.0))
+        with np.errstate(invalid="ignore"):
+            return (np.isfinite(out).all(axis=1) & np.isfinite(states).all(axis=1)
+                    & (blocks["rnorm"][:, 0] <= 1e3 * self.tol * scale)
+                    & (blocks["update"][:, 0] <= 1e-6))
 
     def _chunk(self, state, controls, steps, acc, out):
         """len(steps) fast steps from `state` as one mapaccum call, evaluated through
@@ -194,7 +201,8 @@ class DiracStepper:
         that neither Newton path converges.
 
         Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
-        the failed step or None, number of steps redone by the robust path).
+        the failed step (NaN when it turned non-finite) or None, number of steps redone by
+        the robust path).
         """
         N, k, redone = controls.shape[0], 0, 0
         acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
@@ -208,13 +216,15 @@ class DiracStepper:
             self._chunk(acc[k], controls[k:k + c], steps[:c], acc[k + 1:k + 1 + c], out[k:k + c])
             if not self.native:
                 self.vm_seconds += time.perf_counter() - tic
-            ok = self.accepted(out[k:k + c])
+            ok = self.accepted(out[k:k + c], acc[k + 1:k + 1 + c])
             j = int(np.argmin(ok)) if not ok.all() else c
             k += j
             if j < c:       # redo step k with the line-search Newton
                 acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
-                if not self.accepted(out1)[0]:
-                    return acc[:k + 1], out[:k], float(self.out.split(out1)["rnorm"][0, 0]), redone
+                if not self.accepted(out1, acc1)[0]:
+                    finite = np.isfinite(out1).all() and np.isfinite(acc1).all()
+                    rnorm = float(self.out.split(out1)["rnorm"][0, 0]) if finite else np.nan
+                    return acc[:k + 1], out[:k], rnorm, redone
                 acc[k + 1], out[k] = acc1[0], out1[0]
                 k, redone = k + 1, redone + 1
         return acc, out, None, redone

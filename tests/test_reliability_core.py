@@ -45,8 +45,6 @@ def sqrt_force():
     return dmoc.discretize(system, 0.1)
 
 
-@xfail("dmoc/stepper.py (accepted) and dmoc/simulate.py",
-       "accept a step only if the next state is finite; name the non-finite quantity")
 @pytest.mark.parametrize("k", [9, 4])
 def test_nan_force_fails_at_its_own_step(k):
     controls = np.ones((10, 1))
@@ -63,7 +61,6 @@ def test_nan_force_fails_at_its_own_step(k):
 # Tolerances that follow the scale of the data
 
 
-@xfail("dmoc/stepper.py", "Newton's acceptance relative to the size of the momenta and forces")
 @pytest.mark.parametrize("scale", [1e8])
 def test_mass_scale_does_not_change_the_motion(scale):
     q0, v0 = [0, 0, 0.3], [np.cos(0.3), np.sin(0.3), 1.0]
@@ -73,12 +70,14 @@ def test_mass_scale_does_not_change_the_motion(scale):
     np.testing.assert_allclose(runs[1].trajectory.q, runs[0].trajectory.q, rtol=0, atol=1e-10)
 
 
-@xfail("dmoc/stepper.py", "Newton's acceptance relative to the size of the forces")
 def test_large_legitimate_forces_converge(disc):
     result = dmoc.simulate(disc, q0=[0, 0, 0], v0=[1, 0, 1], steps=20,
                            controls=np.full((20, 2), 1e7), throw=False)
     assert result.success, result.message
-    assert diagnostics.constraint_violation(disc, result.trajectory).max() < 1e-6
+    # the constraint rows are velocities, here ~1e7: round-off relative to that size
+    speed = np.abs(result.trajectory.velocities).max()
+    assert speed > 1e6
+    assert diagnostics.constraint_violation(disc, result.trajectory).max() < 1e-10 * speed
 
 
 def test_optimum_is_translation_invariant():
@@ -94,7 +93,6 @@ def test_optimum_is_translation_invariant():
 # optimize: options and solver messages
 
 
-@xfail("dmoc/optimize.py (_solver)", "validate with dmoc._checks.ipopt_options before nlpsol")
 @pytest.mark.parametrize("options, error, words", [
     ({"max_iter": None}, TypeError, r"`options\['max_iter'\]`"),
     ({3: 1}, TypeError, "string keys"),
@@ -104,8 +102,6 @@ def test_options_of_the_wrong_kind_are_named(disc, options, error, words):
         dmoc.optimize(problem(disc), options=options)
 
 
-@xfail("dmoc/optimize.py (_solver)", "catch the RuntimeError of a wrong option type too; "
-       "first line names the option")
 @pytest.mark.parametrize("options, name", [({"max_iter": "many"}, "max_iter"),
                                            ({"mu_strategy": "nonsense"}, "mu_strategy")])
 def test_rejected_option_is_named_on_the_first_line(disc, options, name, capfd):
@@ -123,8 +119,6 @@ def test_invalid_option_at_solve_time_reports_this_solve(disc, capfd):
     assert result.stats["iterations"] == 0 and "after 3 iterations" not in result.message
 
 
-@xfail("dmoc/optimize.py (most_violated)", "on Invalid_Number_Detected say which function "
-       "returned NaN/Inf instead of 'dynamics at step 0, violation 0'")
 def test_invalid_number_names_the_non_finite_value(capfd):
     tiny = dmoc.discretize(knife_edge(), 1e-302)
     result = dmoc.optimize(dmoc.OptimalControlProblem(tiny, 5, q_start=[0, 0, 0],
@@ -134,7 +128,6 @@ def test_invalid_number_names_the_non_finite_value(capfd):
     assert "0.00e+00" not in result.message and ("NaN" in result.message or "Inf" in result.message)
 
 
-@xfail("dmoc/ocp.py (_bounds)", "refuse lower = +inf or upper = -inf naming `control_bounds`")
 @pytest.mark.parametrize("bounds", [([np.inf] * 2, [np.inf] * 2), ([-np.inf] * 2, [-np.inf] * 2)])
 def test_infinite_bounds_on_the_wrong_side(disc, bounds):
     with pytest.raises(ValueError, match="`control_bounds`"):
