@@ -9,7 +9,10 @@ integrated on the continuous reduced ODE by DOP853, rtol = atol = 1e-12). Method
 
 - dmoc-RULE-mx / -sx: `dmoc.OptimalControlProblem` + `dmoc.optimize` (variant "+") with
   the rule (midpoint, trapezoid: one control per step; lobatto3, lobatto4: controls at the
-  stage nodes), expand False / True; time = discretize + problem + nlpsol + IPOPT.
+  stage nodes), expand False / True; time = discretize + problem + a fresh nlpsol + IPOPT
+  (`reuse_solver=False`, as the collocations build theirs). dmoc-lobatto3-*-resolve: the
+  same with the solver reused from the previous solve of the same structure, what a
+  re-solve costs.
 - hs-map-mx / -sx: separated Hermite-Simpson of the reduced ODE with one mapped interval
   Function (benchmarks/collocation.py), the way a careful CasADi user writes it.
 - hs-opti: the same Hermite-Simpson written with `casadi.Opti` and one `subject_to` per
@@ -48,13 +51,16 @@ LADDERS = {
 }
 
 
-def solve_dmoc(case, steps, rule, expand):
-    """(seconds, cost, control pieces (N, d+1, nu)) of one end-to-end DMOC solve."""
+def solve_dmoc(case, steps, rule, expand, reuse=False):
+    """(seconds, cost, control pieces (N, d+1, nu)) of one end-to-end DMOC solve: with a
+    fresh IPOPT solver (as the collocations build theirs), or with `reuse` the solver of
+    the previous solve of the same structure (a re-solve)."""
     tic = time.perf_counter()
     disc = dmoc.discretize(case.system(), case.reduced.duration / steps, rule)
     ocp = dmoc.OptimalControlProblem(disc, steps, q_start=list(case.q_start),
                                      q_goal=list(case.q_goal))
-    res = dmoc.optimize(ocp, options={"expand": expand, **IPOPT_OPTIONS}, throw=False)
+    res = dmoc.optimize(ocp, options={"expand": expand, "reuse_solver": reuse, **IPOPT_OPTIONS},
+                        throw=False)
     seconds = time.perf_counter() - tic
     return seconds, res.cost, res.success, control_pieces(res.trajectory)
 
@@ -114,6 +120,9 @@ def methods():
             out[f"dmoc-{rule}-{'sx' if expand else 'mx'}"] = (
                 LADDERS[rule], lambda c, N, r=rule, e=expand: solve_dmoc(c, N, r, e))
     for expand in (False, True):
+        out[f"dmoc-lobatto3-{'sx' if expand else 'mx'}-resolve"] = (
+            LADDERS["lobatto3"], lambda c, N, e=expand: solve_dmoc(c, N, "lobatto3", e, reuse=True))
+    for expand in (False, True):
         out[f"hs-map-{'sx' if expand else 'mx'}"] = (
             LADDERS["hs"], lambda c, N, e=expand: solve_hs_map(c, N, e))
     out["hs-opti"] = (LADDERS["hs"], solve_hs_opti)
@@ -150,15 +159,15 @@ def main(argv=None):
                  for name, (ladder, solve) in methods().items()}
         best_map = min(s for n, (_, s, _, _) in found.items() if n.startswith("hs-map") and s)
         opti = found["hs-opti"][1]
-        head = (f"{'method':<18}{'N':>6}{'seconds':>10}{'|J-Jref|':>10}{'|dq(T)|':>10}"
+        head = (f"{"method":<26}{'N':>6}{'seconds':>10}{'|J-Jref|':>10}{'|dq(T)|':>10}"
                 f"{'/hs-map':>9}{'/hs-opti':>10}")
         print(head + "\n" + "-" * len(head))
         for name, (N, seconds, error, dq) in found.items():
             if seconds is None:
-                print(f"{name:<18}{'>' + str(N):>6}{'-':>10}{error:>10.1e}{dq:>10.1e}   (not reached)")
+                print(f"{name:<26}{'>' + str(N):>6}{'-':>10}{error:>10.1e}{dq:>10.1e}   (not reached)")
                 continue
             ratio_opti = f"{seconds / opti:>10.2f}" if opti else f"{'-':>10}"
-            print(f"{name:<18}{N:>6}{seconds:>10.4f}{error:>10.1e}{dq:>10.1e}"
+            print(f"{name:<26}{N:>6}{seconds:>10.4f}{error:>10.1e}{dq:>10.1e}"
                   f"{seconds / best_map:>9.2f}{ratio_opti}")
         print("/hs-map: against the faster of hs-map-mx and hs-map-sx; /hs-opti: against hs-opti.")
     print(f"\ntotal wall time {time.perf_counter() - tic:.1f} s; {load()} at end")

@@ -112,7 +112,9 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
         and ``"expand"`` (bool, default False: keep the mapped MX graph; True expands it
         to SX, 1.3-3x faster per IPOPT iteration but 2.7-3.8x slower to build at N >= 400;
-        both build times grow linearly with N, see docs/performance.md).
+        both build times grow linearly with N, see docs/performance.md), and
+        ``"reuse_solver"`` (bool, default True: take the solver of an earlier problem of
+        the same structure and options from the cache; False builds a fresh one).
     throw : bool
         Raise SolverError when IPOPT fails (default); else return with success=False.
 
@@ -175,6 +177,7 @@ _SOLVERS = BoundedCache(8)     # keyed by (problem.structure, options)
 def _solver(problem, options):
     """(nlpsol for `problem` with `options`, whether it came from the cache)."""
     expand = _checks.boolean("options['expand']", options.pop("expand", False))
+    reuse = _checks.boolean("options['reuse_solver']", options.pop("reuse_solver", True))
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
             **{"ipopt." + k: v for k, v in merged.items()}}
@@ -193,6 +196,8 @@ def _solver(problem, options):
             raise ValueError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
                              f"for the allowed values).\n{err}") from None
 
+    if not reuse:
+        return build(), False
     solver = _SOLVERS.get((problem.structure, repr(sorted(opts.items()))), build)
     return solver, not built
 
