@@ -159,7 +159,7 @@ def main(argv=None):
                  for name, (ladder, solve) in methods().items()}
         best_map = min(s for n, (_, s, _, _) in found.items() if n.startswith("hs-map") and s)
         opti = found["hs-opti"][1]
-        head = (f"{"method":<26}{'N':>6}{'seconds':>10}{'|J-Jref|':>10}{'|dq(T)|':>10}"
+        head = (f"{'method':<26}{'N':>6}{'seconds':>10}{'|J-Jref|':>10}{'|dq(T)|':>10}"
                 f"{'/hs-map':>9}{'/hs-opti':>10}")
         print(head + "\n" + "-" * len(head))
         for name, (N, seconds, error, dq) in found.items():
