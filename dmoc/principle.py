@@ -37,11 +37,17 @@ def action_sum(disc, variant, q, q_aux, p, s, h):
         (46): sum_k L_d(q_k, q_k^+) + p_{k+1} . (q_{k+1} - q_k^+)
         (47): sum_k L_d(q_{k+1}^-, q_{k+1}) - p_k . (q_k - q_{k+1}^-)
     """
-    return as_formulation(variant, disc).action_sum(disc.discrete_lagrangian, q, q_aux, p, s, h)
+    formulation = as_formulation(variant, disc)
+    if not hasattr(formulation, "action_sum"):
+        raise TypeError("`disc` must be a Lagrangian Discretization: action_sum is the sum (46)/(47) "
+                        "of L_d; a Hamiltonian discretization differentiates (48)/(49).")
+    return formulation.action_sum(disc.discrete_lagrangian, q, q_aux, p, s, h)
 
 
 class StepResidual:
-    """The step residual R of the (+) or (-) discrete LDAP principle, eqs. (37) and (41).
+    """The step residual R of the (+) or (-) discrete LDAP principle, eqs. (37) and (41), or
+    of the discrete Hamilton-d'Alembert principle, eqs. (39) and (43), for a Hamiltonian
+    discretization (the rows of `dmoc.formulations.hamiltonian`).
 
     ``function(q0, p0, q1, p1, lam, s, u, h) -> r`` is one CasADi Function with named
     inputs (blocks and sizes in `inputs`) and r of size 2n + n_stages + n_lam, rows in the

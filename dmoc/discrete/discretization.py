@@ -56,6 +56,9 @@ class Discretization:
         ``(q0, p0, q1, p1, s, h) -> E`` (p unused): the energy v . dL/dv - L averaged over the step by the
         rule's quadrature, sum_i b_i E(q(c_i), q'(c_i)); for the midpoint rule E at the
         midpoint. It needs no Legendre transform.
+    formulations : dict
+        ``{"+": LagrangianPlus(), "-": LagrangianMinus()}``: the forms `variant` names for
+        this discretization (a HamiltonianDiscretization has the Hamiltonian ones).
     key : tuple
         ``(system.key, rule)``: what the step residual and the compiled steps depend on.
         Every Function above takes h as an input, so discretizations that differ only in
