@@ -31,6 +31,21 @@ def atomic_write(path, mode="wb"):
         raise
 
 
+@contextlib.contextmanager
+def atomic_path(path):
+    """A temporary path next to `path` for a writer that takes a file name (matplotlib's
+    animation writers); renamed over `path` when the block ends without an exception."""
+    path = pathlib.Path(path)
+    temporary = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:12]}{path.suffix}")
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+        raise
+
+
 def write_text(path, text):
     """Write `text` to `path` atomically."""
     with atomic_write(path, "w") as file:

@@ -9,6 +9,7 @@ import pathlib
 import numpy as np
 
 from . import _checks
+from ._files import atomic_path
 
 SHAPES = ("blade", "coin", "point")
 
@@ -70,8 +71,8 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     knots = np.unique(np.linspace(0, traj.steps, frames).round().astype(int))
 
     writer = PillowWriter(fps=fps)
-    with writer.saving(fig, path, dpi=fig.dpi):       # one draw per frame
-        for k in knots:
+    with atomic_path(path) as temporary, writer.saving(fig, temporary, dpi=fig.dpi):
+        for k in knots:                                       # one draw per frame
             trail.set_data(q[: k + 1, x], q[: k + 1, y])
             angle = q[k, heading] if heading is not None else None
             body.move(q[k, x], q[k, y], angle, q[k, roll] if roll is not None else 0.0)

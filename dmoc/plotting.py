@@ -9,6 +9,7 @@ import pathlib
 import numpy as np
 
 from . import diagnostics
+from ._files import atomic_write
 
 _DPI = 120
 
@@ -306,7 +307,8 @@ def save_trajectory_plots(traj, out, name, *, disc=None, names=None, control_nam
     written = []
     for kind, fig in figures.items():
         written.append(out / f"{name}_{kind}.png")
-        fig.savefig(written[-1], dpi=_DPI)
+        with atomic_write(written[-1]) as file:
+            fig.savefig(file, format="png", dpi=_DPI)
     return written
 
 

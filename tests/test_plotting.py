@@ -79,3 +79,25 @@ def test_animation_writes_a_small_gif(parked, tmp_path, shape, extra):
 def test_animation_needs_a_heading_for_bodies(parked, tmp_path):
     with pytest.raises(ValueError, match="`heading`"):
         dmoc.animation.animate(parked[1], tmp_path / "a.gif", shape="blade")
+
+
+def test_a_failing_figure_write_keeps_the_previous_file(tmp_path, monkeypatch):
+    """Figures are written atomically too: a savefig that fails half-way leaves the old PNG."""
+    from matplotlib.figure import Figure
+
+    import dmoc
+    traj = dmoc.simulate(dmoc.discretize(dmoc.systems.knife_edge(), 0.1), q0=[0, 0, 0],
+                         v0=[1, 0, 1], steps=5).trajectory
+    first = dmoc.plotting.save_trajectory_plots(traj, tmp_path, "run")
+    before = {p: p.read_bytes() for p in first}
+
+    def broken(self, file, **kwargs):
+        file.write(b"partial")
+        raise OSError("disk full")
+    monkeypatch.setattr(Figure, "savefig", broken)
+    try:
+        dmoc.plotting.save_trajectory_plots(traj, tmp_path, "run")
+    except OSError:
+        pass
+    assert {p: p.read_bytes() for p in first} == before
+    assert not list(tmp_path.glob(".*.tmp"))
