@@ -34,6 +34,8 @@ __all__ = [
     "OptimizationResult",
     "Trajectory",
     "systems",
+    "problems",
+    "formulations",
     "diagnostics",
     "dirac",
     "plotting",

@@ -15,7 +15,7 @@ from . import _checks
 from ._cache import BoundedCache
 from .ocp import OptimalControlProblem
 from .errors import SolverError
-from .guess import initial_guess, start_point
+from .guess import initial_guess, start_point  # noqa: F401 (initial_guess: part of this module's API)
 from ._files import atomic_write
 from .trajectory import RESULT_PREFIX, Trajectory
 

@@ -12,7 +12,7 @@ import importlib.metadata
 import sys
 
 from ..discrete import RULES
-from . import arguments, commands, demo, registry
+from . import commands, demo, registry
 from .arguments import Parser, UsageError, positive_float, positive_int
 
 __all__ = ["main", "example_arguments"]

@@ -296,8 +296,7 @@ class LegendreDiscretization(HamiltonianDiscretization):
 
 
 def _legendre_data(disc):
-    system, n = disc.system, disc.system.n
-    ns = disc.n_stages
+    n, ns = disc.system.n, disc.n_stages
     x = _symbols(n, n + ns, disc.n_controls)
     Q, sigma = x["s"][:n], x["s"][n:]
     L_d = disc.discrete_lagrangian
