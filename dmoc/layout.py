@@ -76,3 +76,10 @@ class Layout:
 
     def __repr__(self):
         return "Layout(" + ", ".join(f"{k}: {r}x{c}" for k, (_, r, c) in self.blocks.items()) + ")"
+
+
+def step_symbols(n, n_stages, n_controls):
+    """CasADi column symbols of one step's blocks, by name: q0, p0, q1, p1 (n), s
+    (n_stages), u (n_controls), h (1), the inputs of the step residual but lam."""
+    sizes = {"q0": n, "p0": n, "q1": n, "p1": n, "s": n_stages, "u": n_controls, "h": 1}
+    return {name: ca.SX.sym(name, size) for name, size in sizes.items()}

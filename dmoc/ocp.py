@@ -16,7 +16,7 @@ from .boundary import check_allowed_velocity, check_holonomic_boundary
 from .discrete import Discretization
 from .formulations import as_formulation
 from ._momentum import single_output, solved_rows, substitutable
-from .layout import Layout
+from .layout import Layout, step_symbols
 from .principle import step_residual
 
 
@@ -293,11 +293,11 @@ def _path_function(path, disc):
     sys = disc.system
     at_midpoint = checked_function("path_constraints", path, [ca.SX.sym(a, k) for a, k in (
         ("q", sys.n), ("v", sys.n), ("u", sys.n_u))], ("q", "v", "u"), None)
-    q0, q1, s, u, h = (ca.SX.sym(a, k) for a, k in (
-        ("q0", sys.n), ("q1", sys.n), ("s", disc.n_stages), ("u", disc.n_controls), ("h", 1)))
-    q, v = disc.midpoint_state(q0, q1, s, h)
-    g = at_midpoint(q, v, disc.rule.control_at(u, 0.5))
-    return ca.Function("path_constraints", [q0, q1, s, u, h], [g], ["q0", "q1", "s", "u", "h"], ["g"])
+    x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
+    q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
+    g = at_midpoint(q, v, disc.rule.control_at(x["u"], 0.5))
+    names = ["q0", "q1", "s", "u", "h"]
+    return ca.Function("path_constraints", [x[k] for k in names], [g], names, ["g"])
 
 
 def _cost_function(name, cost, sys, args):

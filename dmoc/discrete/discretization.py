@@ -11,6 +11,7 @@ import casadi as ca
 
 from .. import _checks
 from .._cache import BoundedCache
+from ..layout import step_symbols
 from ..formulations import FORMULATIONS
 from ..system import HamiltonianSystem, MechanicalSystem
 from .degenerate import check_one_step_map
@@ -105,17 +106,16 @@ _DISCRETE_DATA = BoundedCache(32)
 
 
 def _step_symbols(system, rule):
-    """Symbols (q0, q1, s, u, h) of one step."""
-    n = system.n
-    return (ca.SX.sym("q0", n), ca.SX.sym("q1", n), ca.SX.sym("s", rule.n_stages * n),
-            ca.SX.sym("u", len(rule.control_nodes) * system.n_u), ca.SX.sym("h"))
+    """Symbols (q0, q1, s, u, h) of one step (`dmoc.layout.step_symbols`)."""
+    x = step_symbols(system.n, rule.n_stages * system.n, len(rule.control_nodes) * system.n_u)
+    return x["q0"], x["q1"], x["s"], x["u"], x["h"]
 
 
 def _discrete_data(system, rule):
     """(L_d, omega_d, f_d, midpoint state, step energy) of `system` by `rule`, h an input:
     built once per system key and rule, shared by discretizations at every h."""
     q0, q1, s, u, h = _step_symbols(system, rule)
-    p0, p1 = ca.SX.sym("p0", system.n), ca.SX.sym("p1", system.n)
+    p0, p1 = ca.SX.sym("p0", system.n), ca.SX.sym("p1", system.n)     # step_energy's (unused) p
     L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
     E = quadrature(rule, lambda q, v, _: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
     omega_d = ca.vertcat(rule.discrete_constraint(system.nonholonomic_matrix, q0, q1, s, h),

@@ -17,6 +17,7 @@ from .._cache import BoundedCache
 from ..system import HamiltonianSystem
 from .discretization import Discretization
 from ..formulations import HAMILTONIAN_FORMULATIONS
+from ..layout import step_symbols
 from .rules import Midpoint
 
 
@@ -161,11 +162,9 @@ class HamiltonianDiscretization(Discretization):
     def discrete_cost(self, running_cost):
         """C_d(q0, q1, s, u, h) = h running_cost((q0 + q1)/2, (q1 - q0)/h, u): the step
         integral by the midpoint rule on the chord (the stages are momenta here)."""
-        q0, q1, s, u, h = (ca.SX.sym(k, size) for k, size in (
-            ("q0", self.system.n), ("q1", self.system.n), ("s", self.n_stages),
-            ("u", self.n_controls), ("h", 1)))
-        C_d = h * running_cost((q0 + q1) / 2, (q1 - q0) / h, u)
-        return ca.Function("C_d", [q0, q1, s, u, h], [C_d], ["q0", "q1", "s", "u", "h"], ["C_d"])
+        x = step_symbols(self.system.n, self.n_stages, self.n_controls)
+        q0, q1, h = x["q0"], x["q1"], x["h"]
+        return _cost_function(x, h * running_cost((q0 + q1) / 2, (q1 - q0) / h, x["u"]))
 
     def __repr__(self):
         return f"HamiltonianDiscretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
@@ -181,9 +180,10 @@ def as_hamiltonian_rule(rule):
     return HAMILTONIAN_RULES[_checks.choice("rule", rule, tuple(HAMILTONIAN_RULES))]()
 
 
-def _symbols(n, ns, n_controls):
-    return {k: ca.SX.sym(k, size) for k, size in (("q0", n), ("p0", n), ("q1", n), ("p1", n),
-                                                  ("s", ns), ("u", n_controls), ("h", 1))}
+def _cost_function(x, C_d):
+    """The Function C_d(q0, q1, s, u, h) of the step symbols `x`."""
+    names = ["q0", "q1", "s", "u", "h"]
+    return ca.Function("C_d", [x[k] for k in names], [C_d], names, ["C_d"])
 
 
 def _virtual_work(force, samples, ends, s, u):
@@ -197,7 +197,7 @@ def _virtual_work(force, samples, ends, s, u):
 def _data(system, rule):
     """The Functions of a HamiltonianDiscretization, h an input (cached by system and rule)."""
     n = system.n
-    x = _symbols(n, rule.n_stage_blocks * n, len(rule.control_nodes) * system.n_u)
+    x = step_symbols(n, rule.n_stage_blocks * n, len(rule.control_nodes) * system.n_u)
     H = system.hamiltonian
     Hp, right_samples = rule.right(H, x["q0"], x["p1"], x["s"], x["h"])
     Hm, left_samples = rule.left(H, x["p0"], x["q1"], x["s"], x["h"])
@@ -288,16 +288,13 @@ class LegendreDiscretization(HamiltonianDiscretization):
     def discrete_cost(self, running_cost):
         """C_d of the Lagrangian rule, the stage block Q (= the end configuration) left out."""
         C = self.lagrangian.discrete_cost(running_cost)
-        n = self.system.n
-        q0, q1, s, u, h = (ca.SX.sym(k, size) for k, size in (
-            ("q0", n), ("q1", n), ("s", self.n_stages), ("u", self.n_controls), ("h", 1)))
-        return ca.Function("C_d", [q0, q1, s, u, h], [C(q0, q1, s[n:], u, h)],
-                           ["q0", "q1", "s", "u", "h"], ["C_d"])
+        x = step_symbols(self.system.n, self.n_stages, self.n_controls)
+        return _cost_function(x, C(x["q0"], x["q1"], x["s"][self.system.n:], x["u"], x["h"]))
 
 
 def _legendre_data(disc):
     n, ns = disc.system.n, disc.n_stages
-    x = _symbols(n, n + ns, disc.n_controls)
+    x = step_symbols(n, n + ns, disc.n_controls)
     Q, sigma = x["s"][:n], x["s"][n:]
     L_d = disc.discrete_lagrangian
     Hp = ca.dot(x["p1"], Q) - L_d(x["q0"], Q, sigma, x["h"])

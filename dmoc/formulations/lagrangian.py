@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
+from ..layout import step_symbols
 from ..tulczyjew import kappa_inverse
 from .base import MinusForm, PlusForm
 
@@ -120,10 +121,8 @@ def _check_window(r, curve, window):
 
 
 def _step_symbols(disc):
-    """Symbols q0, p0, q1, p1 (n), s (n_stages), u (n_controls), h of one step."""
-    n = disc.system.n
-    sizes = {"q0": n, "p0": n, "q1": n, "p1": n, "s": disc.n_stages, "u": disc.n_controls, "h": 1}
-    return {name: ca.SX.sym(name, size) for name, size in sizes.items()}
+    """The step symbols (`dmoc.layout.step_symbols`) of the discretization `disc`."""
+    return step_symbols(disc.system.n, disc.n_stages, disc.n_controls)
 
 
 def _differential_function(formulation, x, components):
