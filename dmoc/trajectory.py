@@ -10,6 +10,7 @@ import numpy as np
 from . import _checks
 from ._files import atomic_write
 from .errors import InputError, InputTypeError, TrajectoryFileError
+from .discrete.rules import lagrange_basis
 from .formulations import FORMULATIONS
 
 # max |t_k - t_0 - k h| allowed, relative to |t_0| + N h: rounding of t_0 + k h, of
@@ -105,15 +106,9 @@ class Trajectory:
         array([0.5, 3. , 4. ])
         """
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        nodes = np.asarray(self.control_nodes)
         k = np.clip(np.floor((t - self.t[0]) / self.h).astype(int), 0, max(self.steps - 1, 0))
-        tau = (t - self.t[k]) / self.h
-        values = self.u[k].reshape(len(t), len(nodes), -1)
-        basis = np.ones((len(t), len(nodes)))
-        for j, c in enumerate(nodes):
-            for i, other in enumerate(nodes):
-                if i != j:
-                    basis[:, j] *= (tau - other) / (c - other)
+        basis, _ = lagrange_basis(self.control_nodes, (t - self.t[k]) / self.h)
+        values = self.u[k].reshape(len(t), len(self.control_nodes), -1)
         return np.einsum("tj,tju->tu", basis, values)
 
     def save(self, path):

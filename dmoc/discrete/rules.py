@@ -103,7 +103,7 @@ class QuadratureRule:
         ends = [Q - q0 for Q in nodes[1:]]
         out = []
         for c, b in self.points if points is None else points:
-            value, slope = _lagrange_basis(self.nodes, c)
+            value, slope = lagrange_basis(self.nodes, c)
             out.append((b * h, _combination(value, nodes), _combination(slope[1:], ends) / h, c))
         return out
 
@@ -113,7 +113,7 @@ class QuadratureRule:
         k = len(self.control_nodes)
         n_u = u.shape[0] // k
         values = [u[j * n_u:(j + 1) * n_u] for j in range(k)]
-        return _combination(_lagrange_basis(self.control_nodes, c)[0], values) if n_u else u
+        return _combination(lagrange_basis(self.control_nodes, c)[0], values) if n_u else u
 
     def stage_guess(self, q, p):
         """Stage values on the chord of each step for an initial guess from knot values q
@@ -155,15 +155,19 @@ def _quadrature_points(name, points):
     return points
 
 
-def _lagrange_basis(nodes, c):
-    """Values l_i(c) and derivatives l_i'(c) of the Lagrange basis on `nodes`."""
-    nodes = np.asarray(nodes)
-    value, slope = np.ones(len(nodes)), np.zeros(len(nodes))
+def lagrange_basis(nodes, c):
+    """Values l_i(c) and derivatives l_i'(c) of the Lagrange basis on `nodes`, each of
+    shape c.shape + (len(nodes),) (c a number or an array of step times in [0, 1])."""
+    nodes, c = np.asarray(nodes, dtype=float), np.asarray(c, dtype=float)
+    value = np.ones(c.shape + (len(nodes),))
+    slope = np.zeros_like(value)
     for i, ci in enumerate(nodes):
         others = np.delete(nodes, i)
         denominator = np.prod(ci - others)
-        value[i] = np.prod(c - others) / denominator
-        slope[i] = sum(np.prod(np.delete(c - others, j)) for j in range(len(others))) / denominator
+        factors = c[..., None] - others
+        value[..., i] = np.prod(factors, axis=-1) / denominator
+        slope[..., i] = sum(np.prod(np.delete(factors, j, axis=-1), axis=-1)
+                            for j in range(len(others))) / denominator
     return value, slope
 
 
