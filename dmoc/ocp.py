@@ -5,7 +5,6 @@ momentum boundary conditions of `boundary` and Delta_Q^d imposed directly.
 """
 
 import copy
-import hashlib
 
 import casadi as ca
 import numpy as np
@@ -15,9 +14,10 @@ from ._symbolic import checked_function
 from .boundary import check_allowed_velocity, check_holonomic_boundary
 from .discrete import Discretization
 from .formulations import as_formulation
-from ._momentum import single_output, solved_rows, substitutable
+from ._momentum import solved_rows, substitutable
 from .layout import Layout, step_symbols
 from .principle import step_residual
+from .transcription import transcribe
 
 
 MOMENTA = ("substituted", "variables")
@@ -91,7 +91,7 @@ class OptimalControlProblem:
         self.residual = step_residual(disc, self.formulation)
         self.momenta_substituted = (_checks.choice("momenta", momenta, MOMENTA) == "substituted"
                                     and substitutable(self.residual))
-        n, self._structure = sys.n, None
+        n = sys.n
         self.duration = _duration(duration, N, disc.h)
         self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
                                        sys, ("q", "v", "u"))
@@ -138,19 +138,16 @@ class OptimalControlProblem:
         if all(new._fully_given(e) == self._fully_given(e) for e in ("start", "goal")):
             new._set_bounds()
         else:
-            new._structure = None
             new._build()
         return new
 
     @property
     def structure(self):
-        """A key of the NLP by value (SHA-256 of the serialized x -> (f, g) graph): problems
-        with equal keys differ at most in lbx, ubx, lbg, ubg, so `optimize` reuses one
-        compiled solver for them and warm-starts one from the other's optimum."""
-        if self._structure is None:
-            graph = ca.Function("nlp", [self.nlp["x"]], [self.nlp["f"], self.nlp["g"]])
-            self._structure = hashlib.sha256(graph.serialize().encode()).hexdigest()
-        return self._structure
+        """A key of the NLP by value (`SeparableNLP.key`: its terms' Functions and index
+        arrays): problems with equal keys differ at most in lbx, ubx, lbg, ubg and the
+        parameters, so `optimize` reuses one compiled solver for them and warm-starts one
+        from the other's optimum."""
+        return self.separable.key
 
     def _fully_given(self, end):
         """True when q and v at `end` ("start" or "goal") have no free entries."""
@@ -169,10 +166,10 @@ class OptimalControlProblem:
 
     def _build(self):
         sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
-        n, m, ns = sys.n, sys.m, disc.n_stages
-        start, end, m_start, m_end = self.formulation.momentum_conditions(sys)
+        n, ns = sys.n, disc.n_stages
+        m_start, m_end = self.formulation.momentum_conditions(sys)[2:]
         path = self._path
-        velocity_rows = {e: 0 if self._fully_given(e) else m for e in ("start", "goal")}
+        velocity_rows = {e: 0 if self._fully_given(e) else sys.m for e in ("start", "goal")}
         substituted = self.momenta_substituted
         self.dynamics_rows = solved_rows(R) if substituted else R.row_layout
         self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, 1 if substituted else N + 1)),
@@ -180,47 +177,22 @@ class OptimalControlProblem:
                                 ("s", (ns, N)), ("u", (disc.n_controls, N)), ("v_start", (n, 1)),
                                 ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                 ("h", (1 if self.free_time else 0, 1))])
+        self.p_layout = Layout([("h", (0 if self.free_time else 1, 1))])
         self.g_layout = Layout([("dynamics", (self.dynamics_rows.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
                                 ("start_velocity", (velocity_rows["start"], 1)),
                                 ("goal_velocity", (velocity_rows["goal"], 1)),
                                 ("path", (path.numel_out(0) if path else 0, N))])
-        x = ca.MX.sym("x", self.x_layout.size)
-        X = {name: self.x_layout.unpack(x, name) for name in self.x_layout.blocks}
-        h = X["h"] if self.free_time else disc.h
-        Q, U = X["q"], X["u"]
-        q0, q1 = Q[:, :N], Q[:, 1:]
-        dynamics, P = self._dynamics(X, h)
-        self._momenta = ca.Function("momenta", [x], [P])
-        A = sys.constraint_matrix
-        g = {"dynamics": dynamics,
-             "start": start(Q[:, 0], P[:, 0], X["v_start"], X["mu"]),
-             "goal": end(Q[:, N], P[:, N], X["v_goal"], X["nu"]),
-             "start_velocity": ca.mtimes(A(Q[:, 0]), X["v_start"]) if velocity_rows["start"] else ca.MX(0, 1),
-             "goal_velocity": ca.mtimes(A(Q[:, N]), X["v_goal"]) if velocity_rows["goal"] else ca.MX(0, 1),
-             "path": path.map(N)(q0, q1, X["s"], U, h) if path else ca.MX(0, N)}
-        f = ca.sum2(disc.discrete_cost(self._running).map(N)(q0, q1, X["s"], U, h))
-        if self._terminal is not None:
-            f += self._terminal(Q[:, N], X["v_goal"])
-        self.nlp = {"x": x, "f": f, "g": ca.vertcat(*[ca.vec(g[k]) for k in self.g_layout.blocks])}
+        self.separable, self._momenta = transcribe(self)
+        self.nlp = {k: getattr(self.separable, k) for k in ("x", "p", "f", "g")}
+        self.parameters = np.zeros(self.p_layout.size)
+        if not self.free_time:
+            self.parameters[self.p_layout.slice("h")] = disc.h
         self._set_bounds()
-
-    def _dynamics(self, X, h):
-        """(rows of R at every step, (n, N+1) momenta). Substituted: p_0 is the variable
-        block "p" and p_{k+1} = D2 L_d + f_d^+ (- A^T lam for (-)) the explicit "right" rows
-        of step k (`dmoc._momentum`), so those rows hold by construction and the others
-        are imposed; else all rows, with every p_k a variable."""
-        N, R, Q = self.steps, self.residual, X["q"]
-        steps = {"q0": Q[:, :N], "q1": Q[:, 1:], "lam": X["lam"], "s": X["s"], "u": X["u"], "h": h}
-        if not self.momenta_substituted:
-            P = X["p"]
-            return R.function.map(N)(p0=P[:, :N], p1=P[:, 1:], **steps)["r"], P
-        P = ca.horzcat(X["p"], _mapped_output(R, "p1", N, steps))
-        return _mapped_output(R, "rows", N, {"p0": P[:, :N], **steps}), P
 
     def momenta(self, x):
         """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
         they are variables, computed from x when substituted)."""
-        return np.array(self._momenta(x)).T
+        return np.array(self._momenta(x, self.parameters)).T
 
     def _set_bounds(self):
         control_bounds, state_bounds = self._bound_data
@@ -304,9 +276,3 @@ def _cost_function(name, cost, sys, args):
     """A user cost of (q, v[, u]) checked on symbols and wrapped as a scalar Function."""
     sizes = {"q": sys.n, "v": sys.n, "u": sys.n_u}
     return checked_function(name, cost, [ca.SX.sym(a, sizes[a]) for a in args], args, (1, 1))
-
-
-def _mapped_output(residual, name, N, args):
-    """Output `name` of the residual's `explicit_end` mapped over N steps of `args`."""
-    single = single_output(residual, name)
-    return single.map(N)(**{k: args[k] for k in single.name_in()})[name]

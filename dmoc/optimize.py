@@ -143,8 +143,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     solver, reused = _solver(problem, dict(options or {}))
     build_time = time.perf_counter() - tic
     tic = time.perf_counter()
-    sol = solver(x0=x0, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx, ubx=problem.ubx,
-                 lbg=problem.lbg, ubg=problem.ubg)
+    sol = solver(x0=x0, p=problem.parameters, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx,
+                 ubx=problem.ubx, lbg=problem.lbg, ubg=problem.ubg)
     solve_time = time.perf_counter() - tic
     x = np.array(sol["x"]).ravel()
     st = solver.stats()
@@ -179,14 +179,18 @@ def _solver(problem, options):
     expand = _checks.boolean("options['expand']", options.pop("expand", False))
     reuse = _checks.boolean("options['reuse_solver']", options.pop("reuse_solver", True))
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
+    # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
+    # gradient function CasADi would generate for them is most of a solver's build
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
+            "no_nlp_grad": True, "calc_lam_p": False,
             **{"ipopt." + k: v for k, v in merged.items()}}
     built = []
 
     def build():
         built.append(True)
         try:
-            return ca.nlpsol("dmoc", "ipopt", problem.nlp, opts)
+            return ca.nlpsol("dmoc", "ipopt", problem.nlp,
+                             {**opts, "cache": problem.separable.derivatives()})
         except RuntimeError as err:
             culprit = _rejected_option(options)
             if culprit is None and "option" not in str(err).lower():

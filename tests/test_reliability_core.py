@@ -120,12 +120,24 @@ def test_invalid_option_at_solve_time_reports_this_solve(disc, capfd):
 
 
 def test_invalid_number_names_the_non_finite_value(capfd):
+    """A cost that is NaN at the start point (log of a negative number)."""
+    result = dmoc.optimize(dmoc.OptimalControlProblem(
+        dmoc.discretize(knife_edge(), 0.1), 5, q_start=[0, 0, 0], q_goal=[0, 0.1, 0],
+        running_cost=lambda q, v, u: ca.sumsqr(u) + ca.log(q[0] - 1)), throw=False)
+    capfd.readouterr()
+    assert result.status == "Invalid_Number_Detected"
+    assert "0.00e+00" not in result.message and ("NaN" in result.message or "Inf" in result.message)
+
+
+def test_absurd_step_fails_naming_the_violation(capfd):
+    """h = 1e-302: 1/h is finite but the rows are of order 1e300; IPOPT stops and the
+    message names the most violated group and its size."""
     tiny = dmoc.discretize(knife_edge(), 1e-302)
     result = dmoc.optimize(dmoc.OptimalControlProblem(tiny, 5, q_start=[0, 0, 0],
                                                       q_goal=[0, 0.1, 0]), throw=False)
     capfd.readouterr()
-    assert result.status == "Invalid_Number_Detected"
-    assert "0.00e+00" not in result.message and ("NaN" in result.message or "Inf" in result.message)
+    assert not result.success
+    assert "most violated" in result.message and "e+30" in result.message
 
 
 @pytest.mark.parametrize("bounds", [([np.inf] * 2, [np.inf] * 2), ([-np.inf] * 2, [-np.inf] * 2)])

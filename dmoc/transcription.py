@@ -1,0 +1,161 @@
+"""The DMOC transcription (consumer 2 of the step residual, its problem half): which rows
+and costs of an OptimalControlProblem are evaluated at which steps, on which entries of
+x and p, as the terms of a partially separable NLP (`dmoc.separable`). The step residual
+of (37)/(41) (or (39)/(43)) is one term mapped over the steps; with the momenta
+substituted, step k reads the window of steps k-1 and k, p_k = D2 L_d + f_d^+ of step k-1
+(`dmoc._momentum`) entering its rows.
+"""
+
+import casadi as ca
+import numpy as np
+
+from ._momentum import single_output
+from .separable import SeparableNLP, Term, window
+
+
+def transcribe(problem):
+    """The NLP of `problem` and its momenta.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+        With `x_layout`, `p_layout`, `g_layout` and `dynamics_rows` set.
+
+    Returns
+    -------
+    nlp : SeparableNLP
+    momenta : casadi.Function
+        ``(x, p) -> P``, P of shape (n, N+1): p_0 ... p_N (the block "p" when the momenta
+        are variables, else p_0 and the explicit p_{k+1} of every step).
+    """
+    X = _indices(problem.x_layout)
+    G = _indices(problem.g_layout)
+    h = ("x", X["h"]) if problem.free_time else ("p", _indices(problem.p_layout)["h"])
+    step = _StepSlots(problem, X, h)
+    terms = step.dynamics(G["dynamics"]) + [step.start(G), step.goal(G)]
+    if problem.g_layout.numel("path"):
+        terms.append(_term("path", step.at(0, problem.steps),
+                           lambda s: (0, problem._path(**_args(problem._path, s))["g"]), G["path"]))
+    nlp = SeparableNLP(problem.x_layout.size, problem.p_layout.size, problem.g_layout.size, terms)
+    return nlp, ca.Function("momenta", [nlp.x, nlp.p], [step.momenta(nlp.x, nlp.p)], ["x", "p"], ["P"])
+
+
+class _StepSlots:
+    """The windows of x and p that the step terms read, by slot name."""
+
+    def __init__(self, problem, X, h):
+        self.problem, self.X, self.h, self.N = problem, X, h, problem.steps
+        self.residual = problem.residual
+        self.cost = problem.disc.discrete_cost(problem._running)
+        if problem.momenta_substituted:
+            self.p1 = single_output(self.residual, "p1")
+            self.rows = single_output(self.residual, "rows")
+
+    def at(self, first, stop, suffix=""):
+        """Slots q0, q1, lam, s, u (steps first ... stop - 1) and h, names + suffix."""
+        X = self.X
+        slots = {"q0": X["q"][:, first:stop], "q1": X["q"][:, first + 1:stop + 1],
+                 "lam": X["lam"][:, first:stop], "s": X["s"][:, first:stop], "u": X["u"][:, first:stop]}
+        slots = {k + suffix: ("x", v) for k, v in slots.items()}
+        return {**slots, "h": self.h}
+
+    def _previous_momentum(self, s):
+        """p_k of the window's previous step (slots with suffix "_prev")."""
+        names = self.p1.name_in()
+        return self.p1(**{k: s[k if k == "h" else k + "_prev"] for k in names})["p1"]
+
+    def dynamics(self, rows):
+        """The residual at every step: its rows and the step cost C_d."""
+        N, R = self.N, self.residual
+        if not self.problem.momenta_substituted:
+            slots = {**self.at(0, N), "p0": ("x", self.X["p"][:, :N]), "p1": ("x", self.X["p"][:, 1:])}
+            return [_term("dynamics", slots, lambda s: (self._cost(s), R.function(**_args(R.function, s))["r"]),
+                          rows)]
+        first = {**self.at(0, 1), "p0": ("x", self.X["p"][:, :1])}
+        later = {**self.at(1, N), **self.at(0, N - 1, "_prev")}
+        return [_term("dynamics_0", first, lambda s: (self._cost(s), self._rows(s)), rows[:, :1]),
+                _term("dynamics", later, lambda s: (self._cost(s), self._rows(
+                    {**s, "p0": self._previous_momentum(s)})), rows[:, 1:])]
+
+    def _cost(self, s):
+        return self.cost(**_args(self.cost, s))["C_d"]
+
+    def _rows(self, s):
+        return self.rows(**_args(self.rows, s))["rows"]
+
+    def start(self, G):
+        """Start momentum rows (and A(q_0) v_start = 0 where that end is partly free)."""
+        problem, X = self.problem, self.X
+        condition = problem.formulation.momentum_conditions(problem.disc.system)[0]
+        slots = {"q": ("x", X["q"][:, :1]), "p": ("x", X["p"][:, :1]),
+                 "v": ("x", X["v_start"]), "mu": ("x", X["mu"])}
+        return _term("start", slots, lambda s: (0, self._boundary_rows(condition, s, "start", "mu")),
+                     np.vstack([G["start"], G["start_velocity"]]))
+
+    def goal(self, G):
+        """Goal momentum rows at p_N, the velocity rows and the terminal cost."""
+        problem, X, N = self.problem, self.X, self.N
+        condition = problem.formulation.momentum_conditions(problem.disc.system)[1]
+        slots = {"q": ("x", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"])}
+        if problem.momenta_substituted:
+            slots.update(self.at(N - 1, N, "_prev"))
+        else:
+            slots["p"] = ("x", X["p"][:, N:])
+
+        def body(s):
+            if problem.momenta_substituted:
+                s = {**s, "p": self._previous_momentum(s)}
+            terminal = 0 if problem._terminal is None else problem._terminal(s["q"], s["v"])
+            return terminal, self._boundary_rows(condition, s, "goal", "nu")
+        return _term("goal", slots, body, np.vstack([G["goal"], G["goal_velocity"]]))
+
+    def _boundary_rows(self, condition, s, end, impulse):
+        rows = [condition(s["q"], s["p"], s["v"], s[impulse])]
+        if self.problem.g_layout.numel(end + "_velocity"):
+            rows.append(ca.mtimes(self.problem.disc.system.constraint_matrix(s["q"]), s["v"]))
+        return ca.vertcat(*rows)
+
+    def momenta(self, x, p):
+        """P (n, N+1) as an expression of the NLP's x and p."""
+        X, N = self.X, self.N
+        if not self.problem.momenta_substituted:
+            return window(x, X["p"])
+        slots, source = self.at(0, N, "_prev"), {"x": x, "p": p}
+        args = {}
+        for k in self.p1.name_in():
+            src, index = slots[k if k == "h" else k + "_prev"]
+            args[k] = window(source[src], _broadcast(index, N))
+        return ca.horzcat(window(x, X["p"][:, :1]), self.p1.map(N)(**args)["p1"])
+
+
+def _term(name, slots, body, g_index):
+    """A Term from named slots {name: (source "x" or "p", index array (size, M), or
+    (size, 1) shared by every instance)} and ``body(symbols) -> (f, g)``."""
+    M = g_index.shape[1]
+    symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items()}
+    f, g = body(symbols)
+    parts = {src: [k for k, (s, _) in slots.items() if s == src] for src in ("x", "p")}
+    z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
+    function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
+    index = {src: np.vstack([_broadcast(slots[k][1], M) for k in parts[src]] or [np.zeros((0, M), int)])
+             for src in ("x", "p")}
+    return Term(function, index["x"], index["p"], g_index)
+
+
+def _indices(layout):
+    """{block: its flat indices as a (rows, cols) int array}."""
+    every = np.arange(layout.size)
+    return {name: layout.unpack(every, name) for name in layout.blocks}
+
+
+def _broadcast(index, M):
+    return np.broadcast_to(index, (index.shape[0], M)) if index.shape[1] == 1 else index
+
+
+def _stack(symbols):
+    return ca.vertcat(*symbols) if symbols else ca.SX(0, 1)
+
+
+def _args(function, symbols):
+    """The entries of `symbols` that `function` takes, by its input names."""
+    return {k: symbols[k] for k in function.name_in()}
