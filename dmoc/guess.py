@@ -11,14 +11,17 @@ from .trajectory import Trajectory
 def start_point(problem, guess):
     """(x0, lam_x0, lam_g0) for IPOPT from `guess`: None, a Trajectory, or an
     OptimizationResult. A result of a problem with the same NLP structure
-    (``result.structure == problem.structure``) is taken as it is, its x clipped into the
-    new bounds (new boundary data) and its multipliers kept; any other guess gives its
+    (``result.structure == problem.structure``) is taken as it is, its configurations
+    re-centered on this problem's q_ref, its x clipped into the new bounds (new boundary
+    data) and its multipliers kept; any other guess gives its
     trajectory, resampled, and zero multipliers (a cold start)."""
     cold = np.zeros(problem.lbx.size), np.zeros(problem.lbg.size)
     if guess is None or isinstance(guess, Trajectory):
         return (initial_guess(problem, guess),) + cold
     if guess.structure == problem.structure and guess.lam_g is not None:
-        return np.clip(guess.x, problem.lbx, problem.ubx), guess.lam_x, guess.lam_g
+        x = np.array(guess.x, dtype=float)
+        x[problem.x_layout.slice("q")] += np.tile(guess.q_ref - problem.q_ref, problem.steps + 1)
+        return np.clip(x, problem.lbx, problem.ubx), guess.lam_x, guess.lam_g
     return (initial_guess(problem, guess.trajectory),) + cold
 
 
@@ -42,6 +45,7 @@ def initial_guess(problem, guess=None):
     blocks["v_goal"] = np.nan_to_num(problem.v_goal)[None, :]
     if problem.free_time:
         blocks["h"] = np.array([[h]])
+    blocks["q"] = blocks["q"] - problem.q_ref         # the NLP holds q - q_ref
     for name, values in blocks.items():      # time-major values; a block of fewer columns
         if values is not None and lay.numel(name):     # (p_0 of substituted momenta) takes the first
             x[lay.slice(name)] = np.asarray(values, dtype=float)[:lay.blocks[name][2]].ravel()

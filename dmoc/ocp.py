@@ -65,14 +65,25 @@ class OptimalControlProblem:
     Attributes
     ----------
     nlp : dict
-        ``{"x", "f", "g"}`` CasADi MX expressions, for power users (``casadi.nlpsol``).
+        ``{"x", "p", "f", "g"}`` CasADi MX expressions, for power users (``casadi.nlpsol``;
+        pass ``p=problem.parameters``).
+    separable : SeparableNLP
+        The same NLP as terms (`dmoc.separable`), with its assembled exact derivatives
+        (``separable.derivatives()``, the ``cache`` option of ``casadi.nlpsol``).
     lbx, ubx, lbg, ubg : ndarray
         Bounds of x and g.
-    x_layout, g_layout : Layout
+    parameters : ndarray, shape (p_layout.size,)
+        The values of p: the step h (fixed final time) and q_ref.
+    q_ref : ndarray, shape (n,)
+        The configuration the NLP is centered on: its block "q" holds q_k - q_ref (the
+        given entries of q_start, else of q_goal, else 0), so that IPOPT's steps and
+        tolerances follow the size of the motion, not of the coordinates;
+        `configurations(x)` gives q.
+    x_layout, p_layout, g_layout : Layout
         Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` is p_0
-        alone when the momenta are substituted, see `momenta(x)`) and of g (``dynamics``
-        (rows of R in `dynamics_rows`, N), ``start``, ``goal``, ``start_velocity``,
-        ``goal_velocity``, ``path``).
+        alone when the momenta are substituted, see `momenta(x)`), of p (``h, q_ref``) and
+        of g (``dynamics`` (rows of R in `dynamics_rows`, N), ``start``, ``goal``,
+        ``start_velocity``, ``goal_velocity``, ``path``).
     dynamics_rows : Layout
         The residual rows imposed at each step (all of R, or all but "right").
     structure : str
@@ -177,22 +188,24 @@ class OptimalControlProblem:
                                 ("s", (ns, N)), ("u", (disc.n_controls, N)), ("v_start", (n, 1)),
                                 ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                 ("h", (1 if self.free_time else 0, 1))])
-        self.p_layout = Layout([("h", (0 if self.free_time else 1, 1))])
+        self.p_layout = Layout([("h", (0 if self.free_time else 1, 1)), ("q_ref", (n, 1))])
         self.g_layout = Layout([("dynamics", (self.dynamics_rows.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
                                 ("start_velocity", (velocity_rows["start"], 1)),
                                 ("goal_velocity", (velocity_rows["goal"], 1)),
                                 ("path", (path.numel_out(0) if path else 0, N))])
         self.separable, self._momenta = transcribe(self)
         self.nlp = {k: getattr(self.separable, k) for k in ("x", "p", "f", "g")}
-        self.parameters = np.zeros(self.p_layout.size)
-        if not self.free_time:
-            self.parameters[self.p_layout.slice("h")] = disc.h
         self._set_bounds()
 
     def momenta(self, x):
         """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
         they are variables, computed from x when substituted)."""
         return np.array(self._momenta(x, self.parameters)).T
+
+    def configurations(self, x):
+        """The configurations q_0 ... q_N, shape (N+1, n), of an NLP vector x (whose block
+        "q" holds q - q_ref)."""
+        return self.x_layout.unpack(np.asarray(x, dtype=float), "q").T + self.q_ref
 
     def _set_bounds(self):
         control_bounds, state_bounds = self._bound_data
@@ -203,12 +216,14 @@ class OptimalControlProblem:
                 raise ValueError(f"`{name}` must lie within `state_bounds`; entries "
                                  f"{np.flatnonzero(outside).tolist()} do not.")
         N, lay = self.steps, self.x_layout
+        self.q_ref = _reference(self.q_start, self.q_goal)
+        self.parameters = np.concatenate([[] if self.free_time else [self.disc.h], self.q_ref])
         self.lbx, self.ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
         for bound, side in ((self.lbx, 0), (self.ubx, 1)):
             view = {name: self.x_layout.unpack(bound, name) for name in ("q", "u", "v_start", "v_goal", "h")}
-            view["q"][:] = state_bounds[side][:, None]
+            view["q"][:] = (state_bounds[side] - self.q_ref)[:, None]
             view["u"][:] = np.tile(control_bounds[side], len(self.disc.rule.control_nodes))[:, None]
-            for name, col, data in (("q", 0, self.q_start), ("q", N, self.q_goal),
+            for name, col, data in (("q", 0, self.q_start - self.q_ref), ("q", N, self.q_goal - self.q_ref),
                                     ("v_start", 0, self.v_start), ("v_goal", 0, self.v_goal)):
                 fixed = np.isfinite(data)
                 view[name][fixed, col] = data[fixed]
@@ -220,6 +235,14 @@ class OptimalControlProblem:
     def __repr__(self):
         return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
                 f"free_time={self.free_time}, x: {self.x_layout.size}, g: {self.g_layout.size})")
+
+
+def _reference(q_start, q_goal):
+    """q_ref, shape (n,): the given entries of q_start, else of q_goal, else 0. The NLP's
+    configuration variables are q - q_ref, of the size of the motion rather than of the
+    coordinates, so that IPOPT's steps and tolerances do not depend on where the motion
+    takes place (e.g. map coordinates of 1e6 m)."""
+    return np.where(np.isfinite(q_start), q_start, np.nan_to_num(q_goal, nan=0.0))
 
 
 def _boundary(name, value, n):

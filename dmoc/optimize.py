@@ -53,12 +53,15 @@ class OptimizationResult:
         added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row).
     x : ndarray, shape (problem.x_layout.size,)
         The raw NLP vector; ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the
-        end impulse ``"nu"``).
+        end impulse ``"nu"``); its block "q" holds q - q_ref (``problem.configurations(x)``
+        gives q).
     lam_x, lam_g : ndarray, shapes like x and like problem.g_layout
         IPOPT's multipliers of the bounds and of the constraints at `x`.
     structure : str
         The problem's `structure` key: a result warm-starts (primal and dual) any problem
         with the same key, e.g. one from ``problem.with_boundary(...)``.
+    q_ref : ndarray, shape (n,)
+        The problem's `q_ref`, on which `x` is centered.
     """
 
     trajectory: Trajectory
@@ -71,6 +74,7 @@ class OptimizationResult:
     lam_x: np.ndarray = None
     lam_g: np.ndarray = None
     structure: str = ""
+    q_ref: np.ndarray = None
 
     def save(self, path):
         """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
@@ -78,7 +82,8 @@ class OptimizationResult:
         message, structure and stats (as JSON)."""
         traj = {f.name: np.asarray(getattr(self.trajectory, f.name)) for f in fields(Trajectory)}
         extra = {RESULT_PREFIX + k: np.asarray(getattr(self, k))
-                 for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure")}
+                 for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure",
+                           "q_ref")}
         extra[RESULT_PREFIX + "stats"] = json.dumps(self.stats, default=str)
         with atomic_write(path) as file:
             np.savez(file, **traj, **extra)
@@ -91,7 +96,8 @@ class OptimizationResult:
             extra = {k[len(RESULT_PREFIX):]: data[k] for k in data.files if k.startswith(RESULT_PREFIX)}
         return cls(Trajectory.load(path), float(extra["cost"]), bool(extra["success"]),
                    str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
-                   extra["x"], extra["lam_x"], extra["lam_g"], str(extra["structure"]))
+                   extra["x"], extra["lam_x"], extra["lam_g"], str(extra["structure"]),
+                   extra["q_ref"])
 
 
 def optimize(problem, *, guess=None, options=None, throw=True):
@@ -110,11 +116,14 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         singular (e.g. the knife edge sliding straight sideways).
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
-        and ``"expand"`` (bool, default False: keep the mapped MX graph; True expands it
-        to SX, 1.3-3x faster per IPOPT iteration but 2.7-3.8x slower to build at N >= 400;
-        both build times grow linearly with N, see docs/performance.md), and
+        and ``"expand"`` (bool, default False; True expands f and g to SX, which no
+        longer pays: IPOPT evaluates the derivatives assembled from the terms'
+        (`OptimalControlProblem.separable`) either way, see docs/performance.md), and
         ``"reuse_solver"`` (bool, default True: take the solver of an earlier problem of
         the same structure and options from the cache; False builds a fresh one).
+        Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
+        floor of the rows where the data put it higher (configurations far from the
+        origin, docs/performance.md).
     throw : bool
         Raise SolverError when IPOPT fails (default); else return with success=False.
 
@@ -124,9 +133,12 @@ def optimize(problem, *, guess=None, options=None, throw=True):
 
     Notes
     -----
-    The solver (``casadi.nlpsol``) is created once per problem structure and options and
-    kept in a bounded cache: boundary data, bounds and the guess are solver inputs, so
-    re-solving the same problem, or one from ``problem.with_boundary(...)``, skips the
+    The solver (``casadi.nlpsol``) takes its gradient, constraint Jacobian and Hessian of
+    the Lagrangian from ``problem.separable.derivatives()`` (exact, assembled from each
+    term's derivatives) instead of generating them for the whole graph. It is created
+    once per problem structure and options and kept in a bounded cache: boundary data,
+    bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
+    same problem, or one from ``problem.with_boundary(...)``, skips the
     build; a warm start runs the same solver from the previous optimum's multipliers.
     """
     if not isinstance(problem, OptimalControlProblem):
@@ -140,7 +152,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     x0, lam_x0, lam_g0 = start_point(problem, guess)
     tic = time.perf_counter()
-    solver, reused = _solver(problem, dict(options or {}))
+    solver, reused = _solver(problem, {**_data_tolerances(problem, x0), **(options or {})})
     build_time = time.perf_counter() - tic
     tic = time.perf_counter()
     sol = solver(x0=x0, p=problem.parameters, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx,
@@ -165,13 +177,30 @@ def optimize(problem, *, guess=None, options=None, throw=True):
                f"cost {float(sol['f']):.10g}{where}.")
     result = OptimizationResult(traj, float(sol["f"]), success, st["return_status"], message, stats,
                                 x, np.array(sol["lam_x"]).ravel(), np.array(sol["lam_g"]).ravel(),
-                                problem.structure)
+                                problem.structure, problem.q_ref.copy())
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result
 
 
 _SOLVERS = BoundedCache(8)     # keyed by (problem.structure, options)
+
+
+def _data_tolerances(problem, x0):
+    """{"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
+    floor of the rows where the data demand it, else {}. The floor of row i is
+    eps * sum_j |dg_i/dx_j| |x_j| at the start point in absolute coordinates (q, not
+    q - q_ref): the rows difference configurations over h, so far from the origin
+    (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them below it."""
+    jacobian = problem.separable.derivatives()["nlp_jac_g"]
+    x = np.array(x0, dtype=float)
+    x[problem.x_layout.slice("q")] += np.tile(problem.q_ref, problem.steps + 1)
+    J = jacobian(x0, problem.parameters)[1]
+    rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
+    floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
+    if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
+        return {}
+    return {"tol": floor, "constr_viol_tol": floor}
 
 
 def _solver(problem, options):
@@ -259,6 +288,6 @@ def trajectory_from_x(problem, x):
     lay, N = problem.x_layout, problem.steps
     h = float(lay.unpack(x, "h")[0, 0]) if problem.free_time else problem.disc.h
     mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
-    return Trajectory(h * np.arange(N + 1), lay.unpack(x, "q").T, problem.momenta(x),
+    return Trajectory(h * np.arange(N + 1), problem.configurations(x), problem.momenta(x),
                       lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
                       mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)

@@ -28,23 +28,24 @@ def transcribe(problem):
         ``(x, p) -> P``, P of shape (n, N+1): p_0 ... p_N (the block "p" when the momenta
         are variables, else p_0 and the explicit p_{k+1} of every step).
     """
-    X = _indices(problem.x_layout)
-    G = _indices(problem.g_layout)
-    h = ("x", X["h"]) if problem.free_time else ("p", _indices(problem.p_layout)["h"])
-    step = _StepSlots(problem, X, h)
+    X, P, G = (_indices(lay) for lay in (problem.x_layout, problem.p_layout, problem.g_layout))
+    h = ("x", X["h"]) if problem.free_time else ("p", P["h"])
+    step = _StepSlots(problem, X, h, P["q_ref"])
     terms = step.dynamics(G["dynamics"]) + [step.start(G), step.goal(G)]
     if problem.g_layout.numel("path"):
-        terms.append(_term("path", step.at(0, problem.steps),
-                           lambda s: (0, problem._path(**_args(problem._path, s))["g"]), G["path"]))
+        terms.append(step.term("path", step.at(0, problem.steps),
+                               lambda s: (0, problem._path(**_args(problem._path, s))["g"]), G["path"]))
     nlp = SeparableNLP(problem.x_layout.size, problem.p_layout.size, problem.g_layout.size, terms)
     return nlp, ca.Function("momenta", [nlp.x, nlp.p], [step.momenta(nlp.x, nlp.p)], ["x", "p"], ["P"])
 
 
 class _StepSlots:
-    """The windows of x and p that the step terms read, by slot name."""
+    """The windows of x and p that the step terms read, by slot name. A slot of source
+    "q" holds configurations q - q_ref (x is centered on the boundary data, see
+    `OptimalControlProblem.q_ref`); the term adds q_ref back."""
 
-    def __init__(self, problem, X, h):
-        self.problem, self.X, self.h, self.N = problem, X, h, problem.steps
+    def __init__(self, problem, X, h, q_ref):
+        self.problem, self.X, self.h, self.N, self.q_ref = problem, X, h, problem.steps, q_ref
         self.residual = problem.residual
         self.cost = problem.disc.discrete_cost(problem._running)
         if problem.momenta_substituted:
@@ -54,10 +55,14 @@ class _StepSlots:
     def at(self, first, stop, suffix=""):
         """Slots q0, q1, lam, s, u (steps first ... stop - 1) and h, names + suffix."""
         X = self.X
-        slots = {"q0": X["q"][:, first:stop], "q1": X["q"][:, first + 1:stop + 1],
-                 "lam": X["lam"][:, first:stop], "s": X["s"][:, first:stop], "u": X["u"][:, first:stop]}
-        slots = {k + suffix: ("x", v) for k, v in slots.items()}
-        return {**slots, "h": self.h}
+        slots = {"q0": ("q", X["q"][:, first:stop]), "q1": ("q", X["q"][:, first + 1:stop + 1]),
+                 "lam": ("x", X["lam"][:, first:stop]), "s": ("x", X["s"][:, first:stop]),
+                 "u": ("x", X["u"][:, first:stop])}
+        return {**{k + suffix: v for k, v in slots.items()}, "h": self.h}
+
+    def term(self, name, slots, body, g_index):
+        """`_term` with q_ref added to the slots of source "q"."""
+        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index)
 
     def _previous_momentum(self, s):
         """p_k of the window's previous step (slots with suffix "_prev")."""
@@ -69,12 +74,12 @@ class _StepSlots:
         N, R = self.N, self.residual
         if not self.problem.momenta_substituted:
             slots = {**self.at(0, N), "p0": ("x", self.X["p"][:, :N]), "p1": ("x", self.X["p"][:, 1:])}
-            return [_term("dynamics", slots, lambda s: (self._cost(s), R.function(**_args(R.function, s))["r"]),
+            return [self.term("dynamics", slots, lambda s: (self._cost(s), R.function(**_args(R.function, s))["r"]),
                           rows)]
         first = {**self.at(0, 1), "p0": ("x", self.X["p"][:, :1])}
         later = {**self.at(1, N), **self.at(0, N - 1, "_prev")}
-        return [_term("dynamics_0", first, lambda s: (self._cost(s), self._rows(s)), rows[:, :1]),
-                _term("dynamics", later, lambda s: (self._cost(s), self._rows(
+        return [self.term("dynamics_0", first, lambda s: (self._cost(s), self._rows(s)), rows[:, :1]),
+                self.term("dynamics", later, lambda s: (self._cost(s), self._rows(
                     {**s, "p0": self._previous_momentum(s)})), rows[:, 1:])]
 
     def _cost(self, s):
@@ -87,16 +92,16 @@ class _StepSlots:
         """Start momentum rows (and A(q_0) v_start = 0 where that end is partly free)."""
         problem, X = self.problem, self.X
         condition = problem.formulation.momentum_conditions(problem.disc.system)[0]
-        slots = {"q": ("x", X["q"][:, :1]), "p": ("x", X["p"][:, :1]),
+        slots = {"q": ("q", X["q"][:, :1]), "p": ("x", X["p"][:, :1]),
                  "v": ("x", X["v_start"]), "mu": ("x", X["mu"])}
-        return _term("start", slots, lambda s: (0, self._boundary_rows(condition, s, "start", "mu")),
+        return self.term("start", slots, lambda s: (0, self._boundary_rows(condition, s, "start", "mu")),
                      np.vstack([G["start"], G["start_velocity"]]))
 
     def goal(self, G):
         """Goal momentum rows at p_N, the velocity rows and the terminal cost."""
         problem, X, N = self.problem, self.X, self.N
         condition = problem.formulation.momentum_conditions(problem.disc.system)[1]
-        slots = {"q": ("x", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"])}
+        slots = {"q": ("q", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"])}
         if problem.momenta_substituted:
             slots.update(self.at(N - 1, N, "_prev"))
         else:
@@ -107,7 +112,7 @@ class _StepSlots:
                 s = {**s, "p": self._previous_momentum(s)}
             terminal = 0 if problem._terminal is None else problem._terminal(s["q"], s["v"])
             return terminal, self._boundary_rows(condition, s, "goal", "nu")
-        return _term("goal", slots, body, np.vstack([G["goal"], G["goal_velocity"]]))
+        return self.term("goal", slots, body, np.vstack([G["goal"], G["goal_velocity"]]))
 
     def _boundary_rows(self, condition, s, end, impulse):
         rows = [condition(s["q"], s["p"], s["v"], s[impulse])]
@@ -120,21 +125,25 @@ class _StepSlots:
         X, N = self.X, self.N
         if not self.problem.momenta_substituted:
             return window(x, X["p"])
-        slots, source = self.at(0, N, "_prev"), {"x": x, "p": p}
+        slots, source = self.at(0, N, "_prev"), {"x": x, "q": x, "p": p}
+        q_ref = window(p, _broadcast(self.q_ref, N))
         args = {}
         for k in self.p1.name_in():
             src, index = slots[k if k == "h" else k + "_prev"]
-            args[k] = window(source[src], _broadcast(index, N))
+            args[k] = window(source[src], _broadcast(index, N)) + (q_ref if src == "q" else 0)
         return ca.horzcat(window(x, X["p"][:, :1]), self.p1.map(N)(**args)["p1"])
 
 
 def _term(name, slots, body, g_index):
-    """A Term from named slots {name: (source "x" or "p", index array (size, M), or
-    (size, 1) shared by every instance)} and ``body(symbols) -> (f, g)``."""
+    """A Term from named slots {name: (source, index array (size, M), or (size, 1) shared
+    by every instance)} and ``body(symbols) -> (f, g)``. Source "x" or "p": entries of x
+    or p; "q": entries of x holding q - q_ref, the body given q (slot "q_ref" from p)."""
     M = g_index.shape[1]
     symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items()}
-    f, g = body(symbols)
-    parts = {src: [k for k, (s, _) in slots.items() if s == src] for src in ("x", "p")}
+    f, g = body({k: symbols[k] + symbols["q_ref"] if src == "q" else symbols[k]
+                 for k, (src, _) in slots.items()})
+    parts = {"x": [k for k, (s, _) in slots.items() if s in ("x", "q")],
+             "p": [k for k, (s, _) in slots.items() if s == "p"]}
     z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
     function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
     index = {src: np.vstack([_broadcast(slots[k][1], M) for k in parts[src]] or [np.zeros((0, M), int)])

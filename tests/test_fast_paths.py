@@ -169,3 +169,59 @@ def test_a_failing_compiler_warns_and_falls_back(fresh_steppers, monkeypatch):
     assert result.success and result.stats["native"] is False
     with pytest.raises(RuntimeError, match="compiling"):
         _run(disc, q0, v0, "+", True)
+
+
+# --- configurations centered on the boundary data -----------------------------------------
+
+FAR = np.array([3.0e5, -2.0e5, 0.0])        # map coordinates: metres from a distant origin
+
+
+def test_far_from_the_origin_the_optimum_is_the_translated_one():
+    """q_ref = q_start: the NLP holds q - q_ref, so the optimum far from the origin is the
+    translated optimum near it (translation invariance of the knife edge), to the rounding
+    of the coordinates."""
+    near = dmoc.optimize(dmoc.problems.knife_edge_parking(40))
+    disc = near.trajectory.h
+    problem = dmoc.OptimalControlProblem(dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), disc),
+                                         40, q_start=FAR, q_goal=FAR + [0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(problem.q_ref, FAR)
+    far = dmoc.optimize(problem)
+    np.testing.assert_array_equal(problem.x_layout.unpack(far.x, "q")[:, 0], [0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(far.trajectory.q, problem.configurations(far.x))
+    assert far.cost == pytest.approx(near.cost, rel=1e-9)
+    eps_q = np.finfo(float).eps * np.abs(FAR).max()
+    assert np.abs(far.trajectory.q - FAR - near.trajectory.q).max() <= 1e3 * eps_q
+
+
+def test_warm_start_moves_with_the_reference():
+    """with_boundary(q_start=...) moves q_ref; the warm start re-centers the neighbour's x
+    on it, so it starts near the new optimum (fewer iterations than cold, same optimum)."""
+    problem = dmoc.problems.knife_edge_parking(60)
+    neighbour = dmoc.optimize(problem)
+    moved = problem.with_boundary(q_start=[0.1, 0.05, 0.0], q_goal=[0.1, 1.05, 0.0])
+    np.testing.assert_array_equal(moved.q_ref, [0.1, 0.05, 0.0])
+    x0 = dmoc.guess.start_point(moved, neighbour)[0]        # the neighbour's configurations,
+    np.testing.assert_allclose(moved.configurations(x0)[1:-1],  # the ends clipped to the new data
+                               neighbour.trajectory.q[1:-1], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(moved.configurations(x0)[[0, -1]], [[0.1, 0.05, 0.0], [0.1, 1.05, 0.0]])
+    warm, cold = dmoc.optimize(moved, guess=neighbour), dmoc.optimize(moved)
+    assert warm.stats["warm_start"]
+    assert 2 * warm.stats["iterations"] <= cold.stats["iterations"]
+    assert np.abs(warm.trajectory.q - cold.trajectory.q).max() <= 1e-8
+    # a pure translation: the same motion, shifted
+    assert np.abs(warm.trajectory.q - [0.1, 0.05, 0.0] - neighbour.trajectory.q).max() <= 1e-8
+
+
+def test_saved_result_keeps_its_reference(tmp_path):
+    """A saved result knows the q_ref its x is centered on, so a loaded result warm-starts
+    a neighbouring problem far from the origin (the configurations it holds are absolute)."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 0.1)
+    problem = dmoc.OptimalControlProblem(disc, 40, q_start=FAR, q_goal=FAR + [0.0, 1.0, 0.0])
+    result = dmoc.optimize(problem)
+    result.save(tmp_path / "far.npz")
+    loaded = dmoc.OptimizationResult.load(tmp_path / "far.npz")
+    np.testing.assert_array_equal(loaded.q_ref, FAR)
+    moved = problem.with_boundary(q_start=FAR + [0.05, 0.0, 0.0])
+    warm, cold = dmoc.optimize(moved, guess=loaded), dmoc.optimize(moved)
+    assert warm.success and 2 * warm.stats["iterations"] <= cold.stats["iterations"]
+    assert abs(warm.cost - cold.cost) <= 1e-8 * cold.cost
