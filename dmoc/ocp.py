@@ -37,7 +37,8 @@ class OptimalControlProblem:
         Boundary configurations; entries None leave that component free.
     v_start, v_goal : array_like, shape (n,), optional
         Boundary velocities (default: at rest); entries None are free. They must lie in
-        Delta_Q = ker A(q) when fully given; otherwise A(q) v = 0 is imposed.
+        Delta_Q = ker A(q) when fully given; otherwise A(q) v = 0 is imposed (except for
+        a given zero velocity, which lies in every Delta_Q).
     running_cost : callable, optional
         ``running_cost(q, v, u)`` (scalar CasADi expression); default |u|^2. Discretized by
         the rule of `disc` at its quadrature points, u interpolated from the step's
@@ -59,8 +60,9 @@ class OptimalControlProblem:
         for (-)) follows from step k's explicit "right" rows, which then hold by
         construction, and the other rows are imposed (a smaller NLP: n fewer variables
         and rows per step). "variables": every p_k a variable and all rows imposed. A
-        formulation whose p_{k+1} is not explicit or depends on p_k (the Hamiltonian
-        forms (39), (43)) always carries the momenta as variables.
+        formulation whose p_{k+1} is not explicit (the Hamiltonian (+) form (39), explicit
+        in q_{k+1}) or depends on p_k (the (-) form (43), unless the Hamiltonian makes it
+        free of p_k) carries the momenta as variables (`dmoc._momentum.substitutable`).
 
     Attributes
     ----------
@@ -132,8 +134,8 @@ class OptimalControlProblem:
         The boundary data enter the NLP only through the bounds lbx = ubx, so the copy
         shares this problem's NLP (and `structure`, hence its compiled solver and a warm
         start from this problem's optimum) unless an end changes between fully given and
-        partly free (then the velocity rows A(q) v = 0 appear or vanish and the NLP is
-        rebuilt).
+        partly free with a nonzero or free velocity (then the velocity rows A(q) v = 0
+        appear or vanish and the NLP is rebuilt).
 
         Examples
         --------
@@ -146,7 +148,7 @@ class OptimalControlProblem:
         new = copy.copy(self)
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal}
         new._set_boundary(**{k: getattr(self, k) if v is None else v for k, v in given.items()})
-        if all(new._fully_given(e) == self._fully_given(e) for e in ("start", "goal")):
+        if all(new._velocity_rows(e) == self._velocity_rows(e) for e in ("start", "goal")):
             new._set_bounds()
         else:
             new._build()
@@ -165,6 +167,13 @@ class OptimalControlProblem:
         return bool(np.isfinite(getattr(self, "q_" + end)).all()
                     and np.isfinite(getattr(self, "v_" + end)).all())
 
+    def _velocity_rows(self, end):
+        """Whether A(q) v = 0 is imposed at `end`: unless q and v are given there (then
+        checked once, `check_allowed_velocity`) or v is given and zero (then the rows
+        vanish for every q; imposing them would make the KKT matrix singular)."""
+        v = getattr(self, "v_" + end)
+        return not (self._fully_given(end) or (np.isfinite(v).all() and not v.any()))
+
     @property
     def variant(self):
         """The formulation's name, ``"+"`` or ``"-"``."""
@@ -180,7 +189,7 @@ class OptimalControlProblem:
         n, ns = sys.n, disc.n_stages
         m_start, m_end = self.formulation.momentum_conditions(sys)[2:]
         path = self._path
-        velocity_rows = {e: 0 if self._fully_given(e) else sys.m for e in ("start", "goal")}
+        velocity_rows = {e: sys.m if self._velocity_rows(e) else 0 for e in ("start", "goal")}
         substituted = self.momenta_substituted
         self.dynamics_rows = solved_rows(R) if substituted else R.row_layout
         self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, 1 if substituted else N + 1)),

@@ -149,13 +149,30 @@ def test_saved_result_warm_starts_and_another_grid_is_resampled(tmp_path):
 
 def test_with_boundary_rebuilds_when_an_end_becomes_free():
     problem = dmoc.problems.knife_edge_parking(30)
-    free = problem.with_boundary(q_goal=[0.0, 1.0, None])
+    at_rest = problem.with_boundary(q_goal=[0.0, 1.0, None])     # v_goal = 0: no rows needed
+    assert at_rest.structure == problem.structure and at_rest.g_layout.numel("goal_velocity") == 0
+    free = problem.with_boundary(v_goal=[None, None, 0.0])
     assert free.structure != problem.structure and free.g_layout.numel("goal_velocity") == 1
-    direct = dmoc.OptimalControlProblem(problem.disc, 30, q_start=[0, 0, 0], q_goal=[0.0, 1.0, None])
+    direct = dmoc.OptimalControlProblem(problem.disc, 30, q_start=[0, 0, 0], q_goal=[0.0, 1.0, 0.0],
+                                        v_goal=[None, None, 0.0])
     assert free.structure == direct.structure
     assert abs(dmoc.optimize(free).cost - dmoc.optimize(direct).cost) <= 1e-12
     with pytest.raises(ValueError, match="v_goal"):
         problem.with_boundary(v_goal=[0.0, 1.0, 0.0])
+
+
+def test_constraint_jacobian_has_full_row_rank_with_a_free_goal_angle():
+    """Regression: with the rolling angle free at the goal and v_goal = 0 given, the rows
+    A(q_N) v_N = 0 vanished identically, so every KKT matrix was singular (IPOPT
+    perturbed it at every iteration). Now no such rows, and the Jacobian of g with
+    respect to the free variables has full row rank at the optimum."""
+    problem = dmoc.problems.rolling_disk_steering(6)
+    assert problem.g_layout.numel("goal_velocity") == 0
+    result = dmoc.optimize(problem)
+    J = np.array(problem.separable.derivatives()["nlp_jac_g"](result.x, problem.parameters)[1])
+    free = problem.lbx != problem.ubx
+    singular_values = np.linalg.svd(J[:, free], compute_uv=False)
+    assert singular_values.min() > 1e-6 * singular_values.max()
 
 
 @pytest.mark.skipif(not shutil.which("false"), reason="no `false` command")
