@@ -6,11 +6,16 @@ substituted, step k reads the window of steps k-1 and k, p_k = D2 L_d + f_d^+ of
 (`dmoc._momentum`) entering its rows.
 """
 
+import hashlib
+
 import casadi as ca
 import numpy as np
 
+from ._cache import BoundedCache
 from ._momentum import single_output
 from .separable import SeparableNLP, Term, window
+
+_FUNCTIONS = BoundedCache(128)   # term Functions by (`_functions_key`, term name): not per N
 
 
 def transcribe(problem):
@@ -46,11 +51,15 @@ class _StepSlots:
 
     def __init__(self, problem, X, h, q_ref):
         self.problem, self.X, self.h, self.N, self.q_ref = problem, X, h, problem.steps, q_ref
-        self.residual = problem.residual
-        self.cost = problem.disc.discrete_cost(problem._running)
+        self.residual, self.key = problem.residual, _functions_key(problem)
         if problem.momenta_substituted:
             self.p1 = single_output(self.residual, "p1")
             self.rows = single_output(self.residual, "rows")
+
+    @property
+    def cost(self):
+        """C_d(q0, q1, s, u, h) of the running cost (built only when a term is)."""
+        return self.problem.disc.discrete_cost(self.problem._running)
 
     def at(self, first, stop, suffix=""):
         """Slots q0, q1, lam, s, u (steps first ... stop - 1) and h, names + suffix."""
@@ -61,8 +70,9 @@ class _StepSlots:
         return {**{k + suffix: v for k, v in slots.items()}, "h": self.h}
 
     def term(self, name, slots, body, g_index):
-        """`_term` with q_ref added to the slots of source "q"."""
-        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index)
+        """`_term` with q_ref added to the slots of source "q", its Function built once per
+        `_functions_key` (the index arrays are this problem's)."""
+        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name))
 
     def _previous_momentum(self, s):
         """p_k of the window's previous step (slots with suffix "_prev")."""
@@ -134,21 +144,35 @@ class _StepSlots:
         return ca.horzcat(window(x, X["p"][:, :1]), self.p1.map(N)(**args)["p1"])
 
 
-def _term(name, slots, body, g_index):
+def _term(name, slots, body, g_index, key):
     """A Term from named slots {name: (source, index array (size, M), or (size, 1) shared
-    by every instance)} and ``body(symbols) -> (f, g)``. Source "x" or "p": entries of x
-    or p; "q": entries of x holding q - q_ref, the body given q (slot "q_ref" from p)."""
+    by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`.
+    Source "x" or "p": entries of x or p; "q": entries of x holding q - q_ref, the body
+    given q (slot "q_ref" from p)."""
     M = g_index.shape[1]
-    symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items()}
-    f, g = body({k: symbols[k] + symbols["q_ref"] if src == "q" else symbols[k]
-                 for k, (src, _) in slots.items()})
     parts = {"x": [k for k, (s, _) in slots.items() if s in ("x", "q")],
              "p": [k for k, (s, _) in slots.items() if s == "p"]}
-    z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
-    function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
+
+    def build():
+        symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items()}
+        f, g = body({k: symbols[k] + symbols["q_ref"] if src == "q" else symbols[k]
+                     for k, (src, _) in slots.items()})
+        z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
+        return ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
     index = {src: np.vstack([_broadcast(slots[k][1], M) for k in parts[src]] or [np.zeros((0, M), int)])
              for src in ("x", "p")}
-    return Term(function, index["x"], index["p"], g_index)
+    return Term(_FUNCTIONS.get(key, build), index["x"], index["p"], g_index)
+
+
+def _functions_key(problem):
+    """What the term Functions of `problem` depend on: the residual (system, rule,
+    formulation), how the momenta enter, the free time, the velocity rows and the user's
+    cost and path Functions (by value)."""
+    user = (problem._running, problem._terminal, problem._path)
+    digest = hashlib.sha256("\0".join("" if f is None else f.serialize() for f in user).encode())
+    return (problem.residual.key, problem.momenta_substituted, problem.free_time,
+            problem.g_layout.numel("start_velocity"), problem.g_layout.numel("goal_velocity"),
+            digest.hexdigest())
 
 
 def _indices(layout):
