@@ -10,12 +10,12 @@ import casadi as ca
 import numpy as np
 
 from . import _checks
-from ._symbolic import checked_function
 from .boundary import check_allowed_velocity, check_holonomic_boundary
 from .discrete import Discretization
 from .formulations import as_formulation
 from ._momentum import solved_rows, substitutable
-from .layout import Layout, step_symbols
+from .layout import Layout
+from .parameters import ProblemParameters, cost_function, path_function
 from .principle import step_residual
 from .transcription import transcribe
 
@@ -95,7 +95,7 @@ class OptimalControlProblem:
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
                  state_bounds=None, path_constraints=None, duration=None, variant="+",
-                 momenta="substituted"):
+                 momenta="substituted", parameters=None):
         if not isinstance(disc, Discretization):
             raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
         self.disc, sys = disc, disc.system
@@ -106,11 +106,12 @@ class OptimalControlProblem:
                                     and substitutable(self.residual))
         n = sys.n
         self.duration = _duration(duration, N, disc.h)
-        self._running = _cost_function("running_cost", running_cost or (lambda q, v, u: ca.sumsqr(u)),
-                                       sys, ("q", "v", "u"))
-        self._terminal = None if terminal_cost is None else _cost_function(
-            "terminal_cost", terminal_cost, sys, ("q", "v"))
-        self._path = None if path_constraints is None else _path_function(path_constraints, disc)
+        self._parameters = w = ProblemParameters(parameters)
+        default = (lambda q, v, u, w: ca.sumsqr(u)) if w.given else (lambda q, v, u: ca.sumsqr(u))
+        self._running = cost_function("running_cost", running_cost or default, sys, ("q", "v", "u"), w)
+        self._terminal = None if terminal_cost is None else cost_function(
+            "terminal_cost", terminal_cost, sys, ("q", "v"), w)
+        self._path = None if path_constraints is None else path_function(path_constraints, disc, w)
         self._bound_data = (_bounds("control_bounds", control_bounds, sys.n_u),
                             _bounds("state_bounds", state_bounds, n))
         self._set_boundary(q_start, q_goal, v_start, v_goal)
@@ -153,6 +154,32 @@ class OptimalControlProblem:
         else:
             new._build()
         return new
+
+    def with_parameters(self, **values):
+        """This problem with new values of some of its `parameters` (same names and sizes):
+        the same NLP and `structure`, so `optimize` reuses the solver, and the optimum of
+        this problem warm-starts the copy.
+
+        Examples
+        --------
+        >>> import casadi as ca, dmoc
+        >>> disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+        >>> problem = dmoc.OptimalControlProblem(
+        ...     disc, 20, q_start=[0, 0, 0], q_goal=[0, 1, 0], parameters={"r": 1.0},
+        ...     running_cost=lambda q, v, u, w: u[0] ** 2 + w["r"] * u[1] ** 2)
+        >>> heavier = problem.with_parameters(r=10.0)
+        >>> heavier.parameter_values["r"].tolist(), heavier.structure == problem.structure
+        ([10.0], True)
+        """
+        new = copy.copy(self)
+        new._parameters = self._parameters.with_values(**values)
+        new._set_bounds()
+        return new
+
+    @property
+    def parameter_values(self):
+        """{name: value, shape (k,)} of the problem's `parameters`."""
+        return dict(self._parameters.values)
 
     @property
     def structure(self):
@@ -197,7 +224,8 @@ class OptimalControlProblem:
                                 ("s", (ns, N)), ("u", (disc.n_controls, N)), ("v_start", (n, 1)),
                                 ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                 ("h", (1 if self.free_time else 0, 1))])
-        self.p_layout = Layout([("h", (0 if self.free_time else 1, 1)), ("q_ref", (n, 1))])
+        self.p_layout = Layout([("h", (0 if self.free_time else 1, 1)), ("q_ref", (n, 1)),
+                                ("w", (self._parameters.layout.size, 1))])
         self.g_layout = Layout([("dynamics", (self.dynamics_rows.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
                                 ("start_velocity", (velocity_rows["start"], 1)),
                                 ("goal_velocity", (velocity_rows["goal"], 1)),
@@ -226,7 +254,8 @@ class OptimalControlProblem:
                                  f"{np.flatnonzero(outside).tolist()} do not.")
         N, lay = self.steps, self.x_layout
         self.q_ref = _reference(self.q_start, self.q_goal)
-        self.parameters = np.concatenate([[] if self.free_time else [self.disc.h], self.q_ref])
+        self.parameters = np.concatenate([[] if self.free_time else [self.disc.h], self.q_ref,
+                                          self._parameters.vector()])
         self.lbx, self.ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
         for bound, side in ((self.lbx, 0), (self.ubx, 1)):
             view = {name: self.x_layout.unpack(bound, name) for name in ("q", "u", "v_start", "v_goal", "h")}
@@ -289,22 +318,3 @@ def _duration(duration, N, h):
     if T_min > T_max:
         raise ValueError(f"`duration` must have T_min <= T_max; got {duration!r}.")
     return T_min, T_max
-
-
-def _path_function(path, disc):
-    """g(q0, q1, s, u, h) = path(q, v, u) in the middle of the step (on the rule's
-    interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), flattened to a column."""
-    sys = disc.system
-    at_midpoint = checked_function("path_constraints", path, [ca.SX.sym(a, k) for a, k in (
-        ("q", sys.n), ("v", sys.n), ("u", sys.n_u))], ("q", "v", "u"), None)
-    x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
-    q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
-    g = at_midpoint(q, v, disc.rule.control_at(x["u"], 0.5))
-    names = ["q0", "q1", "s", "u", "h"]
-    return ca.Function("path_constraints", [x[k] for k in names], [g], names, ["g"])
-
-
-def _cost_function(name, cost, sys, args):
-    """A user cost of (q, v[, u]) checked on symbols and wrapped as a scalar Function."""
-    sizes = {"q": sys.n, "v": sys.n, "u": sys.n_u}
-    return checked_function(name, cost, [ca.SX.sym(a, sizes[a]) for a in args], args, (1, 1))

@@ -35,7 +35,7 @@ def transcribe(problem):
     """
     X, P, G = (_indices(lay) for lay in (problem.x_layout, problem.p_layout, problem.g_layout))
     h = ("x", X["h"]) if problem.free_time else ("p", P["h"])
-    step = _StepSlots(problem, X, h, P["q_ref"])
+    step = _StepSlots(problem, X, h, P)
     terms = step.dynamics(G["dynamics"]) + [step.start(G), step.goal(G)]
     if problem.g_layout.numel("path"):
         terms.append(step.term("path", step.at(0, problem.steps),
@@ -49,8 +49,9 @@ class _StepSlots:
     "q" holds configurations q - q_ref (x is centered on the boundary data, see
     `OptimalControlProblem.q_ref`); the term adds q_ref back."""
 
-    def __init__(self, problem, X, h, q_ref):
-        self.problem, self.X, self.h, self.N, self.q_ref = problem, X, h, problem.steps, q_ref
+    def __init__(self, problem, X, h, P):
+        self.problem, self.X, self.h, self.N = problem, X, h, problem.steps
+        self.q_ref, self.w = P["q_ref"], ("p", P["w"])
         self.residual, self.key = problem.residual, _functions_key(problem)
         if problem.momenta_substituted:
             self.p1 = single_output(self.residual, "p1")
@@ -62,12 +63,12 @@ class _StepSlots:
         return self.problem.disc.discrete_cost(self.problem._running)
 
     def at(self, first, stop, suffix=""):
-        """Slots q0, q1, lam, s, u (steps first ... stop - 1) and h, names + suffix."""
+        """Slots q0, q1, lam, s, u (steps first ... stop - 1), names + suffix, and h, w."""
         X = self.X
         slots = {"q0": ("q", X["q"][:, first:stop]), "q1": ("q", X["q"][:, first + 1:stop + 1]),
                  "lam": ("x", X["lam"][:, first:stop]), "s": ("x", X["s"][:, first:stop]),
                  "u": ("x", X["u"][:, first:stop])}
-        return {**{k + suffix: v for k, v in slots.items()}, "h": self.h}
+        return {**{k + suffix: v for k, v in slots.items()}, "h": self.h, "w": self.w}
 
     def term(self, name, slots, body, g_index):
         """`_term` with q_ref added to the slots of source "q", its Function built once per
@@ -111,7 +112,7 @@ class _StepSlots:
         """Goal momentum rows at p_N, the velocity rows and the terminal cost."""
         problem, X, N = self.problem, self.X, self.N
         condition = problem.formulation.momentum_conditions(problem.disc.system)[1]
-        slots = {"q": ("q", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"])}
+        slots = {"q": ("q", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"]), "w": self.w}
         if problem.momenta_substituted:
             slots.update(self.at(N - 1, N, "_prev"))
         else:
@@ -120,7 +121,7 @@ class _StepSlots:
         def body(s):
             if problem.momenta_substituted:
                 s = {**s, "p": self._previous_momentum(s)}
-            terminal = 0 if problem._terminal is None else problem._terminal(s["q"], s["v"])
+            terminal = 0 if problem._terminal is None else problem._terminal(s["q"], s["v"], s["w"])
             return terminal, self._boundary_rows(condition, s, "goal", "nu")
         return self.term("goal", slots, body, np.vstack([G["goal"], G["goal_velocity"]]))
 

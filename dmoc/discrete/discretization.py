@@ -92,11 +92,13 @@ class Discretization:
         return other
 
     def discrete_cost(self, running_cost):
-        """The step integral C_d(q0, q1, s, u, h) of ``running_cost(q, v, u)`` by this rule,
-        u the control interpolated at each quadrature point."""
+        """The step integral C_d(q0, q1, s, u, h, w) of the Function
+        ``running_cost(q, v, u, w)`` by this rule, u the control interpolated at each
+        quadrature point, w the problem's parameters (`dmoc.parameters`)."""
         q0, q1, s, u, h = _step_symbols(self.system, self.rule)
-        C_d = quadrature(self.rule, running_cost, q0, q1, s, u, h)
-        return ca.Function("C_d", [q0, q1, s, u, h], [C_d], ["q0", "q1", "s", "u", "h"], ["C_d"])
+        w = ca.SX.sym("w", running_cost.size1_in(3))
+        C_d = quadrature(self.rule, lambda q, v, uc: running_cost(q, v, uc, w), q0, q1, s, u, h)
+        return ca.Function("C_d", [q0, q1, s, u, h, w], [C_d], ["q0", "q1", "s", "u", "h", "w"], ["C_d"])
 
     def __repr__(self):
         return f"Discretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"

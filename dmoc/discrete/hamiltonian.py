@@ -160,11 +160,11 @@ class HamiltonianDiscretization(Discretization):
          self.discrete_constraint, self.midpoint_state, self.step_energy) = data
 
     def discrete_cost(self, running_cost):
-        """C_d(q0, q1, s, u, h) = h running_cost((q0 + q1)/2, (q1 - q0)/h, u): the step
-        integral by the midpoint rule on the chord (the stages are momenta here)."""
-        x = step_symbols(self.system.n, self.n_stages, self.n_controls)
+        """C_d(q0, q1, s, u, h, w) = h running_cost((q0 + q1)/2, (q1 - q0)/h, u, w): the
+        step integral by the midpoint rule on the chord (the stages are momenta here)."""
+        x = _cost_symbols(self, running_cost)
         q0, q1, h = x["q0"], x["q1"], x["h"]
-        return _cost_function(x, h * running_cost((q0 + q1) / 2, (q1 - q0) / h, x["u"]))
+        return _cost_function(x, h * running_cost((q0 + q1) / 2, (q1 - q0) / h, x["u"], x["w"]))
 
     def __repr__(self):
         return f"HamiltonianDiscretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
@@ -180,9 +180,15 @@ def as_hamiltonian_rule(rule):
     return HAMILTONIAN_RULES[_checks.choice("rule", rule, tuple(HAMILTONIAN_RULES))]()
 
 
+def _cost_symbols(disc, running_cost):
+    """The step symbols of `disc` and w, the parameters `running_cost` takes last."""
+    return {**step_symbols(disc.system.n, disc.n_stages, disc.n_controls),
+            "w": ca.SX.sym("w", running_cost.size1_in(3))}
+
+
 def _cost_function(x, C_d):
-    """The Function C_d(q0, q1, s, u, h) of the step symbols `x`."""
-    names = ["q0", "q1", "s", "u", "h"]
+    """The Function C_d(q0, q1, s, u, h, w) of the step symbols `x`."""
+    names = ["q0", "q1", "s", "u", "h", "w"]
     return ca.Function("C_d", [x[k] for k in names], [C_d], names, ["C_d"])
 
 
@@ -288,8 +294,8 @@ class LegendreDiscretization(HamiltonianDiscretization):
     def discrete_cost(self, running_cost):
         """C_d of the Lagrangian rule, the stage block Q (= the end configuration) left out."""
         C = self.lagrangian.discrete_cost(running_cost)
-        x = step_symbols(self.system.n, self.n_stages, self.n_controls)
-        return _cost_function(x, C(x["q0"], x["q1"], x["s"][self.system.n:], x["u"], x["h"]))
+        x = _cost_symbols(self, running_cost)
+        return _cost_function(x, C(x["q0"], x["q1"], x["s"][self.system.n:], x["u"], x["h"], x["w"]))
 
 
 def _legendre_data(disc):
