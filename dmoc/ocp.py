@@ -42,7 +42,9 @@ class OptimalControlProblem:
     running_cost : callable, optional
         ``running_cost(q, v, u)`` (scalar CasADi expression); default |u|^2. Discretized by
         the rule of `disc` at its quadrature points, u interpolated from the step's
-        control values (midpoint: h C(q_{k+1/2}, (q_{k+1} - q_k)/h, u_k)).
+        control values (midpoint: h C(q_{k+1/2}, (q_{k+1} - q_k)/h, u_k)). With
+        `parameters`, it, `terminal_cost` and `path_constraints` take one more argument,
+        ``w``: a dict of the parameters' symbols by name.
     terminal_cost : callable, optional
         ``terminal_cost(q, v)`` at (q_N, v_N).
     control_bounds, state_bounds : pair of array_like, optional
@@ -63,19 +65,23 @@ class OptimalControlProblem:
         formulation whose p_{k+1} is not explicit (the Hamiltonian (+) form (39), explicit
         in q_{k+1}) or depends on p_k (the (-) form (43), unless the Hamiltonian makes it
         free of p_k) carries the momenta as variables (`dmoc._momentum.substitutable`).
+    parameters : dict of str -> float or array_like of shape (k,), optional
+        Named data the costs and path constraints read through ``w`` (weights, obstacle
+        positions): entries of p, so `with_parameters` changes them without a new NLP.
 
     Attributes
     ----------
     nlp : dict
         ``{"x", "p", "f", "g"}`` CasADi MX expressions, for power users (``casadi.nlpsol``;
-        pass ``p=problem.parameters``).
+        pass ``p=problem.p``).
     separable : SeparableNLP
         The same NLP as terms (`dmoc.separable`), with its assembled exact derivatives
         (``separable.derivatives()``, the ``cache`` option of ``casadi.nlpsol``).
     lbx, ubx, lbg, ubg : ndarray
         Bounds of x and g.
-    parameters : ndarray, shape (p_layout.size,)
-        The values of p: the step h (fixed final time) and q_ref.
+    p : ndarray, shape (p_layout.size,)
+        The values of the NLP's parameter vector p: the step h (fixed final time), q_ref
+        and the stacked `parameter_values` (block ``w``).
     q_ref : ndarray, shape (n,)
         The configuration the NLP is centered on: its block "q" holds q_k - q_ref (the
         given entries of q_start, else of q_goal, else 0), so that IPOPT's steps and
@@ -83,7 +89,7 @@ class OptimalControlProblem:
         `configurations(x)` gives q.
     x_layout, p_layout, g_layout : Layout
         Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` is p_0
-        alone when the momenta are substituted, see `momenta(x)`), of p (``h, q_ref``) and
+        alone when the momenta are substituted, see `momenta(x)`), of p (``h, q_ref, w``) and
         of g (``dynamics`` (rows of R in `dynamics_rows`, N), ``start``, ``goal``,
         ``start_velocity``, ``goal_velocity``, ``path``).
     dynamics_rows : Layout
@@ -237,7 +243,7 @@ class OptimalControlProblem:
     def momenta(self, x):
         """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
         they are variables, computed from x when substituted)."""
-        return np.array(self._momenta(x, self.parameters)).T
+        return np.array(self._momenta(x, self.p)).T
 
     def configurations(self, x):
         """The configurations q_0 ... q_N, shape (N+1, n), of an NLP vector x (whose block
@@ -254,7 +260,7 @@ class OptimalControlProblem:
                                  f"{np.flatnonzero(outside).tolist()} do not.")
         N, lay = self.steps, self.x_layout
         self.q_ref = _reference(self.q_start, self.q_goal)
-        self.parameters = np.concatenate([[] if self.free_time else [self.disc.h], self.q_ref,
+        self.p = np.concatenate([[] if self.free_time else [self.disc.h], self.q_ref,
                                           self._parameters.vector()])
         self.lbx, self.ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
         for bound, side in ((self.lbx, 0), (self.ubx, 1)):

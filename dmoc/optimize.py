@@ -155,7 +155,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     solver, reused = _solver(problem, {**_data_tolerances(problem, x0), **(options or {})})
     build_time = time.perf_counter() - tic
     tic = time.perf_counter()
-    sol = solver(x0=x0, p=problem.parameters, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx,
+    sol = solver(x0=x0, p=problem.p, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx,
                  ubx=problem.ubx, lbg=problem.lbg, ubg=problem.ubg)
     solve_time = time.perf_counter() - tic
     x = np.array(sol["x"]).ravel()
@@ -195,7 +195,7 @@ def _data_tolerances(problem, x0):
     jacobian = problem.separable.derivatives()["nlp_jac_g"]
     x = np.array(x0, dtype=float)
     x[problem.x_layout.slice("q")] += np.tile(problem.q_ref, problem.steps + 1)
-    J = jacobian(x0, problem.parameters)[1]
+    J = jacobian(x0, problem.p)[1]
     rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
     floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN

@@ -169,7 +169,7 @@ def test_constraint_jacobian_has_full_row_rank_with_a_free_goal_angle():
     problem = dmoc.problems.rolling_disk_steering(6)
     assert problem.g_layout.numel("goal_velocity") == 0
     result = dmoc.optimize(problem)
-    J = np.array(problem.separable.derivatives()["nlp_jac_g"](result.x, problem.parameters)[1])
+    J = np.array(problem.separable.derivatives()["nlp_jac_g"](result.x, problem.p)[1])
     free = problem.lbx != problem.ubx
     singular_values = np.linalg.svd(J[:, free], compute_uv=False)
     assert singular_values.min() > 1e-6 * singular_values.max()

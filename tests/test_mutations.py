@@ -47,7 +47,7 @@ def test_running_cost_is_sampled_at_the_rules_points(rule):
     problem = dmoc.OptimalControlProblem(dmoc.discretize(knife_edge(), H, rule), N,
                                          q_start=[0, 0, 0], q_goal=[0, 1, 0], running_cost=cost)
     x = np.random.default_rng(3).normal(size=problem.x_layout.size)
-    f = float(ca.Function("f", [problem.nlp["x"], problem.nlp["p"]], [problem.nlp["f"]])(x, problem.parameters))
+    f = float(ca.Function("f", [problem.nlp["x"], problem.nlp["p"]], [problem.nlp["f"]])(x, problem.p))
     q, u = problem.x_layout.unpack(x, "q").T, problem.x_layout.unpack(x, "u").T
     assert f == pytest.approx(cost_by_hand(rule, q, u), rel=1e-13)
 
@@ -59,7 +59,7 @@ def test_free_start_velocity_is_kept_in_the_allowed_set(variant):
                                          q_start=[0, 0, None], q_goal=[0, 1, 0],
                                          v_start=[None, None, None], variant=variant)
     x = np.random.default_rng(4).normal(size=problem.x_layout.size)
-    g = np.array(ca.Function("g", [problem.nlp["x"], problem.nlp["p"]], [problem.nlp["g"]])(x, problem.parameters)).ravel()
+    g = np.array(ca.Function("g", [problem.nlp["x"], problem.nlp["p"]], [problem.nlp["g"]])(x, problem.p)).ravel()
     theta = problem.x_layout.unpack(x, "q")[2, 0]
     v = problem.x_layout.unpack(x, "v_start")[:, 0]
     rows = g[problem.g_layout.slice("start_velocity")]

@@ -570,7 +570,7 @@ def test_exposed_nlp_solves_with_plain_nlpsol(variant):
     solver = ca.nlpsol("plain", "ipopt", problem.nlp,
                        {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
                         "ipopt.tol": IPOPT_TOL, "ipopt.constr_viol_tol": IPOPT_TOL})
-    sol = solver(x0=np.clip(x0, problem.lbx, problem.ubx), p=problem.parameters, lbx=problem.lbx,
+    sol = solver(x0=np.clip(x0, problem.lbx, problem.ubx), p=problem.p, lbx=problem.lbx,
                  ubx=problem.ubx, lbg=problem.lbg, ubg=problem.ubg)
     assert solver.stats()["success"], solver.stats()["return_status"]
     x = np.array(sol["x"]).ravel()

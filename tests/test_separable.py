@@ -192,7 +192,7 @@ def test_assembled_derivatives_match_casadi_ad(case):
     problem = _problem(case)
     oracle, assembled = _oracle(problem), problem.separable.derivatives()
     x, lam, sigma = _random_point(problem, np.random.default_rng(20240611))
-    p = problem.parameters
+    p = problem.p
 
     f, g = oracle["f_g"](x, p)
     f_a, grad_a = assembled["nlp_grad_f"](x, p)
