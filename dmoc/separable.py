@@ -49,7 +49,7 @@ class Term:
 
 
 class SeparableNLP:
-    """The NLP ``min f(x, p) s.t. g(x, p)`` of a list of `Term`s.
+    """The NLP ``min f(x, p) s.t. g(x, p)`` stated by its terms (`Term`).
 
     Parameters
     ----------
