@@ -243,7 +243,7 @@ class OptimalControlProblem:
     def momenta(self, x):
         """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
         they are variables, computed from x when substituted)."""
-        return np.array(self._momenta(x, self.p)).T
+        return self._momenta(np.asarray(x, dtype=float), self.p).T
 
     def configurations(self, x):
         """The configurations q_0 ... q_N, shape (N+1, n), of an NLP vector x (whose block

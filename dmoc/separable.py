@@ -35,12 +35,21 @@ class Term:
     x_index, p_index, g_index : ndarray of int, shapes (nz, M), (nw, M), (r, M)
         Column k: the entries of x and p that instance k reads and the rows of g it fills.
         The entries of one column of `x_index` are distinct.
+    function_key : str, optional
+        A key of `function` by value (default: SHA-256 of its serialization), under which
+        its derivatives are cached.
     """
 
     function: ca.Function
     x_index: np.ndarray
     p_index: np.ndarray
     g_index: np.ndarray
+    function_key: str = None
+
+    def __post_init__(self):
+        if self.function_key is None:
+            key = hashlib.sha256(self.function.serialize().encode()).hexdigest()
+            object.__setattr__(self, "function_key", key)
 
     @property
     def instances(self):
@@ -74,7 +83,8 @@ class SeparableNLP:
             raise ValueError("the terms' g_index must fill every row of g exactly once")
         self._g_order = np.argsort(rows, kind="stable")
         self.x, self.p = ca.MX.sym("x", n_x), ca.MX.sym("p", n_p)
-        self.f, self.g = self._objective_and_constraints(self.x, self.p)
+        self._term_windows = [self._windows(t) for t in self.terms]
+        self.f, self.g = self._objective_and_constraints()
         self._derivatives = self._key = None
 
     @property
@@ -84,16 +94,22 @@ class SeparableNLP:
         if self._key is None:
             digest = hashlib.sha256(repr((self.n_x, self.n_p, self.n_g)).encode())
             for t in self.terms:
-                digest.update(_function_key(t.function).encode())
+                digest.update(t.function_key.encode())
                 for index in (t.x_index, t.p_index, t.g_index):
                     digest.update(repr(index.shape).encode() + np.ascontiguousarray(index, np.int64).tobytes())
             self._key = digest.hexdigest()
         return self._key
 
-    def _objective_and_constraints(self, x, p):
+    def _windows(self, t):
+        """(z, w) of term t: its windows of x, (nz, M), and of p, (nw, M), or (nw, 1) when
+        every instance reads the same entries of p (`Function.map` broadcasts it)."""
+        shared = t.p_index.shape[1] == 0 or (t.p_index == t.p_index[:, :1]).all()
+        return window(self.x, t.x_index), window(self.p, t.p_index[:, :1] if shared else t.p_index)
+
+    def _objective_and_constraints(self):
         f, g = ca.MX(0), []
-        for t in self.terms:
-            out = t.function.map(t.instances)(window(x, t.x_index), window(p, t.p_index))
+        for t, (z, w) in zip(self.terms, self._term_windows):
+            out = t.function.map(t.instances)(z, w)
             f += ca.sum2(out[0])
             g.append(ca.vec(out[1]))
         return f, _gather(ca.vertcat(*g), self._g_order) if g else ca.MX(0, 1)
@@ -111,9 +127,8 @@ class SeparableNLP:
         x, p, sigma, lam = self.x, self.p, ca.MX.sym("lam_f"), ca.MX.sym("lam_g", self.n_g)
         parts = {"grad": [], "jac": [], "hess": []}
         where = {"grad": [], "jac": [], "hess": []}
-        for t in self.terms:
-            local = local_derivatives(t.function)
-            z, w = window(x, t.x_index), window(p, t.p_index)
+        for t, (z, w) in zip(self.terms, self._term_windows):
+            local = local_derivatives(t.function, t.function_key)
             M = t.instances
             parts["grad"].append(local["grad"].map(M)(z, w))
             parts["jac"].append(local["jac"].map(M)(z, w))
@@ -135,8 +150,8 @@ class SeparableNLP:
                                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])}
 
 
-def local_derivatives(function):
-    """A term Function's own derivatives, built once per Function value.
+def local_derivatives(function, key):
+    """A term Function's own derivatives, built once per `key` (the Function's value).
 
     Returns
     -------
@@ -145,11 +160,7 @@ def local_derivatives(function):
         ``jac_pattern`` (their rows, columns); ``hess (z, w, sigma, lam) -> nonzeros of the
         upper triangle of d2(sigma f + lam^T g)/dz2`` and ``hess_pattern``.
     """
-    return _LOCAL.get(_function_key(function), lambda: _local(function))
-
-
-def _function_key(function):
-    return hashlib.sha256(function.serialize().encode()).hexdigest()
+    return _LOCAL.get(key, lambda: _local(function))
 
 
 def _local(function):

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._cache import BoundedCache
 from ._momentum import single_output
-from .separable import SeparableNLP, Term, window
+from .separable import SeparableNLP, Term
 
 _FUNCTIONS = BoundedCache(128)   # term Functions by (`_functions_key`, term name): not per N
 
@@ -29,9 +29,10 @@ def transcribe(problem):
     Returns
     -------
     nlp : SeparableNLP
-    momenta : casadi.Function
-        ``(x, p) -> P``, P of shape (n, N+1): p_0 ... p_N (the block "p" when the momenta
-        are variables, else p_0 and the explicit p_{k+1} of every step).
+    momenta : callable
+        ``momenta(x, p) -> P``, x and p numpy vectors, P of shape (n, N+1): p_0 ... p_N
+        (the block "p" when the momenta are variables, else p_0 and the explicit p_{k+1}
+        of every step).
     """
     X, P, G = (_indices(lay) for lay in (problem.x_layout, problem.p_layout, problem.g_layout))
     h = ("x", X["h"]) if problem.free_time else ("p", P["h"])
@@ -41,7 +42,7 @@ def transcribe(problem):
         terms.append(step.term("path", step.at(0, problem.steps),
                                lambda s: (0, problem._path(**_args(problem._path, s))["g"]), G["path"]))
     nlp = SeparableNLP(problem.x_layout.size, problem.p_layout.size, problem.g_layout.size, terms)
-    return nlp, ca.Function("momenta", [nlp.x, nlp.p], [step.momenta(nlp.x, nlp.p)], ["x", "p"], ["P"])
+    return nlp, step.momenta
 
 
 class _StepSlots:
@@ -59,7 +60,7 @@ class _StepSlots:
 
     @property
     def cost(self):
-        """C_d(q0, q1, s, u, h) of the running cost (built only when a term is)."""
+        """C_d(q0, q1, s, u, h, w) of the running cost (built only when a term is)."""
         return self.problem.disc.discrete_cost(self.problem._running)
 
     def at(self, first, stop, suffix=""):
@@ -132,17 +133,17 @@ class _StepSlots:
         return ca.vertcat(*rows)
 
     def momenta(self, x, p):
-        """P (n, N+1) as an expression of the NLP's x and p."""
+        """P (n, N+1), the momenta at NLP values x and p (numbers): the block "p", or p_0
+        and the explicit p_{k+1} of every step."""
         X, N = self.X, self.N
         if not self.problem.momenta_substituted:
-            return window(x, X["p"])
+            return x[X["p"]]
         slots, source = self.at(0, N, "_prev"), {"x": x, "q": x, "p": p}
-        q_ref = window(p, _broadcast(self.q_ref, N))
         args = {}
         for k in self.p1.name_in():
             src, index = slots[k if k == "h" else k + "_prev"]
-            args[k] = window(source[src], _broadcast(index, N)) + (q_ref if src == "q" else 0)
-        return ca.horzcat(window(x, X["p"][:, :1]), self.p1.map(N)(**args)["p1"])
+            args[k] = source[src][_broadcast(index, N)] + (p[self.q_ref] if src == "q" else 0)
+        return np.hstack([x[X["p"][:, :1]], np.array(self.p1.map(N)(**args)["p1"])])
 
 
 def _term(name, slots, body, g_index, key):
@@ -159,10 +160,12 @@ def _term(name, slots, body, g_index, key):
         f, g = body({k: symbols[k] + symbols["q_ref"] if src == "q" else symbols[k]
                      for k, (src, _) in slots.items()})
         z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
-        return ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
+        function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
+        return function, hashlib.sha256(function.serialize().encode()).hexdigest()
     index = {src: np.vstack([_broadcast(slots[k][1], M) for k in parts[src]] or [np.zeros((0, M), int)])
              for src in ("x", "p")}
-    return Term(_FUNCTIONS.get(key, build), index["x"], index["p"], g_index)
+    function, function_key = _FUNCTIONS.get(key, build)
+    return Term(function, index["x"], index["p"], g_index, function_key)
 
 
 def _functions_key(problem):

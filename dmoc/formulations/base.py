@@ -10,8 +10,11 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from .._cache import BoundedCache
 from ..boundary import momentum_condition
 from ..tulczyjew import omega_flat_minus, omega_flat_plus
+
+_CONDITIONS = BoundedCache(64)      # momentum boundary rows by (system key, formulation)
 
 
 @dataclass(frozen=True)
@@ -94,9 +97,11 @@ class Formulation:
         m_start, m_end : int
             Sizes of mu and nu (m where the impulse is present, else 0).
         """
-        start, m_start = momentum_condition(system, "start_momentum", "mu", self.start_impulse)
-        end, m_end = momentum_condition(system, "end_momentum", "nu", self.end_impulse)
-        return start, end, m_start, m_end
+        def build():
+            start, m_start = momentum_condition(system, "start_momentum", "mu", self.start_impulse)
+            end, m_end = momentum_condition(system, "end_momentum", "nu", self.end_impulse)
+            return start, end, m_start, m_end
+        return _CONDITIONS.get((system.key, self), build)
 
     def omega_flat(self, z, z_plus):
         """Omega_d+^flat or Omega_d-^flat of (15)/(16): the Dirac structure's target."""
