@@ -21,17 +21,17 @@ from .trajectory import RESULT_PREFIX, Trajectory
 
 # honor_original_bounds: IPOPT relaxes bounds by bound_relax_factor while iterating; project
 # the final point back so that bounds on states, controls and the final time hold exactly.
-# warm_start_init_point: IPOPT starts from the multipliers passed in (zero for a cold start,
-# which changes nothing on equality-constrained problems; a previous optimum's for a warm
-# start), so one solver serves both.
+# warm_start_init_point (not a default: `optimize` sets it per start) "yes" when the
+# multipliers of a previous optimum of the same structure are passed in, "no" otherwise,
+# so that IPOPT estimates them by least squares at the start point. From a guess of
+# another grid this saves 1-2 of 4-6 iterations against zero multipliers (docs/performance.md).
 # mumps_permuting_scaling 0, mumps_pivot_order 0: MUMPS's analysis with AMD and without
 # the MC64 matching. On the banded DMOC KKT matrices MC64 and the automatic ordering cost
 # more than the factorizations (rolling disk, N = 1600: 0.18 s of analysis against 0.004 s;
 # the solve 0.27 s -> 0.12 s), with the same iterations (docs/performance.md).
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "honor_original_bounds": "yes",
-                         "warm_start_init_point": "yes", "mumps_permuting_scaling": 0,
-                         "mumps_pivot_order": 0}
+                         "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
 
 
 @dataclass
@@ -115,7 +115,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         Initial guess. A Trajectory is resampled in time if its number of steps differs.
         An OptimizationResult of a problem with the same `structure` (the same problem
         with new boundary data or bounds, or a result saved and loaded) warm-starts IPOPT
-        from its x and multipliers; any other result is used through its trajectory. By
+        from its x and multipliers; any other result is used through its trajectory
+        (resampled), IPOPT then estimating the multipliers by least squares there. By
         default the configurations interpolate linearly between the boundary data, bent
         by a small sine bump so the guess avoids points where the constraint Jacobian is
         singular (e.g. the knife edge sliding straight sideways).
@@ -144,7 +145,10 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     once per problem structure and options and kept in a bounded cache: boundary data,
     bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
     same problem, or one from ``problem.with_boundary(...)``, skips the
-    build; a warm start runs the same solver from the previous optimum's multipliers.
+    build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
+    optimum's multipliers; every other start lets IPOPT estimate them, with a second solver
+    of the same structure (its creation reuses the assembled derivatives: about a
+    millisecond).
     """
     if not isinstance(problem, OptimalControlProblem):
         raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")
@@ -156,8 +160,11 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     if options is not None and not isinstance(options, dict):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     x0, lam_x0, lam_g0 = start_point(problem, guess)
+    warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     tic = time.perf_counter()
-    solver, reused = _solver(problem, {**_data_tolerances(problem, x0), **(options or {})})
+    solver, reused = _solver(problem, {**_data_tolerances(problem, x0),
+                                       "warm_start_init_point": "yes" if warm else "no",
+                                       **(options or {})})
     build_time = time.perf_counter() - tic
     tic = time.perf_counter()
     sol = solver(x0=x0, p=problem.p, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx,
@@ -168,7 +175,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     worst = most_violated(problem, np.array(sol["g"]).ravel())
     stats = {"iterations": _iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
-             "warm_start": isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g,
+             "warm_start": warm,
              "solve_time": solve_time, **_linear_algebra(st),
              "max_violation": worst[0], "most_violated": worst[1]}
     traj = trajectory_from_x(problem, x)
@@ -188,7 +195,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     return result
 
 
-_SOLVERS = BoundedCache(8)     # keyed by (problem.structure, options)
+_SOLVERS = BoundedCache(16)    # keyed by (problem.structure, options): two per structure
 
 
 def _data_tolerances(problem, x0):
