@@ -255,3 +255,13 @@ def test_guess_from_another_grid_starts_from_least_squares_multipliers():
     assert not estimated.stats["warm_start"]
     assert estimated.stats["iterations"] < zero.stats["iterations"]
     assert abs(estimated.cost - zero.cost) <= 1e-10 * zero.cost
+
+
+def test_expanded_oracle_gives_the_same_optimum():
+    """options={"expand": True} expands f and g to SX while IPOPT keeps the assembled
+    derivatives: the same iterations and optimum as the MX graph."""
+    problem = dmoc.problems.rolling_disk_steering(30)
+    mx, sx = dmoc.optimize(problem), dmoc.optimize(problem, options={"expand": True})
+    assert sx.stats["iterations"] == mx.stats["iterations"]
+    assert abs(sx.cost - mx.cost) <= 1e-12 * mx.cost
+    assert np.abs(sx.x - mx.x).max() <= 1e-10
