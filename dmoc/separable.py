@@ -213,5 +213,5 @@ def _assembled(values, where, shape):
     else:
         n = rows.size
         summation = ca.DM(ca.Sparsity(keys.size, n, list(range(n + 1)), slot.tolist()), 1.0)
-        nonzeros = ca.mtimes(summation, values)
+        nonzeros = ca.mtimes(ca.MX(summation), values)
     return ca.MX(sparsity, nonzeros)
