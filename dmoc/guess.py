@@ -18,7 +18,7 @@ def start_point(problem, guess):
     cold = np.zeros(problem.lbx.size), np.zeros(problem.lbg.size)
     if guess is None or isinstance(guess, Trajectory):
         return (initial_guess(problem, guess),) + cold
-    if guess.structure == problem.structure and guess.lam_g is not None:
+    if guess.structure == problem.structure and guess.lam_g is not None and guess.q_ref is not None:
         x = np.array(guess.x, dtype=float)
         x[problem.x_layout.slice("q")] += np.tile(guess.q_ref - problem.q_ref, problem.steps + 1)
         return np.clip(x, problem.lbx, problem.ubx), guess.lam_x, guess.lam_g

@@ -154,7 +154,8 @@ class OptimalControlProblem:
         """
         new = copy.copy(self)
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal}
-        new._set_boundary(**{k: getattr(self, k) if v is None else v for k, v in given.items()})
+        kept = {k: [None if np.isnan(x) else x for x in getattr(self, k)] for k in given}
+        new._set_boundary(**{k: kept[k] if v is None else v for k, v in given.items()})
         if all(new._velocity_rows(e) == self._velocity_rows(e) for e in ("start", "goal")):
             new._set_bounds()
         else:
@@ -185,7 +186,7 @@ class OptimalControlProblem:
     @property
     def parameter_values(self):
         """{name: value, shape (k,)} of the problem's `parameters`."""
-        return dict(self._parameters.values)
+        return {k: v.copy() for k, v in self._parameters.values.items()}
 
     @property
     def structure(self):

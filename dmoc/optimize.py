@@ -88,7 +88,7 @@ class OptimizationResult:
         traj = {f.name: np.asarray(getattr(self.trajectory, f.name)) for f in fields(Trajectory)}
         extra = {RESULT_PREFIX + k: np.asarray(getattr(self, k))
                  for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure",
-                           "q_ref")}
+                           "q_ref") if getattr(self, k) is not None}
         extra[RESULT_PREFIX + "stats"] = json.dumps(self.stats, default=str)
         with atomic_write(path) as file:
             np.savez(file, **traj, **extra)
@@ -101,8 +101,8 @@ class OptimizationResult:
             extra = {k[len(RESULT_PREFIX):]: data[k] for k in data.files if k.startswith(RESULT_PREFIX)}
         return cls(Trajectory.load(path), float(extra["cost"]), bool(extra["success"]),
                    str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
-                   extra["x"], extra["lam_x"], extra["lam_g"], str(extra["structure"]),
-                   extra["q_ref"])
+                   extra.get("x"), extra.get("lam_x"), extra.get("lam_g"), str(extra["structure"]),
+                   extra.get("q_ref"))        # files from before q_ref have none
 
 
 def optimize(problem, *, guess=None, options=None, throw=True):
@@ -203,15 +203,17 @@ def _data_tolerances(problem, x0):
     floor of the rows where the data demand it, else {}. The floor of row i is
     eps * sum_j |dg_i/dx_j| |x_j| at the start point in absolute coordinates (q, not
     q - q_ref): the rows difference configurations over h, so far from the origin
-    (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them below it."""
+    (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them below it. Rounded up to a
+    power of 2, so that nearby start points share one solver (the options are its key)."""
     jacobian = problem.separable.derivatives()["nlp_jac_g"]
     x = np.array(x0, dtype=float)
-    x[problem.x_layout.slice("q")] += np.tile(problem.q_ref, problem.steps + 1)
+    x[problem.x_layout.slice("q")] = problem.configurations(x0).ravel()
     J = jacobian(x0, problem.p)[1]
     rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
     floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
+    floor = float(2.0 ** np.ceil(np.log2(floor)))
     return {"tol": floor, "constr_viol_tol": floor}
 
 

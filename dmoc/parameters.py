@@ -4,6 +4,8 @@ the terminal cost and the path constraints read, and the Functions built from th
 callables. Problems that differ only in the values of w share one NLP and one solver.
 """
 
+import inspect
+
 import casadi as ca
 import numpy as np
 
@@ -59,9 +61,12 @@ class ProblemParameters:
 
     def with_values(self, **values):
         """These parameters with some values replaced (same names and sizes)."""
+        if values and not self.given:
+            raise InputError(f"this problem has no parameters (got {sorted(values)}); give "
+                             f"`parameters=` to OptimalControlProblem to make data re-solvable.")
         _checks.no_unknown_keys("parameters", values, self.values)
         new = ProblemParameters.__new__(ProblemParameters)
-        new.layout, new.values = self.layout, dict(self.values)
+        new.layout, new.values = self.layout, {k: v.copy() for k, v in self.values.items()}
         for name, value in values.items():
             new.values[name] = _value(f"parameters[{name!r}]", value, self.values[name].size)
         return new
@@ -85,6 +90,7 @@ def cost_function(name, cost, system, args, parameters):
     """A user cost of (q, v[, u][, w]) checked on symbols, as the scalar Function
     ``(args..., w) -> cost``: w (the stacked parameters) is passed to `cost` as a dict
     {name: symbol} only when the problem has parameters."""
+    _check_arity(name, cost, args, parameters)
     sizes = {"q": system.n, "v": system.n, "u": system.n_u}
     symbols = [ca.SX.sym(a, sizes[a]) for a in args] + [ca.SX.sym("w", parameters.layout.size)]
     return checked_function(name, _with_w(cost, parameters), symbols, (*args, "w"), (1, 1))
@@ -94,6 +100,7 @@ def path_function(path, disc, parameters):
     """g(q0, q1, s, u, h, w) = path(q, v, u[, w]) in the middle of the step (on the rule's
     interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), flattened to a column."""
     sys = disc.system
+    _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
     symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
                                             ("w", parameters.layout.size))]
     at_midpoint = checked_function("path_constraints", _with_w(path, parameters), symbols,
@@ -104,6 +111,26 @@ def path_function(path, disc, parameters):
     g = at_midpoint(q, v, disc.rule.control_at(x["u"], 0.5), w)
     names = ["q0", "q1", "s", "u", "h"]
     return ca.Function("path_constraints", [x[k] for k in names] + [w], [g], names + ["w"], ["g"])
+
+
+def _check_arity(name, fun, args, parameters):
+    """InputTypeError when `fun` visibly takes the wrong number of arguments for whether
+    the problem has parameters (its signature says so; callables without one pass)."""
+    try:
+        signature = inspect.signature(fun)
+    except (TypeError, ValueError):
+        return
+    if any(p.kind == inspect.Parameter.VAR_POSITIONAL for p in signature.parameters.values()):
+        return
+    positional = [p for p in signature.parameters.values() if p.kind in (
+        inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    required = sum(p.default is inspect.Parameter.empty for p in positional)
+    expected = len(args) + parameters.given
+    if not required <= expected <= len(positional):
+        given = "with `parameters`" if parameters.given else "without `parameters`"
+        listed = ", ".join((*args, "w") if parameters.given else args)
+        raise InputTypeError(f"`{name}` must take ({listed}) {given}; it takes {len(positional)} "
+                             f"positional arguments.")
 
 
 def _with_w(fun, parameters):

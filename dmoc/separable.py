@@ -48,8 +48,7 @@ class Term:
 
     def __post_init__(self):
         if self.function_key is None:
-            key = hashlib.sha256(self.function.serialize().encode()).hexdigest()
-            object.__setattr__(self, "function_key", key)
+            object.__setattr__(self, "function_key", function_key(self.function))
 
     @property
     def instances(self):
@@ -81,11 +80,20 @@ class SeparableNLP:
         rows = np.concatenate([t.g_index.ravel(order="F") for t in self.terms] or [[]]).astype(int)
         if not np.array_equal(np.sort(rows), np.arange(n_g)):
             raise ValueError("the terms' g_index must fill every row of g exactly once")
+        for t in self.terms:
+            if (np.diff(np.sort(t.x_index, axis=0), axis=0) == 0).any():
+                raise ValueError(f"term {t.function.name()!r} reads an entry of x twice in one "
+                                 f"instance; give it one input per entry")
         self._g_order = np.argsort(rows, kind="stable")
         self.x, self.p = ca.MX.sym("x", n_x), ca.MX.sym("p", n_p)
         self._term_windows = [self._windows(t) for t in self.terms]
         self.f, self.g = self._objective_and_constraints()
         self._derivatives = self._key = None
+
+    def __getstate__(self):
+        """Pickled without the assembled derivatives: rebuilt on first use after loading
+        (`dmoc.batch` ships problems to workers)."""
+        return {**self.__dict__, "_derivatives": None}
 
     @property
     def key(self):
@@ -148,6 +156,11 @@ class SeparableNLP:
                                          ["g", "jac_g_x"]),
                 "nlp_hess_l": ca.Function("nlp_hess_l", [x, p, sigma, lam], [hess],
                                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])}
+
+
+def function_key(function):
+    """SHA-256 of a Function's serialization: a key of it by value."""
+    return hashlib.sha256(function.serialize().encode()).hexdigest()
 
 
 def local_derivatives(function, key):

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._cache import BoundedCache
 from ._momentum import single_output
-from .separable import SeparableNLP, Term
+from .separable import SeparableNLP, Term, function_key
 
 _FUNCTIONS = BoundedCache(128)   # term Functions by (`_functions_key`, term name): not per N
 
@@ -42,7 +42,7 @@ def transcribe(problem):
         terms.append(step.term("path", step.at(0, problem.steps),
                                lambda s: (0, problem._path(**_args(problem._path, s))["g"]), G["path"]))
     nlp = SeparableNLP(problem.x_layout.size, problem.p_layout.size, problem.g_layout.size, terms)
-    return nlp, step.momenta
+    return nlp, step.momenta()
 
 
 class _StepSlots:
@@ -132,40 +132,53 @@ class _StepSlots:
             rows.append(ca.mtimes(self.problem.disc.system.constraint_matrix(s["q"]), s["v"]))
         return ca.vertcat(*rows)
 
-    def momenta(self, x, p):
-        """P (n, N+1), the momenta at NLP values x and p (numbers): the block "p", or p_0
-        and the explicit p_{k+1} of every step."""
-        X, N = self.X, self.N
+    def momenta(self):
+        """``momenta(x, p) -> P`` (n, N+1), the momenta at NLP values x and p (numbers): the
+        block "p", or p_0 and the explicit p_{k+1} of every step. It holds the index
+        arrays and p1 only, not the problem (copies from `with_boundary` share it)."""
+        X, N, q_ref = self.X, self.N, self.q_ref
         if not self.problem.momenta_substituted:
-            return x[X["p"]]
-        slots, source = self.at(0, N, "_prev"), {"x": x, "q": x, "p": p}
-        args = {}
-        for k in self.p1.name_in():
-            src, index = slots[k if k == "h" else k + "_prev"]
-            args[k] = source[src][_broadcast(index, N)] + (p[self.q_ref] if src == "q" else 0)
-        return np.hstack([x[X["p"][:, :1]], np.array(self.p1.map(N)(**args)["p1"])])
+            return lambda x, p: x[X["p"]]
+        p1, slots = self.p1, self.at(0, N, "_prev")
+        windows = {k: slots[k if k == "h" else k + "_prev"] for k in p1.name_in()}
+
+        def momenta(x, p):
+            source = {"x": x, "q": x, "p": p}
+            args = {k: source[src][_broadcast(index, N)] + (p[q_ref] if src == "q" else 0)
+                    for k, (src, index) in windows.items()}
+            return np.hstack([x[X["p"][:, :1]], np.array(p1.map(N)(**args)["p1"])])
+        return momenta
 
 
 def _term(name, slots, body, g_index, key):
     """A Term from named slots {name: (source, index array (size, M), or (size, 1) shared
-    by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`.
-    Source "x" or "p": entries of x or p; "q": entries of x holding q - q_ref, the body
-    given q (slot "q_ref" from p)."""
+    by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`
+    and the slots' aliasing. Source "x" or "p": entries of x or p; "q": entries of x
+    holding q - q_ref, the body given q (slot "q_ref" from p). Slots that read the same
+    entries (q1 of the previous step and q0 of this one) are one input of the Term, so
+    that each instance reads an entry of x once (`dmoc.separable.Term`)."""
     M = g_index.shape[1]
-    parts = {"x": [k for k, (s, _) in slots.items() if s in ("x", "q")],
-             "p": [k for k, (s, _) in slots.items() if s == "p"]}
+    wide = {k: (src, _broadcast(index, M)) for k, (src, index) in slots.items()}
+    owner = {}                          # slot -> the first slot reading the same entries
+    for k, (src, index) in wide.items():
+        same = [o for o in owner if owner[o] == o and wide[o][0] == src
+                and np.array_equal(wide[o][1], index)] if M else []
+        owner[k] = same[0] if same else k
+    parts = {"x": [k for k, (s, _) in slots.items() if s in ("x", "q") and owner[k] == k],
+             "p": [k for k, (s, _) in slots.items() if s == "p" and owner[k] == k]}
 
     def build():
-        symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items()}
-        f, g = body({k: symbols[k] + symbols["q_ref"] if src == "q" else symbols[k]
+        symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items() if owner[k] == k}
+        f, g = body({k: symbols[owner[k]] + symbols["q_ref"] if src == "q" else symbols[owner[k]]
                      for k, (src, _) in slots.items()})
         z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
         function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
-        return function, hashlib.sha256(function.serialize().encode()).hexdigest()
-    index = {src: np.vstack([_broadcast(slots[k][1], M) for k in parts[src]] or [np.zeros((0, M), int)])
+        return function, function_key(function)
+    index = {src: np.vstack([wide[k][1] for k in parts[src]] or [np.zeros((0, M), int)])
              for src in ("x", "p")}
-    function, function_key = _FUNCTIONS.get(key, build)
-    return Term(function, index["x"], index["p"], g_index, function_key)
+    aliases = tuple(sorted((k, o) for k, o in owner.items() if k != o))
+    function, key_of_function = _FUNCTIONS.get((key, aliases), build)
+    return Term(function, index["x"], index["p"], g_index, key_of_function)
 
 
 def _functions_key(problem):

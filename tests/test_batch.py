@@ -212,3 +212,15 @@ def test_motion_primitives_example(client, tmp_path, capsys):
     assert len((tmp_path / "motion_primitives.csv").read_text().splitlines()) == 26
     assert (tmp_path / "motion_primitives.png").stat().st_size > 1000
     assert "25/25 primitives solved" in capsys.readouterr().out
+
+
+def test_packed_problem_leaves_its_assembled_derivatives_behind():
+    """A solved problem packs to the same size as a fresh one (the worker rebuilds the
+    derivatives), and the unpacked problem solves to the same cost."""
+    problem = dmoc.problems.knife_edge_parking(20)
+    fresh = len(dmoc.batch.pack_problem(problem))
+    result = dmoc.optimize(problem)
+    packed = dmoc.batch.pack_problem(problem)
+    assert len(packed) <= fresh + 1000
+    again = dmoc.optimize(dmoc.batch.unpack_problem(packed), options={"reuse_solver": False})
+    assert abs(again.cost - result.cost) <= 1e-12 * result.cost

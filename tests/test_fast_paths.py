@@ -265,3 +265,43 @@ def test_expanded_oracle_gives_the_same_optimum():
     assert sx.stats["iterations"] == mx.stats["iterations"]
     assert abs(sx.cost - mx.cost) <= 1e-12 * mx.cost
     assert np.abs(sx.x - mx.x).max() <= 1e-10
+
+
+def test_result_without_q_ref_loads_and_starts_primal_only(tmp_path):
+    """A result file written before results kept q_ref (or a result built by hand without
+    it) loads, and as a guess it gives its trajectory (no re-centering is possible)."""
+    problem = dmoc.problems.knife_edge_parking(20)
+    result = dmoc.optimize(problem)
+    result.q_ref = None
+    result.save(tmp_path / "old.npz")
+    loaded = dmoc.OptimizationResult.load(tmp_path / "old.npz")
+    assert loaded.q_ref is None
+    again = dmoc.optimize(problem, guess=loaded)
+    assert again.success and not again.stats["warm_start"]
+    assert abs(again.cost - result.cost) <= 1e-10 * result.cost
+
+
+def test_far_problems_share_a_solver_across_start_points():
+    """The data tolerance far from the origin is rounded to a power of 2, so guesses that
+    differ slightly reuse one solver instead of building one each."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 0.04)
+    problem = dmoc.OptimalControlProblem(disc, 40, q_start=FAR * 3, q_goal=FAR * 3 + [0.0, 1.0, 0.0])
+    first = dmoc.optimize(problem)
+    reused = []
+    for scale in (0.98, 1.0, 1.02):
+        guess = dmoc.Trajectory(first.trajectory.t, FAR * 3 + scale * (first.trajectory.q - FAR * 3),
+                                first.trajectory.p, first.trajectory.lam, first.trajectory.u,
+                                first.trajectory.h, "+")
+        reused.append(dmoc.optimize(problem, guess=guess).stats["solver_reused"])
+    assert all(reused)
+
+
+def test_with_boundary_keeps_free_entries_free():
+    """Regression (review): the kept boundary data of a problem with free entries were
+    passed back as NaN, which `_boundary` refuses; they stay free (None) now."""
+    problem = dmoc.OptimalControlProblem(dmoc.discretize(dmoc.systems.knife_edge(), 0.1), 20,
+                                         q_start=[0, 0, 0], q_goal=[0, 1, None], v_goal=[None] * 3)
+    moved = problem.with_boundary(q_goal=[0.2, 1.0, None])
+    assert moved.structure == problem.structure
+    assert np.isnan(moved.v_goal).all() and np.isnan(moved.q_goal[2])
+    assert dmoc.optimize(moved).success

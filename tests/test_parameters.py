@@ -115,7 +115,44 @@ def test_bad_new_values_are_refused():
         problem.with_parameters(r=[1.0, 2.0])
 
 
-def test_a_cost_that_does_not_take_w_is_named():
-    with pytest.raises(ValueError, match="`running_cost` failed on symbols"):
-        dmoc.OptimalControlProblem(disc(), 5, q_start=START, q_goal=GOAL, parameters={"r": 1.0},
-                                   running_cost=lambda q, v, u: ca.sumsqr(u))
+@pytest.mark.parametrize("given, callables", [
+    ({"r": 1.0}, {"running_cost": lambda q, v, u: ca.sumsqr(u)}),
+    ({"r": 1.0}, {"running_cost": lambda q, v, u, w: ca.sumsqr(u), "terminal_cost": lambda q, v: 0}),
+    ({"r": 1.0}, {"running_cost": lambda q, v, u, w: ca.sumsqr(u), "path_constraints": lambda q, v, u: q[0]}),
+    (None, {"running_cost": lambda q, v, u, w: ca.sumsqr(u)}),
+])
+def test_a_callable_with_the_wrong_arguments_is_named(given, callables):
+    """With `parameters` every cost and path callable takes w last; without, it must not."""
+    name = list(callables)[-1]
+    with pytest.raises(InputTypeError, match=f"`{name}` must take .* (with|without) `parameters`"):
+        dmoc.OptimalControlProblem(disc(), 5, q_start=START, q_goal=GOAL, parameters=given, **callables)
+
+
+def test_new_values_for_a_problem_without_parameters():
+    problem = dmoc.OptimalControlProblem(disc(), 5, q_start=START, q_goal=GOAL)
+    with pytest.raises(InputError, match="this problem has no parameters"):
+        problem.with_parameters(r=1.0)
+
+
+def test_parameter_values_are_copies():
+    problem = parametric()
+    problem.parameter_values["r"][0] = 99.0
+    assert problem.parameter_values["r"][0] == 4.0
+    assert problem.p[problem.p_layout.slice("w")][0] == 4.0
+
+
+def test_a_cost_with_a_default_for_w_is_accepted_without_parameters():
+    problem = dmoc.OptimalControlProblem(disc(), 5, q_start=START, q_goal=GOAL,
+                                         running_cost=lambda q, v, u, w=None: ca.sumsqr(u))
+    assert dmoc.optimize(problem).success
+
+
+def test_discrete_cost_takes_a_plain_callable():
+    """`Discretization.discrete_cost` accepts the callable (q, v, u) it took before
+    parameters existed: midpoint C_d = h |u|^2 for the running cost |u|^2."""
+    C_d = disc().discrete_cost(lambda q, v, u: ca.sumsqr(u))
+    u = np.array([0.3, -0.4])
+    value = float(C_d(q0=[0, 0, 0], q1=[0.1, 0, 0], s=np.zeros(0), u=u, h=H, w=np.zeros(0))["C_d"])
+    assert value == pytest.approx(H * 0.25, rel=1e-15)
+    with pytest.raises(TypeError, match="`running_cost` must be a callable"):
+        disc().discrete_cost(3)

@@ -371,3 +371,29 @@ def test_g_index_must_fill_every_row_once(g_index, n_g):
                 np.zeros((0, 2), int), np.array(g_index))
     with pytest.raises(ValueError, match="fill every row of g exactly once"):
         SeparableNLP(2, 0, n_g, [term])
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_configuration_dependent_mass_hamiltonian(variant):
+    """H = (1 + q0^2) p0^2 / 2 + p1^2 / 2 couples q and p in the momentum rows, so the
+    window of a substituted step reads q_k both as its q0 and as the previous step's q1:
+    the Hessian at the shared entry (and at q_N in the goal rows) must count both (a
+    review found it counted once; CasADi's AD is the oracle)."""
+    system = dmoc.HamiltonianSystem(lambda q, p: 0.5 * (1 + q[0] ** 2) * p[0] ** 2 + 0.5 * p[1] ** 2,
+                                    2, force=lambda q, p, u: u, n_u=2)
+    problem = dmoc.OptimalControlProblem(dmoc.discretize(system, 0.3, "midpoint"), N,
+                                         q_start=[0.0, 0.0], q_goal=[2.0, 0.5], variant=variant)
+    oracle, assembled = _oracle(problem), problem.separable.derivatives()
+    x, lam, sigma = _random_point(problem, np.random.default_rng(3))
+    _assert_exact(_dense(assembled["nlp_hess_l"](x, problem.p, sigma, lam)),
+                  _dense(oracle["hess"](x, problem.p, sigma, lam)), "Hessian")
+    _assert_exact(_dense(assembled["nlp_jac_g"](x, problem.p)[1]), _dense(oracle["jac"](x, problem.p)),
+                  "Jacobian")
+
+
+def test_an_instance_reading_an_entry_twice_is_refused():
+    z, w = ca.SX.sym("z", 2), ca.SX.sym("w", 0)
+    term = Term(ca.Function("t", [z, w], [z[0] * z[1], ca.SX(0, 1)]), np.array([[0], [0]]),
+                np.zeros((0, 1), int), np.zeros((0, 1), int))
+    with pytest.raises(ValueError, match="reads an entry of x twice"):
+        SeparableNLP(1, 0, 0, [term])

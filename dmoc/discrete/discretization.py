@@ -92,9 +92,11 @@ class Discretization:
         return other
 
     def discrete_cost(self, running_cost):
-        """The step integral C_d(q0, q1, s, u, h, w) of the Function
-        ``running_cost(q, v, u, w)`` by this rule, u the control interpolated at each
-        quadrature point, w the problem's parameters (`dmoc.parameters`)."""
+        """The step integral C_d(q0, q1, s, u, h, w) of ``running_cost(q, v, u[, w])`` (a
+        callable or a Function; `running_integrand`) by this rule, u the control
+        interpolated at each quadrature point, w the problem's parameters
+        (`dmoc.parameters`; empty when the cost takes none)."""
+        running_cost = running_integrand(self.system, running_cost)
         q0, q1, s, u, h = _step_symbols(self.system, self.rule)
         w = ca.SX.sym("w", running_cost.size1_in(3))
         C_d = quadrature(self.rule, lambda q, v, uc: running_cost(q, v, uc, w), q0, q1, s, u, h)
@@ -105,6 +107,20 @@ class Discretization:
 
 
 _DISCRETE_DATA = BoundedCache(32)
+
+
+def running_integrand(system, running_cost):
+    """`running_cost` as the Function ``(q, v, u, w) -> scalar``: a Function of those four
+    inputs as it is; a Function or callable of (q, v, u) with an empty w."""
+    if isinstance(running_cost, ca.Function) and running_cost.n_in() == 4:
+        return running_cost
+    if not callable(running_cost):
+        raise TypeError(f"`running_cost` must be a callable (q, v, u) or a casadi.Function of "
+                        f"(q, v, u[, w]); got {type(running_cost).__name__}.")
+    q, v, u = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n), ca.SX.sym("u", system.n_u)
+    w = ca.SX.sym("w", 0)
+    return ca.Function("running_cost", [q, v, u, w], [running_cost(q, v, u)], ["q", "v", "u", "w"],
+                       ["running_cost"])
 
 
 def _step_symbols(system, rule):

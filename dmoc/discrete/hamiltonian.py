@@ -15,7 +15,7 @@ import numpy as np
 from .. import _checks
 from .._cache import BoundedCache
 from ..system import HamiltonianSystem
-from .discretization import Discretization
+from .discretization import Discretization, running_integrand
 from ..formulations import HAMILTONIAN_FORMULATIONS
 from ..layout import step_symbols
 from .rules import Midpoint
@@ -162,6 +162,7 @@ class HamiltonianDiscretization(Discretization):
     def discrete_cost(self, running_cost):
         """C_d(q0, q1, s, u, h, w) = h running_cost((q0 + q1)/2, (q1 - q0)/h, u, w): the
         step integral by the midpoint rule on the chord (the stages are momenta here)."""
+        running_cost = running_integrand(self.system, running_cost)
         x = _cost_symbols(self, running_cost)
         q0, q1, h = x["q0"], x["q1"], x["h"]
         return _cost_function(x, h * running_cost((q0 + q1) / 2, (q1 - q0) / h, x["u"], x["w"]))
@@ -293,6 +294,7 @@ class LegendreDiscretization(HamiltonianDiscretization):
 
     def discrete_cost(self, running_cost):
         """C_d of the Lagrangian rule, the stage block Q (= the end configuration) left out."""
+        running_cost = running_integrand(self.system, running_cost)
         C = self.lagrangian.discrete_cost(running_cost)
         x = _cost_symbols(self, running_cost)
         return _cost_function(x, C(x["q0"], x["q1"], x["s"][self.system.n:], x["u"], x["h"], x["w"]))
