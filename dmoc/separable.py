@@ -199,9 +199,34 @@ def _pattern(matrix):
 
 
 def window(vector, index):
-    """vector[index] as an (rows, M) matrix, `index` of shape (rows, M)."""
+    """vector[index] as an (rows, M) matrix, `index` of shape (rows, M).
+
+    Rows that step through a block of the vector (the window of a step's q, lam, u: a run
+    of L consecutive entries advancing by L per instance) or that every instance shares
+    are sliced, not gathered by an index list: the windows of the DMOC terms cost O(1)
+    operations instead of O(N) entries passed to CasADi.
+    """
     rows, M = index.shape
-    return ca.reshape(vector[index.ravel(order="F").tolist()], rows, M) if rows else ca.MX(0, M)
+    if rows == 0:
+        return ca.MX(0, M)
+    stride = index[:, -1] - index[:, 0] if M > 1 else np.zeros(rows, int)
+    affine = M == 1 or (index == index[:, :1] + (stride // (M - 1))[:, None] * np.arange(M)).all()
+    if not affine:
+        return ca.reshape(vector[index.ravel(order="F").tolist()], rows, M)
+    step, parts, r = (stride // (M - 1) if M > 1 else stride), [], 0
+    while r < rows:
+        L = 1
+        while r + L < rows and index[r + L, 0] == index[r, 0] + L and step[r + L] == step[r]:
+            L += 1
+        first = int(index[r, 0])
+        if step[r] == L:
+            parts.append(ca.reshape(vector[first:first + L * M], L, M))
+        elif step[r] == 0:
+            parts.append(ca.repmat(vector[first:first + L], 1, M))
+        else:
+            parts.append(ca.reshape(vector[index[r:r + L].ravel(order="F").tolist()], L, M))
+        r += L
+    return ca.vertcat(*parts)
 
 
 def _gather(vector, order):
