@@ -15,6 +15,7 @@ import pytest
 
 import dmoc
 from dmoc.separable import SeparableNLP, Term
+from dmoc.separable import window as separable_window
 from dmoc.systems import knife_edge, lc_circuit, rolling_disk, spherical_pendulum
 
 N = 4                                   # steps of every DMOC case
@@ -397,3 +398,20 @@ def test_an_instance_reading_an_entry_twice_is_refused():
                 np.zeros((0, 1), int), np.zeros((0, 1), int))
     with pytest.raises(ValueError, match="reads an entry of x twice"):
         SeparableNLP(1, 0, 0, [term])
+
+
+@pytest.mark.parametrize("kind", ["blocks", "shared", "mixed", "irregular", "one instance"])
+def test_window_equals_numpy_fancy_indexing(kind):
+    """`window` slices what steps through a block and gathers the rest: either way it is
+    vector[index] (numpy fancy indexing is the oracle)."""
+    rng = np.random.default_rng(7)
+    vector = rng.normal(size=60)
+    M = 1 if kind == "one instance" else 5
+    k = np.arange(M)
+    block = 3 + np.arange(3)[:, None] + 3 * k            # 3 entries advancing by 3
+    shared = np.full((2, M), 50) + np.arange(2)[:, None]  # the same 2 entries for every instance
+    index = {"blocks": block, "shared": shared, "mixed": np.vstack([block, shared, block + 20]),
+             "irregular": rng.integers(0, 60, size=(4, M)), "one instance": np.vstack([block, shared])}[kind]
+    x = ca.MX.sym("x", 60)
+    got = np.array(ca.Function("w", [x], [separable_window(x, index)])(vector))
+    np.testing.assert_array_equal(got, vector[index])
