@@ -136,6 +136,8 @@ def _check_arity(name, fun, args, parameters):
 def _with_w(fun, parameters):
     """`fun` called with the parameters' dict as its last argument, or without it when
     there are none."""
-    if not callable(fun) or not parameters.given:
-        return fun if not callable(fun) else (lambda *args: fun(*args[:-1]))
+    if not callable(fun):
+        return fun                      # checked_function names it
+    if not parameters.given:
+        return lambda *args: fun(*args[:-1])
     return lambda *args: fun(*args[:-1], parameters.symbols(args[-1]))
