@@ -17,6 +17,7 @@ from ._momentum import solved_rows, substitutable
 from .layout import Layout
 from .parameters import ProblemParameters, cost_function, path_function
 from .principle import step_residual
+from .scaling import nlp_scales
 from .transcription import transcribe
 
 
@@ -237,6 +238,7 @@ class OptimalControlProblem:
                                 ("start_velocity", (velocity_rows["start"], 1)),
                                 ("goal_velocity", (velocity_rows["goal"], 1)),
                                 ("path", (path.numel_out(0) if path else 0, N))])
+        self.x_scale, self.g_scale = nlp_scales(self, _reference(self.q_start, self.q_goal))
         self.separable, self._momenta = transcribe(self)
         self.nlp = {k: getattr(self.separable, k) for k in ("x", "p", "f", "g")}
         self._set_bounds()

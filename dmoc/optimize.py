@@ -161,18 +161,19 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     x0, lam_x0, lam_g0 = start_point(problem, guess)
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
+    D, R = problem.x_scale, problem.g_scale      # IPOPT iterates on x / D, imposes R g
     tic = time.perf_counter()
-    solver, reused = _solver(problem, {**_data_tolerances(problem, x0),
+    solver, reused = _solver(problem, {**_data_tolerances(problem, x0 / D),
                                        "warm_start_init_point": "yes" if warm else "no",
                                        **(options or {})})
     build_time = time.perf_counter() - tic
     tic = time.perf_counter()
-    sol = solver(x0=x0, p=problem.p, lam_x0=lam_x0, lam_g0=lam_g0, lbx=problem.lbx,
-                 ubx=problem.ubx, lbg=problem.lbg, ubg=problem.ubg)
+    sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
+                 lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
     solve_time = time.perf_counter() - tic
-    x = np.array(sol["x"]).ravel()
+    x = D * np.array(sol["x"]).ravel()
     st = solver.stats()
-    worst = most_violated(problem, np.array(sol["g"]).ravel())
+    worst = most_violated(problem, np.array(sol["g"]).ravel() / R)
     stats = {"iterations": _iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
              "warm_start": warm,
@@ -188,7 +189,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
                f"cost {float(sol['f']):.10g}{where}.")
     result = OptimizationResult(traj, float(sol["f"]), success, st["return_status"], message, stats,
-                                x, np.array(sol["lam_x"]).ravel(), np.array(sol["lam_g"]).ravel(),
+                                x, np.array(sol["lam_x"]).ravel() / D, R * np.array(sol["lam_g"]).ravel(),
                                 problem.structure, problem.q_ref.copy())
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
@@ -201,8 +202,8 @@ _SOLVERS = BoundedCache(16)    # keyed by (problem.structure, options): two per 
 def _data_tolerances(problem, x0):
     """{"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
     floor of the rows where the data demand it, else {}. The floor of row i is
-    eps * sum_j |dg_i/dx_j| |x_j| at the start point in absolute coordinates (q, not
-    q - q_ref): the rows difference configurations over h, so far from the origin
+    eps * sum_j |dg_i/dx_j| |x_j| at the start point x0 (scaled, as IPOPT sees it) in
+    absolute coordinates (q, not q - q_ref): the rows difference configurations over h, so far from the origin
     (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them below it. Rounded up to a
     power of 2, so that nearby start points share one solver (the options are its key)."""
     jacobian = problem.separable.derivatives()["nlp_jac_g"]

@@ -84,9 +84,16 @@ class MechanicalSystem:
         self.energy = ca.Function("energy", [q, v], [ca.dot(v, p) - L], ["q", "v"], ["E"])
         self.key = _fingerprint(self.lagrangian, self.nonholonomic_matrix, self.holonomic, self.force)
 
+    momentum_residual_units = "momentum"
+
     def momentum_residual(self, q, p, v):
         """p - dL/dv(q, v): zero when p is the momentum of the velocity v at q."""
         return p - self.momentum(q, v)
+
+    def inertia(self, q):
+        """diag d2L/dv2 (q, 0), shape (n,): the inertia of each coordinate at q (zero in
+        degenerate directions), for the scaling of the optimizer's NLP (`dmoc.scaling`)."""
+        return _hessian_diagonal(self.lagrangian, q, self.n)
 
     def __repr__(self):
         return (f"MechanicalSystem(n={self.n}, m={self.m}, n_holonomic={self.n_holonomic}, "
@@ -142,13 +149,29 @@ class HamiltonianSystem:
         self.momentum = ca.Function("momentum", [q, v], [step], ["q", "v"], ["p"])
         self.key = _fingerprint(self.hamiltonian, self.nonholonomic_matrix, self.holonomic, self.force)
 
+    momentum_residual_units = "velocity"
+
     def momentum_residual(self, q, p, v):
         """dH/dp(q, p) - v: zero when p is the momentum of the velocity v at q."""
         return self.velocity(q, p) - v
 
+    def inertia(self, q):
+        """1 / diag d2H/dp2 (q, 0), shape (n,): the inertia of each coordinate at q
+        (infinite where H does not depend on that momentum), for the scaling of the
+        optimizer's NLP (`dmoc.scaling`)."""
+        with np.errstate(divide="ignore"):
+            return 1.0 / _hessian_diagonal(self.hamiltonian, q, self.n)
+
     def __repr__(self):
         return (f"HamiltonianSystem(n={self.n}, m={self.m}, n_holonomic={self.n_holonomic}, "
                 f"n_u={self.n_u}, names={self.names})")
+
+
+def _hessian_diagonal(function, q, n):
+    """diag d2 function(q, y)/dy2 at (q, y = 0), shape (n,)."""
+    y = ca.SX.sym("y", n)
+    H = ca.hessian(function(q, y), y)[0]
+    return np.array(ca.Function("d2", [y], [ca.diag(H)])(np.zeros(n))).ravel()
 
 
 def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, names):

@@ -72,9 +72,11 @@ class _StepSlots:
         return {**{k + suffix: v for k, v in slots.items()}, "h": self.h, "w": self.w}
 
     def term(self, name, slots, body, g_index):
-        """`_term` with q_ref added to the slots of source "q", its Function built once per
-        `_functions_key` (the index arrays are this problem's)."""
-        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name))
+        """`_term` with q_ref added to the slots of source "q" and the problem's scales, its
+        Function built once per `_functions_key` and scales (the index arrays are this
+        problem's)."""
+        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name),
+                     (self.problem.x_scale, self.problem.g_scale))
 
     def _previous_momentum(self, s):
         """p_k of the window's previous step (slots with suffix "_prev")."""
@@ -150,14 +152,20 @@ class _StepSlots:
         return momenta
 
 
-def _term(name, slots, body, g_index, key):
+def _term(name, slots, body, g_index, key, scales):
     """A Term from named slots {name: (source, index array (size, M), or (size, 1) shared
-    by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`
-    and the slots' aliasing. Source "x" or "p": entries of x or p; "q": entries of x
-    holding q - q_ref, the body given q (slot "q_ref" from p). Slots that read the same
-    entries (q1 of the previous step and q0 of this one) are one input of the Term, so
-    that each instance reads an entry of x once (`dmoc.separable.Term`)."""
+    by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`,
+    the slots' aliasing and their scales. Source "x" or "p": entries of x or p; "q":
+    entries of x holding q - q_ref, the body given q (slot "q_ref" from p). Slots that
+    read the same entries (q1 of the previous step and q0 of this one) are one input of
+    the Term, so that each instance reads an entry of x once (`dmoc.separable.Term`).
+    `scales` = (x_scale, g_scale) of `dmoc.scaling`: the Term reads x / x_scale and fills
+    g_scale * g (each constant over the instances)."""
     M = g_index.shape[1]
+    x_scale, g_scale = scales
+    scale = {k: x_scale[index[:, 0]] if src != "p" and index.shape[1] else np.ones(index.shape[0])
+             for k, (src, index) in slots.items()}
+    row_scale = g_scale[g_index[:, 0]] if M else np.ones(g_index.shape[0])
     wide = {k: (src, _broadcast(index, M)) for k, (src, index) in slots.items()}
     owner = {}                          # slot -> the first slot reading the same entries
     for k, (src, index) in wide.items():
@@ -169,15 +177,18 @@ def _term(name, slots, body, g_index, key):
 
     def build():
         symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items() if owner[k] == k}
-        f, g = body({k: symbols[owner[k]] + symbols["q_ref"] if src == "q" else symbols[owner[k]]
+        values = {k: _scaled(symbols[owner[k]], scale[k]) for k in slots}
+        f, g = body({k: values[k] + values["q_ref"] if src == "q" else values[k]
                      for k, (src, _) in slots.items()})
+        g = _scaled(ca.SX(g), row_scale)
         z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
         function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
         return function, function_key(function)
     index = {src: np.vstack([wide[k][1] for k in parts[src]] or [np.zeros((0, M), int)])
              for src in ("x", "p")}
     aliases = tuple(sorted((k, o) for k, o in owner.items() if k != o))
-    function, key_of_function = _FUNCTIONS.get((key, aliases), build)
+    scaling = repr((row_scale.tolist(), sorted((k, v.tolist()) for k, v in scale.items())))
+    function, key_of_function = _FUNCTIONS.get((key, aliases, scaling), build)
     return Term(function, index["x"], index["p"], g_index, key_of_function)
 
 
@@ -200,6 +211,11 @@ def _indices(layout):
 
 def _broadcast(index, M):
     return np.broadcast_to(index, (index.shape[0], M)) if index.shape[1] == 1 else index
+
+
+def _scaled(symbol, scale):
+    """symbol * scale (entrywise), symbol itself where every factor is 1."""
+    return symbol if (scale == 1).all() else symbol * ca.DM(scale)
 
 
 def _stack(symbols):

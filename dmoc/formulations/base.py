@@ -43,6 +43,10 @@ class Formulation:
     explicit : {"p1", "q1"}
         The end variable the step's "right" rows give explicitly, as (...) - p1 or
         (...) - q1; the simulator solves the other rows for the rest.
+    momentum_rows : tuple of str
+        The residual's row blocks in units of momentum (the rest are in units of
+        configuration or velocity): the optimizer divides them by the inertia
+        (`dmoc.scaling`).
     """
 
     name = None
@@ -54,6 +58,7 @@ class Formulation:
     impulse_side = None
 
     explicit = "p1"
+    momentum_rows = ()
 
     def variational_rows(self, disc, x):
         """The rows (left, right, stage) of step k from the stationarity of this form's sum,

@@ -22,6 +22,7 @@ class HamiltonianPlus(PlusForm):
     """
 
     explicit = "q1"
+    momentum_rows = ("left",)
 
     def variational_rows(self, disc, x):
         H = disc.right_hamiltonian(x["q0"], x["p1"], x["s"], x["h"])
@@ -45,6 +46,8 @@ class HamiltonianMinus(MinusForm):
     Rows: left = -q_k - D1 H_d- (d/dp_k); right = -D2 H_d- + f_d^+ - p_{k+1} (d/dq_{k+1}:
     p_{k+1} is explicit, the multiplier added at q_{k+1}); stage = -dH_d-/ds + f_d^s.
     """
+
+    momentum_rows = ("right",)
 
     def variational_rows(self, disc, x):
         H = disc.left_hamiltonian(x["p0"], x["q1"], x["s"], x["h"])

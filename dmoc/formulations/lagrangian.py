@@ -43,6 +43,7 @@ class LagrangianForm:
     """What the two Lagrangian forms share: rows from a window of their sum, D+-L_d."""
 
     explicit = "p1"
+    momentum_rows = ("left", "right", "stage")     # gradients of the sum in q and the stages
 
     def window(self, discrete_lagrangian, sym):
         """The Window of the action sum around step k from the symbols `sym` (a dict:

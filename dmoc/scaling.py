@@ -1,0 +1,85 @@
+"""The scaling of the DMOC NLP by the system's inertia (consumer 2 of the step residual):
+IPOPT iterates on x / x_scale and imposes g_scale * g = 0, where x_scale gives the
+momenta, the controls and the d'Alembert multipliers and impulses of (37)/(41) the size of
+the inertia they act on, and g_scale divides the momentum rows by it. A system whose
+degrees of freedom have inertias of different orders (a vehicle of 1e3 kg turning with a
+yaw inertia of 1 kg m^2) otherwise gives IPOPT a KKT matrix whose blocks differ by those
+orders; with equal inertias every factor is 1 and the NLP is unchanged.
+"""
+
+import casadi as ca
+import numpy as np
+
+
+def inertia(system, q):
+    """The inertia of each degree of freedom at q, shape (n,).
+
+    Parameters
+    ----------
+    system : MechanicalSystem or HamiltonianSystem
+        Its `inertia` (diag d2L/dv2 (q, 0), or 1 / diag d2H/dp2 (q, 0)).
+    q : ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Entries that are not positive and finite (degenerate directions: an LC circuit's
+        capacitor-only loop, a point vortex, whose Lagrangian is linear in v) take the
+        geometric mean of the others, and all are 1 when none is: the scaling is about
+        ratios and never divides by a degenerate inertia.
+    """
+    M = np.abs(np.asarray(system.inertia(q), dtype=float).ravel())
+    valid = np.isfinite(M) & (M > 0)
+    mean = float(np.exp(np.log(M[valid]).mean())) if valid.any() else 1.0
+    return np.where(valid, M, mean)
+
+
+def acting_on(M, matrix):
+    """The inertia each row of `matrix` (r, n) acts on: sum_i M_i |a_ri| / sum_i |a_ri|,
+    shape (r,); 1 for zero rows. For the columns of dF/du (controls) and the rows of A(q)
+    (d'Alembert multipliers and impulses)."""
+    a = np.abs(np.asarray(matrix, dtype=float).reshape(-1, M.size))
+    weight = a.sum(axis=1)
+    return np.where(weight > 0, a @ M / np.where(weight > 0, weight, 1.0), 1.0)
+
+
+def nlp_scales(problem, q):
+    """(x_scale, g_scale), shapes (x_layout.size,) and (g_layout.size,), of `problem`, from
+    the inertia at q, shape (n,) (the problem's `q_ref`).
+
+    x_scale: p (momenta) by M_i; u by the inertia its force acts on (dF/du at (q_ref, 0,
+    0)); lam, mu, nu by the inertia A(q_ref) acts on; q, s, velocities and h by 1.
+    g_scale: 1 / M_i on the rows in momentum units, the formulation's `momentum_rows` of the
+    residual (row r of a block of size n * j acts on degree of freedom r mod n) and the
+    momentum boundary rows when the system's `momentum_residual` is in momentum units; 1 on
+    the rest (constraint, velocity and path rows).
+    """
+    sys, disc, X, G = problem.disc.system, problem.disc, problem.x_layout, problem.g_layout
+    M = inertia(sys, q)
+    x_scale, g_scale = np.ones(X.size), np.ones(G.size)
+    A = np.array(sys.constraint_matrix(q)).reshape(sys.m, sys.n)
+    on_lam = acting_on(M, A)
+    by_block = {"p": M, "lam": np.tile(on_lam, disc.n_multipliers // max(sys.m, 1)),
+                "mu": on_lam, "nu": on_lam}
+    if sys.n_u:
+        by_block["u"] = np.tile(acting_on(M, control_matrix(sys, q).T), disc.n_controls // sys.n_u)
+    for name, scale in by_block.items():
+        if X.numel(name):
+            X.unpack(x_scale, name)[:] = scale[:, None]
+    rows = problem.dynamics_rows.slices()
+    dynamics = G.unpack(g_scale, "dynamics")
+    for name in problem.formulation.momentum_rows:
+        if name in rows:
+            r = np.arange(rows[name].start, rows[name].stop)
+            dynamics[r] = 1.0 / M[(r - rows[name].start) % sys.n][:, None]
+    if sys.momentum_residual_units == "momentum":
+        for end in ("start", "goal"):
+            G.unpack(g_scale, end)[:] = 1.0 / M[:, None]
+    return x_scale, g_scale
+
+
+def control_matrix(system, q):
+    """dF/du of the system's force at (q, 0, u = 0), shape (n, n_u)."""
+    u = ca.SX.sym("u", system.n_u)
+    B = ca.jacobian(system.force(q, ca.DM.zeros(system.n), u), u)
+    return np.array(ca.Function("B", [u], [B])(np.zeros(system.n_u))).reshape(system.n, system.n_u)

@@ -1,0 +1,156 @@
+"""The NLP scaled by the system's inertia (`dmoc.scaling`): the factors follow the
+inertia written out here, results come back in the system's units, and mixed inertia
+scales converge.
+
+Oracles, none taken from the code under test:
+- the knife edge's mass matrix diag(m, m, J), force directions (cos, sin, 0), (0, 0, 1) and
+  constraint row (-sin, cos, 0), written out below;
+- the continuous optimum of the double integrator J theta'' = tau, rest to rest over
+  Theta in T: tau(t) = 12 J Theta / T^2 (1/2 - t/T), cost 12 J^2 Theta^2 / T^3, reached at
+  order 2 in h;
+- the simulator replaying the optimal controls; the Hamiltonian form of the same system
+  started at the Lagrangian optimum.
+"""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import dmoc
+from dmoc import diagnostics
+from dmoc.scaling import inertia
+from dmoc.systems import knife_edge
+
+MASS, YAW = 1e3, 2.0
+
+
+def parking(mass, yaw, *, steps=100, variant="+", goal=(0.0, 1.0, 0.0), system=None):
+    disc = dmoc.discretize(system or knife_edge(mass=mass, inertia=yaw), 4.0 / steps)
+    return dmoc.OptimalControlProblem(disc, steps, q_start=[0.0, 0.0, 0.3], q_goal=goal,
+                                      variant=variant)
+
+
+def blocks(problem, scale, layout):
+    return {name: layout.unpack(scale, name) for name in layout.blocks if layout.numel(name)}
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_knife_edge_factors_follow_its_inertia(variant):
+    """x_scale: p by (m, m, J), u0 (a force along the blade) by m, u1 (a torque) by J,
+    lam and the end impulse by m (the constraint row acts on x and y only), the rest 1.
+    g_scale: the momentum rows of every step and both ends by 1 / (m, m, J), the
+    constraint row 1."""
+    problem = parking(MASS, YAW, variant=variant)
+    x = blocks(problem, problem.x_scale, problem.x_layout)
+    g = blocks(problem, problem.g_scale, problem.g_layout)
+    M = np.array([MASS, MASS, YAW])
+    np.testing.assert_allclose(x["p"], M[:, None], rtol=1e-14)
+    np.testing.assert_allclose(x["u"], np.array([[MASS], [YAW]]) * np.ones((1, 100)), rtol=1e-14)
+    np.testing.assert_allclose(x["lam"], MASS, rtol=1e-14)
+    impulse = "nu" if variant == "+" else "mu"
+    np.testing.assert_allclose(x[impulse], MASS, rtol=1e-14)
+    for name in ("q", "v_start", "v_goal"):
+        np.testing.assert_array_equal(x[name], 1.0)
+    rows = problem.dynamics_rows.slices()
+    np.testing.assert_allclose(g["dynamics"][rows["left"]], 1 / M[:, None] * np.ones((1, 100)), rtol=1e-14)
+    np.testing.assert_array_equal(g["dynamics"][rows["constraint"]], 1.0)
+    for end in ("start", "goal"):
+        np.testing.assert_allclose(g[end], 1 / M[:, None], rtol=1e-14)
+
+
+def test_unit_inertia_leaves_the_nlp_unscaled():
+    problem = dmoc.problems.knife_edge_parking(20)
+    np.testing.assert_array_equal(problem.x_scale, 1.0)
+    np.testing.assert_array_equal(problem.g_scale, 1.0)
+
+
+def test_degenerate_directions_take_the_geometric_mean_of_the_others():
+    """L = 2 v0^2 + v2^2 / 2 + q1 v1 (linear in v1): inertia (4, 0, 1) -> (4, 2, 1);
+    H = p0^2 / 6 + p1^2 / 24: inertia (3, 12); point vortices (L linear in v): no inertia
+    anywhere -> all 1."""
+    q = np.zeros(3)
+    lagrangian = dmoc.MechanicalSystem(lambda q, v: 2 * v[0] ** 2 + v[2] ** 2 / 2 + q[1] * v[1], 3)
+    np.testing.assert_allclose(inertia(lagrangian, q), [4.0, 2.0, 1.0], rtol=1e-14)
+    hamiltonian = dmoc.HamiltonianSystem(lambda q, p: p[0] ** 2 / 6 + p[1] ** 2 / 24, 2)
+    np.testing.assert_allclose(inertia(hamiltonian, q[:2]), [3.0, 12.0], rtol=1e-14)
+    vortices = dmoc.systems.point_vortices([1.0, -0.5])
+    np.testing.assert_array_equal(inertia(vortices, np.arange(1.0, 5.0)), np.ones(4))
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_turn_in_place_of_a_heavy_blade_gives_the_torque_in_its_units(variant):
+    """m = 1e3, J = 1e-3 turning by Theta = 1.2 in T = 4: the torque at the step midpoints
+    and the cost approach the continuous optimum at order 2 (N = 50, 100), the other
+    control stays 0, and p_theta is the discrete Legendre transform J v - h/2 tau (not
+    that times a scale factor)."""
+    J, Theta, T = 1e-3, 1.2, 4.0
+    errors = []
+    for N in (50, 100):
+        problem = parking(1e3, J, steps=N, variant=variant, goal=(0.0, 0.0, 0.3 + Theta))
+        result = dmoc.optimize(problem)
+        traj = result.trajectory
+        t_mid = (np.arange(N) + 0.5) * T / N
+        tau = 12 * J * Theta / T ** 2 * (0.5 - t_mid / T)
+        errors.append((np.abs(traj.u[:, 1] - tau).max() / np.abs(tau).max(),
+                       abs(result.cost / (12 * J ** 2 * Theta ** 2 / T ** 3) - 1)))
+        np.testing.assert_allclose(traj.u[:, 0], 0.0, atol=1e-10 * np.abs(tau).max())
+        v_theta, h = np.diff(traj.q[:, 2]) / (T / N), T / N    # p_k = J v_k+1/2 - h/2 tau_k
+        np.testing.assert_allclose(traj.p[:-1, 2], J * v_theta - h / 2 * traj.u[:, 1],
+                                   rtol=0, atol=1e-9 * J * np.abs(v_theta).max())
+    orders = np.log2(np.array(errors[0]) / np.array(errors[1]))
+    assert errors[1][0] < 1e-3 and errors[1][1] < 1e-3, errors
+    assert np.all(orders > 1.7), (errors, orders)
+
+
+@pytest.mark.parametrize("mass, yaw", [(1e3, 1.0), (1.0, 1e-3)])
+def test_mixed_inertia_parking_converges_and_replays(mass, yaw):
+    """Parallel parking with inertias 1e3 apart (before the scaling IPOPT stopped at 1000
+    iterations on both): solved, resolved by the grid (the heading turns less than 1 rad
+    per step), and the simulator replays the optimum to 1e-9 of the size of q and p."""
+    problem = parking(mass, yaw, goal=(0.0, 1.0, 0.3))
+    result = dmoc.optimize(problem)
+    assert np.abs(np.diff(result.trajectory.q[:, 2])).max() < 1.0
+    replay_q, replay_p = diagnostics.replay_error(problem, result)
+    assert replay_q <= 1e-9 * max(1.0, np.abs(result.trajectory.q).max())
+    assert replay_p <= 1e-9 * np.abs(result.trajectory.p).max()
+
+
+def test_warm_start_from_the_optimum_of_a_scaled_problem_is_already_optimal():
+    """The multipliers come back in the system's units and go in scaled again: a re-solve
+    from the optimum of the heavy blade takes no iteration."""
+    problem = parking(MASS, YAW, goal=(0.0, 1.0, 0.3))
+    result = dmoc.optimize(problem)
+    again = dmoc.optimize(problem, guess=result)
+    assert again.stats["warm_start"] and again.stats["iterations"] == 0
+    assert abs(again.cost - result.cost) <= 1e-12 * result.cost
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_hamiltonian_form_of_a_mixed_inertia_blade_has_the_lagrangian_optimum(variant):
+    """H = (px^2 + py^2) / (2m) + pth^2 / (2J) (m = 4, J = 1/4): momenta scaled by M, and
+    only the rows in momentum units by 1/M ((+): "left"; (-): none imposed; the boundary
+    rows dH/dp - v are velocities). Started at the Lagrangian optimum it keeps its cost
+    to 1e-9 and its positions to 1e-7."""
+    m, J = 4.0, 0.25
+    system = dmoc.HamiltonianSystem(
+        lambda q, p: (p[0] ** 2 + p[1] ** 2) / (2 * m) + p[2] ** 2 / (2 * J), 3,
+        constraints=lambda q: ca.horzcat(-ca.sin(q[2]), ca.cos(q[2]), 0),
+        force=lambda q, p, u: ca.vertcat(u[0] * ca.cos(q[2]), u[0] * ca.sin(q[2]), u[1]), n_u=2)
+    lagrangian = dmoc.optimize(parking(m, J, variant=variant))
+    problem = parking(m, J, variant=variant, system=system)
+    M, rows = np.array([m, m, J]), problem.dynamics_rows.slices()
+    dynamics = problem.g_layout.unpack(problem.g_scale, "dynamics")
+    p_scale = problem.x_layout.unpack(problem.x_scale, "p")        # p_0 ... p_N variables here
+    np.testing.assert_allclose(p_scale, np.broadcast_to(M[:, None], p_scale.shape), rtol=1e-14)
+    if variant == "+":      # left = p_k - D1 H_d+ (momentum), right = D2 H_d+ - q_{k+1}
+        np.testing.assert_allclose(dynamics[rows["left"]], 1 / M[:, None] * np.ones((1, 100)), rtol=1e-14)
+        for name in ("right", "stage", "constraint"):
+            np.testing.assert_array_equal(dynamics[rows[name]], 1.0)
+    else:                   # left = -q_k - D1 H_d-, the momentum row "right" substituted
+        np.testing.assert_array_equal(dynamics, 1.0)
+    for end in ("start", "goal"):      # dH/dp - v: velocities
+        np.testing.assert_array_equal(problem.g_layout.unpack(problem.g_scale, end), 1.0)
+    result = dmoc.optimize(problem, guess=lagrangian.trajectory)
+    assert result.cost == pytest.approx(lagrangian.cost, rel=1e-9)
+    assert np.abs(result.trajectory.q - lagrangian.trajectory.q).max() <= 1e-7
+
