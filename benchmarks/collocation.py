@@ -74,8 +74,9 @@ class ReducedProblem:
         return self.ode.size1_in(1)
 
 
-def knife_edge_problem(mass=1.0, inertia=1.0, duration=4.0):
-    """Problem A: knife-edge parallel parking (0, 0, 0) -> (0, 1, 0), at rest at both ends.
+def knife_edge_problem(mass=1.0, inertia=1.0, duration=4.0, heading=0.0):
+    """Problem A: knife-edge parallel parking (0, 0, heading) -> (0, 1, heading), at rest
+    at both ends (heading 0 by default).
 
     x = (x, y, theta, sigma, omega): x' = sigma cos(theta), y' = sigma sin(theta),
     theta' = omega, m sigma' = u0 (force along the blade), J omega' = u1 (torque).
@@ -92,8 +93,8 @@ def knife_edge_problem(mass=1.0, inertia=1.0, duration=4.0):
         sigma = np.cos(q[:, 2]) * qdot[:, 0] + np.sin(q[:, 2]) * qdot[:, 1]
         return np.column_stack([sigma, qdot[:, 2]])
 
-    return ReducedProblem("knife_edge", ode, rhs, duration, np.zeros(5),
-                          np.array([0.0, 1.0, 0.0, 0.0, 0.0]), (0, 1, 2), (3, 4),
+    return ReducedProblem("knife_edge", ode, rhs, duration, np.array([0.0, 0.0, heading, 0.0, 0.0]),
+                          np.array([0.0, 1.0, heading, 0.0, 0.0]), (0, 1, 2), (3, 4),
                           velocity_from_qdot)
 
 

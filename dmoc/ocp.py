@@ -74,7 +74,15 @@ class OptimalControlProblem:
     ----------
     nlp : dict
         ``{"x", "p", "f", "g"}`` CasADi MX expressions, for power users (``casadi.nlpsol``;
-        pass ``p=problem.p``).
+        pass ``p=problem.p``). Its x is the scaled vector x / `x_scale` and its g the
+        scaled rows `g_scale` * g: pass ``x0 / x_scale``, ``lbx / x_scale``,
+        ``ubx / x_scale``, ``lbg * g_scale``, ``ubg * g_scale`` and multiply the
+        solution by `x_scale`.
+    x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
+        The scaling by the system's inertia at `q_ref` (`dmoc.scaling`): momenta,
+        controls and multipliers by the inertia they act on, the rows in momentum units by
+        its inverse; all 1 for unit inertia. Kept by `with_boundary` and
+        `with_parameters`.
     separable : SeparableNLP
         The same NLP as terms (`dmoc.separable`), with its assembled exact derivatives
         (``separable.derivatives()``, the ``cache`` option of ``casadi.nlpsol``).

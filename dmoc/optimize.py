@@ -57,11 +57,12 @@ class OptimizationResult:
         whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
         added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row).
     x : ndarray, shape (problem.x_layout.size,)
-        The raw NLP vector; ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the
-        end impulse ``"nu"``); its block "q" holds q - q_ref (``problem.configurations(x)``
-        gives q).
+        The NLP vector in the system's units (IPOPT's iterate times ``problem.x_scale``);
+        ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the end impulse
+        ``"nu"``); its block "q" holds q - q_ref (``problem.configurations(x)`` gives q).
     lam_x, lam_g : ndarray, shapes like x and like problem.g_layout
-        IPOPT's multipliers of the bounds and of the constraints at `x`.
+        IPOPT's multipliers of the bounds and of the constraints at `x`, converted to the
+        unscaled NLP (``lam_x = lam_x_ipopt / x_scale``, ``lam_g = g_scale * lam_g_ipopt``).
     structure : str
         The problem's `structure` key: a result warm-starts (primal and dual) any problem
         with the same key, e.g. one from ``problem.with_boundary(...)``.
@@ -141,7 +142,10 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     -----
     The solver (``casadi.nlpsol``) takes its gradient, constraint Jacobian and Hessian of
     the Lagrangian from ``problem.separable.derivatives()`` (exact, assembled from each
-    term's derivatives) instead of generating them for the whole graph. It is created
+    term's derivatives) instead of generating them for the whole graph. IPOPT iterates on
+    the NLP scaled by the system's inertia (``problem.x_scale``, ``problem.g_scale``,
+    `dmoc.scaling`); the start point, the bounds and the multipliers are converted on the
+    way in and out, so guesses and results are in the system's units. It is created
     once per problem structure and options and kept in a bounded cache: boundary data,
     bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
     same problem, or one from ``problem.with_boundary(...)``, skips the

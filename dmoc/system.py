@@ -55,6 +55,8 @@ class MechanicalSystem:
     key : str
         A fingerprint of L, A_nh, g and f (not of `names`): systems with equal data share
         their step residuals and compiled steps.
+    momentum_residual_units : str
+        ``"momentum"``: `momentum_residual` p - dL/dv is in units of momentum.
 
     Raises
     ------
@@ -128,6 +130,8 @@ class HamiltonianSystem:
     momentum : casadi.Function
         ``p(q, v)`` by one Newton step on dH/dp(q, p) = v from p = 0: exact when H is
         quadratic in p (mechanical systems), a guess otherwise; used for initial guesses.
+    momentum_residual_units : str
+        ``"velocity"``: `momentum_residual` dH/dp - v is in units of velocity.
 
     Examples
     --------
