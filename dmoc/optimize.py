@@ -17,6 +17,7 @@ from .ocp import OptimalControlProblem
 from .errors import SolverError
 from .guess import initial_guess, start_point  # noqa: F401 (initial_guess: part of this module's API)
 from ._files import atomic_write
+from .linear_solver import journal_end, journal_options, linear_solver_report
 from .trajectory import RESULT_PREFIX, Trajectory
 
 # honor_original_bounds: IPOPT relaxes bounds by bound_relax_factor while iterating; project
@@ -55,7 +56,9 @@ class OptimizationResult:
         of it spent evaluating the NLP functions and derivatives; the rest is mostly the
         linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
         whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
-        added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row).
+        added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row),
+        and with ``options={"linear_solver_report": True}`` ``linear_solver``
+        (`dmoc.linear_solver.linear_solver_report`).
     x : ndarray, shape (problem.x_layout.size,)
         The NLP vector in the system's units (IPOPT's iterate times ``problem.x_scale``);
         ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the end impulse
@@ -127,7 +130,10 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         longer pays: IPOPT evaluates the derivatives assembled from the terms'
         (`OptimalControlProblem.separable`) either way, see docs/performance.md), and
         ``"reuse_solver"`` (bool, default True: take the solver of an earlier problem of
-        the same structure and options from the cache; False builds a fresh one).
+        the same structure and options from the cache; False builds a fresh one), and
+        ``"linear_solver_report"`` (bool, default False; True adds
+        ``stats["linear_solver"]``, what the KKT factorizations needed, read from IPOPT's
+        detailed journal, `dmoc.linear_solver`; writing it adds 10-30 % to the solve).
         Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
         floor of the rows where the data put it higher (configurations far from the
         origin, docs/performance.md).
@@ -167,10 +173,11 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     D, R = problem.x_scale, problem.g_scale      # IPOPT iterates on x / D, imposes R g
     tic = time.perf_counter()
-    solver, reused = _solver(problem, {**_data_tolerances(problem, x0 / D),
-                                       "warm_start_init_point": "yes" if warm else "no",
-                                       **(options or {})})
+    solver, reused, journal = _solver(problem, {**_data_tolerances(problem, x0 / D),
+                                                "warm_start_init_point": "yes" if warm else "no",
+                                                **(options or {})})
     build_time = time.perf_counter() - tic
+    journal_start = journal_end(journal) if journal else 0
     tic = time.perf_counter()
     sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
                  lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
@@ -183,6 +190,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
              "warm_start": warm,
              "solve_time": solve_time, **_linear_algebra(st),
              "max_violation": worst[0], "most_violated": worst[1]}
+    if journal:
+        stats["linear_solver"] = linear_solver_report(journal, journal_start)
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
@@ -223,10 +232,17 @@ def _data_tolerances(problem, x0):
 
 
 def _solver(problem, options):
-    """(nlpsol for `problem` with `options`, whether it came from the cache)."""
+    """(nlpsol for `problem` with `options`, whether it came from the cache, the path of
+    its journal or None)."""
     expand = _checks.boolean("options['expand']", options.pop("expand", False))
     reuse = _checks.boolean("options['reuse_solver']", options.pop("reuse_solver", True))
+    report = _checks.boolean("options['linear_solver_report']", options.pop("linear_solver_report", False))
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
+    if report:
+        if "output_file" in options:
+            raise ValueError("`options` 'linear_solver_report' writes IPOPT's journal to a file "
+                             "of its own; leave out 'output_file' or the report.")
+        merged.update(journal_options(problem.structure + repr(sorted(merged.items()))))
     # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
     # gradient function CasADi would generate for them is most of a solver's build
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
@@ -248,10 +264,11 @@ def _solver(problem, options):
             raise ValueError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
                              f"for the allowed values).\n{err}") from None
 
+    journal = merged.get("output_file") if report else None
     if not reuse:
-        return build(), False
+        return build(), False, journal
     solver = _SOLVERS.get((problem.structure, repr(sorted(opts.items()))), build)
-    return solver, not built
+    return solver, not built, journal
 
 
 def _rejected_option(options):

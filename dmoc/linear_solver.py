@@ -1,0 +1,62 @@
+"""What IPOPT's linear solver did in a solve (consumer 2, solver half): the factorizations of
+the KKT matrices, the increases of the pivot tolerance and the failed iterative
+refinements, which CasADi's `stats` do not carry. IPOPT writes them only to its detailed
+journal (print level 6); `dmoc.optimize` with ``options={"linear_solver_report": True}``
+has the solver append that journal to a file of its own and reads each solve's part back.
+"""
+
+import atexit
+import hashlib
+import os
+import re
+import tempfile
+
+JOURNAL_LEVEL = 6           # IPOPT's J_DETAILED, where the linear solvers report
+_PIVOT = re.compile(r"Increasing pivot tolerance for \w+ from (\S+) to (\S+)\.")
+_TRIALS = re.compile(r"Number of trial factorizations performed: (\d+)")
+_JOURNALS = set()           # journal files of this process, removed at exit
+
+
+def journal_options(key):
+    """IPOPT options that append the detailed journal of the solver keyed by `key` (str) to
+    a file of this process's own: ``{"output_file", "file_print_level"}``."""
+    digest = hashlib.sha256(key.encode()).hexdigest()[:16]
+    path = os.path.join(tempfile.gettempdir(), f"dmoc-ipopt-{os.getpid()}-{digest}.txt")
+    if path not in _JOURNALS:
+        _JOURNALS.add(path)
+        atexit.register(_remove, path)
+    return {"output_file": path, "file_print_level": JOURNAL_LEVEL}
+
+
+def journal_end(path):
+    """The size of the journal at `path` in bytes (0 before its first solve): where the
+    next solve's part starts."""
+    return os.path.getsize(path) if os.path.exists(path) else 0
+
+
+def linear_solver_report(path, start):
+    """The report of the solve whose journal begins at byte `start` of `path`.
+
+    Returns
+    -------
+    dict
+        ``factorizations`` (of the KKT matrix for the search directions, retries for
+        the inertia included), ``pivot_tolerance_increases`` (each a refactorization
+        after the iterative refinement failed), ``pivot_tolerance`` (the last value it was
+        raised to, or None), ``refinement_failures``.
+    """
+    with open(path, encoding="utf-8", errors="replace") as file:
+        file.seek(start)
+        text = file.read()
+    increases = _PIVOT.findall(text)
+    return {"factorizations": sum(int(k) for k in _TRIALS.findall(text)),
+            "pivot_tolerance_increases": len(increases),
+            "pivot_tolerance": float(increases[-1][1]) if increases else None,
+            "refinement_failures": text.count("Iterative refinement failed")}
+
+
+def _remove(path):
+    try:
+        os.remove(path)
+    except OSError:
+        pass

@@ -1,0 +1,74 @@
+"""The linear-solver report of `dmoc.optimize` (``options={"linear_solver_report": True}``,
+`dmoc.linear_solver`): read from IPOPT's detailed journal, one solve at a time, without
+changing the solve.
+
+Oracles: journal lines in IPOPT's wording written here; the same solve without the report;
+IPOPT's per-iteration regularization in CasADi's own stats (each regularized iteration
+needs at least one more factorization).
+"""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+import dmoc
+import dmoc.problems
+from dmoc.linear_solver import linear_solver_report
+
+REPORT = {"linear_solver_report": True}
+
+
+def test_report_counts_the_lines_of_one_solve(tmp_path):
+    """A journal of two solves, read from the start of the second: only its lines count."""
+    earlier = "Number of trial factorizations performed: 4\nIterative refinement failed with residual_ratio = 1e-3\n"
+    later = ("Number of trial factorizations performed: 1\n"
+             "Iterative refinement failed with residual_ratio = 8.127344e-07\n"
+             "Asking augmented system solver to improve quality of its solutions.\n"
+             "Increasing pivot tolerance for MUMPS from 1.00e-06 to 1.00e-03.\n"
+             "Number of trial factorizations performed: 3\n"
+             "Iterative refinement failed with residual_ratio = 2.0e-07\n"
+             "Iterative refinement failed with residual_ratio = 3.0e-07\n"
+             "Increasing pivot tolerance for MUMPS from 1.00e-03 to 1.00e-02.\n"
+             "Number of trial factorizations performed: 1\n")
+    path = tmp_path / "journal.txt"
+    path.write_text(earlier + later)
+    assert linear_solver_report(str(path), len(earlier.encode())) == {
+        "factorizations": 5, "pivot_tolerance_increases": 2, "pivot_tolerance": 1e-2,
+        "refinement_failures": 3}
+    assert linear_solver_report(str(path), 0)["factorizations"] == 9
+
+
+@pytest.mark.parametrize("make", [dmoc.problems.knife_edge_parking, dmoc.problems.rolling_disk_steering])
+def test_report_leaves_the_solve_unchanged_and_counts_each_solve(make):
+    problem = make(50)
+    plain = dmoc.optimize(problem, options={"reuse_solver": False})
+    first = dmoc.optimize(problem, options=REPORT)
+    again = dmoc.optimize(problem, options=REPORT)          # the same solver: appended journal
+    assert again.stats["solver_reused"] and again.stats["iterations"] == first.stats["iterations"]
+    assert first.cost == plain.cost and first.stats["iterations"] == plain.stats["iterations"]
+    report = first.stats["linear_solver"]
+    assert report["factorizations"] >= first.stats["iterations"] + first.stats["regularized_iterations"]
+    if first.stats["regularized_iterations"] == 0:
+        assert report["factorizations"] == first.stats["iterations"]
+    assert again.stats["linear_solver"] == report
+    assert "linear_solver" not in plain.stats
+
+
+def test_report_refuses_an_output_file_of_the_users(tmp_path):
+    with pytest.raises(ValueError, match="output_file"):
+        dmoc.optimize(dmoc.problems.knife_edge_parking(10),
+                      options={**REPORT, "output_file": str(tmp_path / "mine.txt")})
+
+
+def test_journal_file_is_removed_when_the_process_ends():
+    script = ("import dmoc, dmoc.problems, dmoc.linear_solver as ls\n"
+              "dmoc.optimize(dmoc.problems.knife_edge_parking(10), options={'linear_solver_report': True})\n"
+              "(path,) = ls._JOURNALS\n"
+              "import os; assert os.path.getsize(path) > 0\n"
+              "print(path)\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    path = out.stdout.strip().splitlines()[-1]
+    assert path.endswith(".txt")
+    assert not os.path.exists(path)
