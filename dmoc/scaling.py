@@ -10,6 +10,11 @@ orders; with equal inertias every factor is 1 and the NLP is unchanged.
 import casadi as ca
 import numpy as np
 
+from ._cache import BoundedCache
+
+
+_DATA = BoundedCache(64)     # per system key: q -> (inertia, dF/du, A) at (q, 0, 0)
+
 
 def inertia(system, q):
     """The inertia of each degree of freedom at q, shape (n,).
@@ -28,7 +33,7 @@ def inertia(system, q):
         geometric mean of the others, and all are 1 when none is: the scaling is about
         ratios and never divides by a degenerate inertia.
     """
-    M = np.abs(np.asarray(system.inertia(q), dtype=float).ravel())
+    M = np.abs(_mechanical_data(system, q)[0])
     valid = np.isfinite(M) & (M > 0)
     mean = float(np.exp(np.log(M[valid]).mean())) if valid.any() else 1.0
     return np.where(valid, M, mean)
@@ -56,13 +61,11 @@ def nlp_scales(problem, q):
     """
     sys, disc, X, G = problem.disc.system, problem.disc, problem.x_layout, problem.g_layout
     M = inertia(sys, q)
-    x_scale, g_scale = np.ones(X.size), np.ones(G.size)
-    A = np.array(sys.constraint_matrix(q)).reshape(sys.m, sys.n)
+    _, B, A = _mechanical_data(sys, q)
     on_lam = acting_on(M, A)
     by_block = {"p": M, "lam": np.tile(on_lam, disc.n_multipliers // max(sys.m, 1)),
-                "mu": on_lam, "nu": on_lam}
-    if sys.n_u:
-        by_block["u"] = np.tile(acting_on(M, control_matrix(sys, q).T), disc.n_controls // sys.n_u)
+                "mu": on_lam, "nu": on_lam, "u": np.tile(acting_on(M, B.T), len(disc.rule.control_nodes))}
+    x_scale, g_scale = np.ones(X.size), np.ones(G.size)
     for name, scale in by_block.items():
         if X.numel(name):
             X.unpack(x_scale, name)[:] = scale[:, None]
@@ -78,8 +81,14 @@ def nlp_scales(problem, q):
     return x_scale, g_scale
 
 
-def control_matrix(system, q):
-    """dF/du of the system's force at (q, 0, u = 0), shape (n, n_u)."""
-    u = ca.SX.sym("u", system.n_u)
-    B = ca.jacobian(system.force(q, ca.DM.zeros(system.n), u), u)
-    return np.array(ca.Function("B", [u], [B])(np.zeros(system.n_u))).reshape(system.n, system.n_u)
+def _mechanical_data(system, q):
+    """(system.inertia (n,), dF/du (n, n_u), A (m, n)) at (q, 0, u = 0), from one Function
+    per system key."""
+    def build():
+        qs, u = ca.SX.sym("q", system.n), ca.SX.sym("u", system.n_u)
+        B = ca.jacobian(system.force(qs, ca.SX.zeros(system.n), u), u)
+        return ca.Function("mechanical_data", [qs, u],
+                           [system.inertia(qs), B, system.constraint_matrix(qs)])
+    M, B, A = _DATA.get(system.key, build)(q, np.zeros(system.n_u))
+    return (np.array(M).ravel(), np.array(B).reshape(system.n, system.n_u),
+            np.array(A).reshape(system.m, system.n))

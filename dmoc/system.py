@@ -93,8 +93,9 @@ class MechanicalSystem:
         return p - self.momentum(q, v)
 
     def inertia(self, q):
-        """diag d2L/dv2 (q, 0), shape (n,): the inertia of each coordinate at q (zero in
-        degenerate directions), for the scaling of the optimizer's NLP (`dmoc.scaling`)."""
+        """diag d2L/dv2 (q, 0), shape (n, 1), an SX expression in the symbols q (n, 1): the
+        inertia of each coordinate at q (zero in degenerate directions), for the scaling of
+        the optimizer's NLP (`dmoc.scaling`)."""
         return _hessian_diagonal(self.lagrangian, q, self.n)
 
     def __repr__(self):
@@ -160,11 +161,10 @@ class HamiltonianSystem:
         return self.velocity(q, p) - v
 
     def inertia(self, q):
-        """1 / diag d2H/dp2 (q, 0), shape (n,): the inertia of each coordinate at q
-        (infinite where H does not depend on that momentum), for the scaling of the
-        optimizer's NLP (`dmoc.scaling`)."""
-        with np.errstate(divide="ignore"):
-            return 1.0 / _hessian_diagonal(self.hamiltonian, q, self.n)
+        """1 / diag d2H/dp2 (q, 0), shape (n, 1), an SX expression in the symbols q (n, 1):
+        the inertia of each coordinate at q (infinite where H does not depend on that
+        momentum), for the scaling of the optimizer's NLP (`dmoc.scaling`)."""
+        return 1 / _hessian_diagonal(self.hamiltonian, q, self.n)
 
     def __repr__(self):
         return (f"HamiltonianSystem(n={self.n}, m={self.m}, n_holonomic={self.n_holonomic}, "
@@ -172,10 +172,9 @@ class HamiltonianSystem:
 
 
 def _hessian_diagonal(function, q, n):
-    """diag d2 function(q, y)/dy2 at (q, y = 0), shape (n,)."""
+    """diag d2 function(q, y)/dy2 at (q, y = 0), shape (n, 1), in the symbols q."""
     y = ca.SX.sym("y", n)
-    H = ca.hessian(function(q, y), y)[0]
-    return np.array(ca.Function("d2", [y], [ca.diag(H)])(np.zeros(n))).ravel()
+    return ca.substitute(ca.diag(ca.hessian(function(q, y), y)[0]), y, ca.SX.zeros(n))
 
 
 def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, names):
