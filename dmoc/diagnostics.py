@@ -84,6 +84,32 @@ def residual_norms(disc, traj):
     return np.abs(r).max(axis=0)
 
 
+def velocity_jumps(traj):
+    """How well the grid resolves the motion, per coordinate, shape (n,):
+    max_k |v_{k+1/2} - v_{k-1/2}| / max_k |v_{k+1/2}| over the step velocities
+    (`Trajectory.velocities`).
+
+    A motion resolved by the grid gives about omega h (2 sin(omega h / 2) for a sinusoid of
+    frequency omega). Values of order 1 say that the velocity changes by its own size
+    within a step (2: it reverses): the grid does not resolve the motion, as in the optima
+    that spin a light blade by pi per step and slip it sideways in one step
+    (docs/verification.md, "Known shortfalls"). Coordinates at rest (peak velocity below
+    1e-9 of the largest coordinate's) give 0.
+
+    >>> traj = Trajectory([0, 1, 2, 3], [[0.0], [1.0], [0.0], [1.0]], [[0.0]] * 4, [[], [], []],
+    ...                   [[], [], []], 1.0, "+")
+    >>> velocity_jumps(traj)
+    array([2.])
+    """
+    _checks.instance("traj", traj, Trajectory, "a Trajectory")
+    v = traj.velocities
+    if v.shape[0] < 2:
+        return np.zeros(v.shape[1])
+    peak = np.abs(v).max(axis=0)
+    moving = peak > 1e-9 * peak.max(initial=0.0)
+    return np.where(moving, np.abs(np.diff(v, axis=0)).max(axis=0) / np.where(moving, peak, 1.0), 0.0)
+
+
 def replay_error(problem, result):
     """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
     optimal initial state: the two consumers share one residual, so both are at solver
@@ -105,7 +131,7 @@ def replay_error(problem, result):
 def optimization_summary(problem, result):
     """Key figures of an optimization result: a dict of cost, IPOPT iterations and status,
     build and solve times, max |omega_d|, max step residual, max constraint violation of
-    the NLP and the replay errors of `replay_error`."""
+    the NLP, the replay errors of `replay_error` and the largest of `velocity_jumps`."""
     traj = result.trajectory
     replay_q, replay_p = replay_error(problem, result)
     return {"cost": result.cost, "iterations": result.stats["iterations"],
@@ -114,7 +140,8 @@ def optimization_summary(problem, result):
             "max_omega_d": float(constraint_violation(problem.disc, traj).max()),
             "max_residual": float(residual_norms(problem.disc, traj).max()),
             "max_violation": result.stats["max_violation"],
-            "replay_q": replay_q, "replay_p": replay_p}
+            "replay_q": replay_q, "replay_p": replay_p,
+            "max_velocity_jump": float(velocity_jumps(traj).max(initial=0.0))}
 
 
 def format_summary(title, figures):

@@ -110,6 +110,7 @@ def test_mixed_inertia_parking_converges_and_replays(mass, yaw):
     problem = parking(mass, yaw, goal=(0.0, 1.0, 0.3))
     result = dmoc.optimize(problem)
     assert np.abs(np.diff(result.trajectory.q[:, 2])).max() < 1.0
+    assert diagnostics.velocity_jumps(result.trajectory).max() < 0.5
     replay_q, replay_p = diagnostics.replay_error(problem, result)
     assert replay_q <= 1e-9 * max(1.0, np.abs(result.trajectory.q).max())
     assert replay_p <= 1e-9 * np.abs(result.trajectory.p).max()
@@ -154,3 +155,25 @@ def test_hamiltonian_form_of_a_mixed_inertia_blade_has_the_lagrangian_optimum(va
     assert result.cost == pytest.approx(lagrangian.cost, rel=1e-9)
     assert np.abs(result.trajectory.q - lagrangian.trajectory.q).max() <= 1e-7
 
+
+
+def trajectory_of(q, h):
+    q = np.asarray(q, dtype=float).reshape(len(q), -1)
+    N = len(q) - 1
+    return dmoc.Trajectory(h * np.arange(N + 1), q, np.zeros_like(q), np.zeros((N, 0)),
+                           np.zeros((N, 0)), h, "+")
+
+
+def test_velocity_jumps_measure_how_the_grid_resolves_the_motion():
+    """A sinusoid sin(omega t) on N = 1000 steps: 2 sin(omega h / 2) to 1e-5 relative; a
+    uniform motion 0; a coordinate moving by rounding only 0; one that moves in a single
+    step 1; one that reverses every step 2."""
+    N, T = 1000, 3.0
+    h, omega = T / N, 2 * np.pi / T
+    t = h * np.arange(N + 1)
+    still = 1e-17 * np.cos(7 * t)
+    jump = np.where(t > T / 2, 1.0, 0.0)
+    q = np.column_stack([np.sin(omega * t), 0.4 * t, still, jump, 0.1 * (-1.0) ** np.arange(N + 1)])
+    ratios = dmoc.diagnostics.velocity_jumps(trajectory_of(q, h))
+    assert ratios[0] == pytest.approx(2 * np.sin(omega * h / 2), rel=1e-5)
+    np.testing.assert_allclose(ratios[1:], [0.0, 0.0, 1.0, 2.0], rtol=0, atol=1e-9)
