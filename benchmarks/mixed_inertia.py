@@ -3,8 +3,9 @@ headings theta0 = 0 and 0.3, with mass and yaw inertia of different orders, DMOC
 against the mapped trapezoidal and Hermite-Simpson collocations of benchmarks/collocation.py
 with the same IPOPT options. Each row: IPOPT iterations, status, the optimal cost (the
 problem has many local optima at these ratios, so the methods may end in different ones),
-seconds, and for DMOC the largest heading change per step (above ~1 rad the grid does not
-resolve the motion) and whether the simulator replays the optimum.
+seconds, and for DMOC the largest heading change per step and the largest of
+`dmoc.diagnostics.velocity_jumps` (of order 1 where the grid does not resolve the motion),
+and whether the simulator replays the optimum.
 
     python benchmarks/mixed_inertia.py
 """
@@ -39,7 +40,8 @@ def dmoc_row(mass, inertia, heading):
     replay_q, replay_p = diagnostics.replay_error(problem, result)
     replays = replay_q <= 1e-8 * max(1.0, np.abs(q).max()) and replay_p <= 1e-8 * np.abs(p).max()
     return (result.stats["iterations"], result.status, result.cost, seconds,
-            f"{np.abs(np.diff(q[:, 2])).max():.2f}", "yes" if replays else "no")
+            f"{np.abs(np.diff(q[:, 2])).max():.2f}",
+            f"{diagnostics.velocity_jumps(result.trajectory).max():.2f}", "yes" if replays else "no")
 
 
 def collocation_row(mass, inertia, heading, method):
@@ -47,23 +49,23 @@ def collocation_row(mass, inertia, heading, method):
                                              heading=heading)
     tic = time.perf_counter()
     r = collocation.solve(problem, N, method)
-    return r.iterations, r.status, r.cost, time.perf_counter() - tic, "", ""
+    return r.iterations, r.status, r.cost, time.perf_counter() - tic, "", "", ""
 
 
 def main():
     print(f"python {platform.python_version()}, casadi {ca.__version__}; N = {N}; "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
     head = (f"{'theta0':>7}{'m':>8}{'J':>8}  {'method':<16}{'it':>5}  {'status':<30}{'cost':>12}{'s':>8}"
-            f"{'dtheta':>8}{'replay':>8}")
+            f"{'dtheta':>8}{'jump':>6}{'replay':>8}")
     print(head + "\n" + "-" * len(head))
     for heading in HEADINGS:
         for mass, inertia in CASES:
             rows = {"dmoc": dmoc_row(mass, inertia, heading),
                     **{method: collocation_row(mass, inertia, heading, method)
                        for method in ("trapezoid", "hermite_simpson")}}
-            for name, (it, status, cost, seconds, turn, replays) in rows.items():
+            for name, (it, status, cost, seconds, turn, jump, replays) in rows.items():
                 print(f"{heading:>7.1f}{mass:>8.0e}{inertia:>8.0e}  {name:<16}{it:>5}  {status:<30}{cost:>12.5g}"
-                      f"{seconds:>8.3f}{turn:>8}{replays:>8}")
+                      f"{seconds:>8.3f}{turn:>8}{jump:>6}{replays:>8}")
 
 
 if __name__ == "__main__":
