@@ -56,12 +56,34 @@ def test_knife_edge_factors_follow_its_inertia(variant):
     np.testing.assert_array_equal(g["dynamics"][rows["constraint"]], 1.0)
     for end in ("start", "goal"):
         np.testing.assert_allclose(g[end], 1 / M[:, None], rtol=1e-14)
+    # the cost |u|^2 of the cheapest scaled control: min(m^2, J^2)
+    assert problem.f_scale == pytest.approx(min(MASS, YAW) ** 2, rel=1e-14)
+
+
+def test_a_change_of_mass_unit_changes_nothing_but_the_units():
+    """The same blade in kilograms (m = 1e3, J = 1) and in tonnes (m = 1, J = 1e-3): the
+    scaled NLPs agree (f to 1e-14, g to 1e-14 of its size at a random point), so IPOPT
+    takes the same iterations to the same optimum, whose cost and controls differ by the
+    unit alone."""
+    kg, t = parking(1e3, 1.0, goal=(0.0, 1.0, 0.3)), parking(1.0, 1e-3, goal=(0.0, 1.0, 0.3))
+    x = np.random.default_rng(3).uniform(-1, 1, kg.x_layout.size)
+    values = [ca.Function("fg", [P.nlp["x"], P.nlp["p"]], [P.nlp["f"], P.nlp["g"]])(x, P.p) for P in (kg, t)]
+    assert float(values[0][0]) == pytest.approx(float(values[1][0]), rel=1e-14)
+    g0, g1 = (np.array(v[1]).ravel() for v in values)
+    assert np.abs(g0 - g1).max() <= 1e-14 * np.abs(g0).max()
+    a, b = dmoc.optimize(kg), dmoc.optimize(t)
+    assert a.stats["iterations"] == b.stats["iterations"]
+    assert a.cost == pytest.approx(1e6 * b.cost, rel=1e-12)
+    assert np.abs(a.trajectory.q - b.trajectory.q).max() <= 1e-12
+    np.testing.assert_allclose(a.trajectory.u, 1e3 * b.trajectory.u, rtol=0,
+                               atol=1e-12 * np.abs(a.trajectory.u).max())
 
 
 def test_unit_inertia_leaves_the_nlp_unscaled():
     problem = dmoc.problems.knife_edge_parking(20)
     np.testing.assert_array_equal(problem.x_scale, 1.0)
     np.testing.assert_array_equal(problem.g_scale, 1.0)
+    assert problem.f_scale == 1.0
 
 
 def test_degenerate_directions_take_the_geometric_mean_of_the_others():
@@ -80,8 +102,8 @@ def test_degenerate_directions_take_the_geometric_mean_of_the_others():
 @pytest.mark.parametrize("variant", ["+", "-"])
 def test_turn_in_place_of_a_heavy_blade_gives_the_torque_in_its_units(variant):
     """m = 1e3, J = 1e-3 turning by Theta = 1.2 in T = 4: the torque at the step midpoints
-    and the cost approach the continuous optimum at order 2 (N = 50, 100), the other
-    control stays 0, and p_theta is the discrete Legendre transform J v - h/2 tau (not
+    and the cost approach the continuous optimum at order 2 (N = 50, 100), the force stays
+    0 (its acceleration below 1e-10 of the torque's), and p_theta is the discrete Legendre transform J v - h/2 tau (not
     that times a scale factor)."""
     J, Theta, T = 1e-3, 1.2, 4.0
     errors = []
@@ -93,7 +115,8 @@ def test_turn_in_place_of_a_heavy_blade_gives_the_torque_in_its_units(variant):
         tau = 12 * J * Theta / T ** 2 * (0.5 - t_mid / T)
         errors.append((np.abs(traj.u[:, 1] - tau).max() / np.abs(tau).max(),
                        abs(result.cost / (12 * J ** 2 * Theta ** 2 / T ** 3) - 1)))
-        np.testing.assert_allclose(traj.u[:, 0], 0.0, atol=1e-10 * np.abs(tau).max())
+        # the force drives the mass, the torque the yaw inertia: compare accelerations
+        np.testing.assert_allclose(traj.u[:, 0] / 1e3, 0.0, atol=1e-10 * np.abs(tau).max() / J)
         v_theta, h = np.diff(traj.q[:, 2]) / (T / N), T / N    # p_k = J v_k+1/2 - h/2 tau_k
         np.testing.assert_allclose(traj.p[:-1, 2], J * v_theta - h / 2 * traj.u[:, 1],
                                    rtol=0, atol=1e-9 * J * np.abs(v_theta).max())
