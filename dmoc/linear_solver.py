@@ -6,7 +6,6 @@ has the solver append that journal to a file of its own and reads each solve's p
 """
 
 import atexit
-import hashlib
 import os
 import re
 import tempfile
@@ -14,17 +13,15 @@ import tempfile
 JOURNAL_LEVEL = 6           # IPOPT's J_DETAILED, where the linear solvers report
 _PIVOT = re.compile(r"Increasing pivot tolerance for \w+ from (\S+) to (\S+)\.")
 _TRIALS = re.compile(r"Number of trial factorizations performed: (\d+)")
-_JOURNALS = set()           # journal files of this process, removed at exit
 
 
-def journal_options(key):
-    """IPOPT options that append the detailed journal of the solver keyed by `key` (str) to
-    a file of this process's own: ``{"output_file", "file_print_level"}``."""
-    digest = hashlib.sha256(key.encode()).hexdigest()[:16]
-    path = os.path.join(tempfile.gettempdir(), f"dmoc-ipopt-{os.getpid()}-{digest}.txt")
-    if path not in _JOURNALS:
-        _JOURNALS.add(path)
-        atexit.register(_remove, path)
+def journal_options():
+    """IPOPT options that write the detailed journal of one new solver to a temporary file
+    of its own, removed when this process ends: ``{"output_file", "file_print_level"}``.
+    IPOPT keeps the file open and appends every solve of that solver to it."""
+    handle, path = tempfile.mkstemp(prefix="dmoc-ipopt-", suffix=".txt")
+    os.close(handle)
+    atexit.register(_remove, path, os.getpid())
     return {"output_file": path, "file_print_level": JOURNAL_LEVEL}
 
 
@@ -55,7 +52,10 @@ def linear_solver_report(path, start):
             "refinement_failures": text.count("Iterative refinement failed")}
 
 
-def _remove(path):
+def _remove(path, owner):
+    """Remove `path` at the exit of the process that made it (not of a forked child)."""
+    if os.getpid() != owner:
+        return
     try:
         os.remove(path)
     except OSError:

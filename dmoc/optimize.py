@@ -17,7 +17,7 @@ from .ocp import OptimalControlProblem
 from .errors import SolverError
 from .guess import initial_guess, start_point  # noqa: F401 (initial_guess: part of this module's API)
 from ._files import atomic_write
-from .linear_solver import journal_end, journal_options, linear_solver_report
+from .linear_solver import JOURNAL_LEVEL, journal_end, journal_options, linear_solver_report
 from .trajectory import RESULT_PREFIX, Trajectory
 
 # honor_original_bounds: IPOPT relaxes bounds by bound_relax_factor while iterating; project
@@ -137,7 +137,11 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         detailed journal, `dmoc.linear_solver`; writing it adds 10-30 % to the solve).
         Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
         floor of the rows where the data put it higher (configurations far from the
-        origin, docs/performance.md).
+        origin, docs/performance.md). Both apply to the scaled NLP (`dmoc.scaling`): the
+        rows in momentum units count divided by the inertia, so with m = 1e5 a
+        ``constr_viol_tol`` of 1e-6 admits momentum rows violated by 0.1 in the system's
+        units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
+        system's units.
     throw : bool
         Raise SolverError when IPOPT fails (default); else return with success=False.
 
@@ -241,11 +245,11 @@ def _solver(problem, options):
     reuse = _checks.boolean("options['reuse_solver']", options.pop("reuse_solver", True))
     report = _checks.boolean("options['linear_solver_report']", options.pop("linear_solver_report", False))
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
+    if report and "output_file" in options:
+        raise ValueError("`options` 'linear_solver_report' writes IPOPT's journal to a file "
+                         "of its own; leave out 'output_file' or the report.")
     if report:
-        if "output_file" in options:
-            raise ValueError("`options` 'linear_solver_report' writes IPOPT's journal to a file "
-                             "of its own; leave out 'output_file' or the report.")
-        merged.update(journal_options(problem.structure + repr(sorted(merged.items()))))
+        merged["file_print_level"] = JOURNAL_LEVEL
     # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
     # gradient function CasADi would generate for them is most of a solver's build
     opts = {"expand": expand, "print_time": False, "error_on_fail": False,
@@ -254,10 +258,13 @@ def _solver(problem, options):
     built = []
 
     def build():
+        """(a new solver, the path of its own journal or None)."""
         built.append(True)
+        journal = journal_options()["output_file"] if report else None
         try:
             return ca.nlpsol("dmoc", "ipopt", problem.nlp,
-                             {**opts, "cache": problem.separable.derivatives()})
+                             {**opts, "cache": problem.separable.derivatives(),
+                              **({"ipopt.output_file": journal} if report else {})}), journal
         except RuntimeError as err:
             culprit = _rejected_option(options)
             if culprit is None and "option" not in str(err).lower():
@@ -267,11 +274,9 @@ def _solver(problem, options):
             raise ValueError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
                              f"for the allowed values).\n{err}") from None
 
-    journal = merged.get("output_file") if report else None
-    if not reuse:
-        return build(), False, journal
-    solver = _SOLVERS.get((problem.structure, repr(sorted(opts.items()))), build)
-    return solver, not built, journal
+    solver, journal = build() if not reuse else _SOLVERS.get(
+        (problem.structure, repr(sorted(opts.items()))), build)
+    return solver, reuse and not built, journal
 
 
 def _rejected_option(options):

@@ -44,6 +44,7 @@ def acting_on(M, matrix):
     shape (r,); 1 for zero rows. For the columns of dF/du (controls) and the rows of A(q)
     (d'Alembert multipliers and impulses)."""
     a = np.abs(np.asarray(matrix, dtype=float).reshape(-1, M.size))
+    a = np.where(np.isfinite(a), a, 0.0)        # a singular direction at q: no weight
     weight = a.sum(axis=1)
     return np.where(weight > 0, a @ M / np.where(weight > 0, weight, 1.0), 1.0)
 
@@ -58,6 +59,7 @@ def nlp_scales(problem, q):
     residual (row r of a block of size n * j acts on degree of freedom r mod n) and the
     momentum boundary rows when the system's `momentum_residual` is in momentum units; 1 on
     the rest (constraint, velocity and path rows).
+    Every factor is rounded to the nearest power of 2 (`power_of_two`).
     f_scale: the cost of the cheapest scaled control, min_j D_j^2 d2C/du_j^2 / 2 of the
     running cost C at (q, 0, 0) and the parameters' values (D_j the control's x_scale;
     1 for |u|^2 with unit inertia, and 1 when no control enters C quadratically): IPOPT
@@ -85,7 +87,18 @@ def nlp_scales(problem, q):
     if sys.momentum_residual_units == "momentum":
         for end in ("start", "goal"):
             G.unpack(g_scale, end)[:] = 1.0 / M[:, None]
-    return x_scale, g_scale, _cost_unit(problem, q, by_block["u"][:sys.n_u])
+    return (power_of_two(x_scale), power_of_two(g_scale),
+            float(power_of_two(_cost_unit(problem, q, by_block["u"][:sys.n_u]))))
+
+
+def power_of_two(scale):
+    """`scale` (array_like) rounded to the nearest power of 2, 1 where it is not positive
+    and finite: scaling by it is exact in floating point, and problems whose inertia
+    differs a little (a start heading of 0 or 0.1 rad) share one NLP `structure`, hence one
+    solver and warm starts."""
+    s = np.asarray(scale, dtype=float)
+    valid = np.isfinite(s) & (s > 0)
+    return np.where(valid, 2.0 ** np.round(np.log2(np.where(valid, s, 1.0))), 1.0)
 
 
 def _cost_unit(problem, q, control_scale):

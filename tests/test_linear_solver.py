@@ -63,12 +63,39 @@ def test_report_refuses_an_output_file_of_the_users(tmp_path):
 
 
 def test_journal_file_is_removed_when_the_process_ends():
-    script = ("import dmoc, dmoc.problems, dmoc.linear_solver as ls\n"
+    script = ("import glob, os, tempfile, dmoc, dmoc.problems\n"
+              "before = set(glob.glob(os.path.join(tempfile.gettempdir(), 'dmoc-ipopt-*.txt')))\n"
               "dmoc.optimize(dmoc.problems.knife_edge_parking(10), options={'linear_solver_report': True})\n"
-              "(path,) = ls._JOURNALS\n"
-              "import os; assert os.path.getsize(path) > 0\n"
+              "(path,) = set(glob.glob(os.path.join(tempfile.gettempdir(), 'dmoc-ipopt-*.txt'))) - before\n"
+              "assert os.path.getsize(path) > 0\n"
               "print(path)\n")
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
     path = out.stdout.strip().splitlines()[-1]
     assert path.endswith(".txt")
     assert not os.path.exists(path)
+
+
+def test_a_fresh_solver_leaves_the_journal_of_the_cached_one():
+    """A solver built with reuse_solver=False, or with expand=True, between two solves of
+    the cached one has a journal of its own (tests from a review of the change)."""
+    problem = dmoc.problems.knife_edge_parking(50)
+    first = dmoc.optimize(problem, options=REPORT)
+    far = problem.with_boundary(q_goal=[10, 10, -12.0])
+    for other in ({"reuse_solver": False}, {"expand": True}):
+        dmoc.optimize(far, options={**REPORT, **other}, throw=False)
+        again = dmoc.optimize(problem, options=REPORT)
+        assert again.stats["solver_reused"]
+        assert again.stats["linear_solver"] == first.stats["linear_solver"]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_a_forked_child_leaves_the_parents_journal():
+    problem = dmoc.problems.knife_edge_parking(20)
+    dmoc.optimize(problem, options=REPORT)
+    pid = os.fork()
+    if pid == 0:                    # the child ends through the interpreter's exit handlers
+        import atexit
+        atexit._run_exitfuncs()
+        os._exit(0)
+    os.waitpid(pid, 0)
+    assert dmoc.optimize(problem, options=REPORT).stats["linear_solver"]["factorizations"] > 0

@@ -9,19 +9,27 @@ Oracles, none taken from the code under test:
   Theta in T: tau(t) = 12 J Theta / T^2 (1/2 - t/T), cost 12 J^2 Theta^2 / T^3, reached at
   order 2 in h;
 - the simulator replaying the optimal controls; the Hamiltonian form of the same system
-  started at the Lagrangian optimum.
+  started at the Lagrangian optimum;
+- the same problem built with every factor 1 (the NLP before the scaling), its KKT
+  conditions evaluated with CasADi's AD at the result (tests from a review of the change).
 """
+
+import json
+import os
+import subprocess
+import sys
 
 import casadi as ca
 import numpy as np
 import pytest
 
 import dmoc
+import dmoc.ocp
 from dmoc import diagnostics
-from dmoc.scaling import inertia
-from dmoc.systems import knife_edge
+from dmoc.scaling import inertia, power_of_two
+from dmoc.systems import knife_edge, rolling_disk
 
-MASS, YAW = 1e3, 2.0
+MASS, YAW = 1024.0, 2.0        # powers of 2: the factors are these, not rounded ones
 
 
 def parking(mass, yaw, *, steps=100, variant="+", goal=(0.0, 1.0, 0.0), system=None):
@@ -61,22 +69,32 @@ def test_knife_edge_factors_follow_its_inertia(variant):
 
 
 def test_a_change_of_mass_unit_changes_nothing_but_the_units():
-    """The same blade in kilograms (m = 1e3, J = 1) and in tonnes (m = 1, J = 1e-3): the
-    scaled NLPs agree (f to 1e-14, g to 1e-14 of its size at a random point), so IPOPT
-    takes the same iterations to the same optimum, whose cost and controls differ by the
-    unit alone."""
-    kg, t = parking(1e3, 1.0, goal=(0.0, 1.0, 0.3)), parking(1.0, 1e-3, goal=(0.0, 1.0, 0.3))
-    x = np.random.default_rng(3).uniform(-1, 1, kg.x_layout.size)
-    values = [ca.Function("fg", [P.nlp["x"], P.nlp["p"]], [P.nlp["f"], P.nlp["g"]])(x, P.p) for P in (kg, t)]
-    assert float(values[0][0]) == pytest.approx(float(values[1][0]), rel=1e-14)
+    """The same blade in two mass units 2^10 apart (m = 1024, J = 1 and m = 1, J = 2^-10):
+    the scaled NLPs agree (f and g to 2e-16 at a random point), so IPOPT takes the same
+    iterations to the same optimum, whose cost and controls differ by the unit alone."""
+    unit = 2.0 ** 10
+    big, small = (parking(unit * m, unit * J, goal=(0.0, 1.0, 0.3)) for m, J in ((1.0, 2 ** -10), (1 / unit, 2 ** -20)))
+    x = np.random.default_rng(3).uniform(-1, 1, big.x_layout.size)
+    values = [ca.Function("fg", [P.nlp["x"], P.nlp["p"]], [P.nlp["f"], P.nlp["g"]])(x, P.p) for P in (big, small)]
+    assert float(values[0][0]) == pytest.approx(float(values[1][0]), rel=1e-15)
     g0, g1 = (np.array(v[1]).ravel() for v in values)
-    assert np.abs(g0 - g1).max() <= 1e-14 * np.abs(g0).max()
-    a, b = dmoc.optimize(kg), dmoc.optimize(t)
+    assert np.abs(g0 - g1).max() <= 1e-15 * np.abs(g0).max()
+    a, b = dmoc.optimize(big), dmoc.optimize(small)
     assert a.stats["iterations"] == b.stats["iterations"]
-    assert a.cost == pytest.approx(1e6 * b.cost, rel=1e-12)
+    assert a.cost == pytest.approx(unit ** 2 * b.cost, rel=1e-12)
     assert np.abs(a.trajectory.q - b.trajectory.q).max() <= 1e-12
-    np.testing.assert_allclose(a.trajectory.u, 1e3 * b.trajectory.u, rtol=0,
+    np.testing.assert_allclose(a.trajectory.u, unit * b.trajectory.u, rtol=0,
                                atol=1e-12 * np.abs(a.trajectory.u).max())
+
+
+def test_factors_are_the_nearest_powers_of_two():
+    """m = 1000, J = 3 (log2 9.97 and 1.58): momenta by 1024 and 4, rows by their inverses;
+    the cost unit min(1000^2, 3^2) = 9 -> 8."""
+    problem = parking(1000.0, 3.0)
+    np.testing.assert_array_equal(problem.x_layout.unpack(problem.x_scale, "p")[:, 0], [1024.0, 1024.0, 4.0])
+    np.testing.assert_array_equal(problem.g_layout.unpack(problem.g_scale, "start")[:, 0],
+                                  [2.0 ** -10, 2.0 ** -10, 0.25])
+    assert problem.f_scale == 8.0
 
 
 def test_unit_inertia_leaves_the_nlp_unscaled():
@@ -200,3 +218,118 @@ def test_velocity_jumps_measure_how_the_grid_resolves_the_motion():
     ratios = dmoc.diagnostics.velocity_jumps(trajectory_of(q, h))
     assert ratios[0] == pytest.approx(2 * np.sin(omega * h / 2), rel=1e-5)
     np.testing.assert_allclose(ratios[1:], [0.0, 0.0, 1.0, 2.0], rtol=0, atol=1e-9)
+
+
+# --- against the unscaled NLP --------------------------------------------------------------------
+
+def unscaled(make, monkeypatch):
+    """The problem `make()` builds, with every factor 1."""
+    with monkeypatch.context() as m:
+        m.setattr(dmoc.ocp, "nlp_scales", lambda problem, q: (
+            np.ones(problem.x_layout.size), np.ones(problem.g_layout.size), 1.0))
+        return make()
+
+
+def unscaled_values(problem, x, lam_g):
+    """(d/dx (f + lam_g^T g), g) of the unscaled NLP at x, by CasADi's AD."""
+    lg = ca.MX.sym("lg", problem.nlp["g"].shape[0])
+    L = problem.nlp["f"] + ca.dot(lg, problem.nlp["g"])
+    F = ca.Function("F", [problem.nlp["x"], problem.nlp["p"], lg],
+                    [ca.gradient(L, problem.nlp["x"]), problem.nlp["g"]])
+    return tuple(np.array(v).ravel() for v in F(x, problem.p, lam_g))
+
+
+def light_parking(mass=1024.0, **kw):
+    disc = dmoc.discretize(knife_edge(mass=mass, inertia=2.0), 0.2)
+    return dmoc.OptimalControlProblem(disc, 20, q_start=[0, 0, 0.3], q_goal=[0, 1, 0.3], **kw)
+
+
+def test_active_control_bound_holds_in_system_units_with_its_multiplier(monkeypatch):
+    """A force bound 0.8 of the free optimum's peak, m = 16: attained to 1e-9, never
+    exceeded, and x, lam_x, lam_g satisfy the unscaled NLP's stationarity."""
+    free = dmoc.optimize(light_parking(16.0))
+    bound = 0.8 * np.abs(free.trajectory.u[:, 0]).max()
+
+    def make():
+        return light_parking(16.0, control_bounds=([-bound, None], [bound, None]))
+    problem, plain = make(), unscaled(make, monkeypatch)
+    result = dmoc.optimize(problem)
+    u0 = result.trajectory.u[:, 0]
+    assert (problem.x_layout.unpack(problem.x_scale, "u")[0] == 16.0).all()
+    assert bound * (1 - 1e-9) <= np.abs(u0).max() <= bound * (1 + 1e-12)
+    assert np.abs(result.lam_x).max() > 0
+    grad, _ = unscaled_values(plain, result.x, result.lam_g)
+    np.testing.assert_allclose(grad + result.lam_x, 0.0, atol=1e-8 * np.abs(grad).max())
+
+
+def test_max_violation_is_measured_in_system_units(monkeypatch):
+    problem, plain = light_parking(), unscaled(light_parking, monkeypatch)
+    result = dmoc.optimize(problem, options={"max_iter": 2}, throw=False)
+    _, g = unscaled_values(plain, result.x, np.zeros(problem.g_layout.size))
+    assert result.stats["max_violation"] == pytest.approx(np.abs(g).max(), rel=1e-9)
+
+
+def test_lobatto4_factors_by_node_and_degree_of_freedom():
+    M = np.array([1024.0, 1024.0, 2.0])
+    disc = dmoc.discretize(knife_edge(mass=1024.0, inertia=2.0), 0.2, "lobatto4")
+    problem = dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0.3], q_goal=[0, 1, 0.3])
+    u = problem.x_layout.unpack(problem.x_scale, "u")[:, 0]
+    np.testing.assert_array_equal(u, np.tile([1024.0, 2.0], 4))           # node by node
+    rows = problem.dynamics_rows.slices()
+    dynamics = problem.g_layout.unpack(problem.g_scale, "dynamics")[:, 0]
+    np.testing.assert_array_equal(dynamics[rows["stage"]], np.tile(1 / M, 2))   # stage by stage
+
+
+def test_lobatto3_multiplier_factors_by_node():
+    """Rolling disk A(q) = [[1, 0, -R cos phi, 0], [0, 1, -R sin phi, 0]] acting on the
+    inertias (m, m, I, J) of L: each row's weighted inertia, to the nearest power of 2."""
+    m, I, R, phi = 5.0, 0.3, 1.0, 0.4
+    disc = dmoc.discretize(rolling_disk(mass=m, radius=R, roll_inertia=I, steer_inertia=0.1), 0.2, "lobatto3")
+    problem = dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0, phi], q_goal=[1, 1, None, phi])
+    c, s = abs(R * np.cos(phi)), abs(R * np.sin(phi))
+    one_node = [(m + I * c) / (1 + c), (m + I * s) / (1 + s)]
+    np.testing.assert_array_equal(problem.x_layout.unpack(problem.x_scale, "lam")[:, 0],
+                                  np.tile(power_of_two(one_node), 2))
+
+
+def test_hamiltonian_minus_with_momenta_variables_scales_its_right_rows():
+    m, J = 4.0, 0.25
+    system = dmoc.HamiltonianSystem(lambda q, p: (p[0] ** 2 + p[1] ** 2) / (2 * m) + p[2] ** 2 / (2 * J), 3,
+                                    force=lambda q, p, u: u, n_u=3)
+    problem = dmoc.OptimalControlProblem(dmoc.discretize(system, 0.1), 5, q_start=[0, 0, 0],
+                                         q_goal=[0, 1, 0], variant="-", momenta="variables")
+    rows = problem.dynamics_rows.slices()
+    np.testing.assert_array_equal(problem.g_layout.unpack(problem.g_scale, "dynamics")[rows["right"], 0],
+                                  1 / np.array([m, m, J]))
+
+
+def disk(phi):
+    disc = dmoc.discretize(rolling_disk(mass=5.0, radius=1.0, roll_inertia=0.5), 0.1)
+    return dmoc.OptimalControlProblem(disc, 30, q_start=[0, 0, 0, phi], q_goal=[1, 1, None, phi + 1.0])
+
+
+def test_problems_differing_in_their_factors_only_do_not_share_term_functions():
+    """Headings 0 and 1.4 give other multiplier factors (2 and 4) and nothing else: the
+    second problem, solved after the first in this process, equals it solved alone."""
+    first, second = disk(0.0), disk(1.4)
+    assert not np.array_equal(first.x_scale, second.x_scale)
+    dmoc.optimize(first)
+    here = dmoc.optimize(second)
+    script = ("import json, sys; sys.path.insert(0, 'tests'); from test_scaling import disk; import dmoc\n"
+              "print(json.dumps(dmoc.optimize(disk(1.4)).trajectory.lam.tolist()))")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    alone = json.loads(subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                                      check=True, cwd=root).stdout)
+    np.testing.assert_allclose(here.trajectory.lam, alone, rtol=1e-8, atol=1e-10)
+
+
+def test_an_infinite_force_direction_at_q_ref_does_not_poison_the_factors():
+    """r free at both ends puts q_ref at r = 0, where dF/du = (1, 1/r) is infinite; the
+    state bounds keep the NLP away from it (this solved before the scaling)."""
+    system = dmoc.MechanicalSystem(lambda q, v: 1.5 * (v[0] ** 2 + q[0] ** 2 * v[1] ** 2), 2,
+                                   force=lambda q, v, u: ca.vertcat(u[0], u[1] / q[0]), n_u=2)
+    problem = dmoc.OptimalControlProblem(
+        dmoc.discretize(system, 0.1), 20, q_start=[None, 0], q_goal=[None, 1.0],
+        state_bounds=([0.5, None], [2, None]), running_cost=lambda q, v, u: ca.sumsqr(u) + (q[0] - 1) ** 2)
+    assert np.isfinite(problem.x_scale).all() and np.isfinite(problem.g_scale).all()
+    assert dmoc.optimize(problem).success
