@@ -190,7 +190,9 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     solve_time = time.perf_counter() - tic
     x, cost = D * np.array(sol["x"]).ravel(), c * float(sol["f"])
     st = solver.stats()
-    worst = most_violated(problem, np.array(sol["g"]).ravel() / R)
+    # g at the returned x: honor_original_bounds may have moved x onto its bounds after
+    # IPOPT's last g (h at T_min/N or T_max/N with a free final time)
+    worst = most_violated(problem, problem.separable.constraint_values(x / D, problem.p) / R)
     stats = {"iterations": _iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
              "warm_start": warm,

@@ -269,6 +269,25 @@ def test_max_violation_is_measured_in_system_units(monkeypatch):
     assert result.stats["max_violation"] == pytest.approx(np.abs(g).max(), rel=1e-9)
 
 
+def test_max_violation_is_that_of_the_returned_x_after_the_bounds_are_honored(monkeypatch):
+    """Minimum time (T in [2, 6]) ends with h on a bound, where honor_original_bounds moves
+    it after IPOPT's last g: max_violation is |g| at the returned x (here about 1e-11 of the
+    momenta), and with bound_relax_factor 0 the rows hold to rounding."""
+    def make():
+        disc = dmoc.discretize(knife_edge(mass=1024.0, inertia=2.0), 0.2)
+        return dmoc.OptimalControlProblem(disc, 20, q_start=[0, 0, 0.3], q_goal=[0, 1, 0.3],
+                                          duration=(2.0, 6.0),
+                                          running_cost=lambda q, v, u: 1 + 1e-3 * ca.sumsqr(u))
+    problem, plain = make(), unscaled(make, monkeypatch)
+    result = dmoc.optimize(problem)
+    h = problem.x_layout.unpack(result.x, "h").item()
+    assert h in (2.0 / 20, 6.0 / 20)
+    _, g = unscaled_values(plain, result.x, np.zeros(problem.g_layout.size))
+    assert result.stats["max_violation"] == pytest.approx(np.abs(g).max(), rel=1e-9)
+    exact = dmoc.optimize(problem, options={"bound_relax_factor": 0.0})
+    assert exact.stats["max_violation"] <= 1e-12 * np.abs(exact.trajectory.p).max()
+
+
 def test_lobatto4_factors_by_node_and_degree_of_freedom():
     M = np.array([1024.0, 1024.0, 2.0])
     disc = dmoc.discretize(knife_edge(mass=1024.0, inertia=2.0), 0.2, "lobatto4")
