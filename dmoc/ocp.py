@@ -74,18 +74,15 @@ class OptimalControlProblem:
     ----------
     nlp : dict
         ``{"x", "p", "f", "g"}`` CasADi MX expressions, for power users (``casadi.nlpsol``;
-        pass ``p=problem.p``). Its x is the scaled vector x / `x_scale`, its f the cost
-        / `f_scale` and its g the scaled rows `g_scale` * g: pass ``x0 / x_scale``,
-        ``lbx / x_scale``, ``ubx / x_scale``, ``lbg * g_scale``, ``ubg * g_scale`` and
-        multiply the solution by `x_scale` (and f by `f_scale`).
+        pass ``p=problem.p``). Its x is the scaled vector x / `x_scale` and its g the
+        scaled rows `g_scale` * g: pass ``x0 / x_scale``, ``lbx / x_scale``,
+        ``ubx / x_scale``, ``lbg * g_scale``, ``ubg * g_scale`` and multiply the
+        solution by `x_scale`.
     x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
         The scaling by the system's inertia at `q_ref` (`dmoc.scaling`): momenta,
         controls and multipliers by the inertia they act on, the rows in momentum units by
         its inverse; all 1 for unit inertia. Kept by `with_boundary` and
         `with_parameters`.
-    f_scale : float
-        The unit of the cost (`dmoc.scaling.nlp_scales`): the NLP's f is the cost divided
-        by it (1 for |u|^2 with unit inertia). Kept like the others.
     separable : SeparableNLP
         The same NLP as terms (`dmoc.separable`), with its assembled exact derivatives
         (``separable.derivatives()``, the ``cache`` option of ``casadi.nlpsol``).
@@ -249,7 +246,7 @@ class OptimalControlProblem:
                                 ("start_velocity", (velocity_rows["start"], 1)),
                                 ("goal_velocity", (velocity_rows["goal"], 1)),
                                 ("path", (path.numel_out(0) if path else 0, N))])
-        self.x_scale, self.g_scale, self.f_scale = nlp_scales(self, _reference(self.q_start, self.q_goal))
+        self.x_scale, self.g_scale = nlp_scales(self, _reference(self.q_start, self.q_goal))
         self.separable, self._momenta = transcribe(self)
         self.nlp = {k: getattr(self.separable, k) for k in ("x", "p", "f", "g")}
         self._set_bounds()

@@ -65,8 +65,7 @@ class OptimizationResult:
         ``"nu"``); its block "q" holds q - q_ref (``problem.configurations(x)`` gives q).
     lam_x, lam_g : ndarray, shapes like x and like problem.g_layout
         IPOPT's multipliers of the bounds and of the constraints at `x`, converted to the
-        unscaled NLP (``lam_x = f_scale * lam_x_ipopt / x_scale``,
-        ``lam_g = f_scale * g_scale * lam_g_ipopt``).
+        unscaled NLP (``lam_x = lam_x_ipopt / x_scale``, ``lam_g = g_scale * lam_g_ipopt``).
     structure : str
         The problem's `structure` key: a result warm-starts (primal and dual) any problem
         with the same key, e.g. one from ``problem.with_boundary(...)``.
@@ -155,9 +154,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     the Lagrangian from ``problem.separable.derivatives()`` (exact, assembled from each
     term's derivatives) instead of generating them for the whole graph. IPOPT iterates on
     the NLP scaled by the system's inertia (``problem.x_scale``, ``problem.g_scale``,
-    ``problem.f_scale``, `dmoc.scaling`); the start point, the bounds, the cost and the
-    multipliers are converted on the way in and out, so guesses and results are in the
-    system's units. It is created
+    `dmoc.scaling`); the start point, the bounds and the multipliers are converted on the
+    way in and out, so guesses and results are in the system's units. It is created
     once per problem structure and options and kept in a bounded cache: boundary data,
     bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
     same problem, or one from ``problem.with_boundary(...)``, skips the
@@ -177,7 +175,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     x0, lam_x0, lam_g0 = start_point(problem, guess)
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
-    D, R, c = problem.x_scale, problem.g_scale, problem.f_scale   # IPOPT: min f/c, R g, x/D
+    D, R = problem.x_scale, problem.g_scale      # IPOPT iterates on x / D, imposes R g
     tic = time.perf_counter()
     solver, reused, journal = _solver(problem, {**_data_tolerances(problem, x0 / D),
                                                 "warm_start_init_point": "yes" if warm else "no",
@@ -185,10 +183,10 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     build_time = time.perf_counter() - tic
     journal_start = journal_end(journal) if journal else 0
     tic = time.perf_counter()
-    sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D / c, lam_g0=lam_g0 / (c * R),
+    sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
                  lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
     solve_time = time.perf_counter() - tic
-    x, cost = D * np.array(sol["x"]).ravel(), c * float(sol["f"])
+    x, cost = D * np.array(sol["x"]).ravel(), float(sol["f"])
     st = solver.stats()
     # g at the returned x: honor_original_bounds may have moved x onto its bounds after
     # IPOPT's last g (h at T_min/N or T_max/N with a free final time)
@@ -210,8 +208,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
                f"cost {cost:.10g}{where}.")
     result = OptimizationResult(traj, cost, success, st["return_status"], message, stats,
-                                x, c * np.array(sol["lam_x"]).ravel() / D,
-                                c * R * np.array(sol["lam_g"]).ravel(),
+                                x, np.array(sol["lam_x"]).ravel() / D,
+                                R * np.array(sol["lam_g"]).ravel(),
                                 problem.structure, problem.q_ref.copy())
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)

@@ -50,8 +50,8 @@ def acting_on(M, matrix):
 
 
 def nlp_scales(problem, q):
-    """(x_scale, g_scale, f_scale), shapes (x_layout.size,), (g_layout.size,) and a float,
-    of `problem`, from the inertia at q, shape (n,) (the problem's `q_ref`).
+    """(x_scale, g_scale), shapes (x_layout.size,) and (g_layout.size,), of `problem`, from
+    the inertia at q, shape (n,) (the problem's `q_ref`).
 
     x_scale: p (momenta) by M_i; u by the inertia its force acts on (dF/du at (q_ref, 0,
     0)); lam, mu, nu by the inertia A(q_ref) acts on; q, s, velocities and h by 1.
@@ -60,13 +60,9 @@ def nlp_scales(problem, q):
     momentum boundary rows when the system's `momentum_residual` is in momentum units; 1 on
     the rest (constraint, velocity and path rows).
     Every factor is rounded to the nearest power of 2 (`power_of_two`).
-    f_scale: the cost of the cheapest scaled control, min_j D_j^2 d2C/du_j^2 / 2 of the
-    running cost C at (q, 0, 0) and the parameters' values (D_j the control's x_scale;
-    1 for |u|^2 with unit inertia, and 1 when no control enters C quadratically): IPOPT
-    minimizes f / f_scale, so that the objective, its tolerance and the multipliers do not
-    depend on the units of the cost. (The largest instead of the cheapest gave the same
-    invariance but 3-4x the iterations on the mixed-inertia knife edge,
-    docs/performance.md.)
+    The objective is not scaled: dividing it by the cost of the cheapest scaled control
+    made the NLP invariant to a change of units but cost the rolling disk's warm start an
+    iteration (docs/performance.md).
     """
     sys, disc, X, G = problem.disc.system, problem.disc, problem.x_layout, problem.g_layout
     M = inertia(sys, q)
@@ -87,8 +83,7 @@ def nlp_scales(problem, q):
     if sys.momentum_residual_units == "momentum":
         for end in ("start", "goal"):
             G.unpack(g_scale, end)[:] = 1.0 / M[:, None]
-    return (power_of_two(x_scale), power_of_two(g_scale),
-            float(power_of_two(_cost_unit(problem, q, by_block["u"][:sys.n_u]))))
+    return power_of_two(x_scale), power_of_two(g_scale)
 
 
 def power_of_two(scale):
@@ -99,17 +94,6 @@ def power_of_two(scale):
     s = np.asarray(scale, dtype=float)
     valid = np.isfinite(s) & (s > 0)
     return np.where(valid, 2.0 ** np.round(np.log2(np.where(valid, s, 1.0))), 1.0)
-
-
-def _cost_unit(problem, q, control_scale):
-    """min_j D_j^2 d2C/du_j^2 / 2 over the controls the running cost is convex in, else 1."""
-    sys = problem.disc.system
-    u = ca.SX.sym("u", sys.n_u)
-    C = problem._running(q, np.zeros(sys.n), u, problem._parameters.vector())
-    curvature = np.array(ca.evalf(ca.substitute(ca.diag(ca.hessian(C, u)[0]), u, ca.DM.zeros(sys.n_u)))).ravel()
-    weights = control_scale ** 2 * curvature / 2
-    usable = np.isfinite(weights) & (weights > 0)
-    return float(weights[usable].min()) if usable.any() else 1.0
 
 
 def _mechanical_data(system, q):

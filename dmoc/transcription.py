@@ -76,7 +76,7 @@ class _StepSlots:
         Function built once per `_functions_key` and scales (the index arrays are this
         problem's)."""
         return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name),
-                     (self.problem.x_scale, self.problem.g_scale, self.problem.f_scale))
+                     (self.problem.x_scale, self.problem.g_scale))
 
     def _previous_momentum(self, s):
         """p_k of the window's previous step (slots with suffix "_prev")."""
@@ -159,10 +159,10 @@ def _term(name, slots, body, g_index, key, scales):
     entries of x holding q - q_ref, the body given q (slot "q_ref" from p). Slots that
     read the same entries (q1 of the previous step and q0 of this one) are one input of
     the Term, so that each instance reads an entry of x once (`dmoc.separable.Term`).
-    `scales` = (x_scale, g_scale, f_scale) of `dmoc.scaling`: the Term reads x / x_scale
-    and gives f / f_scale and g_scale * g (each constant over the instances)."""
+    `scales` = (x_scale, g_scale) of `dmoc.scaling`: the Term reads x / x_scale and fills
+    g_scale * g (each constant over the instances)."""
     M = g_index.shape[1]
-    x_scale, g_scale, f_scale = scales
+    x_scale, g_scale = scales
     scale = {k: x_scale[index[:, 0]] if src != "p" and index.shape[1] else np.ones(index.shape[0])
              for k, (src, index) in slots.items()}
     row_scale = g_scale[g_index[:, 0]] if M else np.ones(g_index.shape[0])
@@ -180,14 +180,14 @@ def _term(name, slots, body, g_index, key, scales):
         values = {k: _scaled(symbols[owner[k]], scale[k]) for k in slots}
         f, g = body({k: values[k] + values["q_ref"] if src == "q" else values[k]
                      for k, (src, _) in slots.items()})
-        f, g = _scaled(ca.SX(f), np.array([1.0 / f_scale])), _scaled(ca.SX(g), row_scale)
+        g = _scaled(ca.SX(g), row_scale)
         z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
         function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
         return function, function_key(function)
     index = {src: np.vstack([wide[k][1] for k in parts[src]] or [np.zeros((0, M), int)])
              for src in ("x", "p")}
     aliases = tuple(sorted((k, o) for k, o in owner.items() if k != o))
-    scaling = repr((f_scale, row_scale.tolist(), sorted((k, v.tolist()) for k, v in scale.items())))
+    scaling = repr((row_scale.tolist(), sorted((k, v.tolist()) for k, v in scale.items())))
     function, key_of_function = _FUNCTIONS.get((key, aliases, scaling), build)
     return Term(function, index["x"], index["p"], g_index, key_of_function)
 
