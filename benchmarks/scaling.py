@@ -13,6 +13,7 @@ all N of the run. Best of `--repeat`; each dmoc repeat creates its solver anew.
 
 import argparse
 import importlib
+import importlib.util
 import os
 import platform
 import time
@@ -27,14 +28,16 @@ import collocation  # noqa: E402
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
 
-OPTIMIZE = importlib.import_module("dmoc.optimize")   # the module (dmoc.optimize is the function)
+# the modules holding dmoc's solver cache: dmoc.ipopt, or dmoc.optimize on older checkouts
+SOLVER_MODULES = [m for m in (importlib.import_module(name) for name in ("dmoc.optimize", "dmoc.ipopt")
+                              if importlib.util.find_spec(name)) if hasattr(m, "_SOLVERS")]
 STEPS = (200, 500, 1000, 2000, 5000, 10000)
 
 
 def dmoc_run(N):
     """(build s, solve s, iterations, NLP variables, constraints) of one fresh DMOC solve."""
-    if hasattr(OPTIMIZE, "_SOLVERS"):                 # no solver reuse between repeats
-        OPTIMIZE._SOLVERS = type(OPTIMIZE._SOLVERS)(OPTIMIZE._SOLVERS.maxsize)
+    for module in SOLVER_MODULES:                     # no solver reuse between repeats
+        module._SOLVERS = type(module._SOLVERS)(module._SOLVERS.maxsize)
     tic = time.perf_counter()
     problem = dmoc.problems.knife_edge_parking(N)
     construct = time.perf_counter() - tic

@@ -15,14 +15,14 @@ _PIVOT = re.compile(r"Increasing pivot tolerance for \w+ from (\S+) to (\S+)\.")
 _TRIALS = re.compile(r"Number of trial factorizations performed: (\d+)")
 
 
-def journal_options():
-    """IPOPT options that write the detailed journal of one new solver to a temporary file
-    of its own, removed when this process ends: ``{"output_file", "file_print_level"}``.
-    IPOPT keeps the file open and appends every solve of that solver to it."""
+def new_journal():
+    """The path of a new temporary file for the journal of one solver (IPOPT's
+    ``output_file``, written at ``file_print_level`` `JOURNAL_LEVEL`; IPOPT keeps it open
+    and appends every solve of that solver), removed when this process ends."""
     handle, path = tempfile.mkstemp(prefix="dmoc-ipopt-", suffix=".txt")
     os.close(handle)
     atexit.register(_remove, path, os.getpid())
-    return {"output_file": path, "file_print_level": JOURNAL_LEVEL}
+    return path
 
 
 def journal_end(path):
