@@ -86,7 +86,7 @@ def solver(problem, options):
                              f"for the allowed values).\n{err}") from None
 
     solver, journal = build() if not reuse else _SOLVERS.get(
-        (problem.structure, repr(sorted(opts.items()))), build)
+        (problem.structure, repr(sorted(opts.items())), report), build)
     return solver, reuse and not built, journal
 
 

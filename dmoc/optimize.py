@@ -173,11 +173,12 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
                  lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
     solve_time = time.perf_counter() - tic
-    x, cost = D * np.array(sol["x"]).ravel(), float(sol["f"])
+    x = D * np.array(sol["x"]).ravel()
     st = solver.stats()
-    # g at the returned x: honor_original_bounds may have moved x onto its bounds after
-    # IPOPT's last g (h at T_min/N or T_max/N with a free final time)
-    worst = most_violated(problem, problem.separable.constraint_values(x / D, problem.p) / R)
+    # f and g at the returned x: honor_original_bounds may have moved x onto its bounds
+    # after IPOPT's last f and g (h at T_min/N or T_max/N with a free final time)
+    cost, g = problem.separable.values(x / D, problem.p)
+    worst = most_violated(problem, g / R)
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
              "warm_start": warm,

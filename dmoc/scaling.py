@@ -87,13 +87,15 @@ def nlp_scales(problem, q):
 
 
 def power_of_two(scale):
-    """`scale` (array_like) rounded to the nearest power of 2, 1 where it is not positive
-    and finite: scaling by it is exact in floating point, and problems whose inertia
+    """`scale` (array_like) rounded to the nearest power of 2 within the normal numbers
+    (2^-1022 ... 2^1023), 1 where it is not positive and finite: scaling by it is exact in
+    floating point, and problems whose inertia
     differs a little (a start heading of 0 or 0.1 rad) share one NLP `structure`, hence one
     solver and warm starts."""
     s = np.asarray(scale, dtype=float)
     valid = np.isfinite(s) & (s > 0)
-    return np.where(valid, 2.0 ** np.round(np.log2(np.where(valid, s, 1.0))), 1.0)
+    exponent = np.clip(np.round(np.log2(np.where(valid, s, 1.0))), -1022, 1023)   # normal numbers
+    return np.where(valid, np.ldexp(1.0, exponent.astype(int)), 1.0)
 
 
 def _mechanical_data(system, q):

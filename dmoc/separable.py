@@ -88,18 +88,20 @@ class SeparableNLP:
         self.x, self.p = ca.MX.sym("x", n_x), ca.MX.sym("p", n_p)
         self._term_windows = [self._windows(t) for t in self.terms]
         self.f, self.g = self._objective_and_constraints()
-        self._derivatives = self._key = self._g_function = None
+        self._derivatives = self._key = self._values = None
 
     def __getstate__(self):
-        """Pickled without the assembled derivatives and the g Function: rebuilt on first
-        use after loading (`dmoc.batch` ships problems to workers)."""
-        return {**self.__dict__, "_derivatives": None, "_g_function": None}
+        """Pickled without the assembled derivatives and the (f, g) Function: rebuilt on
+        first use after loading (`dmoc.batch` ships problems to workers)."""
+        return {**self.__dict__, "_derivatives": None, "_values": None}
 
-    def constraint_values(self, x, p):
-        """g at numbers x (n_x,) and p (n_p,), shape (n_g,), by a Function built on first use."""
-        if self._g_function is None:
-            self._g_function = ca.Function("g", [self.x, self.p], [self.g], ["x", "p"], ["g"])
-        return np.array(self._g_function(x, p)).ravel()
+    def values(self, x, p):
+        """(f, g) at numbers x (n_x,) and p (n_p,): a float and shape (n_g,), by a Function
+        built on first use."""
+        if self._values is None:
+            self._values = ca.Function("fg", [self.x, self.p], [self.f, self.g], ["x", "p"], ["f", "g"])
+        f, g = self._values(x, p)
+        return float(f), np.array(g).ravel()
 
     @property
     def key(self):

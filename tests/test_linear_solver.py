@@ -99,3 +99,17 @@ def test_a_forked_child_leaves_the_parents_journal():
         os._exit(0)
     os.waitpid(pid, 0)
     assert dmoc.optimize(problem, options=REPORT).stats["linear_solver"]["factorizations"] > 0
+
+
+@pytest.mark.parametrize("report_first", [True, False])
+def test_report_is_given_exactly_when_asked_for(report_first, monkeypatch):
+    """A solver built without the report (even with file_print_level 6 and no output file,
+    where IPOPT writes nothing) is not the one a reported solve takes, nor the reverse
+    (second review of the change)."""
+    import dmoc.ipopt
+    monkeypatch.setattr(dmoc.ipopt, "_SOLVERS", type(dmoc.ipopt._SOLVERS)(16))
+    problem = dmoc.problems.knife_edge_parking(20)
+    plain = {"file_print_level": 6}
+    for options in ([REPORT, plain] if report_first else [plain, REPORT]):
+        stats = dmoc.optimize(problem, options=options).stats
+        assert ("linear_solver" in stats) == (options is REPORT)

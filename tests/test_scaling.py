@@ -284,6 +284,29 @@ def test_max_violation_is_that_of_the_returned_x_after_the_bounds_are_honored(mo
     assert exact.stats["max_violation"] <= 1e-12 * np.abs(exact.trajectory.p).max()
 
 
+def test_cost_is_the_objective_at_the_returned_x():
+    """Minimum time with h ending on its bound: the cost is sum_k h (1 + 1e-3 |u_k|^2) of
+    the returned trajectory, by hand, to 1e-13 (IPOPT's last f, before the bounds are
+    honored, was 3e-10 off; second review of the change)."""
+    disc = dmoc.discretize(knife_edge(mass=1024.0, inertia=2.0), 0.2)
+    problem = dmoc.OptimalControlProblem(disc, 20, q_start=[0, 0, 0.3], q_goal=[0, 1, 0.3],
+                                         duration=(2.0, 6.0),
+                                         running_cost=lambda q, v, u: 1 + 1e-3 * ca.sumsqr(u))
+    result = dmoc.optimize(problem)
+    h, u = result.trajectory.h, result.trajectory.u
+    assert h in (0.1, 0.3)
+    assert result.cost == pytest.approx(float(np.sum(h * (1 + 1e-3 * np.sum(u ** 2, axis=1)))), rel=1e-13)
+
+
+@pytest.mark.parametrize("value", [1.5e308, np.finfo(float).max, 1e-310, 5e-324])
+def test_factors_stay_normal_powers_of_two_at_the_extremes(value):
+    """Scaling by s is exact only for a normal s: the factor of an absurd inertia is
+    clipped to 2^1023 or 2^-1022, never inf or subnormal."""
+    s = float(power_of_two(value))
+    assert np.isfinite(s) and s >= np.finfo(float).tiny and s == 2.0 ** round(np.log2(s))
+    assert (1.1 * s) / s == 1.1 and (1.1 / s) * s == 1.1
+
+
 def test_lobatto4_factors_by_node_and_degree_of_freedom():
     M = np.array([1024.0, 1024.0, 2.0])
     disc = dmoc.discretize(knife_edge(mass=1024.0, inertia=2.0), 0.2, "lobatto4")
