@@ -52,11 +52,15 @@ def linear_solver_report(path, start):
             "refinement_failures": text.count("Iterative refinement failed")}
 
 
-def _remove(path, owner):
-    """Remove `path` at the exit of the process that made it (not of a forked child)."""
-    if os.getpid() != owner:
-        return
+def remove_journal(path):
+    """Remove the journal at `path` (of a solver that is not kept), if it is still there."""
     try:
         os.remove(path)
     except OSError:
         pass
+
+
+def _remove(path, owner):
+    """Remove `path` at the exit of the process that made it (not of a forked child)."""
+    if os.getpid() == owner:
+        remove_journal(path)

@@ -18,7 +18,7 @@ from ._files import atomic_write
 from .ipopt import DEFAULT_IPOPT_OPTIONS  # noqa: F401 (dmoc.optimize.DEFAULT_IPOPT_OPTIONS, as before)
 from .ipopt import data_tolerances, iteration_count, linear_algebra
 from .ipopt import solver as ipopt_solver
-from .linear_solver import journal_end, linear_solver_report
+from .linear_solver import journal_end, linear_solver_report, remove_journal
 from .trajectory import RESULT_PREFIX, Trajectory
 
 
@@ -186,6 +186,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
              "max_violation": worst[0], "most_violated": worst[1]}
     if journal:
         stats["linear_solver"] = linear_solver_report(journal, journal_start)
+        if not (options or {}).get("reuse_solver", True):      # a solver of this call only
+            remove_journal(journal)
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"

@@ -7,9 +7,11 @@ IPOPT's per-iteration regularization in CasADi's own stats (each regularized ite
 needs at least one more factorization).
 """
 
+import glob
 import os
 import subprocess
 import sys
+import tempfile
 
 import pytest
 
@@ -113,3 +115,12 @@ def test_report_is_given_exactly_when_asked_for(report_first, monkeypatch):
     for options in ([REPORT, plain] if report_first else [plain, REPORT]):
         stats = dmoc.optimize(problem, options=options).stats
         assert ("linear_solver" in stats) == (options is REPORT)
+
+
+def test_the_journal_of_a_solver_not_kept_goes_with_it():
+    """reuse_solver=False: the solver is dropped after the call, and its journal with it."""
+    pattern = os.path.join(tempfile.gettempdir(), "dmoc-ipopt-*.txt")
+    before = set(glob.glob(pattern))
+    result = dmoc.optimize(dmoc.problems.knife_edge_parking(10), options={**REPORT, "reuse_solver": False})
+    assert result.stats["linear_solver"]["factorizations"] > 0
+    assert set(glob.glob(pattern)) <= before
