@@ -33,7 +33,12 @@ def inertia(system, q):
         geometric mean of the others, and all are 1 when none is: the scaling is about
         ratios and never divides by a degenerate inertia.
     """
-    M = np.abs(_mechanical_data(system, q)[0])
+    return _usable(_mechanical_data(system, q)[0])
+
+
+def _usable(M):
+    """|M| with the entries that are not positive and finite replaced as `inertia` says."""
+    M = np.abs(M)
     valid = np.isfinite(M) & (M > 0)
     mean = float(np.exp(np.log(M[valid]).mean())) if valid.any() else 1.0
     return np.where(valid, M, mean)
@@ -65,8 +70,8 @@ def nlp_scales(problem, q):
     iteration (docs/performance.md).
     """
     sys, disc, X, G = problem.disc.system, problem.disc, problem.x_layout, problem.g_layout
-    M = inertia(sys, q)
-    _, B, A = _mechanical_data(sys, q)
+    M, B, A = _mechanical_data(sys, q)
+    M = _usable(M)
     on_lam = acting_on(M, A)
     by_block = {"p": M, "lam": np.tile(on_lam, disc.n_multipliers // max(sys.m, 1)),
                 "mu": on_lam, "nu": on_lam, "u": np.tile(acting_on(M, B.T), len(disc.rule.control_nodes))}
