@@ -18,7 +18,7 @@ from ._files import atomic_write
 from .ipopt import DEFAULT_IPOPT_OPTIONS  # noqa: F401 (dmoc.optimize.DEFAULT_IPOPT_OPTIONS, as before)
 from .ipopt import data_tolerances, iteration_count, linear_algebra
 from .ipopt import solver as ipopt_solver
-from .linear_solver import journal_end, linear_solver_report, remove_journal
+from .linear_solver import journal_end, linear_solver_report
 from .trajectory import RESULT_PREFIX, Trajectory
 
 
@@ -173,11 +173,12 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
                  lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
     solve_time = time.perf_counter() - tic
-    x = D * np.array(sol["x"]).ravel()
+    x_ipopt = np.array(sol["x"]).ravel()
+    x = D * x_ipopt
     st = solver.stats()
     # f and g at the returned x: honor_original_bounds may have moved x onto its bounds
     # after IPOPT's last f and g (h at T_min/N or T_max/N with a free final time)
-    cost, g = problem.separable.values(x / D, problem.p)
+    cost, g = problem.separable.values(x_ipopt, problem.p)
     worst = most_violated(problem, g / R)
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
@@ -186,8 +187,6 @@ def optimize(problem, *, guess=None, options=None, throw=True):
              "max_violation": worst[0], "most_violated": worst[1]}
     if journal:
         stats["linear_solver"] = linear_solver_report(journal, journal_start)
-        if not (options or {}).get("reuse_solver", True):      # a solver of this call only
-            remove_journal(journal)
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
