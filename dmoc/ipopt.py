@@ -4,12 +4,14 @@ structure and options and kept in a bounded cache, each with its own journal whe
 linear-solver report is asked for; what IPOPT's statistics say about a solve.
 """
 
+import weakref
+
 import casadi as ca
 import numpy as np
 
 from . import _checks
 from ._cache import BoundedCache
-from .linear_solver import JOURNAL_LEVEL, new_journal
+from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With the relaxation,
@@ -73,13 +75,13 @@ def solver(problem, options):
     built = []
 
     def build():
-        """(a new solver, the path of its own journal or None)."""
+        """(a new solver, the path of its own journal or None, removed with the solver)."""
         built.append(True)
         journal = new_journal() if report else None
         try:
-            return ca.nlpsol("dmoc", "ipopt", problem.nlp,
+            made = ca.nlpsol("dmoc", "ipopt", problem.nlp,
                              {**opts, "cache": problem.separable.derivatives(),
-                              **({"ipopt.output_file": journal} if report else {})}), journal
+                              **({"ipopt.output_file": journal} if report else {})})
         except RuntimeError as err:
             culprit = _rejected_option(options)
             if culprit is None and "option" not in str(err).lower():
@@ -88,6 +90,9 @@ def solver(problem, options):
                      else "`options`")
             raise ValueError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
                              f"for the allowed values).\n{err}") from None
+        if journal:     # a solver dropped (reuse_solver=False, or evicted) takes its journal along
+            weakref.finalize(made, remove_journal, journal).atexit = False
+        return made, journal
 
     solver, journal = build() if not reuse else _SOLVERS.get(
         (problem.structure, repr(sorted(opts.items())), report), build)

@@ -53,7 +53,7 @@ def linear_solver_report(path, start):
 
 
 def remove_journal(path):
-    """Remove the journal at `path` (of a solver that is not kept), if it is still there."""
+    """Remove the journal at `path` (of a solver that is dropped), if it is still there."""
     try:
         os.remove(path)
     except OSError:

@@ -117,6 +117,19 @@ def test_report_is_given_exactly_when_asked_for(report_first, monkeypatch):
         assert ("linear_solver" in stats) == (options is REPORT)
 
 
+def test_the_journal_of_an_evicted_solver_goes_with_it(monkeypatch):
+    """A cache of one solver: the second structure's solver evicts the first, and the
+    first's journal goes with it."""
+    import dmoc.ipopt
+    monkeypatch.setattr(dmoc.ipopt, "_SOLVERS", type(dmoc.ipopt._SOLVERS)(1))
+    pattern = os.path.join(tempfile.gettempdir(), "dmoc-ipopt-*.txt")
+    before = set(glob.glob(pattern))
+    dmoc.optimize(dmoc.problems.knife_edge_parking(10), options=REPORT)
+    (first,) = set(glob.glob(pattern)) - before
+    dmoc.optimize(dmoc.problems.knife_edge_parking(12), options=REPORT)
+    assert not os.path.exists(first) and len(set(glob.glob(pattern)) - before) == 1
+
+
 def test_the_journal_of_a_solver_not_kept_goes_with_it():
     """reuse_solver=False: the solver is dropped after the call, and its journal with it."""
     pattern = os.path.join(tempfile.gettempdir(), "dmoc-ipopt-*.txt")
