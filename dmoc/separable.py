@@ -123,12 +123,16 @@ class SeparableNLP:
         return window(self.x, t.x_index), window(self.p, t.p_index[:, :1] if shared else t.p_index)
 
     def _objective_and_constraints(self):
-        f, g = ca.MX(0), []
+        f, g = [], []
         for t, (z, w) in zip(self.terms, self._term_windows):
-            out = t.function.map(t.instances)(z, w)
-            f += ca.sum2(out[0])
-            g.append(ca.vec(out[1]))
-        return f, _gather(ca.vertcat(*g), self._g_order) if g else ca.MX(0, 1)
+            out = _mapped(t.function, t.instances)(z, w)
+            f.append(ca.sum2(out[0]) if t.instances > 1 else out[0])
+            g.append(ca.vec(out[1]) if t.instances > 1 else out[1])
+        if not g:
+            return ca.MX(0), ca.MX(0, 1)
+        g = ca.vertcat(*g)
+        in_order = np.array_equal(self._g_order, np.arange(self.n_g))
+        return ca.sum1(ca.vertcat(*f)), g if in_order else _gather(g, self._g_order)
 
     def derivatives(self):
         """``{name: Function}`` for the ``cache`` option of ``casadi.nlpsol``: nlp_grad_f
@@ -146,9 +150,9 @@ class SeparableNLP:
         for t, (z, w) in zip(self.terms, self._term_windows):
             local = local_derivatives(t.function, t.function_key)
             M = t.instances
-            parts["grad"].append(local["grad"].map(M)(z, w))
-            parts["jac"].append(local["jac"].map(M)(z, w))
-            parts["hess"].append(local["hess"].map(M)(z, w, sigma, window(lam, t.g_index)))
+            parts["grad"].append(_mapped(local["grad"], M)(z, w))
+            parts["jac"].append(_mapped(local["jac"], M)(z, w))
+            parts["hess"].append(_mapped(local["hess"], M)(z, w, sigma, window(lam, t.g_index)))
             rows, cols = local["jac_pattern"]
             where["grad"].append((t.x_index, np.zeros_like(t.x_index)))
             where["jac"].append((t.g_index[rows], t.x_index[cols]))
@@ -206,35 +210,63 @@ def _pattern(matrix):
     return np.asarray(rows, dtype=int), np.asarray(cols, dtype=int)
 
 
+# One CasADi operation called from Python costs about what passing 300 indices to it does
+# (about 20 us against 60 ns per index on the benchmark VM, casadi 3.8; docs/performance.md):
+# the exchange rate by which `window` chooses between slicing and one gather.
+INDICES_PER_OPERATION = 300
+
+
 def window(vector, index):
     """vector[index] as an (rows, M) matrix, `index` of shape (rows, M).
 
     Rows that step through a block of the vector (the window of a step's q, lam, u: a run
     of L consecutive entries advancing by L per instance) or that every instance shares
-    are sliced, not gathered by an index list: the windows of the DMOC terms cost O(1)
-    operations instead of O(N) entries passed to CasADi.
+    can be sliced, in O(1) operations, instead of gathered by a list of all rows x M
+    entries. Whichever costs fewer operations (`INDICES_PER_OPERATION`) is built: slices
+    for the long windows of the step terms, one gather for the short ones.
     """
     rows, M = index.shape
     if rows == 0:
         return ca.MX(0, M)
+    runs = _runs(index)
+    gather_cost = (1 if M == 1 else 2) + index.size / INDICES_PER_OPERATION
+    if runs is None or gather_cost <= 2 * len(runs) + (len(runs) > 1):
+        flat = vector[index.ravel(order="F").tolist()]
+        return flat if M == 1 else ca.reshape(flat, rows, M)
+    parts = []
+    for r, L, step in runs:
+        first = int(index[r, 0])
+        if step == L:
+            parts.append(ca.reshape(vector[first:first + L * M], L, M))
+        elif step == 0:
+            parts.append(ca.repmat(vector[first:first + L], 1, M))
+        else:
+            parts.append(ca.reshape(vector[index[r:r + L].ravel(order="F").tolist()], L, M))
+    return ca.vertcat(*parts)
+
+
+def _runs(index):
+    """The rows of `index` (rows, M) as runs (first row, length L, step): L rows of
+    consecutive entries that all advance by `step` per instance; None if some row does not
+    advance by a constant step."""
+    rows, M = index.shape
     stride = index[:, -1] - index[:, 0] if M > 1 else np.zeros(rows, int)
-    affine = M == 1 or (index == index[:, :1] + (stride // (M - 1))[:, None] * np.arange(M)).all()
-    if not affine:
-        return ca.reshape(vector[index.ravel(order="F").tolist()], rows, M)
-    step, parts, r = (stride // (M - 1) if M > 1 else stride), [], 0
+    step = stride // (M - 1) if M > 1 else stride
+    if M > 1 and not (index == index[:, :1] + step[:, None] * np.arange(M)).all():
+        return None
+    runs, r = [], 0
     while r < rows:
         L = 1
         while r + L < rows and index[r + L, 0] == index[r, 0] + L and step[r + L] == step[r]:
             L += 1
-        first = int(index[r, 0])
-        if step[r] == L:
-            parts.append(ca.reshape(vector[first:first + L * M], L, M))
-        elif step[r] == 0:
-            parts.append(ca.repmat(vector[first:first + L], 1, M))
-        else:
-            parts.append(ca.reshape(vector[index[r:r + L].ravel(order="F").tolist()], L, M))
+        runs.append((r, L, int(step[r])))
         r += L
-    return ca.vertcat(*parts)
+    return runs
+
+
+def _mapped(function, M):
+    """`function` evaluated at M instances: itself when M = 1."""
+    return function if M == 1 else function.map(M)
 
 
 def _gather(vector, order):
@@ -247,7 +279,7 @@ def _assembled(values, where, shape):
     values[t] is an (nnz_t, M_t) matrix; where[t] = (rows, cols), both (nnz_t, M_t) arrays
     of global indices for its entries.
     """
-    values = ca.vertcat(*[ca.vec(v) for v in values])
+    values = ca.vertcat(*[ca.vec(v) if v.size2() > 1 else v for v in values])
     rows = np.concatenate([r.ravel(order="F") for r, _ in where]).astype(np.int64)
     cols = np.concatenate([c.ravel(order="F") for _, c in where]).astype(np.int64)
     keys, slot = np.unique(cols * shape[0] + rows, return_inverse=True)

@@ -400,18 +400,21 @@ def test_an_instance_reading_an_entry_twice_is_refused():
         SeparableNLP(1, 0, 0, [term])
 
 
+@pytest.mark.parametrize("M", [5, 3000])
 @pytest.mark.parametrize("kind", ["blocks", "shared", "mixed", "irregular", "one instance"])
-def test_window_equals_numpy_fancy_indexing(kind):
-    """`window` slices what steps through a block and gathers the rest: either way it is
+def test_window_equals_numpy_fancy_indexing(kind, M):
+    """`window` slices what steps through a block and gathers the rest, or gathers all of
+    a short window at once (M = 5; M = 3000 takes the slices): either way it is
     vector[index] (numpy fancy indexing is the oracle)."""
     rng = np.random.default_rng(7)
-    vector = rng.normal(size=60)
-    M = 1 if kind == "one instance" else 5
+    size = 3 * M + 60
+    vector = rng.normal(size=size)
+    M = 1 if kind == "one instance" else M
     k = np.arange(M)
     block = 3 + np.arange(3)[:, None] + 3 * k            # 3 entries advancing by 3
-    shared = np.full((2, M), 50) + np.arange(2)[:, None]  # the same 2 entries for every instance
+    shared = np.full((2, M), size - 5) + np.arange(2)[:, None]  # the same 2 entries for every instance
     index = {"blocks": block, "shared": shared, "mixed": np.vstack([block, shared, block + 20]),
-             "irregular": rng.integers(0, 60, size=(4, M)), "one instance": np.vstack([block, shared])}[kind]
-    x = ca.MX.sym("x", 60)
+             "irregular": rng.integers(0, size, size=(4, M)), "one instance": np.vstack([block, shared])}[kind]
+    x = ca.MX.sym("x", size)
     got = np.array(ca.Function("w", [x], [separable_window(x, index)])(vector))
     np.testing.assert_array_equal(got, vector[index])
