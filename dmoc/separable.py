@@ -150,15 +150,18 @@ class SeparableNLP:
         for t, (z, w) in zip(self.terms, self._term_windows):
             local = local_derivatives(t.function, t.function_key)
             M = t.instances
-            parts["grad"].append(_mapped(local["grad"], M)(z, w))
-            parts["jac"].append(_mapped(local["jac"], M)(z, w))
-            parts["hess"].append(_mapped(local["hess"], M)(z, w, sigma, window(lam, t.g_index)))
+            rows, cols = local["grad_pattern"]
+            if rows.size:               # a term without cost (boundary rows) adds no gradient
+                parts["grad"].append(_mapped(local["grad"], M)(z, w))
+                where["grad"].append((t.x_index[rows], np.zeros((rows.size, M), int)))
             rows, cols = local["jac_pattern"]
-            where["grad"].append((t.x_index, np.zeros_like(t.x_index)))
+            parts["jac"].append(_mapped(local["jac"], M)(z, w))
             where["jac"].append((t.g_index[rows], t.x_index[cols]))
             rows, cols = local["hess_pattern"]
-            a, b = t.x_index[rows], t.x_index[cols]
-            where["hess"].append((np.minimum(a, b), np.maximum(a, b)))
+            if rows.size:               # rows linear in x, no cost: no Hessian entries
+                parts["hess"].append(_mapped(local["hess"], M)(z, w, sigma, window(lam, t.g_index)))
+                a, b = t.x_index[rows], t.x_index[cols]
+                where["hess"].append((np.minimum(a, b), np.maximum(a, b)))
         grad = _assembled(parts["grad"], where["grad"], (self.n_x, 1))
         jac = _assembled(parts["jac"], where["jac"], (self.n_g, self.n_x))
         hess = _assembled(parts["hess"], where["hess"], (self.n_x, self.n_x))
@@ -181,9 +184,11 @@ def local_derivatives(function, key):
     Returns
     -------
     dict
-        ``grad (z, w) -> df/dz`` (nz, 1); ``jac (z, w) -> nonzeros of dg/dz`` and
-        ``jac_pattern`` (their rows, columns); ``hess (z, w, sigma, lam) -> nonzeros of the
-        upper triangle of d2(sigma f + lam^T g)/dz2`` and ``hess_pattern``.
+        ``grad (z, w) -> nonzeros of df/dz`` and ``grad_pattern`` (their rows, columns);
+        ``jac (z, w) -> nonzeros of dg/dz`` and ``jac_pattern``; ``hess (z, w, sigma,
+        lam) -> nonzeros of the upper triangle of d2(sigma f + lam^T g)/dz2`` and
+        ``hess_pattern``. A pattern is structural: entries that are zero whatever z and w
+        (a cost that does not depend on them) are not in it.
     """
     return _LOCAL.get(key, lambda: _local(function))
 
@@ -192,9 +197,11 @@ def _local(function):
     z, w = function.sx_in()
     f, g = function(z, w)
     sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", g.numel())
+    grad = ca.jacobian(f, z).T          # structurally sparse (ca.gradient is dense)
     jac = ca.jacobian(g, z)
     hess = ca.triu(ca.hessian(sigma * f + ca.dot(lam, g), z)[0])
-    return {"grad": ca.Function("local_grad", [z, w], [ca.densify(ca.gradient(f, z))]),
+    return {"grad": ca.Function("local_grad", [z, w], [_nonzeros(grad)]),
+            "grad_pattern": _pattern(grad),
             "jac": ca.Function("local_jac", [z, w], [_nonzeros(jac)]),
             "jac_pattern": _pattern(jac),
             "hess": ca.Function("local_hess", [z, w, sigma, lam], [_nonzeros(hess)]),
@@ -277,8 +284,10 @@ def _assembled(values, where, shape):
     """The sparse matrix of `shape` whose entry (i, j) sums the values placed there.
 
     values[t] is an (nnz_t, M_t) matrix; where[t] = (rows, cols), both (nnz_t, M_t) arrays
-    of global indices for its entries.
+    of global indices for its entries. No values: the zero matrix.
     """
+    if not values:
+        return ca.MX(*shape)
     values = ca.vertcat(*[ca.vec(v) if v.size2() > 1 else v for v in values])
     rows = np.concatenate([r.ravel(order="F") for r, _ in where]).astype(np.int64)
     cols = np.concatenate([c.ravel(order="F") for _, c in where]).astype(np.int64)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.separable import SeparableNLP, Term
+from dmoc.separable import SeparableNLP, Term, function_key, local_derivatives
 from dmoc.separable import window as separable_window
 from dmoc.systems import knife_edge, lc_circuit, rolling_disk, spherical_pendulum
 
@@ -418,3 +418,20 @@ def test_window_equals_numpy_fancy_indexing(kind, M):
     x = ca.MX.sym("x", size)
     got = np.array(ca.Function("w", [x], [separable_window(x, index)])(vector))
     np.testing.assert_array_equal(got, vector[index])
+
+
+def test_local_patterns_hold_only_the_entries_that_depend_on_z():
+    """The gradient pattern of a term is structural, like its Jacobian's and Hessian's: a
+    cost of z[0] alone has one gradient entry, and a term without cost (boundary rows)
+    none, so that it adds nothing to the assembled gradient (a dense local gradient would
+    carry every window entry through the assembly, twice the build time at N = 1000)."""
+    z, w = ca.SX.sym("z", 3), ca.SX.sym("w", 1)
+    cost = ca.Function("cost", [z, w], [w * z[0] ** 2, z[1] - z[2]])
+    rows_only = ca.Function("rows_only", [z, w], [ca.SX(0), ca.vertcat(z[1] * z[2], z[0])])
+    grad_rows, _ = local_derivatives(cost, function_key(cost))["grad_pattern"]
+    np.testing.assert_array_equal(grad_rows, [0])
+    local = local_derivatives(rows_only, function_key(rows_only))
+    assert local["grad_pattern"][0].size == 0
+    assert local["grad"](np.ones(3), 1.0).numel() == 0
+    hess_rows, hess_cols = local["hess_pattern"]          # lam_0 z1 z2: one upper entry
+    np.testing.assert_array_equal(np.c_[hess_rows, hess_cols], [[1, 2]])
