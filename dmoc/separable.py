@@ -297,7 +297,7 @@ def _assembled(values, where, shape):
     entry_keys = cols * shape[0] + rows
     order = np.argsort(entry_keys, kind="stable")
     ordered = entry_keys[order]
-    first = np.r_[True, ordered[1:] != ordered[:-1]]
+    first = np.r_[True, ordered[1:] != ordered[:-1]] if ordered.size else np.zeros(0, bool)
     keys = ordered[first]
     colind = np.searchsorted(keys // shape[0], np.arange(shape[1] + 1))
     sparsity = ca.Sparsity(shape[0], shape[1], colind.tolist(), (keys % shape[0]).tolist())

@@ -401,7 +401,8 @@ def test_an_instance_reading_an_entry_twice_is_refused():
 
 
 @pytest.mark.parametrize("M", [5, 3000])
-@pytest.mark.parametrize("kind", ["blocks", "shared", "mixed", "irregular", "one instance"])
+@pytest.mark.parametrize("kind", ["blocks", "shared", "mixed", "irregular", "one instance",
+                                  "adjacent steps"])
 def test_window_equals_numpy_fancy_indexing(kind, M):
     """`window` slices what steps through a block and gathers the rest, or gathers all of
     a short window at once (M = 5; M = 3000 takes the slices): either way it is
@@ -413,8 +414,12 @@ def test_window_equals_numpy_fancy_indexing(kind, M):
     k = np.arange(M)
     block = 3 + np.arange(3)[:, None] + 3 * k            # 3 entries advancing by 3
     shared = np.full((2, M), size - 5) + np.arange(2)[:, None]  # the same 2 entries for every instance
+    # "adjacent steps": consecutive entries at instance 0 that advance by different steps
+    # (2 per instance, then 0): two runs, not one
+    adjacent = np.vstack([2 * k, np.full(M, 1)])
     index = {"blocks": block, "shared": shared, "mixed": np.vstack([block, shared, block + 20]),
-             "irregular": rng.integers(0, size, size=(4, M)), "one instance": np.vstack([block, shared])}[kind]
+             "irregular": rng.integers(0, size, size=(4, M)), "one instance": np.vstack([block, shared]),
+             "adjacent steps": adjacent}[kind]
     x = ca.MX.sym("x", size)
     got = np.array(ca.Function("w", [x], [separable_window(x, index)])(vector))
     np.testing.assert_array_equal(got, vector[index])
@@ -435,3 +440,42 @@ def test_local_patterns_hold_only_the_entries_that_depend_on_z():
     assert local["grad"](np.ones(3), 1.0).numel() == 0
     hess_rows, hess_cols = local["hess_pattern"]          # lam_0 z1 z2: one upper entry
     np.testing.assert_array_equal(np.c_[hess_rows, hess_cols], [[1, 2]])
+
+
+@pytest.mark.parametrize("case", ["no rows", "rows without x"])
+def test_derivatives_of_terms_without_jacobian_entries(case):
+    """Terms that exist but give no Jacobian entry (no rows at all, or rows that do not
+    depend on x) assemble an empty Jacobian, and the gradient and Hessian of their cost."""
+    if case == "no rows":
+        z, w = ca.SX.sym("z", 2), ca.SX.sym("w", 0)
+        cost = ca.Function("cost", [z, w], [ca.sumsqr(z) * z[0], ca.SX(0, 1)])
+        nlp = SeparableNLP(4, 0, 0, [Term(cost, np.array([[0, 2], [1, 3]]), np.zeros((0, 2), int),
+                                          np.zeros((0, 2), int))])
+        x, p = np.array([0.5, -1.0, 2.0, 0.25]), np.zeros(0)
+    else:
+        z, w = ca.SX.sym("z", 1), ca.SX.sym("w", 1)
+        cost = ca.Function("cost", [z, w], [z[0] ** 2, w])           # g = p
+        nlp = SeparableNLP(2, 1, 2, [Term(cost, np.array([[0, 1]]), np.array([[0, 0]]),
+                                          np.array([[0, 1]]))])
+        x, p = np.array([0.5, -1.0]), np.array([3.0])
+    d = nlp.derivatives()
+    f, grad = d["nlp_grad_f"](x, p)
+    g, jac = d["nlp_jac_g"](x, p)
+    hess = d["nlp_hess_l"](x, p, 1.0, np.ones(nlp.n_g))
+    assert jac.nnz() == 0 and jac.shape == (nlp.n_g, nlp.n_x)
+    oracle = ca.Function("o", [nlp.x, nlp.p], [ca.gradient(nlp.f, nlp.x), ca.triu(ca.hessian(nlp.f, nlp.x)[0])])
+    grad_ref, hess_ref = oracle(x, p)
+    np.testing.assert_allclose(np.array(grad).ravel(), np.array(grad_ref).ravel(), rtol=1e-14)
+    np.testing.assert_allclose(np.array(ca.DM(hess)), np.array(ca.DM(hess_ref)), rtol=1e-14)
+
+
+def test_a_problem_without_cost_builds_and_solves():
+    """A zero running cost: no term adds gradient entries and the rows of the knife edge
+    without cost add Hessian entries only through their multipliers; the NLP still builds
+    and IPOPT finds a feasible point (any is optimal)."""
+    disc = dmoc.discretize(knife_edge(), 0.1)
+    problem = dmoc.OptimalControlProblem(disc, 20, q_start=[0.0, 0.0, 0.0], q_goal=[0.5, 0.2, 0.3],
+                                         running_cost=lambda q, v, u: 0)
+    result = dmoc.optimize(problem)
+    assert result.success and result.cost == 0.0
+    assert result.stats["max_violation"] < 1e-9
