@@ -35,7 +35,9 @@ class DiracStepper:
     Blocks (``state``, carried from step to step): q (q_k), p (p_k', the momentum carried
     in), and the Newton warm start dq (the previous increment), nu, ds. Blocks of the
     per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
-    solved rows), update (relative size of the last Newton update). The step h is an
+    solved rows), update (relative size of the last Newton update), scale (1 + max abs of
+    p_k and p_{k+1}, what rnorm is measured against) and nonfinite (how many entries of
+    the rows, the next state and the outputs are NaN or infinite). The step h is an
     input, so one stepper serves every h.
 
     `native` picks how the fast path's horizons run: True, as the compiled C `library`
@@ -52,7 +54,8 @@ class DiracStepper:
         n, m, ns = residual.n, residual.n_lam, residual.n_stages
         self.unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
         self.state = Layout([("q", n), ("p", n), *((k, self.unknowns.numel(k)) for k in self.unknowns.blocks)])
-        self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1)])
+        self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1),
+                           ("scale", 1), ("nonfinite", 1)])
         self.equations = self._equations()
         self.fast = self._fast_step()
         self.robust = self._robust_step(max_iter)
@@ -109,13 +112,19 @@ class DiracStepper:
         return ca.repmat(q0, ds.numel() // q0.numel(), 1) + ds
 
     def _wrap(self, state, params, sol, update):
-        """Next state and outputs from a solution y = (dq, nu, ds) of the step equations."""
+        """Next state and outputs from a solution y = (dq, nu, ds) of the step equations,
+        with what `accepted` needs computed in the step itself (in C when compiled): the
+        scale of the momenta and the count of non-finite entries (CasADi's max-norm skips
+        NaN, so rnorm alone cannot tell)."""
         g, p0, q1, p1 = self.equations(sol, params)
         Y = self.unknowns.split(sol)
         q0 = self.state.split(state)["q"]
-        return (self.state.join({"q": q1, "p": p1, **Y}),
-                self.out.join({"p0": p0, "nu": Y["nu"], "s": self._stages(q0, Y["ds"]),
-                               "rnorm": ca.norm_inf(g), "update": update}))
+        following = self.state.join({"q": q1, "p": p1, **Y})
+        out = {"p0": p0, "nu": Y["nu"], "s": self._stages(q0, Y["ds"]), "rnorm": ca.norm_inf(g),
+               "update": update, "scale": 1 + ca.fmax(ca.norm_inf(p0), ca.norm_inf(p1))}
+        every = ca.vertcat(g, following, *out.values())
+        out["nonfinite"] = ca.sum1(1 - (ca.fabs(every) < ca.inf))
+        return following, self.out.join(out)
 
     def _symbols(self, kind):
         """(state, u, h, params, warm start) symbols of kind SX or MX."""
@@ -134,7 +143,9 @@ class DiracStepper:
             delta = newton_update(y, params)
             y = y - delta
         update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
-        outputs = ca.cse(list(self._wrap(state, params, y, update)))   # sin(q_k) once, not per iteration
+        # sin(q_k) once, not per iteration; dense, because the horizons write through
+        # buffers that receive the nonzeros only (a structural zero would shift the columns)
+        outputs = [ca.densify(o) for o in ca.cse(list(self._wrap(state, params, y, update)))]
         return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
     def _newton_update(self, g, y):
@@ -171,18 +182,13 @@ class DiracStepper:
                            list(self._wrap(state, params, sol, ca.MX(0))),
                            ["state", "u", "h"], ["next", "out"])
 
-    def accepted(self, out, states):
-        """Which steps count as converged, from their outputs (rows of `out`) and the states
-        they lead to (rows of `states`): everything finite (CasADi's max-norm skips NaN, so
-        the state itself is checked), the residual below 1000 tol relative to the size of
-        the momenta (1 + max abs(p_k), max abs(p_{k+1})), the last Newton update small."""
-        blocks, next_p = self.out.split(out), self.state.split(states)["p"]
-        scale = 1.0 + np.maximum(np.abs(blocks["p0"]).max(axis=1, initial=0.0),
-                                 np.abs(next_p).max(axis=1, initial=0.0))
-        with np.errstate(invalid="ignore"):
-            return (np.isfinite(out).all(axis=1) & np.isfinite(states).all(axis=1)
-                    & (blocks["rnorm"][:, 0] <= 1e3 * self.tol * scale)
-                    & (blocks["update"][:, 0] <= 1e-6))
+    def accepted(self, out):
+        """Which steps count as converged, from their outputs (rows of `out`): every entry of
+        the step finite, the residual below 1000 tol relative to the size of the momenta
+        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last Newton update small."""
+        at = {name: self.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
+        return ((out[:, at["nonfinite"]] == 0) & (out[:, at["update"]] <= 1e-6)
+                & (out[:, at["rnorm"]] <= 1e3 * self.tol * out[:, at["scale"]]))
 
     def _chunk(self, state, controls, steps, acc, out):
         """len(steps) fast steps from `state` as one mapaccum call, evaluated through
@@ -216,14 +222,14 @@ class DiracStepper:
             self._chunk(acc[k], controls[k:k + c], steps[:c], acc[k + 1:k + 1 + c], out[k:k + c])
             if not self.native:
                 self.vm_seconds += time.perf_counter() - tic
-            ok = self.accepted(out[k:k + c], acc[k + 1:k + 1 + c])
+            ok = self.accepted(out[k:k + c])
             j = int(np.argmin(ok)) if not ok.all() else c
             k += j
             if j < c:       # redo step k with the line-search Newton
                 acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
-                if not self.accepted(out1, acc1)[0]:
-                    finite = np.isfinite(out1).all() and np.isfinite(acc1).all()
-                    rnorm = float(self.out.split(out1)["rnorm"][0, 0]) if finite else np.nan
+                if not self.accepted(out1)[0]:
+                    finite = out1[0, self.out.slice("nonfinite").start] == 0
+                    rnorm = float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
                     return acc[:k + 1], out[:k], rnorm, redone
                 acc[k + 1], out[k] = acc1[0], out1[0]
                 k, redone = k + 1, redone + 1
