@@ -291,9 +291,9 @@ def _assembled(values, where, shape):
     values = ca.vertcat(*[ca.vec(v) if v.size2() > 1 else v for v in values])
     rows = np.concatenate([r.ravel(order="F") for r, _ in where]).astype(np.int64)
     cols = np.concatenate([c.ravel(order="F") for _, c in where]).astype(np.int64)
-    # the entries' column-major keys, sorted by numpy's stable sort: on these keys (each
-    # local entry's increasing with the instance) 0.09 ms for 20000, against 0.95 ms for
-    # np.unique with the inverse
+    # the entries' column-major keys, sorted once by numpy's stable sort (the Jacobian's
+    # 29 000 keys at N = 1000: 0.34 ms, against 0.52 ms for np.unique with the inverse and
+    # a second argsort for the permutation)
     entry_keys = cols * shape[0] + rows
     order = np.argsort(entry_keys, kind="stable")
     ordered = entry_keys[order]
