@@ -57,6 +57,45 @@ def test_nan_force_fails_at_its_own_step(k):
     assert f"step {k}" in result.message and "NaN" in result.message
 
 
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_a_nan_constraint_row_fails_the_step_though_the_state_stays_finite(variant):
+    """A holonomic row that turns NaN (sqrt of a negative number, scaled by 1e-300 so the
+    motion itself does not feel it) while q, p and the outputs stay finite: the step is
+    not converged, whatever the residual's max-norm says (CasADi's norm skips NaN). The
+    step counts the non-finite entries of its rows too."""
+    system = dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 2,
+                                   holonomic=lambda q: q[0] - 1 + 1e-300 * ca.sqrt(q[1] + 10))
+    result = dmoc.simulate(dmoc.discretize(system, 0.01), q0=[1.0, -9.945], v0=[0.0, -1.0],
+                           steps=20, variant=variant, throw=False)
+    assert result.success is False and result.status == "non_finite"
+    completed = result.stats["completed_steps"]
+    assert completed == 5                    # y passes -10 during step 5 (y_k = -9.945 - 0.01 k)
+    assert all(np.isfinite(float(system.holonomic(q))) for q in result.trajectory.q)
+
+
+def test_a_force_non_finite_at_the_end_node_only_fails_the_last_step():
+    """The trapezoid's f_d^+ = h/2 f(q_{k+1}): a force that is NaN beyond q = -10 makes only
+    p_{k+1} of the step that crosses it NaN (its rows and q_{k+1} stay finite), and that
+    step fails instead of ending the run with p_N = NaN."""
+    system = dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 1,
+                                   force=lambda q, v, u: 1e-300 * ca.sqrt(q[0] + 10))
+    result = dmoc.simulate(dmoc.discretize(system, 0.01, "trapezoid"), q0=[-9.955], v0=[-1.0],
+                           steps=5, throw=False)
+    assert result.success is False and result.status == "non_finite"
+    assert result.stats["completed_steps"] == 4
+    assert np.isfinite(result.trajectory.p).all()
+
+
+def test_tiny_momenta_are_judged_against_one_not_against_themselves():
+    """The acceptance scale is 1 + max |p|: with m = J = 1e-12 the momenta are about 1e-6
+    while the constraint rows are of the size of the motion; a scale of max |p| alone
+    would demand residuals of 1e-18 and fail converged steps."""
+    disc = dmoc.discretize(knife_edge(mass=1e-12, inertia=1e-12), 0.01)
+    result = dmoc.simulate(disc, q0=[0, 0, 0], v0=[1e6, 0, 1e3], steps=200, throw=False)
+    assert result.success, result.message
+    assert result.stats["completed_steps"] == 200
+
+
 # ---------------------------------------------------------------------------------------
 # Tolerances that follow the scale of the data
 
