@@ -18,8 +18,6 @@ before the clock starts (as the baselines' ODE Function is).
 """
 
 import argparse
-import importlib
-import importlib.util
 import os
 import platform
 import time
@@ -31,10 +29,8 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
+from solver_cache import forget_solvers  # noqa: E402
 
-# the modules holding dmoc's solver cache: dmoc.ipopt, or dmoc.optimize on older checkouts
-SOLVER_MODULES = [m for m in (importlib.import_module(name) for name in ("dmoc.optimize", "dmoc.ipopt")
-                              if importlib.util.find_spec(name)) if hasattr(m, "_SOLVERS")]
 PROBLEMS = {
     "A": (lambda: dmoc.systems.knife_edge(mass=1.0, inertia=1.0),
           {"q_start": [0.0, 0.0, 0.0], "q_goal": [0.0, 1.0, 0.0]}),
@@ -63,8 +59,7 @@ def split(label, steps, repeat):
     system = make_system()
     runs = []
     for _ in range(repeat):
-        for module in SOLVER_MODULES:          # every repeat builds its solver anew
-            module._SOLVERS = type(module._SOLVERS)(module._SOLVERS.maxsize)
+        forget_solvers()                       # every repeat builds its solver anew
         tic = time.perf_counter()
         problem = dmoc.OptimalControlProblem(dmoc.discretize(system, 4.0 / steps, "midpoint"),
                                              steps, variant="+", **boundary)

@@ -16,8 +16,6 @@ method defines them). Every method runs with and without ``expand`` (MX graph vs
 """
 
 import argparse
-import importlib
-import importlib.util
 import os
 import platform
 import time
@@ -33,6 +31,7 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import dmoc  # noqa: E402
+from solver_cache import forget_solvers  # noqa: E402
 import collocation  # noqa: E402
 from collocation import IPOPT_OPTIONS  # noqa: E402
 
@@ -44,9 +43,6 @@ REFERENCE_OPTIONS = {"tol": 1e-13, "constr_viol_tol": 1e-13}
 defect rows is only good to ~1e-8 (sum of multiplier x residual), the floor seen in the
 Hermite-Simpson rows at large N."""
 METHODS = ("dmoc", "trapezoid", "hermite_simpson")
-# the modules holding dmoc's solver cache: dmoc.ipopt, or dmoc.optimize on older checkouts
-SOLVER_MODULES = [m for m in (importlib.import_module(name) for name in ("dmoc.optimize", "dmoc.ipopt")
-                              if importlib.util.find_spec(name)) if hasattr(m, "_SOLVERS")]
 LABELS = {"dmoc": "dmoc", "trapezoid": "trap", "hermite_simpson": "hs"}
 
 
@@ -109,8 +105,7 @@ def solve_dmoc(case, steps, expand):
                                      q_goal=list(case.q_goal), variant="+")
     construct_time = time.perf_counter() - tic
     res = dmoc.optimize(ocp, options={"expand": expand, **IPOPT_OPTIONS}, throw=False)
-    for module in SOLVER_MODULES:         # every repeat builds its solver, as the baselines do
-        module._SOLVERS = type(module._SOLVERS)(module._SOLVERS.maxsize)
+    forget_solvers()                      # every repeat builds its solver, as the baselines do
     u = res.trajectory.u
     return Run("dmoc", expand, steps, construct_time, res.stats["build_time"],
                res.stats["solve_time"], res.stats["iterations"], res.cost, res.success,

@@ -13,8 +13,6 @@ all N of the run. Best of `--repeat`; each dmoc repeat creates its solver anew.
 """
 
 import argparse
-import importlib
-import importlib.util
 import os
 import platform
 import time
@@ -27,17 +25,14 @@ import numpy as np  # noqa: E402
 
 import collocation  # noqa: E402
 import dmoc  # noqa: E402
+from solver_cache import forget_solvers  # noqa: E402
 
-# the modules holding dmoc's solver cache: dmoc.ipopt, or dmoc.optimize on older checkouts
-SOLVER_MODULES = [m for m in (importlib.import_module(name) for name in ("dmoc.optimize", "dmoc.ipopt")
-                              if importlib.util.find_spec(name)) if hasattr(m, "_SOLVERS")]
 STEPS = (200, 500, 1000, 2000, 5000, 10000)
 
 
 def dmoc_run(N):
     """(build s, solve s, iterations, NLP variables, constraints) of one fresh DMOC solve."""
-    for module in SOLVER_MODULES:                     # no solver reuse between repeats
-        module._SOLVERS = type(module._SOLVERS)(module._SOLVERS.maxsize)
+    forget_solvers()                                  # no solver reuse between repeats
     system = dmoc.systems.knife_edge(mass=1.0, inertia=1.0)    # before the clock, as the
     tic = time.perf_counter()                                   # trapezoid's ODE Function is
     disc = dmoc.discretize(system, 4.0 / N, "midpoint")
