@@ -1,17 +1,31 @@
-"""dmoc: discrete Dirac mechanics for simulation and optimal control of constrained systems."""
+"""dmoc: discrete Dirac mechanics for simulation and optimal control of constrained systems.
+
+The package reads as its pipeline, one folder a stage: `mechanics` (the system) →
+`discrete` (the discretization) → `principle` (the one step residual) → `simulate` and
+`optimize` (its two consumers) → `results`; `batch` and `cli` use the public API. This
+module re-exports the public names; ``dmoc.systems``, ``dmoc.problems``,
+``dmoc.diagnostics``, ``dmoc.plotting``, ``dmoc.animation``, ``dmoc.dirac`` and
+``dmoc.formulations`` are the stage modules of those names.
+"""
 
 import importlib
+import sys
 
+from ._util.cache import clear_caches
 from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
                        Trapezoid, discrete_legendre, discretize)
 from .errors import DmocError, InputError, InputTypeError, SolverError, TrajectoryFileError
-from .ocp import OptimalControlProblem
-from .optimize import OptimizationResult, optimize
-from .principle import StepResidual, action_sum, step_residual
+from .mechanics import HamiltonianSystem, MechanicalSystem, systems
+from .optimize import OptimalControlProblem, OptimizationResult, optimize, problems
+from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
+from .results import animation, diagnostics, plotting
 from .simulate import SimulationResult, simulate
-from .system import HamiltonianSystem, MechanicalSystem
-from .trajectory import Trajectory
-from . import animation, diagnostics, dirac, formulations, plotting, problems, systems
+
+# The public module names of the stages' modules: ``from dmoc.systems import knife_edge``
+# works as ``dmoc.systems.knife_edge`` does.
+for _module in (systems, problems, diagnostics, plotting, animation, dirac, formulations):
+    sys.modules[f"{__name__}.{_module.__name__.rsplit('.', 1)[1]}"] = _module
+del _module
 
 __all__ = [
     "MechanicalSystem",
@@ -40,6 +54,7 @@ __all__ = [
     "dirac",
     "plotting",
     "animation",
+    "clear_caches",
     "DmocError",
     "InputError",
     "InputTypeError",

@@ -23,12 +23,12 @@ try:
 except ImportError:  # pragma: no cover - depends on the installation
     raise ImportError("dmoc.batch needs dask.distributed: pip install 'dmoc[batch]'.") from None
 
-from . import _checks
+from ._util import checks
 from .discrete import Discretization
-from .ocp import OptimalControlProblem
-from .optimize import OptimizationResult, optimize
-from .simulate import SimulationResult, simulate
-from .trajectory import Trajectory
+from .optimize.problem import OptimalControlProblem
+from .optimize.solve import OptimizationResult, optimize
+from .simulate.simulation import SimulationResult, simulate
+from .principle.trajectory import Trajectory
 
 # Re-runs of a task whose worker *returned* an error outside dmoc's own call (e.g. its
 # arguments failed to deserialize there). A task whose worker dies is rescheduled by the
@@ -73,7 +73,7 @@ def optimize_many(problems, *, guesses=None, options=None, client=None, progress
         raise ValueError(f"`guesses` must have one entry per problem ({len(problems)}); "
                          f"got {len(guesses)}.")
     if options is not None:
-        options = _checks.ipopt_options("options", options)
+        options = checks.ipopt_options("options", options)
     tasks = [(pack_problem(problem), guess, options) for problem, guess in zip(problems, guesses)]
     return _run(_optimize_task, tasks, OptimizationResult, client, progress, "optimize")
 
@@ -102,7 +102,7 @@ def simulate_many(disc, runs, *, client=None, progress=True):
     """
     runs = _sequence("runs", runs, dict, "dict of simulate keyword arguments")
     for i, run in enumerate(runs):
-        _checks.no_unknown_keys(f"runs[{i}]", run, SIMULATE_KEYS)
+        checks.no_unknown_keys(f"runs[{i}]", run, SIMULATE_KEYS)
     if isinstance(disc, Discretization):
         disc = [disc] * len(runs)
     discs = _sequence("disc", disc, Discretization, "Discretization")
@@ -154,7 +154,7 @@ def _failed(kind, status, message, **stats):
 
 def _run(task, arguments, kind, client, progress, label):
     """Submit task(*args) for each entry of `arguments`; gather the results in input order."""
-    progress = _checks.boolean("progress", progress)
+    progress = checks.boolean("progress", progress)
     client, owned = _connect(client)
     try:
         batch = uuid.uuid4().hex[:8]

@@ -216,25 +216,26 @@ def test_dmoc_voltage_source_matches_gramian_minimum_energy(variant):
 
 
 # ---------------------------------------------------------------------------------------
-# Rules without a one-step map are refused, for both consumers
+# Rules without a one-step map are refused by the principle, so by both consumers
 
 
 def test_trapezoid_refused_on_lc_circuit():
     """Trapezoid: L_d = h/2 [L(q_k, v) + L(q_{k+1}, v)], so the left rows (37) of q_1 and
     q_2 read -h/2 q_{j,k}/C_j + lam = 0 with p_j = 0: no q_{k+1} in them, two rows for the
-    single unknown lam. The message names the rule, the coordinates and the midpoint."""
+    single unknown lam. The message names the rule, the coordinates and the midpoint. The
+    step residual refuses it (the one-step-map test belongs to the principle stage)."""
     system = lc_circuit(L0, (C1, C2))
     with pytest.raises(ValueError, match=r"`rule` 'trapezoid'") as info:
-        dmoc.discretize(system, 0.1, "trapezoid")
+        dmoc.step_residual(dmoc.discretize(system, 0.1, "trapezoid"))
     message = str(info.value)
     assert "('q_1', 'q_2')" in message and "'q_L'" not in message
     assert "rule='midpoint'" in message
     with pytest.raises(ValueError, match=r"\('q_1', 'q_2'\)"):
-        dmoc.Discretization(system, 0.1, dmoc.Trapezoid())
+        dmoc.step_residual(dmoc.Discretization(system, 0.1, dmoc.Trapezoid()), "-")
     # An interior node does not help while the end-point rows still lack q_{k+1}.
     simpson = QuadratureRule("lobatto3", 4, (0.0, 0.5, 1.0), ((0.0, 1 / 6), (0.5, 2 / 3), (1.0, 1 / 6)))
     with pytest.raises(ValueError, match=r"`rule` 'lobatto3'.*\('q_1', 'q_2'\)"):
-        dmoc.discretize(system, 0.1, simpson)
+        dmoc.step_residual(dmoc.discretize(system, 0.1, simpson))
 
 
 @pytest.mark.parametrize("consumer", ["simulate", "OptimalControlProblem"])
@@ -254,7 +255,7 @@ def test_midpoint_refused_when_a_coordinate_enters_nothing():
     system = dmoc.MechanicalSystem(lambda q, v: 0.5 * v[0] ** 2 - 0.5 * q[0] ** 2, 2,
                                    names=("x", "idle"))
     with pytest.raises(ValueError, match=r"`rule` 'midpoint'.*\('idle',\).*must enter L") as info:
-        dmoc.discretize(system, 0.1)
+        dmoc.step_residual(dmoc.discretize(system, 0.1))
     assert "rule='midpoint'" not in str(info.value)
 
 
@@ -263,7 +264,9 @@ def test_midpoint_refused_when_a_coordinate_enters_nothing():
 def test_trapezoid_accepted_where_the_step_is_determined(system):
     """Linear in v, the vortices' trapezoid rows involve q_{k+1} through alpha(q_{k+1});
     the knife edge is regular. Neither is refused."""
-    assert dmoc.discretize(system, 0.1, "trapezoid").rule == dmoc.Trapezoid()
+    disc = dmoc.discretize(system, 0.1, "trapezoid")
+    assert disc.rule == dmoc.Trapezoid()
+    assert dmoc.step_residual(disc).rule == dmoc.Trapezoid()
 
 
 @pytest.mark.parametrize("call, name", [

@@ -3,19 +3,17 @@ on disk) against CasADi's virtual machine, with the fallback when no compiler ex
 the optimizer's re-solve with a reused solver and its primal-dual warm start against a
 fresh problem solved cold. Iteration counts and identities only, no timing."""
 
-import importlib
 import shutil
 
 import numpy as np
 import pytest
 
 import dmoc
+from dmoc.optimize.guess import start_point
 import dmoc.problems
-from dmoc import compiled
-from dmoc import stepper as stepper_module
-from dmoc._cache import BoundedCache
+from dmoc.simulate import compiled
+from dmoc.simulate import stepper as stepper_module
 
-simulate_module = importlib.import_module("dmoc.simulate")
 
 CASES = {
     "inclined knife edge": (lambda: dmoc.systems.knife_edge(incline=0.2), [0, 0, 0.1],
@@ -27,9 +25,10 @@ CASES = {
 @pytest.fixture
 def fresh_steppers(monkeypatch, tmp_path):
     """An empty stepper cache and an empty on-disk cache directory for this test."""
-    monkeypatch.setattr(simulate_module, "_STEPPERS", BoundedCache(16))
+    dmoc.clear_caches("steppers")
     monkeypatch.setenv("DMOC_CACHE_DIR", str(tmp_path))
-    return tmp_path
+    yield tmp_path
+    dmoc.clear_caches("steppers")
 
 
 def _run(disc, q0, v0, variant, jit, steps=300):
@@ -62,7 +61,7 @@ def test_library_is_reused_from_disk_and_default_loads_it(fresh_steppers, monkey
     first = _run(disc, q0, v0, "+", True)
     (library,) = fresh_steppers.glob("dirac_step-*.so")
     stamp = library.stat().st_mtime_ns
-    monkeypatch.setattr(simulate_module, "_STEPPERS", BoundedCache(16))   # a "new process"
+    dmoc.clear_caches("steppers")     # a "new process"
     again = _run(disc, q0, v0, "+", None)
     assert again.stats["native"] is True and library.stat().st_mtime_ns == stamp
     np.testing.assert_array_equal(again.trajectory.q, first.trajectory.q)
@@ -217,7 +216,7 @@ def test_warm_start_moves_with_the_reference():
     neighbour = dmoc.optimize(problem)
     moved = problem.with_boundary(q_start=[0.1, 0.05, 0.0], q_goal=[0.1, 1.05, 0.0])
     np.testing.assert_array_equal(moved.q_ref, [0.1, 0.05, 0.0])
-    x0 = dmoc.guess.start_point(moved, neighbour)[0]        # the neighbour's configurations,
+    x0 = start_point(moved, neighbour)[0]        # the neighbour's configurations,
     np.testing.assert_allclose(moved.configurations(x0)[1:-1],  # the ends clipped to the new data
                                neighbour.trajectory.q[1:-1], rtol=0, atol=1e-15)
     np.testing.assert_array_equal(moved.configurations(x0)[[0, -1]], [[0.1, 0.05, 0.0], [0.1, 1.05, 0.0]])

@@ -12,7 +12,7 @@ import pytest
 
 import dmoc
 from dmoc.formulations import FORMULATIONS, LagrangianMinus, LagrangianPlus, as_formulation
-from dmoc.layout import Layout
+from dmoc._util.layout import Layout
 
 PACKAGE = pathlib.Path(dmoc.__file__).parent
 COMPARISON = re.compile(r"""variant\s*[!=]=|[!=]=\s*["'][+-]["']|["'][+-]["']\s*[!=]=""")
@@ -70,7 +70,7 @@ def test_equal_systems_share_the_residual_and_different_ones_do_not():
 
 
 def test_simulating_at_another_step_reuses_the_compiled_step():
-    simulate_module = importlib.import_module("dmoc.simulate")
+    simulate_module = importlib.import_module("dmoc.simulate.simulation")
     system = dmoc.systems.rolling_disk(mass=1.7)
     before = len(simulate_module._STEPPERS)
     runs = [dmoc.simulate(dmoc.discretize(system, h), q0=[0, 0, 0, 0], v0=[1, 0, 1, 0.5],
@@ -82,7 +82,7 @@ def test_simulating_at_another_step_reuses_the_compiled_step():
 
 
 def test_caches_are_bounded():
-    principle = importlib.import_module("dmoc.principle")
+    principle = importlib.import_module("dmoc.principle.residual")
     for mass in np.linspace(1.0, 2.0, principle._RESIDUALS.maxsize + 3):
         dmoc.step_residual(dmoc.discretize(dmoc.systems.knife_edge(mass=float(mass)), 0.1))
     assert len(principle._RESIDUALS) == principle._RESIDUALS.maxsize

@@ -17,7 +17,7 @@ import pytest
 
 import dmoc
 import dmoc.problems
-from dmoc.linear_solver import linear_solver_report
+from dmoc.optimize.linear_solver import linear_solver_report
 
 REPORT = {"linear_solver_report": True}
 
@@ -108,8 +108,7 @@ def test_report_is_given_exactly_when_asked_for(report_first, monkeypatch):
     """A solver built without the report (even with file_print_level 6 and no output file,
     where IPOPT writes nothing) is not the one a reported solve takes, nor the reverse
     (second review of the change)."""
-    import dmoc.ipopt
-    monkeypatch.setattr(dmoc.ipopt, "_SOLVERS", type(dmoc.ipopt._SOLVERS)(16))
+    dmoc.clear_caches("solvers")
     problem = dmoc.problems.knife_edge_parking(20)
     plain = {"file_print_level": 6}
     for options in ([REPORT, plain] if report_first else [plain, REPORT]):
@@ -120,8 +119,8 @@ def test_report_is_given_exactly_when_asked_for(report_first, monkeypatch):
 def test_the_journal_of_an_evicted_solver_goes_with_it(monkeypatch):
     """A cache of one solver: the second structure's solver evicts the first, and the
     first's journal goes with it."""
-    import dmoc.ipopt
-    monkeypatch.setattr(dmoc.ipopt, "_SOLVERS", type(dmoc.ipopt._SOLVERS)(1))
+    from dmoc.optimize import ipopt
+    monkeypatch.setattr(ipopt, "_SOLVERS", type(ipopt._SOLVERS)(1, "solvers"))
     pattern = os.path.join(tempfile.gettempdir(), "dmoc-ipopt-*.txt")
     before = set(glob.glob(pattern))
     dmoc.optimize(dmoc.problems.knife_edge_parking(10), options=REPORT)

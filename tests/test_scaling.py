@@ -24,9 +24,9 @@ import numpy as np
 import pytest
 
 import dmoc
-import dmoc.ocp
+from dmoc.optimize import problem as problem_module
 from dmoc import diagnostics
-from dmoc.scaling import inertia, power_of_two
+from dmoc.optimize.scaling import inertia, power_of_two
 from dmoc.systems import knife_edge, rolling_disk
 
 MASS, YAW = 1024.0, 2.0        # powers of 2: the factors are these, not rounded ones
@@ -221,7 +221,7 @@ def test_velocity_jumps_measure_how_the_grid_resolves_the_motion():
 def unscaled(make, monkeypatch):
     """The problem `make()` builds, with every factor 1."""
     with monkeypatch.context() as m:
-        m.setattr(dmoc.ocp, "nlp_scales", lambda problem, q: (
+        m.setattr(problem_module, "nlp_scales", lambda problem, q: (
             np.ones(problem.x_layout.size), np.ones(problem.g_layout.size)))
         return make()
 

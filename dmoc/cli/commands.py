@@ -11,11 +11,12 @@ import time
 
 import numpy as np
 
-from .. import diagnostics
+from ..results import diagnostics
 from ..discrete import discretize
-from ..ocp import OptimalControlProblem
-from ..optimize import optimize
-from ..simulate import simulate
+from ..principle import step_residual
+from ..optimize.problem import OptimalControlProblem
+from ..optimize.solve import optimize
+from ..simulate.simulation import simulate
 from . import arguments, output, registry
 from .arguments import UsageError
 
@@ -87,6 +88,15 @@ def _write(out, prefix, disc, traj, summary, spec, goal, animate):
                          f"files already there are complete (each write is atomic)") from None
 
 
+def _discretization(system, args, steps):
+    """The discretization of ``--rule`` over ``--duration``, its step residual built (which
+    refuses a rule without a one-step map) before anything is solved."""
+    with options_named({"rule": "--rule", "h": "--duration"}):
+        disc = discretize(system, args.duration / steps, args.rule)
+        step_residual(disc, args.variant)
+    return disc
+
+
 def run_simulate(args):
     """``dmoc simulate SYSTEM``; returns the exit code."""
     spec, system, out, prefix = _setup(args)
@@ -97,8 +107,7 @@ def run_simulate(args):
     steps = args.steps or (len(controls) if controls is not None else 1000)
     if controls is not None and len(controls) != steps:
         raise UsageError("--controls", f"must have one row per step, {steps} rows; got {len(controls)}")
-    with options_named({"rule": "--rule", "h": "--duration"}):
-        disc = discretize(system, args.duration / steps, args.rule)
+    disc = _discretization(system, args, steps)
     log(f"simulating {steps} steps of {args.system} (h = {disc.h:.4g}, variant {args.variant})")
     tic = time.perf_counter()
     with options_named({"q0": "--start", "v0": "--velocity", "controls": "--controls"}):
@@ -125,8 +134,7 @@ def run_optimize(args):
                        free=True)
     q_goal = _default("--goal", args.goal, spec.goal, system.names, free=True)
     steps = args.steps or 100
-    with options_named({"rule": "--rule", "h": "--duration"}):
-        disc = discretize(system, args.duration / steps, args.rule)
+    disc = _discretization(system, args, steps)
     with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--start",
                         "v_goal": "--goal"}):
         problem = OptimalControlProblem(disc, steps, q_start=_with_none(q_start),

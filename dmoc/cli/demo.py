@@ -5,12 +5,14 @@ variants, replays each optimum, and writes a summary and plots.
 
 import numpy as np
 
-from .. import diagnostics, problems, systems
-from .._files import atomic_write, write_text
+from ..results import diagnostics
+from ..optimize import problems
+from ..mechanics import systems
+from .._util.files import atomic_write, write_text
 from ..discrete import discretize
-from ..optimize import optimize
-from ..plotting import plot_energy_error, plot_path, save_trajectory_plots
-from ..simulate import simulate
+from ..optimize.solve import optimize
+from ..results.plotting import plot_energy_error, plot_path, save_trajectory_plots
+from ..simulate.simulation import simulate
 from . import arguments
 from .registry import BUILT_IN
 

@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
-from .. import diagnostics
-from .._files import atomic_write, write_text
-from ..animation import animate
-from ..plotting import save_trajectory_plots
+from ..results import diagnostics
+from .._util.files import atomic_write, write_text
+from ..results.animation import animate
+from ..results.plotting import save_trajectory_plots
 
 
 def energy_drift(disc, traj):

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import systems
-from ..system import MechanicalSystem
+from ..mechanics import systems
+from ..mechanics.system import MechanicalSystem
 from .arguments import UsageError
 
 

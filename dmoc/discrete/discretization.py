@@ -9,12 +9,10 @@ import copy
 
 import casadi as ca
 
-from .. import _checks
-from .._cache import BoundedCache
-from ..layout import step_symbols
-from ..formulations import FORMULATIONS
-from ..system import HamiltonianSystem, MechanicalSystem
-from .degenerate import check_one_step_map
+from .._util import checks
+from .._util.cache import BoundedCache
+from .._util.layout import step_symbols
+from ..mechanics.system import MechanicalSystem
 from .rules import as_rule, quadrature, virtual_work_split
 
 
@@ -57,23 +55,24 @@ class Discretization:
         ``(q0, p0, q1, p1, s, h) -> E`` (p unused): the energy v . dL/dv - L averaged over the step by the
         rule's quadrature, sum_i b_i E(q(c_i), q'(c_i)); for the midpoint rule E at the
         midpoint. It needs no Legendre transform.
-    formulations : dict
-        ``{"+": LagrangianPlus(), "-": LagrangianMinus()}``: the forms `variant` names for
-        this discretization (a HamiltonianDiscretization has the Hamiltonian ones).
+    family : str
+        ``"lagrangian"``: the principle differentiates the sums (46)/(47) of L_d, and
+        `variant` names the forms (37)/(41) (a HamiltonianDiscretization says
+        ``"hamiltonian"``: (39)/(43) from (48)/(49)).
     key : tuple
         ``(system.key, rule)``: what the step residual and the compiled steps depend on.
         Every Function above takes h as an input, so discretizations that differ only in
         h share them.
     """
 
-    formulations = FORMULATIONS       # the Lagrangian family, (37)/(41)
+    family = "lagrangian"       # the forms (37)/(41) of the sums (46)/(47)
 
     def __init__(self, system, h, rule="midpoint"):
         if not isinstance(system, MechanicalSystem):
             raise TypeError(f"`system` must be a MechanicalSystem or a HamiltonianSystem; got "
                         f"{type(system).__name__}.")
         self.system = system
-        self.h = _checks.positive_float("h", h)
+        self.h = checks.positive_float("h", h)
         self.rule = rule = as_rule(rule)
         self.key = (system.key, rule)
         self.n_stages = rule.n_stages * system.n
@@ -82,13 +81,12 @@ class Discretization:
         (self.discrete_lagrangian, self.discrete_constraint, self.discrete_force,
          self.midpoint_state, self.step_energy) = _DISCRETE_DATA.get(
             self.key, lambda: _discrete_data(system, rule))
-        check_one_step_map(self)
 
     def with_step(self, h):
         """The same discretization at the step `h` (sharing every Function: h is an input),
         e.g. to replay a free-time optimum."""
         other = copy.copy(self)
-        other.h = _checks.positive_float("h", h)
+        other.h = checks.positive_float("h", h)
         return other
 
     def discrete_cost(self, running_cost):
@@ -106,7 +104,7 @@ class Discretization:
         return f"Discretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
 
 
-_DISCRETE_DATA = BoundedCache(32)
+_DISCRETE_DATA = BoundedCache(32, "discrete_data")
 
 
 def running_integrand(system, running_cost):
@@ -148,45 +146,3 @@ def _discrete_data(system, rule):
                         ["q0", "q1", "s", "h"], ["q", "v"]),
             ca.Function("step_energy", [q0, p0, q1, p1, s, h], [E],
                         ["q0", "p0", "q1", "p1", "s", "h"], ["E"]))
-
-
-def discretize(system, h, rule="midpoint"):
-    """Discrete Lagrangian (or discrete Hamiltonians), constraints (28) and forces of
-    `system` on steps of size `h`.
-
-    Parameters
-    ----------
-    system : MechanicalSystem or HamiltonianSystem
-    h : float
-        Step size, > 0.
-    rule : str or QuadratureRule or HamiltonianRule
-        For a MechanicalSystem a name in `dmoc.discrete.RULES` (``"midpoint"``, the
-        default, ``"trapezoid"``, ``"lobatto3"``, ``"lobatto4"``) or a rule instance; for a
-        HamiltonianSystem a name in `dmoc.discrete.HAMILTONIAN_RULES` (``"midpoint"``,
-        ``"symplectic-euler"``) or a HamiltonianRule.
-
-    Returns
-    -------
-    Discretization or HamiltonianDiscretization
-
-    Raises
-    ------
-    ValueError
-        An unknown rule, a step that is not positive, or a rule that gives no one-step map
-        for a degenerate Lagrangian (`dmoc.discrete.degenerate`).
-    TypeError
-        `system` of another type.
-
-    Examples
-    --------
-    >>> import casadi as ca
-    >>> from dmoc import MechanicalSystem
-    >>> s = MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v) - 0.5 * ca.dot(q, q), 1)
-    >>> d = discretize(s, 0.1)
-    >>> round(float(d.discrete_lagrangian(0.0, 0.2, [], 0.1)), 6)  # 0.1 * (2 - 0.005)
-    0.1995
-    """
-    if isinstance(system, HamiltonianSystem):
-        from .hamiltonian import HamiltonianDiscretization    # it subclasses Discretization
-        return HamiltonianDiscretization(system, h, rule)
-    return Discretization(system, h, rule)

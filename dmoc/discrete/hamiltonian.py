@@ -12,12 +12,11 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .. import _checks
-from .._cache import BoundedCache
-from ..system import HamiltonianSystem
+from .._util import checks
+from .._util.cache import BoundedCache
+from ..mechanics.system import HamiltonianSystem
 from .discretization import Discretization, running_integrand
-from ..formulations import HAMILTONIAN_FORMULATIONS
-from ..layout import step_symbols
+from .._util.layout import step_symbols
 from .rules import Midpoint
 
 
@@ -141,7 +140,7 @@ class HamiltonianDiscretization(Discretization):
         As for `Discretization`; the energy of a step is (H(q0, p0) + H(q1, p1))/2.
     """
 
-    formulations = HAMILTONIAN_FORMULATIONS
+    family = "hamiltonian"
 
     def __init__(self, system, h, rule="midpoint"):
         if not isinstance(system, HamiltonianSystem):
@@ -151,7 +150,7 @@ class HamiltonianDiscretization(Discretization):
 
     def _setup(self, system, h, rule, data):
         self.system, self.rule = system, rule
-        self.h = _checks.positive_float("h", h)
+        self.h = checks.positive_float("h", h)
         self.key = (system.key, rule)
         self.n_stages = rule.n_stage_blocks * system.n
         self.n_multipliers = system.m
@@ -171,14 +170,14 @@ class HamiltonianDiscretization(Discretization):
         return f"HamiltonianDiscretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
 
 
-_HAMILTONIAN_DATA = BoundedCache(32)
+_HAMILTONIAN_DATA = BoundedCache(32, "hamiltonian_data")
 
 
 def as_hamiltonian_rule(rule):
     """A HamiltonianRule from an instance or one of the names in HAMILTONIAN_RULES."""
     if isinstance(rule, HamiltonianRule):
         return rule
-    return HAMILTONIAN_RULES[_checks.choice("rule", rule, tuple(HAMILTONIAN_RULES))]()
+    return HAMILTONIAN_RULES[checks.choice("rule", rule, tuple(HAMILTONIAN_RULES))]()
 
 
 def _cost_symbols(disc, running_cost):

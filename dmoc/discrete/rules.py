@@ -13,7 +13,7 @@ import casadi as ca
 import numpy as np
 from numpy.polynomial import legendre
 
-from .. import _checks
+from .._util import checks
 
 
 @dataclass(frozen=True)
@@ -259,7 +259,7 @@ def as_rule(rule):
     """Return a QuadratureRule from an instance or one of the names in RULES."""
     if isinstance(rule, QuadratureRule):
         return rule
-    return RULES[_checks.choice("rule", rule, tuple(RULES))]()
+    return RULES[checks.choice("rule", rule, tuple(RULES))]()
 
 
 def quadrature(rule, integrand, q0, q1, s, u, h):

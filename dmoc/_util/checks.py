@@ -1,0 +1,150 @@
+"""Argument validation shared by the whole library, with one message format.
+
+Every message names the argument, what was expected and what was given, e.g.
+"`q0` must have shape (3,) for this system; got (2,)." A wrong value raises `InputError`
+(a ValueError), a wrong kind of object `InputTypeError` (a TypeError); both are
+`DmocError` (docs/errors.md).
+"""
+
+import numbers
+
+import numpy as np
+
+from ..errors import InputError, InputTypeError
+
+
+def choice(name, value, options):
+    """Return `value` if it is one of `options`, else raise InputError listing them."""
+    if not isinstance(value, str) or value not in options:
+        listed = ", ".join(repr(o) for o in options)
+        raise InputError(f"`{name}` must be one of {listed}; got {value!r}.")
+    return value
+
+
+def instance(name, value, kinds, described):
+    """Return `value` if it is an instance of `kinds`, else raise InputTypeError saying
+    `described` (e.g. "a Discretization")."""
+    if not isinstance(value, kinds):
+        raise InputTypeError(f"`{name}` must be {described}; got {type(value).__name__}.")
+    return value
+
+
+def positive_int(name, value):
+    """Return `value` as int if it is an integer >= 1."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise InputError(f"`{name}` must be a positive integer; got {value!r}.")
+    return int(value)
+
+
+def nonnegative_int(name, value):
+    """Return `value` as int if it is an integer >= 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise InputError(f"`{name}` must be a non-negative integer; got {value!r}.")
+    return int(value)
+
+
+def _real(name, value):
+    """`value` as a float: a real number or a 0-d real array, never a bool."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and np.isrealobj(value):
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputTypeError(f"`{name}` must be a real number; got {type(value).__name__}.")
+    return float(value)
+
+
+def boolean(name, value):
+    """Return `value` if it is a bool."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputTypeError(f"`{name}` must be True or False; got {value!r}.")
+    return bool(value)
+
+
+def positive_float(name, value):
+    """Return `value` as float if it is a finite real number > 0."""
+    value = _real(name, value)
+    if not np.isfinite(value) or value <= 0.0:
+        raise InputError(f"`{name}` must be finite and positive; got {value!r}.")
+    return value
+
+
+def finite_float(name, value):
+    """Return `value` as float if it is a finite real number."""
+    value = _real(name, value)
+    if not np.isfinite(value):
+        raise InputError(f"`{name}` must be finite; got {value!r}.")
+    return value
+
+
+def real_array(name, value, expected="an array of real numbers"):
+    """`value` as a float array of any shape: integers and floats only, never strings,
+    booleans, complex numbers, objects, ragged nesting or symbolic CasADi expressions."""
+    try:
+        raw = np.asarray(value)
+    except ValueError:                  # numpy refuses ragged nesting
+        raise InputError(f"`{name}` must be {expected}; got a ragged nested sequence "
+                         f"(rows of different lengths).") from None
+    except TypeError:                   # e.g. casadi.SX/MX refuse conversion to numbers
+        raise InputTypeError(f"`{name}` must be {expected}; got a symbolic "
+                             f"{type(value).__name__} (evaluate it to numbers first).") from None
+    if raw.dtype.kind not in "iuf":     # no strings, booleans or objects passed off as numbers
+        raise InputTypeError(f"`{name}` must be {expected}; got {type(value).__name__} "
+                             f"of {raw.dtype}.")
+    return np.array(raw, dtype=float)
+
+
+def array(name, value, shape, *, allow_nan=False):
+    """Return `value` as a float array of exactly `shape`, finite unless `allow_nan`.
+
+    `allow_nan` lets NaN stand for "free" entries (never infinities).
+    """
+    out = real_array(name, value, f"an array of real numbers of shape {tuple(shape)}")
+    if out.shape != tuple(shape):
+        raise InputError(f"`{name}` must have shape {tuple(shape)} for this system; got {out.shape}.")
+    bad = np.isinf(out) if allow_nan else ~np.isfinite(out)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise InputError(f"`{name}` must be finite; entry {where} is {float(out[where])!r}.")
+    return out
+
+
+def no_unknown_keys(name, given, known):
+    """Raise InputError if the mapping `given` has keys outside `known`."""
+    unknown = sorted(set(given) - set(known), key=repr)
+    if unknown:
+        raise InputError(
+            f"`{name}` has unknown keys {unknown}; known keys are {sorted(known)}."
+        )
+
+
+def array_with_none(name, value, size, fill):
+    """Return `value` (shape (size,), or a scalar broadcast to it) as floats, None -> `fill`.
+
+    Only None means `fill`: NaN, booleans and strings are refused, not read as numbers.
+    """
+    raw = np.array(value, dtype=object)
+    if raw.ndim == 0:
+        raw = np.full(size, raw.item(), dtype=object)
+    if raw.shape != (size,):
+        raise InputError(f"`{name}` must have shape ({size},) for this system; got {raw.shape}.")
+    for i, x in enumerate(raw):
+        if x is not None and (isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real)):
+            raise InputTypeError(f"`{name}` must hold real numbers or None; entry {i} is {x!r}.")
+        if x is not None and np.isnan(x):
+            raise InputError(f"`{name}` entry {i} is NaN; only None leaves an entry free "
+                             f"(unbounded, for bounds).")
+    return np.array([fill if x is None else float(x) for x in raw], dtype=float)
+
+
+def ipopt_options(name, options):
+    """Return `options` as a dict of IPOPT options: string keys, values that are a bool,
+    a number or a string (None is refused: it would be dropped, not set)."""
+    if not isinstance(options, dict):
+        raise InputTypeError(f"`{name}` must be a dict of IPOPT options; got {type(options).__name__}.")
+    for key, value in options.items():
+        if not isinstance(key, str):
+            raise InputTypeError(f"`{name}` must have string keys (IPOPT option names); "
+                                 f"got the key {key!r}.")
+        if not isinstance(value, (bool, np.bool_, numbers.Real, str)):
+            raise InputTypeError(f"`{name}['{key}']` must be a number, a string or a bool; "
+                                 f"got {value!r}.")
+    return dict(options)

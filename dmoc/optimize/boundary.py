@@ -1,0 +1,67 @@
+"""The optimizer's boundary configurations on holonomic constraints: which entries of q_0 and
+q_N a problem may give when the step rows already impose g(q_k) = 0 at every node
+(docs/holonomic.md).
+"""
+
+import numpy as np
+
+from ..mechanics.given import check_configuration
+
+
+def check_holonomic_boundary(system, q_start, q_goal):
+    """Raise ValueError before an optimal control problem is solved if its boundary
+    configurations do not fit the holonomic constraints g(q) = 0 of `system`.
+
+    Parameters
+    ----------
+    system : MechanicalSystem
+    q_start, q_goal : ndarray, shape (n,)
+        Boundary configurations, NaN entries free.
+
+    Raises
+    ------
+    ValueError
+        `q_start` with free entries (the step rows impose g(q_{k+1}) = 0, k = 0 ... N-1, so
+        nothing would impose g(q_0) = 0); a fully given `q_start` or `q_goal` off g = 0; or
+        a `q_goal` that over-determines g: the step rows already impose g(q_N) = 0, so at
+        most n - k entries can be given. The message names the entries to leave free (None):
+        those whose columns of dg/dq(q_goal) are best conditioned (QR with column pivoting).
+
+    Notes
+    -----
+    A fully given goal on g = 0 satisfies g(q_N) = 0 redundantly: the NLP's constraint
+    Jacobian is rank-deficient there and IPOPT may report success at a point that is not
+    the optimum. With those entries free the goal is the same set, stated once.
+    """
+    k, n = system.n_holonomic, system.n
+    if k == 0:
+        return
+    if not np.isfinite(q_start).all():
+        raise ValueError(
+            "`q_start` must be fully given for a system with holonomic constraints: the step "
+            "rows impose g(q_{k+1}) = 0, so free start entries would leave g(q_0) = 0 unimposed.")
+    check_configuration("q_start", system, q_start)
+    given = np.flatnonzero(np.isfinite(q_goal))
+    if len(given) == n:
+        check_configuration("q_goal", system, q_goal)
+    if len(given) <= n - k:
+        return
+    jacobian = np.array(system.constraint_matrix(np.nan_to_num(q_goal)))[system.m - k:]
+    free = sorted(int(i) for i in given[_pivot_columns(jacobian[:, given], len(given) - (n - k))])
+    raise ValueError(
+        f"`q_goal` over-determines the holonomic constraints: the step rows impose the k = {k} "
+        f"equations g(q_N) = 0, so at most n - k = {n - k} of its entries can be given; it gives "
+        f"{len(given)}. Leave entries {free} {tuple(system.names[i] for i in free)} free "
+        f"(None): the goal set is the same, and the NLP stays regular.")
+
+
+def _pivot_columns(matrix, count):
+    """Indices of `count` columns of `matrix` chosen as QR with column pivoting chooses
+    them: each the column of largest norm after removing the span of those chosen."""
+    rest, chosen = np.array(matrix, dtype=float), []
+    for _ in range(count):
+        j = int(np.argmax(np.linalg.norm(rest, axis=0)))
+        chosen.append(j)
+        e = rest[:, j] / np.linalg.norm(rest[:, j])
+        rest = rest - np.outer(e, e @ rest)
+    return np.array(chosen, dtype=int)

@@ -1,0 +1,100 @@
+"""Initial guesses of the DMOC NLP (consumer 2, solver half): the default guess, a
+Trajectory from any grid and rule resampled onto the problem's, or an optimum of the same
+problem structure taken as it is (primal and dual, for IPOPT's warm start).
+"""
+
+import numpy as np
+
+from ..principle.trajectory import Trajectory
+
+
+def start_point(problem, guess):
+    """(x0, lam_x0, lam_g0) for IPOPT from `guess`: None, a Trajectory, or an
+    OptimizationResult. A result of a problem with the same NLP structure
+    (``result.structure == problem.structure``) is taken as it is, its configurations
+    re-centered on this problem's q_ref, its x clipped into the new bounds (new boundary
+    data) and its multipliers kept; any other guess gives its
+    trajectory, resampled, and zero multipliers (a cold start)."""
+    cold = np.zeros(problem.lbx.size), np.zeros(problem.lbg.size)
+    if guess is None or isinstance(guess, Trajectory):
+        return (initial_guess(problem, guess),) + cold
+    if guess.structure == problem.structure and guess.lam_g is not None and guess.q_ref is not None:
+        x = np.array(guess.x, dtype=float)
+        x[problem.x_layout.slice("q")] += np.tile(guess.q_ref - problem.q_ref, problem.steps + 1)
+        return np.clip(x, problem.lbx, problem.ubx), guess.lam_x, guess.lam_g
+    return (initial_guess(problem, guess.trajectory),) + cold
+
+
+def initial_guess(problem, guess=None):
+    """The NLP start vector from a Trajectory, or the default guess (see `optimize`)."""
+    lay, N, sys = problem.x_layout, problem.steps, problem.disc.system
+    x = np.zeros(lay.size)
+    tau = np.linspace(0.0, 1.0, N + 1)
+    h = problem.disc.h if guess is None else guess.h
+    if problem.free_time:
+        h = float(np.clip(h, *(T / N for T in problem.duration)))
+    if guess is None:
+        q = _default_path(problem, tau)
+        v = np.gradient(q, h, axis=0)
+        p = np.array(sys.momentum.map(N + 1)(q.T, v.T)).T
+        blocks = {"q": q, "p": p, "s": problem.disc.rule.stage_guess(q, p)}
+    else:
+        _check_guess(problem, guess)
+        blocks = _resampled(problem, guess, tau)
+    blocks["v_start"] = np.nan_to_num(problem.v_start)[None, :]
+    blocks["v_goal"] = np.nan_to_num(problem.v_goal)[None, :]
+    if problem.free_time:
+        blocks["h"] = np.array([[h]])
+    blocks["q"] = blocks["q"] - problem.q_ref         # the NLP holds q - q_ref
+    for name, values in blocks.items():      # time-major values; a block of fewer columns
+        if values is not None and lay.numel(name):     # (p_0 of substituted momenta) takes the first
+            x[lay.slice(name)] = np.asarray(values, dtype=float)[:lay.blocks[name][2]].ravel()
+    return np.clip(x, problem.lbx, problem.ubx)
+
+
+def _check_guess(problem, guess):
+    if guess.steps < 1:
+        raise ValueError("`guess` must have at least one step; got a trajectory of 0 steps.")
+    n, n_u = problem.disc.system.n, problem.disc.system.n_u
+    if guess.q.shape[1] != n:
+        raise ValueError(f"`guess` must have q with {n} columns for this problem; got {guess.q.shape[1]}.")
+    if guess.u.shape[1] != n_u * len(guess.control_nodes):
+        raise ValueError(f"`guess` must have u with {n_u} columns per control node for this "
+                         f"problem; got {guess.u.shape[1]} for {len(guess.control_nodes)} nodes.")
+
+
+def _default_path(problem, tau):
+    start = np.where(np.isfinite(problem.q_start), problem.q_start, np.nan_to_num(problem.q_goal))
+    goal = np.where(np.isfinite(problem.q_goal), problem.q_goal, start)
+    bump = 0.1 * max(1.0, float(np.max(np.abs(goal - start))))
+    return start + np.outer(tau, goal - start) + bump * np.sin(np.pi * tau)[:, None]
+
+
+def _resampled(problem, guess, tau):
+    """Guess blocks (time-major) on the problem's normalized grid tau, from a guess on any
+    grid and with any rule: q, p interpolated at the knots, the controls evaluated by the
+    guess's own interpolation (`Trajectory.control`) at the problem's control nodes, stages
+    and multipliers kept where their layout matches, else stages on the chords."""
+    disc, N = problem.disc, len(tau) - 1
+    same_grid = guess.steps == N
+    old = np.linspace(0.0, 1.0, guess.steps + 1)
+    knots = {k: getattr(guess, k) if same_grid else
+             np.column_stack([np.interp(tau, old, c) for c in getattr(guess, k).T]) for k in ("q", "p")}
+    same_rule = (same_grid and guess.s.shape[1] == disc.n_stages
+                 and guess.control_nodes == disc.rule.control_nodes)
+    if same_rule:
+        u = guess.u
+    else:
+        times = guess.t[0] + (guess.t[-1] - guess.t[0]) * (
+            tau[:-1, None] + np.asarray(disc.rule.control_nodes)[None, :] / N)
+        u = guess.control(times.ravel()).reshape(N, -1)
+    lam = None
+    if guess.lam.shape[1] == disc.n_multipliers:
+        mid_new, mid_old = (tau[:-1] + tau[1:]) / 2, (old[:-1] + old[1:]) / 2
+        lam = guess.lam if same_grid else np.column_stack(
+            [np.interp(mid_new, mid_old, c) for c in guess.lam.T] or [np.zeros(N)])[:, :disc.n_multipliers]
+    blocks = {**knots, "u": u, "lam": lam,
+              "s": guess.s if same_rule else disc.rule.stage_guess(knots["q"], knots["p"])}
+    if guess.mu.shape == (problem.x_layout.numel("mu"),):
+        blocks["mu"] = guess.mu[None, :]
+    return blocks

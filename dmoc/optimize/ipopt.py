@@ -1,0 +1,130 @@
+"""The IPOPT solver of a DMOC problem (consumer 2, its solver half): dmoc's default IPOPT
+options, the tolerances the data demand, and the solvers, created once per problem
+structure and options and kept in a bounded cache, each with its own journal when the
+linear-solver report is asked for; what IPOPT's statistics say about a solve.
+"""
+
+import weakref
+
+import casadi as ca
+import numpy as np
+
+from .._util import checks
+from .._util.cache import BoundedCache
+from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
+
+# bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
+# them by 1e-8), so the optimum meets both the bounds and the rows. With the relaxation,
+# honor_original_bounds moved x back onto an active bound after the last iterate and left
+# the rows violated: 4.9e-9 with a state bound, 1.6e-9 with a free final time, against
+# 1e-14 now, in the same or fewer iterations (docs/verification.md). honor_original_bounds
+# stays for a user's own bound_relax_factor.
+# warm_start_init_point (not a default: `optimize` sets it per start) "yes" when the
+# multipliers of a previous optimum of the same structure are passed in, "no" otherwise,
+# so that IPOPT estimates them by least squares at the start point. From a guess of
+# another grid this saves 1-2 of 4-6 iterations against zero multipliers (docs/performance.md).
+# mumps_permuting_scaling 0, mumps_pivot_order 0: MUMPS's analysis with AMD and without
+# the MC64 matching. On the banded DMOC KKT matrices MC64 and the automatic ordering cost
+# more than the factorizations (rolling disk, N = 1600: 0.18 s of analysis against 0.004 s;
+# the solve 0.27 s -> 0.12 s), with the same iterations (docs/performance.md).
+DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
+                         "max_iter": 1000, "bound_relax_factor": 0.0, "honor_original_bounds": "yes",
+                         "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
+
+
+_SOLVERS = BoundedCache(16, "solvers")    # keyed by (problem.structure, options): two per structure
+
+
+def data_tolerances(problem, x0):
+    """{"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
+    floor of the rows where the data demand it, else {}. The floor of row i is
+    eps * sum_j |dg_i/dx_j| |x_j| at the start point x0 (scaled, as IPOPT sees it) in
+    absolute coordinates (q, not q - q_ref): the rows difference configurations over h,
+    so far from the origin (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them
+    below it. Rounded up to a power of 2, so that nearby start points share one solver (the
+    options are its key)."""
+    jacobian = problem.separable.derivatives()["nlp_jac_g"]
+    x = np.array(x0, dtype=float)
+    x[problem.x_layout.slice("q")] = problem.configurations(x0).ravel()
+    J = jacobian(x0, problem.p)[1]
+    rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
+    floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
+    if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
+        return {}
+    floor = float(2.0 ** np.ceil(np.log2(floor)))
+    return {"tol": floor, "constr_viol_tol": floor}
+
+
+def solver(problem, options):
+    """(nlpsol for `problem` with `options`, whether it came from the cache, the path of
+    its journal or None)."""
+    expand = checks.boolean("options['expand']", options.pop("expand", False))
+    reuse = checks.boolean("options['reuse_solver']", options.pop("reuse_solver", True))
+    report = checks.boolean("options['linear_solver_report']", options.pop("linear_solver_report", False))
+    merged = {**DEFAULT_IPOPT_OPTIONS, **options}
+    if report and "output_file" in options:
+        raise ValueError("`options` 'linear_solver_report' writes IPOPT's journal to a file "
+                         "of its own; leave out 'output_file' or the report.")
+    if report:
+        merged["file_print_level"] = JOURNAL_LEVEL
+    # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
+    # gradient function CasADi would generate for them is most of a solver's build
+    opts = {"expand": expand, "print_time": False, "error_on_fail": False,
+            "no_nlp_grad": True, "calc_lam_p": False,
+            **{"ipopt." + k: v for k, v in merged.items()}}
+    built = []
+
+    def build():
+        """(a new solver, the path of its own journal or None, removed with the solver)."""
+        built.append(True)
+        journal = new_journal() if report else None
+        try:
+            made = ca.nlpsol("dmoc", "ipopt", problem.nlp,
+                             {**opts, "cache": problem.separable.derivatives(),
+                              **({"ipopt.output_file": journal} if report else {})})
+        except RuntimeError as err:
+            culprit = _rejected_option(options)
+            if culprit is None and "option" not in str(err).lower():
+                raise
+            which = (f"`options` entry {culprit!r} = {options[culprit]!r}" if culprit is not None
+                     else "`options`")
+            raise ValueError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
+                             f"for the allowed values).\n{err}") from None
+        if journal:     # a solver dropped (reuse_solver=False, or evicted) takes its journal along
+            weakref.finalize(made, remove_journal, journal).atexit = False
+        return made, journal
+
+    solver, journal = build() if not reuse else _SOLVERS.get(
+        (problem.structure, repr(sorted(opts.items())), report), build)
+    return solver, reuse and not built, journal
+
+
+def _rejected_option(options):
+    """The first of the user's IPOPT `options` that IPOPT refuses on its own (tried on a
+    one-variable NLP), or None."""
+    x = ca.SX.sym("x")
+    for key, value in options.items():
+        try:
+            ca.nlpsol("probe", "ipopt", {"x": x, "f": x ** 2},
+                      {"print_time": False, "ipopt." + key: value, "ipopt.print_level": 0,
+                       "ipopt.sb": "yes"})
+        except RuntimeError:
+            return key
+    return None
+
+
+def iteration_count(st):
+    """IPOPT's iteration count of this solve: 0 when it stopped before iterating (e.g.
+    Invalid_Option), where CasADi's `iter_count` is left uninitialized."""
+    count = st.get("iter_count", 0) if st.get("iterations") else 0
+    return count if isinstance(count, int) and count >= 0 else 0
+
+
+def linear_algebra(st):
+    """What IPOPT's KKT solves cost and needed: seconds outside function evaluations, and
+    the iterations whose KKT matrix had the wrong inertia, so that IPOPT added delta_w I to
+    the Hessian block (its largest delta_w)."""
+    delta = st.get("iterations", {}).get("regularization_size", [])
+    evaluations = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
+    return {"function_time": evaluations, "regularized_iterations": sum(d > 0 for d in delta),
+            "max_regularization": max(delta, default=0.0)}

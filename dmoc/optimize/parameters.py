@@ -1,0 +1,143 @@
+"""The user's data of a DMOC problem that are solver inputs, not part of the NLP: named
+parameters w (cost weights, obstacle positions, reference paths) that the running cost,
+the terminal cost and the path constraints read, and the Functions built from those user
+callables. Problems that differ only in the values of w share one NLP and one solver.
+"""
+
+import inspect
+
+import casadi as ca
+import numpy as np
+
+from .._util import checks
+from .._util.symbolic import checked_function
+from ..errors import InputError, InputTypeError
+from .._util.layout import Layout, step_symbols
+
+
+class ProblemParameters:
+    """Named parameters, each a scalar or a 1-d array of reals.
+
+    Parameters
+    ----------
+    values : dict of str -> float or array_like of shape (k,), or None
+        None (or an empty dict): no parameters, and the user callables take no `w`.
+
+    Attributes
+    ----------
+    layout : Layout
+        The blocks of the stacked vector w, one per name (a scalar is a block of size 1).
+    values : dict of str -> ndarray
+        The current values, shape (k,) each.
+
+    Examples
+    --------
+    >>> w = ProblemParameters({"weight": 2.0, "centre": [0.0, 1.0]})
+    >>> w.vector().tolist(), w.with_values(weight=3.0).vector().tolist()
+    ([2.0, 0.0, 1.0], [3.0, 0.0, 1.0])
+    """
+
+    def __init__(self, values):
+        if values is None:
+            values = {}
+        if not isinstance(values, dict):
+            raise InputTypeError(f"`parameters` must be a dict of name -> value or None; got "
+                                 f"{type(values).__name__}.")
+        self.values = {}
+        for name, value in values.items():
+            if not isinstance(name, str) or not name.isidentifier():
+                raise InputError(f"`parameters` names must be identifiers (str); got {name!r}.")
+            self.values[name] = _value(f"parameters[{name!r}]", value)
+        self.layout = Layout([(name, v.size) for name, v in self.values.items()])
+
+    @property
+    def given(self):
+        """True when there are parameters (then the user callables take `w`)."""
+        return bool(self.values)
+
+    def vector(self):
+        """The stacked values, shape (layout.size,)."""
+        return np.concatenate([v for v in self.values.values()] or [np.zeros(0)])
+
+    def with_values(self, **values):
+        """These parameters with some values replaced (same names and sizes)."""
+        if values and not self.given:
+            raise InputError(f"this problem has no parameters (got {sorted(values)}); give "
+                             f"`parameters=` to OptimalControlProblem to make data re-solvable.")
+        checks.no_unknown_keys("parameters", values, self.values)
+        new = ProblemParameters.__new__(ProblemParameters)
+        new.layout, new.values = self.layout, {k: v.copy() for k, v in self.values.items()}
+        for name, value in values.items():
+            new.values[name] = _value(f"parameters[{name!r}]", value, self.values[name].size)
+        return new
+
+    def symbols(self, w):
+        """{name: block of the column symbol w} for the user callables."""
+        return {name: w[self.layout.slice(name)] for name in self.layout.blocks}
+
+
+def _value(name, value, size=None):
+    out = np.atleast_1d(checks.real_array(name, value, "a real number or a 1-d array of them"))
+    if out.ndim != 1 or out.size == 0 or (size is not None and out.size != size):
+        expected = f"shape ({size},)" if size is not None else "a scalar or shape (k,), k >= 1"
+        raise InputError(f"`{name}` must be {expected}; got shape {np.shape(value)}.")
+    if not np.isfinite(out).all():
+        raise InputError(f"`{name}` must be finite; got {out.tolist()}.")
+    return out
+
+
+def cost_function(name, cost, system, args, parameters):
+    """A user cost of (q, v[, u][, w]) checked on symbols, as the scalar Function
+    ``(args..., w) -> cost``: w (the stacked parameters) is passed to `cost` as a dict
+    {name: symbol} only when the problem has parameters."""
+    _check_arity(name, cost, args, parameters)
+    sizes = {"q": system.n, "v": system.n, "u": system.n_u}
+    symbols = [ca.SX.sym(a, sizes[a]) for a in args] + [ca.SX.sym("w", parameters.layout.size)]
+    return checked_function(name, _with_w(cost, parameters), symbols, (*args, "w"), (1, 1))
+
+
+def path_function(path, disc, parameters):
+    """g(q0, q1, s, u, h, w) = path(q, v, u[, w]) in the middle of the step (on the rule's
+    interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), flattened to a column."""
+    sys = disc.system
+    _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
+    symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
+                                            ("w", parameters.layout.size))]
+    at_midpoint = checked_function("path_constraints", _with_w(path, parameters), symbols,
+                                   ("q", "v", "u", "w"), None)
+    x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
+    w = symbols[-1]
+    q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
+    g = at_midpoint(q, v, disc.rule.control_at(x["u"], 0.5), w)
+    names = ["q0", "q1", "s", "u", "h"]
+    return ca.Function("path_constraints", [x[k] for k in names] + [w], [g], names + ["w"], ["g"])
+
+
+def _check_arity(name, fun, args, parameters):
+    """InputTypeError when `fun` visibly takes the wrong number of arguments for whether
+    the problem has parameters (its signature says so; callables without one pass)."""
+    try:
+        signature = inspect.signature(fun)
+    except (TypeError, ValueError):
+        return
+    if any(p.kind == inspect.Parameter.VAR_POSITIONAL for p in signature.parameters.values()):
+        return
+    positional = [p for p in signature.parameters.values() if p.kind in (
+        inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    required = sum(p.default is inspect.Parameter.empty for p in positional)
+    expected = len(args) + parameters.given
+    if not required <= expected <= len(positional):
+        given = "with `parameters`" if parameters.given else "without `parameters`"
+        listed = ", ".join((*args, "w") if parameters.given else args)
+        raise InputTypeError(f"`{name}` must take ({listed}) {given}; it takes {len(positional)} "
+                             f"positional arguments.")
+
+
+def _with_w(fun, parameters):
+    """`fun` called with the parameters' dict as its last argument, or without it when
+    there are none."""
+    if not callable(fun):
+        return fun                      # checked_function names it
+    if not parameters.given:
+        return lambda *args: fun(*args[:-1])
+    return lambda *args: fun(*args[:-1], parameters.symbols(args[-1]))

@@ -1,0 +1,230 @@
+"""Consumer 2 of the step residual, its solver half: `optimize` solves an
+OptimalControlProblem with IPOPT (casadi.nlpsol, exact Hessian) from a guess, and returns
+the optimal Trajectory, or raises SolverError carrying the last iterate and naming the most
+violated constraint group (dynamics at step k, boundary, path).
+"""
+
+import json
+import time
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from .._util import checks
+from .problem import OptimalControlProblem
+from ..errors import SolverError
+from .guess import start_point
+from .._util.files import atomic_write
+from .ipopt import data_tolerances, iteration_count, linear_algebra
+from .ipopt import solver as ipopt_solver
+from .linear_solver import journal_end, linear_solver_report
+from ..principle.trajectory import RESULT_PREFIX, Trajectory
+
+
+@dataclass
+class OptimizationResult:
+    """Outcome of `optimize`.
+
+    Attributes
+    ----------
+    trajectory : Trajectory
+        The optimal trajectory, or the last iterate when not `success`.
+    cost : float
+    success : bool
+    status : str
+        IPOPT's return status, e.g. ``"Solve_Succeeded"``.
+    message : str
+    stats : dict
+        ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
+        when a solver of the same structure and options was reused), ``solver_reused``,
+        ``warm_start`` (True when IPOPT started from a previous optimum's x and
+        multipliers), ``solve_time`` (wall seconds in IPOPT), ``function_time`` (the part
+        of it spent evaluating the NLP functions and derivatives; the rest is mostly the
+        linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
+        whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
+        added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row),
+        and with ``options={"linear_solver_report": True}`` ``linear_solver``
+        (`dmoc.linear_solver.linear_solver_report`).
+    x : ndarray, shape (problem.x_layout.size,)
+        The NLP vector in the system's units (IPOPT's iterate times ``problem.x_scale``);
+        ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the end impulse
+        ``"nu"``); its block "q" holds q - q_ref (``problem.configurations(x)`` gives q).
+    lam_x, lam_g : ndarray, shapes like x and like problem.g_layout
+        IPOPT's multipliers of the bounds and of the constraints at `x`, converted to the
+        unscaled NLP (``lam_x = lam_x_ipopt / x_scale``, ``lam_g = g_scale * lam_g_ipopt``).
+    structure : str
+        The problem's `structure` key: a result warm-starts (primal and dual) any problem
+        with the same key, e.g. one from ``problem.with_boundary(...)``.
+    q_ref : ndarray, shape (n,)
+        The problem's `q_ref`, on which `x` is centered.
+    """
+
+    trajectory: Trajectory
+    cost: float
+    success: bool
+    status: str
+    message: str
+    stats: dict = field(default_factory=dict)
+    x: np.ndarray = None
+    lam_x: np.ndarray = None
+    lam_g: np.ndarray = None
+    structure: str = ""
+    q_ref: np.ndarray = None
+
+    def save(self, path):
+        """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
+        fields (so `Trajectory.load` reads it too), x, the multipliers, cost, status,
+        message, structure and stats (as JSON)."""
+        traj = {f.name: np.asarray(getattr(self.trajectory, f.name)) for f in fields(Trajectory)}
+        extra = {RESULT_PREFIX + k: np.asarray(getattr(self, k))
+                 for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure",
+                           "q_ref") if getattr(self, k) is not None}
+        extra[RESULT_PREFIX + "stats"] = json.dumps(self.stats, default=str)
+        with atomic_write(path) as file:
+            np.savez(file, **traj, **extra)
+
+    @classmethod
+    def load(cls, path):
+        """Read a result written by `save`; ``optimize(problem, guess=loaded)`` warm-starts
+        as from the result itself."""
+        with np.load(path, allow_pickle=False) as data:
+            extra = {k[len(RESULT_PREFIX):]: data[k] for k in data.files if k.startswith(RESULT_PREFIX)}
+        return cls(Trajectory.load(path), float(extra["cost"]), bool(extra["success"]),
+                   str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
+                   extra.get("x"), extra.get("lam_x"), extra.get("lam_g"), str(extra["structure"]),
+                   extra.get("q_ref"))        # files from before q_ref have none
+
+
+def optimize(problem, *, guess=None, options=None, throw=True):
+    """Solve a DMOC problem with IPOPT.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+    guess : Trajectory or OptimizationResult, optional
+        Initial guess. A Trajectory is resampled in time if its number of steps differs.
+        An OptimizationResult of a problem with the same `structure` (the same problem
+        with new boundary data or bounds, or a result saved and loaded) warm-starts IPOPT
+        from its x and multipliers; any other result is used through its trajectory
+        (resampled), IPOPT then estimating the multipliers by least squares there. By
+        default the configurations interpolate linearly between the boundary data, bent
+        by a small sine bump so the guess avoids points where the constraint Jacobian is
+        singular (e.g. the knife edge sliding straight sideways).
+    options : dict, optional
+        IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
+        and ``"expand"`` (bool, default False; True expands f and g to SX, which no
+        longer pays: IPOPT evaluates the derivatives assembled from the terms'
+        (`OptimalControlProblem.separable`) either way, see docs/performance.md), and
+        ``"reuse_solver"`` (bool, default True: take the solver of an earlier problem of
+        the same structure and options from the cache; False builds a fresh one), and
+        ``"linear_solver_report"`` (bool, default False; True adds
+        ``stats["linear_solver"]``, what the KKT factorizations needed, read from IPOPT's
+        detailed journal, `dmoc.linear_solver`; writing it adds 10-30 % to the solve).
+        Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
+        floor of the rows where the data put it higher (configurations far from the
+        origin, docs/performance.md). Both apply to the scaled NLP (`dmoc.scaling`): the
+        rows in momentum units count divided by the inertia, so with m = 1e5 a
+        ``constr_viol_tol`` of 1e-6 admits momentum rows violated by 0.1 in the system's
+        units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
+        system's units.
+    throw : bool
+        Raise SolverError when IPOPT fails (default); else return with success=False.
+
+    Returns
+    -------
+    OptimizationResult
+
+    Notes
+    -----
+    The solver (``casadi.nlpsol``) takes its gradient, constraint Jacobian and Hessian of
+    the Lagrangian from ``problem.separable.derivatives()`` (exact, assembled from each
+    term's derivatives) instead of generating them for the whole graph. IPOPT iterates on
+    the NLP scaled by the system's inertia (``problem.x_scale``, ``problem.g_scale``,
+    `dmoc.scaling`); the start point, the bounds and the multipliers are converted on the
+    way in and out, so guesses and results are in the system's units. It is created
+    once per problem structure and options and kept in a bounded cache: boundary data,
+    bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
+    same problem, or one from ``problem.with_boundary(...)``, skips the
+    build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
+    optimum's multipliers; every other start lets IPOPT estimate them, with a second solver
+    of the same structure (its creation reuses the assembled derivatives: about a
+    millisecond).
+    """
+    if not isinstance(problem, OptimalControlProblem):
+        raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")
+    throw = checks.boolean("throw", throw)
+    if guess is not None and not isinstance(guess, (Trajectory, OptimizationResult)):
+        raise TypeError(f"`guess` must be a Trajectory, an OptimizationResult or None; "
+                        f"got {type(guess).__name__}.")
+    options = None if options is None else checks.ipopt_options("options", options)
+    if options is not None and not isinstance(options, dict):
+        raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
+    x0, lam_x0, lam_g0 = start_point(problem, guess)
+    warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
+    D, R = problem.x_scale, problem.g_scale      # IPOPT iterates on x / D, imposes R g
+    tic = time.perf_counter()
+    solver, reused, journal = ipopt_solver(problem, {**data_tolerances(problem, x0 / D),
+                                                "warm_start_init_point": "yes" if warm else "no",
+                                                **(options or {})})
+    build_time = time.perf_counter() - tic
+    journal_start = journal_end(journal) if journal else 0
+    tic = time.perf_counter()
+    sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
+                 lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
+    solve_time = time.perf_counter() - tic
+    x_ipopt = np.array(sol["x"]).ravel()
+    x = D * x_ipopt
+    st = solver.stats()
+    # f and g at the returned x: honor_original_bounds may have moved x onto its bounds
+    # after IPOPT's last f and g (h at T_min/N or T_max/N with a free final time)
+    cost, g = problem.separable.values(x_ipopt, problem.p)
+    worst = most_violated(problem, g / R)
+    stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
+             "build_time": 0.0 if reused else build_time, "solver_reused": reused,
+             "warm_start": warm,
+             "solve_time": solve_time, **linear_algebra(st),
+             "max_violation": worst[0], "most_violated": worst[1]}
+    if journal:
+        stats["linear_solver"] = linear_solver_report(journal, journal_start)
+    traj = trajectory_from_x(problem, x)
+    success = bool(st["success"])
+    where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
+    if st["return_status"] == "Invalid_Number_Detected":
+        where = ("; an NLP function (dynamics, cost or their derivatives) returned NaN or Inf "
+                 "at the start point or an iterate: check the data's scale (h, bounds) and "
+                 "the system's functions there")
+    message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
+               f"cost {cost:.10g}{where}.")
+    result = OptimizationResult(traj, cost, success, st["return_status"], message, stats,
+                                x, np.array(sol["lam_x"]).ravel() / D,
+                                R * np.array(sol["lam_g"]).ravel(),
+                                problem.structure, problem.q_ref.copy())
+    if not success and throw:
+        raise SolverError(message + " The last iterate is in `.result`.", result)
+    return result
+
+def most_violated(problem, g):
+    """(largest bound violation, its description) over the constraint vector g."""
+    violation = np.maximum(problem.lbg - g, g - problem.ubg)
+    violation = np.where(np.isnan(violation), np.inf, np.maximum(violation, 0.0))
+    if violation.size == 0:
+        return 0.0, "none"
+    i = int(np.argmax(violation))
+    group, row, col = problem.g_layout.locate(i)
+    if group == "dynamics":
+        rows = problem.dynamics_rows.slices()
+        name = next(k for k, s in rows.items() if s.start <= row < s.stop)
+        return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
+    if group == "path":
+        return float(violation[i]), f"path constraint {row} at step {col}"
+    return float(violation[i]), f"boundary condition '{group}' row {row}"
+
+
+def trajectory_from_x(problem, x):
+    """The Trajectory held in an NLP vector x of `problem`."""
+    lay, N = problem.x_layout, problem.steps
+    h = float(lay.unpack(x, "h")[0, 0]) if problem.free_time else problem.disc.h
+    mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
+    return Trajectory(h * np.arange(N + 1), problem.configurations(x), problem.momenta(x),
+                      lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
+                      mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)

@@ -1,0 +1,228 @@
+"""Trajectory: the discrete solution both consumers return, time-major arrays with save/load
+to .npz that round-trips exactly.
+"""
+
+import zipfile
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from .._util import checks
+from .._util.files import atomic_write
+from ..errors import InputError, InputTypeError, TrajectoryFileError
+from ..discrete import Discretization
+from ..discrete.rules import lagrange_basis
+from .formulations import FORMULATIONS
+
+# max |t_k - t_0 - k h| allowed, relative to |t_0| + N h: rounding of t_0 + k h, of
+# np.linspace and of cumulative sums of h stay far below it; a grid of another h does not.
+TIME_GRID_RTOL = 1e-10
+
+
+@dataclass(eq=False)
+class Trajectory:
+    """A discrete trajectory of the (+) or (-) implicit discrete Lagrangian system (37)/(41).
+
+    Attributes
+    ----------
+    t : ndarray, shape (N+1,)
+        Knot times t_k = t_0 + k h.
+    q : ndarray, shape (N+1, n)
+        Configurations q_k.
+    p : ndarray, shape (N+1, n)
+        Momenta p_k.
+    lam : ndarray, shape (N, m)
+        Constraint multipliers of each step: at q_k for variant "+", at q_{k+1} for "-".
+    u : ndarray, shape (N, len(control_nodes) * n_u)
+        Controls of each step at its control nodes, node by node: u(t_k + c_j h) = u[k,
+        j n_u:(j+1) n_u]; between them u(t) is their Lagrange interpolant on the step
+        (`control`). With ``control_nodes = (0.5,)`` a control held on [t_k, t_{k+1}].
+    h : float
+        Step size.
+    variant : {"+", "-"}
+        Name of the formulation (`dmoc.formulations`) whose equations the steps solve.
+    mu : ndarray, shape (m,)
+        Initial impulse of a (-) run: p_0 = p_start - A(q_0)^T mu (zeros for "+"; default
+        zeros of lam's width).
+    s : ndarray, shape (N, n_stages)
+        Stage unknowns of each step (empty columns for stage-free rules).
+    control_nodes : tuple of float
+        Step times c in [0, 1] of the controls in `u` (the rule's ``control_nodes``);
+        default ``(0.5,)``, one control held over each step.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    p: np.ndarray
+    lam: np.ndarray
+    u: np.ndarray
+    h: float
+    variant: str
+    mu: np.ndarray = field(default=None)
+    s: np.ndarray = field(default=None)
+    control_nodes: tuple = (0.5,)
+
+    def __post_init__(self):
+        # NaN is allowed in q, p, lam, u, s, mu: the last iterate of a failed solve may hold
+        # it, and is kept rather than lost. Every array is copied, never a view of solver
+        # memory. Complex numbers, strings and ragged rows are refused (`checks.real_array`).
+        q = checks.real_array("q", self.q, "an array of real numbers of shape (N+1, n)")
+        if q.ndim != 2 or q.shape[0] < 1:
+            raise InputError(f"`q` must have shape (N+1, n); got {q.shape}.")
+        self.q = checks.array("q", q, q.shape, allow_nan=True)
+        N1, n = q.shape
+        self.h = checks.positive_float("h", self.h)
+        self.t = _time_grid(self.t, N1, self.h)
+        self.p = checks.array("p", self.p, (N1, n), allow_nan=True)
+        self.lam, self.u, self.s = (_per_step(name, value, N1 - 1) for name, value in
+                                    (("lam", self.lam), ("u", self.u), ("s", self.s)))
+        self.variant = checks.choice("variant", self.variant, tuple(FORMULATIONS))
+        self.control_nodes = _control_nodes(self.control_nodes, self.u.shape[1])
+        self.mu = (np.zeros(self.lam.shape[1]) if self.mu is None else
+                   checks.array("mu", self.mu, (np.size(self.mu),), allow_nan=True))
+
+    @property
+    def steps(self):
+        """Number of steps N."""
+        return self.q.shape[0] - 1
+
+    @property
+    def velocities(self):
+        """Step velocities (q_{k+1} - q_k)/h, shape (N, n): the velocity of each step at
+        its midpoint, the one the midpoint rule and the retraction (28) use.
+
+        >>> Trajectory([0, 1], [[0.0], [2.0]], [[0.0], [0.0]], [], [], 1.0, "+").velocities
+        array([[2.]])
+        """
+        return np.diff(self.q, axis=0) / self.h
+
+    def control(self, t):
+        """The control u(t), shape (len(t), n_u): on each step the Lagrange interpolant of
+        its values at `control_nodes` (a held control for ``(0.5,)``); a time on a knot
+        belongs to the step that starts there (the last knot to the last step).
+
+        >>> traj = Trajectory([0, 1, 2], [[0.0]] * 3, [[0.0]] * 3, [[], []], [[0.0, 2.0], [2.0, 4.0]],
+        ...                   1.0, "+", control_nodes=(0.0, 1.0))
+        >>> traj.control([0.25, 1.5, 2.0])[:, 0]
+        array([0.5, 3. , 4. ])
+        """
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        k = np.clip(np.floor((t - self.t[0]) / self.h).astype(int), 0, max(self.steps - 1, 0))
+        basis, _ = lagrange_basis(self.control_nodes, (t - self.t[k]) / self.h)
+        values = self.u[k].reshape(len(t), len(self.control_nodes), -1)
+        return np.einsum("tj,tju->tu", basis, values)
+
+    def save(self, path):
+        """Write every field to an uncompressed .npz file at exactly `path` (exact round
+        trip). The write is atomic: a temporary file renamed over `path`, so a failure
+        half-way leaves a previous file at `path` intact."""
+        arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
+        with atomic_write(path) as file:
+            np.savez(file, **arrays)
+
+    @classmethod
+    def load(cls, path):
+        """Read a Trajectory written by `save`; never unpickles.
+
+        Raises
+        ------
+        FileNotFoundError
+            If there is no file at `path`.
+        TrajectoryFileError
+            If the file is empty, truncated, corrupted or not written by `save`.
+        """
+        with open(path, "rb") as file:
+            head = file.read(4)
+        if head != b"PK\x03\x04":         # every .npz file is a zip archive
+            _invalid(path, "it is empty" if not head else "it is not an .npz (zip) archive")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                names = set(data.files)
+                values = {name: data[name] for name in names & _FIELDS}
+        except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as err:
+            _invalid(path, f"it is truncated or corrupted ({type(err).__name__}: {err})")
+        missing = _REQUIRED - names
+        unknown = {k for k in names - _FIELDS if not k.startswith(RESULT_PREFIX)}
+        if missing or unknown:
+            _invalid(path, f"it lacks the fields {sorted(missing)}" if missing else
+                     f"it holds fields a Trajectory does not have: {sorted(unknown)}")
+        for name in ("h", "variant"):
+            if values[name].shape != ():
+                _invalid(path, f"`{name}` must be a single value; got shape {values[name].shape}")
+        values["h"] = values["h"].item()
+        values["variant"] = str(values["variant"])
+        try:
+            return cls(**values)
+        except (InputError, InputTypeError) as err:
+            _invalid(path, f"its fields do not form a trajectory: {err}")
+
+    def __repr__(self):
+        return (f"Trajectory(steps={self.steps}, n={self.q.shape[1]}, m={self.lam.shape[1]}, "
+                f"n_u={self.u.shape[1]}, h={self.h}, variant={self.variant!r})")
+
+
+_REQUIRED = {"t", "q", "p", "lam", "u", "h", "variant"}
+RESULT_PREFIX = "result_"       # the fields `OptimizationResult.save` adds to a trajectory file
+_FIELDS = {f.name for f in fields(Trajectory)}
+
+
+def _invalid(path, reason):
+    raise TrajectoryFileError(f"{str(path)!r} is not a valid dmoc trajectory file "
+                              f"(one written by Trajectory.save): {reason}.")
+
+
+def _time_grid(t, N1, h):
+    """The knot times, shape (N+1,): finite and equal to t_0 + k h within TIME_GRID_RTOL."""
+    t = checks.array("t", t, (N1,))
+    k = np.arange(N1)
+    off = np.abs(t - (t[0] + k * h))
+    if off.max() > TIME_GRID_RTOL * (abs(t[0]) + (N1 - 1) * h):
+        j = int(np.argmax(off))
+        raise InputError(f"`t` must be the grid t_0 + k h with h = {h!r}; t[{j}] = {float(t[j])!r} "
+                         f"is {off[j]:.3g} off (a grid of another step, or `h` not "
+                         f"(t[-1] - t[0])/N?).")
+    return t
+
+
+def _control_nodes(nodes, columns):
+    """`nodes` as a tuple of distinct step times in [0, 1] that divides the u columns."""
+    nodes = checks.real_array("control_nodes", nodes, "a sequence of step times in [0, 1]")
+    nodes = tuple(float(c) for c in np.ravel(nodes))
+    if not nodes or not all(0.0 <= c <= 1.0 for c in nodes) or len(set(nodes)) < len(nodes):
+        raise InputError(f"`control_nodes` must be distinct step times in [0, 1]; got {nodes}.")
+    if columns % len(nodes):
+        raise InputError(f"`u` must have a multiple of len(control_nodes) = {len(nodes)} "
+                         f"columns; got {columns}.")
+    return nodes
+
+
+def _per_step(name, value, N):
+    """A per-step array of shape (N, k); empty input (or None) means k = 0."""
+    data = checks.real_array(name, np.zeros((N, 0)) if value is None else value,
+                              f"an array of real numbers of shape ({N}, k)")
+    if data.size == 0:
+        data = data.reshape(N, 0) if N else np.zeros((0, data.shape[-1] if data.ndim == 2 else 0))
+    if data.ndim != 2 or data.shape[0] != N:
+        raise InputError(f"`{name}` must have shape ({N}, k), one row per step; got {data.shape}.")
+    return checks.array(name, data, data.shape, allow_nan=True)
+
+
+def check_trajectory(disc, traj):
+    """Raise unless `traj` fits `disc` (sizes of q, lam, u, s); return its number of steps."""
+    checks.instance("disc", disc, Discretization, "a Discretization")
+    checks.instance("traj", traj, Trajectory, "a Trajectory")
+    sizes = {"q": disc.system.n, "lam": disc.n_multipliers, "u": disc.n_controls, "s": disc.n_stages}
+    for name, size in sizes.items():
+        if getattr(traj, name).shape[1] != size:
+            raise InputError(f"`traj.{name}` has {getattr(traj, name).shape[1]} columns; "
+                             f"this discretization has {size}.")
+    return traj.steps
+
+
+def constraint_violation(disc, traj):
+    """max_a |omega_d^a| of (28) (or of the stage rule's moment rows) for each step, shape (N,)."""
+    if not check_trajectory(disc, traj) or disc.system.m == 0:
+        return np.zeros(traj.steps)
+    omega = np.array(disc.discrete_constraint.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T,
+                                                               traj.s.T, traj.h))
+    return np.abs(omega).max(axis=0)

@@ -1,0 +1,163 @@
+"""Diagnostics of a computed Trajectory: energy, discrete constraint violation (28) and the
+step residual norms of (37)/(41), each evaluated by mapping a CasADi Function over steps.
+"""
+
+import casadi as ca
+import numpy as np
+
+from .._util import checks
+from ..discrete import Discretization
+from ..errors import InputError
+from ..principle.formulations import as_formulation
+from ..optimize.problem import OptimalControlProblem
+from ..principle.residual import step_residual
+from ..simulate.simulation import simulate
+from ..principle.trajectory import Trajectory, check_trajectory, constraint_violation  # noqa: F401 (re-exported)
+
+
+def energy(disc, traj):
+    """Energy E = v . dL/dv - L of each step, shape (N,): averaged over the step by the
+    rule's quadrature on its interpolant (`Discretization.step_energy`; for the midpoint
+    rule E at ((q_k + q_{k+1})/2, (q_{k+1} - q_k)/h)), accurate at the rule's order. It
+    needs no Legendre transform and works for degenerate Lagrangians.
+    """
+    if not check_trajectory(disc, traj):
+        return np.zeros(0)
+    E = disc.step_energy.map(traj.steps)(traj.q[:-1].T, traj.p[:-1].T, traj.q[1:].T,
+                                         traj.p[1:].T, traj.s.T, traj.h)
+    return np.array(E).ravel()
+
+
+def mean_momenta(disc, traj):
+    """Momenta at the nodes q_0 ... q_{N-1} that approximate the continuous p(t_k) at the
+    rule's order, shape (N, n): at interior nodes the mean of the momenta before and after
+    the constraint impulse, p_k + impulse_side A(q_k)^T iota_k; at q_0 the momentum before
+    the first impulse, the start datum (dL/dv(q_0, v_0) of a simulation or of the boundary
+    rows).
+
+    p_k of the (+) form is the momentum just before the impulse at q_k, p_k of the (-)
+    form the one just after; each differs from p(t_k) by half the impulse, O(h) when the
+    constraint force is not zero. The mean needs no Legendre transform and converges at
+    order 2 for the midpoint and trapezoid rules and 4 for the Lobatto rules (measured;
+    docs/theory.md, "Stage rules"). Without constraints it is p_k.
+    """
+    if not check_trajectory(disc, traj):
+        return np.zeros((0, disc.system.n))
+    formulation, N = as_formulation(traj.variant, disc), traj.steps
+    iota = formulation.node_impulses(traj.lam, traj.mu, disc.system.m)
+    A = np.array(disc.system.constraint_matrix.map(N)(traj.q[:-1].T))      # (m, N n)
+    n = disc.system.n
+    forces = np.array([A[:, k * n:(k + 1) * n].T @ iota[k] for k in range(N)]).reshape(N, n)
+    side = np.full((N, 1), formulation.impulse_side)
+    side[0] += 0.5
+    return traj.p[:-1] + side * forces
+
+
+def residual_norms(disc, traj):
+    """Max-norm of the step residual R of (37)/(41) at every step, shape (N,)."""
+    if not check_trajectory(disc, traj):
+        return np.zeros(0)
+    R = step_residual(disc, traj.variant).function.map(traj.steps)
+    r = np.array(R(q0=traj.q[:-1].T, p0=traj.p[:-1].T, q1=traj.q[1:].T, p1=traj.p[1:].T,
+                   lam=traj.lam.T, s=traj.s.T, u=traj.u.T, h=traj.h)["r"])
+    return np.abs(r).max(axis=0)
+
+
+def velocity_jumps(traj):
+    """How well the grid resolves the motion, per coordinate, shape (n,):
+    max_k |v_{k+1/2} - v_{k-1/2}| / max_k |v_{k+1/2}| over the step velocities
+    (`Trajectory.velocities`).
+
+    A motion resolved by the grid gives about omega h (2 sin(omega h / 2) for a sinusoid of
+    frequency omega). Values of order 1 say that the velocity changes by its own size
+    within a step (2: it reverses): the grid does not resolve the motion, as in the optima
+    that spin a light blade by pi per step and slip it sideways in one step
+    (docs/verification.md, "Known shortfalls"). Coordinates at rest (peak velocity below
+    1e-9 of the largest coordinate's) give 0.
+
+    >>> traj = Trajectory([0, 1, 2, 3], [[0.0], [1.0], [0.0], [1.0]], [[0.0]] * 4, [[], [], []],
+    ...                   [[], [], []], 1.0, "+")
+    >>> velocity_jumps(traj)
+    array([2.])
+    """
+    checks.instance("traj", traj, Trajectory, "a Trajectory")
+    v = traj.velocities
+    if v.shape[0] < 2:
+        return np.zeros(v.shape[1])
+    peak = np.abs(v).max(axis=0)
+    moving = peak > 1e-9 * peak.max(initial=0.0)
+    return np.where(moving, np.abs(np.diff(v, axis=0)).max(axis=0) / np.where(moving, peak, 1.0), 0.0)
+
+
+def replay_error(problem, result):
+    """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
+    optimal initial state: the two consumers share one residual, so both are at solver
+    tolerance. p_N is left out where the formulation puts the end impulse into it (variant
+    "-"), which `simulate` cannot know."""
+    checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+    traj = checks.instance("result.trajectory", getattr(result, "trajectory", None), Trajectory,
+                            "a Trajectory (give the OptimizationResult of `problem`)")
+    disc = problem.disc.with_step(traj.h)
+    replay = simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
+                      variant=traj.variant, throw=False).trajectory
+    if replay.steps < traj.steps:
+        return np.inf, np.inf
+    last = traj.steps + as_formulation(traj.variant, problem.disc).end_momentum_determined
+    return (float(np.abs(replay.q - traj.q).max()),
+            float(np.abs(replay.p[:last] - traj.p[:last]).max()))
+
+
+def optimization_summary(problem, result):
+    """Key figures of an optimization result: a dict of cost, IPOPT iterations and status,
+    build and solve times, max |omega_d|, max step residual, max constraint violation of
+    the NLP, the replay errors of `replay_error` and the largest of `velocity_jumps`."""
+    traj = result.trajectory
+    replay_q, replay_p = replay_error(problem, result)
+    return {"cost": result.cost, "iterations": result.stats["iterations"],
+            "status": result.status, "build_time": result.stats["build_time"],
+            "solve_time": result.stats["solve_time"],
+            "max_omega_d": float(constraint_violation(problem.disc, traj).max()),
+            "max_residual": float(residual_norms(problem.disc, traj).max()),
+            "max_violation": result.stats["max_violation"],
+            "replay_q": replay_q, "replay_p": replay_p,
+            "max_velocity_jump": float(velocity_jumps(traj).max(initial=0.0))}
+
+
+def format_summary(title, figures):
+    """The dict of `optimization_summary` as indented text lines under `title`."""
+    return "\n".join([
+        f"{title}: {figures['status']}",
+        f"  cost                     {figures['cost']:.10f}",
+        f"  IPOPT iterations         {figures['iterations']}",
+        f"  solve time               {figures['solve_time']:.3f} s (build {figures['build_time']:.3f} s)",
+        f"  max constraint violation {figures['max_violation']:.2e} (max |omega_d| {figures['max_omega_d']:.2e})",
+        f"  replay by simulate       max |q - q_opt| = {figures['replay_q']:.2e}, "
+        f"max |p - p_opt| = {figures['replay_p']:.2e}"])
+
+
+def symplecticity_defect(disc, q0, p0, *, u=None, variant="+"):
+    """max |J^T Omega J - Omega| for the step map (q0, p0) -> (q1, p1) of an unconstrained
+    system, Omega the matrix of dq ^ dp (20); zero for a variational integrator.
+
+    J comes from the implicit function theorem on the step residual at the computed step,
+    the stage unknowns of a stage rule eliminated with (q1, p1). `u` holds the step's
+    controls, shape (disc.n_controls,) (default zeros).
+    """
+    sys = checks.instance("disc", disc, Discretization, "a Discretization").system
+    if sys.m:
+        raise InputError("`disc` must have no constraints: with constraints the step map is "
+                         "not symplectic on T*Q.")
+    u = np.zeros(disc.n_controls) if u is None else checks.array("u", u, (disc.n_controls,))
+    traj = simulate(disc, q0=q0, p0=p0, steps=1, controls=np.reshape(u, (1, -1)),
+                    variant=variant).trajectory
+    n = sys.n
+    x = ca.SX.sym("x", 2 * n)                       # (q0, p0)
+    y = ca.SX.sym("y", 2 * n + disc.n_stages)       # (q1, p1, s)
+    R = step_residual(disc, variant)(q0=x[:n], p0=x[n:], q1=y[:n], p1=y[n:2 * n], lam=ca.SX(0, 1),
+                                     s=y[2 * n:], u=u, h=disc.h)
+    jac = ca.Function("step_jacobians", [x, y], [ca.jacobian(R, x), ca.jacobian(R, y)])
+    Rx, Ry = (np.array(J) for J in jac(np.r_[traj.q[0], traj.p[0]],
+                                        np.r_[traj.q[1], traj.p[1], traj.s[0]]))
+    J = -np.linalg.solve(Ry, Rx)[:2 * n]
+    Omega = np.block([[np.zeros((n, n)), np.eye(n)], [-np.eye(n), np.zeros((n, n))]])
+    return float(np.abs(J.T @ Omega @ J - Omega).max())

@@ -1,0 +1,200 @@
+"""Consumer 1 of the step residual: the Dirac integrator. Each step solves the residual R
+of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.stepper`), the
+horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._util import checks
+from . import compiled
+from .._util.cache import BoundedCache
+from ..mechanics.given import start_momentum
+from ..discrete import Discretization
+from ..errors import SolverError
+from ..principle.formulations import as_formulation
+from ..principle.residual import step_residual
+from .stepper import DiracStepper
+from ..principle.trajectory import Trajectory
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of `simulate`.
+
+    Attributes
+    ----------
+    trajectory : Trajectory
+        All steps that converged (all of them when `success`).
+    success : bool
+    status : str
+        ``"converged"``, ``"newton_failed"`` or ``"non_finite"`` (a step produced NaN/Inf).
+    message : str
+    stats : dict
+        ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
+        Newton redid), ``max_residual`` (max-norm of R over the completed steps, checked
+        at every step on both paths), ``native`` (True when the fast path ended the run as
+        compiled C), ``wall_time`` in seconds (building or loading the compiled step included).
+    """
+
+    trajectory: Trajectory
+    success: bool
+    status: str
+    message: str
+    stats: dict = field(default_factory=dict)
+
+
+def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
+             throw=True, tol=1e-12, max_iter=50, jit=None):
+    """Simulate the implicit discrete Lagrange-d'Alembert equations (37) or (41).
+
+    Parameters
+    ----------
+    disc : Discretization
+    q0 : array_like, shape (n,)
+        Initial configuration.
+    v0, p0 : array_like, shape (n,)
+        Initial velocity (then p_0 = dL/dv(q0, v0)) or initial momentum: exactly one.
+        `v0` must lie in Delta_Q(q0) = ker A(q0).
+    steps : int
+        Number of steps N.
+    controls : array_like, shape (N, disc.n_controls) or (N, n_u), optional
+        The controls of each step at the rule's control nodes, node by node (for the
+        midpoint and trapezoid rules one control u_k held on [t_k, t_{k+1}]); a shape
+        (N, n_u) array is held over each step for any rule. Zeros by default. A
+        Trajectory's ``u`` has this form, so ``controls=traj.u`` replays it.
+    variant : {"+", "-"} or Formulation
+        The form of the equations (`dmoc.formulations`).
+    throw : bool
+        Raise SolverError on a Newton failure (default); else return it with success=False.
+    tol : float
+        Newton's target for the residual max-norm; a step whose residual stays above
+        1000 tol counts as failed.
+    max_iter : int
+        Iterations of the line-search Newton that redoes a step the fast path (three
+        unrolled Newton iterations) did not converge.
+    jit : bool or None
+        Run the fast path as C code, compiled once per step Function with the system's C
+        compiler and cached on disk across calls and processes (`dmoc.compiled`; about
+        0.5 s the first time ever, then a 10 ms load), several times faster per step than
+        CasADi's virtual machine, with the same results. None (default): C when it is
+        cached, else once this process has spent 0.5 s (about the cost of compiling) in the
+        virtual machine on this step Function, mid-run if need be; without a C compiler,
+        always the virtual machine. True: C now (an error without a compiler); False: never.
+
+    Returns
+    -------
+    SimulationResult
+
+    Notes
+    -----
+    Variant "+": given (q_k, p_k, u_k), Newton solves R = 0 for (q_{k+1}, lam_k), and
+    p_{k+1} follows from the "right" rows (see `dmoc.stepper`).
+    Variant "-": p_k of (41) is fixed only up to A(q_k)^T mu by the previous step, so each
+    step solves R for (q_{k+1}, mu) with p_k = p_k' - A(q_k)^T mu, p_k' the momentum
+    carried in; mu is the previous step's multiplier (lam_{k-1}), and at k = 0 it is the
+    initial impulse ``trajectory.mu``. Nothing fixes the impulse at q_N, so a (-) run ends
+    with lam_{N-1} = 0 and p_N = D2 L_d + f_d^+ (the next step would apply it).
+
+    Examples
+    --------
+    >>> import dmoc
+    >>> disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    >>> res = dmoc.simulate(disc, q0=[0, 0, 0], v0=[1, 0, 1], steps=10)
+    >>> res.trajectory.q.shape, res.success
+    ((11, 3), True)
+    """
+    if not isinstance(disc, Discretization):
+        raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
+    sys = disc.system
+    formulation = as_formulation(variant, disc)
+    steps = checks.positive_int("steps", steps)
+    tol = checks.positive_float("tol", tol)
+    max_iter = checks.positive_int("max_iter", max_iter)
+    throw = checks.boolean("throw", throw)
+    q0 = checks.array("q0", q0, (sys.n,))
+    p_start, v_guess = start_momentum(sys, q0, v0, p0)
+    controls = step_controls(disc, controls, steps)
+    residual = step_residual(disc, formulation)
+    tic = time.perf_counter()
+    native = _native(jit)
+    stepper = _STEPPERS.get((residual.key, tol, max_iter, native),
+                            lambda: DiracStepper(residual, tol, max_iter, native))
+    start = np.zeros(stepper.state.size)
+    for name, value in (("q", q0), ("p", p_start), ("dq", disc.h * v_guess)):
+        start[stepper.state.slice(name)] = value
+    acc, out, failed_rnorm, redone = stepper.run(start, controls, disc.h)
+    wall = time.perf_counter() - tic
+    k = out.shape[0]
+    traj = _assemble(stepper, formulation, disc, controls[:k], acc, out)
+    rnorm = stepper.out.split(out)["rnorm"]
+    stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
+             "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
+             "wall_time": wall}
+    return _finish(traj, stats, failed_rnorm, tol, throw)
+
+
+_STEPPERS = BoundedCache(16, "steppers")     # keyed by (residual key, tol, max_iter, native): h is an input
+
+
+def _native(jit):
+    """`jit` checked: None, or True (then a C compiler must exist), or False."""
+    if jit is None:
+        return None
+    if checks.boolean("jit", jit) and compiled.compiler() is None:
+        raise ValueError("`jit=True` needs a C compiler: none found (set CC to one, or use "
+                         "jit=None to fall back to CasADi's virtual machine).")
+    return jit
+
+
+def step_controls(disc, controls, steps):
+    """`controls` as an array (steps, disc.n_controls): zeros if None; a control held over
+    each step, shape (steps, n_u), is repeated at every control node of the rule."""
+    n_u, nodes = disc.system.n_u, len(disc.rule.control_nodes)
+    if controls is None:
+        return np.zeros((steps, disc.n_controls))
+    try:
+        shape = np.shape(controls)
+    except ValueError:           # ragged: `checks.array` below names it
+        shape = None
+    if nodes > 1 and shape == (steps, n_u):
+        controls = np.tile(checks.array("controls", controls, (steps, n_u)), (1, nodes))
+    return checks.array("controls", controls, (steps, disc.n_controls))
+
+
+def _assemble(stepper, formulation, disc, controls, acc, out):
+    """Trajectory from the horizon's states (the start first) and per-step outputs
+    (time-major arrays)."""
+    h = disc.h
+    state, per_step = stepper.state.split(acc), stepper.out.split(out)
+    p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
+                                               stepper.residual.m)
+    t = h * np.arange(acc.shape[0])
+    return Trajectory(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
+                      disc.rule.control_nodes)
+
+
+def _finish(traj, stats, failed_rnorm, tol, throw):
+    """Report success, or the failed step with the trajectory before it."""
+    k, steps = traj.steps, stats["steps"]
+    if k == steps:
+        return SimulationResult(traj, True, "converged",
+                                f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)
+    where = f"at step {k} (t = {k * traj.h:.6g})"
+    if np.isnan(failed_rnorm):
+        status, what = "non_finite", (
+            f"step {k} turned NaN or Inf (t = {k * traj.h:.6g}): the residual, the next state or "
+            f"the multipliers are not finite; check the force and the controls of step {k}.")
+    else:
+        status, what = "newton_failed", (
+            f"Newton did not converge {where}: residual max-norm {failed_rnorm:.3e} > 1000 tol "
+            f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; try a "
+            f"smaller step h or check the controls.")
+    result = SimulationResult(
+        traj, False, status, what + f" The trajectory up to step {k} is in `.result.trajectory`.",
+        stats)
+    if throw:
+        raise SolverError(result.message, result)
+    return result
