@@ -67,6 +67,14 @@ def positive_float(name, value):
     return value
 
 
+def nonnegative_float(name, value):
+    """Return `value` as float if it is a finite real number >= 0."""
+    value = _real(name, value)
+    if not np.isfinite(value) or value < 0.0:
+        raise InputError(f"`{name}` must be finite and nonnegative; got {value!r}.")
+    return value
+
+
 def finite_float(name, value):
     """Return `value` as float if it is a finite real number."""
     value = _real(name, value)

@@ -3,15 +3,19 @@ MechanicalSystem (L, the constraint one-forms A(q) of (27), a control force f) a
 the exact solution of its unforced Lagrange-d'Alembert equations (for the degenerate LC circuit
 and point vortices, docs/degenerate.md) or, for the spherical pendulum with its holonomic
 constraint, its conserved quantities (docs/holonomic.md), an oracle for measuring the
-order, constraint error and energy error of the discrete principles (46)/(47).
+order, constraint error and energy error of the discrete principles (46)/(47). The car and
+the differential drive, in SI units, have no closed form: the tests integrate their
+Lagrange-d'Alembert equations with DOP853.
 """
 
+from .car import car
+from .differential_drive import differential_drive
 from .knife_edge import knife_edge, knife_edge_solution
 from .lc_circuit import lc_circuit, lc_circuit_solution
 from .point_vortices import point_vortices, point_vortices_solution
 from .rolling_disk import rolling_disk, rolling_disk_solution
 from .spherical_pendulum import spherical_pendulum
 
-__all__ = ["knife_edge", "knife_edge_solution", "lc_circuit", "lc_circuit_solution",
+__all__ = ["car", "differential_drive", "knife_edge", "knife_edge_solution", "lc_circuit", "lc_circuit_solution",
            "point_vortices", "point_vortices_solution", "rolling_disk", "rolling_disk_solution",
            "spherical_pendulum"]
