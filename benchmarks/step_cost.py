@@ -3,15 +3,16 @@ inclined knife edge and the vertical rolling disk.
 
 Dirac step: ``dmoc.simulate`` (midpoint rule, variant "+"), three unrolled Newton
 iterations on the n + m equations of (37) in the increment q1 - q0 and lam, the residual
-max-norm of every step checked, evaluated over the horizon in ``mapaccum`` chunks:
-"dirac" is the default path (``jit=None``: the compiled C library, cached on disk by an
-earlier run, see dmoc.compiled), "dirac-jit" with ``jit=True``, "dirac-vm" the same step
-in CasADi's virtual machine (``jit=False``: what runs without a C compiler). Run against
-an older checkout (PYTHONPATH), "dirac" is whatever that version's default is. Baselines, each an SX step Function run
-with ``mapaccum``: "rk4-ode", classical RK4 on the hand-reduced ODE (knife edge: x, y,
-theta, sigma, omega; disk: x, y, theta, phi, Omega, w); "rk4-dae", RK4 on the index-1
-Lagrange-d'Alembert DAE built from the same MechanicalSystem (a KKT solve per stage),
-what a user with only L, A(q), f writes. h = 0.01, zero controls, 10^4 and 10^5 steps.
+max-norm of every step checked, evaluated over the horizon in ``mapaccum`` chunks: "dirac"
+is the default path (``jit=None``: the compiled C library, cached on disk by an earlier
+run, see dmoc.simulate.compiled), "dirac-jit" with ``jit=True``, "dirac-vm" the same step
+in CasADi's virtual machine (``jit=False``: what runs without a C compiler). Run against an
+older checkout (PYTHONPATH), "dirac" is whatever that version's default is. Baselines, each
+an SX step Function run with ``mapaccum``: "rk4-ode", classical RK4 on the hand-reduced ODE
+(knife edge: x, y, theta, sigma, omega; disk: x, y, theta, phi, Omega, w); "rk4-dae", RK4
+on the index-1 Lagrange-d'Alembert DAE built from the same MechanicalSystem (a KKT solve
+per stage), what a user with only L, A(q), f writes. h = 0.01, zero controls, 10^4 and 10^5
+steps.
 
 Reported per step: evaluation only (for dmoc ``stats["wall_time"]``, the step already
 built by a warm-up call; for RK4 the mapaccum call) and total (the whole ``simulate``

@@ -14,19 +14,18 @@ from .._util.cache import BoundedCache
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
-# them by 1e-8), so the optimum meets both the bounds and the rows. With the relaxation,
-# honor_original_bounds moved x back onto an active bound after the last iterate and left
-# the rows violated: 4.9e-9 with a state bound, 1.6e-9 with a free final time, against
-# 1e-14 now, in the same or fewer iterations (docs/verification.md). honor_original_bounds
-# stays for a user's own bound_relax_factor.
+# them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
+# honor_original_bounds moves x back onto an active bound after the last iterate and leaves
+# the rows violated by up to about the relaxation, above constr_viol_tol
+# (docs/verification.md). honor_original_bounds stays for a user's own bound_relax_factor.
 # warm_start_init_point (not a default: `optimize` sets it per start) "yes" when the
 # multipliers of a previous optimum of the same structure are passed in, "no" otherwise,
-# so that IPOPT estimates them by least squares at the start point. From a guess of
-# another grid this saves 1-2 of 4-6 iterations against zero multipliers (docs/performance.md).
+# so that IPOPT estimates them by least squares at the start point, which takes fewer
+# iterations than zero multipliers from a guess of another grid (docs/performance.md).
 # mumps_permuting_scaling 0, mumps_pivot_order 0: MUMPS's analysis with AMD and without
-# the MC64 matching. On the banded DMOC KKT matrices MC64 and the automatic ordering cost
-# more than the factorizations (rolling disk, N = 1600: 0.18 s of analysis against 0.004 s;
-# the solve 0.27 s -> 0.12 s), with the same iterations (docs/performance.md).
+# the MC64 matching. The DMOC KKT matrices are banded, so AMD orders them well and MC64
+# and the automatic ordering cost more than the factorizations themselves, for the same
+# iterations (docs/performance.md).
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "bound_relax_factor": 0.0, "honor_original_bounds": "yes",
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}

@@ -218,8 +218,8 @@ def _pattern(matrix):
 
 
 # One CasADi operation called from Python costs about what passing 300 indices to it does
-# (about 20 us against 60 ns per index on the benchmark VM, casadi 3.8; docs/performance.md):
-# the exchange rate by which `window` chooses between slicing and one gather.
+# (docs/performance.md, `build_split.py`): the exchange rate by which `window` chooses
+# between slicing and one gather.
 INDICES_PER_OPERATION = 300
 
 
@@ -291,9 +291,9 @@ def _assembled(values, where, shape):
     values = ca.vertcat(*[ca.vec(v) if v.size2() > 1 else v for v in values])
     rows = np.concatenate([r.ravel(order="F") for r, _ in where]).astype(np.int64)
     cols = np.concatenate([c.ravel(order="F") for _, c in where]).astype(np.int64)
-    # the entries' column-major keys, sorted once by numpy's stable sort (the Jacobian's
-    # 29 000 keys at N = 1000: 0.34 ms, against 0.52 ms for np.unique with the inverse and
-    # a second argsort for the permutation)
+    # the entries' column-major keys, sorted once by numpy's stable sort: that one order
+    # gives the unique keys, each entry's slot, and the permutation of the values when no
+    # entry is shared (np.unique with the inverse would need a second sort for it)
     entry_keys = cols * shape[0] + rows
     order = np.argsort(entry_keys, kind="stable")
     ordered = entry_keys[order]

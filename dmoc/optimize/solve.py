@@ -44,7 +44,7 @@ class OptimizationResult:
         whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
         added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row),
         and with ``options={"linear_solver_report": True}`` ``linear_solver``
-        (`dmoc.linear_solver.linear_solver_report`).
+        (`dmoc.optimize.linear_solver.linear_solver_report`).
     x : ndarray, shape (problem.x_layout.size,)
         The NLP vector in the system's units (IPOPT's iterate times ``problem.x_scale``);
         ``problem.x_layout.unpack(x, name)`` reads any block (e.g. the end impulse
@@ -112,18 +112,20 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         singular (e.g. the knife edge sliding straight sideways).
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
-        and ``"expand"`` (bool, default False; True expands f and g to SX, which no
-        longer pays: IPOPT evaluates the derivatives assembled from the terms'
+        and ``"expand"`` (bool, default False; True expands f and g to SX, which does
+        not pay: IPOPT evaluates the derivatives assembled from the terms
         (`OptimalControlProblem.separable`) either way, see docs/performance.md), and
         ``"reuse_solver"`` (bool, default True: take the solver of an earlier problem of
         the same structure and options from the cache; False builds a fresh one), and
         ``"linear_solver_report"`` (bool, default False; True adds
         ``stats["linear_solver"]``, what the KKT factorizations needed, read from IPOPT's
-        detailed journal, `dmoc.linear_solver`; writing it adds 10-30 % to the solve).
+        detailed journal, `dmoc.optimize.linear_solver`; writing the journal makes the
+        solve slower, docs/performance.md).
         Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
         floor of the rows where the data put it higher (configurations far from the
-        origin, docs/performance.md). Both apply to the scaled NLP (`dmoc.scaling`): the
-        rows in momentum units count divided by the inertia, so with m = 1e5 a
+        origin, docs/stages/optimize.md). Both apply to the scaled NLP
+        (`dmoc.optimize.scaling`): the rows in momentum units count divided by the
+        inertia, so with m = 1e5 a
         ``constr_viol_tol`` of 1e-6 admits momentum rows violated by 0.1 in the system's
         units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
         system's units.
@@ -140,15 +142,15 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     the Lagrangian from ``problem.separable.derivatives()`` (exact, assembled from each
     term's derivatives) instead of generating them for the whole graph. IPOPT iterates on
     the NLP scaled by the system's inertia (``problem.x_scale``, ``problem.g_scale``,
-    `dmoc.scaling`); the start point, the bounds and the multipliers are converted on the
-    way in and out, so guesses and results are in the system's units. It is created
-    once per problem structure and options and kept in a bounded cache: boundary data,
-    bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
-    same problem, or one from ``problem.with_boundary(...)``, skips the
-    build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
+    `dmoc.optimize.scaling`); the start point, the bounds and the multipliers are
+    converted on the way in and out, so guesses and results are in the system's units.
+    The solver is created once per problem structure and options and kept in a bounded
+    cache: boundary data, bounds, the parameters (h, q_ref) and the guess are solver
+    inputs, so re-solving the same problem, or one from ``problem.with_boundary(...)``,
+    skips the build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
     optimum's multipliers; every other start lets IPOPT estimate them, with a second solver
-    of the same structure (its creation reuses the assembled derivatives: about a
-    millisecond).
+    of the same structure (its creation reuses the assembled derivatives, so it is cheap
+    next to the first build).
     """
     if not isinstance(problem, OptimalControlProblem):
         raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")

@@ -1,7 +1,7 @@
 """Discrete Tulczyjew triples (Section 3, eqs. (14)-(17), (21); the maps live in
-`dmoc.tulczyjew`) and membership in the
-discrete induced Dirac structures (34)/(35), as checkable objects: every step X_d^k of an
-implicit (+)/(-) discrete Lagrangian system must satisfy (36)/(40).
+`dmoc.principle.tulczyjew`) and membership in the discrete induced Dirac structures
+(34)/(35), as checkable objects: every step X_d^k of an implicit (+)/(-) discrete
+Lagrangian system must satisfy (36)/(40).
 
 Coordinates: z = (q0, p0), z+ = (q1, p1) in T*Q x T*Q with Q = R^n; a point of T*(Q x Q)
 is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, a_p, a_q).

@@ -1,7 +1,7 @@
 """CasADi Functions compiled to C once and kept on disk, keyed by what they compute: the
-simulator's compiled step horizons (`dmoc.stepper`). A library is named by the SHA-256 of
-the serialized Functions, the CasADi version and the compiler command, so every process
-and every later session loads the same code with `casadi.external` instead of compiling
+simulator's compiled step horizons (`dmoc.simulate.stepper`). A library is named by the
+SHA-256 of the serialized Functions, the CasADi version and the compiler command, so every
+process, later ones included, loads the same code with `casadi.external` instead of compiling
 again; where no C compiler exists, `compiler()` is None and callers keep CasADi's virtual
 machine, which computes the same thing (`Library`).
 

@@ -1,6 +1,6 @@
 """Consumer 1 of the step residual: the Dirac integrator. Each step solves the residual R
-of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.stepper`), the
-horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
+of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.simulate.stepper`),
+the horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
 """
 
 import time
@@ -77,12 +77,12 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         unrolled Newton iterations) did not converge.
     jit : bool or None
         Run the fast path as C code, compiled once per step Function with the system's C
-        compiler and cached on disk across calls and processes (`dmoc.compiled`; about
-        0.5 s the first time ever, then a 10 ms load), several times faster per step than
-        CasADi's virtual machine, with the same results. None (default): C when it is
-        cached, else once this process has spent 0.5 s (about the cost of compiling) in the
-        virtual machine on this step Function, mid-run if need be; without a C compiler,
-        always the virtual machine. True: C now (an error without a compiler); False: never.
+        compiler and cached on disk across calls and processes (`dmoc.simulate.compiled`;
+        compiled once, then loaded), several times faster per step than CasADi's virtual
+        machine, with the same results. None (default): C when it is cached, else once
+        this process has spent 0.5 s (about the cost of compiling) in the virtual machine
+        on this step Function, mid-run if need be; without a C compiler, always the
+        virtual machine. True: C now (an error without a compiler); False: never.
 
     Returns
     -------
@@ -91,7 +91,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     Notes
     -----
     Variant "+": given (q_k, p_k, u_k), Newton solves R = 0 for (q_{k+1}, lam_k), and
-    p_{k+1} follows from the "right" rows (see `dmoc.stepper`).
+    p_{k+1} follows from the "right" rows (see `dmoc.simulate.stepper`).
     Variant "-": p_k of (41) is fixed only up to A(q_k)^T mu by the previous step, so each
     step solves R for (q_{k+1}, mu) with p_k = p_k' - A(q_k)^T mu, p_k' the momentum
     carried in; mu is the previous step's multiplier (lam_{k-1}), and at k = 0 it is the

@@ -122,7 +122,7 @@ def _check_window(r, curve, window):
 
 
 def _step_symbols(disc):
-    """The step symbols (`dmoc.layout.step_symbols`) of the discretization `disc`."""
+    """The step symbols (`dmoc._util.layout.step_symbols`) of the discretization `disc`."""
     return step_symbols(disc.system.n, disc.n_stages, disc.n_controls)
 
 
