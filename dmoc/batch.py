@@ -29,6 +29,7 @@ from .optimize.problem import OptimalControlProblem
 from .optimize.solve import OptimizationResult, optimize
 from .simulate.simulation import SimulationResult, simulate
 from .principle.trajectory import Trajectory
+from .errors import InputError, InputTypeError
 
 # Re-runs of a task whose worker *returned* an error outside dmoc's own call (e.g. its
 # arguments failed to deserialize there). A task whose worker dies is rescheduled by the
@@ -70,7 +71,7 @@ def optimize_many(problems, *, guesses=None, options=None, client=None, progress
         guesses = [None] * len(problems)
     guesses = _sequence("guesses", guesses, (Trajectory, type(None)), "Trajectory or None")
     if len(guesses) != len(problems):
-        raise ValueError(f"`guesses` must have one entry per problem ({len(problems)}); "
+        raise InputError(f"`guesses` must have one entry per problem ({len(problems)}); "
                          f"got {len(guesses)}.")
     if options is not None:
         options = checks.ipopt_options("options", options)
@@ -107,7 +108,7 @@ def simulate_many(disc, runs, *, client=None, progress=True):
         disc = [disc] * len(runs)
     discs = _sequence("disc", disc, Discretization, "Discretization")
     if len(discs) != len(runs):
-        raise ValueError(f"`disc` must be one Discretization or one per run ({len(runs)}); "
+        raise InputError(f"`disc` must be one Discretization or one per run ({len(runs)}); "
                          f"got {len(discs)}.")
     return _run(_simulate_task, list(zip(discs, runs)), SimulationResult, client, progress,
                 "simulate")
@@ -192,9 +193,9 @@ def _connect(client):
         return distributed.Client(client), True
     if isinstance(client, distributed.Client):
         return client, False
-    raise TypeError("`client` must be None (a LocalCluster on this machine), a "
-                    "distributed.Client or a scheduler address such as 'tcp://host:8786'; "
-                    f"got {type(client).__name__}.")
+    raise InputTypeError("`client` must be None (a LocalCluster on this machine), a "
+                         "distributed.Client or a scheduler address such as 'tcp://host:8786'; "
+                         f"got {type(client).__name__}.")
 
 
 def _close(client):
@@ -207,12 +208,12 @@ def _close(client):
 def _sequence(name, values, kinds, described):
     """`values` as a list whose items are instances of `kinds`."""
     if isinstance(values, (str, bytes, dict)) or not hasattr(values, "__len__"):
-        raise TypeError(f"`{name}` must be a sequence of {described}; got {type(values).__name__}.")
+        raise InputTypeError(f"`{name}` must be a sequence of {described}; got {type(values).__name__}.")
     values = list(values)
     for i, value in enumerate(values):
         if not isinstance(value, kinds):
-            raise TypeError(f"`{name}` must be a sequence of {described}; "
-                            f"item {i} is a {type(value).__name__}.")
+            raise InputTypeError(f"`{name}` must be a sequence of {described}; "
+                                 f"item {i} is a {type(value).__name__}.")
     return values
 
 

@@ -115,7 +115,7 @@ def test_failures_stay_in_their_own_result(client):
     assert results[1].status == "Infeasible_Problem_Detected"
     assert results[1].trajectory is not None
     assert results[2].status == "exception" and results[2].trajectory is None
-    assert "`guess`" in results[2].message and "ValueError" in results[2].stats["traceback"]
+    assert "`guess`" in results[2].message and "InputError" in results[2].stats["traceback"]
     assert np.isnan(results[2].cost)
     _assert_same_as_serial([good, good], [results[0], results[3]])
 

@@ -7,6 +7,8 @@ Every message names the argument, what was expected and what was given, e.g.
 """
 
 import numbers
+import os
+import pathlib
 
 import numpy as np
 
@@ -113,6 +115,39 @@ def array(name, value, shape, *, allow_nan=False):
         where = tuple(int(i) for i in np.argwhere(bad)[0])
         raise InputError(f"`{name}` must be finite; entry {where} is {float(out[where])!r}.")
     return out
+
+
+def vector(name, value, size=None, *, allow_nan=False):
+    """Return `value` as a 1-D float array (of `size` entries if given), finite unless
+    `allow_nan` (then NaN marks a missing value, e.g. a failed solve's cost)."""
+    out = real_array(name, value, "a 1-D array of real numbers")
+    if out.ndim != 1 or (size is not None and out.size != size):
+        raise InputError(f"`{name}` must have shape ({'K' if size is None else size},); "
+                         f"got {out.shape}.")
+    return array(name, out, out.shape, allow_nan=allow_nan)
+
+
+def column(name, value, n):
+    """Return `value` as int if it is a column index of q: an integer in [0, n)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not 0 <= value < n:
+        raise InputError(f"`{name}` must be a column of q, an integer in [0, {n}); got {value!r}.")
+    return int(value)
+
+
+def strings(name, value, count):
+    """Return `value` as a tuple of `count` strings (names of coordinates, of controls)."""
+    if isinstance(value, str) or not hasattr(value, "__iter__"):
+        raise InputTypeError(f"`{name}` must be a sequence of {count} strings; "
+                             f"got {type(value).__name__}.")
+    value = tuple(value)
+    if len(value) != count or not all(isinstance(s, str) for s in value):
+        raise InputError(f"`{name}` must be {count} strings; got {value!r}.")
+    return value
+
+
+def file_path(name, value):
+    """Return `value` as a pathlib.Path if it is a str or an os.PathLike."""
+    return pathlib.Path(instance(name, value, (str, os.PathLike), "a path (str or os.PathLike)"))
 
 
 def no_unknown_keys(name, given, known):

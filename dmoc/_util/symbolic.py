@@ -6,6 +6,8 @@ f of (27) and for the optimizer's costs and path constraints alike.
 
 import casadi as ca
 
+from ..errors import InputError, InputTypeError
+
 
 def user_function(name, fun, symbols, arg_names, shape, problems, *, label=None):
     """The Function ``label(*symbols)`` of ``fun(*symbols)``, or None with `problems` appended.
@@ -56,11 +58,11 @@ def user_function(name, fun, symbols, arg_names, shape, problems, *, label=None)
 def checked_function(name, fun, symbols, arg_names, shape, *, label=None):
     """`user_function` raising at once: TypeError if `fun` is not callable, else ValueError."""
     if not callable(fun):
-        raise TypeError(f"`{name}` must be callable; got {type(fun).__name__}.")
+        raise InputTypeError(f"`{name}` must be callable; got {type(fun).__name__}.")
     problems = []
     function = user_function(name, fun, symbols, arg_names, shape, problems, label=label)
     if problems:
-        raise ValueError(problems[0])
+        raise InputError(problems[0])
     return function
 
 

@@ -7,6 +7,8 @@ import pathlib
 
 import numpy as np
 
+from ..errors import InputError
+
 FREE = ("free", "none", "nan")
 
 
@@ -100,13 +102,13 @@ def _load_text(path):
     """Rows of numbers of a text file, its first line skipped if it is not numbers."""
     lines = [line for line in path.read_text().splitlines() if line.strip()]
     if not lines:
-        raise ValueError("it is empty")
+        raise InputError("it is empty")
     delimiter = "," if "," in "".join(lines[:2]) else None
     try:
         return np.loadtxt(lines, delimiter=delimiter, ndmin=1)
     except ValueError:
         if len(lines) < 2:
-            raise ValueError("it holds no rows of numbers") from None
+            raise InputError("it holds no rows of numbers") from None
         return np.loadtxt(lines[1:], delimiter=delimiter, ndmin=1)
 
 

@@ -14,6 +14,7 @@ from .._util.cache import BoundedCache
 from .._util.layout import step_symbols
 from ..mechanics.system import MechanicalSystem
 from .rules import as_rule, quadrature, virtual_work_split
+from ..errors import InputTypeError
 
 
 class Discretization:
@@ -68,9 +69,8 @@ class Discretization:
     family = "lagrangian"       # the forms (37)/(41) of the sums (46)/(47)
 
     def __init__(self, system, h, rule="midpoint"):
-        if not isinstance(system, MechanicalSystem):
-            raise TypeError(f"`system` must be a MechanicalSystem or a HamiltonianSystem; got "
-                        f"{type(system).__name__}.")
+        checks.instance("system", system, MechanicalSystem,
+                        "a MechanicalSystem or a HamiltonianSystem")
         self.system = system
         self.h = checks.positive_float("h", h)
         self.rule = rule = as_rule(rule)
@@ -113,8 +113,8 @@ def running_integrand(system, running_cost):
     if isinstance(running_cost, ca.Function) and running_cost.n_in() == 4:
         return running_cost
     if not callable(running_cost):
-        raise TypeError(f"`running_cost` must be a callable (q, v, u) or a casadi.Function of "
-                        f"(q, v, u[, w]); got {type(running_cost).__name__}.")
+        raise InputTypeError(f"`running_cost` must be a callable (q, v, u) or a casadi.Function of "
+                             f"(q, v, u[, w]); got {type(running_cost).__name__}.")
     q, v, u = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n), ca.SX.sym("u", system.n_u)
     w = ca.SX.sym("w", 0)
     return ca.Function("running_cost", [q, v, u, w], [running_cost(q, v, u)], ["q", "v", "u", "w"],

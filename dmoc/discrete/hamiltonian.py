@@ -18,6 +18,7 @@ from ..mechanics.system import HamiltonianSystem
 from .discretization import Discretization, running_integrand
 from .._util.layout import step_symbols
 from .rules import Midpoint
+from ..errors import InputError, InputTypeError
 
 
 @dataclass(frozen=True)
@@ -143,8 +144,7 @@ class HamiltonianDiscretization(Discretization):
     family = "hamiltonian"
 
     def __init__(self, system, h, rule="midpoint"):
-        if not isinstance(system, HamiltonianSystem):
-            raise TypeError(f"`system` must be a HamiltonianSystem; got {type(system).__name__}.")
+        checks.instance("system", system, HamiltonianSystem, "a HamiltonianSystem")
         rule = as_hamiltonian_rule(rule)
         self._setup(system, h, rule, _HAMILTONIAN_DATA.get((system.key, rule), lambda: _data(system, rule)))
 
@@ -274,9 +274,9 @@ def discrete_legendre(disc):
     HamiltonianDiscretization
     """
     if not isinstance(disc, Discretization) or isinstance(disc, HamiltonianDiscretization):
-        raise TypeError(f"`disc` must be a Lagrangian Discretization; got {type(disc).__name__}.")
+        raise InputTypeError(f"`disc` must be a Lagrangian Discretization; got {type(disc).__name__}.")
     if disc.n_multipliers > disc.system.m:
-        raise ValueError(f"`disc` must have a stage-free rule when it has constraints: rule "
+        raise InputError(f"`disc` must have a stage-free rule when it has constraints: rule "
                          f"{disc.rule.name!r} puts multipliers at its interior nodes.")
     return LegendreDiscretization(disc)
 

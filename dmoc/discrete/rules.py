@@ -14,6 +14,7 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from .._util import checks
+from ..errors import InputError
 
 
 @dataclass(frozen=True)
@@ -66,7 +67,7 @@ class QuadratureRule:
     def __post_init__(self):
         nodes = _increasing("nodes", self.nodes)
         if len(nodes) < 2 or nodes[0] != 0.0 or nodes[-1] != 1.0:
-            raise ValueError(f"`nodes` must increase from 0 to 1; got {self.nodes!r}.")
+            raise InputError(f"`nodes` must increase from 0 to 1; got {self.nodes!r}.")
         object.__setattr__(self, "nodes", nodes)
         object.__setattr__(self, "control_nodes", _increasing("control_nodes", self.control_nodes))
         object.__setattr__(self, "points", _quadrature_points("points", self.points))
@@ -144,14 +145,14 @@ class QuadratureRule:
 def _increasing(name, values):
     values = tuple(float(c) for c in values)
     if not values or np.any(np.diff(values) <= 0) or values[0] < 0 or values[-1] > 1:
-        raise ValueError(f"`{name}` must increase within [0, 1]; got {values!r}.")
+        raise InputError(f"`{name}` must increase within [0, 1]; got {values!r}.")
     return values
 
 
 def _quadrature_points(name, points):
     points = tuple((float(c), float(b)) for c, b in points)
     if not points or abs(sum(b for _, b in points) - 1.0) > 1e-12:
-        raise ValueError(f"`{name}` must be (c, b) pairs with weights summing to 1; got {points!r}.")
+        raise InputError(f"`{name}` must be (c, b) pairs with weights summing to 1; got {points!r}.")
     return points
 
 

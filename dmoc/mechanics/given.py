@@ -6,6 +6,7 @@ momentum p_0 = dL/dv(q_0, v_0) of given start data (docs/theory.md, "Conventions
 import numpy as np
 
 from .._util import checks
+from ..errors import InputError
 
 
 def constraint_violation_tolerance(scale):
@@ -30,13 +31,13 @@ def start_momentum(system, q0, v0, p0):
         holonomic constraints g(q0) = 0, or v0 outside Delta_Q(q0) = ker A(q0).
     """
     if (v0 is None) == (p0 is None):
-        raise ValueError("give exactly one of `v0` (initial velocity) and `p0` (initial momentum).")
+        raise InputError("give exactly one of `v0` (initial velocity) and `p0` (initial momentum).")
     n = system.n
     check_configuration("q0", system, q0)
     if p0 is not None:
         return checks.array("p0", p0, (n,)), np.zeros(n)
     if not hasattr(system, "lagrangian"):
-        raise ValueError("give `p0` (initial momentum) for a HamiltonianSystem: `v0` would need "
+        raise InputError("give `p0` (initial momentum) for a HamiltonianSystem: `v0` would need "
                          "the inverse of v = dH/dp(q, p), which dmoc does not form.")
     v0 = checks.array("v0", v0, (n,))
     check_allowed_velocity("v0", system, q0, v0)
@@ -53,7 +54,7 @@ def check_allowed_velocity(name, system, q, v):
     if size > constraint_violation_tolerance(float(np.max(np.abs(v)))):
         hidden = (" and the hidden constraints dg/dq(q) v = 0 of `holonomic` (v tangent to "
                   "g(q) = 0)") if system.n_holonomic else ""
-        raise ValueError(
+        raise InputError(
             f"`{name}` violates the velocity constraints: |A(q) {name}| = {size:.3e}; "
             f"allowed velocities are ker A(q) (the rows of A are the constraint one-forms"
             f"{hidden}).")
@@ -68,6 +69,6 @@ def check_configuration(name, system, q):
     jacobian = np.array(system.constraint_matrix(q))[system.m - system.n_holonomic:]
     scale = float(np.max(np.abs(q))) * float(np.max(np.abs(jacobian)))
     if violation > constraint_violation_tolerance(scale):
-        raise ValueError(
+        raise InputError(
             f"`{name}` violates the holonomic constraints: max abs(g({name})) = {violation:.3e}; "
             f"give a configuration on g(q) = 0.")

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._util import checks
 from .._util.symbolic import user_function
+from ..errors import InputError
 
 
 class MechanicalSystem:
@@ -207,7 +208,7 @@ def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, na
     if not problems:
         _check_rank(system.constraint_matrix, system.n, system.holonomic.numel_out(0), problems)
     if problems:
-        raise ValueError(f"{kind} is invalid:\n  - " + "\n  - ".join(problems))
+        raise InputError(f"{kind} is invalid:\n  - " + "\n  - ".join(problems))
     system.m = system.constraint_matrix.size1_out(0)
     system.n_holonomic = system.holonomic.numel_out(0)
     return q, x

@@ -6,6 +6,7 @@ q_N a problem may give when the step rows already impose g(q_k) = 0 at every nod
 import numpy as np
 
 from ..mechanics.given import check_configuration
+from ..errors import InputError
 
 
 def check_holonomic_boundary(system, q_start, q_goal):
@@ -37,7 +38,7 @@ def check_holonomic_boundary(system, q_start, q_goal):
     if k == 0:
         return
     if not np.isfinite(q_start).all():
-        raise ValueError(
+        raise InputError(
             "`q_start` must be fully given for a system with holonomic constraints: the step "
             "rows impose g(q_{k+1}) = 0, so free start entries would leave g(q_0) = 0 unimposed.")
     check_configuration("q_start", system, q_start)
@@ -48,7 +49,7 @@ def check_holonomic_boundary(system, q_start, q_goal):
         return
     jacobian = np.array(system.constraint_matrix(np.nan_to_num(q_goal)))[system.m - k:]
     free = sorted(int(i) for i in given[_pivot_columns(jacobian[:, given], len(given) - (n - k))])
-    raise ValueError(
+    raise InputError(
         f"`q_goal` over-determines the holonomic constraints: the step rows impose the k = {k} "
         f"equations g(q_N) = 0, so at most n - k = {n - k} of its entries can be given; it gives "
         f"{len(given)}. Leave entries {free} {tuple(system.names[i] for i in free)} free "

@@ -6,6 +6,7 @@ problem structure taken as it is (primal and dual, for IPOPT's warm start).
 import numpy as np
 
 from ..principle.trajectory import Trajectory
+from ..errors import InputError
 
 
 def start_point(problem, guess):
@@ -54,12 +55,12 @@ def initial_guess(problem, guess=None):
 
 def _check_guess(problem, guess):
     if guess.steps < 1:
-        raise ValueError("`guess` must have at least one step; got a trajectory of 0 steps.")
+        raise InputError("`guess` must have at least one step; got a trajectory of 0 steps.")
     n, n_u = problem.disc.system.n, problem.disc.system.n_u
     if guess.q.shape[1] != n:
-        raise ValueError(f"`guess` must have q with {n} columns for this problem; got {guess.q.shape[1]}.")
+        raise InputError(f"`guess` must have q with {n} columns for this problem; got {guess.q.shape[1]}.")
     if guess.u.shape[1] != n_u * len(guess.control_nodes):
-        raise ValueError(f"`guess` must have u with {n_u} columns per control node for this "
+        raise InputError(f"`guess` must have u with {n_u} columns per control node for this "
                          f"problem; got {guess.u.shape[1]} for {len(guess.control_nodes)} nodes.")
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from .._util import checks
 from .._util.cache import BoundedCache
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
+from ..errors import InputError
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
@@ -62,7 +63,7 @@ def solver(problem, options):
     report = checks.boolean("options['linear_solver_report']", options.pop("linear_solver_report", False))
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     if report and "output_file" in options:
-        raise ValueError("`options` 'linear_solver_report' writes IPOPT's journal to a file "
+        raise InputError("`options` 'linear_solver_report' writes IPOPT's journal to a file "
                          "of its own; leave out 'output_file' or the report.")
     if report:
         merged["file_print_level"] = JOURNAL_LEVEL
@@ -87,7 +88,7 @@ def solver(problem, options):
                 raise
             which = (f"`options` entry {culprit!r} = {options[culprit]!r}" if culprit is not None
                      else "`options`")
-            raise ValueError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
+            raise InputError(f"{which} was rejected by CasADi/IPOPT (see IPOPT's message above "
                              f"for the allowed values).\n{err}") from None
         if journal:     # a solver dropped (reuse_solver=False, or evicted) takes its journal along
             weakref.finalize(made, remove_journal, journal).atexit = False

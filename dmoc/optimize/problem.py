@@ -20,6 +20,7 @@ from .parameters import ProblemParameters, cost_function, path_function
 from ..principle.residual import step_residual
 from .scaling import nlp_scales
 from .transcription import transcribe
+from ..errors import InputError
 
 
 MOMENTA = ("substituted", "variables")
@@ -112,8 +113,7 @@ class OptimalControlProblem:
                  running_cost=None, terminal_cost=None, control_bounds=None,
                  state_bounds=None, path_constraints=None, duration=None, variant="+",
                  momenta="substituted", parameters=None):
-        if not isinstance(disc, Discretization):
-            raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
+        checks.instance("disc", disc, Discretization, "a Discretization")
         self.disc, sys = disc, disc.system
         self.steps = N = checks.positive_int("steps", steps)
         self.formulation = as_formulation(variant, disc)
@@ -268,7 +268,7 @@ class OptimalControlProblem:
             data = getattr(self, name)
             outside = np.isfinite(data) & ((data < state_bounds[0]) | (data > state_bounds[1]))
             if outside.any():
-                raise ValueError(f"`{name}` must lie within `state_bounds`; entries "
+                raise InputError(f"`{name}` must lie within `state_bounds`; entries "
                                  f"{np.flatnonzero(outside).tolist()} do not.")
         N, lay = self.steps, self.x_layout
         self.q_ref = _reference(self.q_start, self.q_goal)
@@ -304,9 +304,9 @@ def _reference(q_start, q_goal):
 def _boundary(name, value, n):
     """Boundary data of shape (n,) with None entries as NaN (free); never infinite."""
     if value is None:
-        raise ValueError(f"`{name}` is required: an array of shape ({n},), None entries free.")
+        raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
     if np.ndim(value) == 0:
-        raise ValueError(f"`{name}` must have shape ({n},) for this system; got ().")
+        raise InputError(f"`{name}` must have shape ({n},) for this system; got ().")
     return checks.array(name, checks.array_with_none(name, value, n, np.nan), (n,), allow_nan=True)
 
 
@@ -315,13 +315,13 @@ def _bounds(name, value, size):
     if value is None:
         return np.full(size, -np.inf), np.full(size, np.inf)
     if not isinstance(value, (tuple, list)) or len(value) != 2:
-        raise ValueError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},).")
+        raise InputError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},).")
     lower = checks.array_with_none(name, value[0], size, -np.inf)
     upper = checks.array_with_none(name, value[1], size, np.inf)
     if np.isnan(lower).any() or np.isnan(upper).any() or (lower > upper).any():
-        raise ValueError(f"`{name}` must satisfy lower <= upper without NaN; got {lower}, {upper}.")
+        raise InputError(f"`{name}` must satisfy lower <= upper without NaN; got {lower}, {upper}.")
     if (lower == np.inf).any() or (upper == -np.inf).any():
-        raise ValueError(f"`{name}` must have lower bounds below +inf and upper bounds above "
+        raise InputError(f"`{name}` must have lower bounds below +inf and upper bounds above "
                          f"-inf (None or -inf/+inf there means unbounded); got {lower}, {upper}.")
     return lower, upper
 
@@ -330,9 +330,9 @@ def _duration(duration, N, h):
     if duration is None:
         return None
     if not isinstance(duration, (tuple, list)) or len(duration) != 2:
-        raise ValueError(f"`duration` must be None (fixed, steps * h = {N * h:g}) or a pair "
+        raise InputError(f"`duration` must be None (fixed, steps * h = {N * h:g}) or a pair "
                          f"(T_min, T_max) for a free final time; got {duration!r}.")
     T_min, T_max = (checks.positive_float("duration", T) for T in duration)
     if T_min > T_max:
-        raise ValueError(f"`duration` must have T_min <= T_max; got {duration!r}.")
+        raise InputError(f"`duration` must have T_min <= T_max; got {duration!r}.")
     return T_min, T_max

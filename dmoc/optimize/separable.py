@@ -19,6 +19,7 @@ import casadi as ca
 import numpy as np
 
 from .._util.cache import BoundedCache
+from ..errors import InputError
 
 _LOCAL = BoundedCache(256, "term_derivatives")      # a term Function's derivative Functions, keyed by its value
 
@@ -79,10 +80,10 @@ class SeparableNLP:
         self.terms = [t for t in terms if t.instances > 0]
         rows = np.concatenate([t.g_index.ravel(order="F") for t in self.terms] or [[]]).astype(int)
         if not np.array_equal(np.sort(rows), np.arange(n_g)):
-            raise ValueError("the terms' g_index must fill every row of g exactly once")
+            raise InputError("the terms' g_index must fill every row of g exactly once")
         for t in self.terms:
             if (np.diff(np.sort(t.x_index, axis=0), axis=0) == 0).any():
-                raise ValueError(f"term {t.function.name()!r} reads an entry of x twice in one "
+                raise InputError(f"term {t.function.name()!r} reads an entry of x twice in one "
                                  f"instance; give it one input per entry")
         self._g_order = np.argsort(rows, kind="stable")
         self.x, self.p = ca.MX.sym("x", n_x), ca.MX.sym("p", n_p)

@@ -152,15 +152,11 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     of the same structure (its creation reuses the assembled derivatives, so it is cheap
     next to the first build).
     """
-    if not isinstance(problem, OptimalControlProblem):
-        raise TypeError(f"`problem` must be an OptimalControlProblem; got {type(problem).__name__}.")
+    checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     throw = checks.boolean("throw", throw)
-    if guess is not None and not isinstance(guess, (Trajectory, OptimizationResult)):
-        raise TypeError(f"`guess` must be a Trajectory, an OptimizationResult or None; "
-                        f"got {type(guess).__name__}.")
+    checks.instance("guess", guess, (Trajectory, OptimizationResult, type(None)),
+                    "a Trajectory, an OptimizationResult or None")
     options = None if options is None else checks.ipopt_options("options", options)
-    if options is not None and not isinstance(options, dict):
-        raise TypeError(f"`options` must be a dict of IPOPT options; got {type(options).__name__}.")
     x0, lam_x0, lam_g0 = start_point(problem, guess)
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     D, R = problem.x_scale, problem.g_scale      # IPOPT iterates on x / D, imposes R g

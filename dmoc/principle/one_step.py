@@ -10,6 +10,7 @@ and the step equations cannot determine q_{k+1}. `step_residual` refuses such a 
 import casadi as ca
 
 from .._util.cache import BoundedCache
+from ..errors import InputError
 
 _UNDETERMINED = BoundedCache(32, "one_step_maps")
 
@@ -41,7 +42,7 @@ def check_one_step_map(disc, plus_residual):
     hint = ("Use rule='midpoint', which samples every coordinate at the step midpoint."
             if disc.rule.name != "midpoint" else
             "Every coordinate must enter L, A(q) or f so that its row involves q_{k+1}.")
-    raise ValueError(
+    raise InputError(
         f"`rule` {disc.rule.name!r} gives no one-step map for this system: the coordinates "
         f"{names} have no kinetic energy coupling q_k to q_{{k+1}} under this rule, so their "
         f"step equations (37) do not involve q_{{k+1}} and the step cannot be solved for it. "

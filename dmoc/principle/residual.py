@@ -12,6 +12,8 @@ from ..discrete import Discretization
 from .formulations import as_formulation
 from .._util.layout import Layout
 from .one_step import check_one_step_map
+from .._util import checks
+from ..errors import InputTypeError
 
 
 def action_sum(disc, variant, q, q_aux, p, s, h):
@@ -40,8 +42,8 @@ def action_sum(disc, variant, q, q_aux, p, s, h):
     """
     formulation = as_formulation(variant, disc)
     if not hasattr(formulation, "action_sum"):
-        raise TypeError("`disc` must be a Lagrangian Discretization: action_sum is the sum (46)/(47) "
-                        "of L_d; a Hamiltonian discretization differentiates (48)/(49).")
+        raise InputTypeError("`disc` must be a Lagrangian Discretization: action_sum is the sum (46)/(47) "
+                             "of L_d; a Hamiltonian discretization differentiates (48)/(49).")
     return formulation.action_sum(disc.discrete_lagrangian, q, q_aux, p, s, h)
 
 
@@ -91,8 +93,7 @@ class StepResidual:
     """
 
     def __init__(self, disc, variant="+"):
-        if not isinstance(disc, Discretization):
-            raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
+        checks.instance("disc", disc, Discretization, "a Discretization")
         self.formulation = as_formulation(variant, disc)
         self.system, self.rule = disc.system, disc.rule
         self.key = (disc.key, self.formulation)
@@ -155,8 +156,7 @@ def step_residual(disc, variant="+"):
         A Lagrangian discretization whose step equations do not determine q_{k+1}
         (`dmoc.principle.one_step`): both consumers refuse it with the same message.
     """
-    if not isinstance(disc, Discretization):
-        raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
+    checks.instance("disc", disc, Discretization, "a Discretization")
     formulation = as_formulation(variant, disc)
     if disc.family == "lagrangian":
         plus = as_formulation("+", disc)

@@ -116,6 +116,7 @@ class Trajectory:
         """Write every field to an uncompressed .npz file at exactly `path` (exact round
         trip). The write is atomic: a temporary file renamed over `path`, so a failure
         half-way leaves a previous file at `path` intact."""
+        path = checks.file_path("path", path)
         arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
         with atomic_write(path) as file:
             np.savez(file, **arrays)
@@ -131,6 +132,7 @@ class Trajectory:
         TrajectoryFileError
             If the file is empty, truncated, corrupted or not written by `save`.
         """
+        path = checks.file_path("path", path)
         with open(path, "rb") as file:
             head = file.read(4)
         if head != b"PK\x03\x04":         # every .npz file is a zip archive

@@ -4,12 +4,12 @@ its heading and rolling mark, and a generic marker for any planar system. Uses
 matplotlib's animation with Pillow (imported lazily) on a bare Figure, never pyplot.
 """
 
-import pathlib
-
 import numpy as np
 
 from .._util import checks
 from .._util.files import atomic_path
+from ..errors import InputError
+from ..principle.trajectory import Trajectory
 
 SHAPES = ("blade", "coin", "point")
 
@@ -52,13 +52,19 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    q = checks.instance("traj", traj, Trajectory, "a Trajectory").q
+    path = checks.file_path("path", path)
     shape = checks.choice("shape", shape, SHAPES)
     if shape != "point" and heading is None:
-        raise ValueError(f"`heading` must be a column of q for shape {shape!r}; got None.")
+        raise InputError(f"`heading` must be a column of q for shape {shape!r}; got None.")
+    x, y = checks.column("x", x, q.shape[1]), checks.column("y", y, q.shape[1])
+    heading = None if heading is None else checks.column("heading", heading, q.shape[1])
+    roll = None if roll is None else checks.column("roll", roll, q.shape[1])
+    goal = None if goal is None else checks.array("goal", goal, (q.shape[1],), allow_nan=True)
+    size = None if size is None else checks.positive_float("size", size)
     frames = min(checks.positive_int("frames", frames), traj.steps + 1)
-    path = pathlib.Path(path)
+    fps = checks.positive_float("fps", fps)
     path.parent.mkdir(parents=True, exist_ok=True)
-    q = traj.q
     size = size or max(0.1, 0.1 * max(np.ptp(q[:, x]), np.ptp(q[:, y])))
     fig = Figure(figsize=(4.5, 4.5), dpi=80)
     fig.subplots_adjust(left=0.15, right=0.95, bottom=0.12, top=0.92)

@@ -150,8 +150,8 @@ def optimization_summary(problem, result):
     """Key figures of an optimization result: a dict of cost, IPOPT iterations and status,
     build and solve times, max |omega_d|, max step residual, max constraint violation of
     the NLP, the replay errors of `replay_error` and the largest of `velocity_jumps`."""
+    replay_q, replay_p = replay_error(problem, result)       # checks both arguments
     traj = result.trajectory
-    replay_q, replay_p = replay_error(problem, result)
     return {"cost": result.cost, "iterations": result.stats["iterations"],
             "status": result.status, "build_time": result.stats["build_time"],
             "solve_time": result.stats["solve_time"],

@@ -4,12 +4,13 @@ energy error on log scales, and convergence plots. matplotlib is imported lazily
 function returns a `matplotlib.figure.Figure` (no pyplot state) and never shows it.
 """
 
-import pathlib
-
 import numpy as np
 
 from . import diagnostics
+from .._util import checks
 from .._util.files import atomic_write
+from ..discrete import Discretization
+from ..principle.trajectory import Trajectory
 
 _DPI = 120
 
@@ -64,8 +65,13 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), mar
     -------
     matplotlib.figure.Figure
     """
+    q = checks.instance("traj", traj, Trajectory, "a Trajectory").q
+    x, y = checks.column("x", x, q.shape[1]), checks.column("y", y, q.shape[1])
+    heading = None if heading is None else checks.column("heading", heading, q.shape[1])
+    goal = None if goal is None else checks.array("goal", goal, (q.shape[1],), allow_nan=True)
+    labels = checks.strings("labels", labels, 2)
+    marks = checks.positive_int("marks", marks)
     fig, ax = _axes(ax)
-    q = traj.q
     ax.plot(q[:, x], q[:, y], "-", lw=1.2, color="C0", label="path")
     ax.plot(q[0, x], q[0, y], "o", color="C2", label="start")
     ax.plot(q[-1, x], q[-1, y], "s", color="C3", mfc="none", label="end")
@@ -74,7 +80,7 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), mar
         k = _evenly_along(q[:, [x, y]], marks)
         _arrows(ax, q[k, x], q[k, y], q[k, heading], length, "C0", label="heading")
     if goal is not None:
-        g = np.asarray(goal, dtype=float)
+        g = goal
         if np.isfinite(g[[x, y]]).all():
             ax.plot(g[x], g[y], "*", ms=14, color="C1", label="goal")
             if heading is not None and np.isfinite(g[heading]):
@@ -116,8 +122,8 @@ def plot_states(traj, *, names=None, title=None):
     -------
     matplotlib.figure.Figure
     """
-    n = traj.q.shape[1]
-    names = names or [f"q{i}" for i in range(n)]
+    n = checks.instance("traj", traj, Trajectory, "a Trajectory").q.shape[1]
+    names = checks.strings("names", names, n) if names else [f"q{i}" for i in range(n)]
     fig, axes = _figure(n, height=1.1 + 1.1 * n)
     for i, ax in enumerate(axes):
         ax.plot(traj.t, traj.q[:, i], color=f"C{i}")
@@ -142,9 +148,10 @@ def plot_controls(traj, *, names=None, title=None, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = _axes(ax)
+    checks.instance("traj", traj, Trajectory, "a Trajectory")
     n_u = traj.u.shape[1] // len(traj.control_nodes)
-    names = names or [f"u{i}" for i in range(n_u)]
+    names = checks.strings("names", names, n_u) if names else [f"u{i}" for i in range(n_u)]
+    fig, ax = _axes(ax)
     if traj.control_nodes == (0.5,):
         for i, name in enumerate(names):
             ax.stairs(traj.u[:, i], traj.t, baseline=None, label=name)
@@ -229,8 +236,10 @@ def plot_convergence(h, errors, *, order=None, ylabel="error", title=None, ax=No
     -------
     matplotlib.figure.Figure
     """
+    h = checks.vector("h", h)
+    errors = checks.vector("errors", errors, h.size, allow_nan=True)
+    order = None if order is None else checks.finite_float("order", order)
     fig, ax = _axes(ax)
-    h, errors = np.asarray(h, dtype=float), np.asarray(errors, dtype=float)
     ax.loglog(h, errors, "o-", label="measured")
     if order is not None:
         i = np.argmin(h)
@@ -254,8 +263,10 @@ def plot_cost_convergence(steps, costs, *, title=None, ax=None):
     -------
     matplotlib.figure.Figure
     """
+    steps = checks.vector("steps", steps)
+    costs = checks.vector("costs", costs, steps.size, allow_nan=True)
     fig, ax = _axes(ax)
-    ax.semilogx(np.asarray(steps), np.asarray(costs, dtype=float), "o-", label="optimal cost")
+    ax.semilogx(steps, costs, "o-", label="optimal cost")
     ax.set_xlabel("N (steps)")
     ax.set_ylabel("cost")
     return _finish(fig, ax, title)
@@ -288,7 +299,10 @@ def save_trajectory_plots(traj, out, name, *, disc=None, names=None, control_nam
     list of pathlib.Path
         The files written.
     """
-    out = pathlib.Path(out)
+    checks.instance("traj", traj, Trajectory, "a Trajectory")
+    out = checks.file_path("out", out)
+    checks.instance("name", name, str, "a str")
+    checks.instance("disc", disc, (Discretization, type(None)), "a Discretization or None")
     out.mkdir(parents=True, exist_ok=True)
     figures = {}
     if traj.q.shape[1] >= 2:

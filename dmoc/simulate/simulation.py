@@ -13,7 +13,7 @@ from . import compiled
 from .._util.cache import BoundedCache
 from ..mechanics.given import start_momentum
 from ..discrete import Discretization
-from ..errors import SolverError
+from ..errors import InputError, SolverError
 from ..principle.formulations import as_formulation
 from ..principle.residual import step_residual
 from .stepper import DiracStepper
@@ -106,8 +106,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     >>> res.trajectory.q.shape, res.success
     ((11, 3), True)
     """
-    if not isinstance(disc, Discretization):
-        raise TypeError(f"`disc` must be a Discretization; got {type(disc).__name__}.")
+    checks.instance("disc", disc, Discretization, "a Discretization")
     sys = disc.system
     formulation = as_formulation(variant, disc)
     steps = checks.positive_int("steps", steps)
@@ -144,7 +143,7 @@ def _native(jit):
     if jit is None:
         return None
     if checks.boolean("jit", jit) and compiled.compiler() is None:
-        raise ValueError("`jit=True` needs a C compiler: none found (set CC to one, or use "
+        raise InputError("`jit=True` needs a C compiler: none found (set CC to one, or use "
                          "jit=None to fall back to CasADi's virtual machine).")
     return jit
 

@@ -10,6 +10,7 @@ import numpy as np
 from ..._util import checks
 from ..given import constraint_violation_tolerance
 from ..system import MechanicalSystem
+from ...errors import InputError, InputTypeError
 
 _SERIES_BELOW = 0.1  # |x| below which (x - sin x) / x^3 is summed as a series
 
@@ -154,12 +155,12 @@ def _times(t):
     try:
         out = np.atleast_1d(np.asarray(t, dtype=float))
     except (TypeError, ValueError):
-        raise TypeError("`t` must be a real number or a 1-D array of them; "
-                        f"got {type(t).__name__}.") from None
+        raise InputTypeError("`t` must be a real number or a 1-D array of them; "
+                             f"got {type(t).__name__}.") from None
     if out.ndim != 1:
-        raise ValueError(f"`t` must be a scalar or a 1-D array; got shape {out.shape}.")
+        raise InputError(f"`t` must be a scalar or a 1-D array; got shape {out.shape}.")
     if not np.all(np.isfinite(out)):
-        raise ValueError("`t` must be finite.")
+        raise InputError("`t` must be finite.")
     return out
 
 
@@ -167,7 +168,7 @@ def _check_velocity(residual, scale, what):
     """Raise ValueError naming `v0` if |residual| exceeds the library's tolerance on A(q) v."""
     residual = float(np.max(np.abs(residual)))
     if residual > constraint_violation_tolerance(float(scale)):
-        raise ValueError(f"`v0` must satisfy {what}; the residual is {residual:.3e}. "
+        raise InputError(f"`v0` must satisfy {what}; the residual is {residual:.3e}. "
                          "Hint: choose v0 in ker A(q0).")
 
 

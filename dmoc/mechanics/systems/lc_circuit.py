@@ -12,6 +12,7 @@ from ..._util import checks
 from ..given import constraint_violation_tolerance
 from ..system import MechanicalSystem
 from .knife_edge import _check_velocity, _times
+from ...errors import InputError
 
 
 def lc_circuit(inductance=1.0, capacitances=(1.0, 1.0)):
@@ -125,7 +126,7 @@ def lc_circuit_solution(t, q0, v0, *, inductance=1.0, capacitances=(1.0, 1.0)):
     C, V0, i0 = C1 + C2, q0[1] / C1, v0[0]
     kvl = abs(q0[1] / C1 - q0[2] / C2)
     if kvl > constraint_violation_tolerance(max(abs(q0[1] / C1), abs(q0[2] / C2))):
-        raise ValueError(f"`q0` must satisfy Kirchhoff's voltage law q_1/C_1 = q_2/C_2; the "
+        raise InputError(f"`q0` must satisfy Kirchhoff's voltage law q_1/C_1 = q_2/C_2; the "
                          f"voltages differ by {kvl:.3e}.")
     _check_velocity(v0[0] - v0[1] - v0[2], np.abs(v0).max(),
                     "Kirchhoff's current law v_L = v_1 + v_2")
@@ -140,5 +141,5 @@ def lc_circuit_solution(t, q0, v0, *, inductance=1.0, capacitances=(1.0, 1.0)):
 def _capacitances(capacitances):
     """(C_1, C_2) as positive floats, or a ValueError naming `capacitances`."""
     if np.ndim(capacitances) != 1 or len(capacitances) != 2:
-        raise ValueError(f"`capacitances` must be a pair (C_1, C_2); got {capacitances!r}.")
+        raise InputError(f"`capacitances` must be a pair (C_1, C_2); got {capacitances!r}.")
     return tuple(checks.positive_float("capacitances", c) for c in capacitances)

@@ -9,6 +9,7 @@ import numpy as np
 from ..._util import checks
 from ..system import MechanicalSystem
 from .knife_edge import _sinc, _times
+from ...errors import InputError
 
 
 def point_vortices(circulations):
@@ -111,13 +112,13 @@ def point_vortices_solution(t, q0, circulations):
     t = _times(t)
     gamma = _circulations(circulations)
     if len(gamma) != 2:
-        raise ValueError(f"`circulations` must be a pair (Gamma_1, Gamma_2) for the exact "
+        raise InputError(f"`circulations` must be a pair (Gamma_1, Gamma_2) for the exact "
                          f"solution; got {len(gamma)} vortices.")
     q0 = checks.array("q0", q0, (4,))
     r0 = q0[:2] - q0[2:]
     d2 = float(r0 @ r0)
     if d2 == 0.0:
-        raise ValueError("`q0` must place the two vortices at distinct points.")
+        raise InputError("`q0` must place the two vortices at distinct points.")
     Omega = (gamma[0] + gamma[1]) / (2 * np.pi * d2)
     half = Omega * t / 2
     Jr0 = np.array([-r0[1], r0[0]])
@@ -134,9 +135,9 @@ def point_vortices_solution(t, q0, circulations):
 def _circulations(circulations):
     """The circulations as a tuple of nonzero floats, or a ValueError naming them."""
     if np.ndim(circulations) != 1 or len(circulations) == 0:
-        raise ValueError(f"`circulations` must be a non-empty sequence of numbers; got {circulations!r}.")
+        raise InputError(f"`circulations` must be a non-empty sequence of numbers; got {circulations!r}.")
     gamma = tuple(checks.finite_float("circulations", g) for g in circulations)
     if 0.0 in gamma:
-        raise ValueError(f"`circulations` must be nonzero (a vortex of zero circulation has no "
+        raise InputError(f"`circulations` must be nonzero (a vortex of zero circulation has no "
                          f"dynamics of its own); got {gamma}.")
     return gamma

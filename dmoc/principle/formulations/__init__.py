@@ -14,6 +14,7 @@ from ..._util import checks
 from .base import Formulation, MinusForm, PlusForm
 from .hamiltonian import HamiltonianMinus, HamiltonianPlus
 from .lagrangian import LagrangianMinus, LagrangianPlus, Window
+from ...errors import InputError
 
 FORMULATIONS = {f.name: f for f in (LagrangianPlus(), LagrangianMinus())}
 HAMILTONIAN_FORMULATIONS = {f.name: f for f in (HamiltonianPlus(), HamiltonianMinus())}
@@ -31,7 +32,7 @@ def as_formulation(variant, disc=None):
     family = FAMILIES["lagrangian" if disc is None else disc.family]
     if isinstance(variant, Formulation):
         if variant not in family.values():
-            raise ValueError(f"`variant` {variant!r} does not belong to this discretization; "
+            raise InputError(f"`variant` {variant!r} does not belong to this discretization; "
                              f"use one of {tuple(family)} or {list(family.values())}.")
         return variant
     return family[checks.choice("variant", variant, tuple(family))]
