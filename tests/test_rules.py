@@ -37,7 +37,7 @@ def test_rule_given_as_data_reaches_its_order(rule, steps):
         traj = dmoc.simulate(dmoc.discretize(pendulum(), T / N, rule), q0=[Q0], v0=[V0],
                              steps=N).trajectory
         errors.append(max(abs(traj.q[-1, 0] - q_ref), abs(traj.p[-1, 0] - p_ref)))
-        assert traj.s.shape == (N, rule.n_stages)
+        assert traj.s.shape == (N, rule.n_stage_blocks)
     slope = -np.polyfit(np.log(steps), np.log(errors), 1)[0]
     assert abs(slope - rule.order) < 0.35, (errors, slope)
 
@@ -55,7 +55,7 @@ def test_stage_values_lie_on_the_interpolant():
 
 def test_linear_rules_are_the_two_node_case():
     assert (Midpoint().nodes, Trapezoid().nodes) == ((0.0, 1.0), (0.0, 1.0))
-    assert Midpoint().n_stages == Trapezoid().n_stages == 0
+    assert Midpoint().n_stage_blocks == Trapezoid().n_stage_blocks == 0
     assert Midpoint() == Midpoint() and Midpoint() != Trapezoid() and hash(Midpoint()) == hash(Midpoint())
 
 

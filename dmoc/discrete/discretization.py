@@ -12,9 +12,9 @@ import casadi as ca
 from .._util import checks
 from .._util.cache import BoundedCache
 from .._util.layout import step_symbols
-from ..mechanics.system import MechanicalSystem
-from .rules import as_rule, quadrature, virtual_work_split
 from ..errors import InputTypeError
+from ..mechanics.system import HamiltonianSystem, MechanicalSystem
+from .rules import as_rule, quadrature, virtual_work
 
 
 class Discretization:
@@ -28,9 +28,11 @@ class Discretization:
     h : float
         The step.
     rule : QuadratureRule
-        The quadrature rule; ``rule.order`` is the order of the resulting integrator.
+        The quadrature rule (a `dmoc.discrete.Rule`); ``rule.order`` is the order of the
+        resulting integrator. The sizes below are derived from it here, for both families.
     n_stages : int
-        Stage unknowns per step (``rule.n_stages * n`` rows of s; 0 for stage-free rules).
+        Stage unknowns per step (``rule.n_stage_blocks * n`` rows of s; 0 for stage-free
+        rules).
     n_multipliers : int
         d'Alembert multipliers per step (``rule.n_multiplier_nodes * m`` rows of lam: the
         formulation's end node, then the interior nodes; m counts the nonholonomic and the
@@ -67,20 +69,43 @@ class Discretization:
     """
 
     family = "lagrangian"       # the forms (37)/(41) of the sums (46)/(47)
+    system_type = MechanicalSystem
+    system_described = "a MechanicalSystem or a HamiltonianSystem"
+    function_names = ("discrete_lagrangian", "discrete_constraint", "discrete_force",
+                      "midpoint_state", "step_energy")
 
     def __init__(self, system, h, rule="midpoint"):
-        checks.instance("system", system, MechanicalSystem,
-                        "a MechanicalSystem or a HamiltonianSystem")
+        checks.instance("system", system, self.system_type, self.system_described)
         self.system = system
         self.h = checks.positive_float("h", h)
-        self.rule = rule = as_rule(rule)
+        self.rule = rule = self._as_rule(rule)
         self.key = (system.key, rule)
-        self.n_stages = rule.n_stages * system.n
+        self.n_stages = rule.n_stage_blocks * system.n
         self.n_multipliers = rule.n_multiplier_nodes * system.m
         self.n_controls = len(rule.control_nodes) * system.n_u
-        (self.discrete_lagrangian, self.discrete_constraint, self.discrete_force,
-         self.midpoint_state, self.step_energy) = _DISCRETE_DATA.get(
-            self.key, lambda: _discrete_data(system, rule))
+        functions = _DISCRETE_DATA.get(self.key, self._functions)
+        for name in self.function_names:
+            setattr(self, name, functions[name])
+
+    def _as_rule(self, rule):
+        """`rule` as a rule of this family (an instance, or a name checked against the
+        family's list)."""
+        return as_rule(rule)
+
+    def _functions(self):
+        """{name: Function} of `function_names`, h an input: built once per system key and
+        rule, shared by discretizations at every h."""
+        system, rule = self.system, self.rule
+        x = step_symbols(system.n, self.n_stages, self.n_controls)
+        q0, q1, s, u, h = x["q0"], x["q1"], x["s"], x["u"], x["h"]
+        L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
+        forces = virtual_work(rule, system.force, rule.samples(q0, q1, s, h), u, (q0, q1, s))
+        return {"discrete_lagrangian": ca.Function("L_d", [q0, q1, s, h], [L_d],
+                                                   ["q0", "q1", "s", "h"], ["L_d"]),
+                "discrete_force": ca.Function("f_d", [q0, q1, s, u, h], list(forces),
+                                              ["q0", "q1", "s", "u", "h"],
+                                              ["f_minus", "f_plus", "f_stage"]),
+                **state_functions(system, rule, x)}
 
     def with_step(self, h):
         """The same discretization at the step `h` (sharing every Function: h is an input),
@@ -91,11 +116,13 @@ class Discretization:
 
     def discrete_cost(self, running_cost):
         """The step integral C_d(q0, q1, s, u, h, w) of ``running_cost(q, v, u[, w])`` (a
-        callable or a Function; `running_integrand`) by this rule, u the control
-        interpolated at each quadrature point, w the problem's parameters
+        callable or a Function; `running_integrand`) by the quadrature of the rule's
+        interpolant (`Rule.interpolant`; the chord's midpoint for a HamiltonianRule), u the
+        control interpolated at each quadrature point, w the problem's parameters
         (`dmoc.parameters`; empty when the cost takes none)."""
         running_cost = running_integrand(self.system, running_cost)
-        q0, q1, s, u, h = _step_symbols(self.system, self.rule)
+        x = step_symbols(self.system.n, self.n_stages, self.n_controls)
+        q0, q1, s, u, h = x["q0"], x["q1"], x["s"], x["u"], x["h"]
         w = ca.SX.sym("w", running_cost.size1_in(3))
         C_d = quadrature(self.rule, lambda q, v, uc: running_cost(q, v, uc, w), q0, q1, s, u, h)
         return ca.Function("C_d", [q0, q1, s, u, h, w], [C_d], ["q0", "q1", "s", "u", "h", "w"], ["C_d"])
@@ -121,28 +148,29 @@ def running_integrand(system, running_cost):
                        ["running_cost"])
 
 
-def _step_symbols(system, rule):
-    """Symbols (q0, q1, s, u, h) of one step (`dmoc.layout.step_symbols`)."""
-    x = step_symbols(system.n, rule.n_stages * system.n, len(rule.control_nodes) * system.n_u)
-    return x["q0"], x["q1"], x["s"], x["u"], x["h"]
+def state_functions(system, rule, x):
+    """omega_d, midpoint_state and step_energy of a discretization of `system` by `rule`
+    (either family), as named Functions of the step symbols `x` (`step_symbols`).
 
-
-def _discrete_data(system, rule):
-    """(L_d, omega_d, f_d, midpoint state, step energy) of `system` by `rule`, h an input:
-    built once per system key and rule, shared by discretizations at every h."""
-    q0, q1, s, u, h = _step_symbols(system, rule)
-    p0, p1 = ca.SX.sym("p0", system.n), ca.SX.sym("p1", system.n)     # step_energy's (unused) p
-    L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
-    E = quadrature(rule, lambda q, v, _: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
-    omega_d = ca.vertcat(rule.discrete_constraint(system.nonholonomic_matrix, q0, q1, s, h),
-                         rule.holonomic_constraint(system.holonomic, q0, q1, s))
-    forces = virtual_work_split(rule, system.force, q0, q1, s, u, h)
-    (_, q_mid, v_mid, _), = rule.samples(q0, q1, s, h, ((0.5, 1.0),))
-    return (ca.Function("L_d", [q0, q1, s, h], [L_d], ["q0", "q1", "s", "h"], ["L_d"]),
-            ca.Function("omega_d", [q0, q1, s, h], [omega_d], ["q0", "q1", "s", "h"], ["omega_d"]),
-            ca.Function("f_d", [q0, q1, s, u, h], list(forces),
-                        ["q0", "q1", "s", "u", "h"], ["f_minus", "f_plus", "f_stage"]),
-            ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],
-                        ["q0", "q1", "s", "h"], ["q", "v"]),
-            ca.Function("step_energy", [q0, p0, q1, p1, s, h], [E],
-                        ["q0", "p0", "q1", "p1", "s", "h"], ["E"]))
+    omega_d and the midpoint state are taken on the rule's interpolant through q0, the
+    stage configurations and q1 (`Rule.interpolant`, `Rule.stage_configurations`): the
+    nonholonomic rows (28) (midpoint retraction on the chord, Legendre moments on a stage
+    rule's polynomial) and the holonomic rows g at its nodes after q0. The step energy of a
+    MechanicalSystem is the quadrature of E(q, q') = q' . dL/dv - L along it divided by h
+    (no Legendre transform needed); that of a HamiltonianSystem (H(q0, p0) + H(q1, p1))/2.
+    """
+    q0, q1, s, h = x["q0"], x["q1"], x["s"], x["h"]
+    shape, sigma = rule.interpolant, rule.stage_configurations(s, system.n)
+    omega_d = ca.vertcat(shape.discrete_constraint(system.nonholonomic_matrix, q0, q1, sigma, h),
+                         shape.holonomic_constraint(system.holonomic, q0, q1, sigma))
+    (_, q_mid, v_mid, _), = shape.samples(q0, q1, sigma, h, ((0.5, 1.0),))
+    if isinstance(system, HamiltonianSystem):
+        E = (system.hamiltonian(q0, x["p0"]) + system.hamiltonian(q1, x["p1"])) / 2
+    else:
+        E = quadrature(rule, lambda q, v, _: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
+    return {"discrete_constraint": ca.Function("omega_d", [q0, q1, s, h], [omega_d],
+                                               ["q0", "q1", "s", "h"], ["omega_d"]),
+            "midpoint_state": ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],
+                                          ["q0", "q1", "s", "h"], ["q", "v"]),
+            "step_energy": ca.Function("step_energy", [q0, x["p0"], q1, x["p1"], s, h], [E],
+                                       ["q0", "p0", "q1", "p1", "s", "h"], ["E"])}

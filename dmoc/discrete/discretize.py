@@ -1,7 +1,8 @@
 """The discretization stage's entry point: `discretize` chooses the discretization a system
 takes (discrete Lagrangian or discrete Hamiltonians) and builds it."""
 
-from ..mechanics.system import HamiltonianSystem
+from ..errors import InputTypeError
+from ..mechanics.system import HamiltonianSystem, MechanicalSystem
 from .discretization import Discretization
 from .hamiltonian import HamiltonianDiscretization
 
@@ -44,4 +45,7 @@ def discretize(system, h, rule="midpoint"):
     """
     if isinstance(system, HamiltonianSystem):
         return HamiltonianDiscretization(system, h, rule)
+    if not isinstance(system, MechanicalSystem):
+        raise InputTypeError(f"`system` must be a MechanicalSystem or a HamiltonianSystem; got "
+                        f"{type(system).__name__}.")
     return Discretization(system, h, rule)

@@ -1,35 +1,37 @@
 """Discretization of a Hamiltonian system: right and left discrete Hamiltonians
 H_d+(q_k, p_{k+1}) and H_d-(p_k, q_{k+1}) (type-2 and type-3 generating functions, Lall &
 West), by named rules or supplied by the user, and the discrete Legendre transform of a
-Lagrangian discretization. The discrete constraints are those of (28) with the midpoint
-retraction (and g(q_{k+1}) = 0 for holonomic constraints), the discrete forces the virtual
-work of f(q, p, u) at the rule's samples. The residual rows come from the sums (48)/(49)
+Lagrangian discretization; both rule kinds implement `dmoc.discrete.rules.Rule`. The
+discrete constraints are those of (28) on the rule's interpolant (the midpoint retraction
+of the chord, and g(q_{k+1}) = 0 for holonomic constraints), the discrete forces the
+virtual work of f(q, p, u) at the rule's samples. The residual rows come from the sums (48)/(49)
 (`dmoc.formulations.hamiltonian`).
 """
 
+from abc import abstractmethod
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
 from .._util import checks
-from .._util.cache import BoundedCache
-from ..mechanics.system import HamiltonianSystem
-from .discretization import Discretization, running_integrand
 from .._util.layout import step_symbols
-from .rules import Midpoint
 from ..errors import InputError, InputTypeError
+from ..mechanics.system import HamiltonianSystem, MechanicalSystem
+from .discretization import Discretization, state_functions
+from .rules import Midpoint, QuadratureRule, Rule, virtual_work
 
 
 @dataclass(frozen=True)
-class HamiltonianRule:
-    """A pair of discrete Hamiltonians with their stage unknowns.
+class HamiltonianRule(Rule):
+    """A pair of discrete Hamiltonians with their stage unknowns: the Hamiltonian family of
+    `Rule`.
 
-    Subclasses (or instances with other data) define `right` and `left`:
-    ``right(H, q0, p1, s, h) -> (H_d+, samples)`` and ``left(H, p0, q1, s, h) -> (H_d-,
-    samples)``, H the Function H(q, p), s the stage unknowns (``n_stage_blocks * n`` rows;
-    H_d is extremal in them), samples a list of (weight, q, p) at which the force
-    f(q, p, u) does virtual work weight f . delta q.
+    Subclasses define `right` and `left`: ``right(H, q0, p1, s, h) -> (H_d+, samples)``
+    and ``left(H, p0, q1, s, h) -> (H_d-, samples)``, H the Function H(q, p), s the stage
+    unknowns (``n_stage_blocks * n`` rows; H_d is extremal in them), samples a list of
+    (weight, q, p, c) at which the force f(q, p, u(c)) does virtual work weight f . delta q
+    (`dmoc.discrete.rules.virtual_work`), c the step time of the sample.
 
     Attributes
     ----------
@@ -39,6 +41,11 @@ class HamiltonianRule:
         Stage unknowns per step, in units of n.
     control_nodes : tuple of float
         ``(0.5,)``: one control held over each step.
+    interpolant : QuadratureRule
+        `Midpoint`: omega_d (28) with the midpoint retraction (and g(q_{k+1})), the midpoint
+        state and the running cost are taken on the chord.
+    has_interior_multipliers : bool
+        False: the one multiplier of (38)/(42) sits at the formulation's end node.
     """
 
     name: str
@@ -46,15 +53,16 @@ class HamiltonianRule:
     n_stage_blocks: int = 0
     control_nodes: tuple = (0.5,)
 
+    interpolant = Midpoint()
+    has_interior_multipliers = False
+
+    @abstractmethod
     def right(self, H, q0, p1, s, h):
-        raise NotImplementedError
+        """(H_d+(q0, p1), samples)."""
 
+    @abstractmethod
     def left(self, H, p0, q1, s, h):
-        raise NotImplementedError
-
-    def control_at(self, u, c):
-        """The control at step time c: the one held over the step."""
-        return u
+        """(H_d-(p0, q1), samples)."""
 
     def stage_guess(self, q, p):
         """Stage values for an initial guess from knot values q, p (N+1, n): (N, n_stages).
@@ -74,10 +82,10 @@ class SymplecticEuler(HamiltonianRule):
         super().__init__("symplectic-euler", 1)
 
     def right(self, H, q0, p1, s, h):
-        return ca.dot(p1, q0) + h * H(q0, p1), [(h, q0, p1)]
+        return ca.dot(p1, q0) + h * H(q0, p1), [(h, q0, p1, 0.0)]
 
     def left(self, H, p0, q1, s, h):
-        return -ca.dot(p0, q1) + h * H(q1, p0), [(h, q1, p0)]
+        return -ca.dot(p0, q1) + h * H(q1, p0), [(h, q1, p0, 1.0)]
 
     def __repr__(self):
         return "SymplecticEuler()"
@@ -107,13 +115,13 @@ class HamiltonianMidpoint(HamiltonianRule):
         n = q0.numel()
         Q, P = s[:n], s[n:]
         mid = (q0 + Q) / 2
-        return ca.dot(p1, Q) - ca.dot(P, Q - q0) + h * H(mid, P), [(h, mid, P)]
+        return ca.dot(p1, Q) - ca.dot(P, Q - q0) + h * H(mid, P), [(h, mid, P, 0.5)]
 
     def left(self, H, p0, q1, s, h):
         n = q1.numel()
         Q, P = s[:n], s[n:]
         mid = (Q + q1) / 2
-        return -ca.dot(p0, Q) - ca.dot(P, q1 - Q) + h * H(mid, P), [(h, mid, P)]
+        return -ca.dot(p0, Q) - ca.dot(P, q1 - Q) + h * H(mid, P), [(h, mid, P, 0.5)]
 
     def __repr__(self):
         return "HamiltonianMidpoint()"
@@ -130,7 +138,8 @@ class HamiltonianDiscretization(Discretization):
     Attributes
     ----------
     system, h, rule, key, n_stages, n_multipliers, n_controls
-        As for `Discretization`; `rule` is a HamiltonianRule.
+        As for `Discretization` (derived from the rule there); `rule` is a
+        HamiltonianRule (a LegendreRule for `discrete_legendre`).
     right_hamiltonian, left_hamiltonian : casadi.Function
         ``H_d+(q0, p1, s, h)`` and ``H_d-(p0, q1, s, h)``, scalars, stage-extended.
     right_force, left_force : casadi.Function
@@ -138,39 +147,31 @@ class HamiltonianDiscretization(Discretization):
         f_stage)``: the discrete virtual work of f on delta q_k (resp. delta q_{k+1}) and on
         the stages, for the (+) and (-) forms.
     discrete_constraint, midpoint_state, step_energy
-        As for `Discretization`; the energy of a step is (H(q0, p0) + H(q1, p1))/2.
+        As for `Discretization`, on the rule's interpolant (the chord for a HamiltonianRule);
+        the energy of a step is (H(q0, p0) + H(q1, p1))/2 for a HamiltonianSystem.
     """
 
     family = "hamiltonian"
+    system_type = HamiltonianSystem
+    system_described = "a HamiltonianSystem"
+    function_names = ("right_hamiltonian", "left_hamiltonian", "right_force", "left_force",
+                      "discrete_constraint", "midpoint_state", "step_energy")
 
-    def __init__(self, system, h, rule="midpoint"):
-        checks.instance("system", system, HamiltonianSystem, "a HamiltonianSystem")
-        rule = as_hamiltonian_rule(rule)
-        self._setup(system, h, rule, _HAMILTONIAN_DATA.get((system.key, rule), lambda: _data(system, rule)))
+    def _as_rule(self, rule):
+        return as_hamiltonian_rule(rule)
 
-    def _setup(self, system, h, rule, data):
-        self.system, self.rule = system, rule
-        self.h = checks.positive_float("h", h)
-        self.key = (system.key, rule)
-        self.n_stages = rule.n_stage_blocks * system.n
-        self.n_multipliers = system.m
-        self.n_controls = len(rule.control_nodes) * system.n_u
-        (self.right_hamiltonian, self.left_hamiltonian, self.right_force, self.left_force,
-         self.discrete_constraint, self.midpoint_state, self.step_energy) = data
-
-    def discrete_cost(self, running_cost):
-        """C_d(q0, q1, s, u, h, w) = h running_cost((q0 + q1)/2, (q1 - q0)/h, u, w): the
-        step integral by the midpoint rule on the chord (the stages are momenta here)."""
-        running_cost = running_integrand(self.system, running_cost)
-        x = _cost_symbols(self, running_cost)
-        q0, q1, h = x["q0"], x["q1"], x["h"]
-        return _cost_function(x, h * running_cost((q0 + q1) / 2, (q1 - q0) / h, x["u"], x["w"]))
+    def _functions(self):
+        """The Functions of a HamiltonianRule's discretization, h an input."""
+        system, rule = self.system, self.rule
+        x = step_symbols(system.n, self.n_stages, self.n_controls)
+        Hp, right_samples = rule.right(system.hamiltonian, x["q0"], x["p1"], x["s"], x["h"])
+        Hm, left_samples = rule.left(system.hamiltonian, x["p0"], x["q1"], x["s"], x["h"])
+        fp = virtual_work(rule, system.force, right_samples, x["u"], (x["q0"], x["s"]))
+        fm = virtual_work(rule, system.force, left_samples, x["u"], (x["q1"], x["s"]))
+        return {**_end_functions(x, Hp, Hm, fp, fm), **state_functions(system, rule, x)}
 
     def __repr__(self):
         return f"HamiltonianDiscretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
-
-
-_HAMILTONIAN_DATA = BoundedCache(32, "hamiltonian_data")
 
 
 def as_hamiltonian_rule(rule):
@@ -180,79 +181,62 @@ def as_hamiltonian_rule(rule):
     return HAMILTONIAN_RULES[checks.choice("rule", rule, tuple(HAMILTONIAN_RULES))]()
 
 
-def _cost_symbols(disc, running_cost):
-    """The step symbols of `disc` and w, the parameters `running_cost` takes last."""
-    return {**step_symbols(disc.system.n, disc.n_stages, disc.n_controls),
-            "w": ca.SX.sym("w", running_cost.size1_in(3))}
-
-
-def _cost_function(x, C_d):
-    """The Function C_d(q0, q1, s, u, h, w) of the step symbols `x`."""
-    names = ["q0", "q1", "s", "u", "h", "w"]
-    return ca.Function("C_d", [x[k] for k in names], [C_d], names, ["C_d"])
-
-
-def _virtual_work(force, samples, ends, s, u):
-    """Coefficients of delta(end) and delta(s) in sum_i w_i f(q_i, p_i, u) . delta q_i,
-    the force frozen."""
-    frozen = [(w * force(q, p, u), q) for w, q, p in samples]
-    return tuple(sum(ca.mtimes(ca.jacobian(q, x).T, fw) for fw, q in frozen) if x.numel()
-                 else ca.SX(0, 1) for x in (ends, s))
-
-
-def _data(system, rule):
-    """The Functions of a HamiltonianDiscretization, h an input (cached by system and rule)."""
-    n = system.n
-    x = step_symbols(n, rule.n_stage_blocks * n, len(rule.control_nodes) * system.n_u)
-    H = system.hamiltonian
-    Hp, right_samples = rule.right(H, x["q0"], x["p1"], x["s"], x["h"])
-    Hm, left_samples = rule.left(H, x["p0"], x["q1"], x["s"], x["h"])
-    u = x["u"][:system.n_u]          # one control held over the step
-    fp = _virtual_work(system.force, right_samples, x["q0"], x["s"], u)
-    fm = _virtual_work(system.force, left_samples, x["q1"], x["s"], u)
-    return (*_end_functions(x, Hp, Hm, fp, fm), *_chord_functions(system, x))
-
-
 def _end_functions(x, Hp, Hm, fp, fm):
     """H_d+, H_d-, and their discrete forces as named Functions of the step symbols `x`."""
-    args = {k: [x[a] for a in k.split(",")] for k in ("q0,p1,s,h", "p0,q1,s,h", "q0,p1,s,u,h", "p0,q1,s,u,h")}
-    names = {k: k.split(",") for k in args}
-    return (ca.Function("H_d_plus", args["q0,p1,s,h"], [Hp], names["q0,p1,s,h"], ["H_d"]),
-            ca.Function("H_d_minus", args["p0,q1,s,h"], [Hm], names["p0,q1,s,h"], ["H_d"]),
-            ca.Function("f_d_plus", args["q0,p1,s,u,h"], list(fp), names["q0,p1,s,u,h"], ["f_q0", "f_stage"]),
-            ca.Function("f_d_minus", args["p0,q1,s,u,h"], list(fm), names["p0,q1,s,u,h"], ["f_q1", "f_stage"]))
+    def function(name, inputs, outputs, output_names):
+        inputs = inputs.split(",")
+        return ca.Function(name, [x[a] for a in inputs], outputs, inputs, output_names)
+    return {"right_hamiltonian": function("H_d_plus", "q0,p1,s,h", [Hp], ["H_d"]),
+            "left_hamiltonian": function("H_d_minus", "p0,q1,s,h", [Hm], ["H_d"]),
+            "right_force": function("f_d_plus", "q0,p1,s,u,h", list(fp), ["f_q0", "f_stage"]),
+            "left_force": function("f_d_minus", "p0,q1,s,u,h", list(fm), ["f_q1", "f_stage"])}
 
 
-def _chord_functions(system, x):
-    """omega_d (28) with the midpoint retraction and g(q1); the midpoint state on the chord;
-    the step energy (H(q0, p0) + H(q1, p1))/2."""
-    rule, none = Midpoint(), ca.SX(0, 1)
-    q0, q1, s, h = x["q0"], x["q1"], x["s"], x["h"]
-    omega_d = ca.vertcat(rule.discrete_constraint(system.nonholonomic_matrix, q0, q1, none, h),
-                         rule.holonomic_constraint(system.holonomic, q0, q1, none))
-    E = (system.hamiltonian(q0, x["p0"]) + system.hamiltonian(q1, x["p1"])) / 2
-    return (ca.Function("omega_d", [q0, q1, s, h], [omega_d], ["q0", "q1", "s", "h"], ["omega_d"]),
-            ca.Function("midpoint_state", [q0, q1, s, h], [(q0 + q1) / 2, (q1 - q0) / h],
-                        ["q0", "q1", "s", "h"], ["q", "v"]),
-            ca.Function("step_energy", [q0, x["p0"], q1, x["p1"], s, h], [E],
-                        ["q0", "p0", "q1", "p1", "s", "h"], ["E"]))
-
-
-class LegendreRule(HamiltonianRule):
+@dataclass(frozen=True)
+class LegendreRule(Rule):
     """The discrete Legendre transform of a Lagrangian rule (Lall & West):
     H_d+(q0, p1) = ext_Q p1 . Q - L_d(q0, Q, sigma) and
     H_d-(p0, q1) = ext_Q -p0 . Q - L_d(Q, q1, sigma), stages s = (Q, sigma), sigma the
-    Lagrangian rule's own stages; the forces are the Lagrangian rule's f_d^-+ (`lagrangian`
-    is the Lagrangian discretization's data, not part of the value)."""
+    Lagrangian rule's own stages; the forces are the Lagrangian rule's f_d^-+. Its order,
+    control nodes and interpolant are the Lagrangian rule's; its one multiplier sits at the
+    end node, as in (38)/(42).
 
-    def __init__(self, lagrangian_rule):
-        super().__init__(f"legendre-{lagrangian_rule.name}", lagrangian_rule.order,
-                         1 + lagrangian_rule.n_stages, lagrangian_rule.control_nodes)
-        object.__setattr__(self, "lagrangian_rule", lagrangian_rule)
+    >>> from dmoc.discrete import Lobatto3
+    >>> rule = LegendreRule(Lobatto3())
+    >>> rule.order, rule.n_stage_blocks, rule.stage_nodes, rule.has_interior_multipliers
+    (4, 2, (0.5,), False)
+    """
+
+    lagrangian_rule: QuadratureRule
+
+    has_interior_multipliers = False
+
+    @property
+    def name(self):
+        return f"legendre-{self.lagrangian_rule.name}"
+
+    @property
+    def order(self):
+        return self.lagrangian_rule.order
+
+    @property
+    def n_stage_blocks(self):
+        return 1 + self.lagrangian_rule.n_stage_blocks
+
+    @property
+    def control_nodes(self):
+        return self.lagrangian_rule.control_nodes
+
+    @property
+    def interpolant(self):
+        return self.lagrangian_rule
 
     def stage_guess(self, q, p):
         """Q = q_{k+1}, the Lagrangian rule's stages on the chords."""
         return np.hstack([q[1:], self.lagrangian_rule.stage_guess(q, p)])
+
+    def __repr__(self):
+        return f"LegendreRule({self.lagrangian_rule!r})"
 
 
 def discrete_legendre(disc):
@@ -266,8 +250,9 @@ def discrete_legendre(disc):
     Parameters
     ----------
     disc : Discretization
-        A Lagrangian discretization; with constraints, a stage-free rule (the multipliers
-        of a Lagrangian stage rule sit at its interior nodes, which (38)/(42) do not have).
+        A Lagrangian discretization; with constraints, a rule without interior multipliers
+        (``rule.has_interior_multipliers`` False: those of a Lagrangian stage rule sit at
+        its interior nodes, which (38)/(42) do not have).
 
     Returns
     -------
@@ -275,7 +260,7 @@ def discrete_legendre(disc):
     """
     if not isinstance(disc, Discretization) or isinstance(disc, HamiltonianDiscretization):
         raise InputTypeError(f"`disc` must be a Lagrangian Discretization; got {type(disc).__name__}.")
-    if disc.n_multipliers > disc.system.m:
+    if disc.system.m and disc.rule.has_interior_multipliers:
         raise InputError(f"`disc` must have a stage-free rule when it has constraints: rule "
                          f"{disc.rule.name!r} puts multipliers at its interior nodes.")
     return LegendreDiscretization(disc)
@@ -283,42 +268,31 @@ def discrete_legendre(disc):
 
 class LegendreDiscretization(HamiltonianDiscretization):
     """The HamiltonianDiscretization of `discrete_legendre`: stages (Q, sigma), the running
-    cost integrated by the Lagrangian rule on (q0, q1, sigma)."""
+    cost integrated by the Lagrangian rule on (q0, q1, sigma) (its interpolant)."""
+
+    system_type = MechanicalSystem
+    system_described = "a MechanicalSystem"
 
     def __init__(self, lagrangian):
-        rule = LegendreRule(lagrangian.rule)
         self.lagrangian = lagrangian
-        self._setup(lagrangian.system, lagrangian.h, rule, _HAMILTONIAN_DATA.get(
-            (lagrangian.system.key, rule), lambda: _legendre_data(lagrangian)))
+        super().__init__(lagrangian.system, lagrangian.h, LegendreRule(lagrangian.rule))
 
-    def discrete_cost(self, running_cost):
-        """C_d of the Lagrangian rule, the stage block Q (= the end configuration) left out."""
-        running_cost = running_integrand(self.system, running_cost)
-        C = self.lagrangian.discrete_cost(running_cost)
-        x = _cost_symbols(self, running_cost)
-        return _cost_function(x, C(x["q0"], x["q1"], x["s"][self.system.n:], x["u"], x["h"], x["w"]))
+    def _as_rule(self, rule):
+        return rule
 
-
-def _legendre_data(disc):
-    n, ns = disc.system.n, disc.n_stages
-    x = step_symbols(n, n + ns, disc.n_controls)
-    Q, sigma = x["s"][:n], x["s"][n:]
-    L_d = disc.discrete_lagrangian
-    Hp = ca.dot(x["p1"], Q) - L_d(x["q0"], Q, sigma, x["h"])
-    Hm = -ca.dot(x["p0"], Q) - L_d(Q, x["q1"], sigma, x["h"])
-    f_minus, f_plus, f_sigma = disc.discrete_force(x["q0"], Q, sigma, x["u"], x["h"])
-    g_minus, g_plus, g_sigma = disc.discrete_force(Q, x["q1"], sigma, x["u"], x["h"])
-    fp = (f_minus, ca.vertcat(f_plus, f_sigma))
-    fm = (g_plus, ca.vertcat(g_minus, g_sigma))
-    E = disc.step_energy(x["q0"], x["p0"], x["q1"], x["p1"], sigma, x["h"])
-    omega = disc.discrete_constraint(x["q0"], x["q1"], sigma, x["h"])
-    q_mid, v_mid = disc.midpoint_state(x["q0"], x["q1"], sigma, x["h"])
-    q0, q1, s, h = x["q0"], x["q1"], x["s"], x["h"]
-    return (*_end_functions(x, Hp, Hm, fp, fm),
-            ca.Function("omega_d", [q0, q1, s, h], [omega], ["q0", "q1", "s", "h"], ["omega_d"]),
-            ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid], ["q0", "q1", "s", "h"], ["q", "v"]),
-            ca.Function("step_energy", [q0, x["p0"], q1, x["p1"], s, h], [E],
-                        ["q0", "p0", "q1", "p1", "s", "h"], ["E"]))
+    def _functions(self):
+        """H_d+- from the Lagrangian discretization's L_d and f_d, h an input."""
+        disc, n = self.lagrangian, self.system.n
+        x = step_symbols(n, self.n_stages, self.n_controls)
+        Q, sigma = x["s"][:n], x["s"][n:]
+        L_d = disc.discrete_lagrangian
+        Hp = ca.dot(x["p1"], Q) - L_d(x["q0"], Q, sigma, x["h"])
+        Hm = -ca.dot(x["p0"], Q) - L_d(Q, x["q1"], sigma, x["h"])
+        f_minus, f_plus, f_sigma = disc.discrete_force(x["q0"], Q, sigma, x["u"], x["h"])
+        g_minus, g_plus, g_sigma = disc.discrete_force(Q, x["q1"], sigma, x["u"], x["h"])
+        fp = (f_minus, ca.vertcat(f_plus, f_sigma))
+        fm = (g_plus, ca.vertcat(g_minus, g_sigma))
+        return {**_end_functions(x, Hp, Hm, fp, fm), **state_functions(self.system, self.rule, x)}
 
 
 __all__ = ["HamiltonianRule", "SymplecticEuler", "HamiltonianMidpoint", "LegendreRule",

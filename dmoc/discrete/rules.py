@@ -1,12 +1,15 @@
 """Quadrature rules: how a rule turns continuous data into discrete data on one step
-[t_k, t_k + h]. A rule is a value that declares its properties: the nodes of its
-interpolating polynomial q(t) (the end points q_k, q_{k+1} and, between them, the stage
-unknowns of the residual), its quadrature points and weights, its order and stage count.
-The discrete Lagrangian, the discrete forces f_d^-/+ (as virtual work) and discrete running
-costs are all the same weighted sum over the quadrature points, so adding a rule means
-listing its nodes and points (docs/theory.md, "Rules").
+[t_k, t_k + h]. A rule is a value that declares its properties (`Rule`, the interface the
+Lagrangian rules here and the Hamiltonian rules of `dmoc.discrete.hamiltonian` share): the
+nodes of its interpolating polynomial q(t) (the end points q_k, q_{k+1} and, between them,
+the stage unknowns of the residual), its quadrature points and weights, its order, stage
+blocks, control nodes and where its multipliers sit. The discrete Lagrangian, the discrete
+forces f_d^-/+ (as virtual work) and discrete running costs are all the same weighted sum
+over the quadrature points, so adding a rule means listing its nodes and points
+(docs/theory.md, "Rules"; docs/stages/discretization.md, "The rule interface").
 """
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 import casadi as ca
@@ -17,9 +20,95 @@ from .._util import checks
 from ..errors import InputError
 
 
+class Rule(ABC):
+    """The interface of every rule, Lagrangian (`QuadratureRule`) or Hamiltonian
+    (`dmoc.discrete.HamiltonianRule`, the discrete Legendre transform's `LegendreRule`): what
+    a Discretization and the consumers read from a rule, under one name on both families.
+
+    Attributes
+    ----------
+    name : str
+    order : int
+        Global order of the resulting integrator.
+    n_stage_blocks : int
+        Stage unknowns per step in blocks of n rows (a Discretization's ``n_stages`` is
+        ``n_stage_blocks * n``).
+    interpolant : QuadratureRule
+        The rule whose interpolant through q_k, the configurations among the stages and
+        q_{k+1} is q(t) on the step: the discrete constraints omega_d (28), the midpoint
+        state, the step energy of a Lagrangian system and the running cost are taken on it.
+        A Lagrangian rule is its own; the Hamiltonian rules take the chord (`Midpoint`).
+    stage_nodes : tuple of float
+        Step times c of the configurations among the stages, Q_j = q(t_k + c_j h) on the
+        interpolant, the last ``len(stage_nodes)`` blocks of s (`stage_configurations`);
+        ``()`` when the stages hold none.
+    control_nodes : tuple of float
+        Step times c of the step's control values u_{k,j} (n_u each); the control between
+        them is their Lagrange interpolant (`control_at`). ``(0.5,)``: one control held
+        over the step.
+    has_interior_multipliers : bool
+        Whether d'Alembert multipliers (m rows each) sit at the stage nodes besides the
+        formulation's end node: True for a Lagrangian rule with interior nodes, False for
+        the Hamiltonian forms (38)/(42), whose one multiplier sits at the end node.
+    n_multiplier_nodes : int
+        Nodes that carry a multiplier: 1 + ``len(stage_nodes)`` with interior multipliers,
+        else 1 (a Discretization's ``n_multipliers`` is ``n_multiplier_nodes * m``).
+    """
+
+    @property
+    @abstractmethod
+    def n_stage_blocks(self):
+        """Stage unknowns per step, in blocks of n rows."""
+
+    @property
+    @abstractmethod
+    def interpolant(self):
+        """The QuadratureRule whose interpolant is q(t) on the step."""
+
+    @property
+    @abstractmethod
+    def has_interior_multipliers(self):
+        """Whether multipliers sit at the stage nodes too."""
+
+    @abstractmethod
+    def stage_guess(self, q, p):
+        """Stage values for an initial guess from knot values q, p (N+1, n), shape
+        (N, n_stage_blocks * n)."""
+
+    @property
+    def stage_nodes(self):
+        return self.interpolant.nodes[1:-1]
+
+    @property
+    def n_multiplier_nodes(self):
+        return 1 + len(self.stage_nodes) if self.has_interior_multipliers else 1
+
+    def stage_configurations(self, s, n):
+        """The rows of the stage column `s` that are the configurations at `stage_nodes`
+        (n rows each, node by node): its last ``len(stage_nodes) * n`` rows."""
+        k = len(self.stage_nodes) * n
+        return s if k == s.numel() else s[s.numel() - k:]
+
+    def control_at(self, u, c):
+        """The control at step time c from the step's control values `u`
+        (``len(control_nodes) * n_u`` rows, node by node): their Lagrange interpolant (the
+        value itself for one control node)."""
+        k = len(self.control_nodes)
+        n_u = u.shape[0] // k
+        values = [u[j * n_u:(j + 1) * n_u] for j in range(k)]
+        return _combination(lagrange_basis(self.control_nodes, c)[0], values) if n_u else u
+
+    def chord_stages(self, q):
+        """The stage configurations on the chord of each step from knot values q (N+1, n):
+        q_k + c (q_{k+1} - q_k) at the stage nodes, shape (N, len(stage_nodes) * n)."""
+        chords = [q[:-1] + c * (q[1:] - q[:-1]) for c in self.stage_nodes]
+        return np.hstack(chords) if chords else np.zeros((q.shape[0] - 1, 0))
+
+
 @dataclass(frozen=True)
-class QuadratureRule:
-    """A quadrature rule on a polynomial interpolant of q over one step.
+class QuadratureRule(Rule):
+    """A quadrature rule on a polynomial interpolant of q over one step: the Lagrangian
+    family of `Rule`.
 
     Parameters
     ----------
@@ -28,7 +117,7 @@ class QuadratureRule:
         Global order of the resulting integrator (positions; see docs/theory.md, "Rules").
     nodes : tuple of float
         Interpolation nodes c in [0, 1], first 0 and last 1: q(t_k + c h) passes through
-        q_k, the stage values Q_1 ... Q_{n_stages} (unknowns of the residual) and q_{k+1}.
+        q_k, the stage values Q_1 ... Q_{n_stage_blocks} (unknowns of the residual) and q_{k+1}.
     points : tuple of (float, float)
         Quadrature points (c, b): the sample q(t_k + c h), q'(t_k + c h), weight b h.
     control_nodes : tuple of float
@@ -43,18 +132,24 @@ class QuadratureRule:
 
     Attributes
     ----------
-    n_stages : int
+    n_stage_blocks : int
         Interior nodes, each an unknown configuration (n rows) of every step.
+    stage_nodes : tuple of float
+        The interior nodes.
+    has_interior_multipliers : bool
+        True when there are interior nodes: each carries a d'Alembert multiplier (m rows).
     n_multiplier_nodes : int
         Nodes that carry a d'Alembert multiplier (m rows each) in every step: the
         formulation's end node and the interior nodes; as many as constraint rows per
         constraint, so every step is square.
+    interpolant : QuadratureRule
+        The rule itself.
 
     Examples
     --------
     >>> rule = QuadratureRule("simpson", 4, (0.0, 0.5, 1.0), ((0.0, 1/6), (0.5, 2/3), (1.0, 1/6)))
-    >>> rule.n_stages, rule.n_multiplier_nodes
-    (1, 2)
+    >>> rule.n_stage_blocks, rule.n_multiplier_nodes, rule.control_at(ca.DM([2.0]), 0.25)
+    (1, 2, DM(2))
     """
 
     name: str
@@ -75,17 +170,21 @@ class QuadratureRule:
             "constraint_points", self.points if self.constraint_points is None else self.constraint_points))
 
     @property
-    def n_stages(self):
+    def n_stage_blocks(self):
         return len(self.nodes) - 2
 
     @property
-    def n_multiplier_nodes(self):
-        return len(self.nodes) - 1
+    def interpolant(self):
+        return self
+
+    @property
+    def has_interior_multipliers(self):
+        return len(self.nodes) > 2
 
     def node_values(self, q0, q1, s):
-        """[q0, Q_1, ..., Q_{n_stages}, q1]: the configurations at the nodes."""
+        """[q0, Q_1, ..., Q_{n_stage_blocks}, q1]: the configurations at the nodes."""
         n = q0.shape[0]
-        return [q0] + [s[j * n:(j + 1) * n] for j in range(self.n_stages)] + [q1]
+        return [q0] + [s[j * n:(j + 1) * n] for j in range(self.n_stage_blocks)] + [q1]
 
     def samples(self, q0, q1, s, h, points=None):
         """Quadrature points of one step: a list of (weight, q, v, c).
@@ -97,7 +196,7 @@ class QuadratureRule:
         nodes ((q0 + q1)/2 for the midpoint, not q0 + (q1 - q0)/2), which keeps the
         rounding of a symmetric rule time-reversible: measured, the asymmetric form lets
         the inclined knife edge's energy drift 2e-10 relative over 1e5 steps, the
-        symmetric one 1e-12. `s` holds the stage values, ``n_stages * n`` rows, stage by
+        symmetric one 1e-12. `s` holds the stage values, ``n_stage_blocks * n`` rows, stage by
         stage. `points` defaults to the rule's quadrature points.
         """
         nodes = self.node_values(q0, q1, s)
@@ -108,19 +207,11 @@ class QuadratureRule:
             out.append((b * h, _combination(value, nodes), _combination(slope[1:], ends) / h, c))
         return out
 
-    def control_at(self, u, c):
-        """The control at step time c from the step's control values `u`
-        (``len(control_nodes) * n_u`` rows, node by node): their Lagrange interpolant."""
-        k = len(self.control_nodes)
-        n_u = u.shape[0] // k
-        values = [u[j * n_u:(j + 1) * n_u] for j in range(k)]
-        return _combination(lagrange_basis(self.control_nodes, c)[0], values) if n_u else u
-
     def stage_guess(self, q, p):
         """Stage values on the chord of each step for an initial guess from knot values q
-        (N+1, n): q_k + c (q_{k+1} - q_k) at the interior nodes, shape (N, n_stages * n)."""
-        chords = [q[:-1] + c * (q[1:] - q[:-1]) for c in self.nodes[1:-1]]
-        return np.hstack(chords) if chords else np.zeros((q.shape[0] - 1, 0))
+        (N+1, n): q_k + c (q_{k+1} - q_k) at the interior nodes, shape
+        (N, n_stage_blocks * n)."""
+        return self.chord_stages(q)
 
     def discrete_constraint(self, A, q0, q1, s, h):
         """The discrete constraint rows of one step, (n_multiplier_nodes * m,): the Legendre
@@ -133,13 +224,13 @@ class QuadratureRule:
 
     def holonomic_constraint(self, g, q0, q1, s):
         """The holonomic constraint rows of one step, (n_multiplier_nodes * k,): g at every
-        node after the first, [g(Q_1), ..., g(Q_{n_stages}), g(q1)] (g(q0) is the previous
+        node after the first, [g(Q_1), ..., g(Q_{n_stage_blocks}), g(q1)] (g(q0) is the previous
         step's, or the initial data's). One set of k rows per multiplier node, so with the
         multipliers on dg/dq at those nodes every step stays square."""
         return ca.vertcat(*[g(Q) for Q in self.node_values(q0, q1, s)[1:]])
 
     def __repr__(self):
-        return f"QuadratureRule({self.name!r}, order={self.order}, n_stages={self.n_stages})"
+        return f"QuadratureRule({self.name!r}, order={self.order}, n_stage_blocks={self.n_stage_blocks})"
 
 
 def _increasing(name, values):
@@ -223,7 +314,7 @@ class Lobatto3(QuadratureRule):
     L_d = h/6 [L(q0, V_0) + 4 L(Q, V_1/2) + L(q1, V_1)] on the quadratic through q0, Q, q1;
     the discrete constraints are its two Legendre moments (docs/theory.md, "Rules").
 
-    >>> Lobatto3().order, Lobatto3().n_stages
+    >>> Lobatto3().order, Lobatto3().n_stage_blocks
     (4, 1)
     """
 
@@ -264,24 +355,24 @@ def as_rule(rule):
 
 
 def quadrature(rule, integrand, q0, q1, s, u, h):
-    """Sum of weight * integrand(q, v, u) over the rule's points, u the control there: the
-    step integral of it."""
-    return sum(w * integrand(q, v, rule.control_at(u, c)) for w, q, v, c in rule.samples(q0, q1, s, h))
+    """Sum of weight * integrand(q, v, u) over the quadrature points of `rule`'s
+    interpolant (any `Rule`), u the control there: the step integral of it on q(t)."""
+    shape = rule.interpolant
+    points = shape.samples(q0, q1, rule.stage_configurations(s, q0.shape[0]), h)
+    return sum(w * integrand(q, v, rule.control_at(u, c)) for w, q, v, c in points)
 
 
-def virtual_work_split(rule, force, q0, q1, s, u, h):
-    """Discrete forces (f_d^-, f_d^+, f_d^s) of a force field `force(q, v, u)`.
+def virtual_work(rule, force, samples, u, variables):
+    """Discrete forces of a force field `force(q, y, u)` (y the velocity or the momentum
+    of the sample): the coefficients of delta x, for each x of `variables`, in the discrete
+    virtual work sum_i w_i f(q_i, y_i, u(c_i)) . delta q_i over `samples` (w_i, q_i, y_i,
+    c_i), with the force frozen (not differentiated) and u(c_i) the control of `rule` at
+    the sample (`Rule.control_at`).
 
-    They are the coefficients of delta q0, delta q1 and delta s in the discrete virtual
-    work sum_i w_i f(q_i, v_i, u_i) . delta q_i, with the force frozen (not
-    differentiated), u_i the control at the point. For the midpoint rule both equal
-    h/2 f(midpoint).
+    With the samples of a QuadratureRule and variables (q0, q1, s) these are f_d^-, f_d^+
+    and f_d^s (midpoint rule: both h/2 f(midpoint)); with a Hamiltonian rule's and (end, s),
+    the forces of H_d+ or H_d-.
     """
-    frozen = [(w * force(q, v, rule.control_at(u, c)), q) for w, q, v, c in rule.samples(q0, q1, s, h)]
-    out = []
-    for x in (q0, q1, s):
-        if x.numel() == 0:
-            out.append(ca.SX(0, 1))
-            continue
-        out.append(sum(ca.mtimes(ca.jacobian(q, x).T, fw) for fw, q in frozen))
-    return tuple(out)
+    frozen = [(w * force(q, y, rule.control_at(u, c)), q) for w, q, y, c in samples]
+    return tuple(sum(ca.mtimes(ca.jacobian(q, x).T, fw) for fw, q in frozen) if x.numel()
+                 else ca.SX(0, 1) for x in variables)

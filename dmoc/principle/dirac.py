@@ -35,7 +35,7 @@ def dirac_differential(disc, variant):
     stages of a stage rule (H_d is extremal in them).
     """
     checks.instance("disc", disc, Discretization, "a Discretization")
-    if disc.n_multipliers > disc.system.m:
+    if disc.system.m and disc.rule.has_interior_multipliers:
         raise InputError("`disc` must not have multipliers at interior nodes (a Lagrangian stage "
                          "rule with constraints): its Dirac structure needs the stage-augmented "
                          "annihilator.")

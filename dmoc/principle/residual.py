@@ -122,8 +122,8 @@ class StepResidual:
         impulses = ca.vertsplit(x["lam"], list(range(0, self.n_lam + 1, m)) if m else [0, 0])
         node = self.formulation.multiplier_node
         rows[node] = rows[node] - ca.mtimes(A((x["q0"], x["q1"])[node]).T, impulses[0])
-        if len(impulses) > 1:      # a stage rule: d'Alembert variations at the interior nodes too
-            interior = self.rule.node_values(x["q0"], x["q1"], x["s"])[1:-1]
+        if m and self.rule.has_interior_multipliers:    # d'Alembert variations at the stage nodes too
+            interior = ca.vertsplit(self.rule.stage_configurations(x["s"], self.n), self.n)
             stage = stage - ca.vertcat(*[ca.mtimes(A(Q).T, lam) for Q, lam in zip(interior, impulses[1:])])
         r = ca.vertcat(rows[0], rows[1], stage,
                        disc.discrete_constraint(x["q0"], x["q1"], x["s"], x["h"]))
