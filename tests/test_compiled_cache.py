@@ -61,11 +61,11 @@ def child(jit, env, uid=None, umask=None, wait=True):
     full = {**os.environ, "PYTHONPATH": ROOT}
     for name, value in env.items():
         full.pop(name, None) if value is None else full.__setitem__(name, str(value))
-    drop = "" if uid is None else f"os.setgroups([]); os.setgid({uid}); os.setuid({uid})"
-    drop += "" if umask is None else f"; os.umask({umask})"
-    process = subprocess.Popen([sys.executable, "-c", CHILD.format(jit=jit, steps=STEPS, drop=drop)],
-                               env=full, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True, cwd=tempfile.gettempdir())
+    drop = ([] if uid is None else [f"os.setgroups([]); os.setgid({uid}); os.setuid({uid})"]) + (
+        [] if umask is None else [f"os.umask({umask})"])
+    code = CHILD.format(jit=jit, steps=STEPS, drop="; ".join(drop))
+    process = subprocess.Popen([sys.executable, "-c", code], env=full, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, cwd=tempfile.gettempdir())
     return finish(process) if wait else process
 
 
@@ -278,7 +278,8 @@ def test_two_processes_compiling_the_same_step_at_once_both_succeed(tmp_path, vm
     names = os.listdir(folder)
     assert names and all(n.endswith(".so") for n in names)        # no temporary folder left
     for name in names:
-        assert name.rsplit("-", 1)[1] == hashlib.sha256((folder / name).read_bytes()).hexdigest() + ".so"
+        digest = hashlib.sha256((folder / name).read_bytes()).hexdigest()
+        assert name.rsplit("-", 1)[1] == digest + ".so"
 
 
 def _tiny(scale=2.0):

@@ -22,8 +22,8 @@ import tempfile
 
 import casadi as ca
 
-from . import cache_folder
 from ..errors import CompiledCodeError
+from . import cache_folder
 
 FLAGS = ("-O2", "-fPIC", "-shared")
 
@@ -44,7 +44,8 @@ def _identity(path, stamp):
     """What names compiler `path` (as found at modification time `stamp`) in a key: its path
     and the output of ``path --version`` (the path alone when that fails)."""
     try:
-        done = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=30)
+        done = subprocess.run([path, "--version"], capture_output=True, text=True,
+                              check=False, timeout=30)
         version = done.stdout if done.returncode == 0 else ""
     except (OSError, subprocess.SubprocessError):
         version = ""
@@ -82,7 +83,7 @@ class Library:
         compiled first when there is none; `CompiledCodeError` saying why when no library
         can be loaded safely."""
         if self.key is None:
-            raise CompiledCodeError("no C compiler: nothing can be compiled (see dmoc.simulate.compiled).")
+            raise CompiledCodeError("no C compiler: nothing can be compiled (set CC to one).")
         try:
             where = cache_folder.folder()
             path = cache_folder.verified(where, self.prefix) or self._compile(where)
@@ -123,9 +124,9 @@ class Library:
             source = generator.generate(work + os.sep)
             target = os.path.join(work, "library.so")
             done = subprocess.run([self.cc, *FLAGS, source, "-o", target, "-lm"],
-                                  capture_output=True, text=True)
+                                  capture_output=True, text=True, check=False)
             if done.returncode:
-                raise CompiledCodeError(f"compiling {source} with {self.cc} failed:\n{done.stderr}")
+                raise CompiledCodeError(f"compiling the generated C with {self.cc} failed:\n{done.stderr}")
             path = cache_folder.publish(target, where, self.prefix)
         finally:
             shutil.rmtree(work, ignore_errors=True)
