@@ -348,3 +348,4 @@ def test_a_bad_size_bound_is_named(tmp_path, monkeypatch):
     monkeypatch.setenv("DMOC_CACHE_MAX_BYTES", "lots")
     with pytest.raises(CompiledCodeError, match="`DMOC_CACHE_MAX_BYTES` must be"):
         _tiny().load()
+    assert not list((tmp_path / "cache").iterdir())      # refused before compiling

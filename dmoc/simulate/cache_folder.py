@@ -6,7 +6,8 @@ behind for long.
 
 The folder is ``$DMOC_CACHE_DIR`` when it is set (and then only it), else
 ``$XDG_CACHE_HOME/dmoc`` (default ``~/.cache/dmoc``), else ``dmoc-<uid>`` in the system's
-temporary folder when the first cannot be created (a read-only home, no home at all).
+temporary folder when the first is refused or cannot be created (a read-only home, no
+home at all).
 """
 
 import hashlib
@@ -115,11 +116,11 @@ def max_bytes():
     return value
 
 
-def evict(where, keep):
+def evict(where, keep, bound):
     """Remove the least recently used libraries of folder `where` (oldest access time first,
-    `keep` never) until their total size is at most `max_bytes()`. A process that
-    has one loaded keeps its mapping: only the name goes."""
-    bound, entries = max_bytes(), []
+    `keep` never) until their total size is at most `bound` bytes. A process that has one
+    loaded keeps its mapping: only the name goes."""
+    entries = []
     for entry in os.scandir(where):
         if entry.name.endswith(SUFFIX) and entry.is_file(follow_symlinks=False):
             info = entry.stat(follow_symlinks=False)

@@ -114,7 +114,8 @@ class Library:
         """Generate and compile the library in a private temporary folder inside `where`
         (removed on every way out) and publish it (`cache_folder.publish`); its path.
         Temporary folders abandoned by killed compiles are removed first, and the least
-        recently used libraries after, to keep the size bound."""
+        recently used libraries after, to keep the size bound (`cache_folder.max_bytes`)."""
+        bound = cache_folder.max_bytes()
         cache_folder.remove_stale(where)
         work = tempfile.mkdtemp(prefix="tmp", dir=where)
         try:
@@ -130,7 +131,7 @@ class Library:
             path = cache_folder.publish(target, where, self.prefix)
         finally:
             shutil.rmtree(work, ignore_errors=True)
-        cache_folder.evict(where, keep=path)
+        cache_folder.evict(where, path, bound)
         return path
 
 
