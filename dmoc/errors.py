@@ -6,7 +6,8 @@ Every error dmoc raises on its own account is a `DmocError`. A bad argument is a
 the built-in exceptions keeps working. A file that is not a dmoc trajectory is a
 `TrajectoryFileError`. `SolverError` is raised when a consumer of the step residual (the
 simulator's Newton iteration or the optimizer's IPOPT run) fails; it keeps what was
-computed in `.result`.
+computed in `.result`. A `CompiledCodeError` says why compiled code could not be built or
+loaded safely (a cache folder others can write, a failed compile).
 """
 
 
@@ -45,3 +46,11 @@ class SolverError(DmocError):
     def __init__(self, message, result):
         super().__init__(message)
         self.result = result
+
+
+class CompiledCodeError(DmocError, RuntimeError):
+    """Compiled C code could not be built or loaded safely: no private cache folder (one
+    that is not the user's, or that group or others can write), a compile that failed, a
+    library whose signature is not the step's. The message names the folder or file and
+    the way out; `simulate(jit=None)` turns it into one warning and CasADi's virtual
+    machine."""

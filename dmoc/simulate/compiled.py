@@ -1,97 +1,143 @@
-"""CasADi Functions compiled to C once and kept on disk, keyed by what they compute: the
-simulator's compiled step horizons (`dmoc.simulate.stepper`). A library is named by the
-SHA-256 of the serialized Functions, the CasADi version and the compiler command, so every
-process, later ones included, loads the same code with `casadi.external` instead of compiling
-again; where no C compiler exists, `compiler()` is None and callers keep CasADi's virtual
-machine, which computes the same thing (`Library`).
+"""CasADi Functions compiled to C once and kept on disk, keyed by what they compute and how
+they are compiled: the simulator's step horizons (`stepper`). A library's key is the
+SHA-256 of the serialized Functions, the CasADi version, the machine, the compiler (its
+resolved path and its ``--version`` output) and its flags, so every process and every later
+session loads the same code with `casadi.external` instead of compiling again; where no C
+compiler exists, `compiler()` is None and callers keep CasADi's virtual machine, which
+computes the same thing (`Library`).
 
-The cache directory is ``$DMOC_CACHE_DIR``, else ``$XDG_CACHE_HOME/dmoc`` (default
-``~/.cache/dmoc``), else a per-user directory under the system's temporary directory when
-that is not writable. The compiler is ``$CC`` (default ``cc``, then ``gcc``); set ``CC``
-to an empty string to disable compilation.
+The libraries live in a private folder and are loaded only when their bytes hash to their
+name and their Functions have the signatures of the ones asked for (`cache_folder`; the
+threat model is in docs/stages/simulate.md). The compiler is ``$CC`` (default ``cc``, then
+``gcc``); set ``CC`` to an empty string to disable compilation.
 """
 
-import getpass
+import functools
 import hashlib
 import os
+import platform
 import shutil
 import subprocess
 import tempfile
 
 import casadi as ca
 
+from ..errors import CompiledCodeError
+from . import cache_folder
+
 FLAGS = ("-O2", "-fPIC", "-shared")
 
 
 def compiler():
-    """Path of the C compiler, or None when there is none (or ``CC`` is set empty)."""
+    """Resolved path of the C compiler, or None when there is none (or ``CC`` is set empty)."""
     name = os.environ.get("CC")
     candidates = (name,) if name is not None else ("cc", "gcc")
     for candidate in candidates:
         path = shutil.which(candidate) if candidate else None
         if path:
-            return path
+            return os.path.realpath(path)
     return None
 
 
-def cache_dir():
-    """The directory holding compiled libraries, created if needed (see the module notes)."""
-    configured = os.environ.get("DMOC_CACHE_DIR")
-    if configured:
-        candidates = [configured]
-    else:
-        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        candidates = [os.path.join(base, "dmoc"),
-                      os.path.join(tempfile.gettempdir(), f"dmoc-{getpass.getuser()}")]
-    for path in candidates:
-        try:
-            os.makedirs(path, exist_ok=True)
-        except OSError:
-            continue
-        if os.access(path, os.W_OK):
-            return path
-    raise OSError(f"no writable cache directory for compiled code among {candidates}; "
-                  "set DMOC_CACHE_DIR.")
+@functools.lru_cache(maxsize=8)
+def _identity(path, stamp):
+    """What names compiler `path` (as found at modification time `stamp`) in a key: its path
+    and the output of ``path --version`` (the path alone when that fails)."""
+    try:
+        done = subprocess.run([path, "--version"], capture_output=True, text=True,
+                              check=False, timeout=30)
+        version = done.stdout if done.returncode == 0 else ""
+    except (OSError, subprocess.SubprocessError):
+        version = ""
+    return f"{path}\n{version}"
 
 
 class Library:
-    """The C library of CasADi `functions` (distinct names) at
-    ``<cache dir>/<stem>-<key>.so``, its key the SHA-256 of what it computes and how it is
-    compiled (`path` is None without a C compiler)."""
+    """The C library of CasADi `functions` (distinct names) in the cache folder, named
+    ``<stem>-<key>-<sha256 of the file>.so``; `key` is the SHA-256 of what it computes and
+    how it is compiled (see the module notes), None without a C compiler (`cc`)."""
 
     def __init__(self, functions, stem):
-        self.functions, self.cc = list(functions), compiler()
-        self.path = None
+        self.functions, self.cc, self.key = list(functions), compiler(), None
         if self.cc is not None:
-            digest = hashlib.sha256(f"casadi {ca.__version__}; {self.cc} {' '.join(FLAGS)}".encode())
+            digest = hashlib.sha256(
+                f"casadi {ca.__version__}; {platform.machine()}; {' '.join(FLAGS)}; "
+                f"{_identity(self.cc, os.stat(self.cc).st_mtime_ns)}".encode())
             for function in self.functions:
                 digest.update(function.serialize().encode())
-            self.path = os.path.join(cache_dir(), f"{stem}-{digest.hexdigest()[:32]}.so")
+            self.key = digest.hexdigest()[:32]
+        self.prefix = f"{stem}-{self.key}"
 
     def cached(self):
-        """True when the library is on disk already."""
-        return self.path is not None and os.path.exists(self.path)
+        """True when a verified library is in the cache folder (False also when there is no
+        private folder: `load` says why)."""
+        if self.key is None:
+            return False
+        try:
+            return cache_folder.verified(cache_folder.folder(), self.prefix) is not None
+        except (CompiledCodeError, OSError):
+            return False
 
     def load(self):
-        """{name: Function} loaded with `casadi.external`, compiling the library first if it
-        is not cached. Code is generated and compiled in a fresh temporary directory in the
-        cache directory and moved into place atomically, so concurrent processes never
-        load a half-written library (the working directory is never written to)."""
-        if self.path is None:
-            raise RuntimeError("no C compiler: nothing can be compiled (see dmoc.compiled).")
-        if not self.cached():
-            self._compile()
-        return {f.name(): ca.external(f.name(), self.path) for f in self.functions}
+        """{name: Function} loaded with `casadi.external` from the verified library,
+        compiled first when there is none; `CompiledCodeError` saying why when no library
+        can be loaded safely."""
+        if self.key is None:
+            raise CompiledCodeError("no C compiler: nothing can be compiled (set CC to one).")
+        try:
+            where = cache_folder.folder()
+            path = cache_folder.verified(where, self.prefix) or self._compile(where)
+            return self._external(path)
+        except OSError as err:
+            raise CompiledCodeError(f"the compiled-code cache failed: {err}.") from None
 
-    def _compile(self):
-        with tempfile.TemporaryDirectory(dir=os.path.dirname(self.path)) as work:
+    def _external(self, path):
+        """The Functions of library `path`, each checked to have the signature (inputs,
+        outputs and their sparsity) of the Function it stands for; a library that does not
+        is removed and `CompiledCodeError` raised."""
+        loaded = {}
+        for f in self.functions:
+            try:
+                g = ca.external(f.name(), path)
+            except RuntimeError as err:
+                g, reason = None, str(err).strip().splitlines()[-1]
+            if g is None or not _same_signature(f, g):
+                cache_folder.discard(path)
+                raise CompiledCodeError(
+                    f"{path} does not hold the compiled {f.name()!r} of this step"
+                    + (f" ({reason})" if g is None else "") + "; it was removed and is "
+                    "compiled again on the next run.")
+            loaded[f.name()] = g
+        return loaded
+
+    def _compile(self, where):
+        """Generate and compile the library in a private temporary folder inside `where`
+        (removed on every way out) and publish it (`cache_folder.publish`); its path.
+        Temporary folders abandoned by killed compiles are removed first, and the least
+        recently used libraries after, to keep the size bound (`cache_folder.max_bytes`)."""
+        bound = cache_folder.max_bytes()
+        cache_folder.remove_stale(where)
+        work = tempfile.mkdtemp(prefix="tmp", dir=where)
+        try:
             generator = ca.CodeGenerator("library.c", {"with_header": False})
             for function in self.functions:
                 generator.add(function)
             source = generator.generate(work + os.sep)
             target = os.path.join(work, "library.so")
             done = subprocess.run([self.cc, *FLAGS, source, "-o", target, "-lm"],
-                                  capture_output=True, text=True)
+                                  capture_output=True, text=True, check=False)
             if done.returncode:
-                raise RuntimeError(f"compiling {source} with {self.cc} failed:\n{done.stderr}")
-            os.replace(target, self.path)
+                raise CompiledCodeError(f"compiling the generated C with {self.cc} failed:\n{done.stderr}")
+            path = cache_folder.publish(target, where, self.prefix)
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
+        cache_folder.evict(where, path, bound)
+        return path
+
+
+def _same_signature(f, g):
+    """True when Functions `f` and `g` have the same inputs and outputs (sparsity included)."""
+    if (f.n_in(), f.n_out()) != (g.n_in(), g.n_out()):
+        return False
+    return (all(f.sparsity_in(i) == g.sparsity_in(i) for i in range(f.n_in()))
+            and all(f.sparsity_out(i) == g.sparsity_out(i) for i in range(f.n_out())))

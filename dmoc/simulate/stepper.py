@@ -63,7 +63,7 @@ class DiracStepper:
         self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
         self._chunks = {f.numel_in(2): f.buffer() for f in horizons}
         self.native, self.vm_seconds = False, 0.0
-        self._auto = native is None and self.library.path is not None
+        self._auto = native is None and self.library.key is not None
         if native or (self._auto and self.library.cached()):
             self._go_native()
 
