@@ -196,7 +196,7 @@ def test_simulate_many_rejects_bad_arguments():
 
 def test_motion_primitives_example(client, tmp_path, capsys):
     spec = importlib.util.spec_from_file_location(
-        "motion_primitives", pathlib.Path(__file__).parents[1] / "examples" / "motion_primitives.py")
+        "motion_primitives", pathlib.Path(__file__).parents[2] / "examples" / "motion_primitives.py")
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
     waves = example.waves()
