@@ -15,6 +15,7 @@ import pytest
 
 import dmoc
 from dmoc.optimize.separable import SeparableNLP, Term, function_key, local_derivatives
+from dmoc.optimize.separable import INDICES_PER_OPERATION
 from dmoc.optimize.separable import window as separable_window
 from dmoc.systems import knife_edge, lc_circuit, rolling_disk, spherical_pendulum
 
@@ -423,6 +424,31 @@ def test_window_equals_numpy_fancy_indexing(kind, M):
     x = ca.MX.sym("x", size)
     got = np.array(ca.Function("w", [x], [separable_window(x, index)])(vector))
     np.testing.assert_array_equal(got, vector[index])
+
+
+def _gathers(expression, x):
+    """The number of GetNonzeros operations (slices and gathers of x) in `expression`."""
+    f = ca.Function("w", [x], [expression])
+    return sum(f.instruction_id(k) == ca.OP_GETNONZEROS for k in range(f.n_instructions()))
+
+
+@pytest.mark.parametrize("M", [4, 200])
+def test_window_takes_the_cheaper_of_one_gather_and_its_slices(M):
+    """The documented rule of `window`: two runs of 3 rows that step through their blocks
+    cost 2 * 2 + 1 = 5 operations as slices (a slice and a reshape each, one vertcat) and
+    2 + 6 M / INDICES_PER_OPERATION as one gather and its reshape; the cheaper is built.
+    M = 4 (24 entries): one gather, one GetNonzeros. M = 200 (1200 entries, cost 6): the two
+    slices, one GetNonzeros each. Either way the value is vector[index] (numpy)."""
+    k = np.arange(M)
+    block = np.arange(3)[:, None] + 3 * k
+    index = np.vstack([block, block + 3 * M + 7])
+    gather_cost, slice_cost = 2 + index.size / INDICES_PER_OPERATION, 2 * 2 + 1
+    assert (gather_cost <= slice_cost) == (M == 4)
+    x = ca.MX.sym("x", index.max() + 5)
+    built = separable_window(x, index)
+    assert _gathers(built, x) == (1 if M == 4 else 2)
+    vector = np.random.default_rng(8).normal(size=x.numel())
+    np.testing.assert_array_equal(np.array(ca.Function("w", [x], [built])(vector)), vector[index])
 
 
 def test_local_patterns_hold_only_the_entries_that_depend_on_z():
