@@ -28,7 +28,7 @@ from dmoc.simulate import cache_folder, compiled
 
 pytestmark = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 NOBODY, UNLISTED = 65534, 54321        # another account; a uid without a passwd entry
 STEPS = 40
 

@@ -10,7 +10,7 @@ import pytest
 from dmoc import Trajectory
 from dmoc.cli import main
 
-EXAMPLES = pathlib.Path(__file__).parents[1] / "examples"
+EXAMPLES = pathlib.Path(__file__).parents[2] / "examples"
 
 
 def _load(name):

@@ -15,7 +15,7 @@ Oracles, none taken from the code under test:
 """
 
 import json
-import os
+import pathlib
 import subprocess
 import sys
 
@@ -191,7 +191,6 @@ def test_hamiltonian_form_of_a_mixed_inertia_blade_has_the_lagrangian_optimum(va
     result = dmoc.optimize(problem, guess=lagrangian.trajectory)
     assert result.cost == pytest.approx(lagrangian.cost, rel=1e-9)
     assert np.abs(result.trajectory.q - lagrangian.trajectory.q).max() <= 1e-7
-
 
 
 def trajectory_of(q, h):
@@ -371,9 +370,9 @@ def test_problems_differing_in_their_factors_only_do_not_share_term_functions():
     assert not np.array_equal(first.x_scale, second.x_scale)
     dmoc.optimize(first)
     here = dmoc.optimize(second)
-    script = ("import json, sys; sys.path.insert(0, 'tests'); from test_scaling import disk; import dmoc\n"
+    script = ("import json; from tests.optimize.test_scaling import disk; import dmoc\n"
               "print(json.dumps(dmoc.optimize(disk(1.4)).trajectory.lam.tolist()))")
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = pathlib.Path(__file__).parents[2]
     alone = json.loads(subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                                       check=True, cwd=root).stdout)
     np.testing.assert_allclose(here.trajectory.lam, alone, rtol=1e-8, atol=1e-10)

@@ -15,12 +15,13 @@ import pytest
 
 import dmoc
 from dmoc.optimize.separable import SeparableNLP, Term, function_key, local_derivatives
+from dmoc.optimize.separable import INDICES_PER_OPERATION
 from dmoc.optimize.separable import window as separable_window
 from dmoc.systems import knife_edge, lc_circuit, rolling_disk, spherical_pendulum
 
 N = 4                                   # steps of every DMOC case
 T = 1.2                                 # their duration (h = T / N = 0.3)
-L0, C1, C2 = 0.8, 0.5, 1.5              # the LC circuit of tests/test_degenerate.py
+L0, C1, C2 = 0.8, 0.5, 1.5              # the LC circuit of tests/mechanics/test_degenerate.py
 SPHERE_START = [np.sin(0.5), 0.0, -np.cos(0.5)]
 SPHERE_GOAL = [0.0, np.sin(0.5), -np.cos(0.5)]
 
@@ -38,7 +39,7 @@ SYSTEMS = {
     "sphere": {"system": spherical_pendulum, "rules": ("midpoint", "trapezoid", "lobatto3"),
                "q_start": SPHERE_START, "q_goal": [*SPHERE_GOAL[:2], None],
                "free": {"q_goal": [*SPHERE_GOAL[:2], None], "v_goal": [None, 0.1, None]}},
-    # degenerate: only the midpoint rule gives a one-step map (tests/test_degenerate.py)
+    # degenerate: only the midpoint rule gives a one-step map (tests/mechanics/test_degenerate.py)
     "lc": {"system": lambda: lc_circuit(L0, (C1, C2)), "rules": ("midpoint",),
            "q_start": [0.0, 0.0, 0.0], "q_goal": [1.0, C1 / (C1 + C2), C2 / (C1 + C2)],
            "free": {"q_goal": [1.0, None, None], "v_goal": [None, None, 0.0]}},
@@ -90,7 +91,7 @@ def _lagrangian_problem(system, rule, variant, momenta, option):
 
 
 def _hamiltonian_knife():
-    """The knife edge on an incline as H = |p|^2/2 + a x, forced (tests/test_hamiltonian.py)."""
+    """The knife edge on an incline as H = |p|^2/2 + a x, forced (tests/discrete/test_hamiltonian.py)."""
     return dmoc.HamiltonianSystem(
         lambda q, p: ca.dot(p, p) / 2 + 0.3 * q[0], 3,
         constraints=lambda q: ca.horzcat(-ca.sin(q[2]), ca.cos(q[2]), 0),
@@ -423,6 +424,31 @@ def test_window_equals_numpy_fancy_indexing(kind, M):
     x = ca.MX.sym("x", size)
     got = np.array(ca.Function("w", [x], [separable_window(x, index)])(vector))
     np.testing.assert_array_equal(got, vector[index])
+
+
+def _gathers(expression, x):
+    """The number of GetNonzeros operations (slices and gathers of x) in `expression`."""
+    f = ca.Function("w", [x], [expression])
+    return sum(f.instruction_id(k) == ca.OP_GETNONZEROS for k in range(f.n_instructions()))
+
+
+@pytest.mark.parametrize("M", [4, 200])
+def test_window_takes_the_cheaper_of_one_gather_and_its_slices(M):
+    """The documented rule of `window`: two runs of 3 rows that step through their blocks
+    cost 2 * 2 + 1 = 5 operations as slices (a slice and a reshape each, one vertcat) and
+    2 + 6 M / INDICES_PER_OPERATION as one gather and its reshape; the cheaper is built.
+    M = 4 (24 entries): one gather, one GetNonzeros. M = 200 (1200 entries, cost 6): the two
+    slices, one GetNonzeros each. Either way the value is vector[index] (numpy)."""
+    k = np.arange(M)
+    block = np.arange(3)[:, None] + 3 * k
+    index = np.vstack([block, block + 3 * M + 7])
+    gather_cost, slice_cost = 2 + index.size / INDICES_PER_OPERATION, 2 * 2 + 1
+    assert (gather_cost <= slice_cost) == (M == 4)
+    x = ca.MX.sym("x", index.max() + 5)
+    built = separable_window(x, index)
+    assert _gathers(built, x) == (1 if M == 4 else 2)
+    vector = np.random.default_rng(8).normal(size=x.numel())
+    np.testing.assert_array_equal(np.array(ca.Function("w", [x], [built])(vector)), vector[index])
 
 
 def test_local_patterns_hold_only_the_entries_that_depend_on_z():

@@ -67,6 +67,28 @@ def _kill_once(flag):
     return Killer()
 
 
+def _fail_once_outside_the_solve(flag):
+    """Run on a worker: its dmoc.batch sees a `distributed` whose get_worker() raises the
+    first time any worker calls it (creating `flag`), so exactly one task errs once after
+    dmoc's own call returned (an error of the worker, not of the solve)."""
+    import dmoc.batch
+
+    real = dmoc.batch.distributed
+
+    class FailsOnce:
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+        def get_worker(self):
+            try:
+                flag.touch(exist_ok=False)
+            except FileExistsError:
+                return real.get_worker()
+            raise RuntimeError("the worker failed outside dmoc's call")
+
+    dmoc.batch.distributed = FailsOnce()
+
+
 def test_import_dmoc_does_not_import_dask():
     code = ("import sys, dmoc; assert 'distributed' not in sys.modules and 'dask' not in "
             "sys.modules; dmoc.batch.optimize_many; assert 'distributed' in sys.modules")
@@ -128,6 +150,17 @@ def test_killed_worker_loses_no_result(tmp_path):
         results = batch.optimize_many(problems, guesses=guesses, client=client, progress=False)
         removed = client.run_on_scheduler(lambda dask_scheduler: dask_scheduler._workers_removed_total)
     assert (tmp_path / "killed").exists() and removed >= 1
+    _assert_same_as_serial(problems, results)
+
+
+def test_task_that_errs_once_outside_the_solve_is_run_again(tmp_path):
+    """A task that raises outside dmoc's own call (which reports its errors as results) is
+    run again by dask (`retries`): every result is the serial one."""
+    problems = [knife_edge_parking(20, goal=goal) for goal in GOALS[:3]]
+    with _cluster() as cluster, distributed.Client(cluster) as client:
+        client.run(_fail_once_outside_the_solve, tmp_path / "failed")
+        results = batch.optimize_many(problems, client=client, progress=False)
+    assert (tmp_path / "failed").exists()
     _assert_same_as_serial(problems, results)
 
 
@@ -196,7 +229,7 @@ def test_simulate_many_rejects_bad_arguments():
 
 def test_motion_primitives_example(client, tmp_path, capsys):
     spec = importlib.util.spec_from_file_location(
-        "motion_primitives", pathlib.Path(__file__).parents[1] / "examples" / "motion_primitives.py")
+        "motion_primitives", pathlib.Path(__file__).parents[2] / "examples" / "motion_primitives.py")
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
     waves = example.waves()

@@ -13,7 +13,7 @@ import pytest
 import dmoc
 from dmoc.cli import main
 
-ROOT = pathlib.Path(__file__).parents[1]
+ROOT = pathlib.Path(__file__).parents[2]
 
 SLEIGH = '''
 import casadi as ca

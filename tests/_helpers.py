@@ -1,0 +1,20 @@
+"""Helpers shared by test modules of several stages (fixtures live in conftest.py)."""
+
+from dataclasses import fields
+
+import numpy as np
+
+import dmoc
+
+# Valid knife-edge data for simulate(): the tests replace one argument at a time.
+GOOD = dict(q0=[0.0, 0.0, 0.3], v0=[np.cos(0.3), np.sin(0.3), 1.0], steps=5)
+
+
+def same(a, b):
+    """True if the dataclasses `a` and `b` (trajectories) hold bit-identical fields."""
+    return all(np.array_equal(getattr(a, f.name), getattr(b, f.name)) for f in fields(a))
+
+
+def problem(disc, **kwargs):
+    """A 10-step problem on `disc` from the origin to (0, 0.1, 0), with `kwargs` added."""
+    return dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 0.1, 0], **kwargs)

@@ -1,0 +1,53 @@
+"""OptimalControlProblem checks the user's statement: only None leaves boundary data free
+(NaN, bools and strings are refused), bounds of the wrong kind or on the wrong side, free
+symbols in the callables and boundary data outside the bounds are named.
+Oracle: the messages, checked by content (the argument they must name)."""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import dmoc
+
+from tests._helpers import problem
+
+
+@pytest.mark.parametrize("name", ["q_goal", "q_start", "v_goal", "v_start"])
+@pytest.mark.parametrize("entry, error, words", [
+    (np.nan, dmoc.InputError, "NaN; only None leaves an entry free"),
+    (True, dmoc.InputTypeError, "entry 1 is True"),
+    ("0.5", dmoc.InputTypeError, "entry 1 is '0.5'"),
+])
+def test_only_none_is_free_in_boundary_data(disc, name, entry, error, words):
+    data = {"q_start": [0.0, 0.0, 0.0], "q_goal": [0.0, 1.0, 0.0]}
+    data[name] = [0.0, entry, 0.0]
+    with pytest.raises(error, match=f"`{name}`.*{words}"):
+        dmoc.OptimalControlProblem(disc, 5, **data)
+
+
+def test_bounds_refuse_nan_and_bools(disc):
+    with pytest.raises(dmoc.InputTypeError, match="`control_bounds`.*True"):
+        dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0], q_goal=[0, 1, 0],
+                                   control_bounds=([True, 0.0], [1.0, 1.0]))
+
+
+def test_none_still_means_free(disc):
+    problem = dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0], q_goal=[0, 1, None])
+    assert np.isnan(problem.q_goal[2]) and np.isfinite(problem.q_goal[:2]).all()
+
+
+@pytest.mark.parametrize("bounds", [([np.inf] * 2, [np.inf] * 2), ([-np.inf] * 2, [-np.inf] * 2)])
+def test_infinite_bounds_on_the_wrong_side(disc, bounds):
+    with pytest.raises(ValueError, match="`control_bounds`"):
+        problem(disc, control_bounds=bounds)
+
+
+def test_ocp_names_free_symbols_and_boundary_outside_bounds(disc):
+    stray = ca.SX.sym("stray")
+    base = dict(q_start=[0, 0, 0], q_goal=[0, 1, 0])
+    with pytest.raises(ValueError, match="`running_cost` uses symbols"):
+        dmoc.OptimalControlProblem(disc, 10, running_cost=lambda q, v, u: stray * ca.sumsqr(u), **base)
+    with pytest.raises(ValueError, match="`path_constraints` uses symbols"):
+        dmoc.OptimalControlProblem(disc, 10, path_constraints=lambda q, v, u: q[0] - stray, **base)
+    with pytest.raises(ValueError, match="`q_goal` must lie within `state_bounds`"):
+        dmoc.OptimalControlProblem(disc, 10, state_bounds=([-1, -1, -1], [1, 0.5, 1]), **base)
