@@ -194,9 +194,9 @@ class QuadratureRule(Rule):
         of the nodes. The velocity is written in increments from q0 (sum_i l_i' = 0), so a
         linear rule's is exactly (q1 - q0)/h; the position keeps the form symmetric in the
         nodes ((q0 + q1)/2 for the midpoint, not q0 + (q1 - q0)/2), which keeps the
-        rounding of a symmetric rule time-reversible: measured, the asymmetric form lets
-        the inclined knife edge's energy drift 2e-10 relative over 1e5 steps, the
-        symmetric one 1e-12. `s` holds the stage values, ``n_stage_blocks * n`` rows, stage by
+        rounding of a symmetric rule time-reversible, so that the rounding errors of a long
+        run do not add up to an energy drift (docs/performance.md, "Measured and not
+        adopted"). `s` holds the stage values, ``n_stage_blocks * n`` rows, stage by
         stage. `points` defaults to the rule's quadrature points.
         """
         nodes = self.node_values(q0, q1, s)
