@@ -276,3 +276,12 @@ def _read_until(stream, marker):
             raise EOFError(seen.decode()[-2000:])
         seen += byte
     return seen
+
+
+def test_scheduler_without_workers_gives_worker_lost_results():
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster, \
+            distributed.Client(cluster) as client:
+        results = _within(GUARD, batch.optimize_many, [knife_edge_parking(20)] * 2,
+                          client=client, progress=False, connect_timeout=1)
+    assert [r.status for r in results] == ["worker_lost", "worker_lost"]
+    assert "no worker for 1 s" in results[0].message and not results[0].success
