@@ -76,7 +76,7 @@ def _guarded(kind, load, solve, timeout):
         thread.join(timeout)
         result = box[0] if box else failed_result(
             kind, "timeout", f"the item ran longer than `timeout`={timeout:g} s and was "
-            "abandoned; its worker is restarted to stop it")
+            "abandoned; its worker is restarted (if it has a nanny) to stop it")
     result.stats["worker"] = distributed.get_worker().address
     return result
 
