@@ -39,10 +39,11 @@ def run(task, arguments, kind, client, *, label, progress, batch_timeout, connec
         futures = [client.submit(task, *args, key=f"dmoc-{label}-{batch}-{i}", pure=False,
                                  retries=RETRIES) for i, args in enumerate(arguments)]
         bar = ProgressBar(len(futures), label, sys.stderr if progress else None)
-        results = _collect(client, futures, kind, bar, batch_timeout=batch_timeout,
-                           connect_timeout=connect_timeout)
-        bar.close()
-        return results
+        try:
+            return _collect(client, futures, kind, bar, batch_timeout=batch_timeout,
+                            connect_timeout=connect_timeout)
+        finally:
+            bar.close()
     finally:
         if owned:
             close(client)
