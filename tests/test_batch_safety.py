@@ -206,7 +206,7 @@ def test_script_without_main_guard_gets_the_dmoc_error(tmp_path):
                                   "optimize_many([], progress=False)\n"
                                   "print('solved')\n")
     done = subprocess.run([sys.executable, str(path)], env=env, capture_output=True, text=True,
-                          timeout=GUARD)
+                          timeout=GUARD, check=False)
     assert done.returncode != 0 and "solved" not in done.stdout
     last = done.stderr.strip().splitlines()[-1]
     assert last.startswith("dmoc.batch.errors.WorkersFailedToStart")
@@ -278,7 +278,9 @@ def _read_until(stream, marker):
 
 
 def test_scheduler_without_workers_gives_worker_lost_results():
-    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster, \
+    """A scheduler that never gets a worker: the items fail after `connect_timeout`."""
+    with distributed.LocalCluster(n_workers=0, processes=False,
+                                  dashboard_address=":0") as cluster, \
             distributed.Client(cluster) as client:
         results = _within(GUARD, batch.optimize_many, [knife_edge_parking(20)] * 2,
                           client=client, progress=False, connect_timeout=1)
