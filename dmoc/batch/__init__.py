@@ -1,0 +1,174 @@
+"""Many independent solves on dask.distributed, after the two consumers of the step residual:
+`optimize_many` runs `optimize` and `simulate_many` runs `simulate` once per input, on a
+LocalCluster of this machine or on any Dask scheduler, and returns the results in input
+order, each with its own ``success`` and ``status``; no item's failure, exit or hang
+reaches another item's result (docs/batch.md, "Failure semantics").
+
+What crosses a process boundary: an OptimalControlProblem holds CasADi MX expressions
+(``problem.nlp``), which pickle only inside a CasADi pickle context, so each problem is
+pickled here into bytes and rebuilt on the worker; guesses, discretizations and runs are
+pickled here too, so that the worker task unpickles every argument itself (`tasks`).
+"""
+
+import cloudpickle
+
+try:
+    import distributed  # noqa: F401
+except ImportError:  # pragma: no cover - depends on the installation
+    raise ImportError("dmoc.batch needs dask.distributed: pip install 'dmoc[batch]'.") from None
+
+from .._util import checks
+from ..discrete import Discretization
+from ..errors import InputError, InputTypeError
+from ..optimize.problem import OptimalControlProblem
+from ..optimize.solve import OptimizationResult
+from ..principle.trajectory import Trajectory
+from ..simulate.simulation import SimulationResult
+from . import scheduling, tasks
+from .errors import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
+from .tasks import pack_problem, unpack_problem
+
+__all__ = ["optimize_many", "simulate_many", "pack_problem", "unpack_problem",
+           "BatchInterrupted", "SchedulerUnreachable", "WorkersFailedToStart"]
+
+SIMULATE_KEYS = ("q0", "v0", "p0", "steps", "controls", "variant", "tol", "max_iter", "jit")
+
+CONNECT_TIMEOUT = 5.0
+
+
+def optimize_many(problems, *, guesses=None, options=None, client=None, progress=True,
+                  timeout=None, batch_timeout=None, connect_timeout=CONNECT_TIMEOUT):
+    """Solve many OptimalControlProblems with `optimize`, each as one Dask task.
+
+    Parameters
+    ----------
+    problems : sequence of OptimalControlProblem, length B
+    guesses : sequence of (Trajectory or None), length B, optional
+        Warm start of each problem (``optimize(..., guess=)``); None for the default guess.
+    options : dict, optional
+        IPOPT options for every solve (``optimize(..., options=)``).
+    client : distributed.Client or str, optional
+        Where to run: by default a LocalCluster of ``os.cpu_count()`` single-threaded
+        worker processes, started for this call and closed after it; a Client (left open),
+        or a scheduler address such as ``"tcp://10.0.0.1:8786"`` (connected for this call).
+    progress : bool
+        Draw a bar of completed solves on stderr.
+    timeout : float, optional
+        Seconds one item may run on its worker; a longer one becomes a ``"timeout"``
+        result and its worker is restarted. None (default): no limit.
+    batch_timeout : float, optional
+        Seconds the whole call may wait; the items unfinished then become ``"timeout"``
+        results. None (default): no limit.
+    connect_timeout : float
+        Seconds to reach a scheduler given by address (else `SchedulerUnreachable`), and
+        the longest the call waits while the scheduler has no worker (the unfinished
+        items then become ``"worker_lost"`` results).
+
+    Returns
+    -------
+    list of OptimizationResult, length B
+        In input order, each solved with ``throw=False``: a failed IPOPT run has
+        ``success=False`` and IPOPT's status. An item that produced no solve has
+        ``trajectory=None``, ``cost=nan``, the reason in ``message`` and one of the
+        statuses ``"exception"``, ``"undeserializable"``, ``"worker_lost"``,
+        ``"timeout"`` (docs/batch.md). ``stats["worker"]`` is the address of the worker
+        that produced the result.
+
+    Raises
+    ------
+    BatchInterrupted
+        On Ctrl-C while waiting; its ``.results`` holds the results that had arrived and
+        ``"interrupted"`` ones for the others.
+    SchedulerUnreachable, WorkersFailedToStart
+        When the batch cannot start at all.
+    """
+    problems = _sequence("problems", problems, OptimalControlProblem, "OptimalControlProblem")
+    if guesses is None:
+        guesses = [None] * len(problems)
+    guesses = _sequence("guesses", guesses, (Trajectory, type(None)), "Trajectory or None")
+    if len(guesses) != len(problems):
+        raise InputError(f"`guesses` must have one entry per problem ({len(problems)}); "
+                         f"got {len(guesses)}.")
+    if options is not None:
+        options = checks.ipopt_options("options", options)
+    timeout = _seconds("timeout", timeout)
+    arguments = [(pack_problem(problem), _pickled(f"guesses[{i}]", guess), options, timeout)
+                 for i, (problem, guess) in enumerate(zip(problems, guesses))]
+    return _run(tasks.optimize_task, arguments, OptimizationResult, client, "optimize",
+                progress, batch_timeout, connect_timeout)
+
+
+def simulate_many(disc, runs, *, client=None, progress=True, timeout=None, batch_timeout=None,
+                  connect_timeout=CONNECT_TIMEOUT):
+    """Run `simulate` once per entry of `runs`, each as one Dask task.
+
+    Parameters
+    ----------
+    disc : Discretization or sequence of Discretization, length B
+        One discretization for every run, or one per run.
+    runs : sequence of dict, length B
+        Keyword arguments of `simulate` for each run: ``q0``, ``steps`` and one of ``v0``
+        or ``p0``; optionally ``controls`` (shape (steps, n_u)), ``variant``, ``tol``,
+        ``max_iter``, ``jit``. ``throw`` is always False.
+    client, progress, timeout, batch_timeout, connect_timeout
+        As in `optimize_many`.
+
+    Returns
+    -------
+    list of SimulationResult, length B
+        In input order; a Newton failure has ``status="newton_failed"`` and the steps
+        before it; an item that produced no run has ``trajectory=None`` and one of the
+        statuses of `optimize_many`. ``stats["worker"]`` is the worker's address.
+
+    Raises
+    ------
+    BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
+        As in `optimize_many`.
+    """
+    runs = _sequence("runs", runs, dict, "dict of simulate keyword arguments")
+    for i, run in enumerate(runs):
+        checks.no_unknown_keys(f"runs[{i}]", run, SIMULATE_KEYS)
+    if isinstance(disc, Discretization):
+        disc = [disc] * len(runs)
+    discs = _sequence("disc", disc, Discretization, "Discretization")
+    if len(discs) != len(runs):
+        raise InputError(f"`disc` must be one Discretization or one per run ({len(runs)}); "
+                         f"got {len(discs)}.")
+    timeout = _seconds("timeout", timeout)
+    arguments = [(_pickled(f"runs[{i}]", (d, run)), timeout)
+                 for i, (d, run) in enumerate(zip(discs, runs))]
+    return _run(tasks.simulate_task, arguments, SimulationResult, client, "simulate",
+                progress, batch_timeout, connect_timeout)
+
+
+def _run(task, arguments, kind, client, label, progress, batch_timeout, connect_timeout):
+    return scheduling.run(task, arguments, kind, client, label=label,
+                          progress=checks.boolean("progress", progress),
+                          batch_timeout=_seconds("batch_timeout", batch_timeout),
+                          connect_timeout=checks.positive_float("connect_timeout",
+                                                                connect_timeout))
+
+
+def _seconds(name, value):
+    return None if value is None else checks.positive_float(name, value)
+
+
+def _pickled(name, value):
+    """``cloudpickle.dumps(value)``; the worker task unpickles it."""
+    try:
+        return cloudpickle.dumps(value)
+    except Exception as err:
+        raise InputTypeError(f"`{name}` cannot be pickled for the workers: "
+                             f"{type(err).__name__}: {err}") from err
+
+
+def _sequence(name, values, kinds, described):
+    """`values` as a list whose items are instances of `kinds`."""
+    if isinstance(values, (str, bytes, dict)) or not hasattr(values, "__len__"):
+        raise InputTypeError(f"`{name}` must be a sequence of {described}; got {type(values).__name__}.")
+    values = list(values)
+    for i, value in enumerate(values):
+        if not isinstance(value, kinds):
+            raise InputTypeError(f"`{name}` must be a sequence of {described}; "
+                                 f"item {i} is a {type(value).__name__}.")
+    return values
