@@ -6,7 +6,8 @@ Every error dmoc raises on its own account is a `DmocError`. A bad argument is a
 the built-in exceptions keeps working. A file that is not a dmoc trajectory is a
 `TrajectoryFileError`. `SolverError` is raised when a consumer of the step residual (the
 simulator's Newton iteration or the optimizer's IPOPT run) fails; it keeps what was
-computed in `.result`.
+computed in `.result`. `Interrupted` is the KeyboardInterrupt of a run stopped by Ctrl-C
+(SIGINT), carrying what was computed up to then in `.result`.
 """
 
 
@@ -40,6 +41,28 @@ class SolverError(DmocError):
         The partial result: a `SimulationResult` holding the trajectory up to the failing
         step, or an `OptimizationResult` holding the last iterate. ``result.success`` is
         False.
+    """
+
+    def __init__(self, message, result):
+        super().__init__(message)
+        self.result = result
+
+
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C (SIGINT); raised by `simulate` and `optimize` with
+    ``throw=True`` instead of a bare KeyboardInterrupt.
+
+    It is a KeyboardInterrupt, not a `DmocError`: ``except Exception`` does not swallow a
+    Ctrl-C, and a program that does not catch it stops as on any Ctrl-C.
+
+    Parameters
+    ----------
+    message : str
+        What was interrupted and how much was done.
+    result : object
+        The `SimulationResult` of the steps completed before the interrupt, or the
+        `OptimizationResult` of IPOPT's last iterate; ``result.status`` is
+        ``"interrupted"`` and ``result.success`` False.
     """
 
     def __init__(self, message, result):
