@@ -105,7 +105,11 @@ def test_the_next_save_removes_stale_temporaries(tmp_path):
     run_folder.mkdir()
     (run_folder / "knife_edge.npz").write_bytes(b"partial")
     hour_ago = time.time() - files.STALE_SECONDS - 60
-    os.utime(tmp_path / stale[1], (hour_ago, hour_ago))     # alive, but too old
+    day_ago = time.time() - files.LIVE_STALE_SECONDS - 60
+    os.utime(tmp_path / stale[1], (day_ago, day_ago))         # alive, but a day old
+    alive_hour = tmp_path / f".run.npz.{alive}.0123456789b1.tmp"   # alive, an hour: in use
+    alive_hour.write_bytes(b"being written")
+    os.utime(alive_hour, (hour_ago, hour_ago))
     young = tmp_path / f".run.npz.{alive}.0123456789b0.tmp"   # alive and recent: in use
     young.write_bytes(b"being written")
     mine = tmp_path / "mine.tmp"                              # not dmoc's name: kept
@@ -114,7 +118,8 @@ def test_the_next_save_removes_stale_temporaries(tmp_path):
     traj = dmoc.simulate(dmoc.discretize(dmoc.systems.knife_edge(), 0.1), q0=[0, 0, 0],
                          v0=[1, 0, 1], steps=3).trajectory
     traj.save(tmp_path / "run.npz")
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([young.name, mine.name, "run.npz"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [young.name, alive_hour.name, mine.name, "run.npz"])
 
 
 KILLED = '''

@@ -8,8 +8,12 @@ moves them into place together, so a failure leaves the complete previous set.
 Temporaries are hidden and named ``.NAME.PID.HEX.tmp`` (``.STEM.PID.HEX.tmp.SUFFIX`` for
 writers that need the suffix, ``.dmoc-run.PID.HEX.tmp/`` for a run's folder), PID the
 writing process. A process killed while writing (SIGKILL, a power cut) cannot remove
-them; the first save of each later process in that folder does (`remove_stale`), for
-those whose process no longer runs on this machine or older than STALE_SECONDS.
+them; the first save of each later process in that folder does (`remove_stale`): those
+whose process no longer runs on this machine, those without a PID (older versions' names)
+older than STALE_SECONDS, and those of a running process older than LIVE_STALE_SECONDS
+(the PID was reused, or the process hangs). The PID is this machine's: in a folder that
+several machines write at once, a save of one may remove another's temporary, whose save
+then fails with an error (it never leaves a half-written file in place).
 """
 
 import contextlib
@@ -21,6 +25,7 @@ import time
 import uuid
 
 STALE_SECONDS = 3600.0
+LIVE_STALE_SECONDS = 86400.0
 RUN_PREFIX = ".dmoc-run"
 # .NAME.PID.HEX.tmp, optionally a suffix after it; PID absent in names of older versions
 _TEMPORARY = re.compile(r"^\..+?\.(?:(\d+)\.)?[0-9a-f]{12}\.tmp(?:\.[A-Za-z0-9]+)?$")
@@ -128,7 +133,7 @@ def _link_or_copy(source, target):
 
 def remove_stale(folder):
     """Remove the temporaries that interrupted saves left in `folder` (see the module
-    notes): those of a process that no longer runs, and any older than STALE_SECONDS.
+    notes): those of a process that no longer runs, and the old ones.
     Done once per process and folder; errors (a folder not readable, a file removed by
     another process meanwhile) are ignored."""
     folder = pathlib.Path(folder)
@@ -144,8 +149,12 @@ def remove_stale(folder):
                 continue
             with contextlib.suppress(OSError):
                 pid = int(found.group(1)) if found.group(1) else None
-                old = now - entry.stat(follow_symlinks=False).st_mtime > STALE_SECONDS
-                if old or (pid is not None and not _running(pid)):
+                age = now - entry.stat(follow_symlinks=False).st_mtime
+                if pid is None:
+                    stale = age > STALE_SECONDS
+                else:
+                    stale = age > LIVE_STALE_SECONDS or not _running(pid)
+                if stale:
                     _remove(entry)
 
 
@@ -159,7 +168,7 @@ def _running(pid):
     except ProcessLookupError:
         return False
     except (PermissionError, OverflowError):
-        return True         # another user's process, or no PID at all: leave it to the age
+        return True         # another user's process, or no PID at all: left to the age
     return True
 
 

@@ -73,7 +73,8 @@ def _report(summary, success, status, message, files):
     for path in files:
         print(f"wrote {path}")
     if status == INTERRUPTED:
-        log(f"{message.rstrip('.')}; wrote what was computed, without plots")
+        done = "wrote what was computed, without plots" if files else "nothing written (no --out)"
+        log(f"{message.partition(';')[0].rstrip('.')}; {done}")
         return 130
     if not success:
         log(f"solver failed ({status}): {message}")

@@ -94,7 +94,8 @@ def run_demo(args):
     try:
         with staged_run(out) as stage:
             simulation_demo(stage, args.steps, lines)
-            lines += ["", "DMOC: optimal control with the same step residual, replayed by the simulator"]
+            lines += ["", "DMOC: optimal control with the same step residual, replayed by "
+                      "the simulator"]
             ok = optimization_demo(stage, args.opt_steps, lines)
             write_text(stage / "summary.txt", "\n".join(lines) + "\n")
     except OSError as err:  # disk full, file-size limit, folder removed

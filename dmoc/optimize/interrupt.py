@@ -2,8 +2,9 @@
 signals in IPOPT's callbacks; a SIGINT there makes Python's handler raise KeyboardInterrupt
 inside the check, CasADi turns it into a C++ exception, IPOPT stops with
 ``NonIpopt_Exception_Thrown`` and the solver returns its last iterate with the interrupt
-swallowed (CasADi 3.6-3.8). That status alone cannot tell a Ctrl-C from an exception of
-another callback, so `watch` notes every SIGINT that arrives during the solve.
+swallowed (CasADi 3.8, the version tested). That status alone cannot tell a Ctrl-C from
+an exception of another callback, so `watch` notes every SIGINT that arrives during the
+solve.
 """
 
 import contextlib

@@ -175,7 +175,8 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
         sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
-                     lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
+                     lbx=problem.lbx / D, ubx=problem.ubx / D,
+                     lbg=problem.lbg * R, ubg=problem.ubg * R)
     solve_time = time.perf_counter() - tic
     x_ipopt = np.array(sol["x"]).ravel()
     x = D * x_ipopt
