@@ -14,8 +14,8 @@ import sys
 from ._util.cache import clear_caches
 from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
                        Trapezoid, discrete_legendre, discretize)
-from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, SolverError,
-                     TrajectoryFileError)
+from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
+                     SolverError, TrajectoryFileError)
 from .mechanics import HamiltonianSystem, MechanicalSystem, systems
 from .optimize import OptimalControlProblem, OptimizationResult, optimize, problems
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
@@ -62,6 +62,7 @@ __all__ = [
     "TrajectoryFileError",
     "SolverError",
     "CompiledCodeError",
+    "Interrupted",
 ]
 
 

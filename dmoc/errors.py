@@ -7,7 +7,9 @@ the built-in exceptions keeps working. A file that is not a dmoc trajectory is a
 `TrajectoryFileError`. `SolverError` is raised when a consumer of the step residual (the
 simulator's Newton iteration or the optimizer's IPOPT run) fails; it keeps what was
 computed in `.result`. A `CompiledCodeError` says why compiled code could not be built or
-loaded safely (a cache folder others can write, a failed compile).
+loaded safely (a cache folder others can write, a failed compile). `Interrupted` is the
+KeyboardInterrupt of a run stopped by Ctrl-C (SIGINT), carrying what was computed up to
+then in `.result`.
 """
 
 
@@ -54,3 +56,23 @@ class CompiledCodeError(DmocError, RuntimeError):
     library whose signature is not the step's. The message names the folder or file and
     the way out; `simulate(jit=None)` turns it into one warning and CasADi's virtual
     machine."""
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C (SIGINT); raised by `simulate` and `optimize` with
+    ``throw=True`` instead of a bare KeyboardInterrupt.
+
+    It is a KeyboardInterrupt, not a `DmocError`: ``except Exception`` does not swallow a
+    Ctrl-C, and a program that does not catch it stops as on any Ctrl-C.
+
+    Parameters
+    ----------
+    message : str
+        What was interrupted and how much was done.
+    result : object
+        The `SimulationResult` of the steps completed before the interrupt, or the
+        `OptimizationResult` of IPOPT's last iterate; ``result.status`` is
+        ``"interrupted"`` and ``result.success`` False.
+    """
+
+    def __init__(self, message, result):
+        super().__init__(message)
+        self.result = result

@@ -1,13 +1,39 @@
 """Atomic file writes for everything dmoc writes (trajectories, the command line's tables,
 summaries and figures): the data go to a temporary file in the target's folder, are
 flushed to disk and only then renamed over the target, so a write that fails half-way
-(disk full, an exception while encoding) leaves the previous file as it was.
+(disk full, an exception while encoding) leaves the previous file as it was. A run that
+writes a set of files (`staged_run`) writes them all into a temporary folder first and
+moves them into place together, so a failure leaves the complete previous set.
+
+Temporaries are hidden and named ``.NAME.PID.HEX.tmp`` (``.STEM.PID.HEX.tmp.SUFFIX`` for
+writers that need the suffix, ``.dmoc-run.PID.HEX.tmp/`` for a run's folder), PID the
+writing process. A process killed while writing (SIGKILL, a power cut) cannot remove
+them; the first save of each later process in that folder does (`remove_stale`): those
+whose process no longer runs on this machine, those without a PID (older versions' names)
+older than STALE_SECONDS, and those of a running process older than LIVE_STALE_SECONDS
+(the PID was reused, or the process hangs). The PID is this machine's: in a folder that
+several machines write at once, a save of one may remove another's temporary, whose save
+then fails with an error (it never leaves a half-written file in place).
 """
 
 import contextlib
 import os
 import pathlib
+import re
+import shutil
+import time
 import uuid
+
+STALE_SECONDS = 3600.0
+LIVE_STALE_SECONDS = 86400.0
+RUN_PREFIX = ".dmoc-run"
+# .NAME.PID.HEX.tmp, optionally a suffix after it; PID absent in names of older versions
+_TEMPORARY = re.compile(r"^\..+?\.(?:(\d+)\.)?[0-9a-f]{12}\.tmp(?:\.[A-Za-z0-9]+)?$")
+_SWEPT = set()          # folders this process has cleaned up (once each)
+
+
+def _temporary_name(name, suffix=""):
+    return f".{name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp{suffix}"
 
 
 @contextlib.contextmanager
@@ -16,7 +42,8 @@ def atomic_write(path, mode="wb"):
     block ends without an exception it replaces `path` in one rename, otherwise it is
     removed and `path` is untouched."""
     path = pathlib.Path(path)
-    temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp")
+    remove_stale(path.parent)
+    temporary = path.with_name(_temporary_name(path.name))
     # os.open with mode 0o666 gives the permissions of a plain open(): 0o666 less umask.
     descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
@@ -36,7 +63,8 @@ def atomic_path(path):
     """A temporary path next to `path` for a writer that takes a file name (matplotlib's
     animation writers); renamed over `path` when the block ends without an exception."""
     path = pathlib.Path(path)
-    temporary = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:12]}{path.suffix}")
+    remove_stale(path.parent)
+    temporary = path.with_name(_temporary_name(path.stem, path.suffix))
     try:
         yield temporary
         os.replace(temporary, path)
@@ -50,3 +78,102 @@ def write_text(path, text):
     """Write `text` to `path` atomically."""
     with atomic_write(path, "w") as file:
         file.write(text)
+
+
+@contextlib.contextmanager
+def staged_run(folder, replaced=()):
+    """A temporary folder inside `folder` to write one run's files into; when the block
+    ends without an exception they are moved into `folder` together (`commit`), together
+    with removing the files named in `replaced` (an earlier run's files that this run does
+    not write again); otherwise the temporary folder is removed and `folder` is untouched."""
+    folder = pathlib.Path(folder)
+    remove_stale(folder)
+    stage = folder / _temporary_name(RUN_PREFIX.lstrip("."))
+    stage.mkdir()
+    try:
+        yield stage
+        commit(stage, folder, replaced)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def commit(stage, folder, replaced=()):
+    """Move every file of `stage` into `folder` and remove the files `replaced` there that
+    `stage` does not hold: all of it, or, when a rename fails, none (the files moved so far
+    are moved back and the earlier ones restored from hard links kept in `stage`)."""
+    new = sorted(p.name for p in stage.iterdir() if p.is_file())
+    old = [name for name in dict.fromkeys([*new, *replaced]) if (folder / name).is_file()]
+    keep = stage / ".previous"
+    keep.mkdir()
+    for name in old:
+        _link_or_copy(folder / name, keep / name)
+    done = []
+    try:
+        for name in new:
+            os.replace(stage / name, folder / name)
+            done.append(name)
+        for name in old:
+            if name not in new:
+                os.unlink(folder / name)
+    except BaseException:
+        for name in done:
+            os.replace(folder / name, stage / name)
+        for name in old:
+            os.replace(keep / name, folder / name)
+        raise
+
+
+def _link_or_copy(source, target):
+    """A hard link of `source` at `target` (a copy where the file system has none)."""
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
+
+
+def remove_stale(folder):
+    """Remove the temporaries that interrupted saves left in `folder` (see the module
+    notes): those of a process that no longer runs, and the old ones.
+    Done once per process and folder; errors (a folder not readable, a file removed by
+    another process meanwhile) are ignored."""
+    folder = pathlib.Path(folder)
+    key = os.path.abspath(folder)
+    if key in _SWEPT or folder.name.startswith(RUN_PREFIX):
+        return
+    _SWEPT.add(key)
+    now = time.time()
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(folder):
+            found = _TEMPORARY.match(entry.name)
+            if found is None:
+                continue
+            with contextlib.suppress(OSError):
+                pid = int(found.group(1)) if found.group(1) else None
+                age = now - entry.stat(follow_symlinks=False).st_mtime
+                if pid is None:
+                    stale = age > STALE_SECONDS
+                else:
+                    stale = age > LIVE_STALE_SECONDS or not _running(pid)
+                if stale:
+                    _remove(entry)
+
+
+def _running(pid):
+    """Whether process `pid` runs on this machine (always True where that cannot be asked
+    without side effects, i.e. outside POSIX)."""
+    if os.name != "posix" or pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True         # another user's process, or no PID at all: left to the age
+    return True
+
+
+def _remove(entry):
+    if entry.is_dir(follow_symlinks=False):
+        shutil.rmtree(entry.path)
+    else:
+        os.unlink(entry.path)

@@ -4,7 +4,8 @@ integrator, ``dmoc optimize SYSTEM`` solves a DMOC problem, ``dmoc demo`` runs b
 built-ins. SYSTEM is a built-in name or ``path/to/file.py:factory``.
 
 Exit codes: 0 success; 1 the solver failed (its status is printed and what was computed
-is written); 2 a bad argument (one line naming it).
+is written); 2 a bad argument (one line naming it); 130 stopped by Ctrl-C (what the
+solver had computed is written, if it got that far).
 """
 
 import argparse
@@ -73,7 +74,7 @@ def build_parser():
 
 
 def main(argv=None):
-    """Entry point of the ``dmoc`` command; returns the exit code (0, 1 or 2)."""
+    """Entry point of the ``dmoc`` command; returns the exit code (0, 1, 2 or 130)."""
     try:
         args = build_parser().parse_args(argv)
         if args.command == "systems":
@@ -87,6 +88,10 @@ def main(argv=None):
         return 2
     except SystemExit as done:          # --help and --version
         return done.code
+    except KeyboardInterrupt:           # outside a solve (those return their results)
+        print("dmoc: interrupted (Ctrl-C) before the results were written; --out is as it "
+              "was", file=sys.stderr)
+        return 130
 
 
 def example_arguments(description, argv=None):

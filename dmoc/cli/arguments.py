@@ -74,20 +74,47 @@ def params(items):
 
 def load_controls(file, n_u):
     """Controls u_k from a .npy file or a text/CSV file (an optional header line is
-    skipped), shape (N, n_u)."""
+    skipped), shape (N, n_u), real numbers only (booleans, complex numbers and strings are
+    refused: a float conversion would silently turn them into other controls)."""
     path = pathlib.Path(file)
     if not path.exists():
         raise UsageError("--controls", f"file {file!r} does not exist")
     if not path.is_file():
         raise UsageError("--controls", f"{file!r} is not a file")
+    if path.suffix == ".npz":
+        raise UsageError("--controls", f"{file!r} is a .npz archive; expected a .npy array or "
+                         f"a .csv/.txt table, one row per step (hint: for the controls of a "
+                         f"saved trajectory, np.save('u.npy', dmoc.Trajectory.load({file!r}).u))")
     try:
         if path.suffix == ".npy":
             u = np.load(path, allow_pickle=False)
         else:
             u = _load_text(path)
+    except UnicodeDecodeError:
+        raise UsageError("--controls", f"{file!r} is not a text file (not UTF-8) and not a .npy "
+                         f"file; expected a .npy array or a .csv/.txt table") from None
     except (ValueError, EOFError, OSError) as err:
         raise UsageError("--controls", f"cannot read {file}: {err}") from None
-    u = np.asarray(u, dtype=float)
+    return _real_rows(np.asarray(u), n_u)
+
+
+# what a float conversion would do to arrays of these kinds, for the error
+_NOT_REAL = {"b": ("booleans", "True/False would become 1.0/0.0; write the numbers you mean"),
+             "c": ("complex numbers", "their imaginary part would be dropped; save np.real(u) "
+                   "if it is zero"),
+             "U": ("strings", "save numbers (np.save('u.npy', u.astype(float)) if they are "
+                   "numbers written as text)"),
+             "S": ("byte strings", "save numbers"), "V": ("records", "save a plain 2-D array"),
+             "M": ("dates", "save numbers"), "m": ("time spans", "save numbers")}
+
+
+def _real_rows(u, n_u):
+    """`u` checked to be real numbers of shape (N, n_u) (a 1-D array when n_u == 1)."""
+    if u.dtype.kind not in "iuf":
+        what, hint = _NOT_REAL.get(u.dtype.kind, (f"dtype {u.dtype}", "save real numbers"))
+        raise UsageError("--controls", f"must hold real numbers; got an array of {what} "
+                         f"(dtype {u.dtype}); {hint}")
+    u = u.astype(float)
     if u.ndim == 1 and n_u == 1:
         u = u[:, None]
     if u.ndim != 2 or u.shape[1] != n_u or u.shape[0] < 1:
@@ -114,6 +141,9 @@ def _load_text(path):
 
 def output_folder(option, folder):
     """Create the output folder now, so that an unwritable path fails before any work."""
+    if not folder.strip():
+        raise UsageError(option, f"must name a folder; got {folder!r} (hint: {option} . "
+                         f"writes into the current folder)")
     path = pathlib.Path(folder)
     try:
         path.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,7 @@
 """``dmoc simulate`` and ``dmoc optimize``: set up a system from its name and the options,
 run the simulator or the optimizer with ``throw=False``, print a summary and write the
-output files. Returns the exit code: 0 on success, 1 when the solver failed (what was
+output files, all of a run's files together (`dmoc._util.files.staged_run`). Returns the
+exit code: 0 on success, 1 when the solver failed, 130 when a Ctrl-C stopped it (what was
 computed is still written).
 """
 
@@ -17,6 +18,7 @@ from ..principle import step_residual
 from ..optimize.problem import OptimalControlProblem
 from ..optimize.solve import optimize
 from ..simulate.simulation import simulate
+from .._util.files import staged_run
 from . import arguments, output, registry
 from .arguments import UsageError
 
@@ -43,9 +45,9 @@ def _setup(args):
     """(spec, system, output folder or None, file prefix) from the common options."""
     spec = registry.resolve(args.system)
     system = registry.build(spec, arguments.params(args.param))
-    if args.animate and not args.out:
+    if args.animate and args.out is None:
         raise UsageError("--animate", "needs --out DIR to write the GIF into")
-    out = arguments.output_folder("--out", args.out) if args.out else None
+    out = arguments.output_folder("--out", args.out) if args.out is not None else None
     prefix = re.sub(r"\W+", "_", args.system.rpartition(":")[2] or args.system)
     return spec, system, out, prefix
 
@@ -70,22 +72,36 @@ def _report(summary, success, status, message, files):
         print(f"{key:{width}s}  {shown}")
     for path in files:
         print(f"wrote {path}")
+    if status == INTERRUPTED:
+        done = "wrote what was computed, without plots" if files else "nothing written (no --out)"
+        log(f"{message.partition(';')[0].rstrip('.')}; {done}")
+        return 130
     if not success:
         log(f"solver failed ({status}): {message}")
     return 0 if success else 1
 
 
+INTERRUPTED = "interrupted"     # the status of a run stopped by Ctrl-C
+
+
 def _write(out, prefix, disc, traj, summary, spec, goal, animate):
+    """Write the run's files into `out` together, or none of them (an earlier run's set
+    stays whole); an interrupted run's without plots and GIF, so that it ends at once."""
     if out is None:
         return []
     names = disc.system.names
     control_names = spec.control_names or tuple(f"u{i}" for i in range(disc.system.n_u))
+    plots = summary["status"] != INTERRUPTED
     try:
-        return output.write_all(out, prefix, disc, traj, summary, spec, names=names,
-                                control_names=control_names, goal=goal, gif=animate)
-    except OSError as err:  # disk full, folder removed: every file is whole or untouched
+        with staged_run(out, output.run_files(prefix)) as stage:
+            written = output.write_all(stage, prefix, disc, traj, summary, spec, names=names,
+                                       control_names=control_names, goal=goal,
+                                       gif=animate and plots, plots=plots)
+    except OSError as err:  # disk full, file-size limit, folder removed
         raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
-                         f"files already there are complete (each write is atomic)") from None
+                         f"nothing there was changed (an earlier run's files are as they "
+                         f"were, none of this run's was written)") from None
+    return [out / path.name for path in written]
 
 
 def _discretization(system, args, steps):
@@ -154,9 +170,11 @@ def run_optimize(args):
 
 def _figures(problem, result):
     """`diagnostics.optimization_summary` plus the energy drift; for a last iterate that
-    holds NaN only what IPOPT reported (nothing can be replayed from it)."""
+    holds NaN (nothing can be replayed from it) or one of a Ctrl-C (the user wants to
+    stop, not to wait for a replay) only what IPOPT reported."""
     traj = result.trajectory
-    if not (np.isfinite(traj.q).all() and np.isfinite(traj.p).all()):
+    if (result.status == INTERRUPTED
+            or not (np.isfinite(traj.q).all() and np.isfinite(traj.p).all())):
         return {"cost": result.cost, "iterations": result.stats["iterations"],
                 "build_time": result.stats["build_time"], "solve_time": result.stats["solve_time"],
                 "max_violation": result.stats["max_violation"]}

@@ -1,6 +1,7 @@
 """``dmoc demo``: simulates the built-in systems against their closed-form solutions,
 solves the two DMOC examples (knife-edge parking, rolling-disk steering) with both
-variants, replays each optimum, and writes a summary and plots.
+variants, replays each optimum, and writes a summary and plots, all of them together
+(`dmoc._util.files.staged_run`): a failed or interrupted demo leaves ``--out`` as it was.
 """
 
 import numpy as np
@@ -8,12 +9,13 @@ import numpy as np
 from ..results import diagnostics
 from ..optimize import problems
 from ..mechanics import systems
-from .._util.files import atomic_write, write_text
+from .._util.files import atomic_write, staged_run, write_text
 from ..discrete import discretize
 from ..optimize.solve import optimize
 from ..results.plotting import plot_energy_error, plot_path, save_trajectory_plots
 from ..simulate.simulation import simulate
 from . import arguments
+from .arguments import UsageError
 from .registry import BUILT_IN
 
 # Unforced demo runs: (name, built-in, its closed-form solution, final time).
@@ -25,9 +27,10 @@ _DEMOS = (
 )
 
 
-def simulation_demo(out, steps):
-    """Simulate each demo system with both variants; return summary lines, save plots."""
-    lines = [f"{'system':14s} {'variant':7s} {'steps':>6s} {'max |q - q_exact|':>18s} "
+def simulation_demo(out, steps, lines):
+    """Simulate each demo system with both variants; append summary lines to `lines`, save
+    plots."""
+    lines += [f"{'system':14s} {'variant':7s} {'steps':>6s} {'max |q - q_exact|':>18s} "
              f"{'max |omega_d|':>14s} {'max|E-E0|':>13s} {'time [s]':>9s}"]
     for name, key, system, exact, T in _DEMOS:
         spec = BUILT_IN[key]
@@ -49,7 +52,6 @@ def simulation_demo(out, steps):
         _save_png(fig, out / f"{name}_simulated_path.png")
         _save_png(plot_energy_error(disc, traj, title=f"{name}: energy error"),
                   out / f"{name}_energy.png")
-    return lines
 
 
 def _save_png(fig, path):
@@ -57,17 +59,19 @@ def _save_png(fig, path):
         fig.savefig(file, format="png", dpi=120)
 
 
-def optimization_demo(out, steps):
-    """Solve the two DMOC examples with both variants; return summary lines and whether
-    all succeeded; save plots and each variant's trajectory (a failed solve's last
-    iterate included)."""
-    lines, ok = [], True
+def optimization_demo(out, steps, lines):
+    """Solve the two DMOC examples with both variants; append summary lines to `lines`,
+    return whether all succeeded; save plots and each variant's trajectory (a failed
+    solve's last iterate included)."""
+    ok = True
     for name, key, make in (("knife_edge_parking", "knife-edge", problems.knife_edge_parking),
                             ("rolling_disk_steering", "rolling-disk", problems.rolling_disk_steering)):
         spec = BUILT_IN[key]
         for variant, suffix in (("+", "plus"), ("-", "minus")):
             problem = make(steps, variant=variant)
             result = optimize(problem, throw=False)
+            if result.status == "interrupted":     # Ctrl-C stops the whole demo
+                raise KeyboardInterrupt(result.message)
             ok &= result.success
             title = f"{name} (variant {variant}, N = {steps})"
             if np.isfinite(result.trajectory.q).all():
@@ -79,18 +83,25 @@ def optimization_demo(out, steps):
         save_trajectory_plots(result.trajectory, out, name, disc=problem.disc,
                               names=problem.disc.system.names, control_names=spec.control_names,
                               heading=spec.heading, goal=problem.q_goal)
-    return lines, ok
+    return ok
 
 
 def run_demo(args):
-    """``dmoc demo``; returns 0, or 1 when a DMOC solve failed (the rest is still written)."""
+    """``dmoc demo``; returns 0, 1 when a DMOC solve failed (the rest is still written), 2
+    when writing into ``--out`` failed (the summary computed so far is printed)."""
     out = arguments.output_folder("--out", args.out)
     lines = ["Dirac integrator, unforced motion against the closed-form solutions"]
-    lines += simulation_demo(out, args.steps)
-    lines += ["", "DMOC: optimal control with the same step residual, replayed by the simulator"]
-    optimized, ok = optimization_demo(out, args.opt_steps)
-    summary = "\n".join(lines + optimized)
-    write_text(out / "summary.txt", summary + "\n")
-    print(summary)
+    try:
+        with staged_run(out) as stage:
+            simulation_demo(stage, args.steps, lines)
+            lines += ["", "DMOC: optimal control with the same step residual, replayed by "
+                      "the simulator"]
+            ok = optimization_demo(stage, args.opt_steps, lines)
+            write_text(stage / "summary.txt", "\n".join(lines) + "\n")
+    except OSError as err:  # disk full, file-size limit, folder removed
+        print("\n".join(lines))
+        raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
+                         f"nothing there was changed (the summary so far is above)") from None
+    print("\n".join(lines))
     print(f"\nwrote {out / 'summary.txt'} and plots in {out}/")
     return 0 if ok else 1

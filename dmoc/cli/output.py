@@ -44,10 +44,23 @@ def _json_value(value):
     return value
 
 
+# every file a run named NAME may write: NAME.npz, .csv, _summary.json, .gif and the kinds
+# of `save_trajectory_plots`
+_SUFFIXES = (".npz", ".csv", "_summary.json", ".gif", "_path.png", "_states.png",
+             "_controls.png", "_constraint.png", "_energy.png")
+
+
+def run_files(name):
+    """The names of every file a run named `name` may write: an earlier run's set, which a
+    new run replaces as a whole (a file the new run does not write again is removed)."""
+    return [name + suffix for suffix in _SUFFIXES]
+
+
 def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goal=None,
-              gif=False):
-    """Write every output file of one run into `out` (the trajectory, table and summary
-    atomically: a failed write leaves an earlier file in place); return the paths written."""
+              gif=False, plots=True):
+    """Write every output file of one run into `out` (the trajectory, table and summary,
+    and, with `plots` and a finite trajectory, the plots and the GIF if `gif`); return
+    the paths written."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
@@ -56,7 +69,7 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
                    fmt="%.17g")
     write_text(written[2], json.dumps({k: _json_value(v) for k, v in summary.items()},
                                       indent=2) + "\n")
-    if np.isfinite(traj.q).all():
+    if plots and np.isfinite(traj.q).all():
         written += save_trajectory_plots(traj, out, name, disc=disc, names=names,
                                          control_names=control_names, heading=spec.heading,
                                          goal=goal)

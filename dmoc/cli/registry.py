@@ -47,9 +47,14 @@ class SystemSpec:
     roll: int = None
 
     def parameters(self):
-        """{name: default} of the factory's parameters."""
+        """{name: default} of the factory's named parameters."""
         return {name: p.default for name, p in inspect.signature(self.factory).parameters.items()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+
+    def takes_any_parameter(self):
+        """True when the factory takes ``**kwargs``: then any --param name is passed on."""
+        return any(p.kind == p.VAR_KEYWORD
+                   for p in inspect.signature(self.factory).parameters.values())
 
 
 BUILT_IN = {
@@ -86,12 +91,19 @@ def resolve(name):
         raise UsageError("SYSTEM", f"must be one of {', '.join(BUILT_IN)} or "
                          f"path/to/file.py:factory; got {name!r}")
     path = pathlib.Path(file)
+    if path.is_dir():
+        raise UsageError("SYSTEM", f"{file!r} is a folder; expected a Python file defining "
+                         f"{attr!r}")
     if not path.is_file():
         raise UsageError("SYSTEM", f"file {file!r} does not exist")
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
+    except SystemExit as done:
+        raise UsageError("SYSTEM", f"importing {file} called sys.exit({done.code!r}); expected "
+                         f"a file that defines {attr!r} (hint: put a script's own code under "
+                         f"`if __name__ == '__main__':`)") from None
     except Exception as err:  # the user's file: say what broke, in one line
         raise UsageError("SYSTEM", f"importing {file} failed: {type(err).__name__}: {err}") from None
     factory = getattr(module, attr, None)
@@ -104,13 +116,16 @@ def build(spec, params):
     """Call the factory of `spec` with the ``--param`` values; check it gives a system."""
     known = spec.parameters()
     for key in params:
-        if key not in known:
+        if key not in known and not spec.takes_any_parameter():
             raise UsageError("--param", f"{key!r} is not a parameter of this system; its "
                              f"parameters are {', '.join(known) or 'none'}")
     try:
         system = spec.factory(**params)
     except (ValueError, TypeError) as err:
         raise UsageError("--param", str(err).rstrip(".")) from None
+    except SystemExit as done:
+        raise UsageError("SYSTEM", f"the factory called sys.exit({done.code!r}); expected it "
+                         f"to return a MechanicalSystem") from None
     except Exception as err:  # the user's factory: say what broke, in one line
         raise UsageError("SYSTEM", f"the factory raised {type(err).__name__}: {err}") from None
     if not isinstance(system, MechanicalSystem):

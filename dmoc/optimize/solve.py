@@ -12,7 +12,8 @@ import numpy as np
 
 from .._util import checks
 from .problem import OptimalControlProblem
-from ..errors import SolverError
+from ..errors import Interrupted, SolverError
+from . import interrupt
 from .guess import start_point
 from .._util.files import atomic_write
 from .ipopt import data_tolerances, iteration_count, linear_algebra
@@ -32,7 +33,8 @@ class OptimizationResult:
     cost : float
     success : bool
     status : str
-        IPOPT's return status, e.g. ``"Solve_Succeeded"``.
+        IPOPT's return status, e.g. ``"Solve_Succeeded"``, or ``"interrupted"`` when a
+        Ctrl-C (SIGINT) stopped IPOPT (``stats["return_status"]`` keeps IPOPT's own).
     message : str
     stats : dict
         ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
@@ -130,7 +132,9 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
         system's units.
     throw : bool
-        Raise SolverError when IPOPT fails (default); else return with success=False.
+        Raise SolverError when IPOPT fails and `dmoc.Interrupted` when a Ctrl-C (SIGINT)
+        stops it (default); else return the result with success=False (status
+        ``"interrupted"`` after a Ctrl-C). Either way the result holds the last iterate.
 
     Returns
     -------
@@ -167,8 +171,10 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     build_time = time.perf_counter() - tic
     journal_start = journal_end(journal) if journal else 0
     tic = time.perf_counter()
-    sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
-                 lbx=problem.lbx / D, ubx=problem.ubx / D, lbg=problem.lbg * R, ubg=problem.ubg * R)
+    with interrupt.watch() as sigints:
+        sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
+                     lbx=problem.lbx / D, ubx=problem.ubx / D,
+                     lbg=problem.lbg * R, ubg=problem.ubg * R)
     solve_time = time.perf_counter() - tic
     x_ipopt = np.array(sol["x"]).ravel()
     x = D * x_ipopt
@@ -193,10 +199,15 @@ def optimize(problem, *, guess=None, options=None, throw=True):
                  "the system's functions there")
     message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
                f"cost {cost:.10g}{where}.")
-    result = OptimizationResult(traj, cost, success, st["return_status"], message, stats,
+    status, stopped = st["return_status"], interrupt.verdict(sigints, stats["iterations"], cost)
+    if stopped:     # a Ctrl-C, not a violated constraint, ended the solve
+        (status, message), success = stopped, False
+    result = OptimizationResult(traj, cost, success, status, message, stats,
                                 x, np.array(sol["lam_x"]).ravel() / D,
                                 R * np.array(sol["lam_g"]).ravel(),
                                 problem.structure, problem.q_ref.copy())
+    if stopped and throw:
+        raise Interrupted(message + " The last iterate is in `.result`.", result)
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result

@@ -13,7 +13,7 @@ from . import compiled
 from .._util.cache import BoundedCache
 from ..mechanics.given import start_momentum
 from ..discrete import Discretization
-from ..errors import InputError, SolverError
+from ..errors import InputError, Interrupted, SolverError
 from ..principle.formulations import as_formulation
 from ..principle.residual import step_residual
 from .stepper import DiracStepper
@@ -30,7 +30,8 @@ class SimulationResult:
         All steps that converged (all of them when `success`).
     success : bool
     status : str
-        ``"converged"``, ``"newton_failed"`` or ``"non_finite"`` (a step produced NaN/Inf).
+        ``"converged"``, ``"newton_failed"``, ``"non_finite"`` (a step produced NaN/Inf)
+        or ``"interrupted"`` (Ctrl-C; ``throw=False``).
     message : str
     stats : dict
         ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
@@ -68,7 +69,10 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     variant : {"+", "-"} or Formulation
         The form of the equations (`dmoc.formulations`).
     throw : bool
-        Raise SolverError on a Newton failure (default); else return it with success=False.
+        Raise SolverError on a Newton failure and `dmoc.Interrupted` on Ctrl-C (default);
+        else return the result with success=False and status ``"newton_failed"``,
+        ``"non_finite"`` or ``"interrupted"``. Either way the result keeps every step
+        completed before (see Notes).
     tol : float
         Newton's target for the residual max-norm; a step whose residual stays above
         1000 tol counts as failed.
@@ -98,6 +102,14 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     initial impulse ``trajectory.mu``. Nothing fixes the impulse at q_N, so a (-) run ends
     with lam_{N-1} = 0 and p_N = D2 L_d + f_d^+ (the next step would apply it).
 
+    A KeyboardInterrupt (Ctrl-C, SIGINT) while the steps run stops the run after the steps
+    accepted so far: the chunk of steps being evaluated when it arrived is dropped (its
+    steps are not checked yet), every earlier step is kept. With ``throw=True`` it raises
+    `dmoc.Interrupted`, a KeyboardInterrupt whose ``.result`` is that SimulationResult;
+    with ``throw=False`` the result is returned, status ``"interrupted"``, success False,
+    ``stats["completed_steps"]`` the steps kept. An interrupt before the first chunk
+    (while the step is built or compiled) is a plain KeyboardInterrupt.
+
     Examples
     --------
     >>> import dmoc
@@ -124,7 +136,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     start = np.zeros(stepper.state.size)
     for name, value in (("q", q0), ("p", p_start), ("dq", disc.h * v_guess)):
         start[stepper.state.slice(name)] = value
-    acc, out, failed_rnorm, redone = stepper.run(start, controls, disc.h)
+    acc, out, failed_rnorm, redone, interrupted = stepper.run(start, controls, disc.h)
     wall = time.perf_counter() - tic
     k = out.shape[0]
     traj = _assemble(stepper, formulation, disc, controls[:k], acc, out)
@@ -132,6 +144,8 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
              "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
              "wall_time": wall}
+    if interrupted:
+        return _interrupted(traj, stats, throw)
     return _finish(traj, stats, failed_rnorm, tol, throw)
 
 
@@ -173,6 +187,18 @@ def _assemble(stepper, formulation, disc, controls, acc, out):
     t = h * np.arange(acc.shape[0])
     return Trajectory(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
                       disc.rule.control_nodes)
+
+
+def _interrupted(traj, stats, throw):
+    """The result of a run stopped by Ctrl-C after `traj.steps` accepted steps."""
+    k = traj.steps
+    result = SimulationResult(
+        traj, False, "interrupted",
+        f"interrupted (KeyboardInterrupt) after {k} of {stats['steps']} steps (t = "
+        f"{k * traj.h:.6g}); the {k} completed steps are in `.result.trajectory`.", stats)
+    if throw:
+        raise Interrupted(result.message, result)
+    return result
 
 
 def _finish(traj, stats, failed_rnorm, tol, throw):

@@ -204,17 +204,33 @@ class DiracStepper:
 
     def run(self, start, controls, h):
         """Steps from state `start` under `controls` (N, n_controls), stopping at the first step
-        that neither Newton path converges.
+        that neither Newton path converges, or at a KeyboardInterrupt (Ctrl-C).
 
         Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
         the failed step (NaN when it turned non-finite) or None, number of steps redone by
-        the robust path).
+        the robust path, whether a KeyboardInterrupt stopped the run). An interrupt arrives
+        between chunks or inside CasADi's evaluation of one; the k steps counted so far are
+        accepted ones, so the chunk it cut short is dropped and the rest kept.
         """
-        N, k, redone = controls.shape[0], 0, 0
+        N = controls.shape[0]
         acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
         acc[0] = start
+        done = [0, 0]           # steps accepted, steps redone: what an interrupt keeps
+        try:
+            rnorm = self._steps(acc, out, controls, h, done)
+        except KeyboardInterrupt:
+            k, redone = done
+            return acc[:k + 1], out[:k], None, redone, True
+        k, redone = done
+        return acc[:k + 1], out[:k], rnorm, redone, False
+
+    def _steps(self, acc, out, controls, h, done):
+        """Fill `acc` and `out` chunk by chunk, counting in `done` = [steps accepted, steps
+        redone]; return the rnorm of a failed step (NaN when non-finite), or None."""
+        N = controls.shape[0]
         steps = np.full(min(N, CHUNK), float(h))
-        while k < N:
+        while done[0] < N:
+            k = done[0]
             c = min(CHUNK, 1 << ((N - k).bit_length() - 1))
             if self._auto and not self.native and self.vm_seconds >= NATIVE_AFTER_SECONDS:
                 self._go_native()
@@ -224,16 +240,16 @@ class DiracStepper:
                 self.vm_seconds += time.perf_counter() - tic
             ok = self.accepted(out[k:k + c])
             j = int(np.argmin(ok)) if not ok.all() else c
-            k += j
+            done[0] = k = k + j
             if j < c:       # redo step k with the line-search Newton
                 acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
                 if not self.accepted(out1)[0]:
                     finite = out1[0, self.out.slice("nonfinite").start] == 0
-                    rnorm = float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
-                    return acc[:k + 1], out[:k], rnorm, redone
+                    return float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
                 acc[k + 1], out[k] = acc1[0], out1[0]
-                k, redone = k + 1, redone + 1
-        return acc, out, None, redone
+                done[0] = k + 1
+                done[1] += 1
+        return None
 
 
 def _chunk_sizes():

@@ -1,0 +1,46 @@
+"""Ctrl-C during an IPOPT solve (consumer 2, its solver half). CasADi checks Python's
+signals in IPOPT's callbacks; a SIGINT there makes Python's handler raise KeyboardInterrupt
+inside the check, CasADi turns it into a C++ exception, IPOPT stops with
+``NonIpopt_Exception_Thrown`` and the solver returns its last iterate with the interrupt
+swallowed (CasADi 3.8, the version tested). That status alone cannot tell a Ctrl-C from
+an exception of another callback, so `watch` notes every SIGINT that arrives during the
+solve.
+"""
+
+import contextlib
+import signal
+import threading
+
+__all__ = ["watch", "verdict"]
+
+
+@contextlib.contextmanager
+def watch():
+    """A list that gets an entry for each SIGINT Python handles inside the block; the
+    handler in place before is still called (by default it raises KeyboardInterrupt).
+    Outside the main thread (where Python handles no signal) or when SIGINT is ignored or
+    left to the system, the list stays empty and nothing is installed."""
+    seen = []
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield seen
+        return
+
+    def noted(signum, frame):
+        seen.append(signum)
+        previous(signum, frame)
+
+    signal.signal(signal.SIGINT, noted)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def verdict(seen, iterations, cost):
+    """(status, message) of a solve during which the SIGINTs `seen` arrived, or None when
+    there was none: status ``"interrupted"``, the message saying so and where IPOPT stood."""
+    if not seen:
+        return None
+    return "interrupted", (f"IPOPT: interrupted (KeyboardInterrupt) after {iterations} "
+                           f"iterations, cost {cost:.10g} at the last iterate.")
