@@ -1,5 +1,7 @@
 """Consumer 2, the optimizer (DMOC): the user's statement (`problem`, with its boundary rows
-and parameters), its NLP (`transcription`, `separable`, `scaling`) and its solution
+and parameters, its final time `final_time` and momentum treatment `momenta` chosen as
+values, read-only by `read_only`), its NLP (`transcription`: the terms of `terms` in
+`separable`, scaled by `scaling`) and its solution
 (`solve`: IPOPT through `ipopt`, its journal `linear_solver`, the start point `guess`), the
 step residual imposed at every step; `problems` holds the built-in examples."""
 

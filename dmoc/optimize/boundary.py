@@ -1,6 +1,6 @@
-"""The optimizer's boundary configurations on holonomic constraints: which entries of q_0 and
-q_N a problem may give when the step rows already impose g(q_k) = 0 at every node
-(docs/holonomic.md).
+"""The optimizer's boundary data: which entries of q_0 and q_N a problem may give on
+holonomic constraints, when the step rows already impose g(q_k) = 0 at every node
+(docs/holonomic.md), and where the velocity rows A(q) v = 0 are imposed.
 """
 
 import numpy as np
@@ -66,3 +66,16 @@ def _pivot_columns(matrix, count):
         e = rest[:, j] / np.linalg.norm(rest[:, j])
         rest = rest - np.outer(e, e @ rest)
     return np.array(chosen, dtype=int)
+
+
+def fully_given(q, v):
+    """True when the boundary configuration q and velocity v, shapes (n,), have no free
+    (NaN) entries."""
+    return bool(np.isfinite(q).all() and np.isfinite(v).all())
+
+
+def imposes_velocity_rows(q, v):
+    """Whether A(q) v = 0 is imposed at an end with data q, v (NaN free): unless both are
+    given (then checked once, `check_allowed_velocity`) or v is given and zero (then the
+    rows vanish for every q; imposing them would make the KKT matrix singular)."""
+    return not (fully_given(q, v) or (np.isfinite(v).all() and not v.any()))

@@ -16,24 +16,25 @@ def start_point(problem, guess):
     re-centered on this problem's q_ref, its x clipped into the new bounds (new boundary
     data) and its multipliers kept; any other guess gives its
     trajectory, resampled, and zero multipliers (a cold start)."""
-    cold = np.zeros(problem.lbx.size), np.zeros(problem.lbg.size)
+    T = problem.transcription
+    cold = np.zeros(T.lbx.size), np.zeros(T.lbg.size)
     if guess is None or isinstance(guess, Trajectory):
         return (initial_guess(problem, guess),) + cold
-    if guess.structure == problem.structure and guess.lam_g is not None and guess.q_ref is not None:
+    if guess.structure == T.structure and guess.lam_g is not None and guess.q_ref is not None:
         x = np.array(guess.x, dtype=float)
-        x[problem.x_layout.slice("q")] += np.tile(guess.q_ref - problem.q_ref, problem.steps + 1)
-        return np.clip(x, problem.lbx, problem.ubx), guess.lam_x, guess.lam_g
+        x[T.x_layout.slice("q")] += np.tile(guess.q_ref - T.q_ref, problem.steps + 1)
+        return np.clip(x, T.lbx, T.ubx), guess.lam_x, guess.lam_g
     return (initial_guess(problem, guess.trajectory),) + cold
 
 
 def initial_guess(problem, guess=None):
     """The NLP start vector from a Trajectory, or the default guess (see `optimize`)."""
-    lay, N, sys = problem.x_layout, problem.steps, problem.disc.system
+    T, N, sys = problem.transcription, problem.steps, problem.disc.system
+    lay = T.x_layout
     x = np.zeros(lay.size)
     tau = np.linspace(0.0, 1.0, N + 1)
-    h = problem.disc.h if guess is None else guess.h
-    if problem.free_time:
-        h = float(np.clip(h, *(T / N for T in problem.duration)))
+    # the step within the final time's range (h itself when fixed); x has no "h" then
+    h = float(np.clip(problem.disc.h if guess is None else guess.h, *problem.final_time.step_range(N)))
     if guess is None:
         q = _default_path(problem, tau)
         v = np.gradient(q, h, axis=0)
@@ -44,13 +45,12 @@ def initial_guess(problem, guess=None):
         blocks = _resampled(problem, guess, tau)
     blocks["v_start"] = np.nan_to_num(problem.v_start)[None, :]
     blocks["v_goal"] = np.nan_to_num(problem.v_goal)[None, :]
-    if problem.free_time:
-        blocks["h"] = np.array([[h]])
-    blocks["q"] = blocks["q"] - problem.q_ref         # the NLP holds q - q_ref
+    blocks["h"] = np.array([[h]])
+    blocks["q"] = blocks["q"] - T.q_ref               # the NLP holds q - q_ref
     for name, values in blocks.items():      # time-major values; a block of fewer columns
         if values is not None and lay.numel(name):     # (p_0 of substituted momenta) takes the first
             x[lay.slice(name)] = np.asarray(values, dtype=float)[:lay.blocks[name][2]].ravel()
-    return np.clip(x, problem.lbx, problem.ubx)
+    return np.clip(x, T.lbx, T.ubx)
 
 
 def _check_guess(problem, guess):
@@ -65,7 +65,7 @@ def _check_guess(problem, guess):
 
 
 def _default_path(problem, tau):
-    start = np.where(np.isfinite(problem.q_start), problem.q_start, np.nan_to_num(problem.q_goal))
+    start = problem.transcription.q_ref        # the given start, else goal, entries
     goal = np.where(np.isfinite(problem.q_goal), problem.q_goal, start)
     bump = 0.1 * max(1.0, float(np.max(np.abs(goal - start))))
     return start + np.outer(tau, goal - start) + bump * np.sin(np.pi * tau)[:, None]
@@ -96,6 +96,6 @@ def _resampled(problem, guess, tau):
             [np.interp(mid_new, mid_old, c) for c in guess.lam.T] or [np.zeros(N)])[:, :disc.n_multipliers]
     blocks = {**knots, "u": u, "lam": lam,
               "s": guess.s if same_rule else disc.rule.stage_guess(knots["q"], knots["p"])}
-    if guess.mu.shape == (problem.x_layout.numel("mu"),):
+    if guess.mu.shape == (problem.transcription.x_layout.numel("mu"),):
         blocks["mu"] = guess.mu[None, :]
     return blocks

@@ -9,10 +9,9 @@ import weakref
 import casadi as ca
 import numpy as np
 
-from .._util import checks
 from .._util.cache import BoundedCache
-from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
 from ..errors import InputError
+from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
@@ -32,10 +31,10 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
 
 
-_SOLVERS = BoundedCache(16, "solvers")    # keyed by (problem.structure, options): two per structure
+_SOLVERS = BoundedCache(16, "solvers")    # keyed by (transcription.structure, options): two per structure
 
 
-def data_tolerances(problem, x0):
+def data_tolerances(transcription, x0):
     """{"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
     floor of the rows where the data demand it, else {}. The floor of row i is
     eps * sum_j |dg_i/dx_j| |x_j| at the start point x0 (scaled, as IPOPT sees it) in
@@ -43,10 +42,11 @@ def data_tolerances(problem, x0):
     so far from the origin (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them
     below it. Rounded up to a power of 2, so that nearby start points share one solver (the
     options are its key)."""
-    jacobian = problem.separable.derivatives()["nlp_jac_g"]
+    T = transcription
+    jacobian = T.separable.derivatives()["nlp_jac_g"]
     x = np.array(x0, dtype=float)
-    x[problem.x_layout.slice("q")] = problem.configurations(x0).ravel()
-    J = jacobian(x0, problem.p)[1]
+    x[T.x_layout.slice("q")] = T.configurations(x0).ravel()
+    J = jacobian(x0, T.p)[1]
     rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
     floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
@@ -55,16 +55,14 @@ def data_tolerances(problem, x0):
     return {"tol": floor, "constr_viol_tol": floor}
 
 
-def solver(problem, options):
-    """(nlpsol for `problem` with `options`, whether it came from the cache, the path of
-    its journal or None)."""
-    expand = checks.boolean("options['expand']", options.pop("expand", False))
-    reuse = checks.boolean("options['reuse_solver']", options.pop("reuse_solver", True))
-    report = checks.boolean("options['linear_solver_report']", options.pop("linear_solver_report", False))
+def solver(transcription, options, *, expand, reuse, report):
+    """(nlpsol for `transcription` with the IPOPT `options`, whether it came from the cache,
+    the path of its journal or None); `expand`, `reuse` and `report` are `optimize`'s
+    `expand`, `reuse_solver` and `linear_solver_report`."""
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     if report and "output_file" in options:
-        raise InputError("`options` 'linear_solver_report' writes IPOPT's journal to a file "
-                         "of its own; leave out 'output_file' or the report.")
+        raise InputError("`linear_solver_report` writes IPOPT's journal to a file "
+                         "of its own; leave out `options` 'output_file' or the report.")
     if report:
         merged["file_print_level"] = JOURNAL_LEVEL
     # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
@@ -79,8 +77,8 @@ def solver(problem, options):
         built.append(True)
         journal = new_journal() if report else None
         try:
-            made = ca.nlpsol("dmoc", "ipopt", problem.nlp,
-                             {**opts, "cache": problem.separable.derivatives(),
+            made = ca.nlpsol("dmoc", "ipopt", transcription.nlp,
+                             {**opts, "cache": transcription.separable.derivatives(),
                               **({"ipopt.output_file": journal} if report else {})})
         except RuntimeError as err:
             culprit = _rejected_option(options)
@@ -95,7 +93,7 @@ def solver(problem, options):
         return made, journal
 
     solver, journal = build() if not reuse else _SOLVERS.get(
-        (problem.structure, repr(sorted(opts.items())), report), build)
+        (transcription.structure, repr(sorted(opts.items())), report), build)
     return solver, reuse and not built, journal
 
 

@@ -1,7 +1,9 @@
-"""Consumer 2 of the step residual, its problem half: OptimalControlProblem builds the DMOC
-nonlinear program (Ober-Bloebaum, Junge & Marsden 2011) whose dynamic constraints are the
-(+)/(-) step residual of (37)/(41), mapped over all steps with `Function.map`, with the
-momentum boundary conditions of `boundary` and Delta_Q^d imposed directly.
+"""Consumer 2 of the step residual, its statement: OptimalControlProblem holds the user's
+DMOC problem (Ober-Bloebaum, Junge & Marsden 2011), the discretization, the boundary data
+(checked by `boundary`), the costs, bounds and parameters, with the step residual of
+(37)/(41) that is imposed at every step, the final time and the momentum treatment chosen
+once as values. Its `transcription` (`dmoc.optimize.transcription`) is the NLP built
+from it, once.
 """
 
 import copy
@@ -10,23 +12,32 @@ import casadi as ca
 import numpy as np
 
 from .._util import checks
-from ..mechanics.given import check_allowed_velocity
-from .boundary import check_holonomic_boundary
 from ..discrete import Discretization
-from ..principle.formulations import as_formulation
-from ..principle.explicit import solved_rows, substitutable
-from .._util.layout import Layout
-from .parameters import ProblemParameters, cost_function, path_function
-from ..principle.residual import step_residual
-from .scaling import nlp_scales
-from .transcription import transcribe
 from ..errors import InputError
+from ..mechanics.given import check_allowed_velocity
+from ..principle.formulations import as_formulation
+from ..principle.residual import step_residual
+from .boundary import check_holonomic_boundary, fully_given, imposes_velocity_rows
+from .final_time import FixedFinalTime, FreeFinalTime
+from .momenta import momentum_treatment
+from .parameters import ProblemParameters, cost_function, path_function
+from .read_only import ReadOnly
+from .transcription import Transcription
 
 
-MOMENTA = ("substituted", "variables")
+class _Transcribed:
+    """A read-only attribute of OptimalControlProblem that is its transcription's
+    (``problem.x_layout is problem.transcription.x_layout``)."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+        self.__doc__ = f"``problem.transcription.{name}`` (`Transcription`)."
+
+    def __get__(self, problem, owner=None):
+        return self if problem is None else getattr(problem._transcription, self.name)
 
 
-class OptimalControlProblem:
+class OptimalControlProblem(ReadOnly):
     """A DMOC problem: minimize sum_k C_d(q_k, q_{k+1}, u_k) + terminal cost subject to the
     step residual of (37)/(41) at every step and the boundary data.
 
@@ -67,83 +78,95 @@ class OptimalControlProblem:
         and rows per step). "variables": every p_k a variable and all rows imposed. A
         formulation whose p_{k+1} is not explicit (the Hamiltonian (+) form (39), explicit
         in q_{k+1}) or depends on p_k (the (-) form (43), unless the Hamiltonian makes it
-        free of p_k) carries the momenta as variables (`dmoc._momentum.substitutable`).
+        free of p_k) carries the momenta as variables (`dmoc.principle.explicit.substitutable`).
     parameters : dict of str -> float or array_like of shape (k,), optional
         Named data the costs and path constraints read through ``w`` (weights, obstacle
         positions): entries of p, so `with_parameters` changes them without a new NLP.
 
     Attributes
     ----------
-    nlp : dict
-        ``{"x", "p", "f", "g"}`` CasADi MX expressions, for power users (``casadi.nlpsol``;
-        pass ``p=problem.p``). Its x is the scaled vector x / `x_scale` and its g the
-        scaled rows `g_scale` * g: pass ``x0 / x_scale``, ``lbx / x_scale``,
-        ``ubx / x_scale``, ``lbg * g_scale``, ``ubg * g_scale`` and multiply the
-        solution by `x_scale`.
-    x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
-        The scaling by the system's inertia at `q_ref` (`dmoc.scaling`): momenta,
-        controls and multipliers by the inertia they act on, the rows in momentum units by
-        its inverse; all 1 for unit inertia. Kept by `with_boundary` and
-        `with_parameters`.
-    separable : SeparableNLP
-        The same NLP as terms (`dmoc.separable`), with its assembled exact derivatives
-        (``separable.derivatives()``, the ``cache`` option of ``casadi.nlpsol``).
-    lbx, ubx, lbg, ubg : ndarray
-        Bounds of x and g.
-    p : ndarray, shape (p_layout.size,)
-        The values of the NLP's parameter vector p: the step h (fixed final time), q_ref
-        and the stacked `parameter_values` (block ``w``).
-    q_ref : ndarray, shape (n,)
-        The configuration the NLP is centered on: its block "q" holds q_k - q_ref (the
-        given entries of q_start, else of q_goal, else 0), so that IPOPT's steps and
-        tolerances follow the size of the motion, not of the coordinates;
-        `configurations(x)` gives q.
-    x_layout, p_layout, g_layout : Layout
-        Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` is p_0
-        alone when the momenta are substituted, see `momenta(x)`), of p (``h, q_ref, w``) and
-        of g (``dynamics`` (rows of R in `dynamics_rows`, N), ``start``, ``goal``,
-        ``start_velocity``, ``goal_velocity``, ``path``).
-    dynamics_rows : Layout
-        The residual rows imposed at each step (all of R, or all but "right").
-    structure : str
-        A key of the NLP by value; see `with_boundary` and `dmoc.optimize`.
+    disc, steps, formulation, residual : Discretization, int, Formulation, StepResidual
+        The discretization, N, the form of the step rows and the residual they impose.
+    q_start, q_goal, v_start, v_goal : ndarray, shape (n,)
+        The boundary data, NaN where free (read-only arrays; `with_boundary` changes them).
+    control_bounds, state_bounds : tuple of ndarray
+        (lower, upper), shapes (n_u,) and (n,), infinite where unbounded.
+    running_cost, terminal_cost, path_constraints : casadi.Function or None
+        The user's callables checked on symbols: ``(q, v, u, w) -> cost``,
+        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> g`` at the step's midpoint.
+    parameters : ProblemParameters
+        Their `parameter_values` are entries of p (`with_parameters` changes them).
+    final_time : FixedFinalTime or FreeFinalTime
+        Where h lives (p or x) and its range (`dmoc.optimize.final_time`); `free_time`
+        and `duration` read it.
+    momentum_treatment : CarriedMomenta or SubstitutedMomenta
+        How p_0 ... p_N enter the NLP (`dmoc.optimize.momenta`): the `momenta` choice, or
+        carried where the formulation does not allow substitution.
+    velocity_rows : dict
+        {"start": bool, "goal": bool}: where A(q) v = 0 is imposed.
+    transcription : Transcription
+        The NLP of this problem: layouts, scales, terms, bounds and p. Its attributes
+        ``nlp, separable, x_layout, p_layout, g_layout, dynamics_rows, x_scale, g_scale,
+        lbx, ubx, lbg, ubg, p, q_ref, structure`` and methods ``momenta(x)``,
+        ``configurations(x)`` are also the problem's (``problem.nlp is
+        problem.transcription.nlp``). `structure` is a key of the NLP by value: see
+        `with_boundary` and `dmoc.optimize`.
+
+    Every attribute is read-only: assigning one raises AttributeError naming the way to
+    change it (`with_boundary`, `with_parameters`, or a new problem), so that the
+    statement and its NLP never disagree.
     """
+
+    _CHANGE = {**{k: f"use `problem.with_boundary({k}=...)`, which keeps the NLP"
+                  for k in ("q_start", "q_goal", "v_start", "v_goal")},
+               **{k: "use `problem.with_parameters(name=value)`, which keeps the NLP"
+                  for k in ("parameters", "parameter_values")}}
+    _CHANGE_ANY = ("build a new OptimalControlProblem (its data and its NLP, "
+                   "`problem.transcription`, are built together)")
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
                  state_bounds=None, path_constraints=None, duration=None, variant="+",
                  momenta="substituted", parameters=None):
         checks.instance("disc", disc, Discretization, "a Discretization")
-        self.disc, sys = disc, disc.system
-        self.steps = N = checks.positive_int("steps", steps)
-        self.formulation = as_formulation(variant, disc)
-        self.residual = step_residual(disc, self.formulation)
-        self.momenta_substituted = (checks.choice("momenta", momenta, MOMENTA) == "substituted"
-                                    and substitutable(self.residual))
+        self._disc, sys = disc, disc.system
+        self._steps = N = checks.positive_int("steps", steps)
+        self._formulation = as_formulation(variant, disc)
+        self._residual = step_residual(disc, self._formulation)
+        self._momentum_treatment = momentum_treatment(momenta, self._residual)
         n = sys.n
-        self.duration = _duration(duration, N, disc.h)
+        self._final_time = _final_time(duration, N, disc.h)
         self._parameters = w = ProblemParameters(parameters)
         default = (lambda q, v, u, w: ca.sumsqr(u)) if w.given else (lambda q, v, u: ca.sumsqr(u))
         self._running = cost_function("running_cost", running_cost or default, sys, ("q", "v", "u"), w)
         self._terminal = None if terminal_cost is None else cost_function(
             "terminal_cost", terminal_cost, sys, ("q", "v"), w)
         self._path = None if path_constraints is None else path_function(path_constraints, disc, w)
-        self._bound_data = (_bounds("control_bounds", control_bounds, sys.n_u),
-                            _bounds("state_bounds", state_bounds, n))
+        self._control_bounds = _bounds("control_bounds", control_bounds, sys.n_u)
+        self._state_bounds = _bounds("state_bounds", state_bounds, n)
+        for bound in (*self._control_bounds, *self._state_bounds):
+            bound.flags.writeable = False
         self._set_boundary(q_start, q_goal, v_start, v_goal)
-        self._build()
+        self._transcription = Transcription(self)
 
     def _set_boundary(self, q_start, q_goal, v_start, v_goal):
-        n, sys = self.disc.system.n, self.disc.system
-        self.q_start = _boundary("q_start", q_start, n)
-        self.q_goal = _boundary("q_goal", q_goal, n)
-        self.v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
-        self.v_goal = _boundary("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
-        check_holonomic_boundary(sys, self.q_start, self.q_goal)
-        for end in ("start", "goal"):
-            if self._fully_given(end):
-                check_allowed_velocity("v_" + end, sys, getattr(self, "q_" + end),
-                                       getattr(self, "v_" + end))
+        n, sys = self._disc.system.n, self._disc.system
+        self._q_start = _boundary("q_start", q_start, n)
+        self._q_goal = _boundary("q_goal", q_goal, n)
+        self._v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
+        self._v_goal = _boundary("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
+        check_holonomic_boundary(sys, self._q_start, self._q_goal)
+        for end, q, v in (("start", self._q_start, self._v_start), ("goal", self._q_goal, self._v_goal)):
+            if fully_given(q, v):
+                check_allowed_velocity("v_" + end, sys, q, v)
+        lower, upper = self._state_bounds
+        for name, data in (("q_start", self._q_start), ("q_goal", self._q_goal)):
+            outside = np.isfinite(data) & ((data < lower) | (data > upper))
+            if outside.any():
+                raise InputError(f"`{name}` must lie within `state_bounds`; entries "
+                                 f"{np.flatnonzero(outside).tolist()} do not.")
+        for data in (self._q_start, self._q_goal, self._v_start, self._v_goal):
+            data.flags.writeable = False
 
     def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None):
         """This problem with new boundary data; arguments left None keep this problem's.
@@ -166,10 +189,8 @@ class OptimalControlProblem:
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal}
         kept = {k: [None if np.isnan(x) else x for x in getattr(self, k)] for k in given}
         new._set_boundary(**{k: kept[k] if v is None else v for k, v in given.items()})
-        if all(new._velocity_rows(e) == self._velocity_rows(e) for e in ("start", "goal")):
-            new._set_bounds()
-        else:
-            new._build()
+        same_nlp = new.velocity_rows == self.velocity_rows
+        new._transcription = self._transcription.with_bounds(new) if same_nlp else Transcription(new)
         return new
 
     def with_parameters(self, **values):
@@ -190,8 +211,47 @@ class OptimalControlProblem:
         """
         new = copy.copy(self)
         new._parameters = self._parameters.with_values(**values)
-        new._set_bounds()
+        new._transcription = self._transcription.with_bounds(new)
         return new
+
+    disc = property(lambda self: self._disc, doc="The Discretization (system, rule, step h).")
+    steps = property(lambda self: self._steps, doc="The number of steps N.")
+    formulation = property(lambda self: self._formulation, doc="The Formulation of the step rows.")
+    residual = property(lambda self: self._residual, doc="The StepResidual imposed at every step.")
+    momentum_treatment = property(lambda self: self._momentum_treatment,
+                                  doc="CarriedMomenta or SubstitutedMomenta (`dmoc.optimize.momenta`).")
+    final_time = property(lambda self: self._final_time,
+                          doc="FixedFinalTime or FreeFinalTime (`dmoc.optimize.final_time`).")
+    q_start = property(lambda self: self._q_start, doc="Start configuration, shape (n,), NaN free.")
+    q_goal = property(lambda self: self._q_goal, doc="Goal configuration, shape (n,), NaN free.")
+    v_start = property(lambda self: self._v_start, doc="Start velocity, shape (n,), NaN free.")
+    v_goal = property(lambda self: self._v_goal, doc="Goal velocity, shape (n,), NaN free.")
+    control_bounds = property(lambda self: self._control_bounds, doc="(lower, upper), shapes (n_u,).")
+    state_bounds = property(lambda self: self._state_bounds, doc="(lower, upper), shapes (n,).")
+    parameters = property(lambda self: self._parameters, doc="The ProblemParameters.")
+    running_cost = property(lambda self: self._running, doc="Function (q, v, u, w) -> cost.")
+    terminal_cost = property(lambda self: self._terminal, doc="Function (q, v, w) -> cost, or None.")
+    path_constraints = property(lambda self: self._path,
+                                doc="Function (q0, q1, s, u, h, w) -> g (g <= 0), or None.")
+    transcription = property(lambda self: self._transcription, doc="The problem's Transcription.")
+
+    nlp = _Transcribed()
+    separable = _Transcribed()
+    x_layout = _Transcribed()
+    p_layout = _Transcribed()
+    g_layout = _Transcribed()
+    dynamics_rows = _Transcribed()
+    x_scale = _Transcribed()
+    g_scale = _Transcribed()
+    lbx = _Transcribed()
+    ubx = _Transcribed()
+    lbg = _Transcribed()
+    ubg = _Transcribed()
+    p = _Transcribed()
+    q_ref = _Transcribed()
+    structure = _Transcribed()
+    momenta = _Transcribed()
+    configurations = _Transcribed()
 
     @property
     def parameter_values(self):
@@ -199,106 +259,31 @@ class OptimalControlProblem:
         return {k: v.copy() for k, v in self._parameters.values.items()}
 
     @property
-    def structure(self):
-        """A key of the NLP by value (`SeparableNLP.key`: its terms' Functions and index
-        arrays): problems with equal keys differ at most in lbx, ubx, lbg, ubg and the
-        parameters, so `optimize` reuses one compiled solver for them and warm-starts one
-        from the other's optimum."""
-        return self.separable.key
-
-    def _fully_given(self, end):
-        """True when q and v at `end` ("start" or "goal") have no free entries."""
-        return bool(np.isfinite(getattr(self, "q_" + end)).all()
-                    and np.isfinite(getattr(self, "v_" + end)).all())
-
-    def _velocity_rows(self, end):
-        """Whether A(q) v = 0 is imposed at `end`: unless q and v are given there (then
-        checked once, `check_allowed_velocity`) or v is given and zero (then the rows
-        vanish for every q; imposing them would make the KKT matrix singular)."""
-        v = getattr(self, "v_" + end)
-        return not (self._fully_given(end) or (np.isfinite(v).all() and not v.any()))
+    def velocity_rows(self):
+        """{"start": bool, "goal": bool}: whether A(q) v = 0 is imposed at that end
+        (`dmoc.optimize.boundary.imposes_velocity_rows`)."""
+        return {"start": imposes_velocity_rows(self._q_start, self._v_start),
+                "goal": imposes_velocity_rows(self._q_goal, self._v_goal)}
 
     @property
     def variant(self):
         """The formulation's name, ``"+"`` or ``"-"``."""
-        return self.formulation.name
+        return self._formulation.name
 
     @property
     def free_time(self):
-        """True when the final time is a decision variable."""
-        return self.duration is not None
+        """True when the final time is a decision variable (`final_time.free`)."""
+        return self._final_time.free
 
-    def _build(self):
-        sys, disc, N, R = self.disc.system, self.disc, self.steps, self.residual
-        n, ns = sys.n, disc.n_stages
-        m_start, m_end = self.formulation.momentum_conditions(sys)[2:]
-        path = self._path
-        velocity_rows = {e: sys.m if self._velocity_rows(e) else 0 for e in ("start", "goal")}
-        substituted = self.momenta_substituted
-        self.dynamics_rows = solved_rows(R) if substituted else R.row_layout
-        self.x_layout = Layout([("q", (n, N + 1)), ("p", (n, 1 if substituted else N + 1)),
-                                ("lam", (disc.n_multipliers, N)),
-                                ("s", (ns, N)), ("u", (disc.n_controls, N)), ("v_start", (n, 1)),
-                                ("v_goal", (n, 1)), ("mu", (m_start, 1)), ("nu", (m_end, 1)),
-                                ("h", (1 if self.free_time else 0, 1))])
-        self.p_layout = Layout([("h", (0 if self.free_time else 1, 1)), ("q_ref", (n, 1)),
-                                ("w", (self._parameters.layout.size, 1))])
-        self.g_layout = Layout([("dynamics", (self.dynamics_rows.size, N)), ("start", (n, 1)), ("goal", (n, 1)),
-                                ("start_velocity", (velocity_rows["start"], 1)),
-                                ("goal_velocity", (velocity_rows["goal"], 1)),
-                                ("path", (path.numel_out(0) if path else 0, N))])
-        self.x_scale, self.g_scale = nlp_scales(self, _reference(self.q_start, self.q_goal))
-        self.separable, self._momenta = transcribe(self)
-        self.nlp = {k: getattr(self.separable, k) for k in ("x", "p", "f", "g")}
-        self._set_bounds()
-
-    def momenta(self, x):
-        """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (their block "p" when
-        they are variables, computed from x when substituted)."""
-        return self._momenta(np.asarray(x, dtype=float), self.p).T
-
-    def configurations(self, x):
-        """The configurations q_0 ... q_N, shape (N+1, n), of an NLP vector x (whose block
-        "q" holds q - q_ref)."""
-        return self.x_layout.unpack(np.asarray(x, dtype=float), "q").T + self.q_ref
-
-    def _set_bounds(self):
-        control_bounds, state_bounds = self._bound_data
-        for name in ("q_start", "q_goal"):
-            data = getattr(self, name)
-            outside = np.isfinite(data) & ((data < state_bounds[0]) | (data > state_bounds[1]))
-            if outside.any():
-                raise InputError(f"`{name}` must lie within `state_bounds`; entries "
-                                 f"{np.flatnonzero(outside).tolist()} do not.")
-        N, lay = self.steps, self.x_layout
-        self.q_ref = _reference(self.q_start, self.q_goal)
-        self.p = np.concatenate([[] if self.free_time else [self.disc.h], self.q_ref,
-                                          self._parameters.vector()])
-        self.lbx, self.ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
-        for bound, side in ((self.lbx, 0), (self.ubx, 1)):
-            view = {name: self.x_layout.unpack(bound, name) for name in ("q", "u", "v_start", "v_goal", "h")}
-            view["q"][:] = (state_bounds[side] - self.q_ref)[:, None]
-            view["u"][:] = np.tile(control_bounds[side], len(self.disc.rule.control_nodes))[:, None]
-            for name, col, data in (("q", 0, self.q_start - self.q_ref), ("q", N, self.q_goal - self.q_ref),
-                                    ("v_start", 0, self.v_start), ("v_goal", 0, self.v_goal)):
-                fixed = np.isfinite(data)
-                view[name][fixed, col] = data[fixed]
-            if self.free_time:
-                view["h"][:] = self.duration[side] / N
-        self.lbg, self.ubg = np.zeros(self.g_layout.size), np.zeros(self.g_layout.size)
-        self.lbg[self.g_layout.slice("path")] = -np.inf
+    @property
+    def duration(self):
+        """(T_min, T_max) of a free final time, else None."""
+        return self._final_time.duration
 
     def __repr__(self):
+        T = self._transcription
         return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
-                f"free_time={self.free_time}, x: {self.x_layout.size}, g: {self.g_layout.size})")
-
-
-def _reference(q_start, q_goal):
-    """q_ref, shape (n,): the given entries of q_start, else of q_goal, else 0. The NLP's
-    configuration variables are q - q_ref, of the size of the motion rather than of the
-    coordinates, so that IPOPT's steps and tolerances do not depend on where the motion
-    takes place (e.g. map coordinates of 1e6 m)."""
-    return np.where(np.isfinite(q_start), q_start, np.nan_to_num(q_goal, nan=0.0))
+                f"free_time={self.free_time}, x: {T.x_layout.size}, g: {T.g_layout.size})")
 
 
 def _boundary(name, value, n):
@@ -326,13 +311,14 @@ def _bounds(name, value, size):
     return lower, upper
 
 
-def _duration(duration, N, h):
+def _final_time(duration, N, h):
+    """The FixedFinalTime (duration None) or FreeFinalTime of the `duration` argument."""
     if duration is None:
-        return None
+        return FixedFinalTime(h)
     if not isinstance(duration, (tuple, list)) or len(duration) != 2:
         raise InputError(f"`duration` must be None (fixed, steps * h = {N * h:g}) or a pair "
                          f"(T_min, T_max) for a free final time; got {duration!r}.")
     T_min, T_max = (checks.positive_float("duration", T) for T in duration)
     if T_min > T_max:
         raise InputError(f"`duration` must have T_min <= T_max; got {duration!r}.")
-    return T_min, T_max
+    return FreeFinalTime(T_min, T_max)

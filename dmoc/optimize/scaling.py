@@ -54,9 +54,11 @@ def acting_on(M, matrix):
     return np.where(weight > 0, a @ M / np.where(weight > 0, weight, 1.0), 1.0)
 
 
-def nlp_scales(problem, q):
-    """(x_scale, g_scale), shapes (x_layout.size,) and (g_layout.size,), of `problem`, from
-    the inertia at q, shape (n,) (the problem's `q_ref`).
+def nlp_scales(disc, formulation, x_layout, g_layout, dynamics_rows, q):
+    """(x_scale, g_scale), shapes (x_layout.size,) and (g_layout.size,), of the DMOC NLP of
+    `disc` and `formulation` with those layouts and the residual rows `dynamics_rows`
+    imposed per step (`dmoc.optimize.transcription.Transcription`), from the inertia at q,
+    shape (n,) (the transcription's `q_ref`).
 
     x_scale: p (momenta) by M_i; u by the inertia its force acts on (dF/du at (q_ref, 0,
     0)); lam, mu, nu by the inertia A(q_ref) acts on; q, s, velocities and h by 1.
@@ -69,7 +71,7 @@ def nlp_scales(problem, q):
     made the NLP invariant to a change of units but cost the rolling disk's warm start an
     iteration (docs/performance.md).
     """
-    sys, disc, X, G = problem.disc.system, problem.disc, problem.x_layout, problem.g_layout
+    sys, X, G = disc.system, x_layout, g_layout
     M, B, A = _mechanical_data(sys, q)
     M = _usable(M)
     on_lam = acting_on(M, A)
@@ -79,9 +81,9 @@ def nlp_scales(problem, q):
     for name, scale in by_block.items():
         if X.numel(name):
             X.unpack(x_scale, name)[:] = scale[:, None]
-    rows = problem.dynamics_rows.slices()
+    rows = dynamics_rows.slices()
     dynamics = G.unpack(g_scale, "dynamics")
-    for name in problem.formulation.momentum_rows:
+    for name in formulation.momentum_rows:
         if name in rows:
             r = np.arange(rows[name].start, rows[name].stop)
             dynamics[r] = 1.0 / M[(r - rows[name].start) % sys.n][:, None]

@@ -6,19 +6,20 @@ violated constraint group (dynamics at step k, boundary, path).
 
 import json
 import time
+import warnings
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from .._util import checks
 from .problem import OptimalControlProblem
-from ..errors import Interrupted, SolverError
+from ..errors import InputError, Interrupted, SolverError
 from . import interrupt
 from .guess import start_point
 from .._util.files import atomic_write
 from .ipopt import data_tolerances, iteration_count, linear_algebra
 from .ipopt import solver as ipopt_solver
-from .linear_solver import journal_end, linear_solver_report
+from . import linear_solver
 from ..principle.trajectory import RESULT_PREFIX, Trajectory
 
 
@@ -45,7 +46,7 @@ class OptimizationResult:
         linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
         whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
         added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row),
-        and with ``options={"linear_solver_report": True}`` ``linear_solver``
+        and with ``linear_solver_report=True`` ``linear_solver``
         (`dmoc.optimize.linear_solver.linear_solver_report`).
     x : ndarray, shape (problem.x_layout.size,)
         The NLP vector in the system's units (IPOPT's iterate times ``problem.x_scale``);
@@ -97,7 +98,13 @@ class OptimizationResult:
                    extra.get("q_ref"))        # files from before q_ref have none
 
 
-def optimize(problem, *, guess=None, options=None, throw=True):
+# dmoc's own switches of `optimize` and their defaults; given as entries of `options` they
+# are taken out with a DeprecationWarning naming the keyword
+SWITCHES = {"reuse_solver": True, "expand": False, "linear_solver_report": False}
+
+
+def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
+             linear_solver_report=False, throw=True):
     """Solve a DMOC problem with IPOPT.
 
     Parameters
@@ -113,16 +120,7 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         by a small sine bump so the guess avoids points where the constraint Jacobian is
         singular (e.g. the knife edge sliding straight sideways).
     options : dict, optional
-        IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``),
-        and ``"expand"`` (bool, default False; True expands f and g to SX, which does
-        not pay: IPOPT evaluates the derivatives assembled from the terms
-        (`OptimalControlProblem.separable`) either way, see docs/performance.md), and
-        ``"reuse_solver"`` (bool, default True: take the solver of an earlier problem of
-        the same structure and options from the cache; False builds a fresh one), and
-        ``"linear_solver_report"`` (bool, default False; True adds
-        ``stats["linear_solver"]``, what the KKT factorizations needed, read from IPOPT's
-        detailed journal, `dmoc.optimize.linear_solver`; writing the journal makes the
-        solve slower, docs/performance.md).
+        IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``).
         Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
         floor of the rows where the data put it higher (configurations far from the
         origin, docs/stages/optimize.md). Both apply to the scaled NLP
@@ -130,7 +128,20 @@ def optimize(problem, *, guess=None, options=None, throw=True):
         inertia, so with m = 1e5 a
         ``constr_viol_tol`` of 1e-6 admits momentum rows violated by 0.1 in the system's
         units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
-        system's units.
+        system's units. The entries ``"reuse_solver"``, ``"expand"`` and
+        ``"linear_solver_report"`` are deprecated (a DeprecationWarning): they are taken
+        as the keywords of those names.
+    reuse_solver : bool
+        True (default): take the solver of an earlier problem of the same structure and
+        options from the cache; False builds a fresh one, dropped after the call.
+    expand : bool
+        True expands f and g to SX, which no longer pays: IPOPT evaluates the derivatives
+        assembled from the terms (``problem.transcription.separable``) either way
+        (docs/performance.md). Default False.
+    linear_solver_report : bool
+        True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
+        IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
+        to the solve. Default False.
     throw : bool
         Raise SolverError when IPOPT fails and `dmoc.Interrupted` when a Ctrl-C (SIGINT)
         stops it (default); else return the result with success=False (status
@@ -143,15 +154,15 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     Notes
     -----
     The solver (``casadi.nlpsol``) takes its gradient, constraint Jacobian and Hessian of
-    the Lagrangian from ``problem.separable.derivatives()`` (exact, assembled from each
-    term's derivatives) instead of generating them for the whole graph. IPOPT iterates on
-    the NLP scaled by the system's inertia (``problem.x_scale``, ``problem.g_scale``,
-    `dmoc.optimize.scaling`); the start point, the bounds and the multipliers are
-    converted on the way in and out, so guesses and results are in the system's units.
-    The solver is created once per problem structure and options and kept in a bounded
-    cache: boundary data, bounds, the parameters (h, q_ref) and the guess are solver
-    inputs, so re-solving the same problem, or one from ``problem.with_boundary(...)``,
-    skips the build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
+    the Lagrangian from ``problem.transcription.separable.derivatives()`` (exact,
+    assembled from each term's derivatives) instead of generating them for the whole
+    graph. IPOPT iterates on the NLP scaled by the system's inertia
+    (``problem.transcription.x_scale`` and ``g_scale``, `dmoc.optimize.scaling`); the start point, the bounds and the multipliers are converted on the
+    way in and out, so guesses and results are in the system's units. It is created
+    once per problem structure and options and kept in a bounded cache: boundary data,
+    bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
+    same problem, or one from ``problem.with_boundary(...)``, skips the
+    build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
     optimum's multipliers; every other start lets IPOPT estimate them, with a second solver
     of the same structure (its creation reuses the assembled derivatives, so it is cheap
     next to the first build).
@@ -161,35 +172,38 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     checks.instance("guess", guess, (Trajectory, OptimizationResult, type(None)),
                     "a Trajectory, an OptimizationResult or None")
     options = None if options is None else checks.ipopt_options("options", options)
+    options, switches = _switches(options or {}, {"reuse_solver": reuse_solver, "expand": expand,
+                                                  "linear_solver_report": linear_solver_report})
+    T = problem.transcription
     x0, lam_x0, lam_g0 = start_point(problem, guess)
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
-    D, R = problem.x_scale, problem.g_scale      # IPOPT iterates on x / D, imposes R g
+    D, R = T.x_scale, T.g_scale      # IPOPT iterates on x / D, imposes R g
     tic = time.perf_counter()
-    solver, reused, journal = ipopt_solver(problem, {**data_tolerances(problem, x0 / D),
-                                                "warm_start_init_point": "yes" if warm else "no",
-                                                **(options or {})})
+    solver, reused, journal = ipopt_solver(
+        T, {**data_tolerances(T, x0 / D), "warm_start_init_point": "yes" if warm else "no", **options},
+        expand=switches["expand"], reuse=switches["reuse_solver"],
+        report=switches["linear_solver_report"])
     build_time = time.perf_counter() - tic
-    journal_start = journal_end(journal) if journal else 0
+    journal_start = linear_solver.journal_end(journal) if journal else 0
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
-        sol = solver(x0=x0 / D, p=problem.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
-                     lbx=problem.lbx / D, ubx=problem.ubx / D,
-                     lbg=problem.lbg * R, ubg=problem.ubg * R)
+        sol = solver(x0=x0 / D, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
+                     lbx=T.lbx / D, ubx=T.ubx / D, lbg=T.lbg * R, ubg=T.ubg * R)
     solve_time = time.perf_counter() - tic
     x_ipopt = np.array(sol["x"]).ravel()
     x = D * x_ipopt
     st = solver.stats()
     # f and g at the returned x: honor_original_bounds may have moved x onto its bounds
     # after IPOPT's last f and g (h at T_min/N or T_max/N with a free final time)
-    cost, g = problem.separable.values(x_ipopt, problem.p)
-    worst = most_violated(problem, g / R)
+    cost, g = T.separable.values(x_ipopt, T.p)
+    worst = most_violated(T, g / R)
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
              "warm_start": warm,
              "solve_time": solve_time, **linear_algebra(st),
              "max_violation": worst[0], "most_violated": worst[1]}
     if journal:
-        stats["linear_solver"] = linear_solver_report(journal, journal_start)
+        stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
     traj = trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
@@ -205,23 +219,45 @@ def optimize(problem, *, guess=None, options=None, throw=True):
     result = OptimizationResult(traj, cost, success, status, message, stats,
                                 x, np.array(sol["lam_x"]).ravel() / D,
                                 R * np.array(sol["lam_g"]).ravel(),
-                                problem.structure, problem.q_ref.copy())
+                                T.structure, T.q_ref.copy())
     if stopped and throw:
         raise Interrupted(message + " The last iterate is in `.result`.", result)
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result
 
-def most_violated(problem, g):
-    """(largest bound violation, its description) over the constraint vector g."""
-    violation = np.maximum(problem.lbg - g, g - problem.ubg)
+def _switches(options, given):
+    """(the IPOPT options, {switch: bool}): the `SWITCHES` keywords of `optimize` as
+    `given`, an entry of `options` of that name taken out instead with a
+    DeprecationWarning (InputError when the keyword says otherwise)."""
+    options, switches = dict(options), {}
+    for name, default in SWITCHES.items():
+        value = given[name]
+        if name in options:
+            entry = options.pop(name)
+            warnings.warn(f"`options['{name}']` is deprecated: pass `{name}={entry!r}` to "
+                          f"`optimize` instead; `options` holds IPOPT's options only.",
+                          DeprecationWarning, stacklevel=3)
+            if value != default and entry != value:
+                raise InputError(f"`{name}` is given twice with different values: `{name}="
+                                 f"{value!r}` and `options['{name}']` = {entry!r}; pass the "
+                                 f"keyword alone.")
+            value = entry
+        switches[name] = checks.boolean(name, value)
+    return options, switches
+
+
+def most_violated(transcription, g):
+    """(largest bound violation, its description) over the constraint vector g of
+    `transcription`."""
+    violation = np.maximum(transcription.lbg - g, g - transcription.ubg)
     violation = np.where(np.isnan(violation), np.inf, np.maximum(violation, 0.0))
     if violation.size == 0:
         return 0.0, "none"
     i = int(np.argmax(violation))
-    group, row, col = problem.g_layout.locate(i)
+    group, row, col = transcription.g_layout.locate(i)
     if group == "dynamics":
-        rows = problem.dynamics_rows.slices()
+        rows = transcription.dynamics_rows.slices()
         name = next(k for k, s in rows.items() if s.start <= row < s.stop)
         return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
     if group == "path":
@@ -231,9 +267,10 @@ def most_violated(problem, g):
 
 def trajectory_from_x(problem, x):
     """The Trajectory held in an NLP vector x of `problem`."""
-    lay, N = problem.x_layout, problem.steps
-    h = float(lay.unpack(x, "h")[0, 0]) if problem.free_time else problem.disc.h
+    T, N = problem.transcription, problem.steps
+    lay = T.x_layout
+    h = problem.final_time.step(lay, x)
     mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
-    return Trajectory(h * np.arange(N + 1), problem.configurations(x), problem.momenta(x),
+    return Trajectory(h * np.arange(N + 1), T.configurations(x), T.momenta(x),
                       lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
                       mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)

@@ -1,227 +1,164 @@
-"""The DMOC transcription (consumer 2 of the step residual, its problem half): which rows
-and costs of an OptimalControlProblem are evaluated at which steps, on which entries of
-x and p, as the terms of a partially separable NLP (`dmoc.separable`). The step residual
-of (37)/(41) (or (39)/(43)) is one term mapped over the steps; with the momenta
-substituted, step k reads the window of steps k-1 and k, p_k = D2 L_d + f_d^+ of step k-1
-(`dmoc._momentum`) entering its rows.
+"""The DMOC transcription of an OptimalControlProblem (consumer 2 of the step residual): the
+nonlinear program (Ober-Bloebaum, Junge & Marsden 2011) whose dynamic constraints are the
+step residual of (37)/(41) at every step, with its named layouts of x, p and g, its
+scaling by the inertia (`dmoc.optimize.scaling`), its terms (`dmoc.optimize.terms`,
+`dmoc.optimize.separable`) and its bounds and parameter values. The problem is the user's
+statement; this object is everything built from it for the solver.
 """
 
-import hashlib
-
-import casadi as ca
 import numpy as np
 
-from .._util.cache import BoundedCache
-from ..principle.explicit import single_output
-from .separable import SeparableNLP, Term, function_key
+from .._util.layout import Layout
+from .read_only import ReadOnly
+from .scaling import nlp_scales
+from .terms import transcribe
 
-_FUNCTIONS = BoundedCache(128, "term_functions")   # term Functions by (`_functions_key`, term name): not per N
 
-
-def transcribe(problem):
-    """The NLP of `problem` and its momenta.
+class Transcription(ReadOnly):
+    """The NLP ``min f(x, p) s.t. lbg <= g(x, p) <= ubg, lbx <= x <= ubx`` of a problem.
 
     Parameters
     ----------
     problem : OptimalControlProblem
-        With `x_layout`, `p_layout`, `g_layout` and `dynamics_rows` set.
+        The statement it transcribes (read once; the transcription keeps no reference).
 
-    Returns
-    -------
-    nlp : SeparableNLP
-    momenta : callable
-        ``momenta(x, p) -> P``, x and p numpy vectors, P of shape (n, N+1): p_0 ... p_N
-        (the block "p" when the momenta are variables, else p_0 and the explicit p_{k+1}
-        of every step).
+    Attributes
+    ----------
+    nlp : dict
+        ``{"x", "p", "f", "g"}`` CasADi MX expressions, for ``casadi.nlpsol`` (pass
+        ``p=transcription.p``). Its x is the scaled vector x / `x_scale` and its g the
+        scaled rows `g_scale` * g: pass ``x0 / x_scale``, ``lbx / x_scale``,
+        ``ubx / x_scale``, ``lbg * g_scale``, ``ubg * g_scale`` and multiply the solution
+        by `x_scale`.
+    separable : SeparableNLP
+        The same NLP as terms, with its assembled exact derivatives
+        (``separable.derivatives()``, the ``cache`` option of ``casadi.nlpsol``).
+    x_layout, p_layout, g_layout : Layout
+        Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` holds p_0
+        alone when the momenta are substituted, see `momenta`), of p (``h, q_ref, w``) and
+        of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
+        ``start_velocity``, ``goal_velocity``, ``path``).
+    dynamics_rows : Layout
+        The residual rows imposed at each step (all of R, or all but "right").
+    x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
+        The scaling by the system's inertia at `q_ref` (`dmoc.optimize.scaling`).
+    lbx, ubx, lbg, ubg : ndarray
+        Bounds of x and g (read-only arrays).
+    p : ndarray, shape (p_layout.size,)
+        The values of the parameter vector: the step h (fixed final time), q_ref and the
+        stacked parameter values (block ``w``).
+    q_ref : ndarray, shape (n,)
+        The configuration the NLP is centered on: block "q" of x holds q_k - q_ref (the
+        given entries of q_start, else of q_goal, else 0), so that IPOPT's steps and
+        tolerances follow the size of the motion, not of the coordinates.
+    structure : str
+        A key of the NLP by value (`SeparableNLP.key`).
     """
-    X, P, G = (_indices(lay) for lay in (problem.x_layout, problem.p_layout, problem.g_layout))
-    h = ("x", X["h"]) if problem.free_time else ("p", P["h"])
-    step = _StepSlots(problem, X, h, P)
-    terms = step.dynamics(G["dynamics"]) + [step.start(G), step.goal(G)]
-    if problem.g_layout.numel("path"):
-        terms.append(step.term("path", step.at(0, problem.steps),
-                               lambda s: (0, problem._path(**_args(problem._path, s))["g"]), G["path"]))
-    nlp = SeparableNLP(problem.x_layout.size, problem.p_layout.size, problem.g_layout.size, terms)
-    return nlp, step.momenta()
 
+    _CHANGE_ANY = ("it is built from its problem; change the problem (`with_boundary`, "
+                   "`with_parameters`) or build a new OptimalControlProblem")
 
-class _StepSlots:
-    """The windows of x and p that the step terms read, by slot name. A slot of source
-    "q" holds configurations q - q_ref (x is centered on the boundary data, see
-    `OptimalControlProblem.q_ref`); the term adds q_ref back."""
+    def __init__(self, problem):
+        sys, disc, N = problem.disc.system, problem.disc, problem.steps
+        n = sys.n
+        m_start, m_end = problem.formulation.momentum_conditions(sys)[2:]
+        rows = {e: sys.m if imposed else 0 for e, imposed in problem.velocity_rows.items()}
+        path = problem.path_constraints
+        self._dynamics_rows = problem.momentum_treatment.dynamics_rows
+        self._x_layout = Layout([("q", (n, N + 1)), ("p", (n, problem.momentum_treatment.columns(N))),
+                                 ("lam", (disc.n_multipliers, N)), ("s", (disc.n_stages, N)),
+                                 ("u", (disc.n_controls, N)), ("v_start", (n, 1)), ("v_goal", (n, 1)),
+                                 ("mu", (m_start, 1)), ("nu", (m_end, 1)),
+                                 ("h", (problem.final_time.x_entries, 1))])
+        self._p_layout = Layout([("h", (problem.final_time.p_values.size, 1)), ("q_ref", (n, 1)),
+                                 ("w", (problem.parameters.layout.size, 1))])
+        self._g_layout = Layout([("dynamics", (self._dynamics_rows.size, N)), ("start", (n, 1)),
+                                 ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),
+                                 ("goal_velocity", (rows["goal"], 1)),
+                                 ("path", (path.numel_out(0) if path else 0, N))])
+        q_ref = reference(problem.q_start, problem.q_goal)
+        self._x_scale, self._g_scale = (_frozen(s) for s in nlp_scales(
+            disc, problem.formulation, self._x_layout, self._g_layout, self._dynamics_rows, q_ref))
+        self._separable, self._momenta = transcribe(
+            problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
+        self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
+        self._set_bounds(problem)
 
-    def __init__(self, problem, X, h, P):
-        self.problem, self.X, self.h, self.N = problem, X, h, problem.steps
-        self.q_ref, self.w = P["q_ref"], ("p", P["w"])
-        self.residual, self.key = problem.residual, _functions_key(problem)
-        if problem.momenta_substituted:
-            self.p1 = single_output(self.residual, "p1")
-            self.rows = single_output(self.residual, "rows")
+    def with_bounds(self, problem):
+        """This transcription with the bounds and parameter values of `problem`, which must
+        have the same NLP (new boundary data with the same velocity rows, or new parameter
+        values): the layouts, scales and terms are shared."""
+        new = object.__new__(Transcription)
+        new.__dict__.update(self.__dict__)
+        new._set_bounds(problem)
+        return new
+
+    def _set_bounds(self, problem):
+        N, lay = problem.steps, self._x_layout
+        q_ref = reference(problem.q_start, problem.q_goal)
+        self._q_ref = _frozen(q_ref)
+        self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector()]))
+        control_bounds, state_bounds = problem.control_bounds, problem.state_bounds
+        step_range = problem.final_time.step_range(N)
+        lbx, ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
+        for bound, side in ((lbx, 0), (ubx, 1)):
+            view = {name: lay.unpack(bound, name) for name in ("q", "u", "v_start", "v_goal", "h")}
+            view["q"][:] = (state_bounds[side] - q_ref)[:, None]
+            view["u"][:] = np.tile(control_bounds[side], len(problem.disc.rule.control_nodes))[:, None]
+            for name, col, data in (("q", 0, problem.q_start - q_ref), ("q", N, problem.q_goal - q_ref),
+                                    ("v_start", 0, problem.v_start), ("v_goal", 0, problem.v_goal)):
+                fixed = np.isfinite(data)
+                view[name][fixed, col] = data[fixed]
+            view["h"][:] = step_range[side]
+        lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
+        lbg[self._g_layout.slice("path")] = -np.inf
+        self._lbx, self._ubx, self._lbg, self._ubg = (_frozen(b) for b in (lbx, ubx, lbg, ubg))
+
+    nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")
+    separable = property(lambda self: self._separable, doc="The NLP as terms (`SeparableNLP`).")
+    x_layout = property(lambda self: self._x_layout, doc="Named blocks of x.")
+    p_layout = property(lambda self: self._p_layout, doc="Named blocks of p.")
+    g_layout = property(lambda self: self._g_layout, doc="Named blocks of g.")
+    dynamics_rows = property(lambda self: self._dynamics_rows, doc="Residual rows imposed per step.")
+    x_scale = property(lambda self: self._x_scale, doc="IPOPT iterates on x / x_scale.")
+    g_scale = property(lambda self: self._g_scale, doc="IPOPT imposes g_scale * g.")
+    lbx = property(lambda self: self._lbx, doc="Lower bounds of x.")
+    ubx = property(lambda self: self._ubx, doc="Upper bounds of x.")
+    lbg = property(lambda self: self._lbg, doc="Lower bounds of g.")
+    ubg = property(lambda self: self._ubg, doc="Upper bounds of g.")
+    p = property(lambda self: self._p, doc="Values of the parameter vector p.")
+    q_ref = property(lambda self: self._q_ref, doc="The configuration x is centered on.")
 
     @property
-    def cost(self):
-        """C_d(q0, q1, s, u, h, w) of the running cost (built only when a term is)."""
-        return self.problem.disc.discrete_cost(self.problem._running)
+    def structure(self):
+        """A key of the NLP by value (`SeparableNLP.key`: its terms' Functions and index
+        arrays): transcriptions with equal keys differ at most in the bounds and p."""
+        return self._separable.key
 
-    def at(self, first, stop, suffix=""):
-        """Slots q0, q1, lam, s, u (steps first ... stop - 1), names + suffix, and h, w."""
-        X = self.X
-        slots = {"q0": ("q", X["q"][:, first:stop]), "q1": ("q", X["q"][:, first + 1:stop + 1]),
-                 "lam": ("x", X["lam"][:, first:stop]), "s": ("x", X["s"][:, first:stop]),
-                 "u": ("x", X["u"][:, first:stop])}
-        return {**{k + suffix: v for k, v in slots.items()}, "h": self.h, "w": self.w}
+    def momenta(self, x):
+        """The momenta p_0 ... p_N, shape (N+1, n), of an NLP vector x (its block "p" when
+        the momenta are variables, computed from x when substituted)."""
+        return self._momenta(np.asarray(x, dtype=float), self._p).T
 
-    def term(self, name, slots, body, g_index):
-        """`_term` with q_ref added to the slots of source "q" and the problem's scales, its
-        Function built once per `_functions_key` and scales (the index arrays are this
-        problem's)."""
-        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name),
-                     (self.problem.x_scale, self.problem.g_scale))
+    def configurations(self, x):
+        """The configurations q_0 ... q_N, shape (N+1, n), of an NLP vector x (whose block
+        "q" holds q - q_ref)."""
+        return self._x_layout.unpack(np.asarray(x, dtype=float), "q").T + self._q_ref
 
-    def _previous_momentum(self, s):
-        """p_k of the window's previous step (slots with suffix "_prev")."""
-        names = self.p1.name_in()
-        return self.p1(**{k: s[k if k == "h" else k + "_prev"] for k in names})["p1"]
-
-    def dynamics(self, rows):
-        """The residual at every step: its rows and the step cost C_d."""
-        N, R = self.N, self.residual
-        if not self.problem.momenta_substituted:
-            slots = {**self.at(0, N), "p0": ("x", self.X["p"][:, :N]), "p1": ("x", self.X["p"][:, 1:])}
-            return [self.term("dynamics", slots, lambda s: (self._cost(s), R.function(**_args(R.function, s))["r"]),
-                          rows)]
-        first = {**self.at(0, 1), "p0": ("x", self.X["p"][:, :1])}
-        later = {**self.at(1, N), **self.at(0, N - 1, "_prev")}
-        return [self.term("dynamics_0", first, lambda s: (self._cost(s), self._rows(s)), rows[:, :1]),
-                self.term("dynamics", later, lambda s: (self._cost(s), self._rows(
-                    {**s, "p0": self._previous_momentum(s)})), rows[:, 1:])]
-
-    def _cost(self, s):
-        return self.cost(**_args(self.cost, s))["C_d"]
-
-    def _rows(self, s):
-        return self.rows(**_args(self.rows, s))["rows"]
-
-    def start(self, G):
-        """Start momentum rows (and A(q_0) v_start = 0 where that end is partly free)."""
-        problem, X = self.problem, self.X
-        condition = problem.formulation.momentum_conditions(problem.disc.system)[0]
-        slots = {"q": ("q", X["q"][:, :1]), "p": ("x", X["p"][:, :1]),
-                 "v": ("x", X["v_start"]), "mu": ("x", X["mu"])}
-        return self.term("start", slots, lambda s: (0, self._boundary_rows(condition, s, "start", "mu")),
-                     np.vstack([G["start"], G["start_velocity"]]))
-
-    def goal(self, G):
-        """Goal momentum rows at p_N, the velocity rows and the terminal cost."""
-        problem, X, N = self.problem, self.X, self.N
-        condition = problem.formulation.momentum_conditions(problem.disc.system)[1]
-        slots = {"q": ("q", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"]), "w": self.w}
-        if problem.momenta_substituted:
-            slots.update(self.at(N - 1, N, "_prev"))
-        else:
-            slots["p"] = ("x", X["p"][:, N:])
-
-        def body(s):
-            if problem.momenta_substituted:
-                s = {**s, "p": self._previous_momentum(s)}
-            terminal = 0 if problem._terminal is None else problem._terminal(s["q"], s["v"], s["w"])
-            return terminal, self._boundary_rows(condition, s, "goal", "nu")
-        return self.term("goal", slots, body, np.vstack([G["goal"], G["goal_velocity"]]))
-
-    def _boundary_rows(self, condition, s, end, impulse):
-        rows = [condition(s["q"], s["p"], s["v"], s[impulse])]
-        if self.problem.g_layout.numel(end + "_velocity"):
-            rows.append(ca.mtimes(self.problem.disc.system.constraint_matrix(s["q"]), s["v"]))
-        return ca.vertcat(*rows)
-
-    def momenta(self):
-        """``momenta(x, p) -> P`` (n, N+1), the momenta at NLP values x and p (numbers): the
-        block "p", or p_0 and the explicit p_{k+1} of every step. It holds the index
-        arrays and p1 only, not the problem (copies from `with_boundary` share it)."""
-        X, N, q_ref = self.X, self.N, self.q_ref
-        if not self.problem.momenta_substituted:
-            return lambda x, p: x[X["p"]]
-        p1, slots = self.p1, self.at(0, N, "_prev")
-        windows = {k: slots[k if k == "h" else k + "_prev"] for k in p1.name_in()}
-
-        def momenta(x, p):
-            source = {"x": x, "q": x, "p": p}
-            args = {k: source[src][_broadcast(index, N)] + (p[q_ref] if src == "q" else 0)
-                    for k, (src, index) in windows.items()}
-            return np.hstack([x[X["p"][:, :1]], np.array(p1.map(N)(**args)["p1"])])
-        return momenta
+    def __repr__(self):
+        return f"Transcription(x: {self._x_layout.size}, p: {self._p_layout.size}, g: {self._g_layout.size})"
 
 
-def _term(name, slots, body, g_index, key, scales):
-    """A Term from named slots {name: (source, index array (size, M), or (size, 1) shared
-    by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`,
-    the slots' aliasing and their scales. Source "x" or "p": entries of x or p; "q":
-    entries of x holding q - q_ref, the body given q (slot "q_ref" from p). Slots that
-    read the same entries (q1 of the previous step and q0 of this one) are one input of
-    the Term, so that each instance reads an entry of x once (`dmoc.separable.Term`).
-    `scales` = (x_scale, g_scale) of `dmoc.scaling`: the Term reads x / x_scale and fills
-    g_scale * g (each constant over the instances)."""
-    M = g_index.shape[1]
-    x_scale, g_scale = scales
-    scale = {k: x_scale[index[:, 0]] if src != "p" and index.shape[1] else np.ones(index.shape[0])
-             for k, (src, index) in slots.items()}
-    row_scale = g_scale[g_index[:, 0]] if M else np.ones(g_index.shape[0])
-    wide = {k: (src, _broadcast(index, M)) for k, (src, index) in slots.items()}
-    owner = {}                          # slot -> the first slot reading the same entries
-    for k, (src, index) in wide.items():
-        same = [o for o in owner if owner[o] == o and wide[o][0] == src
-                and np.array_equal(wide[o][1], index)] if M else []
-        owner[k] = same[0] if same else k
-    parts = {"x": [k for k, (s, _) in slots.items() if s in ("x", "q") and owner[k] == k],
-             "p": [k for k, (s, _) in slots.items() if s == "p" and owner[k] == k]}
-
-    def build():
-        symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items() if owner[k] == k}
-        values = {k: _scaled(symbols[owner[k]], scale[k]) for k in slots}
-        f, g = body({k: values[k] + values["q_ref"] if src == "q" else values[k]
-                     for k, (src, _) in slots.items()})
-        g = _scaled(ca.SX(g), row_scale)
-        z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
-        function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
-        return function, function_key(function)
-    index = {src: np.vstack([wide[k][1] for k in parts[src]] or [np.zeros((0, M), int)])
-             for src in ("x", "p")}
-    aliases = tuple(sorted((k, o) for k, o in owner.items() if k != o))
-    scaling = repr((row_scale.tolist(), sorted((k, v.tolist()) for k, v in scale.items())))
-    function, key_of_function = _FUNCTIONS.get((key, aliases, scaling), build)
-    return Term(function, index["x"], index["p"], g_index, key_of_function)
+def reference(q_start, q_goal):
+    """q_ref, shape (n,): the given entries of q_start, else of q_goal, else 0. The NLP's
+    configuration variables are q - q_ref, of the size of the motion rather than of the
+    coordinates, so that IPOPT's steps and tolerances do not depend on where the motion
+    takes place (e.g. map coordinates of 1e6 m)."""
+    return np.where(np.isfinite(q_start), q_start, np.nan_to_num(q_goal, nan=0.0))
 
 
-def _functions_key(problem):
-    """What the term Functions of `problem` depend on: the residual (system, rule,
-    formulation), how the momenta enter, the free time, the velocity rows and the user's
-    cost and path Functions (by value)."""
-    user = (problem._running, problem._terminal, problem._path)
-    digest = hashlib.sha256("\0".join("" if f is None else f.serialize() for f in user).encode())
-    return (problem.residual.key, problem.momenta_substituted, problem.free_time,
-            problem.g_layout.numel("start_velocity"), problem.g_layout.numel("goal_velocity"),
-            digest.hexdigest())
-
-
-def _indices(layout):
-    """{block: its flat indices as a (rows, cols) int array}."""
-    every = np.arange(layout.size)
-    return {name: layout.unpack(every, name) for name in layout.blocks}
-
-
-def _broadcast(index, M):
-    return np.broadcast_to(index, (index.shape[0], M)) if index.shape[1] == 1 else index
-
-
-def _scaled(symbol, scale):
-    """symbol * scale (entrywise), symbol itself where every factor is 1."""
-    return symbol if (scale == 1).all() else symbol * ca.DM(scale)
-
-
-def _stack(symbols):
-    return ca.vertcat(*symbols) if symbols else ca.SX(0, 1)
-
-
-def _args(function, symbols):
-    """The entries of `symbols` that `function` takes, by its input names."""
-    return {k: symbols[k] for k in function.name_in()}
+def _frozen(array):
+    """`array` made read-only, so that a problem's bounds and scales are changed only
+    through `with_boundary` and `with_parameters`."""
+    array.flags.writeable = False
+    return array

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.optimize import problem as problem_module
+from dmoc.optimize import transcription as transcription_module
 from dmoc import diagnostics
 from dmoc.optimize.scaling import inertia, power_of_two
 from dmoc.systems import knife_edge, rolling_disk
@@ -220,8 +220,8 @@ def test_velocity_jumps_measure_how_the_grid_resolves_the_motion():
 def unscaled(make, monkeypatch):
     """The problem `make()` builds, with every factor 1."""
     with monkeypatch.context() as m:
-        m.setattr(problem_module, "nlp_scales", lambda problem, q: (
-            np.ones(problem.x_layout.size), np.ones(problem.g_layout.size)))
+        m.setattr(transcription_module, "nlp_scales", lambda disc, formulation, x_layout, g_layout,
+                  dynamics_rows, q: (np.ones(x_layout.size), np.ones(g_layout.size)))
         return make()
 
 
