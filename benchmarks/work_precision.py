@@ -39,6 +39,7 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 import collocation  # noqa: E402
 from collocation import IPOPT_OPTIONS  # noqa: E402
+from solver_cache import optimize as optimize_dmoc  # noqa: E402
 from dmoc_vs_collocation import (CASES, REFERENCE_STEPS, final_errors, load, machine,  # noqa: E402
                                  reference_cost, resimulate)
 
@@ -60,8 +61,7 @@ def solve_dmoc(case, steps, rule, expand, reuse=False):
     disc = dmoc.discretize(system, case.reduced.duration / steps, rule)
     ocp = dmoc.OptimalControlProblem(disc, steps, q_start=list(case.q_start),
                                      q_goal=list(case.q_goal))
-    res = dmoc.optimize(ocp, options={"expand": expand, "reuse_solver": reuse, **IPOPT_OPTIONS},
-                        throw=False)
+    res = optimize_dmoc(ocp, options=IPOPT_OPTIONS, expand=expand, reuse_solver=reuse)
     seconds = time.perf_counter() - tic
     return seconds, res.cost, res.success, control_pieces(res.trajectory)
 

@@ -36,8 +36,9 @@ SIMULATE_KEYS = ("q0", "v0", "p0", "steps", "controls", "variant", "tol", "max_i
 CONNECT_TIMEOUT = 5.0
 
 
-def optimize_many(problems, *, guesses=None, options=None, client=None, progress=True,
-                  timeout=None, batch_timeout=None, connect_timeout=CONNECT_TIMEOUT):
+def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, expand=False,
+                  client=None, progress=True, timeout=None, batch_timeout=None,
+                  connect_timeout=CONNECT_TIMEOUT):
     """Solve many OptimalControlProblems with `optimize`, each as one Dask task.
 
     Parameters
@@ -47,6 +48,9 @@ def optimize_many(problems, *, guesses=None, options=None, client=None, progress
         Warm start of each problem (``optimize(..., guess=)``); None for the default guess.
     options : dict, optional
         IPOPT options for every solve (``optimize(..., options=)``).
+    reuse_solver, expand : bool
+        dmoc's switches of every solve, as `optimize` takes them (a worker keeps the
+        solver of each problem structure across the items it solves).
     client : distributed.Client or str, optional
         Where to run: by default a LocalCluster of ``os.cpu_count()`` single-threaded
         worker processes, started for this call and closed after it; a Client (left open),
@@ -92,7 +96,9 @@ def optimize_many(problems, *, guesses=None, options=None, client=None, progress
     if options is not None:
         options = checks.ipopt_options("options", options)
     timeout = _seconds("timeout", timeout)
-    arguments = [(pack_problem(problem), _pickled(f"guesses[{i}]", guess), options, timeout)
+    switches = {"reuse_solver": checks.boolean("reuse_solver", reuse_solver),
+                "expand": checks.boolean("expand", expand)}
+    arguments = [(pack_problem(problem), _pickled(f"guesses[{i}]", guess), options, switches, timeout)
                  for i, (problem, guess) in enumerate(zip(problems, guesses))]
     return _run(tasks.optimize_task, arguments, OptimizationResult, client, "optimize",
                 progress, batch_timeout, connect_timeout)

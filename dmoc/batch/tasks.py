@@ -33,14 +33,14 @@ def unpack_problem(data):
         return cloudpickle.loads(data)
 
 
-def optimize_task(problem, guess, options, timeout):
-    """`optimize(problem, guess=guess, options=options, throw=False)` on the bytes of
-    `pack_problem` and of ``cloudpickle.dumps(guess)``; never raises."""
+def optimize_task(problem, guess, options, switches, timeout):
+    """`optimize(problem, guess=guess, options=options, **switches, throw=False)` on the
+    bytes of `pack_problem` and of ``cloudpickle.dumps(guess)``; never raises."""
     def load():
         return unpack_problem(problem), cloudpickle.loads(guess)
 
     def solve(loaded):
-        return optimize(loaded[0], guess=loaded[1], options=options, throw=False)
+        return optimize(loaded[0], guess=loaded[1], options=options, **switches, throw=False)
 
     return _guarded(OptimizationResult, load, solve, timeout)
 
