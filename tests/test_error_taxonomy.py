@@ -14,6 +14,7 @@ Oracles, none taken from the code under test:
 """
 
 import ast
+import math
 import pathlib
 from types import SimpleNamespace
 
@@ -147,6 +148,15 @@ API_ROWS = [
      "`constraints` must have linearly independent rows"),
     ("MechanicalSystem: n=1.5", lambda c: dmoc.MechanicalSystem(kinetic, 1.5), ValueError,
      "`n` must be a positive integer"),
+    ('MechanicalSystem: names=("x", "x", "theta")',
+     lambda c: dmoc.MechanicalSystem(kinetic, 3, names=("x", "x", "theta")), ValueError,
+     r"`names` must be distinct .*\['x'\] more than once"),
+    ('MechanicalSystem: a name "x,1"',
+     lambda c: dmoc.MechanicalSystem(kinetic, 3, names=("x,1", "y", "theta")), ValueError,
+     "`names` must not contain commas"),
+    ("MechanicalSystem: math.sin(q[0]) in L",
+     lambda c: dmoc.MechanicalSystem(lambda q, v: kinetic(q, v) + math.sin(q[0]), 3), ValueError,
+     r"`lagrangian` must be built from CasADi operations.*ca\.sin"),
     ("knife_edge(mass=-1)", lambda c: knife_edge(mass=-1), ValueError,
      "`mass` must be finite and positive"),
     ("OptimalControlProblem: q_goal of shape (1, 3)", lambda c: problem(c, q_goal=[[0.0, 1.0, 0.0]]),
@@ -172,6 +182,15 @@ API_ROWS = [
      "(?s)`options`.*No such IPOPT option: tolerance"),
     ("optimize: a list for guess", lambda c: dmoc.optimize(problem(c), guess=[1, 2]), TypeError,
      "`guess` must be a Trajectory"),
+    ('optimize: options={"max_iter": 3.7}',
+     lambda c: dmoc.optimize(problem(c), options={"max_iter": 3.7}), ValueError,
+     r"`options\['max_iter'\]` must be an integer .*got 3.7"),
+    ('optimize: options={"max_iter": True}',
+     lambda c: dmoc.optimize(problem(c), options={"max_iter": True}), TypeError,
+     r"`options\['max_iter'\]` must be an integer, not a bool"),
+    ("OptimalControlProblem: path constraint q[0] < 0.5",
+     lambda c: problem(c, path_constraints=lambda q, v, u: q[0] < 0.5), ValueError,
+     r"`path_constraints` must return expressions g imposed as g <= 0, not comparisons"),
     ("Trajectory: t not the grid of h", lambda c: trajectory(t=[0.0, 1.0, 2.0]), ValueError,
      "`t` must be the grid"),
     ("Trajectory: complex q", lambda c: trajectory(q=[[0.0], [1.0 + 1e-3j], [2.0]]), TypeError,

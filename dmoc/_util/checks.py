@@ -178,11 +178,40 @@ def array_with_none(name, value, size, fill):
     return np.array([fill if x is None else float(x) for x in raw], dtype=float)
 
 
+# IPOPT's integer options (IPOPT's options reference, "The valid range for this integer
+# option", and the advanced ones of `print_advanced_options`): CasADi truncates a float
+# given for one (max_iter 3.7 runs 3 iterations), so a non-integral float is refused.
+IPOPT_INTEGER_OPTIONS = frozenset((
+    "print_level", "file_print_level", "print_frequency_iter", "max_iter", "acceptable_iter",
+    "max_resto_iter", "max_soc", "soc_method", "watchdog_shortened_iter_trigger",
+    "watchdog_trial_iter_max", "accept_after_max_steps", "max_filter_resets",
+    "filter_reset_trigger", "num_linear_variables", "quality_function_max_section_steps",
+    "max_refinement_steps", "min_refinement_steps", "limited_memory_max_history",
+    "limited_memory_max_skipping", "derivative_test_first_index",
+    "ma27_print_level", "ma57_pivot_order", "ma57_block_size", "ma57_node_amalgamation",
+    "ma57_small_pivot_flag", "ma77_print_level", "ma77_buffer_lpage", "ma77_buffer_npage",
+    "ma77_file_size", "ma77_maxstore", "ma77_nemin", "ma86_print_level", "ma86_nemin",
+    "ma97_print_level", "ma97_nemin", "mumps_print_level", "mumps_mem_percent",
+    "mumps_permuting_scaling", "mumps_pivot_order", "mumps_scaling",
+    "pardiso_max_iterative_refinement_steps", "pardiso_msglvl",
+    "pardisomkl_max_iterative_refinement_steps", "pardisomkl_msglvl", "spral_print_level",
+    "spral_nemin", "spral_cpu_block_size", "wsmp_num_threads", "wsmp_ordering_option",
+    "wsmp_scaling"))
+
+# The entries of `options` that are dmoc's switches of `optimize` (its SWITCHES, in the
+# deprecated options spelling), not IPOPT's: the only entries that take a bool.
+SWITCH_ENTRIES = ("reuse_solver", "expand", "linear_solver_report")
+
+
 def ipopt_options(name, options):
-    """Return `options` as a dict of IPOPT options: string keys, values that are a bool,
-    a number or a string (None is refused: it would be dropped, not set)."""
+    """Return `options` as a dict of IPOPT options: string keys, values that are a number
+    or a string (None is refused: it would be dropped, not set), an integer (or an
+    integral float, returned as int) for IPOPT's integer options. A bool is refused except
+    for `SWITCH_ENTRIES`: IPOPT reads True as the number 1, and its yes/no options take
+    the strings "yes" and "no"."""
     if not isinstance(options, dict):
         raise InputTypeError(f"`{name}` must be a dict of IPOPT options; got {type(options).__name__}.")
+    checked = {}
     for key, value in options.items():
         if not isinstance(key, str):
             raise InputTypeError(f"`{name}` must have string keys (IPOPT option names); "
@@ -190,4 +219,23 @@ def ipopt_options(name, options):
         if not isinstance(value, (bool, np.bool_, numbers.Real, str)):
             raise InputTypeError(f"`{name}['{key}']` must be a number, a string or a bool; "
                                  f"got {value!r}.")
-    return dict(options)
+        checked[key] = value if key in SWITCH_ENTRIES else _ipopt_value(name, key, value)
+    return checked
+
+
+def _ipopt_value(name, key, value):
+    """`value` checked for the IPOPT option `key` (a name after the last "." is looked up,
+    e.g. "resto.max_iter")."""
+    integer = key.rsplit(".", 1)[-1] in IPOPT_INTEGER_OPTIONS
+    if isinstance(value, (bool, np.bool_)):
+        hint = "" if integer else " IPOPT's yes/no options take the strings 'yes' and 'no'."
+        raise InputTypeError(
+            f"`{name}['{key}']` must be {'an integer' if integer else 'a number or a string'}, "
+            f"not a bool; got {value!r} (IPOPT would read it as {int(value)}).{hint}")
+    if integer and not isinstance(value, str):
+        if not float(value).is_integer():
+            cut = f", which IPOPT would truncate to {int(value)}" if np.isfinite(value) else ""
+            raise InputError(f"`{name}['{key}']` must be an integer (an IPOPT integer "
+                             f"option); got {value!r}{cut}.")
+        return int(value)
+    return value

@@ -37,7 +37,8 @@ class MechanicalSystem:
     n_u : int, optional
         Number of controls.
     names : sequence of str, optional
-        Names of the n coordinates, for plots and messages.
+        Names of the n coordinates, for plots, messages and the CSV table's columns:
+        distinct, without commas or line breaks.
 
     Attributes
     ----------
@@ -272,4 +273,14 @@ def _coordinate_names(names, n, problems):
     names = tuple(names)
     if len(names) != n or not all(isinstance(s, str) for s in names):
         problems.append(f"`names` must be {n} strings; got {names!r}.")
+        return names
+    repeated = sorted({s for s in names if names.count(s) > 1})
+    if repeated:
+        problems.append(f"`names` must be distinct (each names a column of the CSV table and "
+                        f"a plot axis); got {repeated} more than once in {names!r}.")
+    unsafe = [s for s in names if any(c in s for c in ",\r\n")]
+    if unsafe:
+        problems.append(f"`names` must not contain commas or line breaks (they are the CSV "
+                        f"table's column names, unquoted); got {unsafe}: write e.g. 'x_1' "
+                        f"for 'x,1'.")
     return names

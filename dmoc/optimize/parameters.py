@@ -105,12 +105,29 @@ def path_function(path, disc, parameters):
                                             ("w", parameters.layout.size))]
     at_midpoint = checked_function("path_constraints", _with_w(path, parameters), symbols,
                                    ("q", "v", "u", "w"), None)
+    _refuse_comparisons(at_midpoint(*symbols))
     x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
     w = symbols[-1]
     q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
     g = at_midpoint(q, v, disc.rule.control_at(x["u"], 0.5), w)
     names = ["q0", "q1", "s", "u", "h"]
     return ca.Function("path_constraints", [x[k] for k in names] + [w], [g], names + ["w"], ["g"])
+
+
+# CasADi's comparisons and logical operations: an entry that is one is a 0/1 value
+_TRUTH_VALUES = (ca.OP_LT, ca.OP_LE, ca.OP_EQ, ca.OP_NE, ca.OP_NOT, ca.OP_AND, ca.OP_OR)
+
+
+def _refuse_comparisons(g):
+    """InputError when an entry of the path constraints' expression `g` is a comparison
+    (q[0] < 0.5): it is the 0/1 truth value, which `g <= 0` would impose as "false"."""
+    for i in range(g.nnz()):
+        entry = g.nz[i]
+        if any(entry.is_op(op) for op in _TRUTH_VALUES):
+            raise InputError(
+                f"`path_constraints` must return expressions g imposed as g <= 0, not "
+                f"comparisons; entry {i} is {entry} (a 0/1 truth value). Write q[0] < 0.5 "
+                f"as `q[0] - 0.5` and a >= b as `b - a`.")
 
 
 def _check_arity(name, fun, args, parameters):

@@ -1,0 +1,92 @@
+"""System definitions that used to be accepted with a wrong meaning, or refused with a
+message that did not say what was wrong: coordinate names that break the CSV table
+(repeated, or holding a comma), and Python math or numpy functions that need numbers
+applied to the CasADi symbols of L, H, A(q) or f. Oracle: the messages, checked by content,
+and the error class (`dmoc.DmocError`); correct definitions next to them still pass."""
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import dmoc
+
+
+def kinetic(q, v):
+    return 0.5 * ca.dot(v, v)
+
+
+def hamiltonian(q, p):
+    return 0.5 * ca.dot(p, p)
+
+
+def refused(build, words):
+    """`build()` raises a DmocError matching `words`; the error."""
+    with pytest.raises(dmoc.InputError, match=words) as info:
+        build()
+    assert isinstance(info.value, dmoc.DmocError)
+    return info.value
+
+
+@pytest.mark.parametrize("kind, primary", [(dmoc.MechanicalSystem, kinetic),
+                                           (dmoc.HamiltonianSystem, hamiltonian)])
+@pytest.mark.parametrize("names, words", [
+    (("x", "x", "theta"), r"`names` must be distinct .*\['x'\] more than once"),
+    (("x,1", "y", "theta"), r"`names` must not contain commas .*\['x,1'\].*'x_1'"),
+    (("x", "y\n", "theta"), r"`names` must not contain commas or line breaks"),
+])
+def test_names_that_break_the_csv_table_are_refused(kind, primary, names, words):
+    refused(lambda: kind(primary, 3, names=names), words)
+
+
+def test_distinct_plain_names_are_kept():
+    assert dmoc.MechanicalSystem(kinetic, 3, names=("x", "y", "theta")).names == ("x", "y", "theta")
+    assert dmoc.systems.knife_edge().names == ("x", "y", "theta")
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(lagrangian=lambda q, v: kinetic(q, v) + math.sin(q[0])), "lagrangian"),
+    (dict(lagrangian=lambda q, v: kinetic(q, v) * np.float64(q[1])), "lagrangian"),
+    # a NaN in A(q) used to reach numpy's rank test: "SVD did not converge"
+    (dict(constraints=lambda q: ca.horzcat(-math.sin(q[2]), math.cos(q[2]), 0)), "constraints"),
+    (dict(holonomic=lambda q: q[1] - math.exp(q[0])), "holonomic"),
+    (dict(force=lambda q, v, u: ca.vertcat(math.cos(q[2]) * u[0], 0, 0), n_u=1), "force"),
+])
+def test_math_functions_on_symbols_are_named(kwargs, name):
+    error = refused(lambda: dmoc.MechanicalSystem(**{"lagrangian": kinetic, "n": 3, **kwargs}),
+                    f"`{name}` must be built from CasADi operations")
+    assert "ca.sin" in str(error) and "NaN" in str(error)
+
+
+def test_math_functions_in_a_hamiltonian_are_named():
+    refused(lambda: dmoc.HamiltonianSystem(lambda q, p: hamiltonian(q, p) - math.cos(q[0]), 1),
+            r"`hamiltonian` must be built from CasADi operations.*ca\.sin")
+
+
+@pytest.mark.parametrize("lagrangian", [
+    lambda q, v: kinetic(q, v) + math.sin(q),          # float() of a vector: CasADi assertion
+    lambda q, v: kinetic(q, v) + int(q[0]),            # int() of a symbol
+    lambda q, v: kinetic(q, v) if q[0] > 0 else 0,     # truth value of a comparison
+    lambda q, v: kinetic(q, v) + np.asarray(q, dtype=float).sum(),   # numpy's conversion
+])
+def test_numeric_conversions_that_raise_get_the_hint(lagrangian):
+    refused(lambda: dmoc.MechanicalSystem(lagrangian, 3),
+            r"(?s)`lagrangian` failed on symbols.*use CasADi's functions on them \(ca\.sin")
+
+
+def test_failures_of_other_kinds_get_no_casadi_hint():
+    error = refused(lambda: dmoc.MechanicalSystem(lambda q, v: v[7], 3), "`lagrangian` failed")
+    assert "ca.sin" not in str(error)
+
+
+@pytest.mark.parametrize("lagrangian", [
+    kinetic,                                                  # does not depend on q
+    lambda q, v: math.sin(0.3) * kinetic(q, v) + math.pi,     # math on numbers is fine
+    lambda q, v: kinetic(q, v) - np.cos(q[0]) + np.hypot(q[1], q[2]),   # numpy on SX maps to CasADi
+])
+def test_legitimate_lagrangians_pass(lagrangian):
+    s = dmoc.MechanicalSystem(lagrangian, 3)
+    L = float(s.lagrangian([0.1, 0.2, 0.3], [1.0, 0.0, 0.0]))
+    assert math.isfinite(L) and L == pytest.approx(float(lagrangian(
+        ca.DM([0.1, 0.2, 0.3]), ca.DM([1.0, 0.0, 0.0]))), rel=1e-15)
