@@ -85,7 +85,7 @@ def test_load_of_a_missing_file_is_a_file_not_found_dmoc_error(tmp_path):
     with pytest.raises(FileNotFoundError, match="there is no file .*nothing.npz") as info:
         dmoc.Trajectory.load(tmp_path / "nothing.npz")
     assert isinstance(info.value, dmoc.DmocError)
-    assert isinstance(info.value, dmoc.errors.MissingFileError)
+    assert isinstance(info.value, dmoc.MissingFileError)
 
 
 def test_saved_trajectory_still_loads(traj, tmp_path):
