@@ -15,7 +15,7 @@ from ._util.cache import clear_caches
 from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
                        Trapezoid, discrete_legendre, discretize)
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
-                     SolverError, TrajectoryFileError)
+                     MissingFileError, SolverError, TrajectoryFileError)
 from .mechanics import HamiltonianSystem, MechanicalSystem, systems
 from .optimize import OptimalControlProblem, OptimizationResult, optimize, problems
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
@@ -60,6 +60,7 @@ __all__ = [
     "InputError",
     "InputTypeError",
     "TrajectoryFileError",
+    "MissingFileError",
     "SolverError",
     "CompiledCodeError",
     "Interrupted",

@@ -4,7 +4,8 @@ Every error dmoc raises on its own account is a `DmocError`. A bad argument is a
 `InputError` (a wrong value: shape, range, NaN, an unknown choice) or an `InputTypeError`
 (a wrong kind of object); they are also `ValueError` and `TypeError`, so code that catches
 the built-in exceptions keeps working. A file that is not a dmoc trajectory is a
-`TrajectoryFileError`. `SolverError` is raised when a consumer of the step residual (the
+`TrajectoryFileError`; a file to read that does not exist a `MissingFileError` (also a
+`FileNotFoundError`). `SolverError` is raised when a consumer of the step residual (the
 simulator's Newton iteration or the optimizer's IPOPT run) fails; it keeps what was
 computed in `.result`. A `CompiledCodeError` says why compiled code could not be built or
 loaded safely (a cache folder others can write, a failed compile). `Interrupted` is the
@@ -30,6 +31,12 @@ class InputTypeError(DmocError, TypeError):
 class TrajectoryFileError(InputError):
     """A file given to `Trajectory.load` is missing, truncated, empty or not written by
     `Trajectory.save`; the message names the file and says which."""
+
+
+class MissingFileError(DmocError, FileNotFoundError):
+    """There is no file at a path given to a load (`Trajectory.load`,
+    `OptimizationResult.load`); the message names the path. It is a FileNotFoundError, the
+    class code that opens files catches."""
 
 
 class SolverError(DmocError):

@@ -44,6 +44,8 @@ def ctx(tmp_path_factory):
     (folder / "empty.npz").write_bytes(b"")
     (folder / "rand.npz").write_bytes(np.random.default_rng(0).bytes(2000))
     np.savez(folder / "foreign.npz", a=np.zeros(3))
+    np.save(folder / "one.npy", np.zeros(3))
+    (folder / "plain").write_text("x")
     return SimpleNamespace(disc=disc, traj=traj, folder=folder)
 
 
@@ -212,6 +214,40 @@ API_ROWS = [
      ValueError, "not a valid dmoc trajectory file.*not an .npz"),
     ("Trajectory.load: an .npz of other arrays", lambda c: dmoc.Trajectory.load(c.folder / "foreign.npz"),
      ValueError, "not a valid dmoc trajectory file.*lacks the fields"),
+    ("Trajectory.control past the horizon", lambda c: c.traj.control(c.traj.t[-1] + 1), ValueError,
+     r"`t` must lie in the horizon \[t_0, t_N\] = \[0.0, 0.4\]"),
+    ('Trajectory.control("abc")', lambda c: c.traj.control("abc"), TypeError,
+     "`t` must be a time or a 1-D array of times; got str"),
+    ("Trajectory.save to a folder", lambda c: c.traj.save(c.folder), ValueError,
+     "`path` must be a file name; got the folder"),
+    ("Trajectory.save into a missing folder", lambda c: c.traj.save(c.folder / "no" / "run.npz"),
+     ValueError, "the folder of `path` must be an existing folder; .*no' does not exist"),
+    ("Trajectory.load of a folder", lambda c: dmoc.Trajectory.load(c.folder), ValueError,
+     "`path` must be a file; got the folder"),
+    ("Trajectory.load: missing file", lambda c: dmoc.Trajectory.load(c.folder / "nothing.npz"),
+     FileNotFoundError, "`path` must be an existing file; there is no file .*nothing.npz"),
+    ("OptimizationResult.load of a trajectory file",
+     lambda c: dmoc.OptimizationResult.load(c.folder / "good.npz"), ValueError,
+     "not an optimization result file.*lacks the fields.*it is a trajectory file"),
+    ("OptimizationResult.load: random bytes", lambda c: dmoc.OptimizationResult.load(c.folder / "rand.npz"),
+     ValueError, "not an optimization result file.*not an .npz"),
+    ("OptimizationResult.load of an .npy", lambda c: dmoc.OptimizationResult.load(c.folder / "one.npy"),
+     ValueError, "not an optimization result file.*it is an .npy file"),
+    ("OptimizationResult.load: empty file", lambda c: dmoc.OptimizationResult.load(c.folder / "empty.npz"),
+     ValueError, "not an optimization result file.*it is empty"),
+    ('optimize: linear_solver "ma57" (not installed)',
+     lambda c: dmoc.optimize(problem(c), options={"linear_solver": "ma57"}), dmoc.SolverError,
+     "Invalid_Option .*IPOPT refused the option `linear_solver` = 'ma57'.*'mumps'"),
+    ('save_trajectory_plots: name="sub/run"',
+     lambda c: plotting.save_trajectory_plots(c.traj, c.folder, "sub/run"), ValueError,
+     "`name` must be a file-name prefix without a path separator; got 'sub/run'"),
+    ("save_trajectory_plots: out a file",
+     lambda c: plotting.save_trajectory_plots(c.traj, c.folder / "plain", "run"), ValueError,
+     "`out` must be a folder .*plain', which is a file"),
+    ("simulate: steps=10**10", lambda c: simulate(c, steps=10 ** 10), ValueError,
+     r"`steps` = 10000000000 needs at least .* bytes"),
+    ("simulate: tol=1e-300", lambda c: simulate(c, tol=1e-300), dmoc.SolverError,
+     "`tol` = 1.0e-300 is below the round-off floor"),
     ('dirac_differential(disc, "plus")', lambda c: dmoc.dirac.dirac_differential(c.disc, "plus"),
      ValueError, r"`variant` must be one of '\+', '-'; got 'plus'"),
     ('action_sum(disc, "x", ...)',

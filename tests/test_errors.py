@@ -15,4 +15,6 @@ def test_input_errors_are_dmoc_errors_and_builtin_errors(disc):
     assert isinstance(value.value, (dmoc.DmocError, ValueError))
     assert isinstance(kind.value, dmoc.DmocError) and isinstance(kind.value, TypeError)
     assert issubclass(dmoc.TrajectoryFileError, dmoc.InputError)
+    assert issubclass(dmoc.MissingFileError, dmoc.DmocError)
+    assert issubclass(dmoc.MissingFileError, FileNotFoundError)
     assert not issubclass(dmoc.SolverError, (ValueError, TypeError))

@@ -24,12 +24,65 @@ import shutil
 import time
 import uuid
 
+from ..errors import InputError, MissingFileError
+
 STALE_SECONDS = 3600.0
 LIVE_STALE_SECONDS = 86400.0
 RUN_PREFIX = ".dmoc-run"
 # .NAME.PID.HEX.tmp, optionally a suffix after it; PID absent in names of older versions
 _TEMPORARY = re.compile(r"^\..+?\.(?:(\d+)\.)?[0-9a-f]{12}\.tmp(?:\.[A-Za-z0-9]+)?$")
 _SWEPT = set()          # folders this process has cleaned up (once each)
+
+
+def writable_file(name, path):
+    """Raise InputError, naming the argument `name` and the user's `path`, unless a file
+    can be written at `path`: the path must not be a folder, its folder must exist and be
+    a folder (dmoc does not create folders for a single file)."""
+    path = pathlib.Path(path)
+    if path.is_dir():
+        raise InputError(f"`{name}` must be a file name; got the folder {str(path)!r} "
+                         f"(add a file name, e.g. {str(path / 'run.npz')!r}).")
+    existing_folder(f"the folder of `{name}`", path.parent)
+    return path
+
+
+def existing_folder(name, path):
+    """Raise InputError naming `name` unless `path` is an existing folder."""
+    path = pathlib.Path(path)
+    if path.is_dir():
+        return path
+    if path.exists():
+        raise InputError(f"{_named(name)} must be a folder; got {str(path)!r}, which is a file.")
+    raise InputError(f"{_named(name)} must be an existing folder; {str(path)!r} does not "
+                     f"exist (create it first).")
+
+
+def make_folder(name, path):
+    """Create the folder `path` (and missing parents) unless it exists; raise InputError
+    naming `name` when `path`, or the nearest existing folder above it, is a file."""
+    path = pathlib.Path(path)
+    existing = next(p for p in (path, *path.parents) if p.exists() or p == p.parent)
+    if existing.exists() and not existing.is_dir():
+        where = "" if existing == path else f" (its parent {str(existing)!r} is a file)"
+        raise InputError(f"`{name}` must be a folder (created if missing); got {str(path)!r}"
+                         f"{where or ', which is a file'}.")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def readable_file(name, path):
+    """Raise MissingFileError (a FileNotFoundError) if there is nothing at `path`, and
+    InputError if it is a folder; both name the argument `name` and the user's path."""
+    path = pathlib.Path(path)
+    if path.is_dir():
+        raise InputError(f"`{name}` must be a file; got the folder {str(path)!r}.")
+    if not path.exists():
+        raise MissingFileError(f"`{name}` must be an existing file; there is no file {str(path)!r}.")
+    return path
+
+
+def _named(name):
+    return name if name.startswith("the ") else f"`{name}`"
 
 
 def _temporary_name(name, suffix=""):

@@ -13,14 +13,14 @@ import numpy as np
 
 from .._util import checks
 from .problem import OptimalControlProblem
-from ..errors import InputError, Interrupted, SolverError
+from ..errors import InputError, Interrupted, SolverError, TrajectoryFileError
 from . import interrupt
 from .guess import start_point
-from .._util.files import atomic_write
+from .._util.files import atomic_write, writable_file
 from .ipopt import data_tolerances, iteration_count, linear_algebra
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
-from ..principle.trajectory import RESULT_PREFIX, Trajectory
+from ..principle.trajectory import RESULT_PREFIX, Trajectory, read
 
 
 @dataclass
@@ -83,19 +83,41 @@ class OptimizationResult:
                  for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure",
                            "q_ref") if getattr(self, k) is not None}
         extra[RESULT_PREFIX + "stats"] = json.dumps(self.stats, default=str)
+        path = writable_file("path", checks.file_path("path", path))
         with atomic_write(path) as file:
             np.savez(file, **traj, **extra)
 
     @classmethod
     def load(cls, path):
         """Read a result written by `save`; ``optimize(problem, guess=loaded)`` warm-starts
-        as from the result itself."""
+        as from the result itself.
+
+        Raises
+        ------
+        MissingFileError
+            If there is no file at `path` (a FileNotFoundError).
+        TrajectoryFileError
+            If the file is not a trajectory file (`Trajectory.load`), or is one without the
+            result's fields (written by `Trajectory.save`, not `OptimizationResult.save`).
+        """
+        traj = read(Trajectory, path, RESULT_FILE)      # checks the path, that it is an .npz
         with np.load(path, allow_pickle=False) as data:
             extra = {k[len(RESULT_PREFIX):]: data[k] for k in data.files if k.startswith(RESULT_PREFIX)}
-        return cls(Trajectory.load(path), float(extra["cost"]), bool(extra["success"]),
+        missing = sorted(_RESULT_FIELDS - set(extra))
+        if missing:
+            raise TrajectoryFileError(
+                f"{str(path)!r} is not {RESULT_FILE}: it lacks the fields {missing}"
+                + ("; it is a trajectory file (read it with Trajectory.load)." if len(missing) ==
+                   len(_RESULT_FIELDS) else "."))
+        return cls(traj, float(extra["cost"]), bool(extra["success"]),
                    str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
                    extra.get("x"), extra.get("lam_x"), extra.get("lam_g"), str(extra["structure"]),
                    extra.get("q_ref"))        # files from before q_ref have none
+
+
+RESULT_FILE = "an optimization result file (one written by OptimizationResult.save)"
+# the fields every `OptimizationResult.save` writes (x and the multipliers only when known)
+_RESULT_FIELDS = {"cost", "success", "status", "message", "stats", "structure"}
 
 
 # dmoc's own switches of `optimize` and their defaults; given as entries of `options` they
@@ -211,6 +233,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         where = ("; an NLP function (dynamics, cost or their derivatives) returned NaN or Inf "
                  "at the start point or an iterate: check the data's scale (h, bounds) and "
                  "the system's functions there")
+    elif st["return_status"] == "Invalid_Option":
+        where = _refused_option(options)
     message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
                f"cost {cost:.10g}{where}.")
     status, stopped = st["return_status"], interrupt.verdict(sigints, stats["iterations"], cost)
@@ -225,6 +249,19 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result
+
+def _refused_option(options):
+    """The hint of an Invalid_Option status: IPOPT refused an option value when the solve
+    started (before any iterate, so no constraint is to blame)."""
+    solver = options.get("linear_solver")
+    if solver is not None and str(solver).lower() != "mumps":
+        return (f"; IPOPT refused the option `linear_solver` = {solver!r}: that linear solver "
+                f"is not available to this IPOPT, which has 'mumps' (the HSL solvers "
+                f"ma27, ma57, ma77, ma86, ma97 need the HSL library installed where IPOPT "
+                f"finds it); leave `linear_solver` unset for MUMPS")
+    return ("; IPOPT refused an option value of `options` when the solve started (see "
+            "IPOPT's output above for which); no iterate was computed")
+
 
 def _switches(options, given):
     """(the IPOPT options, {switch: bool}): the `SWITCHES` keywords of `optimize` as

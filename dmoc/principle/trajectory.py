@@ -8,7 +8,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .._util import checks
-from .._util.files import atomic_write
+from .._util.files import atomic_write, readable_file, writable_file
 from ..errors import InputError, InputTypeError, TrajectoryFileError
 from ..discrete import Discretization
 from ..discrete.rules import lagrange_basis
@@ -17,6 +17,9 @@ from .formulations import FORMULATIONS
 # max |t_k - t_0 - k h| allowed, relative to |t_0| + N h: rounding of t_0 + k h, of
 # np.linspace and of cumulative sums of h stay far below it; a grid of another h does not.
 TIME_GRID_RTOL = 1e-10
+# times this far (relative to the horizon t_N - t_0) past t_0 or t_N are round-off of the
+# ends, e.g. t_0 + N h computed in another order; `control` reads them as the end
+CONTROL_TIME_RTOL = 1e-9
 
 
 @dataclass(eq=False)
@@ -97,17 +100,48 @@ class Trajectory:
         return np.diff(self.q, axis=0) / self.h
 
     def control(self, t):
-        """The control u(t), shape (len(t), n_u): on each step the Lagrange interpolant of
-        its values at `control_nodes` (a held control for ``(0.5,)``); a time on a knot
-        belongs to the step that starts there (the last knot to the last step).
+        """The control u(t): on each step the Lagrange interpolant of its values at
+        `control_nodes` (a held control for ``(0.5,)``); a time on a knot belongs to the
+        step that starts there (the last knot to the last step).
+
+        Parameters
+        ----------
+        t : float or array_like, shape (K,)
+            Times in [t_0, t_N] (a round-off of CONTROL_TIME_RTOL (t_N - t_0) past either end
+            is read as the end): outside the horizon there is no control, and the step's
+            polynomial would extrapolate.
+
+        Returns
+        -------
+        ndarray, shape (K, n_u)
+            One row per time; a scalar `t` gives shape (1, n_u).
+
+        Raises
+        ------
+        InputError
+            If a time lies outside [t_0, t_N] or is not finite.
+        InputTypeError
+            If `t` is not made of real numbers.
 
         >>> traj = Trajectory([0, 1, 2], [[0.0]] * 3, [[0.0]] * 3, [[], []], [[0.0, 2.0], [2.0, 4.0]],
         ...                   1.0, "+", control_nodes=(0.0, 1.0))
         >>> traj.control([0.25, 1.5, 2.0])[:, 0]
         array([0.5, 3. , 4. ])
         """
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        k = np.clip(np.floor((t - self.t[0]) / self.h).astype(int), 0, max(self.steps - 1, 0))
+        if not self.steps:
+            raise InputError("this trajectory has 0 steps: it holds no control to evaluate.")
+        t = np.atleast_1d(checks.real_array("t", t, "a time or a 1-D array of times"))
+        if t.ndim != 1:
+            raise InputError(f"`t` must be a time or a 1-D array of times; got shape {t.shape}.")
+        t0, tN = float(self.t[0]), float(self.t[-1])
+        slack = CONTROL_TIME_RTOL * max(tN - t0, self.h)
+        outside = ~((t >= t0 - slack) & (t <= tN + slack))      # NaN counts as outside
+        if outside.any():
+            j = int(np.argmax(outside))
+            raise InputError(f"`t` must lie in the horizon [t_0, t_N] = [{t0!r}, {tN!r}]; "
+                             f"t[{j}] = {float(t[j])!r} is outside (there is no control there).")
+        t = np.clip(t, t0, tN)
+        k = np.clip(np.floor((t - t0) / self.h).astype(int), 0, max(self.steps - 1, 0))
         basis, _ = lagrange_basis(self.control_nodes, (t - self.t[k]) / self.h)
         values = self.u[k].reshape(len(t), len(self.control_nodes), -1)
         return np.einsum("tj,tju->tu", basis, values)
@@ -116,7 +150,7 @@ class Trajectory:
         """Write every field to an uncompressed .npz file at exactly `path` (exact round
         trip). The write is atomic: a temporary file renamed over `path`, so a failure
         half-way leaves a previous file at `path` intact."""
-        path = checks.file_path("path", path)
+        path = writable_file("path", checks.file_path("path", path))
         arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
         with atomic_write(path) as file:
             np.savez(file, **arrays)
@@ -127,36 +161,14 @@ class Trajectory:
 
         Raises
         ------
-        FileNotFoundError
-            If there is no file at `path`.
+        MissingFileError
+            If there is no file at `path` (a FileNotFoundError).
+        InputError
+            If `path` is a folder.
         TrajectoryFileError
             If the file is empty, truncated, corrupted or not written by `save`.
         """
-        path = checks.file_path("path", path)
-        with open(path, "rb") as file:
-            head = file.read(4)
-        if head != b"PK\x03\x04":         # every .npz file is a zip archive
-            _invalid(path, "it is empty" if not head else "it is not an .npz (zip) archive")
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                names = set(data.files)
-                values = {name: data[name] for name in names & _FIELDS}
-        except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as err:
-            _invalid(path, f"it is truncated or corrupted ({type(err).__name__}: {err})")
-        missing = _REQUIRED - names
-        unknown = {k for k in names - _FIELDS if not k.startswith(RESULT_PREFIX)}
-        if missing or unknown:
-            _invalid(path, f"it lacks the fields {sorted(missing)}" if missing else
-                     f"it holds fields a Trajectory does not have: {sorted(unknown)}")
-        for name in ("h", "variant"):
-            if values[name].shape != ():
-                _invalid(path, f"`{name}` must be a single value; got shape {values[name].shape}")
-        values["h"] = values["h"].item()
-        values["variant"] = str(values["variant"])
-        try:
-            return cls(**values)
-        except (InputError, InputTypeError) as err:
-            _invalid(path, f"its fields do not form a trajectory: {err}")
+        return read(cls, path, TRAJECTORY_FILE)
 
     def __repr__(self):
         return (f"Trajectory(steps={self.steps}, n={self.q.shape[1]}, m={self.lam.shape[1]}, "
@@ -168,9 +180,43 @@ RESULT_PREFIX = "result_"       # the fields `OptimizationResult.save` adds to a
 _FIELDS = {f.name for f in fields(Trajectory)}
 
 
-def _invalid(path, reason):
-    raise TrajectoryFileError(f"{str(path)!r} is not a valid dmoc trajectory file "
-                              f"(one written by Trajectory.save): {reason}.")
+TRAJECTORY_FILE = "a valid dmoc trajectory file (one written by Trajectory.save)"
+
+
+def read(cls, path, kind):
+    """The `cls` (Trajectory) in the .npz file at `path`; a file that is not one raises
+    TrajectoryFileError saying it is not `kind` (what the caller expected) and why."""
+    path = readable_file("path", checks.file_path("path", path))
+    with open(path, "rb") as file:
+        head = file.read(4)
+    if head != b"PK\x03\x04":         # every .npz file is a zip archive
+        _invalid(path, kind, "it is empty" if not head else
+                 "it is an .npy file (one array), not an .npz archive" if head == b"\x93NUM"
+                 else "it is not an .npz (zip) archive")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            names = set(data.files)
+            values = {name: data[name] for name in names & _FIELDS}
+    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as err:
+        _invalid(path, kind, f"it is truncated or corrupted ({type(err).__name__}: {err})")
+    missing = _REQUIRED - names
+    unknown = {k for k in names - _FIELDS if not k.startswith(RESULT_PREFIX)}
+    if missing or unknown:
+        _invalid(path, kind, f"it lacks the fields {sorted(missing)}" if missing else
+                 f"it holds fields a Trajectory does not have: {sorted(unknown)}")
+    for name in ("h", "variant"):
+        if values[name].shape != ():
+            _invalid(path, kind, f"`{name}` must be a single value; got shape {values[name].shape}")
+    values["h"] = values["h"].item()
+    values["variant"] = str(values["variant"])
+    try:
+        return cls(**values)
+    except (InputError, InputTypeError) as err:
+        _invalid(path, kind, f"its fields do not form a trajectory: {err}")
+
+
+def _invalid(path, kind, reason):
+    raise TrajectoryFileError(f"{str(path)!r} is not {kind}: {reason}.")
 
 
 def _time_grid(t, N1, h):

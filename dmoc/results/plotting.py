@@ -4,11 +4,14 @@ energy error on log scales, and convergence plots. matplotlib is imported lazily
 function returns a `matplotlib.figure.Figure` (no pyplot state) and never shows it.
 """
 
+import os
+
 import numpy as np
 
 from . import diagnostics
 from .._util import checks
-from .._util.files import atomic_write
+from .._util.files import atomic_write, make_folder
+from ..errors import InputError
 from ..discrete import Discretization
 from ..principle.trajectory import Trajectory
 
@@ -164,14 +167,16 @@ def plot_controls(traj, *, names=None, title=None, ax=None):
     return _finish(fig, ax, title)
 
 
-def _log_series(ax, t, values, label):
-    """Plot |values| on a log axis; exact zeros (invisible on it) are said in a note."""
+def _log_series(ax, t, values, label, empty="no values"):
+    """Plot |values| on a log axis; exact zeros (invisible on it) are said in a note, and
+    no values at all in the note `empty`."""
     values = np.abs(np.asarray(values, dtype=float))
     shown = np.where(values > 0, values, np.nan)
     ax.plot(t, shown, ".-", ms=2, lw=0.8, label=label)
     ax.set_yscale("log")
     if not np.isfinite(shown).any():
-        ax.text(0.5, 0.5, "identically zero", transform=ax.transAxes, ha="center")
+        ax.text(0.5, 0.5, "identically zero" if values.size else empty,
+                transform=ax.transAxes, ha="center")
         ax.set_ylim(1e-17, 1e-15)
     ax.set_xlabel("t")
 
@@ -199,7 +204,8 @@ def plot_constraint_violation(disc, traj, *, title=None, ax=None):
 
 def plot_energy_error(disc, traj, *, title=None, ax=None):
     """The energy error abs(E - E_0) on a log scale, E at the step midpoints
-    (`diagnostics.energy`).
+    (`diagnostics.energy`). A trajectory of one step has a single E and no change to show:
+    the axes say so.
 
     Parameters
     ----------
@@ -214,7 +220,8 @@ def plot_energy_error(disc, traj, *, title=None, ax=None):
     """
     fig, ax = _axes(ax)
     E = diagnostics.energy(disc, traj)
-    _log_series(ax, _midpoints(traj.t)[1:], (E - E[0])[1:], r"$|E - E_0|$")
+    _log_series(ax, _midpoints(traj.t)[1:], (E - E[0])[1:], r"$|E - E_0|$",
+                empty="one step: a single energy E_0, no change to show (needs 2 steps)")
     ax.set_ylabel("energy error")
     return _finish(fig, ax, title)
 
@@ -280,9 +287,11 @@ def save_trajectory_plots(traj, out, name, *, disc=None, names=None, control_nam
     ----------
     traj : Trajectory
     out : str or pathlib.Path
-        Output folder.
+        Output folder, created with its missing parents; an InputError if it, or a folder
+        above it, is a file.
     name : str
-        Prefix of the files: ``{name}_path.png`` (when n >= 2), ``{name}_states.png``,
+        Prefix of the files, without a path separator (the folders go into `out`):
+        ``{name}_path.png`` (when n >= 2), ``{name}_states.png``,
         ``{name}_controls.png`` (when there are controls) and, given `disc`,
         ``{name}_constraint.png`` (when there are constraints) and ``{name}_energy.png``.
     disc : Discretization, optional
@@ -302,8 +311,11 @@ def save_trajectory_plots(traj, out, name, *, disc=None, names=None, control_nam
     checks.instance("traj", traj, Trajectory, "a Trajectory")
     out = checks.file_path("out", out)
     checks.instance("name", name, str, "a str")
+    if any(c in name for c in {"/", "\\", os.sep, os.altsep} - {None}):
+        raise InputError(f"`name` must be a file-name prefix without a path separator; got "
+                         f"{name!r} (give the folders in `out`, the prefix in `name`).")
     checks.instance("disc", disc, (Discretization, type(None)), "a Discretization or None")
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_folder("out", out)
     figures = {}
     if traj.q.shape[1] >= 2:
         labels = tuple(names[:2]) if names else ("x", "y")

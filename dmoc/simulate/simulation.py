@@ -3,6 +3,7 @@ of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.simulate.s
 the horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
 """
 
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -60,7 +61,8 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         Initial velocity (then p_0 = dL/dv(q0, v0)) or initial momentum: exactly one.
         `v0` must lie in Delta_Q(q0) = ker A(q0).
     steps : int
-        Number of steps N.
+        Number of steps N; refused (InputError) when the run's arrays (`memory_needed`)
+        would exceed the machine's memory.
     controls : array_like, shape (N, disc.n_controls) or (N, n_u), optional
         The controls of each step at the rule's control nodes, node by node (for the
         midpoint and trapezoid rules one control u_k held on [t_k, t_{k+1}]); a shape
@@ -75,7 +77,8 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         completed before (see Notes).
     tol : float
         Newton's target for the residual max-norm; a step whose residual stays above
-        1000 tol counts as failed.
+        1000 tol counts as failed. Below ``ROUNDOFF_FLOOR / 1000`` (2.2e-17) round-off
+        alone keeps the residual above that, and the failure message says so.
     max_iter : int
         Iterations of the line-search Newton that redoes a step the fast path (three
         unrolled Newton iterations) did not converge.
@@ -127,6 +130,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     throw = checks.boolean("throw", throw)
     q0 = checks.array("q0", q0, (sys.n,))
     p_start, v_guess = start_momentum(sys, q0, v0, p0)
+    _check_memory(disc, steps)
     controls = step_controls(disc, controls, steps)
     residual = step_residual(disc, formulation)
     tic = time.perf_counter()
@@ -149,6 +153,10 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     return _finish(traj, stats, failed_rnorm, tol, throw)
 
 
+# the smallest residual relative to the momenta that a converged step can be asked for:
+# 100 units of round-off (evaluating R sums and multiplies O(n) terms of size |p|)
+ROUNDOFF_FLOOR = 100 * np.finfo(float).eps
+
 _STEPPERS = BoundedCache(16, "steppers")     # keyed by (residual key, tol, max_iter, native): h is an input
 
 
@@ -160,6 +168,33 @@ def _native(jit):
         raise InputError("`jit=True` needs a C compiler: none found (set CC to one, or use "
                          "jit=None to fall back to CasADi's virtual machine).")
     return jit
+
+
+def memory_needed(disc, steps):
+    """Bytes of the float arrays a run of `steps` steps holds at once: the stepper's states
+    (q, p, dq, nu, s) and per-step outputs (p0, nu, s and 4 scalars), the controls, and the
+    Trajectory's t, q, p, lam, u, s; a lower bound (CasADi's work arrays come on top)."""
+    n, m, ns, nc = disc.system.n, disc.n_multipliers, disc.n_stages, disc.n_controls
+    per_step = (3 * n + m + ns) + (n + m + ns + 4) + nc + (1 + 2 * n + m + nc + ns)
+    return 8 * (steps + 1) * per_step
+
+
+def physical_memory():
+    """Bytes of memory of this machine, or None where the OS does not say."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):        # no sysconf (Windows), or no such name
+        return None
+
+
+def _check_memory(disc, steps):
+    """Refuse, naming `steps`, a run whose arrays alone would not fit in the machine's memory."""
+    needed, available = memory_needed(disc, steps), physical_memory()
+    if available is not None and needed > available:
+        raise InputError(f"`steps` = {steps} needs at least {needed:.3g} bytes for the "
+                         f"trajectory's arrays, more than this machine's memory "
+                         f"({available:.3g} bytes); simulate fewer steps, or the horizon in "
+                         f"pieces (each run starting from the last state of the previous).")
 
 
 def step_controls(disc, controls, steps):
@@ -213,10 +248,14 @@ def _finish(traj, stats, failed_rnorm, tol, throw):
             f"step {k} turned NaN or Inf (t = {k * traj.h:.6g}): the residual, the next state or "
             f"the multipliers are not finite; check the force and the controls of step {k}.")
     else:
+        hint = (f"`tol` = {tol:.1e} is below the round-off floor: 1000 tol is less than the "
+                f"{ROUNDOFF_FLOOR:.1e} (100 units of round-off, relative to the momenta) "
+                f"that evaluating the residual reaches; use tol >= {ROUNDOFF_FLOOR / 1e3:.1e} "
+                f"(default 1e-12)"
+                if 1e3 * tol < ROUNDOFF_FLOOR else "try a smaller step h or check the controls")
         status, what = "newton_failed", (
             f"Newton did not converge {where}: residual max-norm {failed_rnorm:.3e} > 1000 tol "
-            f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; try a "
-            f"smaller step h or check the controls.")
+            f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; {hint}.")
     result = SimulationResult(
         traj, False, status, what + f" The trajectory up to step {k} is in `.result.trajectory`.",
         stats)
