@@ -39,10 +39,16 @@ def user_function(name, fun, symbols, arg_names, shape, problems, *, label=None)
         return None
     sizes = ", ".join(f"{a} ({s.numel()},)" for a, s in zip(arg_names, symbols))
     try:
-        raw = ca.SX(fun(*symbols))
+        value = fun(*symbols)
     except Exception as err:  # any failure inside user code is reported, not swallowed
         problems.append(f"`{name}` failed on symbols of the declared sizes [{sizes}]: "
                         f"{type(err).__name__}: {err}{_numeric_hint(err)}")
+        return None
+    try:
+        raw = ca.SX(value)
+    except Exception:  # a list of expressions, or an object CasADi cannot convert
+        problems.append(f"`{name}` must return a CasADi expression; got a "
+                        f"{type(value).__name__} it cannot convert{_container_hint(value)}.")
         return None
     out = ca.vec(raw) if shape is None else _oriented(raw, shape)
     if out is None:
@@ -85,6 +91,15 @@ SYMBOLIC_HINT = ("The arguments are CasADi SX symbols: use CasADi's functions on
 # numpy's conversion of a symbolic matrix to a numeric array.
 _NUMERIC_CONVERSIONS = ('"is_scalar()" failed', "to_int not defined", "truth value",
                         "Implicit conversion of symbolic")
+
+
+def _container_hint(value):
+    """How to build the expression when `value` is a Python list or tuple."""
+    if not isinstance(value, (list, tuple)):
+        return ""
+    nested = any(isinstance(item, (list, tuple)) for item in value)
+    return (": build each row with ca.horzcat(...) and stack the rows with ca.vertcat(...)"
+            if nested else ": stack the entries with ca.vertcat(...) (a row: ca.horzcat(...))")
 
 
 def _numeric_hint(err):

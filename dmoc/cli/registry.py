@@ -119,6 +119,15 @@ def build(spec, params):
         if key not in known and not spec.takes_any_parameter():
             raise UsageError("--param", f"{key!r} is not a parameter of this system; its "
                              f"parameters are {', '.join(known) or 'none'}")
+    required = [name for name, p in inspect.signature(spec.factory).parameters.items()
+                if p.default is inspect.Parameter.empty and name not in params
+                and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY, p.POSITIONAL_ONLY)]
+    if required:
+        kind = "the class" if inspect.isclass(spec.factory) else "the factory"
+        raise UsageError("SYSTEM", f"{kind} {spec.factory.__name__!r} needs {', '.join(required)}, "
+                         f"which --param cannot give (numbers only); expected a factory whose "
+                         f"parameters all have defaults, e.g. def car(mass=1500.0): return "
+                         f"MechanicalSystem(...)")
     try:
         system = spec.factory(**params)
     except (ValueError, TypeError) as err:

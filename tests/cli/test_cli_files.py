@@ -174,6 +174,7 @@ def exits():
 def user_files(tmp_path):
     (tmp_path / "kw.py").write_text(KWARGS_FACTORY)
     (tmp_path / "exits.py").write_text("import sys\nsys.exit(0)\n")
+    (tmp_path / "cls.py").write_text("from dmoc import MechanicalSystem\n")
     (tmp_path / "dir.py").mkdir()
     np.save(tmp_path / "complex.npy", np.array([[1 + 2j, 0], [0, 1j]]))
     np.save(tmp_path / "bool.npy", np.array([[True, False], [False, True]]))
@@ -202,6 +203,7 @@ def _one_line_error(capsys):
     (["simulate", "{f}/exits.py:f"], "SYSTEM", "sys.exit(0)"),
     (["simulate", "{f}/kw.py:exits"], "SYSTEM", "sys.exit(3)"),
     (["simulate", "{f}/dir.py:f"], "SYSTEM", "is a folder"),
+    (["simulate", "{f}/cls.py:MechanicalSystem"], "SYSTEM", "the class 'MechanicalSystem' needs lagrangian, n"),
 ])
 def test_unclear_inputs_exit_2_with_one_line(user_files, argv, argument, says, capsys):
     assert main([a.format(f=user_files) for a in argv]) == 2

@@ -90,3 +90,22 @@ def test_legitimate_lagrangians_pass(lagrangian):
     L = float(s.lagrangian([0.1, 0.2, 0.3], [1.0, 0.0, 0.0]))
     assert math.isfinite(L) and L == pytest.approx(float(lagrangian(
         ca.DM([0.1, 0.2, 0.3]), ca.DM([1.0, 0.0, 0.0]))), rel=1e-15)
+
+
+@pytest.mark.parametrize("kwargs, name, words", [
+    ({"constraints": lambda q: [[-ca.sin(q[2]), ca.cos(q[2]), 0]]}, "constraints", "each row with ca.horzcat"),
+    ({"force": lambda q, v, u: [u[0] * ca.cos(q[2]), u[0] * ca.sin(q[2]), 0], "n_u": 1}, "force",
+     "stack the entries with ca.vertcat"),
+])
+def test_lists_of_expressions_get_the_hint(kwargs, name, words):
+    """A Python list of CasADi expressions is not an expression: the message says how to
+    build one instead of listing CasADi's constructors."""
+    with pytest.raises(dmoc.InputError, match=rf"`{name}` must return a CasADi expression; got a list") as info:
+        dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 3, **kwargs)
+    assert words in str(info.value) and "Possible prototypes" not in str(info.value)
+    assert isinstance(info.value, dmoc.DmocError)
+
+
+def test_a_list_of_numbers_is_still_a_constant():
+    system = dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 3, constraints=lambda q: [[0.0, 1.0, 0.0]])
+    assert system.m == 1
