@@ -5,6 +5,7 @@ and the readers of vectors with free entries, ``--param NAME=VALUE`` and control
 
 import argparse
 import pathlib
+import re
 from typing import NamedTuple
 
 import numpy as np
@@ -29,6 +30,9 @@ class Parser(argparse.ArgumentParser):
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
         super().__init__(*args, **kwargs)
+        # a value such as -0.8,none or -1,0,0 is a vector, not an option (argparse's own
+        # pattern takes single numbers only)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message):
         argument, sep, rest = message.removeprefix("argument ").partition(": ")
