@@ -46,15 +46,18 @@ constraints and final time); then --start, --goal and --velocity change its boun
 and the options it states itself are refused."""
 
 
-def _common(sub, steps):
-    """Options shared by simulate and optimize; `steps` is the help of --steps."""
+def _common(sub, steps, start):
+    """Options shared by simulate and optimize; `steps` and `start` are the defaults the
+    help of --steps and --start states."""
     sub.add_argument("system", metavar="SYSTEM",
                      help=f"{', '.join(registry.BUILT_IN)} (see `dmoc systems`), or "
                      f"path/to/file.py:factory (the file is imported, which runs it)")
     sub.add_argument("--param", action="append", metavar="NAME=VALUE",
                      help="a parameter of the factory, e.g. --param mass=2 (repeatable)")
-    sub.add_argument("--start", metavar="Q", help="start configuration, comma-separated")
-    sub.add_argument("--steps", type=positive_int, metavar="N", help=f"number of steps N ({steps})")
+    sub.add_argument("--start", metavar="Q", help=f"start configuration, comma-separated "
+                     f"(default: {start})")
+    sub.add_argument("--steps", type=positive_int, metavar="N", help=f"number of steps N "
+                     f"(default: {steps})")
     sub.add_argument("--rule", choices=tuple(RULES), help="quadrature rule of the discrete "
                      "Lagrangian (default: midpoint)")
     sub.add_argument("--variant", choices=("+", "-"),
@@ -76,17 +79,21 @@ def build_parser():
     sub.add_parser("systems", help="list the built-in systems, their parameters and defaults")
     sim = sub.add_parser("simulate", help="simulate a system with the Dirac integrator",
                          description=SIMULATE)
-    _common(sim, "default: 1000, or the rows of --controls")
-    sim.add_argument("--velocity", metavar="V", help="start velocity in Delta_Q, comma-separated")
+    _common(sim, "1000, or the rows of --controls",
+            "the table of --controls, the problem's, the built-in's, or 0")
+    sim.add_argument("--velocity", metavar="V", help="start velocity in Delta_Q, comma-separated "
+                     "(default: the table of --controls gives the start momentum; else the "
+                     "problem's, the built-in's, or 0)")
     sim.add_argument("--duration", type=positive_float, metavar="T", help="final time T, "
                      "h = T/N (default: 10, or the times of the table of --controls)")
     sim.add_argument("--controls", metavar="FILE", help="controls u_k, one row per step (.npy, "
                      "or .csv/.txt with an optional header), or the NAME.csv of optimize")
     opt = sub.add_parser("optimize", help="solve a DMOC problem with IPOPT", description=OPTIMIZE)
-    _common(opt, "default: 100")
-    opt.add_argument("--goal", metavar="Q", help="goal configuration; entries 'free' are free")
+    _common(opt, "100", "the problem's, the built-in's, or 0")
+    opt.add_argument("--goal", metavar="Q", help="goal configuration; entries 'free' are free "
+                     "(default: the problem's or the built-in's)")
     opt.add_argument("--velocity", metavar="V", help="start velocity; entries 'free' are free "
-                     "(default: at rest)")
+                     "(default: the problem's, else at rest)")
     opt.add_argument("--duration", type=positive_float, metavar="T", help="final time T, "
                      "h = T/N; with --free-time the guess's (default: 4, or the middle of "
                      "--free-time)")
@@ -100,8 +107,10 @@ def build_parser():
                      help="IPOPT iteration limit (default: 1000)")
     dem = sub.add_parser("demo", help="simulate and optimize the built-in systems; write a summary and plots")
     dem.add_argument("--out", default="dmoc-output", metavar="DIR", help="output folder (default: dmoc-output)")
-    dem.add_argument("--steps", type=positive_int, default=1000, help="simulation steps (default: 1000)")
-    dem.add_argument("--opt-steps", type=positive_int, default=100, help="DMOC steps (default: 100)")
+    dem.add_argument("--steps", type=positive_int, default=1000, metavar="N",
+                     help="simulation steps (default: 1000)")
+    dem.add_argument("--opt-steps", type=positive_int, default=100, metavar="N",
+                     help="DMOC steps (default: 100)")
     return parser
 
 
