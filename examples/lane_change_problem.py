@@ -64,7 +64,8 @@ def lane_change(steps=60, wheelbase=2.7):
 
 def main(steps=60, out="dmoc-output"):
     """Solve with ``dmoc optimize``, replay with ``dmoc simulate``; return their exit codes."""
-    system = f"{__file__}:lane_change"
+    here = lane_change.__code__.co_filename      # this file (the gallery sets no __file__)
+    system = f"{here}:lane_change"
     solved = dmoc_command(["optimize", system, "--param", f"steps={steps}", "--heading", "theta",
                            "--out", str(out)])
     replayed = dmoc_command(["simulate", system, "--param", f"steps={steps}", "--heading",

@@ -26,8 +26,8 @@ def _subparsers():
 
 
 def _documented(command):
-    """{option: Default cell} of the table under "### `dmoc COMMAND`"."""
-    section = PAGE.split(f"### `dmoc {command}`", 1)[1].split("\n#", 1)[0]
+    """{option: Default cell} of the table under "## `dmoc COMMAND`"."""
+    section = PAGE.split(f"## `dmoc {command}`", 1)[1].split("\n#", 1)[0]
     rows = {}
     for line in section.splitlines():
         if not line.startswith("| `"):
@@ -75,11 +75,11 @@ def test_help_shows_no_markup_and_every_default():
 
 
 def test_the_page_names_every_built_in_and_rule():
-    intro = PAGE.split("###", 1)[0]
+    intro = PAGE.split("## `dmoc simulate`", 1)[0]
     for name in registry.BUILT_IN:
         assert f"`{name}`" in intro
     for command in ("simulate", "optimize"):
-        rule_row = next(line for line in PAGE.split(f"### `dmoc {command}`")[1].splitlines()
+        rule_row = next(line for line in PAGE.split(f"## `dmoc {command}`")[1].splitlines()
                         if line.startswith("| `--rule`"))
         assert re.findall(r"`(\w+)`", rule_row.split("|")[3]) == list(RULES)
 
