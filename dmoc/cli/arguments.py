@@ -41,13 +41,13 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(None, f"{message} (see {self.prog} --help)")
 
 
-def vector(option, text, names, *, free=False):
-    """The comma-separated floats of `text` for the coordinates `names`, shape (n,);
-    entries "free" become NaN when `free` is allowed."""
+def vector(option, text, names, *, free=False, of="this system"):
+    """The comma-separated floats of `text` for the entries `names` (of `of`, for the
+    error), shape (n,); entries "free" become NaN when `free` is allowed."""
     items = [s.strip() for s in text.replace(" ", ",").split(",") if s.strip()]
     if len(items) != len(names):
         raise UsageError(option, f"must have {len(names)} entries ({', '.join(names)}) for "
-                         f"this system; got {len(items)}")
+                         f"{of}; got {len(items)}")
     values = []
     for name, item in zip(names, items):
         if item.lower() in FREE:

@@ -101,13 +101,12 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args):
     stays whole); an interrupted run's without plots and GIF, so that it ends at once."""
     if out is None:
         return []
-    names = disc.system.names
-    control_names = spec.control_names or tuple(f"u{i}" for i in range(disc.system.n_u))
     finished = summary["status"] != INTERRUPTED
     try:
         with staged_run(out, output.run_files(prefix)) as stage:
-            written = output.write_all(stage, prefix, disc, traj, summary, spec, names=names,
-                                       control_names=control_names, goal=goal,
+            written = output.write_all(stage, prefix, disc, traj, summary, spec,
+                                       names=disc.system.names,
+                                       control_names=spec.control_labels(disc.system.n_u), goal=goal,
                                        gif=args.animate and finished,
                                        plots=finished and not args.no_plots)
     except OSError as err:  # disk full, file-size limit, folder removed
@@ -206,11 +205,11 @@ def _bounds(args, option, names):
 def _stated_problem(args, spec, system):
     """The OptimalControlProblem of the options for a system."""
     steps = args.steps or 100
-    free_time = None if args.free_time is None else tuple(
-        arguments.vector("--free-time", args.free_time, ("TMIN", "TMAX")))
+    free_time = None if args.free_time is None else tuple(float(T) for T in arguments.vector(
+        "--free-time", args.free_time, ("TMIN", "TMAX"), of="a time range"))
     duration = args.duration or (4.0 if free_time is None else sum(free_time) / 2)
     disc = _discretization(system, args.rule, args.variant, duration / steps)
-    controls = spec.control_names or tuple(f"u{i}" for i in range(system.n_u))
+    controls = spec.control_labels(system.n_u)
     with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--velocity",
                         "control_bounds": "--control-min/--control-max", "duration": "--free-time",
                         "state_bounds": "--state-min/--state-max"}):
@@ -219,8 +218,8 @@ def _stated_problem(args, spec, system):
             q_start=_with_none(_default("--start", args.start, spec.start or (0.0,) * system.n,
                                         system.names, free=True)),
             q_goal=_with_none(_default("--goal", args.goal, spec.goal, system.names, free=True)),
-            v_start=_with_none(args.velocity and arguments.vector("--velocity", args.velocity,
-                                                                   system.names, free=True)),
+            v_start=None if args.velocity is None else _with_none(
+                arguments.vector("--velocity", args.velocity, system.names, free=True)),
             control_bounds=_bounds(args, "control", controls),
             state_bounds=_bounds(args, "state", system.names))
 

@@ -54,6 +54,10 @@ class SystemSpec:
         return {name: p.default for name, p in inspect.signature(self.factory).parameters.items()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
 
+    def control_labels(self, n_u):
+        """`control_names`, or u0, u1, ... for the `n_u` controls of a system from a file."""
+        return self.control_names or tuple(f"u{i}" for i in range(n_u))
+
     def takes_any_parameter(self):
         """True when the factory takes ``**kwargs``: then any --param name is passed on."""
         return any(p.kind == p.VAR_KEYWORD

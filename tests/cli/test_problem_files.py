@@ -172,3 +172,19 @@ def test_heading_by_name(tmp_path, monkeypatch, capsys):
     assert drawn["heading"] == 2
     assert main(["simulate", "knife-edge", "--heading", "phi", "--steps", "5"]) == 2
     assert "argument --heading: must be one of the coordinates x, y, theta" in capsys.readouterr().err
+
+
+def test_bad_options_of_a_problem_exit_2_with_one_line(solved, tmp_path, capsys):
+    """A table of another system, bounds the wrong way round, a free time range that is
+    not a pair: one line naming the option."""
+    _, out = solved
+    cases = [(["simulate", "knife-edge", "--controls", str(out / "lane_change.csv")],
+              "argument --controls", "written for another system"),
+             (["optimize", "knife-edge", "--control-min", "1,none", "--control-max", "0,none"],
+              "argument --control-min/--control-max", "`control_bounds` must satisfy lower <= upper"),
+             (["optimize", "knife-edge", "--free-time", "2"], "argument --free-time",
+              "must have 2 entries (TMIN, TMAX)")]
+    for argv, argument, words in cases:
+        assert main(argv) == 2
+        lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+        assert len(lines) == 1 and argument in lines[0] and words in lines[0], lines
