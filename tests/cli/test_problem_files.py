@@ -188,3 +188,19 @@ def test_bad_options_of_a_problem_exit_2_with_one_line(solved, tmp_path, capsys)
         assert main(argv) == 2
         lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
         assert len(lines) == 1 and argument in lines[0] and words in lines[0], lines
+
+
+@pytest.mark.parametrize("rule, variant", [("midpoint", "-"), ("lobatto3", "+"), ("trapezoid", "+")])
+def test_the_replay_of_any_rule_and_variant(rule, variant, tmp_path, capsys):
+    """The table of a stage rule (controls at its nodes, e.g. force@0.5) and of the (-)
+    variant replays its optimum, from the table's start (q_0, p_0) and step."""
+    options = ["--rule", rule, "--variant", variant]
+    assert main(["optimize", "rolling-disk", "--steps", "12", *options,
+                 "--out", str(tmp_path / "o"), "--no-plots"]) == 0
+    assert main(["simulate", "rolling-disk", *options, "--controls",
+                 str(tmp_path / "o" / "rolling_disk.csv"), "--out", str(tmp_path / "s"),
+                 "--no-plots"]) == 0
+    optimum = dmoc.Trajectory.load(tmp_path / "o" / "rolling_disk.npz")
+    replay = dmoc.Trajectory.load(tmp_path / "s" / "rolling_disk.npz")
+    np.testing.assert_allclose(replay.t, optimum.t, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(replay.q, optimum.q, rtol=0, atol=1e-9)
