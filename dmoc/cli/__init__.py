@@ -1,8 +1,8 @@
 """The ``dmoc`` command (also ``python -m dmoc``), a thin front end over the public API:
 ``dmoc systems`` lists the built-in systems, ``dmoc simulate SYSTEM`` runs the Dirac
 integrator, ``dmoc optimize SYSTEM`` solves a DMOC problem, ``dmoc demo`` runs both on the
-built-ins. SYSTEM is a built-in name or ``path/to/file.py:factory``, a function in that file (which is
-imported, so its top-level code runs) returning a system, or for ``optimize`` a whole
+built-ins. SYSTEM is a built-in name or ``path/to/file.py:factory``, a function in that
+file (which is imported, so its top-level code runs) returning a system, or a whole
 problem.
 
 Exit codes: 0 success; 1 the solver failed (its status is printed and what was computed
@@ -34,9 +34,9 @@ def _plain(text):
 
 
 SIMULATE = """Simulate SYSTEM with the Dirac integrator: N steps of h = T/N from --start and
---velocity, with the controls of --controls (zero without). Given the table that
-`dmoc optimize --out` wrote (NAME.csv), --controls also gives the step h and the start
-(q_0, p_0) of that run, so the replay is that optimum."""
+--velocity, with the controls of --controls (zero without). Given the table NAME.csv
+that dmoc optimize --out wrote, --controls also gives the step h and the start (q_0, p_0)
+of that run, so the replay is that optimum."""
 
 OPTIMIZE = """Solve a DMOC problem with IPOPT: from --start to --goal (at rest unless --velocity
 gives the start velocity), minimizing the integral of |u|^2 over T, within the bounds of

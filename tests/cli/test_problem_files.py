@@ -204,3 +204,8 @@ def test_the_replay_of_any_rule_and_variant(rule, variant, tmp_path, capsys):
     replay = dmoc.Trajectory.load(tmp_path / "s" / "rolling_disk.npz")
     np.testing.assert_allclose(replay.t, optimum.t, rtol=1e-14, atol=0)
     np.testing.assert_allclose(replay.q, optimum.q, rtol=0, atol=1e-9)
+
+
+def test_the_example_script_solves_and_replays(example, tmp_path, capsys):
+    assert example.main(steps=30, out=tmp_path) == (0, 0)
+    assert dmoc.Trajectory.load(tmp_path / "lane_change.npz").steps == 30
