@@ -327,6 +327,9 @@ CLI_ROWS = [
      "`mass` must be finite and positive"),
     ("dmoc simulate knife-edge --start 0,0,inf", lambda c: simulate(c, q0=[0.0, 0.0, np.inf]),
      ValueError, "`q0` must be finite"),
+    ("dmoc optimize knife-edge --control-min 1,none --control-max 0,none",
+     lambda c: problem(c, control_bounds=([1.0, None], [0.0, None])), ValueError,
+     "`control_bounds` must satisfy lower <= upper"),
 ]
 
 # Plain bad input at the entry points outside the tables: (id, call, built-in class, words).
