@@ -1,0 +1,68 @@
+"""Degenerate Lagrangians at the discretization stage: whether d^2L/dv^2 is singular, the
+order a rule keeps on such an L (`Discretization.order`), and the warning `discretize`
+gives when a stage rule loses order there (docs/degenerate.md, "Order of the stage rules").
+The representative states sampled here also serve the principle stage's test of the
+alternating mode (`dmoc.principle.parasitic`).
+"""
+
+import warnings
+
+import casadi as ca
+import numpy as np
+
+from .._util.cache import BoundedCache
+from ..errors import OrderReductionWarning
+
+SAMPLE_SEED = 20231
+SAMPLE_COUNT = 2
+
+_DEGENERATE = BoundedCache(32, "degenerate_lagrangians")
+
+
+def sample_states(system, count=SAMPLE_COUNT):
+    """Representative states of `system`: `count` pairs (q, v), each of shape (n,), drawn
+    uniformly from [-1, 1]^n with a fixed seed (so every run tests the same states)."""
+    rng = np.random.default_rng(SAMPLE_SEED)
+    return [(rng.uniform(-1.0, 1.0, system.n), rng.uniform(-1.0, 1.0, system.n))
+            for _ in range(count)]
+
+
+def is_degenerate(system):
+    """Whether the Lagrangian of `system` is degenerate: d^2L/dv^2 (n, n) has rank below n
+    at every state of `sample_states` (a Lagrangian singular on a thin set only, as
+    L = v^4, counts as regular). A HamiltonianSystem never is."""
+    if not hasattr(system, "lagrangian"):
+        return False
+    return _DEGENERATE.get(system.key, lambda: _rank_deficient(system))
+
+
+def _rank_deficient(system):
+    q, v = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n)
+    hessian = ca.Function("d2L_dv2", [q, v], [ca.hessian(system.lagrangian(q, v), v)[0]])
+    ranks = []
+    for q0, v0 in sample_states(system):
+        H = np.array(hessian(q0, v0))
+        ranks.append(np.linalg.matrix_rank(H, tol=1e-10 * max(1.0, np.abs(H).max())))
+    return max(ranks) < system.n
+
+
+def declared_order(system, rule):
+    """The global order of `rule` on `system`: ``rule.degenerate_order`` for a degenerate
+    Lagrangian when the rule declares one, else ``rule.order``."""
+    reduced = getattr(rule, "degenerate_order", None)
+    if reduced is not None and reduced < rule.order and is_degenerate(system):
+        return reduced
+    return rule.order
+
+
+def warn_order_reduction(disc):
+    """Warn (OrderReductionWarning) when `disc` keeps a lower order than its rule's,
+    naming the rule, both orders and what to do instead."""
+    if disc.order < disc.rule.order:
+        warnings.warn(OrderReductionWarning(
+            f"`rule` {disc.rule.name!r} has order {disc.order}, not {disc.rule.order}, on this "
+            f"degenerate Lagrangian (d^2L/dv^2 singular): the rule's Lobatto IIIA-IIIB pairing "
+            f"assumes a regular Legendre transform, and the error falls as h^{disc.order}, as "
+            f"`Discretization.order` says. On such Lagrangians 'midpoint' keeps order 2 at less "
+            f"cost than 'lobatto3', and 'lobatto4' keeps order 4 (docs/degenerate.md, 'Order of "
+            f"the stage rules')."), stacklevel=3)
