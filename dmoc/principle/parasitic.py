@@ -22,7 +22,7 @@ TURNS = STEPS // TURN
 RATE_STEPS = 20            # steps of the first run that give omega
 NEWTON_ITERATIONS = 4
 NEWTON_TOLERANCE = 1e-10
-EXCITATION = 1e-2          # offset of p_0 from dL/dv, relative to |p_0|
+EXCITATION = 1e-2          # offset of the start's momentum, relative to |p_0|
 GROWTH_LIMIT = 5.0
 
 _GROWTH = BoundedCache(32, "alternating_growth")
@@ -75,9 +75,13 @@ def alternating_growth(R, system, h):
     is iterated (Newton on the rows left, stage, constraint in (q_{k+1}, lam, s); p_{k+1}
     from the row right). A first run at `h` gives the rate of the motion (`_rate`:
     |q''|/|q'|, omega^2 r / (omega r) on a circle). The test run then starts from p_0 + e,
-    e = EXCITATION max(1, |p_0|) in every entry (which excites the alternating mode as a
-    start off p = dL/dv, a force or a control does), and takes STEPS steps of
-    1/(STEPS_PER_RADIAN omega), TURNS turns whatever `h`: the alternating mode obeys an
+    e the projection of EXCITATION max(1, |p_0|) (1, ..., 1) on the momenta dL/dv gives
+    near (q, v) (the range of its derivative in (q, v)): it excites the alternating mode as
+    a start off p = dL/dv(q, .) or a force does, but gives no momentum that L never does
+    (a coordinate without kinetic energy keeps p = 0; a start off it makes even the
+    midpoint rule drift, docs/degenerate.md). It takes STEPS steps of
+    1/(STEPS_PER_RADIAN omega), TURNS turns whatever `h` (but at most STEPS_PER_RADIAN h,
+    for a motion that hardly turns, as an opposite vortex pair's): the alternating mode obeys an
     equation of its own, whose growth per unit time does not depend on the step to leading
     order. Its amplitude in q is the fourth difference |delta^4 q_k|/16 (A for a component
     (-1)^k A, O((omega h)^4) on the smooth motion); the growth is its largest value over the
@@ -85,13 +89,18 @@ def alternating_growth(R, system, h):
     iterations stop converging is judged on the steps before (at least two turns).
     """
     probe, orbit = _orbit(R, RATE_STEPS + 1), _orbit(R, STEPS)
+    qs, vs = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n)
+    p = system.momentum(qs, vs)
+    momentum = ca.Function("momentum", [qs, vs], [p, ca.jacobian(p, ca.vertcat(qs, vs))])
     growths = []
     for q, v in sample_states(system):
-        z = np.r_[q, np.array(system.momentum(q, v)).ravel()]
+        p, B = (np.array(a) for a in momentum(q, v))
+        z = np.r_[q, p.ravel()]
         omega = _rate(probe, R, z, h)
         if omega:
-            z[R.n:] += EXCITATION * max(1.0, np.abs(z[R.n:]).max())
-            growths.append(_growth(_positions(orbit, R, z, 1.0 / (STEPS_PER_RADIAN * omega))))
+            e = np.full(R.n, EXCITATION * max(1.0, np.abs(p).max()))
+            z[R.n:] += B @ np.linalg.lstsq(B, e, rcond=None)[0]
+            growths.append(_growth(_positions(orbit, R, z, min(1.0 / (STEPS_PER_RADIAN * omega), STEPS_PER_RADIAN * h))))
     return max(growths, default=1.0)
 
 
@@ -134,7 +143,10 @@ def _positions(orbit, R, z, h):
     does); None when the first step misses it."""
     n = R.n
     guess = np.r_[z[:n], np.zeros(R.n_lam), np.tile(z[:n], R.n_stages // n)]
-    states, residuals = (np.array(a) for a in orbit(np.r_[guess, z], h))
+    try:
+        states, residuals = (np.array(a) for a in orbit(np.r_[guess, z], h))
+    except RuntimeError:            # a non-finite value on the way: the motion is not followed
+        return None
     q = states[guess.size:guess.size + n].T
     converged = np.abs(residuals.ravel()) <= NEWTON_TOLERANCE * (1.0 + np.abs(q).max(axis=1))
     k = converged.size if converged.all() else int(np.argmin(converged))
