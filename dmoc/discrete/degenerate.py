@@ -29,8 +29,9 @@ def sample_states(system, count=SAMPLE_COUNT):
 
 def is_degenerate(system):
     """Whether the Lagrangian of `system` is degenerate: d^2L/dv^2 (n, n) has rank below n
-    at every state of `sample_states` (a Lagrangian singular on a thin set only, as
-    L = v^4, counts as regular). A HamiltonianSystem never is."""
+    at every state of `sample_states` where it is finite (a Lagrangian singular on a thin
+    set only, as L = v^4, counts as regular, and so does one not finite at any of them).
+    A HamiltonianSystem never is."""
     if not hasattr(system, "lagrangian"):
         return False
     return _DEGENERATE.get(system.key, lambda: _rank_deficient(system))
@@ -42,8 +43,9 @@ def _rank_deficient(system):
     ranks = []
     for q0, v0 in sample_states(system):
         H = np.array(hessian(q0, v0))
-        ranks.append(np.linalg.matrix_rank(H, tol=1e-10 * max(1.0, np.abs(H).max())))
-    return max(ranks) < system.n
+        if np.all(np.isfinite(H)):
+            ranks.append(np.linalg.matrix_rank(H, tol=1e-10 * max(1.0, np.abs(H).max())))
+    return bool(ranks) and max(ranks) < system.n
 
 
 def declared_order(system, rule):
