@@ -50,8 +50,9 @@ def check_alternating_mode(disc, plus_residual):
     if growth > GROWTH_LIMIT:
         warnings.warn(ParasiticModeWarning(
             f"`rule` {disc.rule.name!r} has an alternating (parasitic) mode that grows on this "
-            f"degenerate Lagrangian: over {TURNS} turns of a representative motion it grew {growth:.3g}-fold. Once excited (a start off "
-            f"p = dL/dv, forces, controls, round-off) it swamps long runs. Use rule='midpoint', "
+            f"degenerate Lagrangian: over {TURNS} turns of a representative motion it grew "
+            f"{growth:.3g}-fold. Once excited (a start off p = dL/dv, forces, controls, "
+            f"round-off) it swamps long runs. Use rule='midpoint', "
             f"whose samples (q_k + q_{{k+1}})/2 do not see the alternating mode "
             f"(docs/degenerate.md, 'The alternating mode')."), stacklevel=3)
 
@@ -100,7 +101,8 @@ def alternating_growth(R, system, h):
         if omega:
             e = np.full(R.n, EXCITATION * max(1.0, np.abs(p).max()))
             z[R.n:] += B @ np.linalg.lstsq(B, e, rcond=None)[0]
-            growths.append(_growth(_positions(orbit, R, z, min(1.0 / (STEPS_PER_RADIAN * omega), STEPS_PER_RADIAN * h))))
+            step = min(1.0 / (STEPS_PER_RADIAN * omega), STEPS_PER_RADIAN * h)
+            growths.append(_growth(_positions(orbit, R, z, step)))
     return max(growths, default=1.0)
 
 

@@ -69,7 +69,8 @@ pair_form = vortex_form(PAIR)
 THREE = (1.0, 2.0, -0.7)
 
 
-CASES = {"vortex pair": (lambda: point_vortices(PAIR), biot_savart(PAIR), pair_form, PAIR_Q0, (8, 16, 32, 64), 4.0),
+CASES = {"vortex pair": (lambda: point_vortices(PAIR), biot_savart(PAIR), pair_form, PAIR_Q0,
+                         (8, 16, 32, 64), 4.0),
          "three vortices": (lambda: point_vortices(THREE), biot_savart(THREE), vortex_form(THREE),
                             np.array([1.0, 0.0, -0.5, 0.3, 0.2, -1.0]), (8, 16, 32), 2.0),
          "one-form": (one_form_system, one_form_flow, one_form, FORM_Q0, (20, 40, 80, 160), 4.0)}
