@@ -173,10 +173,18 @@ def test_the_trapezoid_on_the_vortex_pair_warns_and_an_excited_start_diverges():
     assert distance["trapezoid"] > 0.5 and distance["midpoint"] < 0.02, distance
 
 
+def rotation():
+    """L = q0 v1 - q1 v0 - |q|^2: linear, so the trapezoid is the leapfrog on a linear
+    oscillator, whose parasitic root stays on the unit circle (|hK| < 1)."""
+    return dmoc.MechanicalSystem(lambda q, v: q[0] * v[1] - q[1] * v[0] - ca.dot(q, q), 2)
+
+
 @pytest.mark.parametrize("make, rule", [
     (one_form_system, "midpoint"), (one_form_system, "lobatto4"), (lambda: point_vortices(PAIR), "midpoint"),
-    (lambda: point_vortices(PAIR), "lobatto4"), (lambda: lc_circuit(0.8, (0.5, 1.5)), "midpoint")],
-    ids=["one-form midpoint", "one-form lobatto4", "pair midpoint", "pair lobatto4", "LC midpoint"])
+    (lambda: point_vortices(PAIR), "lobatto4"), (lambda: lc_circuit(0.8, (0.5, 1.5)), "midpoint"),
+    (rotation, "trapezoid")],
+    ids=["one-form midpoint", "one-form lobatto4", "pair midpoint", "pair lobatto4", "LC midpoint",
+         "linear trapezoid"])
 def test_bounded_alternating_modes_do_not_warn(make, rule):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OrderReductionWarning)
