@@ -28,10 +28,12 @@ def sample_states(system, count=SAMPLE_COUNT):
 
 
 def is_degenerate(system):
-    """Whether the Lagrangian of `system` is degenerate: d^2L/dv^2 (n, n) has rank below n
-    at every state of `sample_states` where it is finite (a Lagrangian singular on a thin
-    set only, as L = v^4, counts as regular, and so does one not finite at any of them).
-    A HamiltonianSystem never is."""
+    """Whether the Lagrangian of `system` is degenerate on the constraint distribution:
+    N^T (d^2L/dv^2) N, N (n, n - m) a basis of ker A(q), has rank below n - m at every
+    state of `sample_states` where it is finite (a Lagrangian singular on a thin set only,
+    as L = v^4, counts as regular, and so does one not finite at any of them; a coordinate
+    without inertia that the constraints tie to others, as a massless wheel's angle, does
+    not make L degenerate). A HamiltonianSystem never is."""
     if not hasattr(system, "lagrangian"):
         return False
     return _DEGENERATE.get(system.key, lambda: _rank_deficient(system))
@@ -39,13 +41,25 @@ def is_degenerate(system):
 
 def _rank_deficient(system):
     q, v = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n)
-    hessian = ca.Function("d2L_dv2", [q, v], [ca.hessian(system.lagrangian(q, v), v)[0]])
-    ranks = []
+    hessian = ca.Function("d2L_dv2", [q, v], [ca.hessian(system.lagrangian(q, v), v)[0],
+                                               system.constraint_matrix(q)])
+    deficient = []
     for q0, v0 in sample_states(system):
-        H = np.array(hessian(q0, v0))
-        if np.all(np.isfinite(H)):
-            ranks.append(np.linalg.matrix_rank(H, tol=1e-10 * max(1.0, np.abs(H).max())))
-    return bool(ranks) and max(ranks) < system.n
+        H, A = (np.array(a) for a in hessian(q0, v0))
+        if np.all(np.isfinite(H)) and np.all(np.isfinite(A)):
+            N = _kernel(A, system.n)
+            H = N.T @ H @ N
+            deficient.append(np.linalg.matrix_rank(H, tol=1e-10 * max(1.0, np.abs(H).max())) < N.shape[1])
+    return bool(deficient) and all(deficient)
+
+
+def _kernel(A, n):
+    """An orthonormal basis of ker A (n, n - rank A), from the SVD of A (m, n)."""
+    if not A.size:
+        return np.eye(n)
+    _, sigma, Vt = np.linalg.svd(A)
+    rank = int(np.sum(sigma > 1e-12 * max(1.0, sigma.max())))
+    return Vt[rank:].T
 
 
 def declared_order(system, rule):
