@@ -1,8 +1,9 @@
 """The principle stage's stability test for degenerate Lagrangians: the growth of the
 alternating (parasitic) mode of the step equations (37). On L linear in v the step map
 (q_k, p_k) -> (q_{k+1}, p_{k+1}) has twice the dimension of the motion; the extra roots of
-its linearization sit near -1, and for the trapezoid on a nonlinear flow the mode they
-carry grows along the motion. `step_residual` runs the test next to the one-step-map test
+its linearization sit near -1 (midpoint, trapezoid, lobatto4; near +1 for lobatto3), and
+for the trapezoid on a nonlinear flow the alternating mode they carry grows along the
+motion. `step_residual` runs the test next to the one-step-map test
 (`dmoc.principle.one_step`) and warns (docs/degenerate.md, "The alternating mode").
 """
 
