@@ -102,48 +102,69 @@ def residual_norms(disc, traj):
     return np.abs(r).max(axis=0)
 
 
+def velocity_changes(traj):
+    """The change of each step velocity relative to its coordinate's peak, shape (N - 1, n):
+    row k - 1 holds |v_{k+1/2} - v_{k-1/2}| / max_j |v_{j+1/2}| at knot k, per coordinate
+    (`Trajectory.velocities`); 0 for a coordinate at rest (peak velocity below 1e-9 of the
+    largest coordinate's). `velocity_jumps` is its largest entry per coordinate."""
+    checks.instance("traj", traj, Trajectory, "a Trajectory")
+    v = traj.velocities
+    if v.shape[0] < 2:
+        return np.zeros((0, v.shape[1]))
+    peak = np.abs(v).max(axis=0)
+    moving = peak > 1e-9 * peak.max(initial=0.0)
+    return np.where(moving, np.abs(np.diff(v, axis=0)) / np.where(moving, peak, 1.0), 0.0)
+
+
 def velocity_jumps(traj):
     """How well the grid resolves the motion, per coordinate, shape (n,):
     max_k |v_{k+1/2} - v_{k-1/2}| / max_k |v_{k+1/2}| over the step velocities
-    (`Trajectory.velocities`).
+    (`velocity_changes`).
 
     A motion resolved by the grid gives about omega h (2 sin(omega h / 2) for a sinusoid of
     frequency omega). Values of order 1 say that the velocity changes by its own size
     within a step (2: it reverses): the grid does not resolve the motion, as in the optima
     that spin a light blade by pi per step and slip it sideways in one step
-    (docs/verification.md, "Known shortfalls"). Coordinates at rest (peak velocity below
-    1e-9 of the largest coordinate's) give 0.
+    (docs/verification.md, "Known shortfalls"). Coordinates at rest give 0.
 
     >>> traj = Trajectory([0, 1, 2, 3], [[0.0], [1.0], [0.0], [1.0]], [[0.0]] * 4, [[], [], []],
     ...                   [[], [], []], 1.0, "+")
     >>> velocity_jumps(traj)
     array([2.])
     """
-    checks.instance("traj", traj, Trajectory, "a Trajectory")
-    v = traj.velocities
-    if v.shape[0] < 2:
-        return np.zeros(v.shape[1])
-    peak = np.abs(v).max(axis=0)
-    moving = peak > 1e-9 * peak.max(initial=0.0)
-    return np.where(moving, np.abs(np.diff(v, axis=0)).max(axis=0) / np.where(moving, peak, 1.0), 0.0)
+    return velocity_changes(traj).max(axis=0, initial=0.0)
 
 
-def replay_error(problem, result):
-    """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
-    optimal initial state: the two consumers share one residual, so both are at solver
-    tolerance. p_N is left out where the formulation puts the end impulse into it (variant
-    "-"), which `simulate` cannot know."""
+def replay(problem, result):
+    """The Trajectory `simulate` computes from the optimum's initial state (q_0, p_0) with its
+    controls, by the problem's rule and variant and the optimum's step; it stops early
+    (fewer steps) where Newton's method fails."""
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     traj = checks.instance("result.trajectory", getattr(result, "trajectory", None), Trajectory,
                             "a Trajectory (give the OptimizationResult of `problem`)")
     disc = problem.disc.with_step(traj.h)
-    replay = simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
-                      variant=traj.variant, throw=False).trajectory
-    if replay.steps < traj.steps:
+    return simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
+                    variant=traj.variant, throw=False).trajectory
+
+
+def replay_error(problem, result):
+    """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
+    optimal initial state (`replay`): the two consumers share one residual, so both are at
+    solver tolerance. p_N is left out where the formulation puts the end impulse into it
+    (variant "-"), which `simulate` cannot know; a replay that stops early gives inf."""
+    simulated = replay(problem, result)       # checks both arguments
+    traj = result.trajectory
+    if simulated.steps < traj.steps:
         return np.inf, np.inf
-    last = traj.steps + as_formulation(traj.variant, problem.disc).end_momentum_determined
-    return (float(np.abs(replay.q - traj.q).max()),
-            float(np.abs(replay.p[:last] - traj.p[:last]).max()))
+    last = compared_momenta(problem, traj)
+    return (float(np.abs(simulated.q - traj.q).max()),
+            float(np.abs(simulated.p[:last] - traj.p[:last]).max()))
+
+
+def compared_momenta(problem, traj):
+    """How many of p_0 ... p_N a replay reproduces: N + 1, or N where the formulation puts
+    the end impulse into p_N (variant "-")."""
+    return traj.steps + as_formulation(traj.variant, problem.disc).end_momentum_determined
 
 
 def optimization_summary(problem, result):
