@@ -102,37 +102,58 @@ def residual_norms(disc, traj):
     return np.abs(r).max(axis=0)
 
 
-def velocity_changes(traj):
-    """The change of each step velocity relative to its coordinate's peak, shape (N - 1, n):
-    row k - 1 holds |v_{k+1/2} - v_{k-1/2}| / max_j |v_{j+1/2}| at knot k, per coordinate
-    (`Trajectory.velocities`); 0 for a coordinate at rest (peak velocity below 1e-9 of the
-    largest coordinate's). `velocity_jumps` is its largest entry per coordinate."""
-    checks.instance("traj", traj, Trajectory, "a Trajectory")
-    v = traj.velocities
-    if v.shape[0] < 2:
-        return np.zeros((0, v.shape[1]))
-    peak = np.abs(v).max(axis=0)
+def velocity_changes(disc, traj):
+    """The jump of the velocity of the rule's interpolant at every interior knot relative to
+    its coordinate's peak, shape (N - 1, n): row k - 1 holds |q'_k(0) - q'_{k-1}(h)| /
+    max |q'| per coordinate, q'_k the velocity of step k's polynomial through q_k, its
+    stage configurations and q_{k+1} (`Rule.interpolant`); 0 for a coordinate at rest
+    (peak below 1e-9 of the largest coordinate's).
+
+    For the midpoint and trapezoid rules q'_k is the step velocity (q_{k+1} - q_k)/h and
+    the largest entry per coordinate is `velocity_jumps`; a stage rule's polynomials meet
+    with a velocity jump of the order of its error, so a coarse grid that a high-order rule
+    resolves is not mistaken for an unresolved one.
+    """
+    if not check_trajectory(disc, traj) or traj.steps < 2:
+        return np.zeros((0, disc.system.n))
+    n, rule = disc.system.n, disc.rule
+    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
+                    (("q0", n), ("q1", n), ("s", traj.s.shape[1]), ("h", 1)))
+    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
+                                    ((0.0, 1.0), (1.0, 1.0)))
+    velocities = ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]])
+    start, end = (np.array(v).T for v in velocities.map(traj.steps)(
+        traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h))
+    peak = np.maximum(np.abs(start).max(axis=0), np.abs(end).max(axis=0))
     moving = peak > 1e-9 * peak.max(initial=0.0)
-    return np.where(moving, np.abs(np.diff(v, axis=0)) / np.where(moving, peak, 1.0), 0.0)
+    return np.where(moving, np.abs(start[1:] - end[:-1]) / np.where(moving, peak, 1.0), 0.0)
 
 
 def velocity_jumps(traj):
     """How well the grid resolves the motion, per coordinate, shape (n,):
     max_k |v_{k+1/2} - v_{k-1/2}| / max_k |v_{k+1/2}| over the step velocities
-    (`velocity_changes`).
+    (`Trajectory.velocities`).
 
     A motion resolved by the grid gives about omega h (2 sin(omega h / 2) for a sinusoid of
     frequency omega). Values of order 1 say that the velocity changes by its own size
     within a step (2: it reverses): the grid does not resolve the motion, as in the optima
     that spin a light blade by pi per step and slip it sideways in one step
-    (docs/verification.md, "Known shortfalls"). Coordinates at rest give 0.
+    (docs/verification.md, "Known shortfalls"). Coordinates at rest (peak velocity below
+    1e-9 of the largest coordinate's) give 0. `velocity_changes` measures the jumps of a
+    stage rule's interpolant instead.
 
     >>> traj = Trajectory([0, 1, 2, 3], [[0.0], [1.0], [0.0], [1.0]], [[0.0]] * 4, [[], [], []],
     ...                   [[], [], []], 1.0, "+")
     >>> velocity_jumps(traj)
     array([2.])
     """
-    return velocity_changes(traj).max(axis=0, initial=0.0)
+    checks.instance("traj", traj, Trajectory, "a Trajectory")
+    v = traj.velocities
+    if v.shape[0] < 2:
+        return np.zeros(v.shape[1])
+    peak = np.abs(v).max(axis=0)
+    moving = peak > 1e-9 * peak.max(initial=0.0)
+    return np.where(moving, np.abs(np.diff(v, axis=0)).max(axis=0) / np.where(moving, peak, 1.0), 0.0)
 
 
 def replay(problem, result):

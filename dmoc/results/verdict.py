@@ -47,7 +47,7 @@ def judge(problem, result):
     """
     traj = result.trajectory
     replay_q, replay_p, replay_step = _replay_departure(problem, result)
-    changes = velocity_changes(traj)
+    changes = velocity_changes(problem.disc, traj)
     k, i = np.unravel_index(np.argmax(changes), changes.shape) if changes.size else (-1, 0)
     jump = float(changes[k, i]) if changes.size else 0.0
     path, path_step, path_row = _path_violation(problem, traj)
