@@ -1,8 +1,8 @@
 """``dmoc simulate`` and ``dmoc optimize``: set up a system from its name and the options,
 run the simulator or the optimizer with ``throw=False``, print a summary and write the
 output files, all of a run's files together (`dmoc._util.files.staged_run`). Returns the
-exit code: 0 on success, 1 when the solver failed, 130 when a Ctrl-C stopped it (what was
-computed is still written).
+exit code: 0 on success, 1 when the solver failed or its optimum failed the verdict
+(`dmoc.results.verdict`), 130 when a Ctrl-C stopped it (what was computed is still written).
 """
 
 import contextlib
@@ -159,11 +159,13 @@ def run_optimize(args):
     log(f"optimizing {args.system} over {steps} steps (T = {args.duration:g}) with IPOPT"
         + ("" if args.verbose else "; --verbose shows its iteration log"))
     result = optimize(problem, options=options, throw=False)
-    log(f"IPOPT: {result.status} after {result.stats['iterations']} iterations "
+    log(f"IPOPT: {result.stats['return_status']} after {result.stats['iterations']} iterations "
         f"in {result.stats['solve_time']:.2f} s")
     summary = {"command": "optimize", "system": args.system, "status": result.status,
                "success": result.success, "steps": steps, "duration": args.duration,
                "rule": args.rule, "variant": args.variant, **_figures(problem, result)}
+    if result.verdict is not None:      # what the checks found, why a converged run failed
+        summary.update(verdict=result.verdict.status, message=result.message)
     files = _write(out, prefix, disc, result.trajectory, summary, spec, q_goal, args.animate)
     return _report(summary, result.success, result.status, result.message, files)
 
