@@ -133,3 +133,16 @@ def test_the_verdict_is_saved_and_loaded_with_the_result(car, tmp_path):
     raw = dmoc.optimize(knife_edge_parking(20), check=False)
     raw.save(tmp_path / "raw.npz")
     assert dmoc.OptimizationResult.load(tmp_path / "raw.npz").verdict is None
+
+
+def test_the_remedy_of_the_docs_gives_the_car_a_replayable_optimum():
+    """Angles bounded to their physical range and the steering torque priced (docs/stages/
+    optimize.md, "Verdicts"): the optimum replays and costs what carrying the car costs."""
+    problem = car_problem(state_bounds=([None, None, -0.5, -0.5], [None, None, 0.5, 0.5]),
+                          running_cost=lambda q, v, u: u[0] ** 2 + (1e3 * u[1]) ** 2)
+    result = dmoc.optimize(problem)
+    lower_bound = 12 * CAR_MASS ** 2 * np.hypot(*CAR_GOAL[:2]) ** 2 / CAR_T ** 3
+    assert result.success and result.verdict.passed
+    assert max(result.verdict.replay_q, result.verdict.replay_p) <= 1e-8
+    assert abs(result.cost / lower_bound - 1) < 0.01
+    assert np.abs(result.trajectory.q[:, 3]).max() < 0.1       # the wheels barely steer
