@@ -159,13 +159,16 @@ def velocity_jumps(traj):
 def replay(problem, result):
     """The Trajectory `simulate` computes from the optimum's initial state (q_0, p_0) with its
     controls, by the problem's rule and variant and the optimum's step; it stops early
-    (fewer steps) where Newton's method fails."""
+    (fewer steps) where Newton's method fails. It runs in CasADi's virtual machine
+    (``jit=False``): preparing the compiled step (serializing its Functions for the cache
+    key) costs more than the N steps of an optimum (1.5 s against 0.1 s for the rolling disk
+    with lobatto4, docs/performance.md)."""
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     traj = checks.instance("result.trajectory", getattr(result, "trajectory", None), Trajectory,
                             "a Trajectory (give the OptimizationResult of `problem`)")
     disc = problem.disc.with_step(traj.h)
     return simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
-                    variant=traj.variant, throw=False).trajectory
+                    variant=traj.variant, throw=False, jit=False).trajectory
 
 
 def replay_error(problem, result):
