@@ -13,13 +13,13 @@ import numpy as np
 from .._util import checks
 from ..errors import SolverError
 from ..optimize.solve import solve
-from ..optimize.verdict import PASSED, Verdict
+from ..optimize.verdict import PASSED, STATUSES, Verdict
 from .diagnostics import compared_momenta, replay, velocity_changes
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
 # millimetres or kilograms gets the verdict it gets in metres (docs/stages/optimize.md,
 # "Verdicts"). A replay on the root IPOPT converged to stays at the solvers' tolerances
-# (1e-12 .. 1e-9 measured on the built-in problems); one on a spurious root departs by O(1).
+# (1e-16 .. 1e-13 of the scale on the built-in problems); one on a spurious root by O(1).
 REPLAY_TOLERANCE = 1e-6
 # A motion of frequency omega changes its step velocity by 2 sin(omega h / 2) of its peak
 # per step: more than its own peak (omega h > pi / 3, fewer than 6 steps a period) is not
@@ -44,6 +44,16 @@ def judge(problem, result):
     Verdict
         Its status is the worst failed check (`dmoc.optimize.verdict.STATUSES`), or
         ``"passed"``.
+
+    Notes
+    -----
+    The replay solves the step equations (37) (variant "+") or (41) (variant "-") step by
+    step with Newton's method from (q_0, p_0) and the optimal controls (`dmoc.simulate`),
+    which follows the root that continues the previous step; the optimum satisfies the
+    same equations as NLP rows, at whatever root IPOPT reached. Their agreement to
+    `REPLAY_TOLERANCE` says that IPOPT's root is the simulator's. The velocity jumps are
+    those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
+    path constraints are evaluated at every knot (`knot_path_values`).
     """
     traj = result.trajectory
     replay_q, replay_p, replay_step = _replay_departure(problem, result)
@@ -53,8 +63,7 @@ def judge(problem, result):
     path, path_step, path_row = _path_violation(problem, traj)
     failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
               jump > JUMP_LIMIT)
-    status = next((s for s, f in zip(("not_replayable", "path_violated", "under_resolved"),
-                                     failed) if f), PASSED)
+    status = next((s for s, f in zip(STATUSES, failed) if f), PASSED)
     # discretization_error joins here: dmoc.results.accuracy.estimate_error
     return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
                    problem.disc.system.names[i], path, path_step, path_row)
