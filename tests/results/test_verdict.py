@@ -146,3 +146,25 @@ def test_the_remedy_of_the_docs_gives_the_car_a_replayable_optimum():
     assert max(result.verdict.replay_q, result.verdict.replay_p) <= 1e-8
     assert abs(result.cost / lower_bound - 1) < 0.01
     assert np.abs(result.trajectory.q[:, 3]).max() < 0.1       # the wheels barely steer
+
+
+def test_the_verdict_does_not_depend_on_the_units():
+    """Knife-edge parking at 10 steps in metres and in millimetres (the mm problem started
+    from the SI optimum converted, as the default guess depends on the units; the cost is
+    the SI one, written in mm): the same optimum, status and relative figures."""
+    metres = dmoc.optimize(knife_edge_parking(10), throw=False)
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1e6), 0.4)
+    problem = dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 1000, 0],
+                                         running_cost=lambda q, v, u: (u[0] / 1e3) ** 2 + (u[1] / 1e6) ** 2)
+    to_mm = np.array([1e3, 1e3, 1.0])           # x, y in mm; p and u of theta in kg mm^2
+    si = metres.trajectory
+    guess = dmoc.Trajectory(si.t, si.q * to_mm, si.p * [1e3, 1e3, 1e6], si.lam * 1e3,
+                            si.u * [1e3, 1e6], si.h, si.variant)
+    millimetres = dmoc.optimize(problem, guess=guess, throw=False)
+    assert millimetres.stats["return_status"] == "Solve_Succeeded"
+    np.testing.assert_allclose(millimetres.cost, metres.cost, rtol=1e-8)
+    assert metres.status == millimetres.status == "under_resolved"
+    a, b = metres.verdict, millimetres.verdict
+    assert (a.jump_step, a.jump_coordinate) == (b.jump_step, b.jump_coordinate)
+    np.testing.assert_allclose(a.velocity_jump, b.velocity_jump, rtol=1e-8)
+    assert max(b.replay_q, b.replay_p) < REPLAY_TOLERANCE
