@@ -172,11 +172,13 @@ def verdict_message(verdict, result):
         "not_replayable":
             f"it does not solve the step equations as `simulate` does: the replay from its "
             f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
-            f"configurations' span and {verdict.replay_p:.2e} of the momenta's size (limit "
+            f"configurations' span ({verdict.replay_q * np.ptp(traj.q, axis=0).max():.3g} in "
+            f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
             f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
             f"equations have other roots where a step is large, and IPOPT found one of "
-            f"those. Bound the per-step change of the fast coordinates (angles), start "
-            f"from the optimum of a finer grid (`guess=`) or use more steps",
+            f"those. Bound the angles to their physical range (`state_bounds`), price "
+            f"every control in comparable units (`running_cost`), bound the per-step "
+            f"change of the fast coordinates, or start from a sound optimum (`guess=`)",
         "path_violated":
             f"path constraint row {verdict.path_row} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "

@@ -50,7 +50,7 @@ def test_the_car_of_the_issue_is_not_replayable(car):
     assert 0 < verdict.replay_step <= problem.steps
     assert verdict.jump_coordinate in problem.disc.system.names
     for words in ("not_replayable", f"first at step {verdict.replay_step}", "other roots",
-                  "finer grid", "Verdicts"):
+                  "state_bounds", "running_cost", "Verdicts"):
         assert words in result.message
 
 
