@@ -26,7 +26,9 @@ class Verdict:
     replay_q, replay_p : float
         max_k |q_k - q_opt,k| over the span of the optimum's configurations (the largest
         max_k q - min_k q over the coordinates) and max_k |p_k - p_opt,k| over max |p_opt|:
-        the replay's relative departures (inf when `simulate` fails before step N).
+        the replay's relative departures (inf when `simulate` fails before step N). An
+        optimum that does not move measures q by its size, and one at the origin (or at
+        rest, for p) in the system's units.
     replay_step : int
         The first step k whose replayed q_k or p_k departs beyond the threshold; -1 if none.
     velocity_jump : float

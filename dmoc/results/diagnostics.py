@@ -102,12 +102,26 @@ def residual_norms(disc, traj):
     return np.abs(r).max(axis=0)
 
 
+def end_velocities(disc, traj):
+    """The velocities of each step's interpolant at its two ends, shapes (N, n) and (N, n):
+    q'_k(0) and q'_k(h) of the rule's polynomial through q_k, the stage configurations and
+    q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
+    rules."""
+    n, rule = disc.system.n, disc.rule
+    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
+                    (("q0", n), ("q1", n), ("s", traj.s.shape[1]), ("h", 1)))
+    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
+                                    ((0.0, 1.0), (1.0, 1.0)))
+    velocities = ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]])
+    start, end = velocities.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
+    return np.array(start).T, np.array(end).T
+
+
 def velocity_changes(disc, traj):
     """The jump of the velocity of the rule's interpolant at every interior knot relative to
     its coordinate's peak, shape (N - 1, n): row k - 1 holds |q'_k(0) - q'_{k-1}(h)| /
-    max |q'| per coordinate, q'_k the velocity of step k's polynomial through q_k, its
-    stage configurations and q_{k+1} (`Rule.interpolant`); 0 for a coordinate at rest
-    (peak below 1e-9 of the largest coordinate's).
+    max |q'| per coordinate (`end_velocities`); 0 for a coordinate at rest (peak below 1e-9
+    of the largest coordinate's).
 
     For the midpoint and trapezoid rules q'_k is the step velocity (q_{k+1} - q_k)/h and
     the largest entry per coordinate is `velocity_jumps`; a stage rule's polynomials meet
@@ -116,14 +130,7 @@ def velocity_changes(disc, traj):
     """
     if not check_trajectory(disc, traj) or traj.steps < 2:
         return np.zeros((0, disc.system.n))
-    n, rule = disc.system.n, disc.rule
-    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
-                    (("q0", n), ("q1", n), ("s", traj.s.shape[1]), ("h", 1)))
-    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
-                                    ((0.0, 1.0), (1.0, 1.0)))
-    velocities = ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]])
-    start, end = (np.array(v).T for v in velocities.map(traj.steps)(
-        traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h))
+    start, end = end_velocities(disc, traj)
     peak = np.maximum(np.abs(start).max(axis=0), np.abs(end).max(axis=0))
     moving = peak > 1e-9 * peak.max(initial=0.0)
     return np.where(moving, np.abs(start[1:] - end[:-1]) / np.where(moving, peak, 1.0), 0.0)

@@ -14,7 +14,7 @@ from .._util import checks
 from ..errors import SolverError
 from ..optimize.solve import solve
 from ..optimize.verdict import PASSED, STATUSES, Verdict
-from .diagnostics import compared_momenta, replay, velocity_changes
+from .diagnostics import compared_momenta, end_velocities, replay, velocity_changes
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
 # millimetres or kilograms gets the verdict it gets in metres (docs/stages/optimize.md,
@@ -26,6 +26,8 @@ REPLAY_TOLERANCE = 1e-6
 # resolved; 2 is a reversal every step (aliasing). The built-in problems measure 0.10 to
 # 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/optimize.md).
 JUMP_LIMIT = 1.0
+# Below this size an optimum's q or p gives no scale (it does not move from the origin).
+NO_SCALE = 1e-12
 # A knot violates a path constraint when g_k exceeds this part of the row's scale.
 PATH_TOLERANCE = 1e-6
 
@@ -172,7 +174,7 @@ def verdict_message(verdict, result):
         "not_replayable":
             f"it does not solve the step equations as `simulate` does: the replay from its "
             f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
-            f"configurations' span ({verdict.replay_q * np.ptp(traj.q, axis=0).max():.3g} in "
+            f"configurations' span ({verdict.replay_q * _q_scale(traj):.3g} in "
             f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
             f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
             f"equations have other roots where a step is large, and IPOPT found one of "
@@ -200,24 +202,34 @@ def _replay_departure(problem, result):
     if simulated.steps < traj.steps:
         return np.inf, np.inf, simulated.steps + 1
     last = compared_momenta(problem, traj)
-    dq = np.abs(simulated.q - traj.q).max(axis=1) / _scale(np.ptp(traj.q, axis=0).max())
+    dq = np.abs(simulated.q - traj.q).max(axis=1) / _q_scale(traj)
     dp = np.abs(simulated.p[:last] - traj.p[:last]).max(axis=1) / _scale(np.abs(traj.p).max())
     beyond = np.flatnonzero((dq[:last] > REPLAY_TOLERANCE) | (dp > REPLAY_TOLERANCE))
     return float(dq.max()), float(dp.max()), int(beyond[0]) if beyond.size else -1
 
 
-def _scale(value):
-    return max(float(value), np.finfo(float).tiny)
+def _q_scale(traj):
+    """The unit of a departure in q: the span of the optimum's configurations (the largest
+    max_k q - min_k q), or their size where they do not move."""
+    return _scale(np.ptp(traj.q, axis=0).max(), np.abs(traj.q).max())
+
+
+def _scale(*sizes):
+    """The first of `sizes` above NO_SCALE, as the unit of a relative departure; 1 (the
+    system's units) for an optimum that neither moves nor leaves the origin: there the
+    data give no scale."""
+    return next((float(size) for size in sizes if size > NO_SCALE), 1.0)
 
 
 def knot_path_values(problem, traj):
     """The path constraints g evaluated at every knot, shape (N + 1, rows): at (q_k, v_k,
-    u(t_k)) with v_k the mean of the step velocities around q_k (the one step's at the
-    ends), through ``problem.path_constraints`` on a straight step centred at q_k."""
+    u(t_k)) with v_k the mean of the interpolants' velocities at q_k from both sides (one
+    side at the ends; `dmoc.diagnostics.end_velocities`), through
+    ``problem.path_constraints`` on a straight step centred at q_k with velocity v_k."""
     N, h = traj.steps, traj.h
-    v = traj.velocities
-    v_knot = np.vstack([v[:1], (v[:-1] + v[1:]) / 2, v[-1:]])
-    q0, q1 = traj.q - v_knot * h / 2, traj.q + v_knot * h / 2
+    start, end = end_velocities(problem.disc, traj)
+    v = np.vstack([start[:1], (end[:-1] + start[1:]) / 2, end[-1:]])
+    q0, q1 = traj.q - v * h / 2, traj.q + v * h / 2
     chords = np.empty((2 * (N + 1), traj.q.shape[1]))
     chords[0::2], chords[1::2] = q0, q1
     s = problem.disc.rule.stage_guess(chords, np.repeat(traj.p, 2, axis=0))[0::2]

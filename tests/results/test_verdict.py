@@ -168,3 +168,11 @@ def test_the_verdict_does_not_depend_on_the_units():
     assert (a.jump_step, a.jump_coordinate) == (b.jump_step, b.jump_coordinate)
     np.testing.assert_allclose(a.velocity_jump, b.velocity_jump, rtol=1e-8)
     assert max(b.replay_q, b.replay_p) < REPLAY_TOLERANCE
+
+
+def test_an_optimum_that_stays_at_rest_passes():
+    """Goal = start at the origin: the optimum does not move, q and p give no scale, and the
+    replay's round-off (of order 1e-17) is measured in the system's units."""
+    result = dmoc.optimize(knife_edge_parking(20, goal=(0.0, 0.0, 0.0)))
+    assert result.success and result.verdict.passed
+    assert np.abs(result.trajectory.q).max() < 1e-12 and result.cost < 1e-20
