@@ -17,9 +17,9 @@ from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Loba
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
                      MissingFileError, SolverError, TrajectoryFileError)
 from .mechanics import HamiltonianSystem, MechanicalSystem, systems
-from .optimize import OptimalControlProblem, OptimizationResult, optimize, problems
+from .optimize import OptimalControlProblem, OptimizationResult, Verdict, problems
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
-from .results import animation, diagnostics, plotting
+from .results import animation, diagnostics, optimize, plotting
 from .simulate import SimulationResult, simulate
 
 # The public module names of the stages' modules: ``from dmoc.systems import knife_edge``
@@ -47,6 +47,7 @@ __all__ = [
     "OptimalControlProblem",
     "optimize",
     "OptimizationResult",
+    "Verdict",
     "Trajectory",
     "systems",
     "problems",

@@ -193,6 +193,8 @@ API_ROWS = [
     ('optimize: options={"max_iter": 3.7}',
      lambda c: dmoc.optimize(problem(c), options={"max_iter": 3.7}), ValueError,
      r"`options\['max_iter'\]` must be an integer .*got 3.7"),
+    ('optimize: check="yes"', lambda c: dmoc.optimize(problem(c), check="yes"), TypeError,
+     "`check` must be True or False; got 'yes'"),
     ('optimize: options={"max_iter": True}',
      lambda c: dmoc.optimize(problem(c), options={"max_iter": True}), TypeError,
      r"`options\['max_iter'\]` must be an integer, not a bool"),

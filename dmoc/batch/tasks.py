@@ -17,7 +17,8 @@ import casadi as ca
 import cloudpickle
 import distributed
 
-from ..optimize.solve import OptimizationResult, optimize
+from ..optimize.solve import OptimizationResult
+from ..results.verdict import optimize
 from ..simulate.simulation import SimulationResult, simulate
 
 

@@ -1,8 +1,8 @@
 """``dmoc simulate`` and ``dmoc optimize``: set up a system from its name and the options,
 run the simulator or the optimizer with ``throw=False``, print a summary and write the
 output files, all of a run's files together (`dmoc._util.files.staged_run`). Returns the
-exit code: 0 on success, 1 when the solver failed, 130 when a Ctrl-C stopped it (what was
-computed is still written).
+exit code: 0 on success, 1 when the solver failed or its optimum failed the verdict
+(`dmoc.results.verdict`), 130 when a Ctrl-C stopped it (what was computed is still written).
 """
 
 import contextlib
@@ -16,7 +16,7 @@ from ..results import diagnostics
 from ..discrete import discretize
 from ..principle import step_residual
 from ..optimize.problem import OptimalControlProblem
-from ..optimize.solve import optimize
+from ..results.verdict import optimize
 from ..simulate.simulation import simulate
 from .._util.files import staged_run
 from . import arguments, output, registry
@@ -248,7 +248,7 @@ def run_optimize(args):
         f"({_time_span(problem)}) with IPOPT"
         + ("" if args.verbose else "; --verbose shows its iteration log"))
     result = optimize(problem, options=options, throw=False)
-    log(f"IPOPT: {result.status} after {result.stats['iterations']} iterations "
+    log(f"IPOPT: {result.stats['return_status']} after {result.stats['iterations']} iterations "
         f"in {result.stats['solve_time']:.2f} s")
     traj = result.trajectory
     summary = {"command": "optimize", "system": args.system, "status": result.status,
@@ -256,6 +256,8 @@ def run_optimize(args):
                "duration": float(traj.t[-1] - traj.t[0]), "free_time": problem.free_time,
                "rule": problem.disc.rule.name, "variant": problem.variant,
                **_figures(problem, result)}
+    if result.verdict is not None:      # what the checks found, why a converged run failed
+        summary.update(verdict=result.verdict.status, message=result.message)
     files = _write(out, prefix, problem.disc, traj, summary, spec, problem.q_goal, args)
     return _report(summary, result.success, result.status, result.message, files)
 

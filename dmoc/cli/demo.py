@@ -11,7 +11,7 @@ from ..optimize import problems
 from ..mechanics import systems
 from .._util.files import atomic_write, staged_run, write_text
 from ..discrete import discretize
-from ..optimize.solve import optimize
+from ..results.verdict import optimize
 from ..results.plotting import plot_energy_error, plot_path, save_trajectory_plots
 from ..simulate.simulation import simulate
 from . import arguments

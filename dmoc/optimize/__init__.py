@@ -2,14 +2,17 @@
 and parameters, its final time `final_time` and momentum treatment `momenta` chosen as
 values, read-only by `read_only`), its NLP (`transcription`: the terms of `terms` in
 `separable`, scaled by `scaling`) and its solution
-(`solve`: IPOPT through `ipopt`, its journal `linear_solver`, the start point `guess`), the
-step residual imposed at every step; `problems` holds the built-in examples."""
+(`solve`: IPOPT through `ipopt`, its journal `linear_solver`, the start point `guess`, the
+record of a `verdict`), the step residual imposed at every step; `problems` holds the
+built-in examples. `dmoc.optimize`, the judged solve, is `solve` followed by the checks of
+`dmoc.results.verdict`."""
 
 from . import problems
 from .guess import initial_guess
 from .ipopt import DEFAULT_IPOPT_OPTIONS
 from .problem import OptimalControlProblem
-from .solve import OptimizationResult, optimize
+from .solve import OptimizationResult, solve
+from .verdict import Verdict
 
-__all__ = ["OptimalControlProblem", "optimize", "OptimizationResult", "DEFAULT_IPOPT_OPTIONS",
-           "initial_guess", "problems"]
+__all__ = ["OptimalControlProblem", "solve", "OptimizationResult", "Verdict",
+           "DEFAULT_IPOPT_OPTIONS", "initial_guess", "problems"]

@@ -1,10 +1,12 @@
-"""Consumer 2 of the step residual, its solver half: `optimize` solves an
+"""Consumer 2 of the step residual, its solver half: `solve` solves an
 OptimalControlProblem with IPOPT (casadi.nlpsol, exact Hessian) from a guess, and returns
 the optimal Trajectory, or raises SolverError carrying the last iterate and naming the most
-violated constraint group (dynamics at step k, boundary, path).
+violated constraint group (dynamics at step k, boundary, path). `dmoc.optimize` is this
+solve followed by the verdict of `dmoc.results.verdict`.
 """
 
 import json
+import sys
 import time
 import warnings
 from dataclasses import dataclass, field, fields
@@ -21,11 +23,12 @@ from .ipopt import data_tolerances, iteration_count, linear_algebra
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
 from ..principle.trajectory import RESULT_PREFIX, Trajectory, read
+from .verdict import Verdict
 
 
 @dataclass
 class OptimizationResult:
-    """Outcome of `optimize`.
+    """Outcome of `dmoc.optimize` (and of the raw IPOPT `solve`).
 
     Attributes
     ----------
@@ -33,9 +36,12 @@ class OptimizationResult:
         The optimal trajectory, or the last iterate when not `success`.
     cost : float
     success : bool
+        IPOPT converged and, for `dmoc.optimize` with ``check=True``, the verdict passed.
     status : str
-        IPOPT's return status, e.g. ``"Solve_Succeeded"``, or ``"interrupted"`` when a
-        Ctrl-C (SIGINT) stopped IPOPT (``stats["return_status"]`` keeps IPOPT's own).
+        IPOPT's return status, e.g. ``"Solve_Succeeded"``, ``"interrupted"`` when a
+        Ctrl-C (SIGINT) stopped IPOPT, or the status of a failed verdict
+        (``"not_replayable"``, ``"path_violated"``, ``"under_resolved"``);
+        ``stats["return_status"]`` keeps IPOPT's own.
     message : str
     stats : dict
         ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
@@ -60,6 +66,9 @@ class OptimizationResult:
         with the same key, e.g. one from ``problem.with_boundary(...)``.
     q_ref : ndarray, shape (n,)
         The problem's `q_ref`, on which `x` is centered.
+    verdict : Verdict or None
+        The figures of `dmoc.optimize`'s checks (`dmoc.optimize.Verdict`); None when the
+        optimum was not judged (``check=False``, the raw `solve`, or IPOPT did not converge).
     """
 
     trajectory: Trajectory
@@ -73,16 +82,19 @@ class OptimizationResult:
     lam_g: np.ndarray = None
     structure: str = ""
     q_ref: np.ndarray = None
+    verdict: Verdict = None
 
     def save(self, path):
         """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
         fields (so `Trajectory.load` reads it too), x, the multipliers, cost, status,
-        message, structure and stats (as JSON)."""
+        message, structure, stats and the verdict (as JSON)."""
         traj = {f.name: np.asarray(getattr(self.trajectory, f.name)) for f in fields(Trajectory)}
         extra = {RESULT_PREFIX + k: np.asarray(getattr(self, k))
                  for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure",
                            "q_ref") if getattr(self, k) is not None}
         extra[RESULT_PREFIX + "stats"] = json.dumps(self.stats, default=str)
+        if self.verdict is not None:
+            extra[RESULT_PREFIX + "verdict"] = json.dumps(self.verdict.as_dict())
         path = writable_file("path", checks.file_path("path", path))
         with atomic_write(path) as file:
             np.savez(file, **traj, **extra)
@@ -109,10 +121,12 @@ class OptimizationResult:
                 f"{str(path)!r} is not {RESULT_FILE}: it lacks the fields {missing}"
                 + ("; it is a trajectory file (read it with Trajectory.load)." if len(missing) ==
                    len(_RESULT_FIELDS) else "."))
+        verdict = extra.get("verdict")      # files of unjudged results have none
         return cls(traj, float(extra["cost"]), bool(extra["success"]),
                    str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
                    extra.get("x"), extra.get("lam_x"), extra.get("lam_g"), str(extra["structure"]),
-                   extra.get("q_ref"))        # files from before q_ref have none
+                   extra.get("q_ref"),        # files from before q_ref have none
+                   None if verdict is None else Verdict.from_dict(json.loads(str(verdict))))
 
 
 RESULT_FILE = "an optimization result file (one written by OptimizationResult.save)"
@@ -125,69 +139,15 @@ _RESULT_FIELDS = {"cost", "success", "status", "message", "stats", "structure"}
 SWITCHES = {"reuse_solver": True, "expand": False, "linear_solver_report": False}
 
 
-def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
-             linear_solver_report=False, throw=True):
-    """Solve a DMOC problem with IPOPT.
-
-    Parameters
-    ----------
-    problem : OptimalControlProblem
-    guess : Trajectory or OptimizationResult, optional
-        Initial guess. A Trajectory is resampled in time if its number of steps differs.
-        An OptimizationResult of a problem with the same `structure` (the same problem
-        with new boundary data or bounds, or a result saved and loaded) warm-starts IPOPT
-        from its x and multipliers; any other result is used through its trajectory
-        (resampled), IPOPT then estimating the multipliers by least squares there. By
-        default the configurations interpolate linearly between the boundary data, bent
-        by a small sine bump so the guess avoids points where the constraint Jacobian is
-        singular (e.g. the knife edge sliding straight sideways).
-    options : dict, optional
-        IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``).
-        Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
-        floor of the rows where the data put it higher (configurations far from the
-        origin, docs/stages/optimize.md). Both apply to the scaled NLP
-        (`dmoc.optimize.scaling`): the rows in momentum units count divided by the
-        inertia, so with m = 1e5 a
-        ``constr_viol_tol`` of 1e-6 admits momentum rows violated by 0.1 in the system's
-        units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
-        system's units. The entries ``"reuse_solver"``, ``"expand"`` and
-        ``"linear_solver_report"`` are deprecated (a DeprecationWarning): they are taken
-        as the keywords of those names.
-    reuse_solver : bool
-        True (default): take the solver of an earlier problem of the same structure and
-        options from the cache; False builds a fresh one, dropped after the call.
-    expand : bool
-        True expands f and g to SX, which no longer pays: IPOPT evaluates the derivatives
-        assembled from the terms (``problem.transcription.separable``) either way
-        (docs/performance.md). Default False.
-    linear_solver_report : bool
-        True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
-        IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
-        to the solve. Default False.
-    throw : bool
-        Raise SolverError when IPOPT fails and `dmoc.Interrupted` when a Ctrl-C (SIGINT)
-        stops it (default); else return the result with success=False (status
-        ``"interrupted"`` after a Ctrl-C). Either way the result holds the last iterate.
+def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
+          linear_solver_report=False, throw=True):
+    """Solve a DMOC problem with IPOPT, without judging the optimum: `dmoc.optimize` with
+    ``check=False``, whose docstring gives the parameters.
 
     Returns
     -------
     OptimizationResult
-
-    Notes
-    -----
-    The solver (``casadi.nlpsol``) takes its gradient, constraint Jacobian and Hessian of
-    the Lagrangian from ``problem.transcription.separable.derivatives()`` (exact,
-    assembled from each term's derivatives) instead of generating them for the whole
-    graph. IPOPT iterates on the NLP scaled by the system's inertia
-    (``problem.transcription.x_scale`` and ``g_scale``, `dmoc.optimize.scaling`); the start point, the bounds and the multipliers are converted on the
-    way in and out, so guesses and results are in the system's units. It is created
-    once per problem structure and options and kept in a bounded cache: boundary data,
-    bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
-    same problem, or one from ``problem.with_boundary(...)``, skips the
-    build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
-    optimum's multipliers; every other start lets IPOPT estimate them, with a second solver
-    of the same structure (its creation reuses the assembled derivatives, so it is cheap
-    next to the first build).
+        Its `success` is IPOPT's; its `verdict` None.
     """
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     throw = checks.boolean("throw", throw)
@@ -274,7 +234,7 @@ def _switches(options, given):
             entry = options.pop(name)
             warnings.warn(f"`options['{name}']` is deprecated: pass `{name}={entry!r}` to "
                           f"`optimize` instead; `options` holds IPOPT's options only.",
-                          DeprecationWarning, stacklevel=3)
+                          DeprecationWarning, stacklevel=_caller_level())
             if value != default and entry != value:
                 raise InputError(f"`{name}` is given twice with different values: `{name}="
                                  f"{value!r}` and `options['{name}']` = {entry!r}; pass the "
@@ -282,6 +242,15 @@ def _switches(options, given):
             value = entry
         switches[name] = checks.boolean(name, value)
     return options, switches
+
+
+def _caller_level():
+    """The `stacklevel` of a warning that names the first caller outside dmoc (through
+    `dmoc.optimize` or `solve`)."""
+    level, frame = 1, sys._getframe(1)
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("dmoc."):
+        level, frame = level + 1, frame.f_back
+    return level
 
 
 def most_violated(transcription, g):

@@ -1,6 +1,8 @@
 """The results stage: diagnostics of a computed Trajectory (energy, constraint violation,
-residual norms, replay), its plots and its animation."""
+residual norms, replay), the verdict on an optimum (`verdict`, whose `optimize` is the
+judged solve), its plots and its animation."""
 
-from . import animation, diagnostics, plotting
+from . import animation, diagnostics, plotting, verdict
+from .verdict import optimize
 
-__all__ = ["diagnostics", "plotting", "animation"]
+__all__ = ["diagnostics", "plotting", "animation", "verdict", "optimize"]

@@ -102,6 +102,40 @@ def residual_norms(disc, traj):
     return np.abs(r).max(axis=0)
 
 
+def end_velocities(disc, traj):
+    """The velocities of each step's interpolant at its two ends, shapes (N, n) and (N, n):
+    q'_k(0) and q'_k(h) of the rule's polynomial through q_k, the stage configurations and
+    q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
+    rules."""
+    n, rule = disc.system.n, disc.rule
+    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
+                    (("q0", n), ("q1", n), ("s", traj.s.shape[1]), ("h", 1)))
+    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
+                                    ((0.0, 1.0), (1.0, 1.0)))
+    velocities = ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]])
+    start, end = velocities.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
+    return np.array(start).T, np.array(end).T
+
+
+def velocity_changes(disc, traj):
+    """The jump of the velocity of the rule's interpolant at every interior knot relative to
+    its coordinate's peak, shape (N - 1, n): row k - 1 holds |q'_k(0) - q'_{k-1}(h)| /
+    max |q'| per coordinate (`end_velocities`); 0 for a coordinate at rest (peak below 1e-9
+    of the largest coordinate's).
+
+    For the midpoint and trapezoid rules q'_k is the step velocity (q_{k+1} - q_k)/h and
+    the largest entry per coordinate is `velocity_jumps`; a stage rule's polynomials meet
+    with a velocity jump of the order of its error, so a coarse grid that a high-order rule
+    resolves is not mistaken for an unresolved one.
+    """
+    if not check_trajectory(disc, traj) or traj.steps < 2:
+        return np.zeros((0, disc.system.n))
+    start, end = end_velocities(disc, traj)
+    peak = np.maximum(np.abs(start).max(axis=0), np.abs(end).max(axis=0))
+    moving = peak > 1e-9 * peak.max(initial=0.0)
+    return np.where(moving, np.abs(start[1:] - end[:-1]) / np.where(moving, peak, 1.0), 0.0)
+
+
 def velocity_jumps(traj):
     """How well the grid resolves the motion, per coordinate, shape (n,):
     max_k |v_{k+1/2} - v_{k-1/2}| / max_k |v_{k+1/2}| over the step velocities
@@ -112,7 +146,8 @@ def velocity_jumps(traj):
     within a step (2: it reverses): the grid does not resolve the motion, as in the optima
     that spin a light blade by pi per step and slip it sideways in one step
     (docs/verification.md, "Known shortfalls"). Coordinates at rest (peak velocity below
-    1e-9 of the largest coordinate's) give 0.
+    1e-9 of the largest coordinate's) give 0. `velocity_changes` measures the jumps of a
+    stage rule's interpolant instead.
 
     >>> traj = Trajectory([0, 1, 2, 3], [[0.0], [1.0], [0.0], [1.0]], [[0.0]] * 4, [[], [], []],
     ...                   [[], [], []], 1.0, "+")
@@ -128,22 +163,39 @@ def velocity_jumps(traj):
     return np.where(moving, np.abs(np.diff(v, axis=0)).max(axis=0) / np.where(moving, peak, 1.0), 0.0)
 
 
-def replay_error(problem, result):
-    """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
-    optimal initial state: the two consumers share one residual, so both are at solver
-    tolerance. p_N is left out where the formulation puts the end impulse into it (variant
-    "-"), which `simulate` cannot know."""
+def replay(problem, result):
+    """The Trajectory `simulate` computes from the optimum's initial state (q_0, p_0) with its
+    controls, by the problem's rule and variant and the optimum's step; it stops early
+    (fewer steps) where Newton's method fails. It runs in CasADi's virtual machine
+    (``jit=False``): preparing the compiled step (serializing its Functions for the cache
+    key) costs more than the N steps of an optimum (1.5 s against 0.1 s for the rolling disk
+    with lobatto4, docs/performance.md)."""
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     traj = checks.instance("result.trajectory", getattr(result, "trajectory", None), Trajectory,
                             "a Trajectory (give the OptimizationResult of `problem`)")
     disc = problem.disc.with_step(traj.h)
-    replay = simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
-                      variant=traj.variant, throw=False).trajectory
-    if replay.steps < traj.steps:
+    return simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
+                    variant=traj.variant, throw=False, jit=False).trajectory
+
+
+def replay_error(problem, result):
+    """Max |q - q_opt| and |p - p_opt| when `simulate` replays the optimal controls from the
+    optimal initial state (`replay`): the two consumers share one residual, so both are at
+    solver tolerance. p_N is left out where the formulation puts the end impulse into it
+    (variant "-"), which `simulate` cannot know; a replay that stops early gives inf."""
+    simulated = replay(problem, result)       # checks both arguments
+    traj = result.trajectory
+    if simulated.steps < traj.steps:
         return np.inf, np.inf
-    last = traj.steps + as_formulation(traj.variant, problem.disc).end_momentum_determined
-    return (float(np.abs(replay.q - traj.q).max()),
-            float(np.abs(replay.p[:last] - traj.p[:last]).max()))
+    last = compared_momenta(problem, traj)
+    return (float(np.abs(simulated.q - traj.q).max()),
+            float(np.abs(simulated.p[:last] - traj.p[:last]).max()))
+
+
+def compared_momenta(problem, traj):
+    """How many of p_0 ... p_N a replay reproduces: N + 1, or N where the formulation puts
+    the end impulse into p_N (variant "-")."""
+    return traj.steps + as_formulation(traj.variant, problem.disc).end_momentum_determined
 
 
 def optimization_summary(problem, result):

@@ -208,7 +208,7 @@ def test_subprocess_exit_codes_and_no_traceback(tmp_path):
 @pytest.mark.parametrize("system", ["spherical-pendulum", "lc-circuit"])
 def test_later_built_ins_simulate_and_optimize(system, tmp_path, capsys):
     assert main(["simulate", system, "--steps", "50", "--out", str(tmp_path / "s")]) == 0
-    assert main(["optimize", system, "--steps", "20", "--out", str(tmp_path / "o")]) == 0
+    assert main(["optimize", system, "--steps", "30", "--out", str(tmp_path / "o")]) == 0
     summary = json.loads(next((tmp_path / "o").glob("*_summary.json")).read_text())
     assert summary["success"] and summary["replay_q"] < 1e-8
 

@@ -11,7 +11,7 @@ import pytest
 
 import dmoc
 from dmoc._util import checks
-from dmoc.optimize import solve
+from dmoc.optimize.solve import SWITCHES
 
 
 def problem(disc, **changes):
@@ -54,8 +54,8 @@ def test_integral_floats_are_integers_and_reals_stay(disc, capfd):
 
 def test_the_switch_entries_still_take_bools():
     """`optimize`'s switches in the deprecated options spelling are the bool entries."""
-    assert set(checks.SWITCH_ENTRIES) == set(solve.SWITCHES)
-    entries = {name: not default for name, default in solve.SWITCHES.items()}
+    assert set(checks.SWITCH_ENTRIES) == set(SWITCHES)
+    entries = {name: not default for name, default in SWITCHES.items()}
     assert checks.ipopt_options("options", entries) == entries
 
 

@@ -1,0 +1,252 @@
+"""A verdict on every optimum (results stage): `optimize` is IPOPT's solve
+(`dmoc.optimize.solve`) followed by `judge`, which checks what IPOPT returned against the
+step equations (37)/(41) as `simulate` solves them, the grid's resolution of the motion
+and the path constraints at every knot q_k, and turns a converged NLP that fails them into
+``success=False`` with a status naming the cause. It lives here because the replay needs
+both consumers of the step residual, which never import each other.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from .._util import checks
+from ..errors import SolverError
+from ..optimize.solve import solve
+from ..optimize.verdict import PASSED, STATUSES, Verdict
+from .diagnostics import compared_momenta, end_velocities, replay, velocity_changes
+
+# Thresholds of the checks, relative to the optimum's own scale so that a problem in
+# millimetres or kilograms gets the verdict it gets in metres (docs/stages/optimize.md,
+# "Verdicts"). A replay on the root IPOPT converged to stays at the solvers' tolerances
+# (1e-16 .. 1e-13 of the scale on the built-in problems); one on a spurious root by O(1).
+REPLAY_TOLERANCE = 1e-6
+# A motion of frequency omega changes its step velocity by 2 sin(omega h / 2) of its peak
+# per step: more than its own peak (omega h > pi / 3, fewer than 6 steps a period) is not
+# resolved; 2 is a reversal every step (aliasing). The built-in problems measure 0.10 to
+# 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/optimize.md).
+JUMP_LIMIT = 1.0
+# Below this size an optimum's q or p gives no scale (it does not move from the origin).
+NO_SCALE = 1e-12
+# A knot violates a path constraint when g_k exceeds this part of the row's scale.
+PATH_TOLERANCE = 1e-6
+
+
+def judge(problem, result):
+    """The Verdict on an optimum of `problem`: replay, velocity jumps, path at the knots.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+    result : OptimizationResult
+        An optimum of `problem` (finite q and p).
+
+    Returns
+    -------
+    Verdict
+        Its status is the worst failed check (`dmoc.optimize.verdict.STATUSES`), or
+        ``"passed"``.
+
+    Notes
+    -----
+    The replay solves the step equations (37) (variant "+") or (41) (variant "-") step by
+    step with Newton's method from (q_0, p_0) and the optimal controls (`dmoc.simulate`),
+    which follows the root that continues the previous step; the optimum satisfies the
+    same equations as NLP rows, at whatever root IPOPT reached. Their agreement to
+    `REPLAY_TOLERANCE` says that IPOPT's root is the simulator's. The velocity jumps are
+    those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
+    path constraints are evaluated at every knot (`knot_path_values`).
+    """
+    traj = result.trajectory
+    replay_q, replay_p, replay_step = _replay_departure(problem, result)
+    changes = velocity_changes(problem.disc, traj)
+    k, i = np.unravel_index(np.argmax(changes), changes.shape) if changes.size else (-1, 0)
+    jump = float(changes[k, i]) if changes.size else 0.0
+    path, path_step, path_row = _path_violation(problem, traj)
+    failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
+              jump > JUMP_LIMIT)
+    status = next((s for s, f in zip(STATUSES, failed) if f), PASSED)
+    # discretization_error joins here: dmoc.results.accuracy.estimate_error
+    return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
+                   problem.disc.system.names[i], path, path_step, path_row)
+
+
+def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
+             linear_solver_report=False, throw=True, check=True):
+    """Solve a DMOC problem with IPOPT and judge the optimum (`judge`).
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+    guess : Trajectory or OptimizationResult, optional
+        Initial guess. A Trajectory is resampled in time if its number of steps differs.
+        An OptimizationResult of a problem with the same `structure` (the same problem
+        with new boundary data or bounds, or a result saved and loaded) warm-starts IPOPT
+        from its x and multipliers; any other result is used through its trajectory
+        (resampled), IPOPT then estimating the multipliers by least squares there. By
+        default the configurations interpolate linearly between the boundary data, bent
+        by a small sine bump so the guess avoids points where the constraint Jacobian is
+        singular (e.g. the knife edge sliding straight sideways).
+    options : dict, optional
+        IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``).
+        Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
+        floor of the rows where the data put it higher (configurations far from the
+        origin, docs/stages/optimize.md). Both apply to the scaled NLP
+        (`dmoc.optimize.scaling`): the rows in momentum units count divided by the
+        inertia, so with m = 1e5 a
+        ``constr_viol_tol`` of 1e-6 admits momentum rows violated by 0.1 in the system's
+        units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
+        system's units. The entries ``"reuse_solver"``, ``"expand"`` and
+        ``"linear_solver_report"`` are deprecated (a DeprecationWarning): they are taken
+        as the keywords of those names.
+    reuse_solver : bool
+        True (default): take the solver of an earlier problem of the same structure and
+        options from the cache; False builds a fresh one, dropped after the call.
+    expand : bool
+        True expands f and g to SX, which no longer pays: IPOPT evaluates the derivatives
+        assembled from the terms (``problem.transcription.separable``) either way
+        (docs/performance.md). Default False.
+    linear_solver_report : bool
+        True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
+        IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
+        to the solve. Default False.
+    throw : bool
+        Raise SolverError when IPOPT fails or its optimum fails the verdict, and
+        `dmoc.Interrupted` when a Ctrl-C (SIGINT) stops it (default); else return the
+        result with success=False (status ``"interrupted"`` after a Ctrl-C, the verdict's
+        status after a failed verdict). Either way the error's `.result` holds the last
+        iterate or the judged optimum with its `verdict`.
+    check : bool
+        True (default): judge the optimum IPOPT converged to (`judge`): the replay by
+        `simulate`, the velocity jumps, the path constraints at the knots. False: IPOPT's
+        verdict only, for callers that judge themselves (an MPC's re-solves); the same as
+        the raw `dmoc.optimize.solve`.
+
+    Returns
+    -------
+    OptimizationResult
+        ``success`` is True only when IPOPT converged and, with `check`, the verdict
+        passed; ``verdict`` holds the checks' figures.
+
+    Notes
+    -----
+    The solver (``casadi.nlpsol``) takes its gradient, constraint Jacobian and Hessian of
+    the Lagrangian from ``problem.transcription.separable.derivatives()`` (exact,
+    assembled from each term's derivatives) instead of generating them for the whole
+    graph. IPOPT iterates on the NLP scaled by the system's inertia
+    (``problem.transcription.x_scale`` and ``g_scale``, `dmoc.optimize.scaling`); the start point, the bounds and the multipliers are converted on the
+    way in and out, so guesses and results are in the system's units. It is created
+    once per problem structure and options and kept in a bounded cache: boundary data,
+    bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
+    same problem, or one from ``problem.with_boundary(...)``, skips the
+    build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
+    optimum's multipliers; every other start lets IPOPT estimate them, with a second solver
+    of the same structure (its creation reuses the assembled derivatives, so it is cheap
+    next to the first build).
+
+    A converged NLP can fail to replay: the step equations have other roots when a step
+    is large, and IPOPT may converge to one of those (docs/stages/optimize.md,
+    "Verdicts"). A failed verdict raises with `throw` as an IPOPT failure does, so that
+    no caller uses such an optimum unawares; ``err.result`` keeps it for a look or as a
+    guess.
+    """
+    check = checks.boolean("check", check)
+    result = solve(problem, guess=guess, options=options, reuse_solver=reuse_solver,
+                   expand=expand, linear_solver_report=linear_solver_report, throw=throw)
+    if not (check and result.success):
+        return result
+    verdict = judge(problem, result)
+    if verdict.passed:
+        return dataclasses.replace(result, verdict=verdict)
+    result = dataclasses.replace(result, success=False, status=verdict.status, verdict=verdict,
+                                 message=verdict_message(verdict, result))
+    if throw:
+        raise SolverError(result.message + " The optimum is in `.result`.", result)
+    return result
+
+
+def verdict_message(verdict, result):
+    """What a failed verdict found (figures, step, coordinate) and what to do."""
+    traj = result.trajectory
+    jump = (f"the velocity of {verdict.jump_coordinate} changes by {verdict.velocity_jump:.2f} "
+            f"of its peak at knot {verdict.jump_step} (t = {traj.t[verdict.jump_step]:.4g})")
+    found = {
+        "not_replayable":
+            f"it does not solve the step equations as `simulate` does: the replay from its "
+            f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
+            f"configurations' span ({verdict.replay_q * _q_scale(traj):.3g} in "
+            f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
+            f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
+            f"equations have other roots where a step is large, and IPOPT found one of "
+            f"those. Bound the angles to their physical range (`state_bounds`), price "
+            f"every control in comparable units (`running_cost`), bound the per-step "
+            f"change of the fast coordinates, or start from a sound optimum (`guess=`)",
+        "path_violated":
+            f"path constraint row {verdict.path_row} is violated at knot {verdict.path_step} "
+            f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
+            f"of the row's size (limit {PATH_TOLERANCE:g}): the NLP imposes the constraints "
+            f"at its own points, not at every knot. Use more steps or keep a margin in g",
+        "under_resolved":
+            f"the grid does not resolve the motion: {jump} (limit {JUMP_LIMIT:g}). Use more "
+            f"steps, or bound the per-step change of that coordinate"}[verdict.status]
+    return (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), "
+            f"but the optimum fails its verdict ({verdict.status}): {found}; "
+            f"docs/stages/optimize.md, \"Verdicts\".")
+
+
+def _replay_departure(problem, result):
+    """(max |q - q_opt| / span of q, max |p - p_opt| / max |p_opt|, first step beyond
+    REPLAY_TOLERANCE or -1) of the replay by `simulate` (`replay`)."""
+    traj = result.trajectory
+    simulated = replay(problem, result)
+    if simulated.steps < traj.steps:
+        return np.inf, np.inf, simulated.steps + 1
+    last = compared_momenta(problem, traj)
+    dq = np.abs(simulated.q - traj.q).max(axis=1) / _q_scale(traj)
+    dp = np.abs(simulated.p[:last] - traj.p[:last]).max(axis=1) / _scale(np.abs(traj.p).max())
+    beyond = np.flatnonzero((dq[:last] > REPLAY_TOLERANCE) | (dp > REPLAY_TOLERANCE))
+    return float(dq.max()), float(dp.max()), int(beyond[0]) if beyond.size else -1
+
+
+def _q_scale(traj):
+    """The unit of a departure in q: the span of the optimum's configurations (the largest
+    max_k q - min_k q), or their size where they do not move."""
+    return _scale(np.ptp(traj.q, axis=0).max(), np.abs(traj.q).max())
+
+
+def _scale(*sizes):
+    """The first of `sizes` above NO_SCALE, as the unit of a relative departure; 1 (the
+    system's units) for an optimum that neither moves nor leaves the origin: there the
+    data give no scale."""
+    return next((float(size) for size in sizes if size > NO_SCALE), 1.0)
+
+
+def knot_path_values(problem, traj):
+    """The path constraints g evaluated at every knot, shape (N + 1, rows): at (q_k, v_k,
+    u(t_k)) with v_k the mean of the interpolants' velocities at q_k from both sides (one
+    side at the ends; `dmoc.diagnostics.end_velocities`), through
+    ``problem.path_constraints`` on a straight step centred at q_k with velocity v_k."""
+    N, h = traj.steps, traj.h
+    start, end = end_velocities(problem.disc, traj)
+    v = np.vstack([start[:1], (end[:-1] + start[1:]) / 2, end[-1:]])
+    q0, q1 = traj.q - v * h / 2, traj.q + v * h / 2
+    chords = np.empty((2 * (N + 1), traj.q.shape[1]))
+    chords[0::2], chords[1::2] = q0, q1
+    s = problem.disc.rule.stage_guess(chords, np.repeat(traj.p, 2, axis=0))[0::2]
+    u = np.tile(traj.control(traj.t), len(traj.control_nodes))
+    g = problem.path_constraints.map(N + 1)(q0.T, q1.T, np.reshape(s, (N + 1, -1)).T, u.T, h,
+                                            problem.parameters.vector())
+    return np.array(g).T
+
+
+def _path_violation(problem, traj):
+    """(largest g_k relative to its row's scale max_k |g_k|, knot, row); (0, -1, -1)
+    without path constraints or violations."""
+    if problem.path_constraints is None:
+        return 0.0, -1, -1
+    g = knot_path_values(problem, traj)
+    relative = g / np.maximum(np.abs(g).max(axis=0), np.finfo(float).tiny)
+    k, row = np.unravel_index(np.argmax(relative), relative.shape)
+    if relative[k, row] <= 0:
+        return 0.0, -1, -1
+    return float(relative[k, row]), int(k), int(row)
