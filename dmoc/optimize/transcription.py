@@ -78,7 +78,8 @@ class Transcription(ReadOnly):
                                  ("path", (path.numel_out(0) if path else 0, N))])
         q_ref = reference(problem.q_start, problem.q_goal)
         self._x_scale, self._g_scale = (_frozen(s) for s in nlp_scales(
-            disc, problem.formulation, self._x_layout, self._g_layout, self._dynamics_rows, q_ref))
+            disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
+            problem.q_goal - problem.q_start))
         self._separable, self._momenta = transcribe(
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}

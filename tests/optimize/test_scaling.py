@@ -220,8 +220,8 @@ def test_velocity_jumps_measure_how_the_grid_resolves_the_motion():
 def unscaled(make, monkeypatch):
     """The problem `make()` builds, with every factor 1."""
     with monkeypatch.context() as m:
-        m.setattr(transcription_module, "nlp_scales", lambda disc, formulation, x_layout, g_layout,
-                  dynamics_rows, q: (np.ones(x_layout.size), np.ones(g_layout.size)))
+        m.setattr(transcription_module, "nlp_scales", lambda disc, formulation, layouts, *data:
+                  tuple(np.ones(layout.size) for layout in layouts))
         return make()
 
 
@@ -348,14 +348,17 @@ def test_lobatto3_multiplier_factors_by_node():
 
 
 def test_hamiltonian_minus_with_momenta_variables_scales_its_right_rows():
+    """No constraint: each coordinate's length is the motion's, d / sqrt(M_i) with d^2 =
+    m * 1^2 (the goal 1 along y), and the momentum rows are divided by M_i l_i."""
     m, J = 4.0, 0.25
     system = dmoc.HamiltonianSystem(lambda q, p: (p[0] ** 2 + p[1] ** 2) / (2 * m) + p[2] ** 2 / (2 * J), 3,
                                     force=lambda q, p, u: u, n_u=3)
     problem = dmoc.OptimalControlProblem(dmoc.discretize(system, 0.1), 5, q_start=[0, 0, 0],
                                          q_goal=[0, 1, 0], variant="-", momenta="variables")
     rows = problem.dynamics_rows.slices()
+    M = np.array([m, m, J])
     np.testing.assert_array_equal(problem.g_layout.unpack(problem.g_scale, "dynamics")[rows["right"], 0],
-                                  1 / np.array([m, m, J]))
+                                  1 / (M * np.sqrt(m / M)))
 
 
 def disk(phi):
