@@ -13,6 +13,7 @@ from .._util import checks
 from .._util.symbolic import checked_function
 from ..errors import InputError, InputTypeError
 from .._util.layout import Layout, step_symbols
+from .ipopt import DEFAULT_IPOPT_OPTIONS
 
 
 class ProblemParameters:
@@ -97,21 +98,54 @@ def cost_function(name, cost, system, args, parameters):
 
 
 def path_function(path, disc, parameters):
-    """g(q0, q1, s, u, h, w) = path(q, v, u[, w]) in the middle of the step (on the rule's
-    interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), flattened to a column."""
+    """The path constraints of one step, path(q, v, u[, w]) flattened to a column, as the
+    Function ``(q0, q1, s, u, h, w) -> (g, g0, g1)``: "g" in the middle of the step (on the
+    rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0" and "g1" at
+    its knots q0 and q1 (the interpolant's velocity and the controls' interpolant at step
+    times 0 and 1)."""
     sys = disc.system
     _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
     symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
                                             ("w", parameters.layout.size))]
-    at_midpoint = checked_function("path_constraints", _with_w(path, parameters), symbols,
-                                   ("q", "v", "u", "w"), None)
-    _refuse_comparisons(at_midpoint(*symbols))
+    at_state = checked_function("path_constraints", _with_w(path, parameters), symbols,
+                                ("q", "v", "u", "w"), None)
+    _refuse_comparisons(at_state(*symbols))
     x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
-    w = symbols[-1]
+    w, rule = symbols[-1], disc.rule
     q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
-    g = at_midpoint(q, v, disc.rule.control_at(x["u"], 0.5), w)
+    g = [at_state(q, v, rule.control_at(x["u"], 0.5), w)]
+    sigma = rule.stage_configurations(x["s"], sys.n)
+    for c, knot in ((0.0, x["q0"]), (1.0, x["q1"])):
+        (_, _, v, _), = rule.interpolant.samples(x["q0"], x["q1"], sigma, x["h"], ((c, 1.0),))
+        g.append(at_state(knot, v, rule.control_at(x["u"], c), w))
     names = ["q0", "q1", "s", "u", "h"]
-    return ca.Function("path_constraints", [x[k] for k in names] + [w], [g], names + ["w"], ["g"])
+    return ca.Function("path_constraints", [x[k] for k in names] + [w], g, names + ["w"],
+                       ["g", "g0", "g1"])
+
+
+def refuse_violated_ends(path, problem):
+    """InputError when a given end, q_start or q_goal, violates a path constraint that
+    depends on the configuration alone (and the parameters): ``path(q, v, u) <= 0`` is
+    imposed at every knot (`path_function`), so such a problem has no solution. Rows that
+    read v or u, or a free entry of that end, are not checked."""
+    x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
+    w = ca.SX.sym("w", problem.parameters.layout.size)
+    inputs = {k: x[k] for k in ("q0", "q1", "s", "u", "h")}
+    for end, output, q in (("q_start", "g0", "q0"), ("q_goal", "g1", "q1")):
+        given = getattr(problem, end)
+        g = path(**inputs, w=w)[output]
+        other = ca.vertcat(*[x[k] for k in inputs if k != q], x[q][np.flatnonzero(~np.isfinite(given)).tolist()])
+        rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], other)]
+        if not rows:
+            continue
+        values = np.array(ca.Function("at_end", [x[q], w], [g[rows]])(np.nan_to_num(given),
+                                                                        problem.parameters.vector())).ravel()
+        worst = int(np.argmax(values))
+        if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
+            raise InputError(
+                f"`{end}` violates `path_constraints` row {rows[worst]}: g = {values[worst]:.6g} > 0 "
+                f"there, and the path constraints are imposed at every knot q_0 ... q_N, the "
+                f"ends included; move `{end}` or the constraint.")
 
 
 # CasADi's comparisons and logical operations: an entry that is one is a 0/1 value

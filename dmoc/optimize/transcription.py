@@ -9,6 +9,7 @@ statement; this object is everything built from it for the solver.
 import numpy as np
 
 from .._util.layout import Layout
+from .parameters import refuse_violated_ends
 from .read_only import ReadOnly
 from .scaling import nlp_scales
 from .terms import transcribe
@@ -37,7 +38,8 @@ class Transcription(ReadOnly):
         Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` holds p_0
         alone when the momenta are substituted, see `momenta`), of p (``h, q_ref, w``) and
         of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
-        ``start_velocity``, ``goal_velocity``, ``path``).
+        ``start_velocity``, ``goal_velocity``, ``path`` (rows, N) at the steps' midpoints,
+        ``path_knots`` (rows, N+1) at q_0 ... q_N).
     dynamics_rows : Layout
         The residual rows imposed at each step (all of R, or all but "right").
     x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
@@ -75,7 +77,8 @@ class Transcription(ReadOnly):
         self._g_layout = Layout([("dynamics", (self._dynamics_rows.size, N)), ("start", (n, 1)),
                                  ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),
                                  ("goal_velocity", (rows["goal"], 1)),
-                                 ("path", (path.numel_out(0) if path else 0, N))])
+                                 ("path", (path.numel_out(0) if path else 0, N)),
+                                 ("path_knots", (path.numel_out(0) if path else 0, N + 1))])
         q_ref = reference(problem.q_start, problem.q_goal)
         self._x_scale, self._g_scale = (_frozen(s) for s in nlp_scales(
             disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
@@ -112,7 +115,10 @@ class Transcription(ReadOnly):
                 view[name][fixed, col] = data[fixed]
             view["h"][:] = step_range[side]
         lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
-        lbg[self._g_layout.slice("path")] = -np.inf
+        for name in ("path", "path_knots"):
+            lbg[self._g_layout.slice(name)] = -np.inf
+        if problem.path_constraints is not None:
+            refuse_violated_ends(problem.path_constraints, problem)
         self._lbx, self._ubx, self._lbg, self._ubg = (_frozen(b) for b in (lbx, ubx, lbg, ubg))
 
     nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")
