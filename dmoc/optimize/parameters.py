@@ -134,18 +134,19 @@ def refuse_violated_ends(path, problem):
     for end, output, q in (("q_start", "g0", "q0"), ("q_goal", "g1", "q1")):
         given = getattr(problem, end)
         g = path(**inputs, w=w)[output]
-        other = ca.vertcat(*[x[k] for k in inputs if k != q], x[q][np.flatnonzero(~np.isfinite(given)).tolist()])
+        free = x[q][np.flatnonzero(~np.isfinite(given)).tolist()]
+        other = ca.vertcat(*[x[k] for k in inputs if k != q], free)
         rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], other)]
         if not rows:
             continue
-        values = np.array(ca.Function("at_end", [x[q], w], [g[rows]])(np.nan_to_num(given),
-                                                                        problem.parameters.vector())).ravel()
+        at_end = ca.Function("at_end", [x[q], w], [g[rows]])
+        values = np.array(at_end(np.nan_to_num(given), problem.parameters.vector())).ravel()
         worst = int(np.argmax(values))
         if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
             raise InputError(
-                f"`{end}` violates `path_constraints` row {rows[worst]}: g = {values[worst]:.6g} > 0 "
-                f"there, and the path constraints are imposed at every knot q_0 ... q_N, the "
-                f"ends included; move `{end}` or the constraint.")
+                f"`{end}` must satisfy `path_constraints` g <= 0, which hold at every knot q_0 "
+                f"... q_N, the ends included; got g[{rows[worst]}] = {values[worst]:.6g} there. "
+                f"Move `{end}` or the constraint.")
 
 
 # CasADi's comparisons and logical operations: an entry that is one is a 0/1 value
