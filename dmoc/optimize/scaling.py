@@ -1,13 +1,14 @@
 """The scaling of the DMOC NLP by the system's inertia and the size of the motion (consumer
 2 of the step residual): IPOPT iterates on x / x_scale and imposes g_scale * g = 0. Each
-coordinate gets a length l_i = d / sqrt(M_i), d the length of the motion in the metric of
-the inertia M; configurations are scaled by l, momenta by W / l (W = d^2, a momentum times
-a configuration for every coordinate), controls, d'Alembert multipliers and impulses by W
-over the size of the covector they multiply, and every row by the size of its terms. Each
-factor carries the units of what it scales, so the scaled NLP is the same whatever the
-units of length and mass (millimetres or kilometres, grams or tonnes), and a system whose
-degrees of freedom have inertias of different orders (a vehicle of 1e3 kg turning with a
-yaw inertia of 1 kg m^2) gives IPOPT a KKT matrix of blocks of one order.
+coordinate gets a length l_i in its own units (`lengths`: the length of the motion in the
+metric of the inertia M, or the distance over which a constraint row turns, if shorter);
+configurations are scaled by l, momenta by M l, the controls, d'Alembert multipliers and
+impulses by what their force directions must carry (`covector_scale`), and every row by
+the size of its terms. Each factor carries the units of what it scales, so the scaled NLP
+is the same whatever the units of length and mass (millimetres or kilometres, grams or
+tonnes), and a system whose degrees of freedom have inertias of different orders (a
+vehicle of 1e3 kg turning with a yaw inertia of 1 kg m^2) gives IPOPT a KKT matrix of
+blocks of one order.
 """
 
 import casadi as ca
@@ -16,7 +17,7 @@ import numpy as np
 from .._util.cache import BoundedCache
 
 
-_DATA = BoundedCache(64, "scaling_data")     # per system key: q -> (inertia, dF/du, A) at (q, 0, 0)
+_DATA = BoundedCache(64, "scaling_data")     # per system key: q -> (inertia, dF/du, A, dA/dq) at (q, 0, 0)
 
 
 def inertia(system, q):
@@ -64,7 +65,7 @@ def lengths(system, q, motion):
     ndarray, shape (n,)
         The smaller of d / sqrt(M_i), with d^2 = sum_i M_i dq_i^2 the squared length of
         the motion in the metric of the inertia (how far coordinate i would move if it
-        made the whole motion), and |a_r o l| / |da_r/dq_i o l| over the constraint rows
+        made the whole motion), and, l being those, |a_r o l| / |da_r/dq_i o l| over the constraint rows
         a_r (the distance along q_i over which a row turns by its own size: 1 rad for
         the heading in (-sin theta, cos theta, 0)). Without a motion (no entry given at
         both ends, or equal ends) d^2 is the geometric mean of M, which makes l = 1 for
@@ -108,19 +109,17 @@ def nlp_scales(disc, formulation, layouts, dynamics_rows, q, motion):
     `disc` and `formulation` with `layouts` = (x_layout, g_layout) and the residual rows
     `dynamics_rows` imposed per step (`dmoc.optimize.transcription.Transcription`), from
     the inertia M at q, shape (n,) (the transcription's `q_ref`), and the motion goal -
-    start, shape (n,) (NaN where an end is free), through the lengths l (`lengths`) and
-    W = M_i l_i^2.
+    start, shape (n,) (NaN where an end is free), through the lengths l (`lengths`).
 
-    x_scale: q, the velocities and the configuration stages by l; p and momentum stages by
-    W / l; u by W over the size of its force direction dF/du (at (q, 0, 0)), lam, mu, nu
-    over that of their row of A(q) (`covector_scale`); h by 1 (the unit of time is the
-    user's).
-    g_scale: 1 / (W / l_i) on the rows in momentum units (the formulation's
+    x_scale: q, the velocities and the configuration stages by l; p and the momentum
+    stages by M l; u by `covector_scale` of its force direction dF/du (at (q, 0, 0)) and
+    lam, mu, nu by that of their row of A(q); h by 1 (the unit of time is the user's).
+    g_scale: 1 / (M_i l_i) on the rows in momentum units (the formulation's
     `momentum_rows`; row r of a block of size n * j acts on degree of freedom r mod n, and
     the boundary rows when the system's `momentum_residual_units` is "momentum"), 1 / l_i
     on the rows in configuration or velocity units (the other "left", "right" rows and the
     boundary rows of a Hamiltonian system), 1 / |a_r o l| on the constraint and velocity
-    rows; 1 on the path rows.
+    rows (`row_scale`); 1 on the path rows.
     Every factor is rounded to the nearest power of 2 (`power_of_two`). The objective is
     not scaled (docs/performance.md): a cost stated in consistent units is the same in
     any units.
