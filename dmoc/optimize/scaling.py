@@ -65,9 +65,9 @@ def lengths(system, q, motion):
     ndarray, shape (n,)
         The smaller of d / sqrt(M_i), with d^2 = sum_i M_i dq_i^2 the squared length of
         the motion in the metric of the inertia (how far coordinate i would move if it
-        made the whole motion), and, l being those, |a_r o l| / |da_r/dq_i o l| over the constraint rows
-        a_r (the distance along q_i over which a row turns by its own size: 1 rad for
-        the heading in (-sin theta, cos theta, 0)). Without a motion (no entry given at
+        made the whole motion), and, with l those lengths, |a_r o l| / |da_r/dq_i o l|
+        over the constraint rows a_r (the distance along q_i over which a row turns by
+        its own size: 1 rad for the heading in (-sin theta, cos theta, 0)). Without a motion (no entry given at
         both ends, or equal ends) d^2 is the geometric mean of M, which makes l = 1 for
         equal inertias (and is not covariant).
     """
