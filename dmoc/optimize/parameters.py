@@ -100,34 +100,32 @@ def cost_function(name, cost, system, args, parameters):
 def path_function(path, disc, parameters):
     """The path constraints of one step, path(q, v, u[, w]) flattened to a column, as the
     Function ``(q0, q1, s, u, h, w) -> (g, g0, g1)``: "g" in the middle of the step (on the
-    rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0" and "g1" at
-    its knots q0 and q1 (the interpolant's velocity and the controls' interpolant at step
-    times 0 and 1)."""
+    rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0" and "g1" the
+    rows that read the configuration alone (not v, not u) at the step's knots q0 and q1."""
     sys = disc.system
     _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
     symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
                                             ("w", parameters.layout.size))]
     at_state = checked_function("path_constraints", _with_w(path, parameters), symbols,
                                 ("q", "v", "u", "w"), None)
-    _refuse_comparisons(at_state(*symbols))
+    g = at_state(*symbols)
+    _refuse_comparisons(g)
+    of_q = [i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(*symbols[1:3]))]
     x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
-    w, rule = symbols[-1], disc.rule
+    w, still = symbols[-1], (ca.SX.zeros(sys.n), ca.SX.zeros(sys.n_u))
     q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
-    g = [at_state(q, v, rule.control_at(x["u"], 0.5), w)]
-    sigma = rule.stage_configurations(x["s"], sys.n)
-    for c, knot in ((0.0, x["q0"]), (1.0, x["q1"])):
-        (_, _, v, _), = rule.interpolant.samples(x["q0"], x["q1"], sigma, x["h"], ((c, 1.0),))
-        g.append(at_state(knot, v, rule.control_at(x["u"], c), w))
+    values = [at_state(q, v, disc.rule.control_at(x["u"], 0.5), w),
+              *(at_state(knot, *still, w)[of_q] for knot in (x["q0"], x["q1"]))]
     names = ["q0", "q1", "s", "u", "h"]
-    return ca.Function("path_constraints", [x[k] for k in names] + [w], g, names + ["w"],
+    return ca.Function("path_constraints", [x[k] for k in names] + [w], values, names + ["w"],
                        ["g", "g0", "g1"])
 
 
 def refuse_violated_ends(path, problem):
-    """InputError when a given end, q_start or q_goal, violates a path constraint that
-    depends on the configuration alone (and the parameters): ``path(q, v, u) <= 0`` is
-    imposed at every knot (`path_function`), so such a problem has no solution. Rows that
-    read v or u, or a free entry of that end, are not checked."""
+    """InputError when a given end, q_start or q_goal, violates a row of the path
+    constraints that is imposed at the knots (`path_function`'s g0, g1: the rows that read
+    the configuration alone): such a problem has no solution. Rows that read a free entry
+    of that end are not checked."""
     x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
     w = ca.SX.sym("w", problem.parameters.layout.size)
     inputs = {k: x[k] for k in ("q0", "q1", "s", "u", "h")}
@@ -135,8 +133,7 @@ def refuse_violated_ends(path, problem):
         given = getattr(problem, end)
         g = path(**inputs, w=w)[output]
         free = x[q][np.flatnonzero(~np.isfinite(given)).tolist()]
-        other = ca.vertcat(*[x[k] for k in inputs if k != q], free)
-        rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], other)]
+        rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], free)]
         if not rows:
             continue
         at_end = ca.Function("at_end", [x[q], w], [g[rows]])

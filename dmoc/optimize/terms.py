@@ -40,10 +40,11 @@ def transcribe(problem, layouts, scales):
     step = _StepSlots(problem, X, P, G, scales)
     terms = problem.momentum_treatment.dynamics_terms(step, G["dynamics"]) + [step.start(), step.goal()]
     path, N = problem.path_constraints, problem.steps
-    if G["path"].size:      # at the midpoints, at q_0 ... q_{N-1} (steps' starts) and at q_N
-        for name, steps, output, rows in (("path", (0, N), "g", G["path"]),
-                                          ("path_knots", (0, N), "g0", G["path_knots"][:, :N]),
-                                          ("path_end", (N - 1, N), "g1", G["path_knots"][:, N:])):
+    at = (("path", (0, N), "g", G["path"]),                     # the midpoints, then the rows
+          ("path_knots", (0, N), "g0", G["path_knots"][:, :N]),  # of q alone at q_0 ... q_{N-1}
+          ("path_end", (N - 1, N), "g1", G["path_knots"][:, N:]))    # and at q_N
+    for name, steps, output, rows in at:
+        if rows.size:
             terms.append(step.term(name, step.at(*steps),
                                    lambda s, output=output: (0, path(**inputs_of(path, s))[output]), rows))
     nlp = SeparableNLP(*(lay.size for lay in layouts), terms)

@@ -39,7 +39,7 @@ class Transcription(ReadOnly):
         alone when the momenta are substituted, see `momenta`), of p (``h, q_ref, w``) and
         of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
         ``start_velocity``, ``goal_velocity``, ``path`` (rows, N) at the steps' midpoints,
-        ``path_knots`` (rows, N+1) at q_0 ... q_N).
+        ``path_knots`` (rows of q alone, N+1) at q_0 ... q_N).
     dynamics_rows : Layout
         The residual rows imposed at each step (all of R, or all but "right").
     x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
@@ -78,7 +78,7 @@ class Transcription(ReadOnly):
                                  ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),
                                  ("goal_velocity", (rows["goal"], 1)),
                                  ("path", (path.numel_out(0) if path else 0, N)),
-                                 ("path_knots", (path.numel_out(0) if path else 0, N + 1))])
+                                 ("path_knots", (path.numel_out(1) if path else 0, N + 1))])
         q_ref = reference(problem.q_start, problem.q_goal)
         self._x_scale, self._g_scale = (_frozen(s) for s in nlp_scales(
             disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,

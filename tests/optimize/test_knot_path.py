@@ -71,10 +71,20 @@ def test_new_data_that_put_an_end_inside_the_disc_are_refused():
         problem.with_parameters(c=[2.0, 0.1])
 
 
-def test_rows_that_read_a_free_entry_or_the_velocity_are_not_judged_before_the_solve():
-    """x free at the goal: the disc row is not evaluated there (no refusal); a row reading v
-    at a given end is not either (the end's velocity is the trajectory's)."""
+def test_rows_that_read_a_free_entry_are_not_judged_before_the_solve():
+    """x free at the goal: the disc row is not evaluated there (no refusal)."""
     drive(12, q_goal=[None, 0.05, 0, None, None])
+
+
+def test_rows_that_read_v_or_u_stay_at_the_midpoints():
+    """A speed limit and a torque limit (rows 1 and 2) are not imposed at the knots, where
+    the rule defines neither v nor u (for the midpoint rule their knot rows would repeat
+    the midpoint's); the disc (row 0) is. A start that breaks the speed limit's formula
+    with v = 0 is not refused."""
+    problem = drive(12, path_constraints=lambda q, v, u: ca.vertcat(
+        outside_disc(q, v, u), v[0] - 1.0, u[0] - 5.0))
+    assert problem.g_layout.blocks["path"][1:] == (3, 12)
+    assert problem.g_layout.blocks["path_knots"][1:] == (1, 13)
     drive(12, path_constraints=lambda q, v, u: 1.0 - v[0] - ca.sumsqr(q[:2]))
 
 
