@@ -99,9 +99,10 @@ def cost_function(name, cost, system, args, parameters):
 
 def path_function(path, disc, parameters):
     """The path constraints of one step, path(q, v, u[, w]) flattened to a column, as the
-    Function ``(q0, q1, s, u, h, w) -> (g, g0, g1)``: "g" in the middle of the step (on the
-    rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0" and "g1" the
-    rows that read the configuration alone (not v, not u) at the step's knots q0 and q1."""
+    Function ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)``: "g" in the middle of the
+    step (on the rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0"
+    and "g1" the rows that read the configuration alone (not v, not u) at the step's knots
+    q0 and q1, "knot_rows" their indices in g (a constant; `knot_rows`)."""
     sys = disc.system
     _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
     symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
@@ -117,8 +118,15 @@ def path_function(path, disc, parameters):
     values = [at_state(q, v, disc.rule.control_at(x["u"], 0.5), w),
               *(at_state(knot, *still, w)[of_q] for knot in (x["q0"], x["q1"]))]
     names = ["q0", "q1", "s", "u", "h"]
-    return ca.Function("path_constraints", [x[k] for k in names] + [w], values, names + ["w"],
-                       ["g", "g0", "g1"])
+    rows = ca.SX(ca.DM(np.array(of_q, dtype=float).reshape(-1, 1)))
+    return ca.Function("path_constraints", [x[k] for k in names] + [w], values + [rows],
+                       names + ["w"], ["g", "g0", "g1", "knot_rows"])
+
+
+def knot_rows(path):
+    """The indices in g of the rows of `path_function`'s g0 and g1, a tuple of int."""
+    out = path(*[ca.DM.zeros(path.sparsity_in(i)) for i in range(path.n_in())])
+    return tuple(int(i) for i in np.array(out[path.index_out("knot_rows")]).ravel())
 
 
 def refuse_violated_ends(path, problem):
@@ -142,7 +150,8 @@ def refuse_violated_ends(path, problem):
         if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
             raise InputError(
                 f"`{end}` must satisfy `path_constraints` g <= 0, which hold at every knot q_0 "
-                f"... q_N, the ends included; got g[{rows[worst]}] = {values[worst]:.6g} there. "
+                f"... q_N, the ends included; got g[{knot_rows(path)[rows[worst]]}] = "
+                f"{values[worst]:.6g} there. "
                 f"Move `{end}` or the constraint.")
 
 

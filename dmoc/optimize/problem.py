@@ -95,8 +95,8 @@ class OptimalControlProblem(ReadOnly):
         (lower, upper), shapes (n_u,) and (n,), infinite where unbounded.
     running_cost, terminal_cost, path_constraints : casadi.Function or None
         The user's callables checked on symbols: ``(q, v, u, w) -> cost``,
-        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> (g, g0, g1)`` at the step's
-        midpoint and (its rows of q alone) at its two knots.
+        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)`` at the
+        step's midpoint and (its rows of q alone, knot_rows) at its two knots.
     parameters : ProblemParameters
         Their `parameter_values` are entries of p (`with_parameters` changes them).
     final_time : FixedFinalTime or FreeFinalTime

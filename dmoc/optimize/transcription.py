@@ -9,7 +9,7 @@ statement; this object is everything built from it for the solver.
 import numpy as np
 
 from .._util.layout import Layout
-from .parameters import refuse_violated_ends
+from .parameters import knot_rows, refuse_violated_ends
 from .read_only import ReadOnly
 from .scaling import nlp_scales
 from .terms import transcribe
@@ -40,6 +40,9 @@ class Transcription(ReadOnly):
         of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
         ``start_velocity``, ``goal_velocity``, ``path`` (rows, N) at the steps' midpoints,
         ``path_knots`` (rows of q alone, N+1) at q_0 ... q_N).
+    path_knot_rows : tuple of int
+        The indices, among the path constraints' rows, of those in ``path_knots``: the
+        rows that read the configuration alone.
     dynamics_rows : Layout
         The residual rows imposed at each step (all of R, or all but "right").
     x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
@@ -86,6 +89,7 @@ class Transcription(ReadOnly):
         self._separable, self._momenta = transcribe(
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
+        self._path_knot_rows = knot_rows(path) if path else ()
         self._set_bounds(problem)
 
     def with_bounds(self, problem):
@@ -135,6 +139,8 @@ class Transcription(ReadOnly):
     ubg = property(lambda self: self._ubg, doc="Upper bounds of g.")
     p = property(lambda self: self._p, doc="Values of the parameter vector p.")
     q_ref = property(lambda self: self._q_ref, doc="The configuration x is centered on.")
+    path_knot_rows = property(lambda self: self._path_knot_rows,
+                              doc="The rows of the path constraints held at the knots (of q alone).")
 
     @property
     def structure(self):

@@ -80,19 +80,24 @@ def test_rows_that_read_v_or_u_stay_at_the_midpoints():
     """A speed limit and a torque limit (rows 1 and 2) are not imposed at the knots, where
     the rule defines neither v nor u (for the midpoint rule their knot rows would repeat
     the midpoint's); the disc (row 0) is. A start that breaks the speed limit's formula
-    with v = 0 is not refused."""
+    with v = 0 is not refused; a start inside the disc is, naming the user's row 1."""
     problem = drive(12, path_constraints=lambda q, v, u: ca.vertcat(
         outside_disc(q, v, u), v[0] - 1.0, u[0] - 5.0))
     assert problem.g_layout.blocks["path"][1:] == (3, 12)
     assert problem.g_layout.blocks["path_knots"][1:] == (1, 13)
     drive(12, path_constraints=lambda q, v, u: 1.0 - v[0] - ca.sumsqr(q[:2]))
+    with pytest.raises(dmoc.InputError, match=r"`q_start` must satisfy .*got g\[1\] = "):
+        drive(12, q_start=[1.0, 0.0, 0, 0, 0],
+              path_constraints=lambda q, v, u: ca.vertcat(v[0] - 1.0, outside_disc(q, v, u)))
 
 
 def test_a_goal_forced_into_the_disc_is_reported_infeasible_at_a_knot():
     """x = 1 at the goal and |y| <= 0.2 put the goal inside the disc with y free: IPOPT
-    detects the infeasibility, and the most violated row is the disc's at the goal knot."""
+    detects the infeasibility, and the most violated row is the disc's (row 1 of the
+    user's, after a speed limit) at the goal knot."""
     problem = drive(12, q_goal=[1.0, None, 0, None, None],
-                    state_bounds=([None, -0.2, None, None, None], [None, 0.2, None, None, None]))
+                    state_bounds=([None, -0.2, None, None, None], [None, 0.2, None, None, None]),
+                    path_constraints=lambda q, v, u: ca.vertcat(v[0] - 10.0, outside_disc(q, v, u)))
     result = dmoc.optimize(problem, throw=False)
     assert not result.success and result.status == "Infeasible_Problem_Detected"
-    assert result.stats["most_violated"].startswith("path constraint 0 at knot 12")
+    assert result.stats["most_violated"].startswith("path constraint 1 at knot 12")
