@@ -7,6 +7,7 @@ import numpy as np
 
 from ..principle.trajectory import Trajectory
 from ..errors import InputError
+from .scaling import lengths
 
 
 def start_point(problem, guess):
@@ -65,10 +66,14 @@ def _check_guess(problem, guess):
 
 
 def _default_path(problem, tau):
+    """Configurations (N+1, n) on the chord from the start to the goal (free entries held
+    at q_ref) bent by 0.1 l_i sin(pi tau), l the coordinates' lengths in the motion
+    (`scaling.lengths`): a bump in the units of each coordinate, the same path whatever
+    the units of length and mass."""
     start = problem.transcription.q_ref        # the given start, else goal, entries
     goal = np.where(np.isfinite(problem.q_goal), problem.q_goal, start)
-    bump = 0.1 * max(1.0, float(np.max(np.abs(goal - start))))
-    return start + np.outer(tau, goal - start) + bump * np.sin(np.pi * tau)[:, None]
+    bump = 0.1 * lengths(problem.disc.system, start, problem.q_goal - problem.q_start)
+    return start + np.outer(tau, goal - start) + np.outer(np.sin(np.pi * tau), bump)
 
 
 def _resampled(problem, guess, tau):

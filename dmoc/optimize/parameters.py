@@ -13,6 +13,7 @@ from .._util import checks
 from .._util.symbolic import checked_function
 from ..errors import InputError, InputTypeError
 from .._util.layout import Layout, step_symbols
+from .ipopt import DEFAULT_IPOPT_OPTIONS
 
 
 class ProblemParameters:
@@ -97,21 +98,61 @@ def cost_function(name, cost, system, args, parameters):
 
 
 def path_function(path, disc, parameters):
-    """g(q0, q1, s, u, h, w) = path(q, v, u[, w]) in the middle of the step (on the rule's
-    interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), flattened to a column."""
+    """The path constraints of one step, path(q, v, u[, w]) flattened to a column, as the
+    Function ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)``: "g" in the middle of the
+    step (on the rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0"
+    and "g1" the rows that read the configuration alone (not v, not u) at the step's knots
+    q0 and q1, "knot_rows" their indices in g (a constant; `knot_rows`)."""
     sys = disc.system
     _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
     symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
                                             ("w", parameters.layout.size))]
-    at_midpoint = checked_function("path_constraints", _with_w(path, parameters), symbols,
-                                   ("q", "v", "u", "w"), None)
-    _refuse_comparisons(at_midpoint(*symbols))
+    at_state = checked_function("path_constraints", _with_w(path, parameters), symbols,
+                                ("q", "v", "u", "w"), None)
+    g = at_state(*symbols)
+    _refuse_comparisons(g)
+    of_q = [i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(*symbols[1:3]))]
     x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
-    w = symbols[-1]
+    w, still = symbols[-1], (ca.SX.zeros(sys.n), ca.SX.zeros(sys.n_u))
     q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
-    g = at_midpoint(q, v, disc.rule.control_at(x["u"], 0.5), w)
+    values = [at_state(q, v, disc.rule.control_at(x["u"], 0.5), w),
+              *(at_state(knot, *still, w)[of_q] for knot in (x["q0"], x["q1"]))]
     names = ["q0", "q1", "s", "u", "h"]
-    return ca.Function("path_constraints", [x[k] for k in names] + [w], [g], names + ["w"], ["g"])
+    rows = ca.SX(ca.DM(np.array(of_q, dtype=float).reshape(-1, 1)))
+    return ca.Function("path_constraints", [x[k] for k in names] + [w], values + [rows],
+                       names + ["w"], ["g", "g0", "g1", "knot_rows"])
+
+
+def knot_rows(path):
+    """The indices in g of the rows of `path_function`'s g0 and g1, a tuple of int."""
+    out = path(*[ca.DM.zeros(path.sparsity_in(i)) for i in range(path.n_in())])
+    return tuple(int(i) for i in np.array(out[path.index_out("knot_rows")]).ravel())
+
+
+def refuse_violated_ends(path, problem):
+    """InputError when a given end, q_start or q_goal, violates a row of the path
+    constraints that is imposed at the knots (`path_function`'s g0, g1: the rows that read
+    the configuration alone): such a problem has no solution. Rows that read a free entry
+    of that end are not checked."""
+    x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
+    w = ca.SX.sym("w", problem.parameters.layout.size)
+    inputs = {k: x[k] for k in ("q0", "q1", "s", "u", "h")}
+    for end, output, q in (("q_start", "g0", "q0"), ("q_goal", "g1", "q1")):
+        given = getattr(problem, end)
+        g = path(**inputs, w=w)[output]
+        free = x[q][np.flatnonzero(~np.isfinite(given)).tolist()]
+        rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], free)]
+        if not rows:
+            continue
+        at_end = ca.Function("at_end", [x[q], w], [g[rows]])
+        values = np.array(at_end(np.nan_to_num(given), problem.parameters.vector())).ravel()
+        worst = int(np.argmax(values))
+        if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
+            raise InputError(
+                f"`{end}` must satisfy `path_constraints` g <= 0, which hold at every knot q_0 "
+                f"... q_N, the ends included; got g[{knot_rows(path)[rows[worst]]}] = "
+                f"{values[worst]:.6g} there. "
+                f"Move `{end}` or the constraint.")
 
 
 # CasADi's comparisons and logical operations: an entry that is one is a 0/1 value

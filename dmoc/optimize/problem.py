@@ -65,7 +65,9 @@ class OptimalControlProblem(ReadOnly):
         (lower, upper), shapes (n_u,) and (n,); None entries are unbounded.
     path_constraints : callable, optional
         ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint (on the
-        rule's interpolant, u interpolated there).
+        rule's interpolant, u interpolated there), its rows of q alone at every knot q_0
+        ... q_N too; a given end that violates one is refused (docs/stages/optimize.md,
+        "Path constraints").
     duration : pair of float, optional
         (T_min, T_max): free final time, h = T/N becomes a decision variable.
     variant : {"+", "-"} or Formulation
@@ -93,7 +95,8 @@ class OptimalControlProblem(ReadOnly):
         (lower, upper), shapes (n_u,) and (n,), infinite where unbounded.
     running_cost, terminal_cost, path_constraints : casadi.Function or None
         The user's callables checked on symbols: ``(q, v, u, w) -> cost``,
-        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> g`` at the step's midpoint.
+        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)`` at the
+        step's midpoint and (its rows of q alone, knot_rows) at its two knots.
     parameters : ProblemParameters
         Their `parameter_values` are entries of p (`with_parameters` changes them).
     final_time : FixedFinalTime or FreeFinalTime

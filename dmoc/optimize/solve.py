@@ -268,6 +268,8 @@ def most_violated(transcription, g):
         return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
     if group == "path":
         return float(violation[i]), f"path constraint {row} at step {col}"
+    if group == "path_knots":
+        return float(violation[i]), f"path constraint {transcription.path_knot_rows[row]} at knot {col}"
     return float(violation[i]), f"boundary condition '{group}' row {row}"
 
 

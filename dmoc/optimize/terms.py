@@ -3,7 +3,7 @@ OptimalControlProblem are evaluated at which steps, on which entries of x and p,
 terms of a partially separable NLP (`dmoc.optimize.separable`). The step residual of
 (37)/(41) (or (39)/(43)) is mapped over the steps as the problem's momentum treatment says
 (`dmoc.optimize.momenta`); the boundary rows, the terminal cost and the path constraints
-are terms of their own.
+(at the steps' midpoints and at every knot) are terms of their own.
 """
 
 import hashlib
@@ -39,10 +39,14 @@ def transcribe(problem, layouts, scales):
     X, P, G = (_indices(lay) for lay in layouts)
     step = _StepSlots(problem, X, P, G, scales)
     terms = problem.momentum_treatment.dynamics_terms(step, G["dynamics"]) + [step.start(), step.goal()]
-    path = problem.path_constraints
-    if G["path"].size:
-        terms.append(step.term("path", step.at(0, problem.steps),
-                               lambda s: (0, path(**inputs_of(path, s))["g"]), G["path"]))
+    path, N = problem.path_constraints, problem.steps
+    at = (("path", (0, N), "g", G["path"]),                     # the midpoints, then the rows
+          ("path_knots", (0, N), "g0", G["path_knots"][:, :N]),  # of q alone at q_0 ... q_{N-1}
+          ("path_end", (N - 1, N), "g1", G["path_knots"][:, N:]))    # and at q_N
+    for name, steps, output, rows in at:
+        if rows.size:
+            terms.append(step.term(name, step.at(*steps),
+                                   lambda s, output=output: (0, path(**inputs_of(path, s))[output]), rows))
     nlp = SeparableNLP(*(lay.size for lay in layouts), terms)
     return nlp, problem.momentum_treatment.momenta_function(step)
 

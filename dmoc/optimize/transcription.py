@@ -9,6 +9,7 @@ statement; this object is everything built from it for the solver.
 import numpy as np
 
 from .._util.layout import Layout
+from .parameters import knot_rows, refuse_violated_ends
 from .read_only import ReadOnly
 from .scaling import nlp_scales
 from .terms import transcribe
@@ -37,7 +38,11 @@ class Transcription(ReadOnly):
         Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` holds p_0
         alone when the momenta are substituted, see `momenta`), of p (``h, q_ref, w``) and
         of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
-        ``start_velocity``, ``goal_velocity``, ``path``).
+        ``start_velocity``, ``goal_velocity``, ``path`` (rows, N) at the steps' midpoints,
+        ``path_knots`` (rows of q alone, N+1) at q_0 ... q_N).
+    path_knot_rows : tuple of int
+        The indices, among the path constraints' rows, of those in ``path_knots``: the
+        rows that read the configuration alone.
     dynamics_rows : Layout
         The residual rows imposed at each step (all of R, or all but "right").
     x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
@@ -75,13 +80,16 @@ class Transcription(ReadOnly):
         self._g_layout = Layout([("dynamics", (self._dynamics_rows.size, N)), ("start", (n, 1)),
                                  ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),
                                  ("goal_velocity", (rows["goal"], 1)),
-                                 ("path", (path.numel_out(0) if path else 0, N))])
+                                 ("path", (path.numel_out(0) if path else 0, N)),
+                                 ("path_knots", (path.numel_out(1) if path else 0, N + 1))])
         q_ref = reference(problem.q_start, problem.q_goal)
         self._x_scale, self._g_scale = (_frozen(s) for s in nlp_scales(
-            disc, problem.formulation, self._x_layout, self._g_layout, self._dynamics_rows, q_ref))
+            disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
+            problem.q_goal - problem.q_start))
         self._separable, self._momenta = transcribe(
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
+        self._path_knot_rows = knot_rows(path) if path else ()
         self._set_bounds(problem)
 
     def with_bounds(self, problem):
@@ -111,7 +119,10 @@ class Transcription(ReadOnly):
                 view[name][fixed, col] = data[fixed]
             view["h"][:] = step_range[side]
         lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
-        lbg[self._g_layout.slice("path")] = -np.inf
+        for name in ("path", "path_knots"):
+            lbg[self._g_layout.slice(name)] = -np.inf
+        if problem.path_constraints is not None:
+            refuse_violated_ends(problem.path_constraints, problem)
         self._lbx, self._ubx, self._lbg, self._ubg = (_frozen(b) for b in (lbx, ubx, lbg, ubg))
 
     nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")
@@ -128,6 +139,8 @@ class Transcription(ReadOnly):
     ubg = property(lambda self: self._ubg, doc="Upper bounds of g.")
     p = property(lambda self: self._p, doc="Values of the parameter vector p.")
     q_ref = property(lambda self: self._q_ref, doc="The configuration x is centered on.")
+    path_knot_rows = property(lambda self: self._path_knot_rows,
+                              doc="The rows of the path constraints held at the knots (of q alone).")
 
     @property
     def structure(self):

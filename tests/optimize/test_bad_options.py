@@ -76,5 +76,5 @@ def test_path_constraints_with_a_branch_inside_pass(disc):
     ocp = problem(disc, path_constraints=lambda q, v, u: ca.vertcat(
         q[0] - 0.5, ca.if_else(q[1] < 0, -q[1], q[1]) - 2))
     g = ocp.path_constraints(ca.DM([0.2, -0.4, 0]), ca.DM([0.4, -0.4, 0]), ca.DM(0, 1),
-                             ca.DM.zeros(2), 0.1, ca.DM(0, 1))
+                             ca.DM.zeros(2), 0.1, ca.DM(0, 1))[0]       # "g", at the midpoint
     np.testing.assert_allclose(np.array(g).ravel(), [0.3 - 0.5, 0.4 - 2], rtol=0, atol=1e-15)

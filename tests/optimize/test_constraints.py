@@ -54,15 +54,16 @@ def test_state_bounds_cut_the_path(free):
     _check_replay(problem, result)
 
 
-def test_path_constraint_at_step_midpoints(free):
+def test_path_constraint_at_step_midpoints_and_knots(free):
     _, unconstrained = free
     limit = 0.5 * np.abs(unconstrained.trajectory.q[:, 2]).max()
     problem = _parking(path_constraints=lambda q, v, u: ca.vertcat(q[2] - limit, -q[2] - limit))
     result = dmoc.optimize(problem, check=False)
     q = result.trajectory.q
     theta_mid = (q[:-1, 2] + q[1:, 2]) / 2               # path constraints act at step midpoints
-    assert np.abs(theta_mid).max() <= limit + 1e-9
-    assert np.isclose(np.abs(theta_mid).max(), limit, atol=1e-8)
+    theta = np.concatenate([theta_mid, q[:, 2]])         # and at every knot
+    assert np.abs(theta).max() <= limit + 1e-9
+    assert np.isclose(np.abs(theta).max(), limit, atol=1e-8)
     assert result.cost > unconstrained.cost
     _check_replay(problem, result)
 

@@ -222,8 +222,8 @@ def test_velocity_jumps_measure_how_the_grid_resolves_the_motion():
 def unscaled(make, monkeypatch):
     """The problem `make()` builds, with every factor 1."""
     with monkeypatch.context() as m:
-        m.setattr(transcription_module, "nlp_scales", lambda disc, formulation, x_layout, g_layout,
-                  dynamics_rows, q: (np.ones(x_layout.size), np.ones(g_layout.size)))
+        m.setattr(transcription_module, "nlp_scales", lambda disc, formulation, layouts, *data:
+                  tuple(np.ones(layout.size) for layout in layouts))
         return make()
 
 
@@ -338,26 +338,37 @@ def test_lobatto4_factors_by_node_and_degree_of_freedom():
 
 
 def test_lobatto3_multiplier_factors_by_node():
-    """Rolling disk A(q) = [[1, 0, -R cos phi, 0], [0, 1, -R sin phi, 0]] acting on the
-    inertias (m, m, I, J) of L: each row's weighted inertia, to the nearest power of 2."""
-    m, I, R, phi = 5.0, 0.3, 1.0, 0.4
-    disc = dmoc.discretize(rolling_disk(mass=m, radius=R, roll_inertia=I, steer_inertia=0.1), 0.2, "lobatto3")
+    """Rolling disk A(q) = [[1, 0, -R cos phi, 0], [0, 1, -R sin phi, 0]], inertias
+    (m, m, I, J), moving by (1, 1, free, 0): d^2 = 2 m, lengths d / sqrt(M_i) but for the
+    heading, which turns the rows by their own size over |a_r o l| / |da_r/dphi o l|; each
+    multiplier's factor fits c |a_ri| to the momentum scales M_i l_i (least squares in
+    relative terms), the same at both nodes, to the nearest power of 2."""
+    m, I, J, R, phi = 5.0, 0.3, 0.1, 1.0, 0.4
+    disc = dmoc.discretize(rolling_disk(mass=m, radius=R, roll_inertia=I, steer_inertia=J), 0.2, "lobatto3")
     problem = dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0, phi], q_goal=[1, 1, None, phi])
-    c, s = abs(R * np.cos(phi)), abs(R * np.sin(phi))
-    one_node = [(m + I * c) / (1 + c), (m + I * s) / (1 + s)]
+    M = np.array([m, m, I, J])
+    l = np.sqrt(2 * m / M)
+    rows = np.array([[1, 0, -R * np.cos(phi), 0], [0, 1, -R * np.sin(phi), 0]])
+    turns = np.array([[0, 0, R * np.sin(phi), 0], [0, 0, -R * np.cos(phi), 0]])
+    l[3] = min(l[3], min(np.linalg.norm(a * l) / np.linalg.norm(t * l) for a, t in zip(rows, turns)))
+    a = np.abs(rows) / (M * l)
+    fit = a.sum(axis=1) / (a ** 2).sum(axis=1)
     np.testing.assert_array_equal(problem.x_layout.unpack(problem.x_scale, "lam")[:, 0],
-                                  np.tile(power_of_two(one_node), 2))
+                                  np.tile(power_of_two(fit), 2))
 
 
 def test_hamiltonian_minus_with_momenta_variables_scales_its_right_rows():
+    """No constraint: each coordinate's length is the motion's, d / sqrt(M_i) with d^2 =
+    m * 1^2 (the goal 1 along y), and the momentum rows are divided by M_i l_i."""
     m, J = 4.0, 0.25
     system = dmoc.HamiltonianSystem(lambda q, p: (p[0] ** 2 + p[1] ** 2) / (2 * m) + p[2] ** 2 / (2 * J), 3,
                                     force=lambda q, p, u: u, n_u=3)
     problem = dmoc.OptimalControlProblem(dmoc.discretize(system, 0.1), 5, q_start=[0, 0, 0],
                                          q_goal=[0, 1, 0], variant="-", momenta="variables")
     rows = problem.dynamics_rows.slices()
+    M = np.array([m, m, J])
     np.testing.assert_array_equal(problem.g_layout.unpack(problem.g_scale, "dynamics")[rows["right"], 0],
-                                  1 / np.array([m, m, J]))
+                                  1 / (M * np.sqrt(m / M)))
 
 
 def disk(phi):
