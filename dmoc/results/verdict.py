@@ -236,7 +236,7 @@ def knot_path_values(problem, traj):
     u = np.tile(traj.control(traj.t), len(traj.control_nodes))
     g = problem.path_constraints.map(N + 1)(q0.T, q1.T, np.reshape(s, (N + 1, -1)).T, u.T, h,
                                             problem.parameters.vector())
-    return np.array(g).T
+    return np.array(g[problem.path_constraints.index_out("g")]).T
 
 
 def _path_violation(problem, traj):
