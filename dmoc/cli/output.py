@@ -10,7 +10,7 @@ import numpy as np
 from ..results import diagnostics
 from .._util.files import atomic_write, write_text
 from ..results.animation import animate
-from ..results.plotting import save_trajectory_plots
+from ..results.plotting import planes, save_trajectory_plots
 
 
 def energy_drift(disc, traj):
@@ -74,7 +74,9 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
                                          control_names=control_names, heading=spec.heading,
                                          goal=goal)
         if gif and traj.q.shape[1] >= 2:
-            written.append(animate(traj, out / f"{name}.gif", shape=spec.shape,
+            x, y = (planes(names) or [(0, 1)])[0]
+            written.append(animate(traj, out / f"{name}.gif", shape=spec.shape, x=x, y=y,
                                    heading=spec.heading, roll=spec.roll, goal=goal,
+                                   labels=(names[x], names[y]), units=disc.system.units,
                                    title=name))
     return written

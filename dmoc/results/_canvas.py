@@ -34,7 +34,7 @@ def figure(rows=1, *, width=6.4, height=None, sharex=True):
     return fig, list(axes)
 
 
-def axes(ax):
+def single_axes(ax):
     """A new Figure with one Axes, or the Figure of the given Axes."""
     if ax is None:
         fig, (ax,) = figure()

@@ -6,7 +6,7 @@ one (E - E_0 - W, W the work of the discrete forces), and convergence plots.
 import numpy as np
 
 from . import diagnostics
-from ._canvas import axes, finish, label, plain_log_ticks
+from ._canvas import finish, label, plain_log_ticks, single_axes
 from .._util import checks
 from ..principle.trajectory import check_trajectory
 
@@ -41,7 +41,7 @@ def plot_constraint_violation(disc, traj, *, time_unit="", title=None, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = axes(ax)
+    fig, ax = single_axes(ax)
     _log_series(ax, _midpoints(traj.t), diagnostics.constraint_violation(disc, traj),
                 "max_a |omega_d^a(q_k, q_k+1)|")
     ax.set_xlabel(label("t", time_unit))
@@ -67,7 +67,7 @@ def plot_energy_error(disc, traj, *, energy_unit="", time_unit="", title=None, a
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = axes(ax)
+    fig, ax = single_axes(ax)
     E = diagnostics.energy(disc, traj)
     _log_series(ax, _midpoints(traj.t)[1:], (E - E[0])[1:], "|E - E_0|",
                 empty="one step: a single energy E_0, no change to show (needs 2 steps)")
@@ -145,15 +145,16 @@ def plot_energy_balance(disc, traj, *, energy_unit="", time_unit="", title=None,
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = axes(ax)
+    fig, ax = single_axes(ax)
     E, W = diagnostics.energy(disc, traj), control_work(disc, traj)
     t = _midpoints(traj.t)
     if E.size < 2:
         ax.text(0.5, 0.5, "one step: a single energy E_0, no change to show (needs 2 steps)",
                 transform=ax.transAxes, ha="center")
+    balance = E - E[0] - W if E.size else E
     ax.plot(t, E - E[0] if E.size else E, color="0.6", lw=0.9, label="E - E_0")
-    ax.plot(t, E - E[0] - W if E.size else E, color="C0", lw=1.2,
-            label="balance E - E_0 - W")
+    ax.plot(t, balance, color="C0", lw=1.2, label="balance E - E_0 - W"
+            + (f" (max |.| {np.abs(balance).max():.1e})" if E.size else ""))
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_xlabel(label("t", time_unit))
     ax.set_ylabel(label("energy", energy_unit))
@@ -180,7 +181,7 @@ def plot_convergence(h, errors, *, order=None, ylabel="error", title=None, ax=No
     h = checks.vector("h", h)
     errors = checks.vector("errors", errors, h.size, allow_nan=True)
     order = None if order is None else checks.finite_float("order", order)
-    fig, ax = axes(ax)
+    fig, ax = single_axes(ax)
     ax.loglog(h, errors, "o-", label="measured")
     if order is not None:
         i = np.argmin(h)
@@ -206,7 +207,7 @@ def plot_cost_convergence(steps, costs, *, title=None, ax=None):
     """
     steps = checks.vector("steps", steps)
     costs = checks.vector("costs", costs, steps.size, allow_nan=True)
-    fig, ax = axes(ax)
+    fig, ax = single_axes(ax)
     ax.semilogx(steps, costs, "o-", label="optimal cost")
     ax.set_xlabel("N (steps)")
     ax.set_ylabel("cost")

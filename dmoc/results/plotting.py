@@ -11,7 +11,7 @@ import re
 
 import numpy as np
 
-from ._canvas import axes, bound_lines, figure, finish, label, save_png, units_of
+from ._canvas import bound_lines, figure, finish, label, save_png, single_axes, units_of
 from .diagnostic_plots import (control_work, plot_constraint_violation, plot_convergence,
                                plot_cost_convergence, plot_energy_balance, plot_energy_error)
 from .obstacles import draw_obstacles
@@ -69,7 +69,7 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), uni
     labels = checks.strings("labels", labels, 2)
     unit = units_of(units, q.shape[1], _n_controls(traj))["q"]
     marks = checks.positive_int("marks", marks)
-    fig, ax = axes(ax)
+    fig, ax = single_axes(ax)
     ax.plot(q[:, x], q[:, y], "-", lw=1.2, color=color, label=name)
     shown = ax.get_legend_handles_labels()[1]
     ax.plot(q[0, x], q[0, y], "o", color="C2", label="_nolegend_" if "start" in shown else "start")
@@ -151,7 +151,7 @@ def plot_states(traj, *, names=None, units=None, bounds=None, title=None):
     return finish(fig, axs[0], title, legend=False)
 
 
-def plot_controls(traj, *, names=None, units=None, bounds=None, title=None):
+def plot_controls(traj, *, names=None, units=None, bounds=None, title=None, axes=None):
     """The controls u(t) of a Trajectory against time, one panel per control (controls of
     different units never share an axis): held controls as steps, controls at a stage
     rule's nodes as their interpolant on each step (`Trajectory.control`).
@@ -166,6 +166,8 @@ def plot_controls(traj, *, names=None, units=None, bounds=None, title=None):
     bounds : pair of array_like, shape (n_u,), optional
         (lower, upper), e.g. a problem's `control_bounds`; finite entries are dashed lines.
     title : str, optional
+    axes : sequence of matplotlib.axes.Axes, optional
+        n_u Axes of one Figure to draw into instead of a new Figure.
 
     Returns
     -------
@@ -176,7 +178,12 @@ def plot_controls(traj, *, names=None, units=None, bounds=None, title=None):
     names = checks.strings("names", names, n_u) if names else [f"u{i}" for i in range(n_u)]
     units = units_of(units, traj.q.shape[1], n_u)
     lower, upper = _bounds("bounds", bounds, n_u)
-    fig, axs = figure(max(n_u, 1), height=0.95 + 1.4 * max(n_u, 1))
+    if axes is None:
+        fig, axs = figure(max(n_u, 1), height=0.95 + 1.4 * max(n_u, 1))
+    elif len(axes) != n_u:
+        raise InputError(f"`axes` must be {n_u} Axes, one per control; got {len(axes)}.")
+    else:
+        fig, axs = axes[0].figure, list(axes)
     t = np.linspace(traj.t[0], traj.t[-1], 8 * traj.steps + 1)
     for i, (ax, name) in enumerate(zip(axs, names)):
         if traj.control_nodes == (0.5,):
@@ -187,6 +194,8 @@ def plot_controls(traj, *, names=None, units=None, bounds=None, title=None):
         ax.set_ylabel(label(name, units["u"][i]))
         finish(fig, ax, None)
     axs[-1].set_xlabel(label("t", units["t"]))
+    for ax in axs[:-1]:
+        ax.set_xlabel("")
     return finish(fig, axs[0], title, legend=False)
 
 
@@ -201,7 +210,11 @@ def _bounds(name, bounds, size):
     if len(bounds) != 2:
         raise InputError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},); "
                          f"got {len(bounds)} entries.")
-    return tuple(checks.array(f"{name}[{i}]", b, (size,), allow_nan=True) for i, b in enumerate(bounds))
+    pair = tuple(checks.real_array(f"{name}[{i}]", b) for i, b in enumerate(bounds))
+    if any(b.shape != (size,) for b in pair):
+        raise InputError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},); "
+                         f"got shapes {[b.shape for b in pair]}.")
+    return pair
 
 
 def planes(names):
