@@ -85,6 +85,7 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
                 title)
     clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", animated=True)
     knots = np.unique(np.linspace(0, traj.steps, frames).round().astype(int))
+    _fit(fig, ax)
     fig.canvas.draw()
     background = fig.canvas.copy_from_bbox(fig.bbox)
     images = []
@@ -138,6 +139,22 @@ def _canvas(limits):
     fig.subplots_adjust(left=left / fig.get_figwidth(), right=1 - right / fig.get_figwidth(),
                         bottom=bottom / fig.get_figheight(), top=1 - top / fig.get_figheight())
     return fig, fig.add_subplot()
+
+
+def _fit(fig, ax):
+    """Widen the Figure where labels stick out of it (long tick labels), the plot area
+    kept as it is."""
+    box, drawn = fig.bbox, ax.get_tightbbox(fig.canvas.get_renderer())
+    left, right = max(0.0, box.x0 - drawn.x0), max(0.0, drawn.x1 - box.x1)
+    bottom, top = max(0.0, box.y0 - drawn.y0), max(0.0, drawn.y1 - box.y1)
+    if left + right + bottom + top == 0:
+        return
+    pad = 4.0 if left or right else 0.0                      # pixels beside the labels
+    area = ax.get_position().transformed(fig.transFigure)    # the plot area, pixels
+    width, height = box.width + left + right + pad, box.height + bottom + top
+    fig.set_size_inches(width / fig.dpi, height / fig.dpi)
+    ax.set_position([(area.x0 + left + pad) / width, (area.y0 + bottom) / height,
+                     area.width / width, area.height / height])
 
 
 def _image(fig):
