@@ -34,10 +34,10 @@ def figure(rows=1, *, width=6.4, height=None, sharex=True):
     return fig, list(axes)
 
 
-def single_axes(ax):
-    """A new Figure with one Axes, or the Figure of the given Axes."""
+def single_axes(ax, height=3.4):
+    """A new Figure with one Axes (`height` inches tall), or the Figure of the given Axes."""
     if ax is None:
-        fig, (ax,) = figure()
+        fig, (ax,) = figure(height=height)
         return fig, ax
     return ax.figure, ax
 

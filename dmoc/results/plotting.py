@@ -69,7 +69,7 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), uni
     labels = checks.strings("labels", labels, 2)
     unit = units_of(units, q.shape[1], _n_controls(traj))["q"]
     marks = checks.positive_int("marks", marks)
-    fig, ax = single_axes(ax)
+    fig, ax = single_axes(ax, height=5.2)
     ax.plot(q[:, x], q[:, y], "-", lw=1.2, color=color, label=name)
     shown = ax.get_legend_handles_labels()[1]
     ax.plot(q[0, x], q[0, y], "o", color="C2", label="_nolegend_" if "start" in shown else "start")
