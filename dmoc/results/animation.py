@@ -97,7 +97,8 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
         clock.set_text(f"t = {traj.t[k]:.2f}" + (f" {units['t']}" if units["t"] else ""))
         for artist in (trail, *body.artists, clock):
             ax.draw_artist(artist)
-        images.append(_image(fig))
+        images.append(np.array(fig.canvas.buffer_rgba())[..., :3])
+    images = _palette_images(images)
     with atomic_path(path) as temporary:
         images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
                        duration=round(1000 / fps), loop=0)
@@ -157,12 +158,13 @@ def _fit(fig, ax):
                      area.width / width, area.height / height])
 
 
-def _image(fig):
-    """The canvas as a palette image (a GIF frame)."""
+def _palette_images(frames):
+    """The RGB frames as palette images (GIF frames) sharing the palette of the last one,
+    which shows every colour (the whole trail, the body), without dithering."""
     from PIL import Image
 
-    rgba = np.asarray(fig.canvas.buffer_rgba())
-    return Image.fromarray(rgba[..., :3]).quantize(colors=64, method=Image.Quantize.MEDIANCUT)
+    palette = Image.fromarray(frames[-1]).quantize(colors=64, method=Image.Quantize.FASTOCTREE)
+    return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
 
 
 def _frame_axes(ax, goal, columns, limits, labels, title):
