@@ -54,7 +54,7 @@ def run(checkout, arguments, out):
     command = [sys.executable, *(a.replace("{out}", out) for a in arguments)]
     tic = time.perf_counter()
     subprocess.run(command, env=env, check=True, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.DEVNULL)
+                   stderr=subprocess.DEVNULL, cwd=out)     # not a checkout: -m puts cwd first
     wall = time.perf_counter() - tic
     summaries = list(pathlib.Path(out).glob("*_summary.json"))
     solve = None
@@ -72,6 +72,11 @@ def main():
     args = parser.parse_args()
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load average "
           f"{'%.2f %.2f %.2f' % os.getloadavg()} at the start")
+    for checkout in args.checkouts:
+        found = subprocess.run([sys.executable, "-c", "import dmoc; print(dmoc.__file__)"],
+                               env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
+                               capture_output=True, text=True, check=True).stdout.strip()
+        print(f"{checkout}: dmoc from {found}")
     times = {(c, case): {"with": [], "without": [], "solve": []}
              for c in args.checkouts for case in CASES}
     for _ in range(args.repeat):

@@ -17,7 +17,7 @@ SHAPES = ("blade", "coin", "point")
 
 
 def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goal=None,
-            size=None, frames=60, fps=15, labels=("x", "y"), units=None, title=None):
+            size=None, frames=40, fps=12, labels=("x", "y"), units=None, title=None):
     """Write an animation of the planar motion of `traj` to the GIF file `path`.
 
     Parameters
@@ -40,7 +40,7 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     size : float, optional
         Length of the drawn body; default a tenth of the path's extent (at least 0.1).
     frames : int
-        Number of frames (knots are subsampled evenly; at most traj.steps + 1).
+        Number of frames, 40 by default (knots are subsampled evenly; at most traj.steps + 1).
     fps : int
         Frames per second.
     labels : pair of str
