@@ -105,6 +105,7 @@ def _optimum_figure(name, problem, traj, spec):
         ax.tick_params(labelbottom=False)
     plot_controls(traj, names=spec.control_names, units=system.units,
                   bounds=problem.control_bounds, axes=right[:-1], title="controls")
+    right[-2].set_xlabel("")                      # t is labelled once, under the balance
     plot_energy_balance(problem.disc, traj, time_unit=system.units["t"], ax=right[-1],
                         title="energy balance (W: work of the controls)")
     return fig

@@ -57,10 +57,10 @@ def run_files(name):
 
 
 def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goal=None,
-              gif=False, plots=True):
+              gif=False, plots=True, problem=None):
     """Write every output file of one run into `out` (the trajectory, table and summary,
     and, with `plots` and a finite trajectory, the plots and the GIF if `gif`); return
-    the paths written."""
+    the paths written. Given the `problem` an optimum solves, its bounds are drawn."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
@@ -70,9 +70,9 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
     write_text(written[2], json.dumps({k: _json_value(v) for k, v in summary.items()},
                                       indent=2) + "\n")
     if plots and np.isfinite(traj.q).all():
-        written += save_trajectory_plots(traj, out, name, disc=disc, names=names,
-                                         control_names=control_names, heading=spec.heading,
-                                         goal=goal)
+        written += save_trajectory_plots(traj, out, name, disc=disc, problem=problem,
+                                         names=names, control_names=control_names,
+                                         heading=spec.heading, goal=goal)
         if gif and traj.q.shape[1] >= 2:
             x, y = (planes(names) or [(0, 1)])[0]
             written.append(animate(traj, out / f"{name}.gif", shape=spec.shape, x=x, y=y,
