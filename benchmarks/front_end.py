@@ -14,6 +14,7 @@ import argparse
 import json
 import os
 import pathlib
+import resource
 import statistics
 import subprocess
 import sys
@@ -48,20 +49,26 @@ CASES = {   # name: (arguments with files, arguments without them)
 }
 
 
+def cpu_of_children():
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return used.ru_utime + used.ru_stime
+
+
 def run(checkout, arguments, out):
-    """Wall time of one process, and the solve time its JSON summary reports (or None)."""
+    """Wall and CPU time (user + system) of one process, and the solve time its JSON
+    summary reports (or None). On a shared machine the CPU time is the steadier figure."""
     env = {**os.environ, "PYTHONPATH": checkout, "MPLBACKEND": "Agg"}
     command = [sys.executable, *(a.replace("{out}", out) for a in arguments)]
-    tic = time.perf_counter()
+    tic, cpu = time.perf_counter(), cpu_of_children()
     subprocess.run(command, env=env, check=True, stdout=subprocess.DEVNULL,
                    stderr=subprocess.DEVNULL, cwd=out)     # not a checkout: -m puts cwd first
-    wall = time.perf_counter() - tic
+    wall, cpu = time.perf_counter() - tic, cpu_of_children() - cpu
     summaries = list(pathlib.Path(out).glob("*_summary.json"))
     solve = None
     if summaries:
         data = json.loads(summaries[0].read_text())
         solve = data.get("solve_time") or data.get("wall_time")
-    return wall, solve
+    return wall, cpu, solve
 
 
 def main():
@@ -77,28 +84,34 @@ def main():
                                env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
                                capture_output=True, text=True, check=True).stdout.strip()
         print(f"{checkout}: dmoc from {found}")
-    times = {(c, case): {"with": [], "without": [], "solve": []}
+    times = {(c, case): {k: [] for k in ("with", "without", "cpu with", "cpu without", "solve")}
              for c in args.checkouts for case in CASES}
     for _ in range(args.repeat):
         for case, (full, bare) in CASES.items():
             for checkout in args.checkouts:          # interleaved: both see the same load
                 with tempfile.TemporaryDirectory(prefix="dmoc-front-end-") as out:
-                    wall, solve = run(checkout, full, out)
                     entry = times[checkout, case]
+                    wall, cpu, solve = run(checkout, full, out)
                     entry["with"].append(wall)
+                    entry["cpu with"].append(cpu)
                     entry["solve"].append(solve)
-                    entry["without"].append(run(checkout, bare, out)[0])
+                    wall, cpu, _ = run(checkout, bare, out)
+                    entry["without"].append(wall)
+                    entry["cpu without"].append(cpu)
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end; medians of "
-          f"{args.repeat} runs, seconds\n")
-    print(f"{'checkout':24s} {'case':34s} {'with files':>10s} {'without':>8s} "
-          f"{'front end':>9s} {'solve':>7s} {'front/without':>13s} {'front/solve':>11s}")
+          f"{args.repeat} runs, seconds (wall, and CPU user + system)\n")
+    print(f"{'checkout':10s} {'case':32s} {'with files':>10s} {'without':>8s} {'front end':>9s} "
+          f"{'front/without':>13s} {'front/solve':>11s} {'CPU with':>8s} {'without':>8s} "
+          f"{'front':>6s} {'solve':>6s}")
     for (checkout, case), entry in times.items():
-        full, bare = statistics.median(entry["with"]), statistics.median(entry["without"])
+        m = {k: statistics.median(v) for k, v in entry.items() if k != "solve"}
         solves = [s for s in entry["solve"] if s is not None]
         solve = statistics.median(solves) if solves else float("nan")
-        front = full - bare
-        print(f"{pathlib.Path(checkout).name:24s} {case:34s} {full:10.2f} {bare:8.2f} "
-              f"{front:9.2f} {solve:7.3f} {front / bare:13.2f} {front / solve:11.1f}")
+        front, cpu_front = m["with"] - m["without"], m["cpu with"] - m["cpu without"]
+        print(f"{pathlib.Path(checkout).name:10s} {case:32s} {m['with']:10.2f} "
+              f"{m['without']:8.2f} {front:9.2f} {front / m['without']:13.2f} "
+              f"{front / solve:11.1f} {m['cpu with']:8.2f} {m['cpu without']:8.2f} "
+              f"{cpu_front:6.2f} {solve:6.3f}")
 
 
 if __name__ == "__main__":
