@@ -140,11 +140,13 @@ def draw_obstacles(ax, obstacles):
 
 
 def _region(ax, g):
-    """Shade {g(x, y) > 0} over the data limits of `ax`, widened by a fifth."""
+    """Shade {g(x, y) > 0} on a square grid around what `ax` holds, 1.5 times its extent
+    (the equal aspect may widen the shorter side by that much)."""
     ax.autoscale_view()
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-    wx, wy = (x1 - x0) / 10, (y1 - y0) / 10
-    X, Y = np.meshgrid(np.linspace(x0 - wx, x1 + wx, _GRID), np.linspace(y0 - wy, y1 + wy, _GRID))
+    half = 0.75 * max(x1 - x0, y1 - y0)
+    side = np.linspace(-half, half, _GRID)
+    X, Y = np.meshgrid((x0 + x1) / 2 + side, (y0 + y1) / 2 + side)
     try:
         Z = np.broadcast_to(np.asarray(g(X, Y), dtype=float), X.shape)
     except Exception as err:  # the user's function: say what broke, naming it
@@ -158,5 +160,3 @@ def _region(ax, g):
 
     ax.add_artist(ax.legend(handles=[Patch(facecolor="0.75", edgecolor="0.35", label="kept out")],
                             loc="lower right", fontsize="small"))
-    ax.set_xlim(x0, x1)
-    ax.set_ylim(y0, y1)
