@@ -11,6 +11,9 @@ computed in `.result`. A `CompiledCodeError` says why compiled code could not be
 loaded safely (a cache folder others can write, a failed compile). `Interrupted` is the
 KeyboardInterrupt of a run stopped by Ctrl-C (SIGINT), carrying what was computed up to
 then in `.result`.
+Warnings (the computation goes on) are `DmocWarning`s, a UserWarning: `OrderReductionWarning`
+when a rule keeps a lower order on a degenerate Lagrangian, `ParasiticModeWarning` when its
+step equations have a growing alternating mode.
 """
 
 
@@ -83,3 +86,21 @@ class Interrupted(KeyboardInterrupt):
     def __init__(self, message, result):
         super().__init__(message)
         self.result = result
+
+
+class DmocWarning(UserWarning):
+    """Base class of the warnings dmoc gives on its own account: the computation goes on,
+    but a result may not have the property the user expects (docs/errors.md, "Warnings")."""
+
+
+class OrderReductionWarning(DmocWarning):
+    """`discretize` chose a rule whose order drops on this system: a stage rule (lobatto3,
+    lobatto4) on a degenerate Lagrangian. The message names the rule and both orders;
+    ``Discretization.order`` holds the order kept (docs/degenerate.md)."""
+
+
+class ParasiticModeWarning(DmocWarning):
+    """The step equations of a rule on a degenerate Lagrangian have an alternating
+    (parasitic) mode that grows along the motion (the trapezoid on a nonlinear flow): once
+    excited it swamps the solution over long runs. The message names the rule, the growth
+    measured and the rule to use instead (docs/degenerate.md, "The alternating mode")."""

@@ -12,6 +12,7 @@ sys.path.insert(0, str(ROOT))
 
 project = "dmoc"
 author = "dmoc developers"
+copyright = f"2026, {author}"        # the HTML footer: "© 2026, dmoc developers."
 extensions = ["myst_parser", "numpydoc", "sphinx.ext.autodoc", "sphinx.ext.mathjax",
               "sphinx_gallery.gen_gallery"]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}

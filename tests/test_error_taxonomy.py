@@ -133,6 +133,9 @@ API_ROWS = [
      "`system` must be a MechanicalSystem"),
     ("QuadratureRule without quadrature points", lambda c: QuadratureRule("empty", 2), ValueError,
      "`points` must be"),
+    ("QuadratureRule with degenerate_order above order",
+     lambda c: QuadratureRule("x", 2, (0.0, 1.0), ((0.5, 1.0),), degenerate_order=4), ValueError,
+     "`degenerate_order` must not exceed `order`"),
     ("MechanicalSystem: vector-valued Lagrangian", lambda c: dmoc.MechanicalSystem(lambda q, v: v, 3),
      ValueError, r"`lagrangian` must return shape \(1, 1\)"),
     ("MechanicalSystem: A(q) with 2 columns for n = 3",
@@ -335,6 +338,9 @@ CLI_ROWS = [
      "`mass` must be finite and positive"),
     ("dmoc simulate knife-edge --start 0,0,inf", lambda c: simulate(c, q0=[0.0, 0.0, np.inf]),
      ValueError, "`q0` must be finite"),
+    ("dmoc optimize knife-edge --control-min 1,none --control-max 0,none",
+     lambda c: problem(c, control_bounds=([1.0, None], [0.0, None])), ValueError,
+     "`control_bounds` must satisfy lower <= upper"),
 ]
 
 # Plain bad input at the entry points outside the tables: (id, call, built-in class, words).

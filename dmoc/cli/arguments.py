@@ -1,13 +1,17 @@
 """Argument handling of the command line: a parser whose errors are one line and exit 2,
-and the readers of vectors with free entries, ``--param NAME=VALUE`` and control files.
+and the readers of vectors with free entries, ``--param NAME=VALUE`` and control files
+(the table ``optimize`` writes included, with its times and start).
 """
 
 import argparse
 import pathlib
+import re
+from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import InputError
+from . import output
 
 FREE = ("free", "none", "nan")
 
@@ -26,6 +30,9 @@ class Parser(argparse.ArgumentParser):
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
         super().__init__(*args, **kwargs)
+        # a value such as -0.8,none or -1,0,0 is a vector, not an option (argparse's own
+        # pattern takes single numbers only)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message):
         argument, sep, rest = message.removeprefix("argument ").partition(": ")
@@ -34,19 +41,20 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(None, f"{message} (see {self.prog} --help)")
 
 
-def vector(option, text, names, *, free=False):
-    """The comma-separated floats of `text` for the coordinates `names`, shape (n,);
-    entries "free" become NaN when `free` is allowed."""
+def vector(option, text, names, *, free=False, of="this system"):
+    """The comma-separated floats of `text` for the entries `names` (of `of`, for the
+    error), shape (n,); entries "free" become NaN when `free` is allowed."""
     items = [s.strip() for s in text.replace(" ", ",").split(",") if s.strip()]
     if len(items) != len(names):
         raise UsageError(option, f"must have {len(names)} entries ({', '.join(names)}) for "
-                         f"this system; got {len(items)}")
+                         f"{of}; got {len(items)}")
     values = []
     for name, item in zip(names, items):
         if item.lower() in FREE:
             if not free:
-                raise UsageError(option, f"entry {name} must be a number; free entries are "
-                                 f"allowed only in --start/--goal of optimize")
+                raise UsageError(option, f"entry {name} must be a number here; {item!r} is "
+                                 f"allowed in --start, --goal, --velocity and the bounds of "
+                                 f"optimize")
             values.append(np.nan)
             continue
         try:
@@ -59,12 +67,13 @@ def vector(option, text, names, *, free=False):
 
 
 def params(items):
-    """{name: float} from the ``--param NAME=VALUE`` options."""
+    """{name: number} from the ``--param NAME=VALUE`` options: an int where VALUE is an
+    integer literal (``--param steps=40``), else a float."""
     out = {}
     for item in items or ():
         name, sep, value = item.partition("=")
         try:
-            out[name.strip()] = float(value)
+            out[name.strip()] = int(value) if value.strip().lstrip("+-").isdigit() else float(value)
         except ValueError:
             raise UsageError("--param", f"must be NAME=VALUE with a number VALUE; got {item!r}") from None
         if not sep or not name.strip():
@@ -72,10 +81,23 @@ def params(items):
     return out
 
 
-def load_controls(file, n_u):
-    """Controls u_k from a .npy file or a text/CSV file (an optional header line is
-    skipped), shape (N, n_u), real numbers only (booleans, complex numbers and strings are
-    refused: a float conversion would silently turn them into other controls)."""
+class RecordedControls(NamedTuple):
+    """The controls of ``--controls FILE``, u of shape (N, columns); from a table that
+    ``optimize`` wrote (`output.csv_columns`) also its knot times t, shape (N+1,), and its
+    start q0, p0, shape (n,); None otherwise."""
+
+    u: np.ndarray
+    t: np.ndarray = None
+    q0: np.ndarray = None
+    p0: np.ndarray = None
+
+
+def load_controls(file, names, n_u):
+    """The RecordedControls of a .npy file or a text/CSV file (an optional header line is
+    skipped) of controls, shape (N, n_u), or of the table ``optimize`` wrote for the
+    coordinates `names` (its header starts with ``t``). Real numbers only: booleans,
+    complex numbers and strings are refused (a float conversion would silently turn them
+    into other controls)."""
     path = pathlib.Path(file)
     if not path.exists():
         raise UsageError("--controls", f"file {file!r} does not exist")
@@ -87,15 +109,21 @@ def load_controls(file, n_u):
                          f"saved trajectory, np.save('u.npy', dmoc.Trajectory.load({file!r}).u))")
     try:
         if path.suffix == ".npy":
-            u = np.load(path, allow_pickle=False)
-        else:
-            u = _load_text(path)
+            return RecordedControls(_real_rows(np.load(path, allow_pickle=False), n_u))
+        header, rows = _load_text(path)
+        if header[:1] != ["t"]:
+            return RecordedControls(_real_rows(rows, n_u))
+        run = output.run_table(header, rows, names)
     except UnicodeDecodeError:
         raise UsageError("--controls", f"{file!r} is not a text file (not UTF-8) and not a .npy "
                          f"file; expected a .npy array or a .csv/.txt table") from None
     except (ValueError, EOFError, OSError) as err:
         raise UsageError("--controls", f"cannot read {file}: {err}") from None
-    return _real_rows(np.asarray(u), n_u)
+    width = run["u"].shape[1]
+    if width % n_u:
+        raise UsageError("--controls", f"{file} has {width} control columns; this system "
+                         f"has {n_u} controls (a table of another system?)")
+    return RecordedControls(_real_rows(run["u"], width), run["t"], run["q"][0], run["p"][0])
 
 
 # what a float conversion would do to arrays of these kinds, for the error
@@ -110,6 +138,7 @@ _NOT_REAL = {"b": ("booleans", "True/False would become 1.0/0.0; write the numbe
 
 def _real_rows(u, n_u):
     """`u` checked to be real numbers of shape (N, n_u) (a 1-D array when n_u == 1)."""
+    u = np.asarray(u)
     if u.dtype.kind not in "iuf":
         what, hint = _NOT_REAL.get(u.dtype.kind, (f"dtype {u.dtype}", "save real numbers"))
         raise UsageError("--controls", f"must hold real numbers; got an array of {what} "
@@ -126,17 +155,19 @@ def _real_rows(u, n_u):
 
 
 def _load_text(path):
-    """Rows of numbers of a text file, its first line skipped if it is not numbers."""
+    """(the header's column names, [] without a header; the rows of numbers) of a text
+    file whose first line is a header if it is not numbers."""
     lines = [line for line in path.read_text().splitlines() if line.strip()]
     if not lines:
         raise InputError("it is empty")
     delimiter = "," if "," in "".join(lines[:2]) else None
     try:
-        return np.loadtxt(lines, delimiter=delimiter, ndmin=1)
+        return [], np.loadtxt(lines, delimiter=delimiter, ndmin=1)
     except ValueError:
         if len(lines) < 2:
             raise InputError("it holds no rows of numbers") from None
-        return np.loadtxt(lines[1:], delimiter=delimiter, ndmin=1)
+        header = [name.strip() for name in lines[0].split(delimiter)]
+        return header, np.loadtxt(lines[1:], delimiter=delimiter, ndmin=1)
 
 
 def output_folder(option, folder):

@@ -1,5 +1,6 @@
 """What ``--out`` and ``--animate`` write: the trajectory as .npz (exact, `Trajectory.load`)
-and as .csv with named columns, a JSON summary, the plots and the GIF.
+and as .csv with named columns (and how ``simulate --controls`` reads that table back), a
+JSON summary, the plots and the GIF.
 """
 
 import json
@@ -7,6 +8,7 @@ import math
 
 import numpy as np
 
+from ..errors import InputError
 from ..results import diagnostics
 from .._util.files import atomic_write, write_text
 from ..results.animation import animate
@@ -35,6 +37,27 @@ def csv_columns(traj, names, control_names):
     return header, table
 
 
+def run_table(header, table, names):
+    """{"t", "q", "p", "u"} of a table of `csv_columns` with the `header` and rows `table`,
+    written for the coordinates `names`: t shape (N+1,), q and p (N+1, n), u (N, columns),
+    the controls of the steps (the last row, after t_N, dropped). The knots must be evenly
+    spaced, as a step h of the replay needs."""
+    n, table = len(names), np.atleast_2d(table)
+    coordinates = ["t", *names, *(f"p_{s}" for s in names)]
+    if header[:2 * n + 1] != coordinates:
+        raise InputError(f"its columns start {','.join(header[:2 * n + 1])}; a table of this "
+                         f"system starts {','.join(coordinates)} (written for another system?)")
+    controls = 2 * n + 1 + sum(name.startswith("lam_") for name in header[2 * n + 1:])
+    if table.shape[1] != len(header) or len(table) < 2:
+        raise InputError(f"it needs rows of {len(header)} numbers, one per knot, at least 2; "
+                         f"got shape {table.shape}")
+    t = table[:, 0]
+    if not np.allclose(np.diff(t), (t[-1] - t[0]) / (len(t) - 1), rtol=1e-9, atol=0.0):
+        raise InputError("its times t are not evenly spaced (a replay needs one step h)")
+    return {"t": t, "q": table[:, 1:n + 1], "p": table[:, n + 1:2 * n + 1],
+            "u": table[:-1, controls:]}
+
+
 def _json_value(value):
     """JSON-safe values: non-finite floats become null (strict JSON has no inf or NaN)."""
     if isinstance(value, (float, np.floating)):
@@ -59,8 +82,8 @@ def run_files(name):
 def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goal=None,
               gif=False, plots=True, problem=None):
     """Write every output file of one run into `out` (the trajectory, table and summary,
-    and, with `plots` and a finite trajectory, the plots and the GIF if `gif`); return
-    the paths written. Given the `problem` an optimum solves, its bounds are drawn."""
+    and, for a finite trajectory, the plots if `plots` and the GIF if `gif`); return the
+    paths written. Given the `problem` an optimum solves, its bounds are drawn."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
@@ -69,14 +92,16 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
                    fmt="%.17g")
     write_text(written[2], json.dumps({k: _json_value(v) for k, v in summary.items()},
                                       indent=2) + "\n")
-    if plots and np.isfinite(traj.q).all():
+    if not np.isfinite(traj.q).all():
+        return written
+    if plots:
         written += save_trajectory_plots(traj, out, name, disc=disc, problem=problem,
                                          names=names, control_names=control_names,
                                          heading=spec.heading, goal=goal)
-        if gif and traj.q.shape[1] >= 2:
-            x, y = (planes(names) or [(0, 1)])[0]
-            written.append(animate(traj, out / f"{name}.gif", shape=spec.shape, x=x, y=y,
-                                   heading=spec.heading, roll=spec.roll, goal=goal,
-                                   labels=(names[x], names[y]), units=disc.system.units,
-                                   title=name))
+    if gif and traj.q.shape[1] >= 2:
+        x, y = (planes(names) or [(0, 1)])[0]
+        written.append(animate(traj, out / f"{name}.gif", shape=spec.shape, x=x, y=y,
+                               heading=spec.heading, roll=spec.roll, goal=goal,
+                               labels=(names[x], names[y]), units=disc.system.units,
+                               title=name))
     return written

@@ -1,17 +1,19 @@
 """The systems the command line knows: the built-ins by name, with their parameters, default
-boundary data, control names and how to draw them, and user systems given as
-``path/to/file.py:factory``.
+boundary data, control names and how to draw them, and user files given as
+``path/to/file.py:factory``, whose factory returns a system or a whole problem.
 """
 
 import importlib.util
 import inspect
 import pathlib
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..mechanics import systems
 from ..mechanics.system import MechanicalSystem
+from ..optimize.problem import OptimalControlProblem
 from .arguments import UsageError
 
 
@@ -22,7 +24,8 @@ class SystemSpec:
     Attributes
     ----------
     factory : callable
-        Keyword parameters -> MechanicalSystem.
+        Keyword parameters -> MechanicalSystem (the built-ins), or OptimalControlProblem
+        (a file's factory may return either).
     summary : str
         One line for ``dmoc systems``.
     start, velocity, goal : tuple of float or None
@@ -50,6 +53,10 @@ class SystemSpec:
         """{name: default} of the factory's named parameters."""
         return {name: p.default for name, p in inspect.signature(self.factory).parameters.items()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+
+    def control_labels(self, n_u):
+        """`control_names`, or u0, u1, ... for the `n_u` controls of a system from a file."""
+        return self.control_names or tuple(f"u{i}" for i in range(n_u))
 
     def takes_any_parameter(self):
         """True when the factory takes ``**kwargs``: then any --param name is passed on."""
@@ -83,7 +90,9 @@ BUILT_IN = {
 
 
 def resolve(name):
-    """The SystemSpec of a built-in name or of ``path/to/file.py:factory``."""
+    """The SystemSpec of a built-in name or of ``path/to/file.py:factory``: the file is
+    imported, which runs its top-level code (a script's own code belongs under
+    ``if __name__ == "__main__":``)."""
     if name in BUILT_IN:
         return BUILT_IN[name]
     file, sep, attr = name.rpartition(":")
@@ -113,7 +122,8 @@ def resolve(name):
 
 
 def build(spec, params):
-    """Call the factory of `spec` with the ``--param`` values; check it gives a system."""
+    """Call the factory of `spec` with the ``--param`` values; check that it gives a
+    MechanicalSystem or an OptimalControlProblem, and return that."""
     known = spec.parameters()
     for key in params:
         if key not in known and not spec.takes_any_parameter():
@@ -128,19 +138,27 @@ def build(spec, params):
                          f"which --param cannot give (numbers only); expected a factory whose "
                          f"parameters all have defaults, e.g. def car(mass=1500.0): return "
                          f"MechanicalSystem(...)")
+    return _made(spec, params)
+
+
+def _made(spec, params):
+    """What the factory of `spec` returns for `params`, its errors in one line."""
     try:
-        system = spec.factory(**params)
+        made = spec.factory(**params)
     except (ValueError, TypeError) as err:
         raise UsageError("--param", str(err).rstrip(".")) from None
     except SystemExit as done:
         raise UsageError("SYSTEM", f"the factory called sys.exit({done.code!r}); expected it "
-                         f"to return a MechanicalSystem") from None
+                         f"to return {_RETURNS}") from None
     except Exception as err:  # the user's factory: say what broke, in one line
         raise UsageError("SYSTEM", f"the factory raised {type(err).__name__}: {err}") from None
-    if not isinstance(system, MechanicalSystem):
-        raise UsageError("SYSTEM", f"the factory must return a MechanicalSystem; got "
-                         f"{type(system).__name__}")
-    return system
+    if not isinstance(made, (MechanicalSystem, OptimalControlProblem)):
+        raise UsageError("SYSTEM", f"the factory must return {_RETURNS}; got "
+                         f"{type(made).__name__}")
+    return made
+
+
+_RETURNS = "a MechanicalSystem or an OptimalControlProblem"
 
 
 def describe():
@@ -155,6 +173,18 @@ def describe():
                   f"  parameters (--param NAME=VALUE): {params}",
                   f"  defaults: --start {','.join(f'{s:g}' for s in spec.start)} "
                   f"--velocity {','.join(f'{s:g}' for s in spec.velocity)} --goal {goal}", ""]
-    lines.append("Your own system: SYSTEM = path/to/file.py:factory, a function returning a "
-                 "dmoc.MechanicalSystem (its keyword arguments become --param names).")
+    lines.append("Your own system or problem: SYSTEM = path/to/file.py:factory, a function "
+                 "returning a dmoc.MechanicalSystem or a dmoc.OptimalControlProblem (its keyword "
+                 "arguments become --param names); the file is imported, which runs it.")
     return "\n".join(lines)
+
+
+def with_heading(spec, heading, names):
+    """`spec` with the heading of ``--heading NAME`` (a coordinate of `names`) drawn in the
+    path plot and the GIF; `spec` itself when `heading` is None."""
+    if heading is None:
+        return spec
+    if heading not in names:
+        raise UsageError("--heading", f"must be one of the coordinates {', '.join(names)} of "
+                         f"this system; got {heading!r}")
+    return dataclasses.replace(spec, heading=names.index(heading))

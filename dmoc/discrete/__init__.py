@@ -1,6 +1,7 @@
 """Discretization stage: quadrature rules and the discrete data L_d, omega_d (28), f_d^-/+;
 for Hamiltonian systems the discrete Hamiltonians H_d+- and the discrete Legendre transform;
-both rule families implement one interface, `Rule`."""
+both rule families implement one interface, `Rule`; the order a rule keeps on a degenerate
+Lagrangian (`degenerate`)."""
 
 from .discretization import Discretization
 from .discretize import discretize

@@ -14,6 +14,7 @@ from .._util.cache import BoundedCache
 from .._util.layout import step_symbols
 from ..errors import InputTypeError
 from ..mechanics.system import HamiltonianSystem, MechanicalSystem
+from .degenerate import declared_order
 from .rules import as_rule, quadrature, virtual_work
 
 
@@ -28,8 +29,13 @@ class Discretization:
     h : float
         The step.
     rule : QuadratureRule
-        The quadrature rule (a `dmoc.discrete.Rule`); ``rule.order`` is the order of the
-        resulting integrator. The sizes below are derived from it here, for both families.
+        The quadrature rule (a `dmoc.discrete.Rule`). The sizes below are derived from it
+        here, for both families.
+    order : int
+        The global order of the integrator on this system: ``rule.order``, except for a
+        stage rule on a degenerate Lagrangian (d^2L/dv^2 singular), where it is the lower
+        ``rule.degenerate_order`` (lobatto3: 2, lobatto4: 4; docs/degenerate.md, "Order of
+        the stage rules"), and `discretize` warns.
     n_stages : int
         Stage unknowns per step (``rule.n_stage_blocks * n`` rows of s; 0 for stage-free
         rules).
@@ -80,6 +86,7 @@ class Discretization:
         self.h = checks.positive_float("h", h)
         self.rule = rule = self._as_rule(rule)
         self.key = (system.key, rule)
+        self.order = self._declared_order()
         self.n_stages = rule.n_stage_blocks * system.n
         self.n_multipliers = rule.n_multiplier_nodes * system.m
         self.n_controls = len(rule.control_nodes) * system.n_u
@@ -91,6 +98,10 @@ class Discretization:
         """`rule` as a rule of this family (an instance, or a name checked against the
         family's list)."""
         return as_rule(rule)
+
+    def _declared_order(self):
+        """The order of the rule on this system (`dmoc.discrete.degenerate`)."""
+        return declared_order(self.system, self.rule)
 
     def _functions(self):
         """{name: Function} of `function_names`, h an input: built once per system key and

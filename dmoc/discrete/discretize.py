@@ -3,6 +3,7 @@ takes (discrete Lagrangian or discrete Hamiltonians) and builds it."""
 
 from ..errors import InputTypeError
 from ..mechanics.system import HamiltonianSystem, MechanicalSystem
+from .degenerate import warn_order_reduction
 from .discretization import Discretization
 from .hamiltonian import HamiltonianDiscretization
 
@@ -29,10 +30,18 @@ def discretize(system, h, rule="midpoint"):
     Raises
     ------
     ValueError
-        An unknown rule, a step that is not positive, or a rule that gives no one-step map
-        for a degenerate Lagrangian (`dmoc.discrete.degenerate`).
+        An unknown rule or a step that is not positive.
     TypeError
         `system` of another type.
+
+    Warns
+    -----
+    OrderReductionWarning
+        A stage rule on a degenerate Lagrangian (d^2L/dv^2 singular): lobatto3 keeps order
+        2, lobatto4 order 4, which ``Discretization.order`` reports
+        (`dmoc.discrete.degenerate`). Whether the step equations determine q_{k+1} and
+        whether their alternating mode grows is tested where the step residual is built
+        (`dmoc.step_residual`).
 
     Examples
     --------
@@ -48,4 +57,6 @@ def discretize(system, h, rule="midpoint"):
     if not isinstance(system, MechanicalSystem):
         raise InputTypeError(f"`system` must be a MechanicalSystem or a HamiltonianSystem; got "
                         f"{type(system).__name__}.")
-    return Discretization(system, h, rule)
+    disc = Discretization(system, h, rule)
+    warn_order_reduction(disc)
+    return disc

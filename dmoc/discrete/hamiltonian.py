@@ -160,6 +160,9 @@ class HamiltonianDiscretization(Discretization):
     def _as_rule(self, rule):
         return as_hamiltonian_rule(rule)
 
+    def _declared_order(self):
+        return self.rule.order
+
     def _functions(self):
         """The Functions of a HamiltonianRule's discretization, h an input."""
         system, rule = self.system, self.rule
@@ -279,6 +282,9 @@ class LegendreDiscretization(HamiltonianDiscretization):
 
     def _as_rule(self, rule):
         return rule
+
+    def _declared_order(self):
+        return self.lagrangian.order
 
     def _functions(self):
         """H_d+- from the Lagrangian discretization's L_d and f_d, h an input."""

@@ -129,6 +129,11 @@ class QuadratureRule(Rule):
         sum_i b_i P_l(2 c_i - 1) A(q(c_i)) q'(c_i), l = 0 ... len(nodes) - 2, P_l the
         Legendre polynomials. With the single point (0.5, 1) this is (28) with the
         midpoint retraction.
+    degenerate_order : int, optional
+        The global order the rule keeps on a degenerate Lagrangian (d^2L/dv^2 singular,
+        e.g. linear in v) when it is lower than `order`; None (default): `order` is kept.
+        A Discretization reports the order that applies (`Discretization.order`;
+        docs/degenerate.md, "Order of the stage rules").
 
     Attributes
     ----------
@@ -158,6 +163,7 @@ class QuadratureRule(Rule):
     points: tuple = ()
     control_nodes: tuple = (0.5,)
     constraint_points: tuple = None
+    degenerate_order: int = None
 
     def __post_init__(self):
         nodes = _increasing("nodes", self.nodes)
@@ -168,6 +174,10 @@ class QuadratureRule(Rule):
         object.__setattr__(self, "points", _quadrature_points("points", self.points))
         object.__setattr__(self, "constraint_points", _quadrature_points(
             "constraint_points", self.points if self.constraint_points is None else self.constraint_points))
+        if self.degenerate_order is not None and checks.positive_int(
+                "degenerate_order", self.degenerate_order) > self.order:
+            raise InputError(f"`degenerate_order` must not exceed `order` ({self.order}): it is the "
+                             f"lower order kept on a degenerate Lagrangian; got {self.degenerate_order}.")
 
     @property
     def n_stage_blocks(self):
@@ -313,15 +323,16 @@ class Lobatto3(QuadratureRule):
 
     L_d = h/6 [L(q0, V_0) + 4 L(Q, V_1/2) + L(q1, V_1)] on the quadratic through q0, Q, q1;
     the discrete constraints are its two Legendre moments (docs/theory.md, "Rules").
+    On a degenerate Lagrangian (linear in v) it keeps order 2 (`degenerate_order`).
 
-    >>> Lobatto3().order, Lobatto3().n_stage_blocks
-    (4, 1)
+    >>> Lobatto3().order, Lobatto3().n_stage_blocks, Lobatto3().degenerate_order
+    (4, 1, 2)
     """
 
     def __init__(self):
         nodes = (0.0, 0.5, 1.0)
         super().__init__("lobatto3", 4, nodes, tuple(zip(nodes, (1 / 6, 2 / 3, 1 / 6))),
-                         control_nodes=nodes)
+                         control_nodes=nodes, degenerate_order=2)
 
     def __repr__(self):
         return "Lobatto3()"
@@ -330,6 +341,7 @@ class Lobatto3(QuadratureRule):
 class Lobatto4(QuadratureRule):
     """Galerkin rule on the four Lobatto nodes 0, (5 -+ sqrt 5)/10, 1 (weights 1/12, 5/12,
     5/12, 1/12): order 6 in positions, also with constraints; two stage unknowns per step.
+    On a degenerate Lagrangian (linear in v) it keeps order 4 (`degenerate_order`).
 
     >>> Lobatto4().order, Lobatto4().n_multiplier_nodes
     (6, 3)
@@ -338,7 +350,7 @@ class Lobatto4(QuadratureRule):
     def __init__(self):
         nodes = (0.0, (5 - SQRT5) / 10, (5 + SQRT5) / 10, 1.0)
         super().__init__("lobatto4", 6, nodes, tuple(zip(nodes, (1 / 12, 5 / 12, 5 / 12, 1 / 12))),
-                         control_nodes=nodes)
+                         control_nodes=nodes, degenerate_order=4)
 
     def __repr__(self):
         return "Lobatto4()"

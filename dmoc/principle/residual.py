@@ -12,6 +12,7 @@ from ..discrete import Discretization
 from .formulations import as_formulation
 from .._util.layout import Layout
 from .one_step import check_one_step_map
+from .parasitic import check_alternating_mode
 from .._util import checks
 from ..errors import InputTypeError
 
@@ -155,10 +156,19 @@ def step_residual(disc, variant="+"):
     ValueError
         A Lagrangian discretization whose step equations do not determine q_{k+1}
         (`dmoc.principle.one_step`): both consumers refuse it with the same message.
+
+    Warns
+    -----
+    ParasiticModeWarning
+        A degenerate Lagrangian whose step equations under this rule have an alternating
+        mode that grows along the motion (`dmoc.principle.parasitic`; the trapezoid on a
+        nonlinear flow): both consumers warn alike.
     """
     checks.instance("disc", disc, Discretization, "a Discretization")
     formulation = as_formulation(variant, disc)
     if disc.family == "lagrangian":
         plus = as_formulation("+", disc)
-        check_one_step_map(disc, lambda: _RESIDUALS.get((disc.key, plus), lambda: StepResidual(disc, plus)))
+        plus_residual = lambda: _RESIDUALS.get((disc.key, plus), lambda: StepResidual(disc, plus))  # noqa: E731
+        check_one_step_map(disc, plus_residual)
+        check_alternating_mode(disc, plus_residual)
     return _RESIDUALS.get((disc.key, formulation), lambda: StepResidual(disc, formulation))
