@@ -58,7 +58,7 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     Notes
     -----
     The picture is sized to the motion's aspect (a wide motion gives a wide GIF, the
-    ratio kept within 1:3). The axes, path limits and goal are drawn once; each frame
+    ratio kept within 1:2). The axes, path limits and goal are drawn once; each frame
     redraws only the trail, the body and the clock over that background.
     """
     q = checks.instance("traj", traj, Trajectory, "a Trajectory").q
@@ -112,7 +112,7 @@ _DPI = 80
 
 def _limits(xs, ys, goal, columns, size):
     """((x0, x1), (y0, y1)) around the path and goal, the shorter side widened so that
-    the ratio stays within 1:3."""
+    the ratio stays within 1:2 (a narrower picture leaves no room to read it)."""
     points_x, points_y = list(xs), list(ys)
     if goal is not None:
         g = np.asarray(goal, dtype=float)[list(columns)]
@@ -122,7 +122,7 @@ def _limits(xs, ys, goal, columns, size):
     pad = 1.5 * size
     (x0, x1), (y0, y1) = ((min(v) - pad, max(v) + pad) for v in (points_x, points_y))
     width, height = x1 - x0, y1 - y0
-    grow_x, grow_y = max(0.0, height / 3 - width) / 2, max(0.0, width / 3 - height) / 2
+    grow_x, grow_y = max(0.0, height / 2 - width) / 2, max(0.0, width / 2 - height) / 2
     return (x0 - grow_x, x1 + grow_x), (y0 - grow_y, y1 + grow_y)
 
 
