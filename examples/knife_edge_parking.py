@@ -13,9 +13,13 @@ Run::
     python examples/knife_edge_parking.py [--steps 100] [--out dmoc-output]
 
 It prints the solver summary and writes the trajectory (.npz), the plots (path with
-headings and goal, states, controls, constraint violation, energy) and an animation (.gif)
-into the output folder.
+headings and goal, states, controls, constraint violation, energy balance) and an animation
+(.gif) into the output folder.
 """
+
+# The gallery's thumbnail is the path (the figures are shown in file-name order:
+# constraint, controls, energy, path, states, then the animation).
+# sphinx_gallery_thumbnail_number = 4
 
 import dmoc
 from dmoc.cli import example_arguments
@@ -29,10 +33,10 @@ def main(steps=100, out="dmoc-output"):
     print(format_summary(f"knife-edge parking, N = {steps}", optimization_summary(problem, result)))
     traj = result.trajectory
     dmoc.plotting.save_trajectory_plots(
-        traj, out, "knife_edge_parking", disc=problem.disc, names=problem.disc.system.names,
-        control_names=["force along the blade", "torque"], heading=2, goal=problem.q_goal)
+        traj, out, "knife_edge_parking", problem=problem,
+        control_names=["force along the blade", "torque"], heading=2)
     dmoc.animation.animate(traj, f"{out}/knife_edge_parking.gif", shape="blade", heading=2,
-                           goal=problem.q_goal, frames=40)
+                           goal=problem.q_goal, units=problem.disc.system.units, frames=40)
     traj.save(f"{out}/knife_edge_parking.npz")
     return result
 

@@ -11,7 +11,9 @@ rule's step equations still determine each step. First the free oscillation over
 periods: error against `lc_circuit_solution`, Kirchhoff's current law at every node, the
 voltage law where the rule samples the capacitors, and the energy. Then DMOC: move the
 charge q_L from 0 to 1 in 3 s, rest to rest, minimizing int u^2 dt over the source voltage
-u, and replay the optimal voltages with the simulator.
+u, and replay the optimal voltages with the simulator. The energy balance of the optimum,
+E - E_0 minus the work of the source, is zero to round-off: for the midpoint rule on this
+quadratic Lagrangian with a constant constraint it is an identity (docs/stages/results.md).
 
 Run:  python examples/lc_circuit.py [--steps 100] [--out dmoc-output]
 """
@@ -23,7 +25,7 @@ import numpy as np
 import dmoc
 from dmoc.cli import example_arguments
 from dmoc.diagnostics import format_summary, optimization_summary
-from dmoc.plotting import plot_controls, plot_energy_error, plot_states
+from dmoc.plotting import plot_controls, plot_energy_balance, plot_energy_error, plot_states
 from dmoc.systems import lc_circuit, lc_circuit_solution
 
 INDUCTANCE, CAPACITANCES = 0.8, (0.5, 1.5)
@@ -68,17 +70,22 @@ def main(steps=100, out="dmoc-output"):
     text = "\n".join(lines + [summary])
     print(text)
     (out / "lc_circuit_summary.txt").write_text(text + "\n")
-    names = disc.system.names
-    fig = plot_states(traj, names=names, title="LC circuit: free oscillation (dashed: exact)")
+    names, units = disc.system.names, disc.system.units
+    fig = plot_states(traj, names=names, units=units,
+                      title="LC circuit: free oscillation (dashed: exact)")
     for ax, column in zip(fig.axes, exact.T):
         ax.plot(traj.t, column, "k--", lw=0.8)
-    fig.savefig(out / "lc_circuit_charges.png", dpi=120)
-    plot_energy_error(disc, traj, title="LC circuit: energy").savefig(out / "lc_circuit_energy.png", dpi=120)
+    fig.savefig(out / "lc_circuit_charges.png")
+    plot_energy_error(disc, traj, time_unit=units["t"], energy_unit="J",
+                      title="LC circuit: energy error").savefig(out / "lc_circuit_energy.png")
     opt = result.trajectory
-    plot_states(opt, names=names, title="LC circuit: steered charges").savefig(
-        out / "lc_circuit_steering.png", dpi=120)
-    plot_controls(opt, names=["source voltage"], title="LC circuit: optimal voltage").savefig(
-        out / "lc_circuit_controls.png", dpi=120)
+    plot_states(opt, names=names, units=units, title="LC circuit: steered charges").savefig(
+        out / "lc_circuit_steering.png")
+    plot_controls(opt, names=["source voltage"], units=units,
+                  title="LC circuit: optimal voltage").savefig(out / "lc_circuit_controls.png")
+    plot_energy_balance(disc, opt, time_unit=units["t"], energy_unit="J",
+                        title="LC circuit: energy balance of the optimum (W: work of the source)"
+                        ).savefig(out / "lc_circuit_balance.png")
     opt.save(out / "lc_circuit_steering.npz")
     return result
 

@@ -59,23 +59,28 @@ def solve_lattice(steps, client):
 
 
 def draw_fan(solved, path):
+    """Every primitive's path, coloured by its optimal cost (the colour bar gives the scale),
+    with its final heading."""
     from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(6.0, 5.0), layout="constrained")
+    fig = Figure(figsize=(6.6, 5.0), layout="constrained")
     ax = fig.add_subplot()
     costs = np.array([r.cost for r in solved.values()])
-    colors = colormaps["viridis"]((costs - costs.min()) / max(np.ptp(costs), 1e-12))
-    for (cell, result), color in zip(solved.items(), colors):
+    scale = ScalarMappable(Normalize(costs.min(), costs.max()), colormaps["viridis"])
+    for (cell, result), color in zip(solved.items(), scale.to_rgba(costs)):
         q = result.trajectory.q
         ax.plot(q[:, 0], q[:, 1], color=color, lw=1.2)
         ax.arrow(q[-1, 0], q[-1, 1], 0.15 * np.cos(q[-1, 2]), 0.15 * np.sin(q[-1, 2]),
                  color=color, head_width=0.04, length_includes_head=True)
     ax.plot(0, 0, "ko")
-    ax.set(xlabel="x", ylabel="y", aspect="equal",
-           title=f"knife-edge motion primitives ({len(solved)}; colour: cost "
-                 f"{costs.min():.2f}-{costs.max():.2f})")
-    fig.savefig(path, dpi=120)
+    units = systems.knife_edge().units["q"]
+    ax.set(xlabel=f"x [{units[0]}]", ylabel=f"y [{units[1]}]", aspect="equal",
+           title=f"knife-edge motion primitives ({len(solved)})")
+    fig.colorbar(scale, ax=ax, shrink=0.85, label="optimal cost J = int |u|^2 dt")
+    fig.savefig(path, dpi=100)
 
 
 def main(steps=40, out="dmoc-output", client=None):

@@ -64,11 +64,14 @@ def triple(steps):
                   f"  angular impulse drift     {np.abs(angular - angular[0]).max():.3e}"]
 
 
-def _plot_vortices(traj, title, path):
-    fig = plot_path(traj, x=0, y=1, title=title)
-    for i in range(1, traj.q.shape[1] // 2):
-        plot_path(traj, x=2 * i, y=2 * i + 1, ax=fig.axes[0])
-    fig.savefig(path, dpi=120)
+def _plot_vortices(traj, units, circulations, title, path):
+    """Each vortex's path in its own colour, labelled with its circulation."""
+    fig = None
+    for i, gamma in enumerate(circulations):
+        fig = plot_path(traj, x=2 * i, y=2 * i + 1, units=units, color=f"C{i}",
+                        name=f"vortex {i + 1}, Gamma = {gamma:g}", title=title,
+                        ax=fig.axes[0] if fig else None)
+    fig.savefig(path)
 
 
 def main(steps=100, out="dmoc-output"):
@@ -79,8 +82,10 @@ def main(steps=100, out="dmoc-output"):
     text = "\n".join(pair_lines + triple_lines)
     print(text)
     (out / "point_vortices_summary.txt").write_text(text + "\n")
-    _plot_vortices(pair_traj, "vortex pair", out / "point_vortices_pair.png")
-    _plot_vortices(triple_traj, "three vortices", out / "point_vortices_triple.png")
+    units = point_vortices(PAIR).units
+    _plot_vortices(pair_traj, units, PAIR, "vortex pair", out / "point_vortices_pair.png")
+    _plot_vortices(triple_traj, point_vortices(TRIPLE).units, TRIPLE, "three vortices",
+                   out / "point_vortices_triple.png")
     return pair_traj
 
 

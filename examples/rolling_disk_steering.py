@@ -16,6 +16,10 @@ It prints the solver summary and the free final rolling angle, and writes the tr
 (.npz), the plots and an animation of the coin (.gif) into the output folder.
 """
 
+# The gallery's thumbnail is the path (the figures are shown in file-name order:
+# constraint, controls, energy, path, states, then the animation).
+# sphinx_gallery_thumbnail_number = 4
+
 import dmoc
 from dmoc.cli import example_arguments
 from dmoc.diagnostics import format_summary, optimization_summary
@@ -29,10 +33,11 @@ def main(steps=100, out="dmoc-output"):
     traj = result.trajectory
     print(f"  final rolling angle      {traj.q[-1, 2]:.6f} rad (free)")
     dmoc.plotting.save_trajectory_plots(
-        traj, out, "rolling_disk_steering", disc=problem.disc, names=problem.disc.system.names,
-        control_names=["rolling torque", "steering torque"], heading=3, goal=problem.q_goal)
+        traj, out, "rolling_disk_steering", problem=problem,
+        control_names=["rolling torque", "steering torque"], heading=3)
     dmoc.animation.animate(traj, f"{out}/rolling_disk_steering.gif", shape="coin", heading=3,
-                           roll=2, goal=problem.q_goal, size=0.25, frames=40)
+                           roll=2, goal=problem.q_goal, size=0.25,
+                           units=problem.disc.system.units, frames=40)
     traj.save(f"{out}/rolling_disk_steering.npz")
     return result
 

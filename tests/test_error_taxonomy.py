@@ -300,6 +300,14 @@ API_ROWS = [
      lambda c: problem(c).with_parameters(r=1.0), ValueError, "this problem has no parameters"),
     ("disc.discrete_cost(3)", lambda c: c.disc.discrete_cost(3), TypeError,
      "`running_cost` must be a callable"),
+    ('MechanicalSystem: units={"q": ("m",)} for n = 3',
+     lambda c: dmoc.MechanicalSystem(lambda q, v: ca.dot(v, v) / 2, 3, units={"q": ("m",)}),
+     ValueError, r"`units\['q'\]` must be 3 one-line strings, one unit for each of the 3 coordinates"),
+    ("plot_path: obstacles of shape (2,)", lambda c: plotting.plot_path(c.traj, obstacles=[1.0, 2.0]),
+     ValueError, r"`obstacles` must be discs \(x, y, radius\), shape \(K, 3\), or a callable g\(x, y\)"),
+    ("plot_controls: bounds of shape (3,) for n_u = 2",
+     lambda c: plotting.plot_controls(c.traj, bounds=([0, 0, 0], [1, 1, 1])), ValueError,
+     r"`bounds` must be a pair \(lower, upper\) of arrays of shape \(2,\)"),
 ]
 
 # Rows of the command-line table whose bad value reaches an API call: (id, the call the

@@ -96,7 +96,7 @@ def _report(summary, success, status, message, files):
 INTERRUPTED = "interrupted"     # the status of a run stopped by Ctrl-C
 
 
-def _write(out, prefix, disc, traj, summary, spec, goal, args):
+def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
     """Write the run's files into `out` together, or none of them (an earlier run's set
     stays whole); an interrupted run's without plots and GIF, so that it ends at once."""
     if out is None:
@@ -108,7 +108,7 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args):
                                        names=disc.system.names,
                                        control_names=spec.control_labels(disc.system.n_u), goal=goal,
                                        gif=args.animate and finished,
-                                       plots=finished and not args.no_plots)
+                                       plots=finished and not args.no_plots, problem=problem)
     except OSError as err:  # disk full, file-size limit, folder removed
         raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
                          f"nothing there was changed (an earlier run's files are as they "
@@ -258,7 +258,7 @@ def run_optimize(args):
                **_figures(problem, result)}
     if result.verdict is not None:      # what the checks found, why a converged run failed
         summary.update(verdict=result.verdict.status, message=result.message)
-    files = _write(out, prefix, problem.disc, traj, summary, spec, problem.q_goal, args)
+    files = _write(out, prefix, problem.disc, traj, summary, spec, problem.q_goal, args, problem)
     return _report(summary, result.success, result.status, result.message, files)
 
 

@@ -12,7 +12,7 @@ from ..errors import InputError
 from ..results import diagnostics
 from .._util.files import atomic_write, write_text
 from ..results.animation import animate
-from ..results.plotting import save_trajectory_plots
+from ..results.plotting import planes, save_trajectory_plots
 
 
 def energy_drift(disc, traj):
@@ -80,10 +80,10 @@ def run_files(name):
 
 
 def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goal=None,
-              gif=False, plots=True):
+              gif=False, plots=True, problem=None):
     """Write every output file of one run into `out` (the trajectory, table and summary,
     and, for a finite trajectory, the plots if `plots` and the GIF if `gif`); return the
-    paths written."""
+    paths written. Given the `problem` an optimum solves, its bounds are drawn."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
@@ -95,10 +95,13 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
     if not np.isfinite(traj.q).all():
         return written
     if plots:
-        written += save_trajectory_plots(traj, out, name, disc=disc, names=names,
-                                         control_names=control_names, heading=spec.heading,
-                                         goal=goal)
+        written += save_trajectory_plots(traj, out, name, disc=disc, problem=problem,
+                                         names=names, control_names=control_names,
+                                         heading=spec.heading, goal=goal)
     if gif and traj.q.shape[1] >= 2:
-        written.append(animate(traj, out / f"{name}.gif", shape=spec.shape,
-                               heading=spec.heading, roll=spec.roll, goal=goal, title=name))
+        x, y = (planes(names) or [(0, 1)])[0]
+        written.append(animate(traj, out / f"{name}.gif", shape=spec.shape, x=x, y=y,
+                               heading=spec.heading, roll=spec.roll, goal=goal,
+                               labels=(names[x], names[y]), units=disc.system.units,
+                               title=name))
     return written

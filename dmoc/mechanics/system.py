@@ -12,6 +12,7 @@ import numpy as np
 from .._util import checks
 from .._util.symbolic import user_function
 from ..errors import InputError
+from .units import system_units
 
 
 class MechanicalSystem:
@@ -39,6 +40,10 @@ class MechanicalSystem:
     names : sequence of str, optional
         Names of the n coordinates, for plots, messages and the CSV table's columns:
         distinct, without commas or line breaks.
+    units : mapping, optional
+        Units for plots and animations: "t" (str, time), "q" (n str, the coordinates), "u"
+        (n_u str, the controls); a missing key means no unit, e.g.
+        ``{"t": "s", "q": ("m", "m", "rad"), "u": ("N", "N m")}``.
 
     Attributes
     ----------
@@ -47,6 +52,8 @@ class MechanicalSystem:
         of u.
     n_holonomic : int
         k, the number of holonomic constraints (the last k of the m one-forms).
+    units : dict
+        {"t": str, "q": tuple of n str, "u": tuple of n_u str}, "" where none was declared.
     lagrangian, constraint_matrix, force, momentum, energy : casadi.Function
         ``L(q, v)``, ``A(q)`` (m, n), ``f(q, v, u)`` (n,), ``p = dL/dv(q, v)`` (n,) and
         ``E = v . dL/dv - L`` built once on symbols of the declared sizes. The rows of A(q)
@@ -79,9 +86,9 @@ class MechanicalSystem:
     """
 
     def __init__(self, lagrangian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
-                 names=None):
+                 names=None, units=None):
         q, v = _build_data(self, "MechanicalSystem", ("lagrangian", "L", lagrangian, "v"), n,
-                           constraints, holonomic, force, n_u, names)
+                           constraints, holonomic, force, n_u, names, units)
         L = self.lagrangian(q, v)
         p = ca.gradient(L, v)
         self.momentum = ca.Function("momentum", [q, v], [p], ["q", "v"], ["p"])
@@ -121,10 +128,12 @@ class HamiltonianSystem:
         ``force(q, p, u)``, shape (n,).
     n_u : int, optional
     names : sequence of str, optional
+    units : mapping, optional
+        As for `MechanicalSystem`.
 
     Attributes
     ----------
-    n, m, n_u, n_holonomic, names, key
+    n, m, n_u, n_holonomic, names, units, key
         As for `MechanicalSystem`.
     hamiltonian, constraint_matrix, nonholonomic_matrix, holonomic, force : casadi.Function
         ``H(q, p)``, ``A(q)`` (m, n), ``A_nh(q)``, ``g(q)``, ``f(q, p, u)``.
@@ -145,9 +154,9 @@ class HamiltonianSystem:
     """
 
     def __init__(self, hamiltonian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
-                 names=None):
+                 names=None, units=None):
         q, p = _build_data(self, "HamiltonianSystem", ("hamiltonian", "H", hamiltonian, "p"), n,
-                           constraints, holonomic, force, n_u, names)
+                           constraints, holonomic, force, n_u, names, units)
         v = ca.SX.sym("v", self.n)
         dH = ca.gradient(self.hamiltonian(q, p), p)
         self.velocity = ca.Function("velocity", [q, p], [dH], ["q", "p"], ["v"])
@@ -179,9 +188,9 @@ def _hessian_diagonal(function, q, n):
     return ca.substitute(ca.diag(ca.hessian(function(q, y), y)[0]), y, ca.SX.zeros(n))
 
 
-def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, names):
+def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, names, units):
     """Set the data every system class shares on `system` (n, n_u, the primary Function L
-    or H, the constraints, the force, names, m, n_holonomic), reporting every problem at
+    or H, the constraints, the force, names, units, m, n_holonomic), reporting every problem at
     once; return the symbols (q, x), x the second argument (v or p) of L or H and f.
 
     `primary` is (argument name, Function label, callable, name of x)."""
@@ -206,6 +215,7 @@ def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, na
         if force is None else user_function("force", force, (q, x, u), args, (system.n, 1),
                                             problems, label="f")
     system.names = _coordinate_names(names, system.n, problems)
+    system.units = system_units(units, system.n, system.n_u, problems)
     if not problems:
         _check_rank(system.constraint_matrix, system.n, system.holonomic.numel_out(0), problems)
     if problems:

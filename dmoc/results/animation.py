@@ -1,11 +1,13 @@
 """Animations of computed trajectories as GIF files, the results stage of the pipeline:
 a knife edge or Chaplygin sleigh drawn as a blade, the vertical rolling disk as a coin with
-its heading and rolling mark, and a generic marker for any planar system. Uses
-matplotlib's animation with Pillow (imported lazily) on a bare Figure, never pyplot.
+its heading and rolling mark, and a generic marker for any planar system. Drawn on a bare
+Figure on the Agg canvas (never pyplot), the still parts once and the moving ones per
+frame, and written by Pillow (both imported lazily).
 """
 
 import numpy as np
 
+from ._canvas import label, units_of
 from .._util import checks
 from .._util.files import atomic_path
 from ..errors import InputError
@@ -15,7 +17,7 @@ SHAPES = ("blade", "coin", "point")
 
 
 def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goal=None,
-            size=None, frames=60, fps=15, title=None):
+            size=None, frames=40, fps=12, labels=("x", "y"), units=None, title=None):
     """Write an animation of the planar motion of `traj` to the GIF file `path`.
 
     Parameters
@@ -38,20 +40,27 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     size : float, optional
         Length of the drawn body; default a tenth of the path's extent (at least 0.1).
     frames : int
-        Number of frames (knots are subsampled evenly; at most traj.steps + 1).
+        Number of frames, 40 by default (knots are subsampled evenly; at most traj.steps + 1).
     fps : int
         Frames per second.
+    labels : pair of str
+        Axis labels (the names of columns x and y).
+    units : mapping, optional
+        A system's `units` ({"t", "q", "u"}): those of x and y join the labels, that of
+        t the clock ("t = 2.04 s").
     title : str, optional
 
     Returns
     -------
     pathlib.Path
         The file written.
-    """
-    from matplotlib.animation import PillowWriter
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
 
+    Notes
+    -----
+    The picture is sized to the motion's aspect (a wide motion gives a wide GIF, the
+    ratio kept within 1:2). The axes, path limits and goal are drawn once; each frame
+    redraws only the trail, the body and the clock over that background.
+    """
     q = checks.instance("traj", traj, Trajectory, "a Trajectory").q
     path = checks.file_path("path", path)
     shape = checks.choice("shape", shape, SHAPES)
@@ -64,45 +73,112 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     size = None if size is None else checks.positive_float("size", size)
     frames = min(checks.positive_int("frames", frames), traj.steps + 1)
     fps = checks.positive_float("fps", fps)
+    labels = checks.strings("labels", labels, 2)
+    units = units_of(units, q.shape[1], traj.u.shape[1] // len(traj.control_nodes))
     path.parent.mkdir(parents=True, exist_ok=True)
     size = size or max(0.1, 0.1 * max(np.ptp(q[:, x]), np.ptp(q[:, y])))
-    fig = Figure(figsize=(4.5, 4.5), dpi=80)
-    fig.subplots_adjust(left=0.15, right=0.95, bottom=0.12, top=0.92)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
-    trail, = ax.plot([], [], "-", color="C0", lw=1)
+    limits = _limits(q[:, x], q[:, y], goal, (x, y), size)
+    fig, ax = _canvas(limits)
+    trail, = ax.plot([], [], "-", color="C0", lw=1, animated=True)
     body = _Body(ax, shape, size)
-    _frame_axes(ax, q[:, x], q[:, y], goal, (x, y), size, title)
-    clock = ax.text(0.02, 0.96, "", transform=ax.transAxes, va="top")
+    _frame_axes(ax, goal, (x, y), limits, [label(s, units["q"][c]) for s, c in zip(labels, (x, y))],
+                title)
+    clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", animated=True)
     knots = np.unique(np.linspace(0, traj.steps, frames).round().astype(int))
-
-    writer = PillowWriter(fps=fps)
-    with atomic_path(path) as temporary, writer.saving(fig, temporary, dpi=fig.dpi):
-        for k in knots:                                       # one draw per frame
-            trail.set_data(q[: k + 1, x], q[: k + 1, y])
-            angle = q[k, heading] if heading is not None else None
-            body.move(q[k, x], q[k, y], angle, q[k, roll] if roll is not None else 0.0)
-            clock.set_text(f"t = {traj.t[k]:.2f}")
-            writer.grab_frame()
+    _fit(fig, ax)
+    fig.canvas.draw()
+    background = fig.canvas.copy_from_bbox(fig.bbox)
+    images = []
+    for k in knots:                               # only the moving artists are drawn again
+        fig.canvas.restore_region(background)
+        trail.set_data(q[: k + 1, x], q[: k + 1, y])
+        body.move(q[k, x], q[k, y], None if heading is None else q[k, heading],
+                  0.0 if roll is None else q[k, roll])
+        clock.set_text(f"t = {traj.t[k]:.2f}" + (f" {units['t']}" if units["t"] else ""))
+        for artist in (trail, *body.artists, clock):
+            ax.draw_artist(artist)
+        images.append(np.array(fig.canvas.buffer_rgba())[..., :3])
+    images = _palette_images(images)
+    with atomic_path(path) as temporary:
+        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
+                       duration=round(1000 / fps), loop=0)
     return path
 
 
-def _frame_axes(ax, xs, ys, goal, columns, size, title):
-    """Fixed limits around the whole path (and goal), equal aspect, the goal drawn."""
+_HEIGHT = 4.0                                  # inches of the longer side of the plot
+_MARGINS = (0.75, 0.15, 0.55, 0.4)             # left, right, bottom, top, inches
+_DPI = 80
+
+
+def _limits(xs, ys, goal, columns, size):
+    """((x0, x1), (y0, y1)) around the path and goal, the shorter side widened so that
+    the ratio stays within 1:2 (a narrower picture leaves no room to read it)."""
     points_x, points_y = list(xs), list(ys)
     if goal is not None:
         g = np.asarray(goal, dtype=float)[list(columns)]
         if np.isfinite(g).all():
-            ax.plot(*g, "*", ms=14, color="C1", label="goal")
             points_x.append(g[0])
             points_y.append(g[1])
     pad = 1.5 * size
+    (x0, x1), (y0, y1) = ((min(v) - pad, max(v) + pad) for v in (points_x, points_y))
+    width, height = x1 - x0, y1 - y0
+    grow_x, grow_y = max(0.0, height / 2 - width) / 2, max(0.0, width / 2 - height) / 2
+    return (x0 - grow_x, x1 + grow_x), (y0 - grow_y, y1 + grow_y)
+
+
+def _canvas(limits):
+    """A Figure on the Agg canvas whose plot area has the aspect of `limits`."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    (x0, x1), (y0, y1) = limits
+    aspect = (y1 - y0) / (x1 - x0)
+    w, h = (_HEIGHT, _HEIGHT * aspect) if aspect <= 1 else (_HEIGHT / aspect, _HEIGHT)
+    left, right, bottom, top = _MARGINS
+    fig = Figure(figsize=(w + left + right, h + bottom + top), dpi=_DPI)
+    FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=left / fig.get_figwidth(), right=1 - right / fig.get_figwidth(),
+                        bottom=bottom / fig.get_figheight(), top=1 - top / fig.get_figheight())
+    return fig, fig.add_subplot()
+
+
+def _fit(fig, ax):
+    """Widen the Figure where labels stick out of it (long tick labels), the plot area
+    kept as it is."""
+    box, drawn = fig.bbox, ax.get_tightbbox(fig.canvas.get_renderer())
+    left, right = max(0.0, box.x0 - drawn.x0), max(0.0, drawn.x1 - box.x1)
+    bottom, top = max(0.0, box.y0 - drawn.y0), max(0.0, drawn.y1 - box.y1)
+    if left + right + bottom + top == 0:
+        return
+    pad = 4.0 if left or right else 0.0                      # pixels beside the labels
+    area = ax.get_position().transformed(fig.transFigure)    # the plot area, pixels
+    width, height = box.width + left + right + pad, box.height + bottom + top
+    fig.set_size_inches(width / fig.dpi, height / fig.dpi)
+    ax.set_position([(area.x0 + left + pad) / width, (area.y0 + bottom) / height,
+                     area.width / width, area.height / height])
+
+
+def _palette_images(frames):
+    """The RGB frames as palette images (GIF frames) sharing the palette of the last one,
+    which shows every colour (the whole trail, the body), without dithering."""
+    from PIL import Image
+
+    palette = Image.fromarray(frames[-1]).quantize(colors=64, method=Image.Quantize.FASTOCTREE)
+    return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+
+
+def _frame_axes(ax, goal, columns, limits, labels, title):
+    """Fixed limits, equal aspect, the goal and the labels."""
+    if goal is not None:
+        g = np.asarray(goal, dtype=float)[list(columns)]
+        if np.isfinite(g).all():
+            ax.plot(*g, "*", ms=14, color="C1", label="goal")
     ax.set_autoscale_on(False)
-    ax.set_xlim(min(points_x) - pad, max(points_x) + pad)
-    ax.set_ylim(min(points_y) - pad, max(points_y) + pad)
+    ax.set_xlim(*limits[0])
+    ax.set_ylim(*limits[1])
     ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
     if title:
         ax.set_title(title)
 
@@ -121,6 +197,9 @@ class _Body:
         else:
             self.outline, = ax.plot([], [], "o", color="C0", ms=8)
             self.mark, = ax.plot([], [], "-", color="C3", lw=2)      # heading arrow shaft
+        self.artists = (self.outline, self.mark)
+        for artist in self.artists:
+            artist.set_animated(True)
 
     def move(self, x, y, heading, roll):
         r = self.size / 2

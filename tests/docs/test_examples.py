@@ -41,7 +41,8 @@ def test_demo_command_writes_summary(tmp_path, capsys):
     summary = (tmp_path / "summary.txt").read_text()
     assert summary.count("Solve_Succeeded") == 4
     assert "knife_edge" in summary and "rolling_disk" in summary
-    assert (tmp_path / "knife_edge_simulated_path.png").exists()
+    for figure in ("simulation", "knife_edge_parking", "rolling_disk_steering"):
+        assert (tmp_path / f"{figure}.png").stat().st_size > 1000
 
 
 def test_demo_command_rejects_bad_steps(capsys):
@@ -50,7 +51,7 @@ def test_demo_command_rejects_bad_steps(capsys):
 
 
 @pytest.mark.parametrize("name, files", [
-    ("lc_circuit", ["charges", "energy", "steering", "controls"]),
+    ("lc_circuit", ["charges", "energy", "steering", "controls", "balance"]),
     ("point_vortices", ["pair", "triple"]),
 ])
 def test_degenerate_example_runs_and_saves(name, files, tmp_path, capsys):

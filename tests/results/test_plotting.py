@@ -42,7 +42,7 @@ def test_states_and_controls_use_names(parked):
     fig = dmoc.plotting.plot_states(traj, names=("x", "y", "theta"))
     assert [a.get_ylabel() for a in fig.axes] == ["x", "y", "theta"]
     fig = dmoc.plotting.plot_controls(traj, names=["force", "torque"])
-    assert fig.axes[0].get_legend_handles_labels()[1] == ["force", "torque"]
+    assert [a.get_ylabel() for a in fig.axes] == ["force", "torque"]
 
 
 def test_errors_on_log_scales_without_offset_notation(parked):

@@ -34,7 +34,8 @@ def car(mass=1500.0, yaw_inertia=2500.0, steering_inertia=1.0, wheelbase=2.7, co
     -------
     MechanicalSystem
         q = (x, y, theta, delta), shape (4,): the rear-axle midpoint, the heading and the
-        steering angle; controls u = (F, tau), shape (2,).
+        steering angle; controls u = (F, tau), shape (2,). Its `units`: m, m, rad, rad;
+        N, N m; time in s.
 
     Notes
     -----
@@ -87,4 +88,5 @@ def car(mass=1500.0, yaw_inertia=2500.0, steering_inertia=1.0, wheelbase=2.7, co
         return ca.vertcat(u[0] * ca.cos(q[2]), u[0] * ca.sin(q[2]), 0, u[1])
 
     return MechanicalSystem(lagrangian, 4, constraints=constraints, force=force, n_u=2,
-                            names=("x", "y", "theta", "delta"))
+                            names=("x", "y", "theta", "delta"),
+                            units={"t": "s", "q": ("m", "m", "rad", "rad"), "u": ("N", "N m")})

@@ -33,7 +33,7 @@ def differential_drive(mass=10.0, yaw_inertia=0.5, wheel_inertia=0.01, wheel_rad
     MechanicalSystem
         q = (x, y, theta, phi_l, phi_r), shape (5,): the axle's midpoint, the heading and
         the left and right wheel angles; controls u = (tau_l, tau_r), shape (2,), the
-        wheel torques.
+        wheel torques. Its `units`: m, m, rad, rad, rad; N m, N m; time in s.
 
     Notes
     -----
@@ -74,4 +74,6 @@ def differential_drive(mass=10.0, yaw_inertia=0.5, wheel_inertia=0.01, wheel_rad
         return ca.vertcat(0, 0, 0, u[0], u[1])
 
     return MechanicalSystem(lagrangian, 5, constraints=constraints, force=force, n_u=2,
-                            names=("x", "y", "theta", "phi_l", "phi_r"))
+                            names=("x", "y", "theta", "phi_l", "phi_r"),
+                            units={"t": "s", "q": ("m", "m", "rad", "rad", "rad"),
+                                   "u": ("N m", "N m")})

@@ -32,7 +32,8 @@ def knife_edge(mass=1.0, inertia=1.0, incline=0.0, gravity=9.81):
     Returns
     -------
     MechanicalSystem
-        q = (x, y, theta), shape (3,); controls u = (u0, u1), shape (2,).
+        q = (x, y, theta), shape (3,); controls u = (u0, u1), shape (2,). Its `units`
+        (for plots): m, m, rad; N, N m; time in s.
 
     Notes
     -----
@@ -68,7 +69,8 @@ def knife_edge(mass=1.0, inertia=1.0, incline=0.0, gravity=9.81):
         return ca.vertcat(u[0] * ca.cos(q[2]), u[0] * ca.sin(q[2]), u[1])
 
     return MechanicalSystem(lagrangian, 3, constraints=constraints, force=force, n_u=2,
-                            names=("x", "y", "theta"))
+                            names=("x", "y", "theta"),
+                            units={"t": "s", "q": ("m", "m", "rad"), "u": ("N", "N m")})
 
 
 def knife_edge_solution(t, q0, v0, *, incline=0.0, gravity=9.81):

@@ -23,7 +23,8 @@ def point_vortices(circulations):
     Returns
     -------
     MechanicalSystem
-        q = (x_1, y_1, x_2, y_2, ...), shape (2 K,); no constraints, no controls.
+        q = (x_1, y_1, x_2, y_2, ...), shape (2 K,); no constraints, no controls. Its
+        `units` (for plots): positions in m, time in s (circulations in m^2/s).
 
     Notes
     -----
@@ -69,7 +70,7 @@ def point_vortices(circulations):
         return kinetic - H
 
     names = tuple(f"{axis}_{i + 1}" for i in range(K) for axis in ("x", "y"))
-    return MechanicalSystem(lagrangian, 2 * K, names=names)
+    return MechanicalSystem(lagrangian, 2 * K, names=names, units={"t": "s", "q": ("m",) * (2 * K)})
 
 
 def point_vortices_solution(t, q0, circulations):

@@ -30,7 +30,8 @@ def rolling_disk(mass=1.0, radius=1.0, roll_inertia=None, steer_inertia=None):
     -------
     MechanicalSystem
         q = (x, y, theta, phi), shape (4,), with theta the rolling angle and phi the
-        heading; controls u = (u0, u1), shape (2,).
+        heading; controls u = (u0, u1), shape (2,). Its `units` (for plots): m, m, rad,
+        rad; N m, N m; time in s.
 
     Notes
     -----
@@ -69,7 +70,8 @@ def rolling_disk(mass=1.0, radius=1.0, roll_inertia=None, steer_inertia=None):
         return ca.vertcat(0, 0, u[0], u[1])
 
     return MechanicalSystem(lagrangian, 4, constraints=constraints, force=force, n_u=2,
-                            names=("x", "y", "theta", "phi"))
+                            names=("x", "y", "theta", "phi"),
+                            units={"t": "s", "q": ("m", "m", "rad", "rad"), "u": ("N m", "N m")})
 
 
 def rolling_disk_solution(t, q0, v0, *, radius=1.0):

@@ -27,7 +27,8 @@ def spherical_pendulum(mass=1.0, length=1.0, gravity=9.81):
     -------
     MechanicalSystem
         q = (x, y, z), shape (3,), the bob's position relative to the pivot; controls
-        u = (u0, u1), shape (2,), a horizontal force on the bob.
+        u = (u0, u1), shape (2,), a horizontal force on the bob. Its `units` (for plots):
+        m; N; time in s.
 
     Notes
     -----
@@ -63,4 +64,5 @@ def spherical_pendulum(mass=1.0, length=1.0, gravity=9.81):
         return ca.vertcat(u[0], u[1], 0)
 
     return MechanicalSystem(lagrangian, 3, holonomic=lambda q: ca.dot(q, q) - l ** 2,
-                            force=force, n_u=2, names=("x", "y", "z"))
+                            force=force, n_u=2, names=("x", "y", "z"),
+                            units={"t": "s", "q": ("m", "m", "m"), "u": ("N", "N")})
