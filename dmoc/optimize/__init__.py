@@ -3,15 +3,16 @@ and parameters, its final time `final_time` and momentum treatment `momenta` cho
 values, read-only by `read_only`), its NLP (`transcription`: the terms of `terms` in
 `separable`, scaled by `scaling`) and its solution
 (`solve`: IPOPT through `ipopt`, its journal `linear_solver`, the start point `guess` or
-`waypoints`), the
+`waypoints`), the receding-horizon controller `mpc`, the
 step residual imposed at every step; `problems` holds the built-in examples."""
 
 from . import problems
 from .guess import initial_guess
 from .ipopt import DEFAULT_IPOPT_OPTIONS
+from .mpc import MPC, MPCStep
 from .problem import OptimalControlProblem
 from .solve import OptimizationResult, optimize
 from .waypoints import from_waypoints
 
 __all__ = ["OptimalControlProblem", "optimize", "OptimizationResult", "DEFAULT_IPOPT_OPTIONS",
-           "initial_guess", "from_waypoints", "problems"]
+           "initial_guess", "from_waypoints", "MPC", "MPCStep", "problems"]
