@@ -17,7 +17,8 @@ from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Loba
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
                      MissingFileError, SolverError, TrajectoryFileError)
 from .mechanics import HamiltonianSystem, MechanicalSystem, systems
-from .optimize import MPC, OptimalControlProblem, OptimizationResult, optimize, problems
+from .optimize import (MPC, OptimalControlProblem, OptimizationResult, from_waypoints, optimize,
+                       problems)
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
 from .results import animation, diagnostics, plotting
 from .simulate import SimulationResult, simulate
@@ -47,6 +48,7 @@ __all__ = [
     "OptimalControlProblem",
     "optimize",
     "OptimizationResult",
+    "from_waypoints",
     "MPC",
     "Trajectory",
     "systems",

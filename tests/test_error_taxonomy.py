@@ -292,6 +292,16 @@ API_ROWS = [
      lambda c: problem(c).with_parameters(r=1.0), ValueError, "this problem has no parameters"),
     ("disc.discrete_cost(3)", lambda c: c.disc.discrete_cost(3), TypeError,
      "`running_cost` must be a callable"),
+    ("Trajectory.sample past the horizon", lambda c: c.traj.sample(c.traj.t[-1] + 1), ValueError,
+     r"`t` must lie in the horizon \[t_0, t_N\] = \[0.0, 0.4\]; .* \(the solution is not extrapolated\)"),
+    ("OptimalControlProblem: v_start and p_start both given",
+     lambda c: problem(c, v_start=[0, 0, 0], p_start=[0, 0, 0]), ValueError,
+     "give the start as `v_start` or as `p_start`, not both"),
+    ("from_waypoints: times not ending at the horizon",
+     lambda c: dmoc.from_waypoints(c.disc, [START, GOAL], [0.0, 0.9], steps=10), ValueError,
+     r"`times` must increase from 0 to the horizon N h = 1.0"),
+    ("MPC.step(q) without v or p", lambda c: dmoc.MPC(problem(c)).step(START), ValueError,
+     "give the measured state as `v` or as `p`, exactly one"),
 ]
 
 # Rows of the command-line table whose bad value reaches an API call: (id, the call the

@@ -1,4 +1,4 @@
-"""dmoc.optimize.from_waypoints: a guess through the user's waypoints on a problem's grid.
+"""dmoc.from_waypoints: a guess through the user's waypoints on a problem's grid.
 
 Oracles written here: waypoints on a line and on a parabola in time (the curve, its
 velocity and the momenta p = M q' in closed form, M = diag(m, m, J) of the knife edge,
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.optimize import from_waypoints
+from dmoc import from_waypoints
 
 MASS, INERTIA = 2.0, 0.5
 M = np.array([MASS, MASS, INERTIA])
