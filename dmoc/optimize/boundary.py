@@ -12,6 +12,15 @@ from ..mechanics.given import check_configuration
 from ..errors import InputError
 
 
+def boundary_vector(name, value, n):
+    """Boundary data of shape (n,) with None entries as NaN (free); never infinite."""
+    if value is None:
+        raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
+    if np.ndim(value) == 0:
+        raise InputError(f"`{name}` must have shape ({n},) for this system; got ().")
+    return checks.array(name, checks.array_with_none(name, value, n, np.nan), (n,), allow_nan=True)
+
+
 def check_holonomic_boundary(system, q_start, q_goal):
     """Raise ValueError before an optimal control problem is solved if its boundary
     configurations do not fit the holonomic constraints g(q) = 0 of `system`.

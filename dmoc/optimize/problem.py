@@ -17,7 +17,8 @@ from ..errors import InputError
 from ..mechanics.given import check_allowed_velocity
 from ..principle.formulations import as_formulation
 from ..principle.residual import step_residual
-from .boundary import check_holonomic_boundary, fully_given, imposes_velocity_rows, start_momentum
+from .boundary import (boundary_vector, check_holonomic_boundary, fully_given, imposes_velocity_rows,
+                       start_momentum)
 from .final_time import FixedFinalTime, FreeFinalTime
 from .momenta import momentum_treatment
 from .parameters import ProblemParameters, cost_function, path_function
@@ -160,13 +161,13 @@ class OptimalControlProblem(ReadOnly):
 
     def _set_boundary(self, q_start, q_goal, v_start, v_goal, p_start=None):
         n, sys = self._disc.system.n, self._disc.system
-        self._q_start = _boundary("q_start", q_start, n)
-        self._q_goal = _boundary("q_goal", q_goal, n)
+        self._q_start = boundary_vector("q_start", q_start, n)
+        self._q_goal = boundary_vector("q_goal", q_goal, n)
         self._p_start = start_momentum(p_start, v_start, n)
         if self._p_start is not None:
             v_start = [None] * n
-        self._v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
-        self._v_goal = _boundary("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
+        self._v_start = boundary_vector("v_start", np.zeros(n) if v_start is None else v_start, n)
+        self._v_goal = boundary_vector("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
         check_holonomic_boundary(sys, self._q_start, self._q_goal)
         for end, q, v in (("start", self._q_start, self._v_start), ("goal", self._q_goal, self._v_goal)):
             if fully_given(q, v):
@@ -305,15 +306,6 @@ class OptimalControlProblem(ReadOnly):
         T = self._transcription
         return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
                 f"free_time={self.free_time}, x: {T.x_layout.size}, g: {T.g_layout.size})")
-
-
-def _boundary(name, value, n):
-    """Boundary data of shape (n,) with None entries as NaN (free); never infinite."""
-    if value is None:
-        raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
-    if np.ndim(value) == 0:
-        raise InputError(f"`{name}` must have shape ({n},) for this system; got ().")
-    return checks.array(name, checks.array_with_none(name, value, n, np.nan), (n,), allow_nan=True)
 
 
 def _bounds(name, value, size):
