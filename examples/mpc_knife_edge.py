@@ -4,8 +4,8 @@ Model predictive control of a knife edge
 
 A receding-horizon controller (`dmoc.MPC`) parks a knife edge from (x, y, theta) =
 (0, 0, 0) at (0, 1, 0). At every step of h = 0.1 s it solves the parking problem over the
-next 30 steps (3 s, minimizing the integral of |u|^2, at rest at the goal) from the state
-it measures, and applies the first step's controls. The plant is simulated by
+next 30 steps (3 s, minimizing the integral of the squared norm of u, at rest at the
+goal) from the state it measures, and applies the first step's controls. The plant is simulated by
 `dmoc.simulate` with a model error, a blade 10 % heavier than the controller's model, and
 a disturbance: at t = 1 s a kick adds momentum along the blade and about the vertical
 axis. The controller measures the plant's momentum, so each solve starts from (q, p)
