@@ -36,8 +36,9 @@ def from_waypoints(target, q, times=None, *, steps=None):
         derivatives of the parabolas through three neighbouring waypoints (at the ends:
         the problem's fully given v_start, v_goal, else the parabola's); the knots' q and
         p = dL/dv(q, q'), the stages at the rule's `stage_nodes` on the curve (the rule's
-        `stage_guess` when its stages are not configurations), controls and multipliers 0.
-        Exact for waypoints on a line, or a parabola, in time.
+        `stage_guess` when its stages are not configurations), controls and multipliers 0;
+        the problem's variant ("+" for a Discretization). Exact for waypoints on a line,
+        or a parabola, in time.
 
     Examples
     --------
@@ -48,6 +49,7 @@ def from_waypoints(target, q, times=None, *, steps=None):
     ((21, 3), True)
     """
     disc, N, h, ends = _grid(target, steps)
+    variant = target.variant if isinstance(target, OptimalControlProblem) else "+"
     sys, rule = disc.system, disc.rule
     q = checks.real_array("q", q, "an array of waypoints of shape (K, n)")
     if q.ndim != 2 or q.shape[0] < 2 or q.shape[1] != sys.n:
@@ -64,7 +66,7 @@ def from_waypoints(target, q, times=None, *, steps=None):
     else:
         s = rule.stage_guess(knots, p)
     return Trajectory(t, knots, p, np.zeros((N, disc.n_multipliers)), np.zeros((N, disc.n_controls)),
-                      h, "+", s=s, control_nodes=rule.control_nodes, stage_nodes=rule.stage_nodes)
+                      h, variant, s=s, control_nodes=rule.control_nodes, stage_nodes=rule.stage_nodes)
 
 
 def hermite(times, q, slopes, t):

@@ -53,6 +53,8 @@ def test_a_problem_gives_the_grid_and_the_end_velocities():
     np.testing.assert_array_equal(guess.q[[0, 10, 20]], waypoints)
     np.testing.assert_allclose(guess.p[0], M * v_start, rtol=0, atol=1e-15)     # given slope
     np.testing.assert_allclose(guess.p[-1], 0, rtol=0, atol=1e-15)              # at rest
+    assert guess.variant == "+" and from_waypoints(
+        dmoc.problems.knife_edge_parking(10, variant="-"), waypoints).variant == "-"
 
 
 def test_the_waypoint_guess_reaches_the_optimum_of_the_default_guess():
