@@ -17,7 +17,8 @@ from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Loba
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
                      MissingFileError, SolverError, TrajectoryFileError)
 from .mechanics import HamiltonianSystem, MechanicalSystem, systems
-from .optimize import OptimalControlProblem, OptimizationResult, Verdict, problems
+from .optimize import (MPC, OptimalControlProblem, OptimizationResult, Verdict, from_waypoints,
+                       problems)
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
 from .results import animation, diagnostics, optimize, plotting
 from .simulate import SimulationResult, simulate
@@ -48,6 +49,8 @@ __all__ = [
     "optimize",
     "OptimizationResult",
     "Verdict",
+    "from_waypoints",
+    "MPC",
     "Trajectory",
     "systems",
     "problems",

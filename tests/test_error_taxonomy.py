@@ -308,6 +308,17 @@ API_ROWS = [
     ("plot_controls: bounds of shape (3,) for n_u = 2",
      lambda c: plotting.plot_controls(c.traj, bounds=([0, 0, 0], [1, 1, 1])), ValueError,
      r"`bounds` must be a pair \(lower, upper\) of arrays of shape \(2,\)"),
+
+    ("Trajectory.sample past the horizon", lambda c: c.traj.sample(c.traj.t[-1] + 1), ValueError,
+     r"`t` must lie in the horizon \[t_0, t_N\] = \[0.0, 0.4\]; .* \(the solution is not extrapolated\)"),
+    ("OptimalControlProblem: v_start and p_start both given",
+     lambda c: problem(c, v_start=[0, 0, 0], p_start=[0, 0, 0]), ValueError,
+     "give the start as `v_start` or as `p_start`, not both"),
+    ("from_waypoints: times not ending at the horizon",
+     lambda c: dmoc.from_waypoints(c.disc, [START, GOAL], [0.0, 0.9], steps=10), ValueError,
+     r"`times` must increase from 0 to the horizon N h = 1.0"),
+    ("MPC.step(q) without v or p", lambda c: dmoc.MPC(problem(c)).step(START), ValueError,
+     "give the measured state as `v` or as `p`, exactly one"),
 ]
 
 # Rows of the command-line table whose bad value reaches an API call: (id, the call the

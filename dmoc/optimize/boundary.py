@@ -1,12 +1,24 @@
 """The optimizer's boundary data: which entries of q_0 and q_N a problem may give on
 holonomic constraints, when the step rows already impose g(q_k) = 0 at every node
-(docs/holonomic.md), and where the velocity rows A(q) v = 0 are imposed.
+(docs/holonomic.md), where the velocity rows A(q) v = 0 are imposed, and a start given by
+its momentum instead of its velocity.
 """
 
 import numpy as np
 
+from .._util import checks
+
 from ..mechanics.given import check_configuration
 from ..errors import InputError
+
+
+def boundary_vector(name, value, n):
+    """Boundary data of shape (n,) with None entries as NaN (free); never infinite."""
+    if value is None:
+        raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
+    if np.ndim(value) == 0:
+        raise InputError(f"`{name}` must have shape ({n},) for this system; got ().")
+    return checks.array(name, checks.array_with_none(name, value, n, np.nan), (n,), allow_nan=True)
 
 
 def check_holonomic_boundary(system, q_start, q_goal):
@@ -79,3 +91,16 @@ def imposes_velocity_rows(q, v):
     given (then checked once, `check_allowed_velocity`) or v is given and zero (then the
     rows vanish for every q; imposing them would make the KKT matrix singular)."""
     return not (fully_given(q, v) or (np.isfinite(v).all() and not v.any()))
+
+
+def start_momentum(p_start, v_start, n):
+    """`p_start` as a read-only array of shape (n,), or None when not given; exclusive with
+    `v_start` and fully given (finite)."""
+    if p_start is None:
+        return None
+    if v_start is not None:
+        raise InputError("give the start as `v_start` or as `p_start`, not both: the start "
+                         "rows impose p_0 = dL/dv(q_0, v_start) or p_0 = p_start.")
+    p_start = checks.array("p_start", p_start, (n,))
+    p_start.flags.writeable = False
+    return p_start

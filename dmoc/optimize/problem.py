@@ -17,7 +17,8 @@ from ..errors import InputError
 from ..mechanics.given import check_allowed_velocity
 from ..principle.formulations import as_formulation
 from ..principle.residual import step_residual
-from .boundary import check_holonomic_boundary, fully_given, imposes_velocity_rows
+from .boundary import (boundary_vector, check_holonomic_boundary, fully_given, imposes_velocity_rows,
+                       start_momentum)
 from .final_time import FixedFinalTime, FreeFinalTime
 from .momenta import momentum_treatment
 from .parameters import ProblemParameters, cost_function, path_function
@@ -53,6 +54,12 @@ class OptimalControlProblem(ReadOnly):
         Boundary velocities (default: at rest); entries None are free. They must lie in
         Delta_Q = ker A(q) when fully given; otherwise A(q) v = 0 is imposed (except for
         a given zero velocity, which lies in every Delta_Q).
+    p_start : array_like, shape (n,), optional
+        A start momentum instead of `v_start` (exclusive), as a receding-horizon
+        controller measures it: the start rows become p_0 = p_start (+ form; p_0 =
+        p_start - A(q_0)^T mu for the (-) form) in place of p_0 = dL/dv(q_0, v_start), and
+        no velocity rows are imposed at the start. Fully given; a value of the NLP's
+        parameter vector, so `with_boundary` changes it without a new NLP.
     running_cost : callable, optional
         ``running_cost(q, v, u)`` (scalar CasADi expression); default |u|^2. Discretized by
         the rule of `disc` at its quadrature points, u interpolated from the step's
@@ -90,7 +97,10 @@ class OptimalControlProblem(ReadOnly):
     disc, steps, formulation, residual : Discretization, int, Formulation, StepResidual
         The discretization, N, the form of the step rows and the residual they impose.
     q_start, q_goal, v_start, v_goal : ndarray, shape (n,)
-        The boundary data, NaN where free (read-only arrays; `with_boundary` changes them).
+        The boundary data, NaN where free (read-only arrays; `with_boundary` changes them);
+        `v_start` is all NaN when `p_start` is given.
+    p_start : ndarray, shape (n,), or None
+        The start momentum, when given instead of `v_start`.
     control_bounds, state_bounds : tuple of ndarray
         (lower, upper), shapes (n_u,) and (n,), infinite where unbounded.
     running_cost, terminal_cost, path_constraints : casadi.Function or None
@@ -121,13 +131,13 @@ class OptimalControlProblem(ReadOnly):
     """
 
     _CHANGE = {**{k: f"use `problem.with_boundary({k}=...)`, which keeps the NLP"
-                  for k in ("q_start", "q_goal", "v_start", "v_goal")},
+                  for k in ("q_start", "q_goal", "v_start", "v_goal", "p_start")},
                **{k: "use `problem.with_parameters(name=value)`, which keeps the NLP"
                   for k in ("parameters", "parameter_values")}}
     _CHANGE_ANY = ("build a new OptimalControlProblem (its data and its NLP, "
                    "`problem.transcription`, are built together)")
 
-    def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None,
+    def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None, p_start=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
                  state_bounds=None, path_constraints=None, duration=None, variant="+",
                  momenta="substituted", parameters=None):
@@ -149,15 +159,18 @@ class OptimalControlProblem(ReadOnly):
         self._state_bounds = _bounds("state_bounds", state_bounds, n)
         for bound in (*self._control_bounds, *self._state_bounds):
             bound.flags.writeable = False
-        self._set_boundary(q_start, q_goal, v_start, v_goal)
+        self._set_boundary(q_start, q_goal, v_start, v_goal, p_start)
         self._transcription = Transcription(self)
 
-    def _set_boundary(self, q_start, q_goal, v_start, v_goal):
+    def _set_boundary(self, q_start, q_goal, v_start, v_goal, p_start=None):
         n, sys = self._disc.system.n, self._disc.system
-        self._q_start = _boundary("q_start", q_start, n)
-        self._q_goal = _boundary("q_goal", q_goal, n)
-        self._v_start = _boundary("v_start", np.zeros(n) if v_start is None else v_start, n)
-        self._v_goal = _boundary("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
+        self._q_start = boundary_vector("q_start", q_start, n)
+        self._q_goal = boundary_vector("q_goal", q_goal, n)
+        self._p_start = start_momentum(p_start, v_start, n)
+        if self._p_start is not None:
+            v_start = [None] * n
+        self._v_start = boundary_vector("v_start", np.zeros(n) if v_start is None else v_start, n)
+        self._v_goal = boundary_vector("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
         check_holonomic_boundary(sys, self._q_start, self._q_goal)
         for end, q, v in (("start", self._q_start, self._v_start), ("goal", self._q_goal, self._v_goal)):
             if fully_given(q, v):
@@ -171,14 +184,17 @@ class OptimalControlProblem(ReadOnly):
         for data in (self._q_start, self._q_goal, self._v_start, self._v_goal):
             data.flags.writeable = False
 
-    def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None):
-        """This problem with new boundary data; arguments left None keep this problem's.
+    def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None, p_start=None):
+        """This problem with new boundary data; arguments left None keep this problem's
+        (a given `p_start` replaces the start velocity, a given `v_start` the start
+        momentum).
 
-        The boundary data enter the NLP only through the bounds lbx = ubx, so the copy
-        shares this problem's NLP (and `structure`, hence its compiled solver and a warm
-        start from this problem's optimum) unless an end changes between fully given and
-        partly free with a nonzero or free velocity (then the velocity rows A(q) v = 0
-        appear or vanish and the NLP is rebuilt).
+        The boundary data enter the NLP only through the bounds lbx = ubx (and p_start
+        through p), so the copy shares this problem's NLP (and `structure`, hence its
+        compiled solver and a warm start from this problem's optimum) unless an end changes
+        between fully given and partly free with a nonzero or free velocity (then the
+        velocity rows A(q) v = 0 appear or vanish), or the start changes between a velocity
+        and a momentum: then the NLP is rebuilt.
 
         Examples
         --------
@@ -191,8 +207,13 @@ class OptimalControlProblem(ReadOnly):
         new = copy.copy(self)
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal}
         kept = {k: [None if np.isnan(x) else x for x in getattr(self, k)] for k in given}
-        new._set_boundary(**{k: kept[k] if v is None else v for k, v in given.items()})
-        same_nlp = new.velocity_rows == self.velocity_rows
+        if p_start is None and v_start is None and self._p_start is not None:
+            p_start = self._p_start                 # the start stays a momentum
+        if p_start is not None:
+            kept["v_start"] = None
+        new._set_boundary(**{k: kept[k] if v is None else v for k, v in given.items()}, p_start=p_start)
+        same_nlp = (new.velocity_rows == self.velocity_rows
+                    and (new.p_start is None) == (self.p_start is None))
         new._transcription = self._transcription.with_bounds(new) if same_nlp else Transcription(new)
         return new
 
@@ -228,6 +249,7 @@ class OptimalControlProblem(ReadOnly):
     q_start = property(lambda self: self._q_start, doc="Start configuration, shape (n,), NaN free.")
     q_goal = property(lambda self: self._q_goal, doc="Goal configuration, shape (n,), NaN free.")
     v_start = property(lambda self: self._v_start, doc="Start velocity, shape (n,), NaN free.")
+    p_start = property(lambda self: self._p_start, doc="Start momentum, shape (n,), or None.")
     v_goal = property(lambda self: self._v_goal, doc="Goal velocity, shape (n,), NaN free.")
     control_bounds = property(lambda self: self._control_bounds, doc="(lower, upper), shapes (n_u,).")
     state_bounds = property(lambda self: self._state_bounds, doc="(lower, upper), shapes (n,).")
@@ -265,7 +287,7 @@ class OptimalControlProblem(ReadOnly):
     def velocity_rows(self):
         """{"start": bool, "goal": bool}: whether A(q) v = 0 is imposed at that end
         (`dmoc.optimize.boundary.imposes_velocity_rows`)."""
-        return {"start": imposes_velocity_rows(self._q_start, self._v_start),
+        return {"start": self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start),
                 "goal": imposes_velocity_rows(self._q_goal, self._v_goal)}
 
     @property
@@ -287,15 +309,6 @@ class OptimalControlProblem(ReadOnly):
         T = self._transcription
         return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
                 f"free_time={self.free_time}, x: {T.x_layout.size}, g: {T.g_layout.size})")
-
-
-def _boundary(name, value, n):
-    """Boundary data of shape (n,) with None entries as NaN (free); never infinite."""
-    if value is None:
-        raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
-    if np.ndim(value) == 0:
-        raise InputError(f"`{name}` must have shape ({n},) for this system; got ().")
-    return checks.array(name, checks.array_with_none(name, value, n, np.nan), (n,), allow_nan=True)
 
 
 def _bounds(name, value, size):

@@ -281,4 +281,5 @@ def trajectory_from_x(problem, x):
     mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
     return Trajectory(h * np.arange(N + 1), T.configurations(x), T.momenta(x),
                       lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
-                      mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes)
+                      mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes,
+                      problem.disc.rule.stage_nodes)

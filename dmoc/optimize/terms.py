@@ -57,7 +57,8 @@ class _StepSlots:
     `Transcription.q_ref`); the term adds q_ref back."""
 
     def __init__(self, problem, X, P, G, scales):
-        self.problem, self.X, self.G, self.N, self.scales = problem, X, G, problem.steps, scales
+        self.problem, self.X, self.P, self.G, self.N = problem, X, P, G, problem.steps
+        self.scales = scales
         self.h = problem.final_time.slot(X, P)
         self.q_ref, self.w = P["q_ref"], ("p", P["w"])
         self.key = _functions_key(problem, G)
@@ -87,13 +88,23 @@ class _StepSlots:
         return self.cost(**inputs_of(self.cost, s))["C_d"]
 
     def start(self):
-        """Start momentum rows (and A(q_0) v_start = 0 where that end is partly free)."""
+        """Start momentum rows (and A(q_0) v_start = 0 where that end is partly free); with
+        a given start momentum (block "p_start" of p) the formulation's row with p_start in
+        place of dL/dv(q_0, v_start): p_0 - p_start (+ A(q_0)^T mu for the (-) form)."""
         problem, X, G = self.problem, self.X, self.G
         condition = problem.formulation.momentum_conditions(problem.disc.system)[0]
         slots = {"q": ("q", X["q"][:, :1]), "p": ("x", X["p"][:, :1]),
                  "v": ("x", X["v_start"]), "mu": ("x", X["mu"])}
-        return self.term("start", slots, lambda s: (0, self._boundary_rows(condition, s, "start", "mu")),
-                         np.vstack([G["start"], G["start_velocity"]]))
+        if problem.p_start is not None:
+            slots["p_start"] = ("p", self.P["p_start"])
+
+            def body(s):        # (p_0 - dL/dv + impulse) - (p_start - dL/dv)
+                return 0, (condition(s["q"], s["p"], s["v"], s["mu"])
+                           - condition(s["q"], s["p_start"], s["v"], ca.DM.zeros(s["mu"].shape)))
+        else:
+            def body(s):
+                return 0, self._boundary_rows(condition, s, "start", "mu")
+        return self.term("start", slots, body, np.vstack([G["start"], G["start_velocity"]]))
 
     def goal(self):
         """Goal momentum rows at p_N, the velocity rows and the terminal cost."""
@@ -163,7 +174,8 @@ def _functions_key(problem, G):
     user = (problem.running_cost, problem.terminal_cost, problem.path_constraints)
     digest = hashlib.sha256("\0".join("" if f is None else f.serialize() for f in user).encode())
     return (problem.residual.key, problem.momentum_treatment.name, problem.final_time.free,
-            G["start_velocity"].size, G["goal_velocity"].size, digest.hexdigest())
+            G["start_velocity"].size, G["goal_velocity"].size, problem.p_start is not None,
+            digest.hexdigest())
 
 
 def _indices(layout):

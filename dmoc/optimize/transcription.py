@@ -36,7 +36,9 @@ class Transcription(ReadOnly):
         (``separable.derivatives()``, the ``cache`` option of ``casadi.nlpsol``).
     x_layout, p_layout, g_layout : Layout
         Named blocks of x (``q, p, lam, s, u, v_start, v_goal, mu, nu, h``; ``p`` holds p_0
-        alone when the momenta are substituted, see `momenta`), of p (``h, q_ref, w``) and
+        alone when the momenta are substituted, see `momenta`; ``v_start`` is fixed at 0
+        when the start is a momentum), of p (``h, q_ref, w, p_start``; ``p_start`` empty
+        unless the problem gives it) and
         of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
         ``start_velocity``, ``goal_velocity``, ``path`` (rows, N) at the steps' midpoints,
         ``path_knots`` (rows of q alone, N+1) at q_0 ... q_N).
@@ -50,8 +52,8 @@ class Transcription(ReadOnly):
     lbx, ubx, lbg, ubg : ndarray
         Bounds of x and g (read-only arrays).
     p : ndarray, shape (p_layout.size,)
-        The values of the parameter vector: the step h (fixed final time), q_ref and the
-        stacked parameter values (block ``w``).
+        The values of the parameter vector: the step h (fixed final time), q_ref, the
+        stacked parameter values (block ``w``) and the start momentum (block ``p_start``).
     q_ref : ndarray, shape (n,)
         The configuration the NLP is centered on: block "q" of x holds q_k - q_ref (the
         given entries of q_start, else of q_goal, else 0), so that IPOPT's steps and
@@ -76,7 +78,8 @@ class Transcription(ReadOnly):
                                  ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                  ("h", (problem.final_time.x_entries, 1))])
         self._p_layout = Layout([("h", (problem.final_time.p_values.size, 1)), ("q_ref", (n, 1)),
-                                 ("w", (problem.parameters.layout.size, 1))])
+                                 ("w", (problem.parameters.layout.size, 1)),
+                                 ("p_start", (0 if problem.p_start is None else n, 1))])
         self._g_layout = Layout([("dynamics", (self._dynamics_rows.size, N)), ("start", (n, 1)),
                                  ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),
                                  ("goal_velocity", (rows["goal"], 1)),
@@ -105,7 +108,9 @@ class Transcription(ReadOnly):
         N, lay = problem.steps, self._x_layout
         q_ref = reference(problem.q_start, problem.q_goal)
         self._q_ref = _frozen(q_ref)
-        self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector()]))
+        p_start = np.zeros(0) if problem.p_start is None else problem.p_start
+        self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
+                                          p_start]))
         control_bounds, state_bounds = problem.control_bounds, problem.state_bounds
         step_range = problem.final_time.step_range(N)
         lbx, ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
@@ -114,7 +119,8 @@ class Transcription(ReadOnly):
             view["q"][:] = (state_bounds[side] - q_ref)[:, None]
             view["u"][:] = np.tile(control_bounds[side], len(problem.disc.rule.control_nodes))[:, None]
             for name, col, data in (("q", 0, problem.q_start - q_ref), ("q", N, problem.q_goal - q_ref),
-                                    ("v_start", 0, problem.v_start), ("v_goal", 0, problem.v_goal)):
+                                    ("v_start", 0, _start_velocity(problem)),
+                                    ("v_goal", 0, problem.v_goal)):
                 fixed = np.isfinite(data)
                 view[name][fixed, col] = data[fixed]
             view["h"][:] = step_range[side]
@@ -168,6 +174,12 @@ def reference(q_start, q_goal):
     coordinates, so that IPOPT's steps and tolerances do not depend on where the motion
     takes place (e.g. map coordinates of 1e6 m)."""
     return np.where(np.isfinite(q_start), q_start, np.nan_to_num(q_goal, nan=0.0))
+
+
+def _start_velocity(problem):
+    """The values of x's block "v_start": the problem's, or zeros (fixed, read by no row)
+    when the start is given by its momentum."""
+    return problem.v_start if problem.p_start is None else np.zeros_like(problem.v_start)
 
 
 def _frozen(array):

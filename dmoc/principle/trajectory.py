@@ -11,15 +11,12 @@ from .._util import checks
 from .._util.files import atomic_write, readable_file, writable_file
 from ..errors import InputError, InputTypeError, TrajectoryFileError
 from ..discrete import Discretization
-from ..discrete.rules import lagrange_basis
+from . import dense
 from .formulations import FORMULATIONS
 
 # max |t_k - t_0 - k h| allowed, relative to |t_0| + N h: rounding of t_0 + k h, of
 # np.linspace and of cumulative sums of h stay far below it; a grid of another h does not.
 TIME_GRID_RTOL = 1e-10
-# times this far (relative to the horizon t_N - t_0) past t_0 or t_N are round-off of the
-# ends, e.g. t_0 + N h computed in another order; `control` reads them as the end
-CONTROL_TIME_RTOL = 1e-9
 
 
 @dataclass(eq=False)
@@ -52,6 +49,11 @@ class Trajectory:
     control_nodes : tuple of float
         Step times c in [0, 1] of the controls in `u` (the rule's ``control_nodes``);
         default ``(0.5,)``, one control held over each step.
+    stage_nodes : tuple of float
+        Step times c in (0, 1) of the configurations among the stages, the last
+        ``len(stage_nodes) * n`` columns of `s` (the rule's ``stage_nodes``): with q_k and
+        q_{k+1} the nodes of the rule's interpolant q(t) on each step (`sample`); default
+        ``()``, the chord.
     """
 
     t: np.ndarray
@@ -64,6 +66,7 @@ class Trajectory:
     mu: np.ndarray = field(default=None)
     s: np.ndarray = field(default=None)
     control_nodes: tuple = (0.5,)
+    stage_nodes: tuple = ()
 
     def __post_init__(self):
         # NaN is allowed in q, p, lam, u, s, mu: the last iterate of a failed solve may hold
@@ -81,6 +84,7 @@ class Trajectory:
                                     (("lam", self.lam), ("u", self.u), ("s", self.s)))
         self.variant = checks.choice("variant", self.variant, tuple(FORMULATIONS))
         self.control_nodes = _control_nodes(self.control_nodes, self.u.shape[1])
+        self.stage_nodes = _stage_nodes(self.stage_nodes, n, self.s.shape[1])
         self.mu = (np.zeros(self.lam.shape[1]) if self.mu is None else
                    checks.array("mu", self.mu, (np.size(self.mu),), allow_nan=True))
 
@@ -107,14 +111,13 @@ class Trajectory:
         Parameters
         ----------
         t : float or array_like, shape (K,)
-            Times in [t_0, t_N] (a round-off of CONTROL_TIME_RTOL (t_N - t_0) past either end
-            is read as the end): outside the horizon there is no control, and the step's
-            polynomial would extrapolate.
+            Times in [t_0, t_N] (a round-off of ``dense.END_RTOL (t_N - t_0)`` past either
+            end is read as the end): outside the horizon there is no control, and the
+            step's polynomial would extrapolate.
 
         Returns
         -------
-        ndarray, shape (K, n_u)
-            One row per time; a scalar `t` gives shape (1, n_u).
+        ndarray, shape (K, n_u), or (n_u,) for a scalar `t`
 
         Raises
         ------
@@ -125,26 +128,49 @@ class Trajectory:
 
         >>> traj = Trajectory([0, 1, 2], [[0.0]] * 3, [[0.0]] * 3, [[], []], [[0.0, 2.0], [2.0, 4.0]],
         ...                   1.0, "+", control_nodes=(0.0, 1.0))
-        >>> traj.control([0.25, 1.5, 2.0])[:, 0]
-        array([0.5, 3. , 4. ])
+        >>> traj.control([0.25, 1.5, 2.0])[:, 0], traj.control(0.25)
+        (array([0.5, 3. , 4. ]), array([0.5]))
         """
-        if not self.steps:
-            raise InputError("this trajectory has 0 steps: it holds no control to evaluate.")
-        t = np.atleast_1d(checks.real_array("t", t, "a time or a 1-D array of times"))
-        if t.ndim != 1:
-            raise InputError(f"`t` must be a time or a 1-D array of times; got shape {t.shape}.")
-        t0, tN = float(self.t[0]), float(self.t[-1])
-        slack = CONTROL_TIME_RTOL * max(tN - t0, self.h)
-        outside = ~((t >= t0 - slack) & (t <= tN + slack))      # NaN counts as outside
-        if outside.any():
-            j = int(np.argmax(outside))
-            raise InputError(f"`t` must lie in the horizon [t_0, t_N] = [{t0!r}, {tN!r}]; "
-                             f"t[{j}] = {float(t[j])!r} is outside (there is no control there).")
-        t = np.clip(t, t0, tN)
-        k = np.clip(np.floor((t - t0) / self.h).astype(int), 0, max(self.steps - 1, 0))
-        basis, _ = lagrange_basis(self.control_nodes, (t - self.t[k]) / self.h)
-        values = self.u[k].reshape(len(t), len(self.control_nodes), -1)
-        return np.einsum("tj,tju->tu", basis, values)
+        times, k, c = dense.step_times(self, t)
+        u = dense.controls(self, k, c)
+        return u[0] if np.ndim(t) == 0 else u
+
+    def sample(self, t):
+        """The solution at any times of the horizon: q, v, p and u (`dense.Sample`).
+
+        q(t) is the rule's interpolant on the step (`stage_nodes`): the polynomial of
+        degree d = len(stage_nodes) + 1 through q_k, the stage configurations and q_{k+1},
+        on which the discrete Lagrangian evaluates L (the chord for midpoint and trapezoid);
+        v(t) = q'(t); p(t) the polynomial of the same degree through the momenta of the
+        d + 1 knots nearest the step; u(t) as `control`. At the knots q, p and u are the
+        stored values. Measured orders between the knots, for smooth solutions
+        (tests/principle/test_sample.py, against DOP853): q and p d + 1, v d (midpoint and
+        trapezoid 2, 2, 1; lobatto3 3, 3, 2; lobatto4 4, 4, 3); v jumps at the knots. With
+        constraints the discrete p_k differ from dL/dv by an O(h) impulse along A(q_k)^T, so
+        p converges on ker A(q) only, and on the first d steps (whose stencils hold the
+        given p_0, without that impulse) as O(h^2).
+
+        Parameters
+        ----------
+        t : float or array_like, shape (K,)
+            Times in [t_0, t_N], as for `control`.
+
+        Returns
+        -------
+        Sample
+            Named arrays t (K,), q, v, p (K, n) and u (K, n_u); for a scalar `t`, t a
+            float and the others without their first axis (q of shape (n,), ...).
+
+        Raises
+        ------
+        InputError, InputTypeError
+            As `control`.
+
+        >>> traj = Trajectory([0, 1], [[0.0], [2.0]], [[1.0], [3.0]], [[]], [[5.0]], 1.0, "+")
+        >>> traj.sample(0.25)
+        Sample(t=0.25, q=array([0.5]), v=array([2.]), p=array([1.5]), u=array([5.]))
+        """
+        return dense.sample(self, t)
 
     def save(self, path):
         """Write every field to an uncompressed .npz file at exactly `path` (exact round
@@ -241,6 +267,19 @@ def _control_nodes(nodes, columns):
     if columns % len(nodes):
         raise InputError(f"`u` must have a multiple of len(control_nodes) = {len(nodes)} "
                          f"columns; got {columns}.")
+    return nodes
+
+
+def _stage_nodes(nodes, n, columns):
+    """`nodes` as a tuple of increasing step times in (0, 1), the last ``len(nodes) * n``
+    of the `columns` of s."""
+    nodes = tuple(float(c) for c in np.ravel(checks.real_array(
+        "stage_nodes", nodes, "a sequence of step times in (0, 1)")))
+    if not all(0.0 < c < 1.0 for c in nodes) or np.any(np.diff(nodes) <= 0):
+        raise InputError(f"`stage_nodes` must increase within (0, 1); got {nodes}.")
+    if len(nodes) * n > columns:
+        raise InputError(f"`s` must hold the {len(nodes)} stage configurations of "
+                         f"`stage_nodes` ({len(nodes) * n} columns); it has {columns}.")
     return nodes
 
 

@@ -221,7 +221,7 @@ def _assemble(stepper, formulation, disc, controls, acc, out):
                                                stepper.residual.m)
     t = h * np.arange(acc.shape[0])
     return Trajectory(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
-                      disc.rule.control_nodes)
+                      disc.rule.control_nodes, disc.rule.stage_nodes)
 
 
 def _interrupted(traj, stats, throw):

@@ -41,7 +41,7 @@ def resimulated_final_configuration(name, traj):
     z = np.zeros(size)
     z[: traj.q.shape[1]] = traj.q[0]
     for k in range(traj.steps):
-        sol = solve_ivp(lambda t, y: rhs(y, traj.control(t)[0]), (traj.t[k], traj.t[k + 1]), z,
+        sol = solve_ivp(lambda t, y: rhs(y, traj.control(t)), (traj.t[k], traj.t[k + 1]), z,
                         method="DOP853", rtol=1e-13, atol=1e-13)
         z = sol.y[:, -1]
     return z[: traj.q.shape[1]]

@@ -41,9 +41,9 @@ def test_control_of_a_string_is_a_type_error(traj):
 
 
 def test_control_shapes(traj):
-    """A scalar time gives one row, K times K rows; the values are u(t) = 2 t."""
-    assert traj.control(0.5).shape == (1, 1)
-    np.testing.assert_allclose(traj.control(0.5), [[1.0]], rtol=0, atol=1e-15)
+    """A scalar time gives shape (n_u,), K times K rows; the values are u(t) = 2 t."""
+    assert traj.control(0.5).shape == (1,)
+    np.testing.assert_allclose(traj.control(0.5), [1.0], rtol=0, atol=1e-15)
     times = np.array([0.0, 0.25, 1.0, 1.5, 2.0])
     np.testing.assert_allclose(traj.control(times), 2 * times[:, None], rtol=0, atol=1e-15)
     with pytest.raises(dmoc.InputError, match=r"`t` must be a time or a 1-D array of times; got "
