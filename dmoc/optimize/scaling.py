@@ -67,15 +67,19 @@ def lengths(system, q, motion):
         the motion in the metric of the inertia (how far coordinate i would move if it
         made the whole motion), and, with l those lengths, |a_r o l| / |da_r/dq_i o l|
         over the constraint rows a_r (the distance along q_i over which a row turns by
-        its own size: 1 rad for the heading in (-sin theta, cos theta, 0)). Without a motion (no entry given at
-        both ends, or equal ends) d^2 is the geometric mean of M, which makes l = 1 for
+        its own size: 1 rad for the heading in (-sin theta, cos theta, 0)). Without a
+        motion (no entry given at both ends, equal ends, or ends less than sqrt(machine
+        epsilon), 1.5e-8, of that length apart: a parallel parking by d turns the heading
+        by about sqrt(d), so a scale taken from so small a motion would blow the other
+        coordinates up by 1/sqrt(d)) d^2 is the geometric mean of M, which makes l = 1 for
         equal inertias (and is not covariant).
     """
     M, _, A, dA = _mechanical_data(system, q)
     M = _usable(M)
     d2 = float(M @ np.nan_to_num(motion) ** 2)
-    if not (np.isfinite(d2) and d2 > 0):
-        d2 = float(np.exp(np.log(M).mean()))
+    rest = float(np.exp(np.log(M).mean()))
+    if not (np.isfinite(d2) and d2 > np.finfo(float).eps * rest):
+        d2 = rest
     l = np.sqrt(d2 / M)
     turn = np.sqrt(((np.where(np.isfinite(dA), dA, 0.0) * l[None, :, None]) ** 2).sum(axis=1))
     size = row_scale(l, A)[:, None]

@@ -14,7 +14,7 @@ from dataclasses import fields
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, example, given, settings, strategies as st
 
 import dmoc
 from dmoc import diagnostics, systems
@@ -100,6 +100,8 @@ def test_structure_holds_for_random_data(name, tmp_path):
 @SETTINGS
 @given(goal=st.tuples(unit, unit, angle), h=st.floats(0.05, 0.3), variant=st.sampled_from("+-"),
        rule=st.sampled_from(["midpoint", "trapezoid"]))
+@example(goal=(0.0, 3.7792981112032195e-114, 0.0), h=0.05, variant="+", rule="midpoint")
+@example(goal=(0.0, 0.0, -3.7792981112032195e-114), h=0.05, variant="+", rule="midpoint")
 def test_optima_replay_for_random_goals(goal, h, variant, rule):
     disc = dmoc.discretize(systems.knife_edge(), h, rule)
     problem = dmoc.OptimalControlProblem(disc, 12, q_start=[0, 0, 0], q_goal=list(goal),
