@@ -15,7 +15,6 @@ from .._util import checks
 from ..discrete.rules import lagrange_basis
 from ..errors import InputError, SolverError
 from ..optimize import OptimalControlProblem, OptimizationResult, optimize
-from ..principle.formulations import as_formulation
 from ..simulate import simulate
 
 # Targets below this are refused: the estimate is a difference of costs that IPOPT (tol
@@ -35,14 +34,16 @@ class ErrorEstimate:
         |J_N - J| / |J_N|: J_N the optimum's cost, J the continuous problem's (absolute
         where J_N = 0).
     final_state : float
-        max_i |x_i - x_i(T)| / range_i over x = (q_N, p_N): x(T) the end of the continuous
-        flow driven by the optimum's controls from its start, range_i the excursion of
-        coordinate i over the optimum (1 where it does not move), so that the figure does
-        not depend on units. p_N is left out under variant "-" (its end impulse).
+        max_i |q_N,i - q_i(T)| / range_i: q(T) the end of the continuous flow driven by
+        the optimum's controls from its start, range_i the excursion of coordinate i over
+        the optimum (1 where it does not move), so that the figure does not depend on
+        units. The momentum p_N is left out: it differs from p(T) by a constraint impulse
+        A(q_N)^T mu of the order of the step (measured on the knife edge and the disk)
+        that changes no allowed velocity.
     cost_error : float
         The signed estimate of J_N - J.
-    state_error : ndarray, shape (n,) or (2 n,)
-        The signed estimates of q_N - q(T), then p_N - p(T) (variant "+").
+    state_error : ndarray, shape (n,)
+        The signed estimate of q_N - q(T).
     order : int
         The order p of the rule the extrapolation assumes.
     steps, reference_steps : int
@@ -93,7 +94,7 @@ def estimate_error(problem, result, *, reference=None, **keywords):
     J_N - J ~ (J_N - J_M) / (1 - (N / M)^p). The final state is the re-simulated one:
     `simulate` drives the system from the optimum's (q_0, p_0) by its controls (each
     step's interpolant, `Trajectory.control`) on 2N steps of the same rule and variant;
-    its end x_2N and the optimum's x_N (at the goal) give x_N - x(T) ~ (x_N - x_2N) /
+    its end q_2N and the optimum's q_N (at the goal) give q_N - q(T) ~ (q_N - q_2N) /
     (1 - 2^-p). The reference solve costs about a solve on M steps (`ErrorEstimate.time`;
     docs/performance.md); the replay, a simulation of 2N steps.
     """
@@ -115,7 +116,7 @@ def _estimate(problem, result, reference, tic):
     """The ErrorEstimate of `result` against `reference`, timed from `tic`."""
     p, N, M = problem.disc.rule.order, problem.steps, reference.trajectory.steps
     cost_error = (result.cost - reference.cost) / (1.0 - (N / M) ** p)
-    end, scale = _end_state(problem, result.trajectory)
+    end, scale = _end_state(result.trajectory)
     state_error = (end - _replayed_end(problem, result.trajectory)) / (1.0 - 2.0 ** -p)
     return ErrorEstimate(abs(cost_error) / (abs(result.cost) or 1.0),
                          float(np.max(np.abs(state_error) / scale)), float(cost_error),
@@ -128,14 +129,10 @@ def _check_steps(problem, result):
                          f"got one on {result.trajectory.steps} steps.")
 
 
-def _end_state(problem, traj):
-    """(x_N, the excursion of each of its entries over the trajectory; 1 where none): x =
-    q, then p unless the formulation leaves p_N to an end impulse (variant "-")."""
-    states = [traj.q, traj.p] if as_formulation(traj.variant, problem.disc).end_momentum_determined \
-        else [traj.q]
-    x = np.hstack(states)
-    excursion = np.ptp(x, axis=0)
-    return x[-1], np.where(excursion > 0, excursion, 1.0)
+def _end_state(traj):
+    """(q_N, the excursion of each coordinate over the trajectory; 1 where none)."""
+    excursion = np.ptp(traj.q, axis=0)
+    return traj.q[-1], np.where(excursion > 0, excursion, 1.0)
 
 
 def _replayed_end(problem, traj):
@@ -151,8 +148,8 @@ def _replayed_end(problem, traj):
     run = simulate(problem.disc.with_step(traj.h / 2), q0=traj.q[0], p0=traj.p[0], steps=2 * N,
                    controls=controls, variant=traj.variant, throw=False, jit=False)
     if not run.success:
-        return np.full(_end_state(problem, traj)[0].shape, np.inf)     # it does not replay
-    return _end_state(problem, run.trajectory)[0]
+        return np.full(traj.q.shape[1], np.inf)     # it does not replay
+    return run.trajectory.q[-1]
 
 
 def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **keywords):
@@ -166,7 +163,7 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
         the first two levels only measure the error.
     accuracy : float
         The target of `ErrorEstimate.largest`, relative: of the cost to |J|, of each
-        entry of the final (q, p) to its excursion over the optimum. In
+        coordinate of the final configuration to its excursion over the optimum. In
         [SMALLEST_ACCURACY, 1).
     guess : Trajectory or OptimizationResult, optional
         The first level's guess (`dmoc.optimize`); each later level starts from the last
