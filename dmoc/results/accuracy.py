@@ -138,7 +138,9 @@ def _end_state(traj):
 def _replayed_end(problem, traj):
     """The end of `simulate` over 2N steps from the optimum's (q_0, p_0), driven by its
     controls: each step's Lagrange interpolant of its values at the control nodes, read
-    at the half steps' nodes (the end of a step's own polynomial, not the next step's)."""
+    at the half steps' nodes (the end of a step's own polynomial, not the next step's).
+    `simulate`'s defaults, so that the step Function is the one any other replay of this
+    rule and variant (`dmoc.diagnostics.replay_error`) builds."""
     nodes = np.asarray(problem.disc.rule.control_nodes)
     halves = np.concatenate([nodes / 2, (1 + nodes) / 2])        # the half steps' nodes
     weights = lagrange_basis(nodes, halves)[0]                   # (2 k, k)
@@ -146,7 +148,7 @@ def _replayed_end(problem, traj):
     u = traj.u.reshape(N, len(nodes), n_u)
     controls = np.einsum("jk,skc->sjc", weights, u).reshape(2 * N, -1)
     run = simulate(problem.disc.with_step(traj.h / 2), q0=traj.q[0], p0=traj.p[0], steps=2 * N,
-                   controls=controls, variant=traj.variant, throw=False, jit=False)
+                   controls=controls, variant=traj.variant, throw=False)
     if not run.success:
         return np.full(traj.q.shape[1], np.inf)     # it does not replay
     return run.trajectory.q[-1]
