@@ -7,11 +7,12 @@ true relative cost error |J_N - J*| / J* <= 1e-6 (J* from the issue; the car's f
 high-order solves, docs/performance.md), and the least N whose re-simulated final state is
 also within 1e-6 (true final state: the continuous Lagrange-d'Alembert equations driven by
 the optimum's controls, integrated by scipy's DOP853 step by step; its final
-configuration relative to each coordinate's excursion as in `ErrorEstimate.final_state`): N*_J and N*_J,q. Timed, each in
-a fresh process (best of `--repeat`): "at N*", building the problem at that N and solving
-it; "+ replay", the same at N*_J,q and replaying the optimum with `simulate` (what a judged
-solve adds, and what the target's final-state estimate pays once); "target",
-building the problem at `--start` steps and running `optimize_to_accuracy(problem, 1e-6)`.
+configuration relative to each coordinate's excursion as in `ErrorEstimate.final_state`):
+N*_J and N*_J,q. Timed, each in a fresh process (best of `--repeat`): "at N*", building
+the problem at that N and solving it; "+ replay", the same at N*_J,q and replaying the
+optimum with `simulate` (what a judged solve adds, and what the target's final-state
+estimate pays once); "target", building the problem at `--start` steps and running
+`optimize_to_accuracy(problem, 1e-6)`.
 The car starts from `uniform_motion_guess` in every run.
 
     python benchmarks/accuracy.py

@@ -79,7 +79,7 @@ def estimate_error(problem, result, *, reference=None, **keywords):
         Its optimum.
     reference : OptimizationResult, optional
         An optimum of the same problem on M != N steps (``problem.with_steps(M)``). By
-        default the problem is solved on M = N // 2 steps (at least 1), started from
+        default the problem is solved on M = N // 2 steps (2 when N = 1), started from
         `result`'s trajectory.
     **keywords
         Passed to `dmoc.optimize` for that solve (``options``, ``throw``, ...).
@@ -97,13 +97,22 @@ def estimate_error(problem, result, *, reference=None, **keywords):
     its end q_2N and the optimum's q_N (at the goal) give q_N - q(T) ~ (q_N - q_2N) /
     (1 - 2^-p). The reference solve costs about a solve on M steps (`ErrorEstimate.time`;
     docs/performance.md); the replay, a simulation of 2N steps.
+
+    Examples
+    --------
+    >>> import dmoc, dmoc.problems
+    >>> problem = dmoc.problems.knife_edge_parking(20, rule="lobatto3")
+    >>> result = dmoc.optimize(problem, options={"print_level": 0, "sb": "yes"})
+    >>> estimate = estimate_error(problem, result, options={"print_level": 0, "sb": "yes"})
+    >>> estimate.reference_steps, f"{estimate.cost:.0e}"     # J* = 8.72240586430: 3.5e-06
+    (10, '2e-06')
     """
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     checks.instance("result", result, OptimizationResult, "an OptimizationResult")
     _check_steps(problem, result)
     tic = time.perf_counter()
     if reference is None:
-        reference = optimize(problem.with_steps(max(problem.steps // 2, 1)), guess=result.trajectory,
+        reference = optimize(problem.with_steps(problem.steps // 2 or 2), guess=result.trajectory,
                              **keywords)
     checks.instance("reference", reference, OptimizationResult, "an OptimizationResult or None")
     if reference.trajectory.steps == problem.steps:
@@ -115,7 +124,8 @@ def estimate_error(problem, result, *, reference=None, **keywords):
 def _estimate(problem, result, reference, tic):
     """The ErrorEstimate of `result` against `reference`, timed from `tic`."""
     p, N, M = problem.disc.rule.order, problem.steps, reference.trajectory.steps
-    cost_error = (result.cost - reference.cost) / (1.0 - (N / M) ** p)
+    cost_error = np.inf if not reference.success else \
+        (result.cost - reference.cost) / (1.0 - (N / M) ** p)
     end, scale = _end_state(result.trajectory)
     state_error = (end - _replayed_end(problem, result.trajectory)) / (1.0 - 2.0 ** -p)
     return ErrorEstimate(abs(cost_error) / (abs(result.cost) or 1.0),
