@@ -16,6 +16,7 @@ estimate pays once); "target", building the problem at `--start` steps and runni
 The car starts from `uniform_motion_guess` in every run.
 
     python benchmarks/accuracy.py
+    python benchmarks/accuracy.py --estimates     # estimate_error against the solve
 """
 
 import argparse
@@ -35,7 +36,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
-from dmoc.results.accuracy import optimize_to_accuracy  # noqa: E402
+from dmoc.results.accuracy import estimate_error, optimize_to_accuracy  # noqa: E402
 
 ACCURACY = 1e-6
 QUIET = {"print_level": 0, "sb": "yes"}
@@ -128,6 +129,8 @@ def one_run(name, rule, mode, N):
     tic = time.perf_counter()
     problem = make(N, rule)
     start = guess and guess(problem)
+    if mode == "estimate":
+        return estimate_cost(name, rule, N)
     if mode == "target":
         result = optimize_to_accuracy(problem, ACCURACY, guess=start, options=QUIET)
     else:
@@ -141,6 +144,20 @@ def one_run(name, rule, mode, N):
     estimate = result.stats.get("error_estimate") or {}
     return {"time": seconds, "steps": [level["steps"] for level in levels],
             "cost_estimate": estimate.get("cost"), "state_estimate": estimate.get("final_state")}
+
+
+def estimate_cost(name, rule, N):
+    """(this process) seconds of the first solve on N steps, of `estimate_error` right after
+    it (its reference solve and the replay's first step Function), and of a second
+    `estimate_error` of the same optimum (solver and step Function reused)."""
+    make, J, guess = CASES[name]
+    tic = time.perf_counter()
+    problem = make(N, rule)
+    result = dmoc.optimize(problem, guess=guess and guess(problem), options=QUIET)
+    solve = time.perf_counter() - tic
+    first = estimate_error(problem, result, options=QUIET).time
+    again = estimate_error(problem, result, options=QUIET).time
+    return {"time": solve, "first": first, "again": again}
 
 
 def timed(name, rule, mode, N, repeat):
@@ -157,12 +174,16 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--start", type=int, default=10, help="N of the target's first level")
+    parser.add_argument("--estimates", action="store_true",
+                        help="time estimate_error against the solve instead, at N*_J,q")
     parser.add_argument("--one", nargs=4, metavar=("PROBLEM", "RULE", "MODE", "N"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
         name, rule, mode, N = args.one
         print(json.dumps(one_run(name, rule, mode, int(N))))
         return
+    if args.estimates:
+        return estimate_table(args.repeat)
     print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, CasADi {ca.__version__}; accuracy {ACCURACY:g}, "
           f"target from N = {args.start}, best of {args.repeat} fresh processes")
@@ -183,6 +204,19 @@ def main():
                   + f" | {' → '.join(map(str, target['steps']))} | {target['time']:.3f} | {ratios} | "
                   f"{cost_error:.1e} | {target['cost_estimate']:.1e} | {state_error:.1e} | "
                   f"{target['state_estimate']:.1e} |", flush=True)
+
+
+def estimate_table(repeat):
+    """The cost of `estimate_error` relative to the solve it judges, at N*_J,q."""
+    print("| problem | rule | N | solve (s) | estimate, first (s) | ratio | estimate, again (s) | ratio |")
+    print("|---" * 8 + "|")
+    for name in CASES:
+        for rule in RULES:
+            N = least_steps(name, rule)[1]
+            run = timed(name, rule, "estimate", N, repeat)
+            print(f"| {name} | {rule} | {N} | {run['time']:.3f} | {run['first']:.3f} | "
+                  f"{run['first'] / run['time']:.2f} | {run['again']:.3f} | "
+                  f"{run['again'] / run['time']:.2f} |", flush=True)
 
 
 if __name__ == "__main__":
