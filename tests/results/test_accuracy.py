@@ -135,3 +135,19 @@ def test_results_of_other_grids_are_refused():
         estimate_error(problem, result, reference=result)
     with pytest.raises(dmoc.InputTypeError, match="`result` must be an OptimizationResult"):
         estimate_error(problem, result.trajectory)
+
+
+def test_the_car_lane_change_converges_to_its_j_star():
+    """From the straight drive, lobatto4 on 20 steps is within 1e-6 of J* = 0.1558127846220
+    (lobatto4 N = 640 and lobatto3 N = 1280 agree to 1e-11, docs/stages/optimize.md), the
+    optimum replays, and the straight drive is the simulated unforced motion."""
+    problem = dmoc.problems.car_lane_change(20, rule="lobatto4")
+    guess = dmoc.problems.uniform_motion_guess(problem)
+    drive = dmoc.simulate(problem.disc, q0=[0, 0, 0, 0], v0=[40 / 3, 0, 0, 0], steps=20).trajectory
+    np.testing.assert_allclose(guess.q, drive.q, atol=1e-9)
+    np.testing.assert_allclose(guess.p, drive.p, rtol=1e-9, atol=1e-9)
+    result = dmoc.optimize(problem, guess=guess, options=QUIET)
+    assert abs(result.cost - 0.1558127846220) / 0.1558127846220 < 1e-6
+    traj = result.trajectory
+    replay = dmoc.simulate(problem.disc, q0=traj.q[0], p0=traj.p[0], steps=20, controls=traj.u).trajectory
+    assert np.abs(replay.q - traj.q).max() < 1e-8 * 40
