@@ -193,7 +193,8 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
         ``rule``, ``cost``, ``status``, ``iterations``, ``estimate`` (its
         `ErrorEstimate.largest`; None on the first level) and ``time``, wall seconds of
         the level's problem, solve and estimate) and ``stats["error_estimate"]`` (the last
-        `ErrorEstimate` as a dict).
+        `ErrorEstimate` as a dict of plain numbers and lists, so `OptimizationResult.save`
+        keeps it).
 
     Raises
     ------
@@ -229,6 +230,7 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
 
 
 def _accuracy(value):
+    """`value` as a float in [SMALLEST_ACCURACY, 1), else InputError."""
     value = checks.positive_float("accuracy", value)
     if not SMALLEST_ACCURACY <= value < 1.0:
         raise InputError(f"`accuracy` must be a relative error in [{SMALLEST_ACCURACY:g}, 1); got "
@@ -255,8 +257,8 @@ def _level_record(problem, result, estimate, seconds):
 def _finished(result, levels, estimate, accuracy, keywords, max_steps=None):
     """The last level's result with the levels and the estimate in its stats; status
     ``"accuracy_not_reached"`` (SolverError with throw) when `max_steps` stopped the loop."""
-    stats = {**result.stats, "levels": levels,
-             "error_estimate": None if estimate is None else asdict(estimate)}
+    stats = {**result.stats, "levels": levels, "error_estimate": None if estimate is None else
+             {**asdict(estimate), "state_error": estimate.state_error.tolist()}}
     if max_steps is None:
         message = result.message if not result.success else (
             f"{result.message} Accuracy {accuracy:g} reached on {levels[-1]['steps']} steps "

@@ -151,3 +151,12 @@ def test_the_car_lane_change_converges_to_its_j_star():
     traj = result.trajectory
     replay = dmoc.simulate(problem.disc, q0=traj.q[0], p0=traj.p[0], steps=20, controls=traj.u).trajectory
     assert np.abs(replay.q - traj.q).max() < 1e-8 * 40
+
+
+def test_the_levels_are_saved_with_the_result(tmp_path):
+    result = optimize_to_accuracy(dmoc.problems.knife_edge_parking(10, rule="lobatto4"), 1e-4,
+                                  options=QUIET)
+    result.save(tmp_path / "r.npz")
+    loaded = dmoc.OptimizationResult.load(tmp_path / "r.npz")
+    assert loaded.stats["levels"] == result.stats["levels"]
+    assert loaded.stats["error_estimate"] == result.stats["error_estimate"]
