@@ -25,6 +25,7 @@ import pytest
 import dmoc
 from dmoc import animation, batch, diagnostics, plotting
 from dmoc.discrete.rules import QuadratureRule
+from dmoc.results.accuracy import estimate_error, optimize_to_accuracy
 from dmoc.systems import knife_edge
 
 Q0, V0 = [0.0, 0.0, 0.3], [np.cos(0.3), np.sin(0.3), 1.0]
@@ -74,6 +75,11 @@ def kinetic(q, v):
 def parametric(ctx):
     return problem(ctx, parameters={"r": 4.0},
                    running_cost=lambda q, v, u, w: u[0] ** 2 + w["r"] * u[1] ** 2)
+
+
+def solved(ctx):
+    """The optimum of `problem(ctx)` (5 steps)."""
+    return dmoc.optimize(problem(ctx), options={"print_level": 0, "sb": "yes"})
 
 
 def free_multipliers():
@@ -308,7 +314,6 @@ API_ROWS = [
     ("plot_controls: bounds of shape (3,) for n_u = 2",
      lambda c: plotting.plot_controls(c.traj, bounds=([0, 0, 0], [1, 1, 1])), ValueError,
      r"`bounds` must be a pair \(lower, upper\) of arrays of shape \(2,\)"),
-
     ("Trajectory.sample past the horizon", lambda c: c.traj.sample(c.traj.t[-1] + 1), ValueError,
      r"`t` must lie in the horizon \[t_0, t_N\] = \[0.0, 0.4\]; .* \(the solution is not extrapolated\)"),
     ("OptimalControlProblem: v_start and p_start both given",
@@ -319,6 +324,18 @@ API_ROWS = [
      r"`times` must increase from 0 to the horizon N h = 1.0"),
     ("MPC.step(q) without v or p", lambda c: dmoc.MPC(problem(c)).step(START), ValueError,
      "give the measured state as `v` or as `p`, exactly one"),
+    ("optimize_to_accuracy(problem, 0.0)", lambda c: optimize_to_accuracy(problem(c), 0.0), ValueError,
+     "`accuracy` must be finite and positive"),
+    ("optimize_to_accuracy(problem, 1.5)", lambda c: optimize_to_accuracy(problem(c), 1.5), ValueError,
+     r"`accuracy` must be a relative error in \[1e-09, 1\)"),
+    ("estimate_error(problem, result) with result of another N",
+     lambda c: estimate_error(problem(c, steps=20), solved(c)), ValueError,
+     r"`result` must be an optimum of `problem` \(20 steps\); got one on 5 steps"),
+    ("estimate_error(problem, result, reference=result)",
+     lambda c: estimate_error(problem(c), solved(c), reference=solved(c)), ValueError,
+     "`reference` must be an optimum on another number of steps"),
+    ("problem.with_steps(0)", lambda c: problem(c).with_steps(0), ValueError,
+     "`steps` must be a positive integer; got 0"),
 ]
 
 # Rows of the command-line table whose bad value reaches an API call: (id, the call the

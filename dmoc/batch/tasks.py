@@ -18,7 +18,7 @@ import cloudpickle
 import distributed
 
 from ..optimize.solve import OptimizationResult
-from ..results.verdict import optimize
+from ..results.optimum import optimize
 from ..simulate.simulation import SimulationResult, simulate
 
 

@@ -16,7 +16,7 @@ from ..results import diagnostics
 from ..discrete import discretize
 from ..principle import step_residual
 from ..optimize.problem import OptimalControlProblem
-from ..results.verdict import optimize
+from ..results.optimum import optimize
 from ..simulate.simulation import simulate
 from .._util.files import staged_run
 from . import arguments, output, registry

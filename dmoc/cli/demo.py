@@ -12,7 +12,7 @@ from ..optimize import problems
 from ..mechanics import systems
 from .._util.files import staged_run, write_text
 from ..discrete import discretize
-from ..results.verdict import optimize
+from ..results.optimum import optimize
 from ..results._canvas import figure, save_png
 from ..results.plotting import plot_controls, plot_energy_balance, plot_energy_error, plot_path
 from ..simulate.simulation import simulate

@@ -238,6 +238,26 @@ class OptimalControlProblem(ReadOnly):
         new._transcription = self._transcription.with_bounds(new)
         return new
 
+    def with_steps(self, steps):
+        """This problem on N = `steps` steps over the same time: h = N_old h_old / N (a
+        free final time keeps its range (T_min, T_max)). The step residual, costs and
+        path constraints take h as an input and are shared; the NLP is new (another
+        `structure`), so an optimum of this problem guesses the copy through its
+        trajectory, resampled. `dmoc.results.accuracy` refines grids with it.
+
+        >>> import dmoc.problems
+        >>> finer = dmoc.problems.knife_edge_parking(20).with_steps(40)
+        >>> finer.steps, finer.disc.h
+        (40, 0.1)
+        """
+        new = copy.copy(self)
+        new._steps = checks.positive_int("steps", steps)
+        new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
+        if not self.free_time:
+            new._final_time = FixedFinalTime(new._disc.h)
+        new._transcription = Transcription(new)
+        return new
+
     disc = property(lambda self: self._disc, doc="The Discretization (system, rule, step h).")
     steps = property(lambda self: self._steps, doc="The number of steps N.")
     formulation = property(lambda self: self._formulation, doc="The Formulation of the step rows.")

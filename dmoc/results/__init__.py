@@ -1,8 +1,9 @@
 """The results stage: diagnostics of a computed Trajectory (energy, constraint violation,
-residual norms, replay), the verdict on an optimum (`verdict`, whose `optimize` is the
-judged solve), its plots and its animation."""
+residual norms, replay), the verdict on an optimum (`verdict`), the accuracy of an optimum
+(`accuracy`: its error estimate, grids refined to a target), the public `optimize` that
+joins them (`optimum`), its plots and its animation."""
 
-from . import animation, diagnostics, plotting, verdict
-from .verdict import optimize
+from . import accuracy, animation, diagnostics, plotting, verdict
+from .optimum import optimize
 
-__all__ = ["diagnostics", "plotting", "animation", "verdict", "optimize"]
+__all__ = ["diagnostics", "plotting", "animation", "verdict", "accuracy", "optimize"]

@@ -1,5 +1,5 @@
-"""A verdict on every optimum (results stage): `optimize` is IPOPT's solve
-(`dmoc.optimize.solve`) followed by `judge`, which checks what IPOPT returned against the
+"""A verdict on every optimum (results stage): `judged_solve` is IPOPT's solve
+(`dmoc.optimize.solve`) followed by `judge` (what the public `dmoc.optimize` runs), which checks what IPOPT returned against the
 step equations (37)/(41) as `simulate` solves them, the grid's resolution of the motion
 and the path constraints at every knot q_k, and turns a converged NLP that fails them into
 ``success=False`` with a status naming the cause. It lives here because the replay needs
@@ -66,93 +66,16 @@ def judge(problem, result):
     failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
               jump > JUMP_LIMIT)
     status = next((s for s, f in zip(STATUSES, failed) if f), PASSED)
-    # discretization_error joins here: dmoc.results.accuracy.estimate_error
     return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
                    problem.disc.system.names[i], path, path_step, path_row)
 
 
-def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
-             linear_solver_report=False, throw=True, check=True):
-    """Solve a DMOC problem with IPOPT and judge the optimum (`judge`).
-
-    Parameters
-    ----------
-    problem : OptimalControlProblem
-    guess : Trajectory or OptimizationResult, optional
-        Initial guess. A Trajectory is resampled in time if its number of steps differs.
-        An OptimizationResult of a problem with the same `structure` (the same problem
-        with new boundary data or bounds, or a result saved and loaded) warm-starts IPOPT
-        from its x and multipliers; any other result is used through its trajectory
-        (resampled), IPOPT then estimating the multipliers by least squares there. By
-        default the configurations interpolate linearly between the boundary data, bent
-        by a small sine bump so the guess avoids points where the constraint Jacobian is
-        singular (e.g. the knife edge sliding straight sideways).
-    options : dict, optional
-        IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``).
-        Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
-        floor of the rows where the data put it higher (configurations far from the
-        origin, docs/stages/optimize.md). Both apply to the scaled NLP
-        (`dmoc.optimize.scaling`): the rows in momentum units count divided by the
-        inertia, so with m = 1e5 a
-        ``constr_viol_tol`` of 1e-6 admits momentum rows violated by 0.1 in the system's
-        units (relative to momenta of size m v); ``stats["max_violation"]`` is in the
-        system's units. The entries ``"reuse_solver"``, ``"expand"`` and
-        ``"linear_solver_report"`` are deprecated (a DeprecationWarning): they are taken
-        as the keywords of those names.
-    reuse_solver : bool
-        True (default): take the solver of an earlier problem of the same structure and
-        options from the cache; False builds a fresh one, dropped after the call.
-    expand : bool
-        True expands f and g to SX, which no longer pays: IPOPT evaluates the derivatives
-        assembled from the terms (``problem.transcription.separable``) either way
-        (docs/performance.md). Default False.
-    linear_solver_report : bool
-        True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
-        IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
-        to the solve. Default False.
-    throw : bool
-        Raise SolverError when IPOPT fails or its optimum fails the verdict, and
-        `dmoc.Interrupted` when a Ctrl-C (SIGINT) stops it (default); else return the
-        result with success=False (status ``"interrupted"`` after a Ctrl-C, the verdict's
-        status after a failed verdict). Either way the error's `.result` holds the last
-        iterate or the judged optimum with its `verdict`.
-    check : bool
-        True (default): judge the optimum IPOPT converged to (`judge`): the replay by
-        `simulate`, the velocity jumps, the path constraints at the knots. False: IPOPT's
-        verdict only, for callers that judge themselves (an MPC's re-solves); the same as
-        the raw `dmoc.optimize.solve`.
-
-    Returns
-    -------
-    OptimizationResult
-        ``success`` is True only when IPOPT converged and, with `check`, the verdict
-        passed; ``verdict`` holds the checks' figures.
-
-    Notes
-    -----
-    The solver (``casadi.nlpsol``) takes its gradient, constraint Jacobian and Hessian of
-    the Lagrangian from ``problem.transcription.separable.derivatives()`` (exact,
-    assembled from each term's derivatives) instead of generating them for the whole
-    graph. IPOPT iterates on the NLP scaled by the system's inertia
-    (``problem.transcription.x_scale`` and ``g_scale``, `dmoc.optimize.scaling`); the start point, the bounds and the multipliers are converted on the
-    way in and out, so guesses and results are in the system's units. It is created
-    once per problem structure and options and kept in a bounded cache: boundary data,
-    bounds, the parameters (h, q_ref) and the guess are solver inputs, so re-solving the
-    same problem, or one from ``problem.with_boundary(...)``, skips the
-    build. A warm start (IPOPT's ``warm_start_init_point``) starts from the previous
-    optimum's multipliers; every other start lets IPOPT estimate them, with a second solver
-    of the same structure (its creation reuses the assembled derivatives, so it is cheap
-    next to the first build).
-
-    A converged NLP can fail to replay: the step equations have other roots when a step
-    is large, and IPOPT may converge to one of those (docs/stages/optimize.md,
-    "Verdicts"). A failed verdict raises with `throw` as an IPOPT failure does, so that
-    no caller uses such an optimum unawares; ``err.result`` keeps it for a look or as a
-    guess.
-    """
+def judged_solve(problem, *, check=True, throw=True, **keywords):
+    """IPOPT's solve (`dmoc.optimize.solve`, `keywords` its own) followed by `judge`: the
+    result with its `verdict`, ``success=False`` and the verdict's status when a check
+    fails (SolverError with `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
-    result = solve(problem, guess=guess, options=options, reuse_solver=reuse_solver,
-                   expand=expand, linear_solver_report=linear_solver_report, throw=throw)
+    result = solve(problem, throw=throw, **keywords)
     if not (check and result.success):
         return result
     verdict = judge(problem, result)

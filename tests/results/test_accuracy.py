@@ -1,0 +1,188 @@
+"""Error estimates and accuracy targets (`dmoc.results.accuracy`, issue 23).
+
+Oracles, none taken from dmoc:
+- the cost J* = 8.72240586430 of knife-edge parking (issue 23: two independent high-order
+  transcriptions agree to 6e-11);
+- the final configuration of the continuous knife edge driven by the optimum's controls,
+  integrated by scipy's DOP853 on equations written here: with m = J = 1 the speed s
+  along the blade obeys s' = u0, the heading theta'' = u1, and (x, y)' = s (cos, sin)
+  theta;
+- `with_steps` against the same problem built anew at that N.
+"""
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import dmoc
+import dmoc.problems
+from dmoc.results.accuracy import estimate_error, optimize_to_accuracy
+
+J_STAR = 8.72240586430
+QUIET = {"print_level": 0, "sb": "yes"}
+
+
+def knife_edge_end(traj, nodes):
+    """q(T) of the continuous knife edge (m = J = 1) from the optimum's (q_0, p_0), driven
+    on each step by the Lagrange interpolant of its controls at `nodes`, by DOP853."""
+    nodes = np.asarray(nodes)
+
+    def control(k, c):
+        weights = [np.prod([(c - b) / (a - b) for b in nodes if b != a]) for a in nodes]
+        return np.asarray(weights) @ traj.u[k].reshape(len(nodes), 2)
+
+    def rhs(t, y, k):
+        x, yy, theta, s, omega = y
+        u = control(k, (t - traj.t[k]) / traj.h)
+        return [s * np.cos(theta), s * np.sin(theta), omega, u[0], u[1]]
+
+    q0, p0 = traj.q[0], traj.p[0]
+    y = np.array([*q0, p0[0] * np.cos(q0[2]) + p0[1] * np.sin(q0[2]), p0[2]])
+    for k in range(traj.steps):
+        y = solve_ivp(rhs, (traj.t[k], traj.t[k + 1]), y, args=(k,), method="DOP853",
+                      rtol=1e-12, atol=1e-12).y[:, -1]
+    return y[:3]
+
+
+@pytest.mark.parametrize("rule, steps", [("midpoint", 20), ("midpoint", 40), ("lobatto3", 20)])
+def test_the_estimate_is_within_a_factor_10_of_the_true_error(rule, steps):
+    """Cost against J*, final configuration against DOP853: estimate / true in [0.1, 10]."""
+    problem = dmoc.problems.knife_edge_parking(steps, rule=rule)
+    result = dmoc.optimize(problem, options=QUIET)
+    estimate = estimate_error(problem, result, options=QUIET)
+    true_cost = abs(result.cost - J_STAR) / J_STAR
+    assert 0.1 <= estimate.cost / true_cost <= 10, (estimate.cost, true_cost)
+    assert np.sign(estimate.cost_error) == np.sign(result.cost - J_STAR)
+    traj = result.trajectory
+    true_state = traj.q[-1] - knife_edge_end(traj, problem.disc.rule.control_nodes)
+    moving = np.abs(true_state) > 1e-9          # x and y; the heading ends exactly
+    ratio = estimate.state_error[moving] / true_state[moving]
+    assert moving.sum() >= 2 and np.all((0.1 <= ratio) & (ratio <= 10)), (estimate.state_error, true_state)
+    assert (estimate.steps, estimate.reference_steps, estimate.order) == (steps, steps // 2,
+                                                                         problem.disc.rule.order)
+
+
+def test_a_given_reference_is_used_as_it_is():
+    """The estimate from a reference solved by the caller equals the one estimate_error
+    solves itself (N // 2 steps), and costs no solve."""
+    problem = dmoc.problems.knife_edge_parking(20, rule="lobatto3")
+    result = dmoc.optimize(problem, options=QUIET)
+    reference = dmoc.optimize(problem.with_steps(10), options=QUIET)
+    given = estimate_error(problem, result, reference=reference)
+    solved = estimate_error(problem, result, options=QUIET)
+    assert given.cost == pytest.approx(solved.cost, rel=1e-5)
+    assert given.time < solved.time
+
+
+@pytest.mark.parametrize("rule, accuracy", [("midpoint", 1e-4), ("lobatto3", 1e-6), ("lobatto4", 1e-6)])
+def test_the_target_is_met_by_the_true_error(rule, accuracy):
+    """The loop stops with its estimate below the target, and J* says the cost is within it;
+    DOP853 says the final configuration is too."""
+    problem = dmoc.problems.knife_edge_parking(10, rule=rule)
+    result = optimize_to_accuracy(problem, accuracy, options=QUIET)
+    levels = result.stats["levels"]
+    assert result.success and "reached" in result.message
+    assert [level["steps"] for level in levels][:2] == [10, 20]
+    assert all(a["steps"] < b["steps"] for a, b in zip(levels, levels[1:]))
+    assert levels[0]["estimate"] is None and levels[-1]["estimate"] <= accuracy
+    assert abs(result.cost - J_STAR) / J_STAR <= accuracy
+    traj = result.trajectory
+    end = knife_edge_end(traj, traj.control_nodes)
+    assert np.max(np.abs(traj.q[-1] - end) / np.ptp(traj.q, axis=0)) <= accuracy
+    assert result.stats["error_estimate"]["cost"] <= accuracy
+
+
+def test_too_few_steps_allowed_stop_the_loop():
+    """max_steps below what the target needs: status accuracy_not_reached, a SolverError
+    with throw=True keeping the last level in .result."""
+    problem = dmoc.problems.knife_edge_parking(10)
+    result = optimize_to_accuracy(problem, 1e-6, max_steps=200, throw=False, options=QUIET)
+    assert (result.success, result.status) == (False, "accuracy_not_reached")
+    assert "max_steps" in result.message and result.stats["levels"][-1]["steps"] <= 200
+    with pytest.raises(dmoc.SolverError, match="not reached") as info:
+        optimize_to_accuracy(problem, 1e-6, max_steps=15, options=QUIET)
+    assert info.value.result.status == "accuracy_not_reached"
+
+
+def test_with_steps_is_the_problem_built_at_that_n():
+    coarse = dmoc.problems.knife_edge_parking(10, rule="lobatto3")
+    finer, built = coarse.with_steps(25), dmoc.problems.knife_edge_parking(25, rule="lobatto3")
+    assert (finer.steps, finer.disc.h) == (25, pytest.approx(built.disc.h, rel=1e-15))
+    assert finer.structure == built.structure
+    costs = [dmoc.optimize(p, options=QUIET).cost for p in (finer, built)]
+    assert costs[0] == pytest.approx(costs[1], rel=1e-12)
+
+
+@pytest.mark.parametrize("accuracy, kind, words", [
+    (0.0, dmoc.InputError, "`accuracy` must be finite and positive"),
+    (-1e-6, dmoc.InputError, "`accuracy` must be finite and positive"),
+    (np.nan, dmoc.InputError, "`accuracy` must be finite and positive"),
+    (1.5, dmoc.InputError, r"`accuracy` must be a relative error in \[1e-09, 1\)"),
+    (1e-12, dmoc.InputError, r"`accuracy` must be a relative error in \[1e-09, 1\)"),
+    ("1e-6", dmoc.InputTypeError, "`accuracy` must be a real number"),
+])
+def test_a_bad_accuracy_is_refused(accuracy, kind, words):
+    with pytest.raises(kind, match=words):
+        optimize_to_accuracy(dmoc.problems.knife_edge_parking(10), accuracy)
+
+
+def test_results_of_other_grids_are_refused():
+    problem = dmoc.problems.knife_edge_parking(10, rule="lobatto3")   # resolved at 10 steps
+    result = dmoc.optimize(problem, options=QUIET)
+    with pytest.raises(dmoc.InputError, match=r"`result` must be an optimum of `problem` \(20 steps\)"):
+        estimate_error(problem.with_steps(20), result)
+    with pytest.raises(dmoc.InputError, match="`reference` must be an optimum on another number"):
+        estimate_error(problem, result, reference=result)
+    with pytest.raises(dmoc.InputTypeError, match="`result` must be an OptimizationResult"):
+        estimate_error(problem, result.trajectory)
+
+
+def test_the_car_lane_change_converges_to_its_j_star():
+    """From the straight drive, lobatto4 on 20 steps is within 1e-6 of J* = 0.1558127846220
+    (lobatto4 N = 640 and lobatto3 N = 1280 agree to 1e-11, docs/stages/optimize.md), the
+    optimum replays, and the straight drive is the simulated unforced motion."""
+    problem = dmoc.problems.car_lane_change(20, rule="lobatto4")
+    guess = dmoc.problems.uniform_motion_guess(problem)
+    drive = dmoc.simulate(problem.disc, q0=[0, 0, 0, 0], v0=[40 / 3, 0, 0, 0], steps=20).trajectory
+    np.testing.assert_allclose(guess.q, drive.q, atol=1e-9)
+    np.testing.assert_allclose(guess.p, drive.p, rtol=1e-9, atol=1e-9)
+    result = dmoc.optimize(problem, guess=guess, options=QUIET)
+    assert abs(result.cost - 0.1558127846220) / 0.1558127846220 < 1e-6
+    traj = result.trajectory
+    replay = dmoc.simulate(problem.disc, q0=traj.q[0], p0=traj.p[0], steps=20, controls=traj.u).trajectory
+    assert np.abs(replay.q - traj.q).max() < 1e-8 * 40
+
+
+def test_the_levels_are_saved_with_the_result(tmp_path):
+    result = optimize_to_accuracy(dmoc.problems.knife_edge_parking(10, rule="lobatto4"), 1e-4,
+                                  options=QUIET)
+    result.save(tmp_path / "r.npz")
+    loaded = dmoc.OptimizationResult.load(tmp_path / "r.npz")
+    assert loaded.stats["levels"] == result.stats["levels"]
+    assert loaded.stats["error_estimate"] == result.stats["error_estimate"]
+
+
+def test_optimize_with_an_accuracy_target_reaches_it_and_judges_every_level():
+    """`dmoc.optimize(problem, accuracy=...)`: the true cost error (J*) is below the target,
+    the levels are reported and the last one's verdict carries the estimate."""
+    result = dmoc.optimize(dmoc.problems.knife_edge_parking(10, rule="lobatto3"), accuracy=1e-6,
+                           options=QUIET)
+    assert result.success and result.verdict.passed
+    assert abs(result.cost / J_STAR - 1) < 1e-6
+    levels = result.stats["levels"]
+    assert [level["steps"] for level in levels][:2] == [10, 20] and levels[-1]["estimate"] <= 1e-6
+    assert result.verdict.discretization_error == levels[-1]["estimate"]
+
+
+def test_optimize_with_estimate_puts_it_on_the_verdict():
+    """`estimate=True`: the cost's estimate within a factor 10 of its true error (J*)."""
+    problem = dmoc.problems.knife_edge_parking(20, rule="lobatto3")
+    plain = dmoc.optimize(problem, options=QUIET)
+    result = dmoc.optimize(problem, options=QUIET, estimate=True)
+    assert plain.verdict.discretization_error is None and result.cost == plain.cost
+    estimate = result.stats["error_estimate"]
+    true = abs(result.cost / J_STAR - 1)
+    assert true / 10 < estimate["cost"] < 10 * true
+    assert result.verdict.discretization_error == max(estimate["cost"], estimate["final_state"])
+    with pytest.raises(dmoc.InputTypeError, match="`estimate`"):
+        dmoc.optimize(problem, options=QUIET, estimate="yes")
