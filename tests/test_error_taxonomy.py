@@ -78,8 +78,9 @@ def parametric(ctx):
 
 
 def solved(ctx):
-    """The optimum of `problem(ctx)` (5 steps)."""
-    return dmoc.optimize(problem(ctx), options={"print_level": 0, "sb": "yes"})
+    """The optimum of `problem(ctx)` (5 steps: IPOPT's, not judged; too coarse for the
+    verdict, which these rows do not test)."""
+    return dmoc.optimize(problem(ctx), options={"print_level": 0, "sb": "yes"}, check=False)
 
 
 def free_multipliers():
