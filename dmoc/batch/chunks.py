@@ -1,0 +1,50 @@
+"""How many items one task of a batch carries: enough that a task takes about `TARGET`
+seconds on its worker, so that Dask's cost per task (a few milliseconds: scheduling, one
+round trip, pickling) is small next to the solves, and few enough that every worker
+thread still gets several tasks before the batch ends."""
+
+import math
+from collections import deque
+from statistics import median
+
+# Seconds of work one task aims at: tens to hundreds of milliseconds (docs/batch.md).
+TARGET = 0.1
+
+# The chunks each worker thread gets at least from the items still queued, so that the
+# last tasks end close together.
+SHARES = 4
+
+# The per-item costs the median is taken over: the latest ones, so a first solve that
+# built its solver is soon outweighed.
+WINDOW = 64
+
+
+class ChunkSizes:
+    """The size of the next chunk from the seconds the items took on their workers.
+
+    Until a cost is measured every chunk holds one item; then
+    ``min(TARGET / median cost, queued / (SHARES * threads))``, at least one.
+
+    >>> sizes = ChunkSizes()
+    >>> sizes.next(1000, 2)
+    1
+    >>> sizes.measured([0.004, 0.005, 0.006])
+    >>> sizes.next(1000, 2), sizes.next(40, 2)
+    (20, 5)
+    """
+
+    def __init__(self):
+        self._seconds = deque(maxlen=WINDOW)
+
+    def measured(self, seconds):
+        """Record the seconds each item of a finished chunk took on its worker."""
+        self._seconds.extend(seconds)
+
+    def next(self, queued, threads):
+        """The size of the next chunk, with `queued` items left and `threads` worker
+        threads."""
+        if not self._seconds:
+            return 1
+        cost = max(median(self._seconds), 1e-6)
+        balanced = math.ceil(queued / (SHARES * threads))
+        return max(1, min(int(TARGET / cost), balanced))
