@@ -9,7 +9,7 @@ import sys
 import dask
 import distributed
 
-from ..errors import InputTypeError
+from ..errors import InputError, InputTypeError
 from .errors import SchedulerUnreachable, WorkersFailedToStart
 
 # one BLAS/OpenMP thread per worker process: the workers, not BLAS threads, share the cores
@@ -40,7 +40,7 @@ class Cluster:
 
     def __init__(self, address=None, *, workers=None, connect_timeout=5.0):
         if address is not None and workers is not None:
-            raise InputTypeError("`workers` starts a LocalCluster; it cannot go with an "
+            raise InputError("`workers` starts a LocalCluster; it cannot go with an "
                                  f"`address` ({address!r}), whose workers run already.")
         self.client = connect(address if address is not None else _configured(),
                               connect_timeout, workers=workers)
