@@ -111,9 +111,12 @@ class Batch:
     def _fill(self):
         """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
         thread are in flight: consecutive items of one shipment, as many as
-        `ChunkSizes.next` says (one for an item whose chunk lost its workers)."""
+        `ChunkSizes.next` says. An item whose chunk lost its workers goes alone, and while
+        such items are left one chunk per thread is in flight, so that a worker's death
+        fails only the chunk it was running."""
         threads = max(sum(self.client.nthreads().values()), 1)
-        while self.queued and len(self.flying) < CHUNKS_PER_THREAD * threads:
+        per_thread = 1 if self.alone else CHUNKS_PER_THREAD
+        while self.queued and len(self.flying) < per_thread * threads:
             first = self.queued.popleft()
             digest, chunk = self.items[first][0], [first]
             size = 1 if first in self.alone else self.sizes.next(len(self.queued) + 1, threads)
@@ -144,6 +147,7 @@ class Batch:
         future.release()
         for i, result in zip(chunk, results):
             self.results[i] = result
+        self.alone.difference_update(chunk[:len(results)])
         self.queued.extendleft(reversed(chunk[len(results):]))
         self.sizes.measured(seconds)
         if results and results[-1].status == "timeout":
