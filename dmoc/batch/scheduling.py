@@ -87,7 +87,8 @@ class Batch:
         workerless = None
         try:
             while self.queued or self.flying:
-                self._fill()
+                threads = sum(self.client.nthreads().values())
+                self._fill(max(threads, 1))
                 try:
                     distributed.wait(list(self.flying), timeout=TICK, return_when="FIRST_COMPLETED")
                 except TimeoutError:
@@ -97,7 +98,7 @@ class Batch:
                 if deadline is not None and now >= deadline:
                     self._abandon("timeout", f"the batch ran longer than `batch_timeout`="
                                   f"{batch_timeout:g} s before this item finished")
-                workerless = None if self.client.nthreads() else (workerless or now)
+                workerless = None if threads else (workerless or now)
                 if workerless is not None and now - workerless >= connect_timeout:
                     self._abandon("worker_lost", f"the scheduler had no worker for "
                                   f"{connect_timeout:g} s (`connect_timeout`)")
@@ -108,13 +109,12 @@ class Batch:
             raise BatchInterrupted(self.results) from None
         return self.results
 
-    def _fill(self):
+    def _fill(self, threads):
         """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
         thread are in flight: consecutive items of one shipment, as many as
         `ChunkSizes.next` says. An item whose chunk lost its workers goes alone, and while
         such items are left one chunk per thread is in flight, so that a worker's death
-        fails only the chunk it was running."""
-        threads = max(sum(self.client.nthreads().values()), 1)
+        fails only the chunk it was running. `threads`: the cluster's worker threads."""
         per_thread = 1 if self.alone else CHUNKS_PER_THREAD
         while self.queued and len(self.flying) < per_thread * threads:
             first = self.queued.popleft()
