@@ -1,14 +1,15 @@
 """How many items one task of a batch carries: enough that a task takes about `TARGET`
-seconds on its worker, so that Dask's cost per task (a few milliseconds: scheduling, one
-round trip, pickling) is small next to the solves, and few enough that every worker
-thread still gets several tasks before the batch ends."""
+seconds of its worker's CPU, so that Dask's cost per task (a few milliseconds: scheduling,
+round trips, pickling, in the client, the scheduler and the worker) is small next to the
+solves, and few enough that every worker thread still gets several tasks before the
+batch ends."""
 
 import math
 from collections import deque
 from statistics import median
 
-# Seconds of work one task aims at: tens to hundreds of milliseconds (docs/batch.md).
-TARGET = 0.1
+# CPU seconds of work one task aims at: a few hundred milliseconds (docs/batch.md).
+TARGET = 0.2
 
 # The chunks each worker thread gets at least from the items still queued, so that the
 # last tasks end close together.
@@ -20,7 +21,7 @@ WINDOW = 64
 
 
 class ChunkSizes:
-    """The size of the next chunk from the seconds the items took on their workers.
+    """The size of the next chunk from the CPU seconds the items took on their workers.
 
     Until a cost is measured every chunk holds one item; then
     ``min(TARGET / median cost, queued / (SHARES * threads))``, at least one.
@@ -30,14 +31,14 @@ class ChunkSizes:
     1
     >>> sizes.measured([0.004, 0.005, 0.006])
     >>> sizes.next(1000, 2), sizes.next(40, 2)
-    (20, 5)
+    (40, 5)
     """
 
     def __init__(self):
         self._seconds = deque(maxlen=WINDOW)
 
     def measured(self, seconds):
-        """Record the seconds each item of a finished chunk took on its worker."""
+        """Record the CPU seconds each item of a finished chunk took on its worker."""
         self._seconds.extend(seconds)
 
     def next(self, queued, threads):

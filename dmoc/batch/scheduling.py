@@ -75,6 +75,7 @@ class Batch:
         self.key = f"dmoc-{label}-{uuid.uuid4().hex[:8]}"
         self.results, self.queued, self.flying = [None] * len(items), deque(range(len(items))), {}
         self.alone, self.sizes, self.submitted = set(), ChunkSizes(), 0
+        self.threads, self.asked = 0, -float("inf")
 
     def collect(self, bar, *, batch_timeout, connect_timeout):
         """One result per item, in order: a returned result as it is, a chunk the scheduler
@@ -87,7 +88,7 @@ class Batch:
         workerless = None
         try:
             while self.queued or self.flying:
-                threads = sum(self.client.nthreads().values())
+                threads = self._threads()
                 self._fill(max(threads, 1))
                 try:
                     distributed.wait(list(self.flying), timeout=TICK, return_when="FIRST_COMPLETED")
@@ -108,6 +109,13 @@ class Batch:
             self._abandon("interrupted", "Ctrl-C (KeyboardInterrupt) before this item finished")
             raise BatchInterrupted(self.results) from None
         return self.results
+
+    def _threads(self):
+        """The cluster's worker threads, asked of the scheduler at most once per TICK."""
+        now = time.monotonic()
+        if now - self.asked >= TICK:
+            self.threads, self.asked = sum(self.client.nthreads().values()), now
+        return self.threads
 
     def _fill(self, threads):
         """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
