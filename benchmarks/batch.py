@@ -8,7 +8,8 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
   small batch of the same N solved before timing). At the first N also the cluster's
   start included: starting a Cluster, the batch, closing it.
 - **simulate**: `count` knife-edge runs of `--sim-steps` steps (v0 = (c, 0, 1)), serial
-  ``dmoc.simulate`` (compiled step built before timing) against ``simulate_many``.
+  ``dmoc.simulate`` against ``simulate_many``, both in compiled C (``jit=True``; the
+  virtual machine where there is no C compiler), the step built before timing.
 - **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
   and on the cluster: seconds per item, and the worker-seconds a batch adds per item,
   2 x batch - serial (its cost of shipping, scheduling and collecting).
@@ -37,6 +38,7 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
+from dmoc.simulate import compiled  # noqa: E402
 
 WORKERS = 2
 
@@ -83,7 +85,9 @@ def with_start(steps, count):
 def simulate_row(cluster, steps, count):
     """(serial wall, batch wall, max |dq|) of `count` knife-edge runs of `steps` steps."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps} for c in np.linspace(0.5, 2.0, count)]
+    jit = compiled.compiler() is not None           # the same path serially and on the workers
+    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
+            for c in np.linspace(0.5, 2.0, count)]
     dmoc.simulate(disc, **runs[0])
     serial_wall, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
     batch.simulate_many(disc, runs[:2 * WORKERS], client=cluster, progress=False)
