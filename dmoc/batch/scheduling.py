@@ -42,29 +42,37 @@ def run(task, arguments, shipments, items, kind, client, *, label, progress, bat
     each) after shipping `shipments` ({digest: bytes}); the results of `kind` in input
     order (`Batch.collect`)."""
     client, owned = client_of(client, connect_timeout)
+    names = []
     try:
-        names = ship(client, shipments)
+        ship(client, shipments, names)
         bar = ProgressBar(len(items), label, sys.stderr if progress else None)
         try:
             batch = Batch(client, task, arguments, items, kind, label)
             return batch.collect(bar, batch_timeout=batch_timeout, connect_timeout=connect_timeout)
         finally:
             bar.close()
-            if not owned:
-                for name in names:
-                    client.unregister_worker_plugin(name)
     finally:
+        unship(client, names)
         if owned:
             close(client)
 
 
-def ship(client, shipments):
-    """Register one `Shipment` per entry of `shipments` on every worker; their names."""
-    names = []
+def ship(client, shipments, names):
+    """Register one `Shipment` per entry of `shipments` on every worker, appending the
+    name of each to `names`."""
     for digest, data in shipments.items():
         names.append(f"dmoc-shipment-{digest}-{uuid.uuid4().hex[:8]}")
         client.register_plugin(Shipment(digest, data), name=names[-1])
-    return names
+
+
+def unship(client, names):
+    """Unregister the Shipments `names` (the workers drop their bytes), unless the
+    scheduler is gone: then nothing holds them any more."""
+    for name in names:
+        try:
+            client.unregister_worker_plugin(name)
+        except OSError:     # the connection is lost; the batch's own outcome stands
+            return
 
 
 class Batch:

@@ -16,7 +16,6 @@ the results so far and the client queues the chunk's other items again.
 import threading
 import time
 import traceback
-from collections import OrderedDict
 
 import casadi as ca
 import cloudpickle
@@ -26,10 +25,9 @@ from .._util.cache import BoundedCache
 from ..optimize.solve import OptimizationResult, optimize
 from ..simulate.simulation import SimulationResult, simulate
 
-# digest -> bytes of what `Shipment`s brought to this worker process; the oldest of more
-# than SHIPPED_KEPT are dropped (not a BoundedCache: `clear_caches` must not empty it)
-SHIPPED_KEPT = 64
-_SHIPPED = OrderedDict()
+# digest -> [the Shipments registered with it, their bytes] in this worker process, while
+# a batch runs (not a BoundedCache: `clear_caches` must not empty it)
+_SHIPPED = {}
 _LOADED = BoundedCache(8, "batch shipments")     # digest -> the unpickled problem or disc
 
 
@@ -47,24 +45,30 @@ def unpack_problem(data):
 
 class Shipment(distributed.WorkerPlugin):
     """The bytes of one problem (`pack_problem`) or discretization (cloudpickle), kept by
-    every worker of the cluster under their `digest`: registered once per batch, set up
-    on each worker now and on every worker that joins later (restarted ones too)."""
+    every worker of the cluster under their `digest` while the batch runs: registered
+    once per batch, set up on each worker now and on every worker that joins later
+    (restarted ones too), torn down when the batch unregisters it. Batches that ship the
+    same bytes at once share them until the last one ends."""
 
     def __init__(self, digest, data):
         self.digest, self.data = digest, data
 
     def setup(self, worker):
-        _SHIPPED[self.digest] = self.data
-        _SHIPPED.move_to_end(self.digest)
-        while len(_SHIPPED) > SHIPPED_KEPT:
-            _SHIPPED.popitem(last=False)
+        _SHIPPED.setdefault(self.digest, [0, self.data])[0] += 1
+
+    def teardown(self, worker):
+        entry = _SHIPPED.get(self.digest)
+        if entry is not None:
+            entry[0] -= 1
+            if entry[0] <= 0:
+                del _SHIPPED[self.digest]
 
 
 def shipped(digest, unpack):
     """The object shipped under `digest`, unpacked once per worker process by `unpack`."""
     if digest not in _SHIPPED:
         raise LookupError(f"nothing was shipped to this worker under {digest!r}")
-    return _LOADED.get(digest, lambda: unpack(_SHIPPED[digest]))
+    return _LOADED.get(digest, lambda: unpack(_SHIPPED[digest][1]))
 
 
 def optimize_chunk(digest, items, options, switches, timeout):

@@ -92,6 +92,11 @@ def test_remote_workers_give_the_serial_results(address):
     _assert_same_as_serial(problems[:3], by_address)
     with distributed.Client(address, timeout=START_TIMEOUT) as client:   # still running
         assert len(client.scheduler_info()["workers"]) == 2
+        assert client.run_on_scheduler(_dmoc_plugins) == []            # shipments taken back
+
+
+def _dmoc_plugins(dask_scheduler):
+    return sorted(name for name in dask_scheduler.worker_plugins if name.startswith("dmoc"))
 
 
 def test_the_configured_scheduler_address_is_the_default(address):

@@ -5,6 +5,7 @@ and a worker that keeps dying confines its loss to the one item that kills it.""
 
 import os
 import signal
+from concurrent.futures import ThreadPoolExecutor
 
 import casadi as ca
 import numpy as np
@@ -162,3 +163,26 @@ def test_a_problem_whose_rebuild_is_refused_is_shipped_itself():
     assert narrow.structure == wide.structure
     shipments, items = shipping.problem_items([narrow, wide], [None, None])
     assert len(shipments) == 2 and items[0][0] != items[1][0]
+
+
+def _shipped_bytes():
+    from dmoc.batch import tasks
+    return len(tasks._SHIPPED)
+
+
+def _dmoc_plugins(dask_scheduler):
+    return sorted(name for name in dask_scheduler.worker_plugins if name.startswith("dmoc"))
+
+
+def test_a_batch_takes_its_shipments_back(client):
+    """After the call no worker holds the shipped bytes and the scheduler no plugin, also
+    when the same bytes were shipped twice at once (two calls from two threads)."""
+    problems = [knife_edge_parking(20).with_boundary(q_goal=[0.0, y, 0.1]) for y in (0.5, 1.0)]
+    with ThreadPoolExecutor(2) as pool:
+        calls = [pool.submit(batch.optimize_many, problems, client=client, progress=False)
+                 for _ in range(2)]
+        first, second = (call.result(timeout=120) for call in calls)
+    assert [r.cost for r in first] == [r.cost for r in second]
+    assert all(r.success for r in first)
+    assert set(client.run(_shipped_bytes).values()) == {0}
+    assert client.run_on_scheduler(_dmoc_plugins) == []
