@@ -277,6 +277,8 @@ API_ROWS = [
     ('batch.Cluster("tcp://127.0.0.1:1", workers=2)',
      lambda c: batch.Cluster(UNREACHABLE, workers=2), ValueError,
      "`workers` starts a LocalCluster; it cannot go with an `address`"),
+    ("batch.Cluster(workers=0)", lambda c: batch.Cluster(workers=0), ValueError,
+     "`workers` must be a positive integer; got 0"),
     ("OptimalControlProblem: parameters=[1.0]", lambda c: problem(c, parameters=[1.0]), TypeError,
      "`parameters` must be a dict"),
     ('parameters={"2r": 1.0}',

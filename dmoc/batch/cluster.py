@@ -9,6 +9,7 @@ import sys
 import dask
 import distributed
 
+from .._util import checks
 from ..errors import InputError, InputTypeError
 from .errors import SchedulerUnreachable, WorkersFailedToStart
 
@@ -39,11 +40,16 @@ class Cluster:
     """
 
     def __init__(self, address=None, *, workers=None, connect_timeout=5.0):
+        if address is not None:
+            checks.instance("address", address, str, "a scheduler address such as "
+                            "'tcp://10.0.0.1:8786', or None")
         if address is not None and workers is not None:
             raise InputError("`workers` starts a LocalCluster; it cannot go with an "
-                                 f"`address` ({address!r}), whose workers run already.")
+                             f"`address` ({address!r}), whose workers run already.")
+        workers = None if workers is None else checks.positive_int("workers", workers)
         self.client = connect(address if address is not None else _configured(),
-                              connect_timeout, workers=workers)
+                              checks.positive_float("connect_timeout", connect_timeout),
+                              workers=workers)
 
     def close(self):
         """Close the connection, and the LocalCluster if this object started it."""

@@ -133,6 +133,12 @@ def _fresh_problems_only():
     tasks._LOADED.clear()
 
 
-def test_a_cluster_with_an_address_takes_no_worker_count():
-    with pytest.raises(dmoc.InputError, match="`workers` starts a LocalCluster"):
-        batch.Cluster("tcp://127.0.0.1:1", workers=2)
+@pytest.mark.parametrize("args, kwargs, error, words", [
+    (("tcp://127.0.0.1:1",), {"workers": 2}, dmoc.InputError, "`workers` starts a LocalCluster"),
+    ((), {"workers": 0}, dmoc.InputError, "`workers` must be a positive integer; got 0"),
+    ((8786,), {}, dmoc.InputTypeError, "`address` must be a scheduler address .* got int"),
+    (("tcp://127.0.0.1:1",), {"connect_timeout": -1}, dmoc.InputError, "`connect_timeout`"),
+])
+def test_a_cluster_checks_its_arguments_before_starting_anything(args, kwargs, error, words):
+    with pytest.raises(error, match=words):
+        batch.Cluster(*args, **kwargs)
