@@ -48,8 +48,10 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
     Parameters
     ----------
     problems : sequence of OptimalControlProblem, length B
-    guesses : sequence of (Trajectory or None), length B, optional
+    guesses : sequence of (Trajectory, OptimizationResult or None), length B, optional
         Warm start of each problem (``optimize(..., guess=)``); None for the default guess.
+        A result of a problem of the same `structure` warm-starts IPOPT from its x and
+        multipliers, as in `optimize`.
     options : dict, optional
         IPOPT options for every solve (``optimize(..., options=)``).
     reuse_solver, expand : bool
@@ -95,7 +97,8 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
     problems = _sequence("problems", problems, OptimalControlProblem, "OptimalControlProblem")
     if guesses is None:
         guesses = [None] * len(problems)
-    guesses = _sequence("guesses", guesses, (Trajectory, type(None)), "Trajectory or None")
+    guesses = _sequence("guesses", guesses, (Trajectory, OptimizationResult, type(None)),
+                        "Trajectory, OptimizationResult or None")
     if len(guesses) != len(problems):
         raise InputError(f"`guesses` must have one entry per problem ({len(problems)}); "
                          f"got {len(guesses)}.")

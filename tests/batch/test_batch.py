@@ -124,6 +124,10 @@ def test_warm_start_from_guesses(client):
     serial = [dmoc.optimize(p, guess=g) for p, g in zip(problems, guesses)]
     _assert_same_as_serial(problems, results, serial)
     assert results[3].stats["iterations"] <= 1
+    moved = [p.with_boundary(q_goal=p.q_goal + [0.0, 0.05, 0.0]) for p in problems]
+    warm = batch.optimize_many(moved, guesses=seeds, client=client, progress=False)
+    _assert_same_as_serial(moved, warm, [dmoc.optimize(p, guess=g) for p, g in zip(moved, seeds)])
+    assert all(r.stats["warm_start"] for r in warm)
 
 
 def test_failures_stay_in_their_own_result(client):
