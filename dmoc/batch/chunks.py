@@ -12,8 +12,12 @@ from statistics import median
 TARGET = 0.2
 
 # The chunks each worker thread gets at least from the items still queued, so that the
-# last tasks end close together.
+# last tasks end close together ...
 SHARES = 4
+
+# ... but no chunk carries less than FLOOR CPU seconds (unless fewer items are left): a
+# chunk of one millisecond would leave its worker waiting for the round trip of the next.
+FLOOR = 0.02
 
 # The per-item costs the median is taken over: the latest ones, so a first solve that
 # built its solver is soon outweighed.
@@ -24,14 +28,15 @@ class ChunkSizes:
     """The size of the next chunk from the CPU seconds the items took on their workers.
 
     Until a cost is measured every chunk holds one item; then
-    ``min(TARGET / median cost, queued / (SHARES * threads))``, at least one.
+    ``min(TARGET / cost, max(queued / (SHARES * threads), FLOOR / cost))`` for the median
+    cost of an item, at least one.
 
     >>> sizes = ChunkSizes()
     >>> sizes.next(1000, 2)
     1
     >>> sizes.measured([0.004, 0.005, 0.006])
-    >>> sizes.next(1000, 2), sizes.next(40, 2)
-    (40, 5)
+    >>> sizes.next(1000, 2), sizes.next(40, 2), sizes.next(8, 2)
+    (40, 5, 4)
     """
 
     def __init__(self):
@@ -47,5 +52,5 @@ class ChunkSizes:
         if not self._seconds:
             return 1
         cost = max(median(self._seconds), 1e-6)
-        balanced = math.ceil(queued / (SHARES * threads))
+        balanced = max(math.ceil(queued / (SHARES * threads)), math.ceil(FLOOR / cost))
         return max(1, min(int(TARGET / cost), balanced))

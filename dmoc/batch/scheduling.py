@@ -129,10 +129,10 @@ class Batch:
         """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
         thread are in flight: consecutive items of one shipment, as many as
         `ChunkSizes.next` says. An item whose chunk lost its workers goes alone, and while
-        such items are left one chunk per thread is in flight, so that a worker's death
-        fails only the chunk it was running. `threads`: the cluster's worker threads."""
-        per_thread = 1 if self.alone else CHUNKS_PER_THREAD
-        while self.queued and len(self.flying) < per_thread * threads:
+        such items are left only one task is in flight, so that a worker's death fails
+        that task alone. `threads`: the cluster's worker threads."""
+        limit = 1 if self.alone else CHUNKS_PER_THREAD * threads
+        while self.queued and len(self.flying) < limit:
             first = self.queued.popleft()
             digest, chunk = self.items[first][0], [first]
             size = 1 if first in self.alone else self.sizes.next(len(self.queued) + 1, threads)

@@ -108,18 +108,19 @@ def test_an_item_that_kills_its_chunks_workers_is_the_only_one_lost():
     """With no failure allowed, a chunk whose worker dies comes back as KilledWorker; its
     items are run again one per chunk, so only the killer is "worker_lost"."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 5} for c in np.linspace(0.1, 2.0, 100)]
-    runs[60] = {**runs[60], "controls": _kill_always()}
+    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 5} for c in np.linspace(0.1, 2.0, 400)]
+    runs[200] = {**runs[200], "controls": _kill_always()}
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=":0",
                                   scheduler_kwargs={"allowed_failures": 0}) as cluster, \
             distributed.Client(cluster) as client:
         with distributed.get_task_stream(client=client) as stream:
             results = batch.simulate_many(disc, runs, client=client, progress=False)
-    assert len(stream.data) < len(runs)                 # chunks held several runs
-    assert [i for i, r in enumerate(results) if not r.success] == [60]
-    assert results[60].status == "worker_lost" and "KilledWorker" in results[60].message
-    for got, run in zip(results[:60] + results[61:], runs[:60] + runs[61:]):
+    assert len(stream.data) < len(runs) / 2             # chunks held several runs
+    failed = {i: (r.status, r.message) for i, r in enumerate(results) if not r.success}
+    assert list(failed) == [200], failed
+    assert results[200].status == "worker_lost" and "KilledWorker" in results[200].message
+    for got, run in zip(results[:200] + results[201:], runs[:200] + runs[201:]):
         assert np.array_equal(got.trajectory.q, dmoc.simulate(disc, **run).trajectory.q)
 
 
@@ -129,6 +130,8 @@ def test_an_item_that_kills_its_chunks_workers_is_the_only_one_lost():
     ([0.004, 0.005, 0.006], 40, 2, 5),                # 40 / (4 chunks x 2 threads)
     ([0.3], 1000, 2, 1),                              # slower than the target
     ([0.5, 0.01, 0.01], 1000, 8, 20),                 # the median, not the first solve
+    ([0.001], 20, 2, 20),                             # the tail: at least 0.02 s a chunk
+    ([0.001], 2000, 64, 20),                          # many threads: the same floor
 ])
 def test_chunk_size_aims_at_a_fifth_of_a_second_and_leaves_work_for_every_thread(
         seconds, queued, threads, size):
