@@ -1,16 +1,25 @@
-"""Benchmark: 64 knife-edge parking problems (dmoc.problems.parking_goals) solved serially
-in-process with ``dmoc.optimize`` against ``dmoc.batch.optimize_many`` on a LocalCluster of
-1 and of 2 single-threaded worker processes.
+"""Benchmark: `dmoc.batch` on a 2-worker cluster against the serial in-process loop a user
+would otherwise write, timed in the same run (docs/performance.md, "Batches that scale").
 
-The problems are built once, before any timing. For each cluster, **startup** is starting
-it plus a warm-up batch of one solve per worker (the workers import dmoc and CasADi);
-**wall** is then one ``optimize_many`` call on the running cluster, best of `--repeat`.
-Speed-ups are serial wall / batch wall, and 1-worker wall / 2-worker wall. The last column
-is the largest |cost - serial cost| over the 64 problems; ``shipped`` is the mean size of
-one pickled problem, the bulk of what is sent per task.
+- **optimize**: `count` knife-edge parking problems (goals (0, y, 0.1), y from 0.2 to 2.0,
+  each ``base.with_boundary(q_goal=...)``) at each N of `--steps`: the serial loop of
+  ``dmoc.optimize`` on the kept solver (built before timing) against ``optimize_many`` on
+  a `dmoc.batch.Cluster` of 2 single-threaded workers already running and warmed up (one
+  small batch of the same N solved before timing). At the first N also the cluster's
+  start included: starting a Cluster, the batch, closing it.
+- **simulate**: `count` knife-edge runs of `--sim-steps` steps (v0 = (c, 0, 1)), serial
+  ``dmoc.simulate`` against ``simulate_many``, both in compiled C (``jit=True``; the
+  virtual machine where there is no C compiler), the step built before timing.
+- **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
+  and on the cluster: seconds per item, and the worker-seconds a batch adds per item,
+  2 x batch - serial (its cost of shipping, scheduling and collecting).
 
-    python benchmarks/batch.py                 # N = 20 and N = 100
-    python benchmarks/batch.py --steps 200
+Speed-ups are serial wall / batch wall (higher is better); ``max |dcost|`` compares the
+costs with the serial ones. The machine must be otherwise idle for the 2-worker ratios to
+mean anything: the load average is printed before and after.
+
+    python benchmarks/batch.py                 # 1000 problems at N = 20, 100, 400; 1000 runs
+    python benchmarks/batch.py --quick         # 100 problems at N = 20, 100; 100 runs
 """
 
 import argparse
@@ -19,7 +28,7 @@ import platform
 import time
 
 # One BLAS thread per process: the workers, not BLAS threads, share the cores.
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import casadi as ca  # noqa: E402
@@ -28,63 +37,106 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from dmoc.problems import knife_edge_parking, parking_goals  # noqa: E402
+from dmoc.problems import knife_edge_parking  # noqa: E402
+from dmoc.simulate import compiled  # noqa: E402
+
+WORKERS = 2
 
 
-def best_of(repeat, run):
-    """(smallest wall time, last value) of `repeat` calls of run()."""
-    times, value = [], None
-    for _ in range(repeat):
-        tic = time.perf_counter()
-        value = run()
-        times.append(time.perf_counter() - tic)
-    return min(times), value
-
-
-def on_cluster(problems, workers, repeat):
-    """(startup seconds, best wall seconds, costs) of optimize_many on `workers` workers."""
+def timed(run):
+    """(wall seconds, value) of run()."""
     tic = time.perf_counter()
-    with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as cluster, \
-            distributed.Client(cluster) as client:
-        batch.optimize_many(problems[:workers], client=client, progress=False)
-        startup = time.perf_counter() - tic
-        wall, results = best_of(repeat, lambda: batch.optimize_many(problems, client=client,
-                                                                     progress=False))
+    value = run()
+    return time.perf_counter() - tic, value
+
+
+def parking(steps, count):
+    base = knife_edge_parking(steps)
+    return [base.with_boundary(q_goal=[0.0, y, 0.1]) for y in np.linspace(0.2, 2.0, count)]
+
+
+def costs(results):
     assert all(r.success for r in results), [r.status for r in results if not r.success]
-    return startup, wall, np.array([r.cost for r in results])
+    return np.array([r.cost for r in results])
 
 
-def table(steps, repeat):
-    problems = [knife_edge_parking(steps, goal=goal) for goal in parking_goals()]
-    shipped = np.mean([len(batch.pack_problem(p)) for p in problems])
-    serial_wall, serial = best_of(repeat, lambda: [dmoc.optimize(p) for p in problems])
-    serial_costs = np.array([r.cost for r in serial])
-    rows = [("serial", "-", "-", serial_wall, 0.0)]
-    for workers in (1, 2):
-        startup, wall, costs = on_cluster(problems, workers, repeat)
-        rows.append(("cluster", workers, f"{startup:.2f}", wall, np.abs(costs - serial_costs).max()))
-    lines = [f"N = {steps}: 64 problems, {sum(r.stats['iterations'] for r in serial)} IPOPT "
-             f"iterations in all, shipped {shipped / 1e3:.0f} kB per problem",
-             f"{'run':8s} {'workers':>7s} {'startup s':>10s} {'wall s':>8s} {'vs serial':>10s} "
-             f"{'vs 1 worker':>12s} {'max |dcost|':>12s}", "-" * 72]
-    one_worker_wall = rows[1][3]
-    for name, workers, startup, wall, dcost in rows:
-        lines.append(f"{name:8s} {workers!s:>7s} {startup:>10s} {wall:8.3f} "
-                     f"{serial_wall / wall:10.2f} {one_worker_wall / wall:12.2f} {dcost:12.1e}")
-    return "\n".join(lines)
+def optimize_row(cluster, steps, count):
+    """(serial wall, batch wall, max |dcost|) of `count` parking problems at N = steps."""
+    problems = parking(steps, count)
+    dmoc.optimize(problems[0])                                        # the kept solver
+    serial_wall, serial = timed(lambda: [dmoc.optimize(p) for p in problems])
+    batch.optimize_many(problems[:2 * WORKERS], client=cluster, progress=False)   # warm-up
+    wall, results = timed(lambda: batch.optimize_many(problems, client=cluster, progress=False))
+    return serial_wall, wall, np.abs(costs(results) - costs(serial)).max()
+
+
+def with_start(steps, count):
+    """Wall seconds of starting a Cluster, `count` parking problems on it, and closing it."""
+    problems = parking(steps, count)
+
+    def run():
+        with batch.Cluster(workers=WORKERS) as cluster:
+            return batch.optimize_many(problems, client=cluster, progress=False)
+    wall, results = timed(run)
+    costs(results)
+    return wall
+
+
+def simulate_row(cluster, steps, count):
+    """(serial wall, batch wall, max |dq|) of `count` knife-edge runs of `steps` steps."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
+    jit = compiled.compiler() is not None           # the same path serially and on the workers
+    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
+            for c in np.linspace(0.5, 2.0, count)]
+    dmoc.simulate(disc, **runs[0])
+    serial_wall, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
+    batch.simulate_many(disc, runs[:2 * WORKERS], client=cluster, progress=False)
+    wall, results = timed(lambda: batch.simulate_many(disc, runs, client=cluster, progress=False))
+    dq = max(np.abs(a.trajectory.q - b.trajectory.q).max() for a, b in zip(results, serial))
+    return serial_wall, wall, dq
+
+
+def overhead_row(cluster, count):
+    """(serial s/item, batch s/item, added worker-seconds per item) of an empty problem."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    problems = [dmoc.OptimalControlProblem(disc, 3, q_start=[0, 0, 0], q_goal=[0, 0, 0])] * count
+    dmoc.optimize(problems[0])
+    serial_wall, _ = timed(lambda: [dmoc.optimize(p) for p in problems])
+    batch.optimize_many(problems[:2 * WORKERS], client=cluster, progress=False)
+    wall, results = timed(lambda: batch.optimize_many(problems, client=cluster, progress=False))
+    costs(results)
+    return serial_wall / count, wall / count, (WORKERS * wall - serial_wall) / count
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--steps", type=int, nargs="+", default=[20, 100])
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="100 items, N = 20 and 100")
+    parser.add_argument("--count", type=int, help="items per row (default 1000, quick 100)")
+    parser.add_argument("--steps", type=int, nargs="+", help="N of the parking rows")
+    parser.add_argument("--sim-steps", type=int, default=1000)
     args = parser.parse_args(argv)
+    count = args.count or (100 if args.quick else 1000)
+    steps = args.steps or ([20, 100] if args.quick else [20, 100, 400])
     print(f"python {platform.python_version()}, casadi {ca.__version__}, dask.distributed "
-          f"{distributed.__version__}, {os.cpu_count()} CPUs, load average "
-          + "%.2f %.2f %.2f" % os.getloadavg())
-    for steps in args.steps:
-        print(table(steps, args.repeat) + "\n")
+          f"{distributed.__version__}, {os.cpu_count()} CPUs, {WORKERS} workers x 1 thread, "
+          "load average %.2f %.2f %.2f" % os.getloadavg())
+    print(f"{'row':28s} {'serial s':>9s} {'batch s':>9s} {'speed-up':>9s} {'max |diff|':>11s}")
+    print("-" * 70)
+    started = with_start(steps[0], count)
+    with batch.Cluster(workers=WORKERS) as cluster:
+        for k, N in enumerate(steps):
+            serial_wall, wall, dcost = optimize_row(cluster, N, count)
+            print(f"{f'optimize {count} at N = {N}':28s} {serial_wall:9.2f} {wall:9.2f} "
+                  f"{serial_wall / wall:9.2f} {dcost:11.1e}")
+            if k == 0:
+                print(f"{'  with the cluster start':28s} {serial_wall:9.2f} {started:9.2f} "
+                      f"{serial_wall / started:9.2f}")
+        serial_wall, wall, dq = simulate_row(cluster, args.sim_steps, count)
+        print(f"{f'simulate {count} x {args.sim_steps} steps':28s} {serial_wall:9.2f} {wall:9.2f} "
+              f"{serial_wall / wall:9.2f} {dq:11.1e}")
+        serial_item, batch_item, added = overhead_row(cluster, count)
+    print(f"\nempty problem: serial {serial_item * 1e3:.2f} ms/item, batch {batch_item * 1e3:.2f} "
+          f"ms/item on {WORKERS} workers, overhead {added * 1e3:.2f} worker-ms/item")
     print("load average %.2f %.2f %.2f at end" % os.getloadavg())
 
 

@@ -1,16 +1,14 @@
 """Many independent solves on dask.distributed, after the two consumers of the step residual:
 `optimize_many` runs `optimize` and `simulate_many` runs `simulate` once per input, on a
-LocalCluster of this machine or on any Dask scheduler, and returns the results in input
-order, each with its own ``success`` and ``status``; no item's failure, exit or hang
-reaches another item's result (docs/batch.md, "Failure semantics").
+LocalCluster of this machine, a kept `Cluster` or any Dask scheduler, and returns the
+results in input order, each with its own ``success`` and ``status``; no item's failure,
+exit or hang reaches another item's result (docs/batch.md, "Failure semantics").
 
-What crosses a process boundary: an OptimalControlProblem holds CasADi MX expressions
-(``problem.nlp``), which pickle only inside a CasADi pickle context, so each problem is
-pickled here into bytes and rebuilt on the worker; guesses, discretizations and runs are
-pickled here too, so that the worker task unpickles every argument itself (`tasks`).
+What crosses a process boundary: each problem structure (an OptimalControlProblem, whose
+CasADi graphs pickle only inside a CasADi pickle context) or discretization once per
+worker, and each item as its data (boundary values, parameters, guess, or a run), in
+chunks sized from the measured cost of an item (`shipping`, `tasks`, `scheduling`).
 """
-
-import cloudpickle
 
 try:
     import distributed  # noqa: F401
@@ -24,11 +22,12 @@ from ..optimize.problem import OptimalControlProblem
 from ..optimize.solve import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..simulate.simulation import SimulationResult
-from . import scheduling, tasks
+from . import scheduling, shipping, tasks
+from .cluster import Cluster
 from .errors import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
 from .tasks import pack_problem, unpack_problem
 
-__all__ = ["optimize_many", "simulate_many", "pack_problem", "unpack_problem",
+__all__ = ["optimize_many", "simulate_many", "Cluster", "pack_problem", "unpack_problem",
            "BatchInterrupted", "SchedulerUnreachable", "WorkersFailedToStart"]
 
 SIMULATE_KEYS = ("q0", "v0", "p0", "steps", "controls", "variant", "tol", "max_iter", "jit")
@@ -39,24 +38,33 @@ CONNECT_TIMEOUT = 5.0
 def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, expand=False,
                   client=None, progress=True, timeout=None, batch_timeout=None,
                   connect_timeout=CONNECT_TIMEOUT):
-    """Solve many OptimalControlProblems with `optimize`, each as one Dask task.
+    """Solve many OptimalControlProblems with `optimize` on Dask workers.
+
+    Each worker gets each problem structure once and keeps its solver; a problem that
+    ``with_boundary`` / ``with_parameters`` of one already shipped rebuilds (the same
+    NLP, bounds and p) travels as its boundary data and parameter values only. Items go
+    in chunks of about 0.2 s of measured work (`dmoc.batch.chunks`).
 
     Parameters
     ----------
     problems : sequence of OptimalControlProblem, length B
-    guesses : sequence of (Trajectory or None), length B, optional
+    guesses : sequence of (Trajectory, OptimizationResult or None), length B, optional
         Warm start of each problem (``optimize(..., guess=)``); None for the default guess.
+        A result of a problem of the same `structure` warm-starts IPOPT from its x and
+        multipliers, as in `optimize`.
     options : dict, optional
         IPOPT options for every solve (``optimize(..., options=)``).
     reuse_solver, expand : bool
         dmoc's switches of every solve, as `optimize` takes them (a worker keeps the
         solver of each problem structure across the items it solves).
-    client : distributed.Client or str, optional
-        Where to run: by default a LocalCluster of ``os.cpu_count()`` single-threaded
-        worker processes, started for this call and closed after it; a Client (left open),
-        or a scheduler address such as ``"tcp://10.0.0.1:8786"`` (connected for this call).
+    client : Cluster, distributed.Client or str, optional
+        Where to run: by default the scheduler of Dask's configuration
+        (``DASK_SCHEDULER_ADDRESS``), else a LocalCluster of ``os.cpu_count()``
+        single-threaded worker processes, started for this call and closed after it; a
+        `Cluster` or a Client (left open), or a scheduler address such as
+        ``"tcp://10.0.0.1:8786"`` (connected for this call).
     progress : bool
-        Draw a bar of completed solves on stderr.
+        Draw a bar of completed solves, the time elapsed and the ETA on stderr.
     timeout : float, optional
         Seconds one item may run on its worker; a longer one becomes a ``"timeout"``
         result and its worker is restarted. None (default): no limit.
@@ -89,7 +97,8 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
     problems = _sequence("problems", problems, OptimalControlProblem, "OptimalControlProblem")
     if guesses is None:
         guesses = [None] * len(problems)
-    guesses = _sequence("guesses", guesses, (Trajectory, type(None)), "Trajectory or None")
+    guesses = _sequence("guesses", guesses, (Trajectory, OptimizationResult, type(None)),
+                        "Trajectory, OptimizationResult or None")
     if len(guesses) != len(problems):
         raise InputError(f"`guesses` must have one entry per problem ({len(problems)}); "
                          f"got {len(guesses)}.")
@@ -98,15 +107,18 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
     timeout = _seconds("timeout", timeout)
     switches = {"reuse_solver": checks.boolean("reuse_solver", reuse_solver),
                 "expand": checks.boolean("expand", expand)}
-    arguments = [(pack_problem(problem), _pickled(f"guesses[{i}]", guess), options, switches, timeout)
-                 for i, (problem, guess) in enumerate(zip(problems, guesses))]
-    return _run(tasks.optimize_task, arguments, OptimizationResult, client, "optimize",
-                progress, batch_timeout, connect_timeout)
+    shipments, items = shipping.problem_items(problems, guesses)
+    return _run(tasks.optimize_chunk, (options, switches, timeout), shipments, items,
+                OptimizationResult, client, "optimize", progress, batch_timeout, connect_timeout)
 
 
 def simulate_many(disc, runs, *, client=None, progress=True, timeout=None, batch_timeout=None,
                   connect_timeout=CONNECT_TIMEOUT):
-    """Run `simulate` once per entry of `runs`, each as one Dask task.
+    """Run `simulate` once per entry of `runs` on Dask workers.
+
+    Each worker gets each Discretization once (its compiled step is built or loaded once
+    per worker process) and each run as its keyword arguments, in chunks as in
+    `optimize_many`.
 
     Parameters
     ----------
@@ -141,14 +153,14 @@ def simulate_many(disc, runs, *, client=None, progress=True, timeout=None, batch
         raise InputError(f"`disc` must be one Discretization or one per run ({len(runs)}); "
                          f"got {len(discs)}.")
     timeout = _seconds("timeout", timeout)
-    arguments = [(_pickled(f"runs[{i}]", (d, run)), timeout)
-                 for i, (d, run) in enumerate(zip(discs, runs))]
-    return _run(tasks.simulate_task, arguments, SimulationResult, client, "simulate",
-                progress, batch_timeout, connect_timeout)
+    shipments, items = shipping.run_items(discs, runs)
+    return _run(tasks.simulate_chunk, (timeout,), shipments, items, SimulationResult, client,
+                "simulate", progress, batch_timeout, connect_timeout)
 
 
-def _run(task, arguments, kind, client, label, progress, batch_timeout, connect_timeout):
-    return scheduling.run(task, arguments, kind, client, label=label,
+def _run(task, arguments, shipments, items, kind, client, label, progress, batch_timeout,
+         connect_timeout):
+    return scheduling.run(task, arguments, shipments, items, kind, client, label=label,
                           progress=checks.boolean("progress", progress),
                           batch_timeout=_seconds("batch_timeout", batch_timeout),
                           connect_timeout=checks.positive_float("connect_timeout",
@@ -157,15 +169,6 @@ def _run(task, arguments, kind, client, label, progress, batch_timeout, connect_
 
 def _seconds(name, value):
     return None if value is None else checks.positive_float(name, value)
-
-
-def _pickled(name, value):
-    """``cloudpickle.dumps(value)``; the worker task unpickles it."""
-    try:
-        return cloudpickle.dumps(value)
-    except Exception as err:
-        raise InputTypeError(f"`{name}` cannot be pickled for the workers: "
-                             f"{type(err).__name__}: {err}") from err
 
 
 def _sequence(name, values, kinds, described):

@@ -1,22 +1,26 @@
-"""The client side of a batch: connect to a scheduler (or start a LocalCluster), submit one
-task per item, and collect one result per item in input order, whatever happens to the
-items, the workers or the client (docs/batch.md, "Failure semantics").
+"""The client side of a batch: ship each structure once (`tasks.Shipment`), submit the
+items in chunks sized from their measured cost, and collect one result per item in input
+order, whatever happens to the items, the workers or the client (docs/batch.md, "Failure
+semantics").
 
-The client waits in ticks of `TICK` seconds, so that the batch's deadline, a cluster left
-without workers and Ctrl-C are noticed while nothing arrives.
+At most `CHUNKS_PER_THREAD` chunks per worker thread are in flight, so that the next
+chunk's size uses the costs measured so far. The client waits in ticks of `TICK` seconds,
+so that the batch's deadline, a cluster left without workers and Ctrl-C are noticed while
+nothing arrives.
 """
 
-import os
 import sys
 import time
 import uuid
+from collections import deque
 
 import distributed
 
-from ..errors import InputTypeError
-from .errors import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
+from .chunks import ChunkSizes
+from .cluster import client_of, close
+from .errors import BatchInterrupted
 from .progress import ProgressBar
-from .tasks import failed_result
+from .tasks import Shipment, failed_result
 
 # Re-runs of a task whose worker *returned* an error outside dmoc's task function (e.g. the
 # function itself failed to deserialize there). A task whose worker dies is rescheduled by
@@ -25,146 +29,158 @@ RETRIES = 2
 
 TICK = 0.5
 
+CHUNKS_PER_THREAD = 2
+
 # Seconds a worker restarted to stop an abandoned item gets to shut down before it is
 # removed from the scheduler.
 RESTART_TIMEOUT = 10
 
 
-def run(task, arguments, kind, client, *, label, progress, batch_timeout, connect_timeout):
-    """task(*args) for each entry of `arguments` as one Dask task each; the results of
-    `kind` in input order (`_collect`)."""
-    refuse_spawn_reimport()
-    client, owned = connect(client, connect_timeout)
+def run(task, arguments, shipments, items, kind, client, *, label, progress, batch_timeout,
+        connect_timeout):
+    """``task(digest, [bytes, ...], *arguments)`` on chunks of `items` ((digest, bytes)
+    each) after shipping `shipments` ({digest: bytes}); the results of `kind` in input
+    order (`Batch.collect`)."""
+    client, owned = client_of(client, connect_timeout)
+    names = []
     try:
-        batch = uuid.uuid4().hex[:8]
-        futures = [client.submit(task, *args, key=f"dmoc-{label}-{batch}-{i}", pure=False,
-                                 retries=RETRIES) for i, args in enumerate(arguments)]
-        bar = ProgressBar(len(futures), label, sys.stderr if progress else None)
+        ship(client, shipments, names)
+        bar = ProgressBar(len(items), label, sys.stderr if progress else None)
         try:
-            return _collect(client, futures, kind, bar, batch_timeout=batch_timeout,
-                            connect_timeout=connect_timeout)
+            batch = Batch(client, task, arguments, items, kind, label)
+            return batch.collect(bar, batch_timeout=batch_timeout, connect_timeout=connect_timeout)
         finally:
             bar.close()
     finally:
+        unship(client, names)
         if owned:
             close(client)
 
 
-def refuse_spawn_reimport():
-    """Raise WorkersFailedToStart when called at the top level of a script that a spawned
-    process is re-importing (as ``__mp_main__``): the script lacks its main guard, and
-    without this check every worker process would start a cluster of its own."""
-    frame = sys._getframe(1)
-    while frame is not None:
-        if frame.f_code.co_name == "<module>" and frame.f_globals.get("__name__") == "__mp_main__":
-            raise WorkersFailedToStart(
-                "dmoc.batch was called while a worker process re-imported the script "
-                f"{frame.f_globals.get('__file__')!r}: worker processes are spawned and "
-                "import the main script again. Put the batch under "
-                "`if __name__ == \"__main__\":`.")
-        frame = frame.f_back
+def ship(client, shipments, names):
+    """Register one `Shipment` per entry of `shipments` on every worker, appending the
+    name of each to `names`."""
+    for digest, data in shipments.items():
+        names.append(f"dmoc-shipment-{digest}-{uuid.uuid4().hex[:8]}")
+        client.register_plugin(Shipment(digest, data), name=names[-1])
 
 
-def connect(client, connect_timeout):
-    """(Client, whether this call owns it and must close it)."""
-    if client is None:
+def unship(client, names):
+    """Unregister the Shipments `names` (the workers drop their bytes), unless the
+    scheduler is gone: then nothing holds them any more."""
+    for name in names:
         try:
-            cluster = distributed.LocalCluster(n_workers=os.cpu_count() or 1,
-                                               threads_per_worker=1, processes=True,
-                                               dashboard_address=":0")
-        except Exception as err:
-            script = getattr(sys.modules.get("__main__"), "__file__", None)
-            hint = (f" If {script!r} runs the batch at its top level, put the call under "
-                    "`if __name__ == \"__main__\":` (worker processes are spawned and "
-                    "import the main script again)." if script else "")
-            raise WorkersFailedToStart(f"the LocalCluster's worker processes failed to "
-                                       f"start ({type(err).__name__}: {err}).{hint}") from err
-        return distributed.Client(cluster), True
-    if isinstance(client, str):
+            client.unregister_worker_plugin(name)
+        except OSError:     # the connection is lost; the batch's own outcome stands
+            return
+
+
+class Batch:
+    """The items of one call: queued (input order), in flight (chunks), or with a result."""
+
+    def __init__(self, client, task, arguments, items, kind, label):
+        self.client, self.task, self.arguments, self.items, self.kind = client, task, arguments, items, kind
+        self.key = f"dmoc-{label}-{uuid.uuid4().hex[:8]}"
+        self.results, self.queued, self.flying = [None] * len(items), deque(range(len(items))), {}
+        self.alone, self.sizes, self.submitted = set(), ChunkSizes(), 0
+        self.threads, self.asked = 0, -float("inf")
+
+    def collect(self, bar, *, batch_timeout, connect_timeout):
+        """One result per item, in order: a returned result as it is, a chunk the scheduler
+        gave up on as failed results (`_land`); at the batch's deadline the unfinished
+        items become "timeout" results, after `connect_timeout` seconds without any worker
+        "worker_lost" ones; Ctrl-C raises BatchInterrupted with the results so far. The
+        worker of an item past its own `timeout` is restarted, to stop the abandoned
+        computation."""
+        deadline = None if batch_timeout is None else time.monotonic() + batch_timeout
+        workerless = None
         try:
-            return distributed.Client(client, timeout=connect_timeout), True
-        except (OSError, TimeoutError) as err:
-            raise SchedulerUnreachable(
-                f"could not reach a Dask scheduler at `client`={client!r} within "
-                f"`connect_timeout`={connect_timeout:g} s ({type(err).__name__}: {err}). "
-                "Check the address and that `dask scheduler` runs there.") from err
-    if isinstance(client, distributed.Client):
-        return client, False
-    raise InputTypeError("`client` must be None (a LocalCluster on this machine), a "
-                         "distributed.Client or a scheduler address such as 'tcp://host:8786'; "
-                         f"got {type(client).__name__}.")
+            while self.queued or self.flying:
+                threads = self._threads()
+                self._fill(max(threads, 1))
+                try:
+                    distributed.wait(list(self.flying), timeout=TICK, return_when="FIRST_COMPLETED")
+                except TimeoutError:
+                    pass
+                bar.advance(sum(self._land(f) for f in [f for f in self.flying if f.done()]))
+                now = time.monotonic()
+                if deadline is not None and now >= deadline:
+                    self._abandon("timeout", f"the batch ran longer than `batch_timeout`="
+                                  f"{batch_timeout:g} s before this item finished")
+                workerless = None if threads else (workerless or now)
+                if workerless is not None and now - workerless >= connect_timeout:
+                    self._abandon("worker_lost", f"the scheduler had no worker for "
+                                  f"{connect_timeout:g} s (`connect_timeout`)")
+        except KeyboardInterrupt:
+            for future in [f for f in self.flying if f.status == "finished"]:
+                self._land(future)
+            self._abandon("interrupted", "Ctrl-C (KeyboardInterrupt) before this item finished")
+            raise BatchInterrupted(self.results) from None
+        return self.results
+
+    def _threads(self):
+        """The cluster's worker threads, asked of the scheduler at most once per TICK."""
+        now = time.monotonic()
+        if now - self.asked >= TICK:
+            self.threads, self.asked = sum(self.client.nthreads().values()), now
+        return self.threads
+
+    def _fill(self, threads):
+        """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
+        thread are in flight: consecutive items of one shipment, as many as
+        `ChunkSizes.next` says. An item whose chunk lost its workers goes alone, and while
+        such items are left only one task is in flight, so that a worker's death fails
+        that task alone. `threads`: the cluster's worker threads."""
+        limit = 1 if self.alone else CHUNKS_PER_THREAD * threads
+        while self.queued and len(self.flying) < limit:
+            first = self.queued.popleft()
+            digest, chunk = self.items[first][0], [first]
+            size = 1 if first in self.alone else self.sizes.next(len(self.queued) + 1, threads)
+            while (len(chunk) < size and self.queued and self.queued[0] not in self.alone
+                   and self.items[self.queued[0]][0] == digest):
+                chunk.append(self.queued.popleft())
+            future = self.client.submit(self.task, digest, [self.items[i][1] for i in chunk],
+                                        *self.arguments, key=f"{self.key}-{self.submitted}",
+                                        pure=False, retries=RETRIES)
+            self.flying[future], self.submitted = chunk, self.submitted + 1
+
+    def _land(self, future):
+        """Take the results of a finished chunk; the number of items that got one. Items a
+        timeout left unrun are queued again; the items of a chunk whose workers kept
+        dying are queued again one per chunk, so only the culprit ends "worker_lost"."""
+        chunk = self.flying.pop(future)
+        try:
+            results, seconds = future.result()
+        except distributed.KilledWorker as err:
+            results, seconds = [failed_result(self.kind, "worker_lost", f"KilledWorker: {err}")], []
+            if len(chunk) > 1:
+                self.alone.update(chunk)
+                results = []
+        except Exception as err:  # raised outside dmoc's task: the items' own results
+            results, seconds = [failed_result(
+                self.kind, "exception", "the task failed outside dmoc's call (e.g. it could "
+                f"not be deserialized): {type(err).__name__}: {err}") for _ in chunk], []
+        future.release()
+        for i, result in zip(chunk, results):
+            self.results[i] = result
+        self.alone.difference_update(chunk[:len(results)])
+        self.queued.extendleft(reversed(chunk[len(results):]))
+        self.sizes.measured(seconds)
+        if results and results[-1].status == "timeout":
+            restart(self.client, {results[-1].stats["worker"]})
+        return len(results)
+
+    def _abandon(self, status, message):
+        """Give each unfinished item a failed result of `status` and cancel the chunks in
+        flight (a chunk a worker is already running runs on to its end there)."""
+        for i in [*self.queued, *(i for chunk in self.flying.values() for i in chunk)]:
+            self.results[i] = failed_result(self.kind, status, message)
+        self.client.cancel(list(self.flying))
+        self.queued.clear()
+        self.flying.clear()
 
 
-def close(client):
-    cluster = client.cluster
-    client.close()
-    if cluster is not None:
-        cluster.close()
-
-
-def _collect(client, futures, kind, bar, *, batch_timeout, connect_timeout):
-    """One result per future, in order: a returned result as it is, a future the scheduler
-    gave up on as a failed result (`_gather`); at the batch's deadline the unfinished ones
-    become "timeout" results, after `connect_timeout` seconds without any worker
-    "worker_lost" ones; Ctrl-C raises BatchInterrupted with the results so far. The worker
-    of an item past its own `timeout` is restarted, to stop the abandoned computation."""
-    results, pending = [None] * len(futures), dict(enumerate(futures))
-    deadline = None if batch_timeout is None else time.monotonic() + batch_timeout
-    workerless = None
-    try:
-        while pending:
-            try:
-                distributed.wait(list(pending.values()), timeout=TICK,
-                                 return_when="FIRST_COMPLETED")
-            except TimeoutError:
-                pass
-            for i in [i for i, future in pending.items() if future.done()]:
-                results[i] = _gather(pending.pop(i), kind)
-                bar.advance()
-                if results[i].status == "timeout":      # stop the abandoned thread
-                    _restart(client, {results[i].stats["worker"]})
-            now = time.monotonic()
-            if pending and deadline is not None and now >= deadline:
-                _abandon(client, pending, results, kind, "timeout",
-                         f"the batch ran longer than `batch_timeout`={batch_timeout:g} s "
-                         "before this item finished")
-            workerless = None if client.nthreads() else (workerless or now)
-            if pending and workerless is not None and now - workerless >= connect_timeout:
-                _abandon(client, pending, results, kind, "worker_lost",
-                         f"the scheduler had no worker for {connect_timeout:g} s "
-                         "(`connect_timeout`)")
-    except KeyboardInterrupt:
-        for i in [i for i, future in pending.items() if future.status == "finished"]:
-            results[i] = _gather(pending.pop(i), kind)
-        _abandon(client, pending, results, kind, "interrupted",
-                 "Ctrl-C (KeyboardInterrupt) before this item finished")
-        raise BatchInterrupted(results) from None
-    return results
-
-
-def _gather(future, kind):
-    """The future's result, or a failed one when the scheduler gave up on it."""
-    try:
-        result = future.result()
-    except distributed.KilledWorker as err:
-        result = failed_result(kind, "worker_lost", f"KilledWorker: {err}")
-    except Exception as err:  # raised outside dmoc's task: the item's own result
-        result = failed_result(kind, "exception", "the task failed outside dmoc's call "
-                               f"(e.g. it could not be deserialized): {type(err).__name__}: {err}")
-    future.release()
-    return result
-
-
-def _abandon(client, pending, results, kind, status, message):
-    """Give each pending item a failed result of `status` and cancel its task (a task a
-    worker is already running runs on to its end there)."""
-    for i in pending:
-        results[i] = failed_result(kind, status, message)
-    client.cancel(list(pending.values()))
-    pending.clear()
-
-
-def _restart(client, workers):
+def restart(client, workers):
     """Restart `workers` through their nannies (a worker without one could not come back),
     without waiting for the new processes to join: the batch goes on with the others."""
     info = client.scheduler_info(n_workers=-1)["workers"]

@@ -1,25 +1,35 @@
-"""The worker side of a batch: one task per item runs `optimize` or `simulate` (the two
-consumers of the step residual) on arguments shipped as bytes, and always returns a
-result of its own, whatever the item does.
+"""The worker side of a batch: a problem structure or a discretization arrives once per
+worker (`Shipment`, a worker plugin, so a worker that joins or restarts later gets it too),
+and each task runs `optimize` or `simulate` (the two consumers of the step residual) on a
+chunk of items that carry their data only, on the worker's kept solver or compiled step.
+Every item gets a result of its own, whatever it does.
 
-Each task unpickles its own arguments, so an argument the worker cannot load (a class
-only the client can import) is that item's ``"undeserializable"`` result and not an error
-of the worker. Everything an item raises, `SystemExit` and `KeyboardInterrupt` included,
-is caught, so one item cannot end the worker process that runs its neighbours. With a
-per-item timeout the item runs in a thread of its own, which the task abandons when the
-time is up.
+Each item unpickles its own data, and the shipped object is unpickled inside the item's
+guard, so an argument the worker cannot load (a class only the client can import) is that
+item's ``"undeserializable"`` result and not an error of the worker. Everything an item
+raises, `SystemExit` and `KeyboardInterrupt` included, is caught, so one item cannot end
+the worker process that runs its neighbours. With a per-item timeout each item runs in a
+thread of its own, which the task abandons when the time is up; the task then returns
+the results so far and the client queues the chunk's other items again.
 """
 
 import threading
+import time
 import traceback
 
 import casadi as ca
 import cloudpickle
 import distributed
 
+from .._util.cache import BoundedCache
 from ..optimize.solve import OptimizationResult
 from ..results.optimum import optimize
 from ..simulate.simulation import SimulationResult, simulate
+
+# digest -> [the Shipments registered with it, their bytes] in this worker process, while
+# a batch runs (not a BoundedCache: `clear_caches` must not empty it)
+_SHIPPED = {}
+_LOADED = BoundedCache(8, "batch shipments")     # digest -> the unpickled problem or disc
 
 
 def pack_problem(problem):
@@ -34,26 +44,68 @@ def unpack_problem(data):
         return cloudpickle.loads(data)
 
 
-def optimize_task(problem, guess, options, switches, timeout):
-    """`optimize(problem, guess=guess, options=options, **switches, throw=False)` on the
-    bytes of `pack_problem` and of ``cloudpickle.dumps(guess)``; never raises."""
-    def load():
-        return unpack_problem(problem), cloudpickle.loads(guess)
+class Shipment(distributed.WorkerPlugin):
+    """The bytes of one problem (`pack_problem`) or discretization (cloudpickle), kept by
+    every worker of the cluster under their `digest` while the batch runs: registered
+    once per batch, set up on each worker now and on every worker that joins later
+    (restarted ones too), torn down when the batch unregisters it. Batches that ship the
+    same bytes at once share them until the last one ends."""
 
-    def solve(loaded):
-        return optimize(loaded[0], guess=loaded[1], options=options, **switches, throw=False)
+    def __init__(self, digest, data):
+        self.digest, self.data = digest, data
 
-    return _guarded(OptimizationResult, load, solve, timeout)
+    def setup(self, worker):
+        _SHIPPED.setdefault(self.digest, [0, self.data])[0] += 1
+
+    def teardown(self, worker):
+        entry = _SHIPPED.get(self.digest)
+        if entry is not None:
+            entry[0] -= 1
+            if entry[0] <= 0:
+                del _SHIPPED[self.digest]
 
 
-def simulate_task(data, timeout):
-    """`simulate(disc, **run, throw=False)` on the bytes of ``cloudpickle.dumps((disc,
-    run))``; never raises."""
-    def solve(loaded):
-        disc, run = loaded
-        return simulate(disc, **run, throw=False)
+def shipped(digest, unpack):
+    """The object shipped under `digest`, unpacked once per worker process by `unpack`."""
+    if digest not in _SHIPPED:
+        raise LookupError(f"nothing was shipped to this worker under {digest!r}")
+    return _LOADED.get(digest, lambda: unpack(_SHIPPED[digest][1]))
 
-    return _guarded(SimulationResult, lambda: cloudpickle.loads(data), solve, timeout)
+
+def optimize_chunk(digest, items, options, switches, timeout):
+    """For each item, ``cloudpickle.dumps((boundary, parameter_values, guess))``:
+    `optimize` on the shipped problem with that boundary data (``with_boundary``) and
+    those parameter values (``with_parameters``), ``throw=False``; never raises for an
+    item. Returns (results, seconds per item), results possibly fewer than items (a
+    timeout ends the chunk)."""
+    def solver(item):
+        def load():
+            return shipped(digest, unpack_problem), cloudpickle.loads(item)
+
+        def solve(loaded):
+            problem, (boundary, values, guess) = loaded
+            problem = problem.with_boundary(**boundary)
+            if values:
+                problem = problem.with_parameters(**values)
+            return optimize(problem, guess=guess, options=options, **switches, throw=False)
+        return load, solve
+
+    return _chunk(OptimizationResult, [solver(item) for item in items], timeout)
+
+
+def simulate_chunk(digest, items, timeout):
+    """For each item, ``cloudpickle.dumps(run)``: ``simulate(disc, **run, throw=False)`` on
+    the shipped Discretization; as `optimize_chunk`."""
+    def runner(item):
+        def load():
+            return shipped(digest, cloudpickle.loads), cloudpickle.loads(item)
+
+        def solve(loaded):
+            disc, run = loaded
+            return simulate(disc, **run, throw=False)
+        return load, solve
+
+    return _chunk(SimulationResult, [runner(item) for item in items], timeout)
 
 
 def failed_result(kind, status, message, **stats):
@@ -63,23 +115,41 @@ def failed_result(kind, status, message, **stats):
     return SimulationResult(None, False, status, message, stats)
 
 
+def _chunk(kind, calls, timeout):
+    """(results, seconds) of each (load, solve) of `calls` in turn (`_guarded`), up to and
+    including the first that times out; each result stamped with this worker's address.
+    The seconds are this process's CPU time over the item, which other jobs on the
+    machine do not inflate as they do the wall time."""
+    results, seconds = [], []
+    for load, solve in calls:
+        tic = time.process_time()
+        result, finished = _guarded(kind, load, solve, timeout)
+        seconds.append(time.process_time() - tic)
+        results.append(result)
+        if not finished:
+            break
+    worker = distributed.get_worker().address
+    for result in results:
+        result.stats["worker"] = worker
+    return results, seconds
+
+
 def _guarded(kind, load, solve, timeout):
-    """solve(load()) as a result of `kind` stamped with this worker's address: an error
-    in `load` gives status "undeserializable", one in `solve` "exception", and a run
-    longer than `timeout` seconds (None: no limit) "timeout"."""
+    """(solve(load()) as a result of `kind`, whether it finished): an error in `load`
+    gives status "undeserializable", one in `solve` "exception", and a run longer than
+    `timeout` seconds (None: no limit) "timeout"."""
     if timeout is None:
-        result = _attempt(kind, load, solve)
-    else:
-        box = []
-        thread = threading.Thread(target=lambda: box.append(_attempt(kind, load, solve)),
-                                  name="dmoc-batch-item", daemon=True)
-        thread.start()
-        thread.join(timeout)
-        result = box[0] if box else failed_result(
-            kind, "timeout", f"the item ran longer than `timeout`={timeout:g} s and was "
-            "abandoned; its worker is restarted (if it has a nanny) to stop it")
-    result.stats["worker"] = distributed.get_worker().address
-    return result
+        return _attempt(kind, load, solve), True
+    box = []
+    thread = threading.Thread(target=lambda: box.append(_attempt(kind, load, solve)),
+                              name="dmoc-batch-item", daemon=True)
+    thread.start()
+    thread.join(timeout)
+    if box:
+        return box[0], True
+    return failed_result(kind, "timeout", f"the item ran longer than `timeout`={timeout:g} s "
+                         "and was abandoned; its worker is restarted (if it has a nanny) "
+                         "to stop it"), False
 
 
 def _attempt(kind, load, solve):

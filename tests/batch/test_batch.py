@@ -5,6 +5,7 @@ their own result. The oracle is the serial in-process `dmoc.optimize` / `dmoc.si
 import importlib.util
 import os
 import pathlib
+import re
 import signal
 import subprocess
 import sys
@@ -101,7 +102,8 @@ def test_64_parking_problems_match_serial_solves(client, capsys):
     results = batch.optimize_many(problems, client=client)
     _assert_same_as_serial(problems, results)
     assert {r.stats["worker"] for r in results} == set(client.scheduler_info()["workers"])
-    assert capsys.readouterr().err.rstrip().endswith("[" + "#" * 30 + "] 64/64")
+    last = capsys.readouterr().err.rstrip().split("\r")[-1]
+    assert re.fullmatch(r"optimize \[#{30}\] 64/64 elapsed \d+:\d\d eta 0:00", last), last
 
 
 def test_default_cluster_and_scheduler_address(client, capsys):
@@ -122,6 +124,10 @@ def test_warm_start_from_guesses(client):
     serial = [dmoc.optimize(p, guess=g) for p, g in zip(problems, guesses)]
     _assert_same_as_serial(problems, results, serial)
     assert results[3].stats["iterations"] <= 1
+    moved = [p.with_boundary(q_goal=p.q_goal + [0.0, 0.05, 0.0]) for p in problems]
+    warm = batch.optimize_many(moved, guesses=seeds, client=client, progress=False)
+    _assert_same_as_serial(moved, warm, [dmoc.optimize(p, guess=g) for p, g in zip(moved, seeds)])
+    assert all(r.stats["warm_start"] for r in warm)
 
 
 def test_failures_stay_in_their_own_result(client):

@@ -1,0 +1,56 @@
+"""How many items one task of a batch carries: enough that a task takes about `TARGET`
+seconds of its worker's CPU, so that Dask's cost per task (a few milliseconds: scheduling,
+round trips, pickling, in the client, the scheduler and the worker) is small next to the
+solves, and few enough that every worker thread still gets several tasks before the
+batch ends."""
+
+import math
+from collections import deque
+from statistics import median
+
+# CPU seconds of work one task aims at: a few hundred milliseconds (docs/batch.md).
+TARGET = 0.2
+
+# The chunks each worker thread gets at least from the items still queued, so that the
+# last tasks end close together ...
+SHARES = 4
+
+# ... but no chunk carries less than FLOOR CPU seconds (unless fewer items are left): a
+# chunk of one millisecond would leave its worker waiting for the round trip of the next.
+FLOOR = 0.02
+
+# The per-item costs the median is taken over: the latest ones, so a first solve that
+# built its solver is soon outweighed.
+WINDOW = 64
+
+
+class ChunkSizes:
+    """The size of the next chunk from the CPU seconds the items took on their workers.
+
+    Until a cost is measured every chunk holds one item; then
+    ``min(TARGET / cost, max(queued / (SHARES * threads), FLOOR / cost))`` for the median
+    cost of an item, at least one.
+
+    >>> sizes = ChunkSizes()
+    >>> sizes.next(1000, 2)
+    1
+    >>> sizes.measured([0.004, 0.005, 0.006])
+    >>> sizes.next(1000, 2), sizes.next(40, 2), sizes.next(8, 2)
+    (40, 5, 4)
+    """
+
+    def __init__(self):
+        self._seconds = deque(maxlen=WINDOW)
+
+    def measured(self, seconds):
+        """Record the CPU seconds each item of a finished chunk took on its worker."""
+        self._seconds.extend(seconds)
+
+    def next(self, queued, threads):
+        """The size of the next chunk, with `queued` items left and `threads` worker
+        threads."""
+        if not self._seconds:
+            return 1
+        cost = max(median(self._seconds), 1e-6)
+        balanced = max(math.ceil(queued / (SHARES * threads)), math.ceil(FLOOR / cost))
+        return max(1, min(int(TARGET / cost), balanced))

@@ -1,0 +1,138 @@
+"""Where a batch runs: a `Cluster` kept across calls, a LocalCluster of this machine
+started for one call, a `distributed.Client`, or a scheduler reached by address (over
+TCP, on this machine or another). Workers get one thread each, and BLAS one thread.
+"""
+
+import os
+import sys
+
+import dask
+import distributed
+
+from .._util import checks
+from ..errors import InputError, InputTypeError
+from .errors import SchedulerUnreachable, WorkersFailedToStart
+
+# one BLAS/OpenMP thread per worker process: the workers, not BLAS threads, share the cores
+WORKER_ENVIRONMENT = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+class Cluster:
+    """A Dask cluster kept across batches: ``with Cluster() as cluster:`` then
+    ``optimize_many(problems, client=cluster)`` as many times as needed; closed on exit.
+
+    Parameters
+    ----------
+    address : str, optional
+        A scheduler's address, e.g. ``"tcp://10.0.0.1:8786"``: connect to it (its workers
+        are left running on exit). By default the address in Dask's configuration
+        (``DASK_SCHEDULER_ADDRESS``), else a LocalCluster of this machine is started.
+    workers : int, optional
+        The LocalCluster's single-threaded worker processes (default ``os.cpu_count()``);
+        only without an address.
+    connect_timeout : float
+        Seconds to reach the scheduler (else `SchedulerUnreachable`).
+
+    Attributes
+    ----------
+    client : distributed.Client
+        The connection; it can be passed as ``client=`` too.
+    """
+
+    def __init__(self, address=None, *, workers=None, connect_timeout=5.0):
+        if address is not None:
+            checks.instance("address", address, str, "a scheduler address such as "
+                            "'tcp://10.0.0.1:8786', or None")
+        if address is not None and workers is not None:
+            raise InputError("`workers` starts a LocalCluster; it cannot go with an "
+                             f"`address` ({address!r}), whose workers run already.")
+        workers = None if workers is None else checks.positive_int("workers", workers)
+        self.client = connect(address if address is not None else _configured(),
+                              checks.positive_float("connect_timeout", connect_timeout),
+                              workers=workers)
+
+    def close(self):
+        """Close the connection, and the LocalCluster if this object started it."""
+        close(self.client)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        return f"Cluster({self.client.scheduler.address!r}, workers={len(self.client.nthreads())})"
+
+
+def client_of(client, connect_timeout):
+    """(Client, whether this call owns it and must close it) for `optimize_many`'s
+    `client` argument."""
+    if client is None:
+        return connect(_configured(), connect_timeout), True
+    if isinstance(client, str):
+        return connect(client, connect_timeout), True
+    if isinstance(client, Cluster):
+        return client.client, False
+    if isinstance(client, distributed.Client):
+        return client, False
+    raise InputTypeError("`client` must be None (a LocalCluster on this machine), a "
+                         "dmoc.batch.Cluster, a distributed.Client or a scheduler address "
+                         f"such as 'tcp://host:8786'; got {type(client).__name__}.")
+
+
+def connect(address, connect_timeout, *, workers=None):
+    """A new Client of the scheduler at `address`, or of a new LocalCluster of `workers`
+    single-threaded worker processes when `address` is None."""
+    if address is None:
+        return distributed.Client(_local_cluster(workers or os.cpu_count() or 1))
+    try:
+        return distributed.Client(address, timeout=connect_timeout)
+    except (OSError, TimeoutError) as err:
+        raise SchedulerUnreachable(
+            f"could not reach a Dask scheduler at `client`={address!r} within "
+            f"`connect_timeout`={connect_timeout:g} s ({type(err).__name__}: {err}). "
+            "Check the address and that `dask scheduler` runs there.") from err
+
+
+def close(client):
+    """Close `client`, and the cluster it started (a LocalCluster), if any."""
+    cluster = client.cluster
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def refuse_spawn_reimport():
+    """Raise WorkersFailedToStart when called at the top level of a script that a spawned
+    process is re-importing (as ``__mp_main__``): the script lacks its main guard, and
+    without this check every worker process would start a cluster of its own."""
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_code.co_name == "<module>" and frame.f_globals.get("__name__") == "__mp_main__":
+            raise WorkersFailedToStart(
+                "dmoc.batch was called while a worker process re-imported the script "
+                f"{frame.f_globals.get('__file__')!r}: worker processes are spawned and "
+                "import the main script again. Put the batch under "
+                "`if __name__ == \"__main__\":`.")
+        frame = frame.f_back
+
+
+def _configured():
+    """The scheduler address of Dask's configuration (``DASK_SCHEDULER_ADDRESS``), or None."""
+    return dask.config.get("scheduler-address", None) or None
+
+
+def _local_cluster(workers):
+    refuse_spawn_reimport()
+    try:
+        return distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                        processes=True, dashboard_address=":0",
+                                        env=WORKER_ENVIRONMENT)
+    except Exception as err:
+        script = getattr(sys.modules.get("__main__"), "__file__", None)
+        hint = (f" If {script!r} runs the batch at its top level, put the call under "
+                "`if __name__ == \"__main__\":` (worker processes are spawned and "
+                "import the main script again)." if script else "")
+        raise WorkersFailedToStart(f"the LocalCluster's worker processes failed to "
+                                   f"start ({type(err).__name__}: {err}).{hint}") from err
