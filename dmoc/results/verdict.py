@@ -30,6 +30,10 @@ JUMP_LIMIT = 1.0
 NO_SCALE = 1e-12
 # A knot violates a path constraint when g_k exceeds this part of the row's scale.
 PATH_TOLERANCE = 1e-6
+# A coordinate whose excursion is below this part of its NLP scale (the motion's length
+# l_i, or the rest length where nothing moves: `dmoc.optimize.scaling.lengths`) is at rest
+# within IPOPT's tolerance; its velocity "jumps" are noise (a hold at the start: 7e-8 rad).
+REST_TOLERANCE = 1e-6
 
 
 def judge(problem, result):
@@ -60,6 +64,9 @@ def judge(problem, result):
     traj = result.trajectory
     replay_q, replay_p, replay_step = _replay_departure(problem, result)
     changes = velocity_changes(problem.disc, traj)
+    T = problem.transcription
+    resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
+    changes[:, resting] = 0.0
     k, i = np.unravel_index(np.argmax(changes), changes.shape) if changes.size else (-1, 0)
     jump = float(changes[k, i]) if changes.size else 0.0
     path, path_step, path_row = _path_violation(problem, traj)

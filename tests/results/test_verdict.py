@@ -20,7 +20,7 @@ import pytest
 
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
-from dmoc.results.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE
+from dmoc.results.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE
 
 KNIFE_EDGE_J = 8.72240586430
 ROLLING_DISK_J = 1.02891883211
@@ -181,3 +181,15 @@ def test_an_optimum_that_stays_at_rest_passes():
     result = dmoc.optimize(knife_edge_parking(20, goal=(0.0, 0.0, 0.0)))
     assert result.success and result.verdict.passed
     assert np.abs(result.trajectory.q).max() < 1e-12 and result.cost < 1e-20
+
+
+@pytest.mark.parametrize("rule", ["midpoint", "lobatto3"])
+def test_a_hold_within_ipopts_tolerance_of_rest_passes(rule):
+    """Goal = start on 3 steps of 0.1: IPOPT stops near rest (the heading off by about 1e-7
+    rad, cost about 1e-10), and the velocity "jumps" of that noise are no motion to
+    resolve. Oracle: the exact optimum is rest (J = 0)."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule)
+    problem = dmoc.OptimalControlProblem(disc, 3, q_start=[0, 0, 0], q_goal=[0, 0, 0])
+    result = dmoc.optimize(problem)
+    assert result.success and result.verdict.passed and result.cost < 1e-8
+    assert np.abs(result.trajectory.q).max() < REST_TOLERANCE
