@@ -33,6 +33,7 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
 
 
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (transcription.structure, options): two per structure
+_FLOORS = BoundedCache(16, "rounding floors")      # `_row_floor`, one per structure
 
 
 def data_tolerances(transcription, x0):
@@ -44,16 +45,34 @@ def data_tolerances(transcription, x0):
     below it. Rounded up to a power of 2, so that nearby start points share one solver (the
     options are its key)."""
     T = transcription
-    jacobian = T.separable.derivatives()["nlp_jac_g"]
-    x = np.array(x0, dtype=float)
-    x[T.x_layout.slice("q")] = T.configurations(x0).ravel()
-    J = jacobian(x0, T.p)[1]
-    rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
-    floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
+    row_floor = _FLOORS.get(_floor_key(T), lambda: _row_floor(T))
+    floor = np.finfo(float).eps * float(row_floor(x0, T.p))
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))
     return {"tol": floor, "constr_viol_tol": floor}
+
+
+def _floor_key(transcription):
+    """The key of `_row_floor` of `transcription`: its NLP and where q and q_ref sit."""
+    T = transcription
+    return T.structure, T.x_layout.blocks["q"], T.p_layout.blocks["q_ref"]
+
+
+def _row_floor(transcription):
+    """Function ``(x, p) -> max_i sum_j |dg_i/dx_j| |x_j|`` of `data_tolerances`, with x in
+    absolute coordinates (block "q" plus q_ref from p); built once per NLP structure, so
+    that a solve pays one call for its tolerances."""
+    T = transcription
+    x, p = ca.MX.sym("x", T.x_layout.size), ca.MX.sym("p", T.p_layout.size)
+    offset, n, knots = T.x_layout.blocks["q"]
+    q_ref = p[T.p_layout.slice("q_ref")]
+    absolute = x + ca.vertcat(ca.MX(offset, 1), ca.repmat(q_ref, knots, 1),
+                              ca.MX(T.x_layout.size - offset - n * knots, 1))
+    J = T.separable.derivatives()["nlp_jac_g"](x, p)[1]
+    rows = ca.mtimes(ca.fabs(J), ca.fabs(absolute))
+    return ca.Function("row_floor", [x, p], [ca.mmax(rows) if rows.numel() else ca.MX(0)],
+                       ["x", "p"], ["floor"])
 
 
 def solver(transcription, options, *, expand, reuse, report):
