@@ -23,8 +23,8 @@ the creation of the IPOPT solver it includes), the median warm step, and their r
 import argparse
 import json
 import os
-import platform
 import pathlib
+import platform
 import subprocess
 import sys
 import tempfile
@@ -119,8 +119,12 @@ def main():
         return
     print(f"# {platform.platform()}, {platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} cores; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
-    print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps; checkouts "
-          f"{', '.join(args.checkouts)}\n")
+    for checkout in args.checkouts:
+        found = subprocess.run([sys.executable, "-c", "import dmoc; print(dmoc.__file__)"],
+                               env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
+                               capture_output=True, text=True, check=True).stdout.strip()
+        print(f"# {checkout}: dmoc from {found}")
+    print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps\n")
     runs = {(c, kind): [] for c in args.checkouts for kind in ("warmed-up", "fresh")}
     for _ in range(args.repeat):
         for kind in ("warmed-up", "fresh"):

@@ -206,6 +206,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result
 
+
 def _values_at_x(transcription, sol, bounds, converged):
     """(f, g) of the scaled NLP at the x IPOPT returned in `sol`: IPOPT's own last f and g
     when they were evaluated there, else evaluated anew. They are IPOPT's when it
