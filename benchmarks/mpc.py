@@ -1,28 +1,33 @@
 """Benchmark: per-step times of the receding-horizon controller `dmoc.MPC` against the first
-solve of the same problem structure, in one run.
+solve of the same problem structure, in one run, for one or several checkouts.
 
 The closed loop of examples/mpc_knife_edge.py: knife-edge parking over a horizon of
 `--horizon` steps of h = 0.1 s (midpoint rule, variant "+"), the plant simulated by
 `dmoc.simulate` with a 10 % heavier blade and a kick at step 10. Each fresh process runs
-`--steps` controller steps: step 0 is the first solve of the structure (the solver is built,
-default guess), every later step a warm start (the previous plan shifted, primal and dual,
-on the kept solver). Two kinds of process: "warmed up" first solves an unrelated problem
-(knife-edge parking at N = 20, so that loading IPOPT and CasADi's plugins is not counted in
-step 0) and clears dmoc's caches; "fresh" starts the loop at once, as a script does.
-Reported: for one warmed-up process the time `dmoc.MPC(problem)` takes to build the NLP
-of the momentum start, and the per-step table (wall and CPU time of `MPC.step`, IPOPT's
-wall share, iterations, ratios to step 0), then for `--repeat` processes of each kind the
-first step (alone, and with the NLP's build), the median warm step, and their ratios.
+`--steps` controller steps: step 0 is the first solve of the structure (the IPOPT solver
+is created, default guess), every later step a warm start (the previous plan shifted,
+primal and dual, on the kept solver). Two kinds of process: "warmed up" first solves an
+unrelated problem (knife-edge parking at N = 20, so that loading IPOPT and CasADi's
+plugins is not counted in step 0) and clears dmoc's caches; "fresh" starts the loop at
+once, as a script does. Reported: for one warmed-up process (of the last checkout) the
+time `dmoc.MPC(problem)` takes to build the NLP of the momentum start, and the per-step
+table (wall and CPU time of `MPC.step`, IPOPT's wall share, iterations, ratios to step
+0); then for `--repeat` processes of each kind and checkout (interleaved, so that the
+checkouts see the same load) the first step (alone, with the NLP's build, and without
+the creation of the IPOPT solver it includes), the median warm step, and their ratios.
 
     python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3]
+    python benchmarks/mpc.py --checkouts /work/main /path/to/branch     # before/after
 """
 
 import argparse
 import json
 import os
+import pathlib
 import platform
 import subprocess
 import sys
+import tempfile
 import time
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
@@ -49,6 +54,8 @@ def closed_loop(horizon, steps, warm_up):
         tic = time.process_time()
         u = controller.step(q, p=p)
         cpu.append(time.process_time() - tic)
+        if k == 0:      # the seconds step 0 spent creating the IPOPT solver
+            build["solver"] = controller.plan.stats["build_time"]
         if k == 10:
             p = p + 0.3 * np.array([np.cos(q[2]), np.sin(q[2]), 1.0])
         run = dmoc.simulate(plant, q0=q, p0=p, steps=1, controls=u[None], jit=False)
@@ -76,8 +83,27 @@ def summary(build, records):
         parts.append(f"{'wall' if clock == 'step' else 'CPU'}: first step {1e3 * first:.1f} ms, "
                      f"with the NLP's build {1e3 * built:.1f} ms; warm median {1e3 * warm:.1f} ms "
                      f"= {warm / first:.3f} x first step, {warm / built:.3f} x with the build")
+    first, warm = records[0]["step"], np.median([r["step"] for r in records[1:]])
+    parts.append(f"the first step's solver creation {1e3 * build['solver']:.1f} ms wall: warm "
+                 f"= {warm / (first - build['solver']):.3f} x the first step without it (wall)")
     succeeded = all(r["status"] == "Solve_Succeeded" for r in records)
     return "; ".join(parts) + f"; all succeeded: {succeeded}"
+
+
+def child(checkout, kind, args):
+    """(build, records) of one fresh process of `checkout` (its dmoc on PYTHONPATH)."""
+    out = subprocess.run(
+        [sys.executable, __file__, "--child", kind, "--horizon", str(args.horizon), "--steps",
+         str(args.steps)], env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
+        capture_output=True, text=True, check=True).stdout
+    return json.loads(out)
+
+
+def medians(processes):
+    """The median over `processes` of the warm median CPU and of its ratio to the first step."""
+    warm = [np.median([r["cpu"] for r in records[1:]]) for _, records in processes]
+    ratio = [w / records[0]["cpu"] for w, (_, records) in zip(warm, processes)]
+    return f"warm CPU median {1e3 * np.median(warm):.2f} ms, {np.median(ratio):.3f} x the first step"
 
 
 def main():
@@ -85,26 +111,37 @@ def main():
     parser.add_argument("--horizon", type=int, default=30)
     parser.add_argument("--steps", type=int, default=40)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])])
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         print(json.dumps(closed_loop(args.horizon, args.steps, args.child == "warmed-up")))
         return
     print(f"# {platform.platform()}, {platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} cores; dmoc from {os.path.dirname(dmoc.__file__)}")
+          f"{os.cpu_count()} cores; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
+    for checkout in args.checkouts:
+        found = subprocess.run([sys.executable, "-c", "import dmoc; print(dmoc.__file__)"],
+                               env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
+                               capture_output=True, text=True, check=True).stdout.strip()
+        print(f"# {checkout}: dmoc from {found}")
     print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps\n")
-    runs = {kind: [json.loads(subprocess.run(
-        [sys.executable, __file__, "--child", kind, "--horizon", str(args.horizon), "--steps",
-         str(args.steps)], capture_output=True, text=True, check=True).stdout)
-        for _ in range(args.repeat)] for kind in ("warmed-up", "fresh")}
-    build, records = runs["warmed-up"][0]
+    runs = {(c, kind): [] for c in args.checkouts for kind in ("warmed-up", "fresh")}
+    for _ in range(args.repeat):
+        for kind in ("warmed-up", "fresh"):
+            for checkout in args.checkouts:         # interleaved: all see the same load
+                runs[checkout, kind].append(child(checkout, kind, args))
+    build, records = runs[args.checkouts[-1], "warmed-up"][0]
     print(f"building the NLP of the structure (dmoc.MPC(problem)): {1e3 * build['step']:.1f} ms "
           f"wall, {1e3 * build['cpu']:.1f} ms CPU\n")
     table(records)
     print()
-    for kind, processes in runs.items():
+    for (checkout, kind), processes in runs.items():
         for i, (build, records) in enumerate(processes):
-            print(f"{kind} process {i}: {summary(build, records)}")
+            print(f"{checkout} {kind} process {i}: {summary(build, records)}")
+    print()
+    for (checkout, kind), processes in runs.items():
+        print(f"{checkout} {kind}: {medians(processes)}")
+    print(f"# load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
 
 
 if __name__ == "__main__":

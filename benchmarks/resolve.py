@@ -12,11 +12,12 @@ construction + optimize (best of `--repeat`, each repeat in a fresh process so t
 "re-solve" (iterations).
 
     python benchmarks/resolve.py
-    PYTHONPATH=/path/to/other/checkout python benchmarks/resolve.py   # compare checkouts
+    python benchmarks/resolve.py --checkouts /work/main /path/to/branch   # interleaved
 """
 
 import argparse
 import os
+import pathlib
 import platform
 import subprocess
 import sys
@@ -73,24 +74,30 @@ def main(argv=None):
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=3, help="fresh processes per case (default 3)")
+    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])],
+                        help="dmoc checkouts to compare, each on PYTHONPATH in turn (default: this one)")
     args = parser.parse_args(argv)
-    print(f"dmoc from {os.path.dirname(dmoc.__file__)}; python {platform.python_version()}, "
-          f"casadi {ca.__version__}; load average {'%.2f %.2f %.2f' % os.getloadavg()}")
-    head = (f"{'case':<14}{'N':>6}" + "".join(f"{r + ' s':>12}{'it':>4}" for r in RUNS)
+    print(f"python {platform.python_version()}, casadi {ca.__version__}; load average "
+          f"{'%.2f %.2f %.2f' % os.getloadavg()}; checkouts {', '.join(args.checkouts)}")
+    head = (f"{'checkout':<20}{'case':<14}{'N':>6}" + "".join(f"{r + ' s':>12}{'it':>4}" for r in RUNS)
             + f"{'re/first':>10}{'warm/first':>11}{'warm it/re it':>15}")
     print(head + "\n" + "-" * len(head))
     for name in CASES:
         for N in STEPS:
-            rows = []
+            rows = {c: [] for c in args.checkouts}
             for _ in range(args.repeat):
-                out = subprocess.run([sys.executable, __file__, "--one", name, str(N)], check=True,
-                                     capture_output=True, text=True).stdout.split()
-                rows.append([float(v) for v in out])
-            best = np.min(rows, axis=0)
-            seconds, its = best[0::2], best[1::2]
-            print(f"{name:<14}{N:>6}" + "".join(f"{s:>12.4f}{int(i):>4}" for s, i in zip(seconds, its))
-                  + f"{seconds[1] / seconds[0]:>10.2f}{seconds[2] / seconds[0]:>11.2f}"
-                  f"{its[2] / its[1]:>15.2f}")
+                for checkout in args.checkouts:         # interleaved: all see the same load
+                    out = subprocess.run([sys.executable, __file__, "--one", name, str(N)], check=True,
+                                         env={**os.environ, "PYTHONPATH": checkout},
+                                         capture_output=True, text=True).stdout.split()
+                    rows[checkout].append([float(v) for v in out])
+            for checkout in args.checkouts:
+                best = np.min(rows[checkout], axis=0)
+                seconds, its = best[0::2], best[1::2]
+                print(f"{pathlib.Path(checkout).name:<20}{name:<14}{N:>6}"
+                      + "".join(f"{s:>12.4f}{int(i):>4}" for s, i in zip(seconds, its))
+                      + f"{seconds[1] / seconds[0]:>10.2f}{seconds[2] / seconds[0]:>11.2f}"
+                      f"{its[2] / its[1]:>15.2f}")
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 

@@ -168,16 +168,14 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     build_time = time.perf_counter() - tic
     journal_start = linear_solver.journal_end(journal) if journal else 0
     tic = time.perf_counter()
+    lbx, ubx = T.lbx / D, T.ubx / D
     with interrupt.watch() as sigints:
         sol = solver(x0=x0 / D, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
-                     lbx=T.lbx / D, ubx=T.ubx / D, lbg=T.lbg * R, ubg=T.ubg * R)
+                     lbx=lbx, ubx=ubx, lbg=T.lbg * R, ubg=T.ubg * R)
     solve_time = time.perf_counter() - tic
-    x_ipopt = np.array(sol["x"]).ravel()
-    x = D * x_ipopt
+    x = D * sol["x"]
     st = solver.stats()
-    # f and g at the returned x: honor_original_bounds may have moved x onto its bounds
-    # after IPOPT's last f and g (h at T_min/N or T_max/N with a free final time)
-    cost, g = T.separable.values(x_ipopt, T.p)
+    cost, g = _values_at_x(T, sol, (lbx, ubx), st["success"])
     worst = most_violated(T, g / R)
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
@@ -201,14 +199,28 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     if stopped:     # a Ctrl-C, not a violated constraint, ended the solve
         (status, message), success = stopped, False
     result = OptimizationResult(traj, cost, success, status, message, stats,
-                                x, np.array(sol["lam_x"]).ravel() / D,
-                                R * np.array(sol["lam_g"]).ravel(),
-                                T.structure, T.q_ref.copy())
+                                x, sol["lam_x"] / D, R * sol["lam_g"], T.structure, T.q_ref.copy())
     if stopped and throw:
         raise Interrupted(message + " The last iterate is in `.result`.", result)
     if not success and throw:
         raise SolverError(message + " The last iterate is in `.result`.", result)
     return result
+
+
+def _values_at_x(transcription, sol, bounds, converged):
+    """(f, g) of the scaled NLP at the x IPOPT returned in `sol`: IPOPT's own last f and g
+    when they were evaluated there, else evaluated anew. They are IPOPT's when it
+    converged and no entry of x with lbx < ubx (the scaled `bounds`) sits on a bound:
+    honor_original_bounds (and CasADi's bound_consistency) move x onto its bounds after
+    IPOPT's last f and g (h at T_min/N or T_max/N with a free final time), and an iterate
+    of the interior-point method touches none of its bounds."""
+    lbx, ubx = bounds
+    x = sol["x"]
+    on_bound = (lbx < ubx) & ((x == lbx) | (x == ubx))
+    if converged and not on_bound.any():
+        return float(sol["f"][0]), sol["g"]
+    return transcription.separable.values(x, transcription.p)
+
 
 def _refused_option(options):
     """The hint of an Invalid_Option status: IPOPT refused an option value when the solve

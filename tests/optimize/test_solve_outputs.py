@@ -1,0 +1,91 @@
+"""What the raw IPOPT solve reads back from a solve is what IPOPT computed: the packed call
+(one stacked input and output vector, `dmoc.optimize.ipopt.PackedSolver`) returns exactly
+the outputs and statistics of calling the nlpsol itself, and the cost and most violated
+row that `solve` takes from IPOPT's own last f and g are those of the NLP evaluated anew
+at the returned x.
+
+Oracles: the nlpsol called directly with the same inputs (a separate code path, the same
+IPOPT: bitwise equal); the NLP's (f, g) Function (`SeparableNLP.values`) at the returned
+x, and `most_violated` of that g. The fallback, where x was moved onto a bound after
+IPOPT's last f and g, is held by tests/optimize/test_scaling.py (relaxed bounds).
+"""
+
+import numpy as np
+import pytest
+
+import dmoc
+import dmoc.problems
+from dmoc.optimize import ipopt
+from dmoc.optimize.guess import start_point
+from dmoc.optimize.mpc import shifted
+from dmoc.optimize.solve import most_violated, solve
+
+
+def _inputs(problem, guess=None):
+    """The scaled inputs of the nlpsol, as `solve` forms them."""
+    T = problem.transcription
+    x0, lam_x0, lam_g0 = start_point(problem, guess)
+    D, R = T.x_scale, T.g_scale
+    return dict(x0=x0 / D, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R, lbx=T.lbx / D,
+                ubx=T.ubx / D, lbg=T.lbg * R, ubg=T.ubg * R)
+
+
+@pytest.mark.parametrize("warm", [False, True])
+def test_the_packed_call_returns_what_the_nlpsol_returns(warm):
+    problem = dmoc.problems.knife_edge_parking(12)
+    moved = problem.with_boundary(q_goal=[0.1, 1.1, 0.1])
+    guess = solve(problem) if warm else None
+    packed, reused, _ = ipopt.solver(
+        moved.transcription, {"warm_start_init_point": "yes" if warm else "no"},
+        expand=False, reuse=False, report=False)
+    assert not reused
+    inputs = _inputs(moved, guess)
+    sol = packed(**inputs)
+    packed_stats = packed.stats()
+    direct = {k: np.array(v).ravel() for k, v in packed.nlpsol(**inputs).items()}
+    direct_stats = packed.nlpsol.stats()
+    for name in ("x", "f", "g", "lam_x", "lam_g"):
+        np.testing.assert_array_equal(sol[name], direct[name], err_msg=name)
+    assert packed_stats["return_status"] == direct_stats["return_status"] == "Solve_Succeeded"
+    assert packed_stats["iter_count"] == direct_stats["iter_count"]
+    assert packed_stats["iterations"] == direct_stats["iterations"]
+
+
+def test_the_stats_are_those_of_the_last_packed_call():
+    """Solves on one kept solver from the default guess and from the optimum's trajectory
+    take different iteration counts; each result reports its own (the packed Function's
+    stats follow its nlpsol's last call)."""
+    problem = dmoc.problems.knife_edge_parking(12)
+    cold = solve(problem)
+    primal = solve(problem, guess=cold.trajectory)
+    again = solve(problem)
+    assert primal.stats["solver_reused"] and again.stats["solver_reused"]
+    assert primal.stats["iterations"] < cold.stats["iterations"] == again.stats["iterations"]
+    assert again.cost == cold.cost
+
+
+def _problems():
+    parking = dmoc.problems.knife_edge_parking(20)
+    disc = dmoc.discretize(dmoc.systems.rolling_disk(mass=1.0, radius=1.0), 0.1, rule="lobatto3")
+    steering = dmoc.OptimalControlProblem(disc, 20, q_start=[0.0] * 4, q_goal=[1.0, 1.0, None, 1.5])
+    far = dmoc.problems.knife_edge_parking(20).with_boundary(q_start=[1e5, -3e4, 0.0],
+                                                              q_goal=[1e5, -3e4 + 1.0, 0.0])
+    return {"parking": parking, "rolling disk lobatto3": steering, "far from the origin": far}
+
+
+@pytest.mark.parametrize("name", list(_problems()))
+def test_cost_and_most_violated_row_are_those_of_the_returned_x(name):
+    """Cold, then warm from the optimum shifted one step (as `MPC.step` does): IPOPT's f
+    and g are the NLP's at the returned x, to round-off of the rows (|g| ~ 1e-15)."""
+    problem = _problems()[name]
+    T = problem.transcription
+    cold = solve(problem)
+    warm = solve(problem, guess=shifted(cold, problem))
+    assert warm.stats["warm_start"]
+    for result in (cold, warm):
+        f, g = T.separable.values(result.x / T.x_scale, T.p)
+        assert result.cost == pytest.approx(f, rel=1e-15, abs=0.0)
+        violation, where = most_violated(T, g / T.g_scale)
+        assert result.stats["max_violation"] == pytest.approx(violation, rel=0.0, abs=1e-24)
+        if violation > 1e-24:
+            assert result.stats["most_violated"] == where
