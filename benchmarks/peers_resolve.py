@@ -1,0 +1,216 @@
+"""Benchmark: re-solving with new boundary data on a kept solver, dmoc against rockit's
+parametric re-solve, at equal accuracy (issue 25).
+
+Problems: rolling-disk steering and knife-edge parking (dmoc.problems), J* from the issue.
+For each method (dmoc lobatto3, dmoc lobatto4, rockit) a scan in this run finds the least N
+whose optimum at the original goal has |J_N - J*| / J* <= 1e-6 (bisection between the
+last failing and the first passing N of a doubling sequence). At that N each method solves
+the original goal once (the solver is built), then re-solves a cycle of `--goals` goals
+near it, each from the previous goal's optimum, `--repeat` times; the median per goal of
+the cycle's re-solve wall times is reported, with IPOPT's iterations, its wall time and
+the part of it in function evaluations, and the NLP's size.
+
+dmoc, timed from the new goal to the result: ``problem.with_boundary(q_goal=g)`` then
+"judged" ``dmoc.optimize(new, guess=previous)`` (IPOPT and the verdict), "unjudged"
+``dmoc.optimize(..., check=False)``, "raw" ``dmoc.optimize.solve(...)``.
+rockit (not a dependency of dmoc; install it in a separate environment): the reduced ODEs
+written below (knife edge: m = J = 1, blade speed s, s' = u0, theta'' = u1,
+(x, y)' = s (cos theta, sin theta); rolling disk: m = R = 1, I = 1/2, J = 1/4, rolling rate
+w with (m R^2 + I) w' = u0, heading rate omega with J omega' = u1,
+(x, y)' = R w (cos phi, sin phi); the rolling angle is free at the goal and left out),
+multiple shooting with one RK4 step per interval, piecewise-linear continuous controls
+(``ocp.control(2, order=1)``), minimizing int |u|^2 dt, the goal an ``ocp.parameter``;
+timed: ``ocp.set_value(goal, g)``, ``ocp.set_initial`` of every state and control from the
+previous solution sampled on the control grid (the warm start of rockit's MPC example),
+``ocp.solve()``. IPOPT options as dmoc's defaults (tol and constr_viol_tol 1e-10,
+bound_relax_factor 0, MUMPS with its permuting scaling and pivot order 0, print_level 0).
+
+The dmoc columns run in a child process per checkout (``--checkouts A B``: PYTHONPATH set
+to each), interleaved with rockit's child so that all see the same load.
+
+    /work/venv-peers/bin/python benchmarks/peers_resolve.py [--repeat 5] [--checkouts DIR ...]
+"""
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import casadi as ca  # noqa: E402
+import numpy as np  # noqa: E402
+
+ACCURACY = 1e-6
+J_STAR = {"rolling disk": 1.02891883211, "knife edge": 8.72240586430}
+GOAL = {"rolling disk": np.array([1.0, 1.0, np.pi / 2]),      # (x, y, heading phi)
+        "knife edge": np.array([0.0, 1.0, 0.0])}              # (x, y, theta)
+OFFSETS = np.array([[0.05, 0.0, 0.0], [0.0, 0.05, 0.05], [-0.05, 0.05, 0.0],
+                    [0.05, -0.05, -0.05], [0.0, 0.1, 0.1], [-0.1, 0.0, 0.05]])
+IPOPT = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
+         "bound_relax_factor": 0.0, "mumps_permuting_scaling": 0, "mumps_pivot_order": 0,
+         "linear_solver": "mumps", "max_iter": 1000}
+DURATION = 4.0
+DMOC_RULES = ("lobatto3", "lobatto4")
+DMOC_RUNS = ("judged", "unjudged", "raw")
+
+
+def goals(name, count):
+    """The original goal, then `count` goals near it, shape (count + 1, 3)."""
+    return GOAL[name] + np.vstack([np.zeros(3), OFFSETS[:count]])
+
+
+def least_n(cost_at, j_star, start):
+    """Least N with |cost_at(N) - j_star| / j_star <= ACCURACY: doubling from `start`, then
+    bisection; cost_at(N) is the optimum's cost at N steps."""
+    def meets(N):
+        return abs(cost_at(N) - j_star) / j_star <= ACCURACY
+    low, high = start // 2, start
+    while not meets(high):
+        low, high = high, 2 * high
+    while high - low > 1:
+        mid = (low + high) // 2
+        low, high = (low, mid) if meets(mid) else (mid, high)
+    return high
+
+
+# ---- dmoc (run with PYTHONPATH at a checkout) --------------------------------------------
+
+def dmoc_problem(name, N, rule, goal):
+    """The dmoc.problems problem `name` at N steps with `rule`, moved to `goal`."""
+    import dmoc.problems
+    if name == "knife edge":
+        return dmoc.problems.knife_edge_parking(N, rule=rule, duration=DURATION).with_boundary(
+            q_goal=list(goal))
+    problem = dmoc.problems.rolling_disk_steering(N, rule=rule, duration=DURATION)
+    return problem.with_boundary(q_goal=[goal[0], goal[1], None, goal[2]])
+
+
+def dmoc_resolve(name, rule, N, runs, repeat, count):
+    """(this process) {run: [median seconds per goal, iterations, IPOPT s, function s]}, the
+    NLP size and the re-solves' costs, for dmoc re-solves of `name` at N with `rule`."""
+    import dmoc
+    targets = goals(name, count)
+    problem = dmoc_problem(name, N, rule, targets[0])
+    calls = {"judged": lambda p, g: dmoc.optimize(p, guess=g, options={"print_level": 0}),
+             "unjudged": lambda p, g: dmoc.optimize(p, guess=g, check=False,
+                                                    options={"print_level": 0}),
+             "raw": lambda p, g: dmoc.optimize.solve(p, guess=g, options={"print_level": 0})}
+    out = {"size": [problem.transcription.x_layout.size, problem.transcription.g_layout.size]}
+    for run in runs:
+        previous = calls[run](problem, None)
+        seconds, rows, costs = [], [], []
+        for _ in range(repeat):
+            for goal in list(targets[1:]) + [targets[0]]:
+                tic = time.perf_counter()
+                new = dmoc_problem_moved(problem, name, goal)
+                result = calls[run](new, previous)
+                seconds.append(time.perf_counter() - tic)
+                if not result.success:
+                    raise RuntimeError(f"dmoc {rule} {run}: {result.message}")
+                rows.append([result.stats["iterations"], result.stats["solve_time"],
+                             result.stats["function_time"]])
+                costs.append(result.cost)
+                previous = result
+        out[run] = [float(np.median(seconds))] + np.median(rows, axis=0).tolist()
+        out["costs"] = costs[:count + 1]
+    return out
+
+
+def dmoc_problem_moved(problem, name, goal):
+    """`problem` with the goal `goal` (with_boundary: same structure, kept solver)."""
+    q_goal = list(goal) if name == "knife edge" else [goal[0], goal[1], None, goal[2]]
+    return problem.with_boundary(q_goal=q_goal)
+
+
+def dmoc_cost(name, rule):
+    """N -> the raw solve's optimal cost at N steps with `rule`, at the original goal."""
+    import dmoc
+
+    def cost_at(N):
+        result = dmoc.optimize.solve(dmoc_problem(name, N, rule, GOAL[name]),
+                                     options={"print_level": 0})
+        return result.cost
+    return cost_at
+
+
+# ---- rockit ---------------------------------------------------------------------------
+
+def rockit_ocp(name, N):
+    """(ocp, goal parameter, signals) of rockit's problem `name` on N multiple-shooting
+    intervals (reduced ODE, piecewise-linear controls, int |u|^2 dt)."""
+    import rockit
+    ocp = rockit.Ocp(t0=0, T=DURATION)
+    x, y, heading = ocp.state(), ocp.state(), ocp.state()
+    speed, turn = ocp.state(), ocp.state()
+    u = ocp.control(2, order=1)
+    if name == "knife edge":             # blade speed s' = u0 (m = 1), theta'' = u1 (J = 1)
+        ocp.set_der(x, speed * ca.cos(heading))
+        ocp.set_der(y, speed * ca.sin(heading))
+        ocp.set_der(speed, u[0])
+    else:                                # rolling rate w: (m R^2 + I) w' = u0, R = m = 1, I = 1/2
+        ocp.set_der(x, speed * ca.cos(heading))
+        ocp.set_der(y, speed * ca.sin(heading))
+        ocp.set_der(speed, u[0] / 1.5)
+    inertia = 1.0 if name == "knife edge" else 0.25
+    ocp.set_der(heading, turn)
+    ocp.set_der(turn, u[1] / inertia)
+    goal = ocp.parameter(3)
+    for state in (x, y, heading, speed, turn):
+        ocp.subject_to(ocp.at_t0(state) == 0)
+    ocp.subject_to(ocp.at_tf(ca.vertcat(x, y, heading)) == goal)
+    ocp.subject_to(ocp.at_tf(ca.vertcat(speed, turn)) == 0)
+    ocp.add_objective(ocp.integral(ca.sumsqr(u)))
+    bend = ca.sin(np.pi * ocp.t / DURATION)     # a start point off the singular rest: face the goal
+    ocp.set_initial(heading, np.arctan2(GOAL[name][1], GOAL[name][0]) * bend)
+    ocp.set_initial(speed, np.hypot(*GOAL[name][:2]) / DURATION * bend)
+    ocp.solver("ipopt", {"print_time": False, "ipopt": IPOPT})
+    ocp.method(rockit.MultipleShooting(N=N, M=1, intg="rk"))
+    return ocp, goal, ocp.states + ocp.controls
+
+
+def rockit_solve(ocp, goal, value):
+    """rockit's optimum for the goal `value` from the current initial guess."""
+    ocp.set_value(goal, value)
+    return ocp.solve()
+
+
+def warm_start(ocp, signals, sol):
+    """rockit's warm start: every state and control set to `sol` on the control grid."""
+    for signal in signals:
+        ocp.set_initial(signal, sol.sample(signal, grid="control")[1].T)
+
+
+def rockit_cost(name):
+    """N -> rockit's optimal cost at N intervals, at the original goal."""
+    def cost_at(N):
+        ocp, goal, _ = rockit_ocp(name, N)
+        return float(rockit_solve(ocp, goal, GOAL[name]).value(ocp.objective))
+    return cost_at
+
+
+def rockit_resolve(name, N, repeat, count):
+    """(this process) rockit's re-solves, as `dmoc_resolve` returns them (run "rockit")."""
+    targets = goals(name, count)
+    ocp, goal, signals = rockit_ocp(name, N)
+    sol = rockit_solve(ocp, goal, targets[0])
+    opti = ocp._method.opti                  # the NLP's size only
+    seconds, rows, costs = [], [], []
+    for _ in range(repeat):
+        for value in list(targets[1:]) + [targets[0]]:
+            tic = time.perf_counter()
+            warm_start(ocp, signals, sol)
+            sol = rockit_solve(ocp, goal, value)
+            seconds.append(time.perf_counter() - tic)
+            st = sol.stats
+            if not st["success"]:
+                raise RuntimeError(f"rockit: {st['return_status']}")
+            rows.append([st["iter_count"], st["t_wall_total"],
+                         sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))])
+            costs.append(float(sol.value(ocp.objective)))
+    return {"size": [opti.nx, opti.ng], "costs": costs[:count + 1],
+            "rockit": [float(np.median(seconds))] + np.median(rows, axis=0).tolist()}
