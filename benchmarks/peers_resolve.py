@@ -19,7 +19,8 @@ written below (knife edge: m = J = 1, blade speed s, s' = u0, theta'' = u1,
 w with (m R^2 + I) w' = u0, heading rate omega with J omega' = u1,
 (x, y)' = R w (cos phi, sin phi); the rolling angle is free at the goal and left out),
 multiple shooting with one RK4 step per interval, piecewise-linear continuous controls
-(``ocp.control(2, order=1)``), minimizing int |u|^2 dt, the goal an ``ocp.parameter``;
+(``ocp.control(2, order=1)``), minimizing int |u|^2 dt, the goal an ``ocp.parameter``,
+the NLP expanded to SX (``expand=True``, rockit's faster setting);
 timed: ``ocp.set_value(goal, g)``, ``ocp.set_initial`` of every state and control from the
 previous solution sampled on the control grid (the warm start of rockit's MPC example),
 ``ocp.solve()``. IPOPT options as dmoc's defaults (tol and constr_viol_tol 1e-10,
@@ -94,12 +95,13 @@ def dmoc_resolve(name, rule, N, runs, repeat, count):
     """(this process) {run: [median seconds per goal, iterations, IPOPT s, function s]}, the
     NLP size and the re-solves' costs, for dmoc re-solves of `name` at N with `rule`."""
     import dmoc
+    from dmoc.optimize.solve import solve      # dmoc.optimize is the judged function
     targets = goals(name, count)
     problem = dmoc_problem(name, N, rule, targets[0])
     calls = {"judged": lambda p, g: dmoc.optimize(p, guess=g, options={"print_level": 0}),
              "unjudged": lambda p, g: dmoc.optimize(p, guess=g, check=False,
                                                     options={"print_level": 0}),
-             "raw": lambda p, g: dmoc.optimize.solve(p, guess=g, options={"print_level": 0})}
+             "raw": lambda p, g: solve(p, guess=g, options={"print_level": 0})}
     out = {"size": [problem.transcription.x_layout.size, problem.transcription.g_layout.size]}
     for run in runs:
         previous = calls[run](problem, None)
@@ -129,10 +131,10 @@ def dmoc_problem_moved(problem, name, goal):
 
 def dmoc_cost(name, rule):
     """N -> the raw solve's optimal cost at N steps with `rule`, at the original goal."""
-    import dmoc
+    from dmoc.optimize.solve import solve
 
     def cost_at(N):
-        result = dmoc.optimize.solve(dmoc_problem(name, N, rule, GOAL[name]),
+        result = solve(dmoc_problem(name, N, rule, GOAL[name]),
                                      options={"print_level": 0})
         return result.cost
     return cost_at
@@ -141,7 +143,7 @@ def dmoc_cost(name, rule):
 # ---- rockit ---------------------------------------------------------------------------
 
 def rockit_ocp(name, N):
-    """(ocp, goal parameter, signals) of rockit's problem `name` on N multiple-shooting
+    """(ocp, goal parameter) of rockit's problem `name` on N multiple-shooting
     intervals (reduced ODE, piecewise-linear controls, int |u|^2 dt)."""
     import rockit
     ocp = rockit.Ocp(t0=0, T=DURATION)
@@ -168,9 +170,10 @@ def rockit_ocp(name, N):
     bend = ca.sin(np.pi * ocp.t / DURATION)     # a start point off the singular rest: face the goal
     ocp.set_initial(heading, np.arctan2(GOAL[name][1], GOAL[name][0]) * bend)
     ocp.set_initial(speed, np.hypot(*GOAL[name][:2]) / DURATION * bend)
-    ocp.solver("ipopt", {"print_time": False, "ipopt": IPOPT})
+    ocp.solver("ipopt", {"print_time": False, "record_time": True, "expand": True,
+                         "ipopt": {**IPOPT, "warm_start_init_point": "yes"}})
     ocp.method(rockit.MultipleShooting(N=N, M=1, intg="rk"))
-    return ocp, goal, ocp.states + ocp.controls
+    return ocp, goal
 
 
 def rockit_solve(ocp, goal, value):
@@ -179,16 +182,18 @@ def rockit_solve(ocp, goal, value):
     return ocp.solve()
 
 
-def warm_start(ocp, signals, sol):
-    """rockit's warm start: every state and control set to `sol` on the control grid."""
-    for signal in signals:
-        ocp.set_initial(signal, sol.sample(signal, grid="control")[1].T)
+def warm_start(ocp, sol):
+    """Start the next solve from `sol`, primal and dual, through rockit's CasADi Opti
+    (``ocp.set_initial`` per signal re-transcribes the problem: seconds per call)."""
+    opti, found = ocp._method.opti, sol.sol.sol
+    ca.Opti.set_initial(opti, found.value_variables())
+    ca.Opti.set_initial(opti, opti.lam_g, found.value(opti.lam_g))
 
 
 def rockit_cost(name):
     """N -> rockit's optimal cost at N intervals, at the original goal."""
     def cost_at(N):
-        ocp, goal, _ = rockit_ocp(name, N)
+        ocp, goal = rockit_ocp(name, N)
         return float(rockit_solve(ocp, goal, GOAL[name]).value(ocp.objective))
     return cost_at
 
@@ -196,14 +201,14 @@ def rockit_cost(name):
 def rockit_resolve(name, N, repeat, count):
     """(this process) rockit's re-solves, as `dmoc_resolve` returns them (run "rockit")."""
     targets = goals(name, count)
-    ocp, goal, signals = rockit_ocp(name, N)
+    ocp, goal = rockit_ocp(name, N)
     sol = rockit_solve(ocp, goal, targets[0])
     opti = ocp._method.opti                  # the NLP's size only
     seconds, rows, costs = [], [], []
     for _ in range(repeat):
         for value in list(targets[1:]) + [targets[0]]:
             tic = time.perf_counter()
-            warm_start(ocp, signals, sol)
+            warm_start(ocp, sol)
             sol = rockit_solve(ocp, goal, value)
             seconds.append(time.perf_counter() - tic)
             st = sol.stats
@@ -214,3 +219,94 @@ def rockit_resolve(name, N, repeat, count):
             costs.append(float(sol.value(ocp.objective)))
     return {"size": [opti.nx, opti.ng], "costs": costs[:count + 1],
             "rockit": [float(np.median(seconds))] + np.median(rows, axis=0).tolist()}
+
+
+# ---- the run --------------------------------------------------------------------------
+
+def child(checkout, *arguments):
+    """The JSON that this script prints with `arguments` in a child process whose dmoc is
+    `checkout`'s."""
+    env = {**os.environ, "PYTHONPATH": checkout}
+    out = subprocess.run([sys.executable, __file__, "--one", *arguments], check=True, env=env,
+                         capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def one(argv):
+    """(child) argv = [name, method, N, repeat, count]: print the re-solves as JSON."""
+    name, method, N, repeat, count = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4])
+    if method == "rockit":
+        print(json.dumps(rockit_resolve(name, N, repeat, count)))
+    else:
+        print(json.dumps(dmoc_resolve(name, method, N, DMOC_RUNS, repeat, count)))
+
+
+def scans():
+    """{(name, method): N*} for every problem and method."""
+    found = {}
+    for name, j_star in J_STAR.items():
+        for rule in DMOC_RULES:
+            found[name, rule] = least_n(dmoc_cost(name, rule), j_star, 8)
+        found[name, "rockit"] = least_n(rockit_cost(name), j_star, 16)
+    return found
+
+
+def table(name, n_star, measured, checkouts):
+    """Print one problem's rows: per method and checkout, time, iterations, IPOPT and
+    function seconds, the NLP size and the ratio to rockit's re-solve."""
+    rock = measured["rockit"]["rockit"]
+    print(f"\n{name}: rockit N = {n_star[name, 'rockit']}, NLP {measured['rockit']['size']}, "
+          f"re-solve {rock[0] * 1e3:.2f} ms, {rock[1]:.1f} it, IPOPT {rock[2] * 1e3:.2f} ms "
+          f"(functions {rock[3] * 1e3:.2f} ms)")
+    head = (f"{'method':<10}{'checkout':<12}{'N':>4}{'x, g':>11}{'run':>10}{'ms':>9}{'it':>6}"
+            f"{'IPOPT ms':>10}{'fun ms':>8}{'/rockit':>9}{'IPOPT/rockit':>14}{'max dJ/J':>10}")
+    print(head + "\n" + "-" * len(head))
+    for rule in DMOC_RULES:
+        for checkout in checkouts:
+            out = measured[rule, checkout]
+            gap = np.max(np.abs(np.subtract(out["costs"], measured["rockit"]["costs"]))
+                         / np.asarray(measured["rockit"]["costs"]))
+            for run in DMOC_RUNS:
+                s, it, ipopt, fun = out[run]
+                print(f"{rule:<10}{os.path.basename(checkout):<12}{n_star[name, rule]:>4}"
+                      f"{'%d, %d' % tuple(out['size']):>11}{run:>10}{s * 1e3:>9.2f}{it:>6.1f}"
+                      f"{ipopt * 1e3:>10.2f}{fun * 1e3:>8.2f}{s / rock[0]:>9.2f}"
+                      f"{ipopt / rock[2]:>14.2f}{gap:>10.1e}")
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--one":
+        one(argv[1:])
+        return
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeat", type=int, default=5, help="cycles of re-solves (default 5)")
+    parser.add_argument("--goals", type=int, default=5, help="goals near the original (<= 6)")
+    parser.add_argument("--checkouts", nargs="+", default=[os.getcwd()],
+                        help="dmoc checkouts to time (default: the current directory)")
+    args = parser.parse_args(argv)
+    try:
+        import rockit
+    except ImportError:
+        print("rockit is not importable here: install it in a separate environment "
+              "(pip install rockit-meco) and run this script with that python; skipped.")
+        return
+    print(f"python {platform.python_version()}, casadi {ca.__version__}, rockit "
+          f"{getattr(rockit, '__version__', '?')}; {os.cpu_count()} cores; load average "
+          f"{'%.2f %.2f %.2f' % os.getloadavg()}")
+    n_star = scans()
+    print("least N with |J_N - J*| / J* <= 1e-6:", {f"{k[0]}, {k[1]}": v for k, v in n_star.items()})
+    for name in J_STAR:
+        counts = str(args.repeat), str(args.goals)
+        measured = {"rockit": child(args.checkouts[0], name, "rockit",
+                                    str(n_star[name, "rockit"]), *counts)}
+        for rule in DMOC_RULES:
+            for checkout in args.checkouts:
+                measured[rule, checkout] = child(checkout, name, rule, str(n_star[name, rule]),
+                                                 *counts)
+        table(name, n_star, measured, args.checkouts)
+    print(f"\nload average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
+
+
+if __name__ == "__main__":
+    main()
