@@ -21,15 +21,25 @@ w with (m R^2 + I) w' = u0, heading rate omega with J omega' = u1,
 multiple shooting with one RK4 step per interval, piecewise-linear continuous controls
 (``ocp.control(2, order=1)``), minimizing int |u|^2 dt, the goal an ``ocp.parameter``,
 the NLP expanded to SX (``expand=True``, rockit's faster setting);
-timed: ``ocp.set_value(goal, g)``, ``ocp.set_initial`` of every state and control from the
-previous solution sampled on the control grid (the warm start of rockit's MPC example),
-``ocp.solve()``. IPOPT options as dmoc's defaults (tol and constr_viol_tol 1e-10,
-bound_relax_factor 0, MUMPS with its permuting scaling and pivot order 0, print_level 0).
+timed: ``ocp.set_value(goal, g)``, the previous optimum's x and constraint multipliers
+set as the start point of rockit's CasADi Opti (``Opti.set_initial(sol.value_variables())``
+and of ``opti.lam_g``; IPOPT's warm_start_init_point "yes"), ``ocp.solve()``. rockit's
+public ``ocp.set_initial`` per signal, the warm start of its MPC example, re-transcribes
+the problem on the next solve: about 8 s per re-solve at N = 70, so it is not the one
+timed. rockit's first solve starts from a heading and a speed that bend towards the goal
+(the knife edge does not leave the all-zero start, where the sideways rows are singular).
+IPOPT options as dmoc's defaults (tol and constr_viol_tol 1e-10, bound_relax_factor 0,
+MUMPS with its permuting scaling and pivot order 0, print_level 0, max_iter 1000).
+"IPOPT" time is IPOPT's wall time (dmoc: around its solver call; rockit: CasADi's
+t_wall_total), "functions" its part in NLP evaluations (CasADi's t_wall_nlp_*).
 
 The dmoc columns run in a child process per checkout (``--checkouts A B``: PYTHONPATH set
-to each), interleaved with rockit's child so that all see the same load.
+to each), interleaved with rockit's child so that all see the same load, `--rounds` times;
+per method the round of least time is kept. "max dJ/J" is the largest relative difference
+of a dmoc re-solve's cost from rockit's at the same goal (each within 1e-6 of J* at the
+original goal). Without rockit importable the script says so and exits.
 
-    /work/venv-peers/bin/python benchmarks/peers_resolve.py [--repeat 5] [--checkouts DIR ...]
+    /work/venv-peers/bin/python benchmarks/peers_resolve.py [--repeat 5] [--rounds 3] [--checkouts DIR ...]
 """
 
 import argparse
