@@ -25,7 +25,7 @@ timed: ``ocp.set_value(goal, g)``, the previous optimum's x and constraint multi
 set as the start point of rockit's CasADi Opti (``Opti.set_initial(sol.value_variables())``
 and of ``opti.lam_g``; IPOPT's warm_start_init_point "yes"), ``ocp.solve()``. rockit's
 public ``ocp.set_initial`` per signal, the warm start of its MPC example, re-transcribes
-the problem on the next solve: about 8 s per re-solve at N = 70, so it is not the one
+the problem on the next solve (8 s per re-solve at N = 70, unexpanded), so it is not the one
 timed. rockit's first solve starts from a heading and a speed that bend towards the goal
 (the knife edge does not leave the all-zero start, where the sideways rows are singular).
 IPOPT options as dmoc's defaults (tol and constr_viol_tol 1e-10, bound_relax_factor 0,
@@ -102,35 +102,42 @@ def dmoc_problem(name, N, rule, goal):
     return problem.with_boundary(q_goal=[goal[0], goal[1], None, goal[2]])
 
 
-def dmoc_resolve(name, rule, N, runs, repeat, count):
-    """(this process) {run: [median seconds per goal, iterations, IPOPT s, function s]}, the
-    NLP size and the re-solves' costs, for dmoc re-solves of `name` at N with `rule`."""
+def cycle(step, targets, repeat):
+    """Time `step(goal)` over `targets[1:]` then `targets[0]`, `repeat` times; step returns
+    (iterations, IPOPT s, function s, cost). Returns ([median s, iterations, IPOPT s,
+    function s], the first cycle's costs)."""
+    seconds, rows = [], []
+    for _ in range(repeat):
+        for goal in list(targets[1:]) + [targets[0]]:
+            tic = time.perf_counter()
+            rows.append(step(goal))
+            seconds.append(time.perf_counter() - tic)
+    row = [float(np.median(seconds))] + np.median(np.array(rows)[:, :3], axis=0).tolist()
+    return row, [r[3] for r in rows[:len(targets)]]
+
+
+def dmoc_resolve(name, rule, N, repeat, count):
+    """(this process) {run: [median seconds per re-solve, iterations, IPOPT s, function s]},
+    the NLP size and the costs of dmoc's re-solves of `name` at N with `rule`."""
     import dmoc
     from dmoc.optimize.solve import solve      # dmoc.optimize is the judged function
     targets = goals(name, count)
     problem = dmoc_problem(name, N, rule, targets[0])
-    calls = {"judged": lambda p, g: dmoc.optimize(p, guess=g, options={"print_level": 0}),
-             "unjudged": lambda p, g: dmoc.optimize(p, guess=g, check=False,
-                                                    options={"print_level": 0}),
-             "raw": lambda p, g: solve(p, guess=g, options={"print_level": 0})}
+    calls = {"judged": dmoc.optimize, "unjudged": lambda p, **k: dmoc.optimize(p, check=False, **k),
+             "raw": solve}
     out = {"size": [problem.transcription.x_layout.size, problem.transcription.g_layout.size]}
-    for run in runs:
-        previous = calls[run](problem, None)
-        seconds, rows, costs = [], [], []
-        for _ in range(repeat):
-            for goal in list(targets[1:]) + [targets[0]]:
-                tic = time.perf_counter()
-                new = dmoc_problem_moved(problem, name, goal)
-                result = calls[run](new, previous)
-                seconds.append(time.perf_counter() - tic)
-                if not result.success:
-                    raise RuntimeError(f"dmoc {rule} {run}: {result.message}")
-                rows.append([result.stats["iterations"], result.stats["solve_time"],
-                             result.stats["function_time"]])
-                costs.append(result.cost)
-                previous = result
-        out[run] = [float(np.median(seconds))] + np.median(rows, axis=0).tolist()
-        out["costs"] = costs[:count + 1]
+    for run, call in calls.items():
+        previous = call(problem, options={"print_level": 0})
+
+        def step(goal):
+            nonlocal previous
+            previous = call(dmoc_problem_moved(problem, name, goal), guess=previous,
+                            options={"print_level": 0})
+            if not previous.success:
+                raise RuntimeError(f"dmoc {rule} {run}: {previous.message}")
+            st = previous.stats
+            return st["iterations"], st["solve_time"], st["function_time"], previous.cost
+        out[run], out["costs"] = cycle(step, targets, repeat)
     return out
 
 
@@ -209,27 +216,40 @@ def rockit_cost(name):
     return cost_at
 
 
+def ipopt_figures(st):
+    """(iterations, IPOPT wall s, of it in NLP functions) from CasADi nlpsol stats."""
+    if not st["success"]:
+        raise RuntimeError(f"rockit: {st['return_status']}")
+    functions = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
+    return st["iter_count"], st["t_wall_total"], functions
+
+
 def rockit_resolve(name, N, repeat, count):
-    """(this process) rockit's re-solves, as `dmoc_resolve` returns them (run "rockit")."""
+    """(this process) rockit's re-solves, as `dmoc_resolve` returns them: runs "solve"
+    (``set_value``, the warm start, ``ocp.solve()``) and "function" (rockit's
+    ``ocp.to_function`` of goal, start x and multipliers, its advice for repeated solves)."""
     targets = goals(name, count)
     ocp, goal = rockit_ocp(name, N)
     sol = rockit_solve(ocp, goal, targets[0])
-    opti = ocp._method.opti                  # the NLP's size only
-    seconds, rows, costs = [], [], []
-    for _ in range(repeat):
-        for value in list(targets[1:]) + [targets[0]]:
-            tic = time.perf_counter()
-            warm_start(ocp, sol)
-            sol = rockit_solve(ocp, goal, value)
-            seconds.append(time.perf_counter() - tic)
-            st = sol.stats
-            if not st["success"]:
-                raise RuntimeError(f"rockit: {st['return_status']}")
-            rows.append([st["iter_count"], st["t_wall_total"],
-                         sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))])
-            costs.append(float(sol.value(ocp.objective)))
-    return {"size": [opti.nx, opti.ng], "costs": costs[:count + 1],
-            "rockit": [float(np.median(seconds))] + np.median(rows, axis=0).tolist()}
+    opti = ocp._method.opti                  # the NLP's x and lam_g
+    first = sol.sol.sol.value(opti.x), sol.sol.sol.value(opti.lam_g)
+
+    def solve_step(value):
+        nonlocal sol
+        warm_start(ocp, sol)
+        sol = rockit_solve(ocp, goal, value)
+        return (*ipopt_figures(sol.stats), float(sol.value(ocp.objective)))
+    resolve = ocp.to_function("resolve", [goal, opti.x, opti.lam_g], [opti.x, opti.lam_g, opti.f])
+    x, lam_g = first
+
+    def function_step(value):
+        nonlocal x, lam_g
+        x, lam_g, cost = resolve(value, x, lam_g)
+        return (*ipopt_figures(resolve.stats()), float(cost))
+    out = {"size": [opti.nx, opti.ng]}
+    out["solve"], out["costs"] = cycle(solve_step, targets, repeat)
+    out["function"], _ = cycle(function_step, targets, repeat)
+    return out
 
 
 # ---- the run --------------------------------------------------------------------------
@@ -249,7 +269,7 @@ def one(argv):
     if method == "rockit":
         print(json.dumps(rockit_resolve(name, N, repeat, count)))
     else:
-        print(json.dumps(dmoc_resolve(name, method, N, DMOC_RUNS, repeat, count)))
+        print(json.dumps(dmoc_resolve(name, method, N, repeat, count)))
 
 
 def scans():
@@ -274,26 +294,24 @@ def least_loaded(outs):
 
 
 def table(name, n_star, measured, checkouts):
-    """Print one problem's rows: per method and checkout, time, iterations, IPOPT and
-    function seconds, the NLP size and the ratio to rockit's re-solve."""
-    rock = measured["rockit"]["rockit"]
-    print(f"\n{name}: rockit N = {n_star[name, 'rockit']}, NLP {measured['rockit']['size']}, "
-          f"re-solve {rock[0] * 1e3:.2f} ms, {rock[1]:.1f} it, IPOPT {rock[2] * 1e3:.2f} ms "
-          f"(functions {rock[3] * 1e3:.2f} ms)")
-    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>10}{'ms':>9}{'it':>6}"
-            f"{'IPOPT ms':>10}{'fun ms':>8}{'/rockit':>9}{'IPOPT/rockit':>14}{'max dJ/J':>10}")
-    print(head + "\n" + "-" * len(head))
-    for rule in DMOC_RULES:
-        for checkout in checkouts:
-            out = measured[rule, checkout]
-            gap = np.max(np.abs(np.subtract(out["costs"], measured["rockit"]["costs"]))
-                         / np.asarray(measured["rockit"]["costs"]))
-            for run in DMOC_RUNS:
-                s, it, ipopt, fun = out[run]
-                print(f"{rule:<10}{os.path.basename(checkout):<17}{n_star[name, rule]:>4}"
-                      f"{'%d, %d' % tuple(out['size']):>11}{run:>10}{s * 1e3:>9.2f}{it:>6.1f}"
-                      f"{ipopt * 1e3:>10.2f}{fun * 1e3:>8.2f}{s / rock[0]:>9.2f}"
-                      f"{ipopt / rock[2]:>14.2f}{gap:>10.1e}")
+    """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT
+    and function seconds, the NLP size, the ratios to rockit's two re-solves and of IPOPT's
+    time to rockit's, and the largest cost difference from rockit's."""
+    rock = measured["rockit"]
+    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>10}{'ms':>8}{'it':>5}"
+            f"{'IPOPT ms':>9}{'fun ms':>7}{'/solve':>7}{'/function':>10}{'IPOPT/':>7}{'max dJ/J':>9}")
+    print(f"\n{name} (ratios: to rockit's solve and function re-solves; IPOPT's to rockit's "
+          f"function)\n{head}\n" + "-" * len(head))
+    rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in ("solve", "function")]
+    rows += [(rule, os.path.basename(c), n_star[name, rule], measured[rule, c], run)
+             for rule in DMOC_RULES for c in checkouts for run in DMOC_RUNS]
+    for method, checkout, N, out, run in rows:
+        s, it, ipopt, fun = out[run]
+        gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
+        print(f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>10}"
+              f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}"
+              f"{s / rock['solve'][0]:>7.2f}{s / rock['function'][0]:>10.2f}"
+              f"{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}")
 
 
 def main(argv=None):
