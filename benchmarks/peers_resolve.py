@@ -1,43 +1,28 @@
 """Benchmark: re-solving with new boundary data on a kept solver, dmoc against rockit's
-parametric re-solve, at equal accuracy (issue 25).
+parametric re-solve, at equal accuracy (issue 25; docs/performance.md, "Re-solves against
+rockit").
 
-Problems: rolling-disk steering and knife-edge parking (dmoc.problems), J* from the issue.
-For each method (dmoc lobatto3, dmoc lobatto4, rockit) a scan in this run finds the least N
-whose optimum at the original goal has |J_N - J*| / J* <= 1e-6 (bisection between the
-last failing and the first passing N of a doubling sequence). At that N each method solves
-the original goal once (the solver is built), then re-solves a cycle of `--goals` goals
-near it, each from the previous goal's optimum, `--repeat` times; the median per goal of
-the cycle's re-solve wall times is kept, with IPOPT's iterations, its wall time and
-the part of it in function evaluations, and the NLP's size.
+On rolling-disk steering and knife-edge parking (J* from the issue) a scan finds, for dmoc
+lobatto3 and lobatto4 and for rockit, the least N with |J_N - J*| / J* <= 1e-6 at the
+original goal (doubling, then bisection). At that N each method solves the original goal
+(its solver is built), then re-solves `--goals` goals near it in a cycle, each from the
+previous optimum (primal and dual), `--repeat` times: median wall time per re-solve,
+IPOPT's iterations, its wall time and the part in NLP function evaluations, NLP size.
+dmoc is timed from the new goal: ``problem.with_boundary(q_goal=g)`` then
+``dmoc.optimize(new, guess=previous)`` ("judged"), the same with ``check=False``
+("unjudged"), or the raw ``dmoc.optimize.solve`` ("raw"). rockit (not a dependency of dmoc:
+run this script with the python of an environment that has rockit-meco and dmoc) solves
+the reduced ODEs of `rockit_ocp` by multiple shooting (one RK4 step per interval,
+piecewise-linear controls, the goal an ``ocp.parameter``, the NLP expanded), re-solved by
+"solve": ``ocp.set_value``, the previous optimum set as the start of rockit's Opti,
+``ocp.solve()`` (rockit's per-signal ``ocp.set_initial`` would re-transcribe the problem
+at every solve), and "function": ``ocp.to_function`` of goal, start x and multipliers,
+rockit's advice for repeated solves. IPOPT options as dmoc's defaults. "max dJ/J" is the
+largest relative difference of a dmoc re-solve's cost from rockit's at the same goal.
 
-dmoc, timed from the new goal to the result: ``problem.with_boundary(q_goal=g)`` then
-"judged" ``dmoc.optimize(new, guess=previous)`` (IPOPT and the verdict), "unjudged"
-``dmoc.optimize(..., check=False)``, "raw" ``dmoc.optimize.solve(...)``.
-rockit (not a dependency of dmoc; install it in a separate environment): the reduced ODEs
-written below (knife edge: m = J = 1, blade speed s, s' = u0, theta'' = u1,
-(x, y)' = s (cos theta, sin theta); rolling disk: m = R = 1, I = 1/2, J = 1/4, rolling rate
-w with (m R^2 + I) w' = u0, heading rate omega with J omega' = u1,
-(x, y)' = R w (cos phi, sin phi); the rolling angle is free at the goal and left out),
-multiple shooting with one RK4 step per interval, piecewise-linear continuous controls
-(``ocp.control(2, order=1)``), minimizing int |u|^2 dt, the goal an ``ocp.parameter``,
-the NLP expanded to SX (``expand=True``, rockit's faster setting);
-timed: ``ocp.set_value(goal, g)``, the previous optimum's x and constraint multipliers
-set as the start point of rockit's CasADi Opti (``Opti.set_initial(sol.value_variables())``
-and of ``opti.lam_g``; IPOPT's warm_start_init_point "yes"), ``ocp.solve()``. rockit's
-public ``ocp.set_initial`` per signal, the warm start of its MPC example, re-transcribes
-the problem on the next solve (8 s per re-solve at N = 70, unexpanded), so it is not the one
-timed. rockit's first solve starts from a heading and a speed that bend towards the goal
-(the knife edge does not leave the all-zero start, where the sideways rows are singular).
-IPOPT options as dmoc's defaults (tol and constr_viol_tol 1e-10, bound_relax_factor 0,
-MUMPS with its permuting scaling and pivot order 0, print_level 0, max_iter 1000).
-"IPOPT" time is IPOPT's wall time (dmoc: around its solver call; rockit: CasADi's
-t_wall_total), "functions" its part in NLP evaluations (CasADi's t_wall_nlp_*).
-
-The dmoc columns run in a child process per checkout (``--checkouts A B``: PYTHONPATH set
-to each), interleaved with rockit's child so that all see the same load, `--rounds` times;
-per method the round of least time is kept. "max dJ/J" is the largest relative difference
-of a dmoc re-solve's cost from rockit's at the same goal (each within 1e-6 of J* at the
-original goal). Without rockit importable the script says so and exits.
+dmoc runs in a child process per checkout (``--checkouts A B``: PYTHONPATH set to each),
+interleaved with rockit's child, `--rounds` times; per method the round of least time is
+kept. Without rockit the script says so and exits.
 
     /work/venv-peers/bin/python benchmarks/peers_resolve.py [--repeat 5] [--rounds 3] [--checkouts DIR ...]
 """
@@ -67,6 +52,11 @@ IPOPT = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
          "bound_relax_factor": 0.0, "mumps_permuting_scaling": 0, "mumps_pivot_order": 0,
          "linear_solver": "mumps", "max_iter": 1000}
 DURATION = 4.0
+# the reduced equations' inertias (along the path, turning): the knife edge's m = J = 1
+# (s' = u0 / m, theta'' = u1 / J); the disk's m R^2 + I = 1 + 1/2 and J = m R^2 / 4 for
+# m = R = 1 (the constraints x' = R cos(phi) theta', y' = R sin(phi) theta' in L give
+# (m R^2 + I) theta'' = u0, J phi'' = u1)
+REDUCED_INERTIA = {"knife edge": (1.0, 1.0), "rolling disk": (1.5, 0.25)}
 DMOC_RULES = ("lobatto3", "lobatto4")
 DMOC_RUNS = ("judged", "unjudged", "raw")
 
@@ -95,11 +85,16 @@ def least_n(cost_at, j_star, start):
 def dmoc_problem(name, N, rule, goal):
     """The dmoc.problems problem `name` at N steps with `rule`, moved to `goal`."""
     import dmoc.problems
-    if name == "knife edge":
-        return dmoc.problems.knife_edge_parking(N, rule=rule, duration=DURATION).with_boundary(
-            q_goal=list(goal))
-    problem = dmoc.problems.rolling_disk_steering(N, rule=rule, duration=DURATION)
-    return problem.with_boundary(q_goal=[goal[0], goal[1], None, goal[2]])
+    make = {"knife edge": dmoc.problems.knife_edge_parking,
+            "rolling disk": dmoc.problems.rolling_disk_steering}[name]
+    return moved(make(N, rule=rule, duration=DURATION), name, goal)
+
+
+def moved(problem, name, goal):
+    """`problem` with the goal `goal` = (x, y, heading) (with_boundary: same structure,
+    kept solver; the rolling disk's rolling angle stays free)."""
+    q_goal = list(goal) if name == "knife edge" else [goal[0], goal[1], None, goal[2]]
+    return problem.with_boundary(q_goal=q_goal)
 
 
 def cycle(step, targets, repeat):
@@ -131,7 +126,7 @@ def dmoc_resolve(name, rule, N, repeat, count):
 
         def step(goal):
             nonlocal previous
-            previous = call(dmoc_problem_moved(problem, name, goal), guess=previous,
+            previous = call(moved(problem, name, goal), guess=previous,
                             options={"print_level": 0})
             if not previous.success:
                 raise RuntimeError(f"dmoc {rule} {run}: {previous.message}")
@@ -141,44 +136,39 @@ def dmoc_resolve(name, rule, N, repeat, count):
     return out
 
 
-def dmoc_problem_moved(problem, name, goal):
-    """`problem` with the goal `goal` (with_boundary: same structure, kept solver)."""
-    q_goal = list(goal) if name == "knife edge" else [goal[0], goal[1], None, goal[2]]
-    return problem.with_boundary(q_goal=q_goal)
-
-
 def dmoc_cost(name, rule):
     """N -> the raw solve's optimal cost at N steps with `rule`, at the original goal."""
     from dmoc.optimize.solve import solve
 
     def cost_at(N):
-        result = solve(dmoc_problem(name, N, rule, GOAL[name]),
-                                     options={"print_level": 0})
-        return result.cost
+        return solve(dmoc_problem(name, N, rule, GOAL[name]), options={"print_level": 0}).cost
     return cost_at
 
 
 # ---- rockit ---------------------------------------------------------------------------
 
 def rockit_ocp(name, N):
-    """(ocp, goal parameter) of rockit's problem `name` on N multiple-shooting
-    intervals (reduced ODE, piecewise-linear controls, int |u|^2 dt)."""
+    """(ocp, goal parameter) of rockit's problem `name` on N multiple-shooting intervals,
+    minimizing int |u|^2 dt over 4 s from rest to rest at the goal (x, y, heading).
+
+    The reduced ODE, states (x, y, heading, speed along the path, turning rate), controls
+    u continuous and piecewise linear (``ocp.control(2, order=1)``): knife edge, blade
+    speed s and heading theta, s' = u0, theta'' = u1, (x, y)' = s (cos, sin)(theta);
+    rolling disk, rolling rate w and heading phi, 1.5 w' = u0, 0.25 phi'' = u1,
+    (x, y)' = w (cos, sin)(phi) (REDUCED_INERTIA); its rolling angle, free at the goal and
+    in no equation, is left out. The start point bends heading and speed towards the goal
+    (from all zeros the knife edge's sideways rows are singular and IPOPT stalls)."""
     import rockit
     ocp = rockit.Ocp(t0=0, T=DURATION)
     x, y, heading = ocp.state(), ocp.state(), ocp.state()
     speed, turn = ocp.state(), ocp.state()
     u = ocp.control(2, order=1)
-    if name == "knife edge":             # blade speed s' = u0 (m = 1), theta'' = u1 (J = 1)
-        ocp.set_der(x, speed * ca.cos(heading))
-        ocp.set_der(y, speed * ca.sin(heading))
-        ocp.set_der(speed, u[0])
-    else:                                # rolling rate w: (m R^2 + I) w' = u0, R = m = 1, I = 1/2
-        ocp.set_der(x, speed * ca.cos(heading))
-        ocp.set_der(y, speed * ca.sin(heading))
-        ocp.set_der(speed, u[0] / 1.5)
-    inertia = 1.0 if name == "knife edge" else 0.25
+    along, turning = REDUCED_INERTIA[name]
+    ocp.set_der(x, speed * ca.cos(heading))    # R = 1 for the disk: (x, y)' = R w (cos, sin)
+    ocp.set_der(y, speed * ca.sin(heading))
+    ocp.set_der(speed, u[0] / along)
     ocp.set_der(heading, turn)
-    ocp.set_der(turn, u[1] / inertia)
+    ocp.set_der(turn, u[1] / turning)
     goal = ocp.parameter(3)
     for state in (x, y, heading, speed, turn):
         ocp.subject_to(ocp.at_t0(state) == 0)
