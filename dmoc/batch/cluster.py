@@ -16,6 +16,12 @@ from .errors import SchedulerUnreachable, WorkersFailedToStart
 # one BLAS/OpenMP thread per worker process: the workers, not BLAS threads, share the cores
 WORKER_ENVIRONMENT = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
+# Dask's nannies start their workers with MALLOC_TRIM_THRESHOLD_=65536, which hands freed
+# memory back to the system at once and turns glibc's adaptive thresholds off: a CasADi /
+# IPOPT solve then runs about 1.3x slower (docs/performance.md, "Batches that scale").
+# The workers of dmoc's LocalCluster keep glibc's default, unless the environment sets it.
+UNTRIMMED = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+
 
 class Cluster:
     """A Dask cluster kept across batches: ``with Cluster() as cluster:`` then
@@ -126,9 +132,10 @@ def _configured():
 def _local_cluster(workers):
     refuse_spawn_reimport()
     try:
-        return distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
-                                        processes=True, dashboard_address=":0",
-                                        env=WORKER_ENVIRONMENT)
+        with dask.config.set(UNTRIMMED):
+            return distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                            processes=True, dashboard_address=":0",
+                                            env=WORKER_ENVIRONMENT)
     except Exception as err:
         script = getattr(sys.modules.get("__main__"), "__file__", None)
         hint = (f" If {script!r} runs the batch at its top level, put the call under "
