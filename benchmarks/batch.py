@@ -4,12 +4,16 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
 - **optimize**: `count` knife-edge parking problems (goals (0, y, 0.1), y from 0.2 to 2.0,
   each ``base.with_boundary(q_goal=...)``) at each N of `--steps`: the serial loop of
   ``dmoc.optimize`` on the kept solver (built before timing) against ``optimize_many`` on
-  a `dmoc.batch.Cluster` of 2 single-threaded workers already running and warmed up (one
-  small batch of the same N solved before timing). At the first N also the cluster's
-  start included: starting a Cluster, the batch, closing it.
+  a `dmoc.batch.Cluster` of 2 single-threaded workers already running and warmed up: one
+  small batch of the same N (2 items per worker) solved before timing builds each
+  worker's solver and the verdict's replay step, and gives the client the cost of an
+  item, from which the timed batch sizes its chunks at once. At the first N also the
+  cluster's start included: starting a Cluster, the batch (no warm-up), closing it.
 - **simulate**: `count` knife-edge runs of `--sim-steps` steps (v0 = (c, 0, 1)), serial
   ``dmoc.simulate`` against ``simulate_many``, both in compiled C (``jit=True``; the
-  virtual machine where there is no C compiler), the step built before timing.
+  virtual machine where there is no C compiler), the step built before timing; then
+  ``simulate_many(keep="final")``, which returns the last knot of each run only, against
+  the same serial loop.
 - **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
   and on the cluster: seconds per item, and the worker-seconds a batch adds per item,
   2 x batch - serial (its cost of shipping, scheduling and collecting).
@@ -82,18 +86,24 @@ def with_start(steps, count):
     return wall
 
 
-def simulate_row(cluster, steps, count):
-    """(serial wall, batch wall, max |dq|) of `count` knife-edge runs of `steps` steps."""
+def simulate_rows(cluster, steps, count):
+    """(serial wall, batch wall, max |dq|) of `count` knife-edge runs of `steps` steps,
+    for ``keep="trajectory"`` and ``keep="final"`` (the serial loop taking the last knot)."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
     jit = compiled.compiler() is not None           # the same path serially and on the workers
     runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
             for c in np.linspace(0.5, 2.0, count)]
     dmoc.simulate(disc, **runs[0])
     serial_wall, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
-    batch.simulate_many(disc, runs[:2 * WORKERS], client=cluster, progress=False)
-    wall, results = timed(lambda: batch.simulate_many(disc, runs, client=cluster, progress=False))
-    dq = max(np.abs(a.trajectory.q - b.trajectory.q).max() for a, b in zip(results, serial))
-    return serial_wall, wall, dq
+    rows = []
+    for keep in ("trajectory", "final"):
+        batch.simulate_many(disc, runs[:2 * WORKERS], keep=keep, client=cluster, progress=False)
+        wall, results = timed(lambda: batch.simulate_many(disc, runs, keep=keep, client=cluster,
+                                                          progress=False))
+        dq = max(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
+                 for a, b in zip(results, serial))
+        rows.append((keep, serial_wall, wall, dq))
+    return rows
 
 
 def overhead_row(cluster, count):
@@ -131,9 +141,10 @@ def main(argv=None):
             if k == 0:
                 print(f"{'  with the cluster start':28s} {serial_wall:9.2f} {started:9.2f} "
                       f"{serial_wall / started:9.2f}")
-        serial_wall, wall, dq = simulate_row(cluster, args.sim_steps, count)
-        print(f"{f'simulate {count} x {args.sim_steps} steps':28s} {serial_wall:9.2f} {wall:9.2f} "
-              f"{serial_wall / wall:9.2f} {dq:11.1e}")
+        for keep, serial_wall, wall, dq in simulate_rows(cluster, args.sim_steps, count):
+            label = f"simulate {count} x {args.sim_steps} steps" if keep == "trajectory" \
+                else '  keep="final"'
+            print(f"{label:28s} {serial_wall:9.2f} {wall:9.2f} {serial_wall / wall:9.2f} {dq:11.1e}")
         serial_item, batch_item, added = overhead_row(cluster, count)
     print(f"\nempty problem: serial {serial_item * 1e3:.2f} ms/item, batch {batch_item * 1e3:.2f} "
           f"ms/item on {WORKERS} workers, overhead {added * 1e3:.2f} worker-ms/item")
