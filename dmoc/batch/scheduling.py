@@ -16,7 +16,6 @@ from collections import deque
 
 import distributed
 
-from .._util.cache import BoundedCache
 from .chunks import ChunkSizes
 from .cluster import client_of, close
 from .errors import BatchInterrupted
@@ -31,11 +30,6 @@ RETRIES = 2
 TICK = 0.5
 
 CHUNKS_PER_THREAD = 2
-
-# The measured item costs of earlier batches, by the set of shipments they used: a batch of
-# the same structures (a kept cluster, a sweep run again) starts at the chunk size they
-# measured instead of one item per chunk.
-_COSTS = BoundedCache(16, "batch item costs")
 
 # Seconds a worker restarted to stop an abandoned item gets to shut down before it is
 # removed from the scheduler.
@@ -88,8 +82,7 @@ class Batch:
         self.client, self.task, self.arguments, self.items, self.kind = client, task, arguments, items, kind
         self.key = f"dmoc-{label}-{uuid.uuid4().hex[:8]}"
         self.results, self.queued, self.flying = [None] * len(items), deque(range(len(items))), {}
-        self.sizes = _COSTS.get(frozenset(digest for digest, _ in items), ChunkSizes)
-        self.alone, self.submitted = set(), 0
+        self.alone, self.sizes, self.submitted = set(), ChunkSizes(), 0
         self.threads, self.asked = 0, -float("inf")
 
     def collect(self, bar, *, batch_timeout, connect_timeout):

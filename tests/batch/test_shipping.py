@@ -88,24 +88,6 @@ def test_many_cheap_runs_go_in_chunks_and_match_serial_runs(client):
         assert np.array_equal(got.trajectory.q, dmoc.simulate(disc, **run).trajectory.q)
 
 
-def test_a_batch_of_the_same_shipment_starts_at_the_chunk_size_measured_before(client):
-    """The first batch runs one item per chunk until a cost is measured (2 chunks per
-    worker thread); a second batch of the same discretization starts from that cost, so
-    its 40 cheap runs go in one or two chunks."""
-    from dmoc._util.cache import clear_caches
-    clear_caches("batch item costs")
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 5} for c in np.linspace(0.1, 2.0, 40)]
-    tasks = []
-    for _ in range(2):
-        with distributed.get_task_stream(client=client) as stream:
-            results = batch.simulate_many(disc, runs, client=client, progress=False)
-        tasks.append(len(stream.data))
-        assert [r.trajectory.q[-1].tolist() for r in results] == [
-            dmoc.simulate(disc, **run).trajectory.q[-1].tolist() for run in runs]
-    assert tasks[0] >= 5 and tasks[1] <= 2, tasks
-
-
 def _kill_always():
     """A value whose unpickling SIGKILLs any process but this one."""
     here = os.getpid()
