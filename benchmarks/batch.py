@@ -6,8 +6,7 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
   ``dmoc.optimize`` on the kept solver (built before timing) against ``optimize_many`` on
   a `dmoc.batch.Cluster` of 2 single-threaded workers already running and warmed up: one
   small batch of the same N (2 items per worker) solved before timing builds each
-  worker's solver and the verdict's replay step, and gives the client the cost of an
-  item, from which the timed batch sizes its chunks at once. At the first N also the
+  worker's solver and the verdict's replay step. At the first N also the
   cluster's start included: starting a Cluster, the batch (no warm-up), closing it.
 - **simulate**: `count` knife-edge runs of `--sim-steps` steps (v0 = (c, 0, 1)), serial
   ``dmoc.simulate`` against ``simulate_many``, both in compiled C (``jit=True``; the
