@@ -4,19 +4,25 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
 - **optimize**: `count` knife-edge parking problems (goals (0, y, 0.1), y from 0.2 to 2.0,
   each ``base.with_boundary(q_goal=...)``) at each N of `--steps`: the serial loop of
   ``dmoc.optimize`` on the kept solver (built before timing) against ``optimize_many`` on
-  a `dmoc.batch.Cluster` of 2 single-threaded workers already running and warmed up (one
-  small batch of the same N solved before timing). At the first N also the cluster's
-  start included: starting a Cluster, the batch, closing it.
+  a `dmoc.batch.Cluster` of 2 single-threaded workers already running and warmed up: one
+  small batch of the same N (2 items per worker) solved before timing builds each
+  worker's solver and the verdict's replay step. At the first N also the
+  cluster's start included: starting a Cluster, the batch (no warm-up), closing it.
 - **simulate**: `count` knife-edge runs of `--sim-steps` steps (v0 = (c, 0, 1)), serial
   ``dmoc.simulate`` against ``simulate_many``, both in compiled C (``jit=True``; the
-  virtual machine where there is no C compiler), the step built before timing.
+  virtual machine where there is no C compiler), the step built before timing; then
+  ``simulate_many(keep="final")``, which returns the last knot of each run only, against
+  the same serial loop.
 - **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
   and on the cluster: seconds per item, and the worker-seconds a batch adds per item,
   2 x batch - serial (its cost of shipping, scheduling and collecting).
 
 Speed-ups are serial wall / batch wall (higher is better); ``max |dcost|`` compares the
 costs with the serial ones. The machine must be otherwise idle for the 2-worker ratios to
-mean anything: the load average is printed before and after.
+mean anything: the load average is printed before and after. "cpu bound" is
+2 x serial CPU / batch CPU, the CPU seconds of this process (client, scheduler, nannies)
+and of the workers over the batch: the speed-up on 2 free cores if CPU were the only
+limit, which other jobs on the machine inflate much less than the wall times.
 
     python benchmarks/batch.py                 # 1000 problems at N = 20, 100, 400; 1000 runs
     python benchmarks/batch.py --quick         # 100 problems at N = 20, 100; 100 runs
@@ -25,6 +31,7 @@ mean anything: the load average is printed before and after.
 import argparse
 import os
 import platform
+import resource
 import time
 
 # One BLAS thread per process: the workers, not BLAS threads, share the cores.
@@ -43,11 +50,21 @@ from dmoc.simulate import compiled  # noqa: E402
 WORKERS = 2
 
 
-def timed(run):
-    """(wall seconds, value) of run()."""
-    tic = time.perf_counter()
+def cpu_seconds():
+    """This process's CPU seconds, all threads (the client, and a LocalCluster's scheduler
+    and nannies)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def timed(run, cluster=None):
+    """(wall seconds, CPU seconds, value) of run(): the CPU of this process, plus that of
+    the `cluster`'s workers when one is given."""
+    workers = (lambda: sum(cluster.client.run(cpu_seconds).values())) if cluster else (lambda: 0.0)
+    tic, cpu = time.perf_counter(), cpu_seconds() + workers()
     value = run()
-    return time.perf_counter() - tic, value
+    wall = time.perf_counter() - tic
+    return wall, cpu_seconds() + workers() - cpu, value
 
 
 def parking(steps, count):
@@ -61,13 +78,15 @@ def costs(results):
 
 
 def optimize_row(cluster, steps, count):
-    """(serial wall, batch wall, max |dcost|) of `count` parking problems at N = steps."""
+    """(serial wall, serial CPU, batch wall, batch CPU, max |dcost|) of `count` parking
+    problems at N = steps."""
     problems = parking(steps, count)
     dmoc.optimize(problems[0])                                        # the kept solver
-    serial_wall, serial = timed(lambda: [dmoc.optimize(p) for p in problems])
+    serial_wall, serial_cpu, serial = timed(lambda: [dmoc.optimize(p) for p in problems])
     batch.optimize_many(problems[:2 * WORKERS], client=cluster, progress=False)   # warm-up
-    wall, results = timed(lambda: batch.optimize_many(problems, client=cluster, progress=False))
-    return serial_wall, wall, np.abs(costs(results) - costs(serial)).max()
+    wall, cpu, results = timed(lambda: batch.optimize_many(problems, client=cluster,
+                                                           progress=False), cluster)
+    return serial_wall, serial_cpu, wall, cpu, np.abs(costs(results) - costs(serial)).max()
 
 
 def with_start(steps, count):
@@ -77,23 +96,31 @@ def with_start(steps, count):
     def run():
         with batch.Cluster(workers=WORKERS) as cluster:
             return batch.optimize_many(problems, client=cluster, progress=False)
-    wall, results = timed(run)
+    wall, _, results = timed(run)
     costs(results)
     return wall
 
 
-def simulate_row(cluster, steps, count):
-    """(serial wall, batch wall, max |dq|) of `count` knife-edge runs of `steps` steps."""
+def simulate_rows(cluster, steps, count):
+    """(label, serial wall, serial CPU, batch wall, batch CPU, max |dq|) of `count`
+    knife-edge runs of `steps` steps, for ``keep="trajectory"`` and ``keep="final"``
+    (compared with the last knot of the serial runs)."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
     jit = compiled.compiler() is not None           # the same path serially and on the workers
     runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
             for c in np.linspace(0.5, 2.0, count)]
     dmoc.simulate(disc, **runs[0])
-    serial_wall, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
-    batch.simulate_many(disc, runs[:2 * WORKERS], client=cluster, progress=False)
-    wall, results = timed(lambda: batch.simulate_many(disc, runs, client=cluster, progress=False))
-    dq = max(np.abs(a.trajectory.q - b.trajectory.q).max() for a, b in zip(results, serial))
-    return serial_wall, wall, dq
+    serial_wall, serial_cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
+    rows = []
+    for keep in ("trajectory", "final"):
+        batch.simulate_many(disc, runs[:2 * WORKERS], keep=keep, client=cluster, progress=False)
+        wall, cpu, results = timed(lambda: batch.simulate_many(
+            disc, runs, keep=keep, client=cluster, progress=False), cluster)
+        dq = max(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
+                 for a, b in zip(results, serial))
+        label = f"simulate {count} x {steps} steps" if keep == "trajectory" else '  keep="final"'
+        rows.append((label, serial_wall, serial_cpu, wall, cpu, dq))
+    return rows
 
 
 def overhead_row(cluster, count):
@@ -101,11 +128,19 @@ def overhead_row(cluster, count):
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
     problems = [dmoc.OptimalControlProblem(disc, 3, q_start=[0, 0, 0], q_goal=[0, 0, 0])] * count
     dmoc.optimize(problems[0])
-    serial_wall, _ = timed(lambda: [dmoc.optimize(p) for p in problems])
+    serial_wall, _, _ = timed(lambda: [dmoc.optimize(p) for p in problems])
     batch.optimize_many(problems[:2 * WORKERS], client=cluster, progress=False)
-    wall, results = timed(lambda: batch.optimize_many(problems, client=cluster, progress=False))
+    wall, _, results = timed(lambda: batch.optimize_many(problems, client=cluster, progress=False))
     costs(results)
     return serial_wall / count, wall / count, (WORKERS * wall - serial_wall) / count
+
+
+def line(label, serial_wall, serial_cpu, wall, cpu, diff):
+    """A row of the table; "cpu bound" is the speed-up if the batch's CPU (client,
+    scheduler and workers) were the only limit on WORKERS free cores, WORKERS x serial CPU
+    / batch CPU, which the machine's other jobs inflate much less than the wall times."""
+    return (f"{label:28s} {serial_wall:9.2f} {wall:9.2f} {serial_wall / wall:9.2f} "
+            f"{WORKERS * serial_cpu / cpu:10.2f} {diff:11.1e}")
 
 
 def main(argv=None):
@@ -120,20 +155,19 @@ def main(argv=None):
     print(f"python {platform.python_version()}, casadi {ca.__version__}, dask.distributed "
           f"{distributed.__version__}, {os.cpu_count()} CPUs, {WORKERS} workers x 1 thread, "
           "load average %.2f %.2f %.2f" % os.getloadavg())
-    print(f"{'row':28s} {'serial s':>9s} {'batch s':>9s} {'speed-up':>9s} {'max |diff|':>11s}")
-    print("-" * 70)
+    print(f"{'row':28s} {'serial s':>9s} {'batch s':>9s} {'speed-up':>9s} {'cpu bound':>10s} "
+          f"{'max |diff|':>11s}")
+    print("-" * 81)
     started = with_start(steps[0], count)
     with batch.Cluster(workers=WORKERS) as cluster:
         for k, N in enumerate(steps):
-            serial_wall, wall, dcost = optimize_row(cluster, N, count)
-            print(f"{f'optimize {count} at N = {N}':28s} {serial_wall:9.2f} {wall:9.2f} "
-                  f"{serial_wall / wall:9.2f} {dcost:11.1e}")
+            serial_wall, *row = optimize_row(cluster, N, count)
+            print(line(f"optimize {count} at N = {N}", serial_wall, *row))
             if k == 0:
                 print(f"{'  with the cluster start':28s} {serial_wall:9.2f} {started:9.2f} "
                       f"{serial_wall / started:9.2f}")
-        serial_wall, wall, dq = simulate_row(cluster, args.sim_steps, count)
-        print(f"{f'simulate {count} x {args.sim_steps} steps':28s} {serial_wall:9.2f} {wall:9.2f} "
-              f"{serial_wall / wall:9.2f} {dq:11.1e}")
+        for row in simulate_rows(cluster, args.sim_steps, count):
+            print(line(*row))
         serial_item, batch_item, added = overhead_row(cluster, count)
     print(f"\nempty problem: serial {serial_item * 1e3:.2f} ms/item, batch {batch_item * 1e3:.2f} "
           f"ms/item on {WORKERS} workers, overhead {added * 1e3:.2f} worker-ms/item")

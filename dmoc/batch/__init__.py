@@ -30,6 +30,8 @@ from .tasks import pack_problem, unpack_problem
 __all__ = ["optimize_many", "simulate_many", "Cluster", "pack_problem", "unpack_problem",
            "BatchInterrupted", "SchedulerUnreachable", "WorkersFailedToStart"]
 
+KEEP = ("trajectory", "final")     # what simulate_many returns of each run's trajectory
+
 SIMULATE_KEYS = ("q0", "v0", "p0", "steps", "controls", "variant", "tol", "max_iter", "jit")
 
 CONNECT_TIMEOUT = 5.0
@@ -112,8 +114,8 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
                 OptimizationResult, client, "optimize", progress, batch_timeout, connect_timeout)
 
 
-def simulate_many(disc, runs, *, client=None, progress=True, timeout=None, batch_timeout=None,
-                  connect_timeout=CONNECT_TIMEOUT):
+def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, timeout=None,
+                  batch_timeout=None, connect_timeout=CONNECT_TIMEOUT):
     """Run `simulate` once per entry of `runs` on Dask workers.
 
     Each worker gets each Discretization once (its compiled step is built or loaded once
@@ -128,6 +130,12 @@ def simulate_many(disc, runs, *, client=None, progress=True, timeout=None, batch
         Keyword arguments of `simulate` for each run: ``q0``, ``steps`` and one of ``v0``
         or ``p0``; optionally ``controls`` (shape (steps, n_u)), ``variant``, ``tol``,
         ``max_iter``, ``jit``. ``throw`` is always False.
+    keep : {"trajectory", "final"}
+        What each result's `trajectory` holds: every knot (default), or only the last
+        one, t_N, q_N and p_N as a Trajectory of shape (1, n) with no step, for sweeps
+        that need the end state: a worker then sends about 0.3 kB per run instead of
+        80 kB for 1000 steps of the knife edge, whose transfer is a large part of a
+        batch of short runs (docs/batch.md). ``stats`` are those of the whole run.
     client, progress, timeout, batch_timeout, connect_timeout
         As in `optimize_many`.
 
@@ -153,9 +161,10 @@ def simulate_many(disc, runs, *, client=None, progress=True, timeout=None, batch
         raise InputError(f"`disc` must be one Discretization or one per run ({len(runs)}); "
                          f"got {len(discs)}.")
     timeout = _seconds("timeout", timeout)
+    keep = checks.choice("keep", keep, KEEP)
     shipments, items = shipping.run_items(discs, runs)
-    return _run(tasks.simulate_chunk, (timeout,), shipments, items, SimulationResult, client,
-                "simulate", progress, batch_timeout, connect_timeout)
+    return _run(tasks.simulate_chunk, (timeout, keep), shipments, items, SimulationResult,
+                client, "simulate", progress, batch_timeout, connect_timeout)
 
 
 def _run(task, arguments, shipments, items, kind, client, label, progress, batch_timeout,

@@ -13,6 +13,7 @@ thread of its own, which the task abandons when the time is up; the task then re
 the results so far and the client queues the chunk's other items again.
 """
 
+import dataclasses
 import threading
 import time
 import traceback
@@ -93,19 +94,31 @@ def optimize_chunk(digest, items, options, switches, timeout):
     return _chunk(OptimizationResult, [solver(item) for item in items], timeout)
 
 
-def simulate_chunk(digest, items, timeout):
+def simulate_chunk(digest, items, timeout, keep="trajectory"):
     """For each item, ``cloudpickle.dumps(run)``: ``simulate(disc, **run, throw=False)`` on
-    the shipped Discretization; as `optimize_chunk`."""
+    the shipped Discretization, its trajectory cut to the last knot when `keep` is
+    ``"final"`` (`final_knot`); as `optimize_chunk`."""
     def runner(item):
         def load():
             return shipped(digest, cloudpickle.loads), cloudpickle.loads(item)
 
         def solve(loaded):
             disc, run = loaded
-            return simulate(disc, **run, throw=False)
+            result = simulate(disc, **run, throw=False)
+            if keep == "final" and result.trajectory is not None:
+                result.trajectory = final_knot(result.trajectory)
+            return result
         return load, solve
 
     return _chunk(SimulationResult, [runner(item) for item in items], timeout)
+
+
+def final_knot(trajectory):
+    """The last knot of `trajectory` as a Trajectory of no step: t, q, p of shape (1, ...)
+    at t_N, lam, u, s with no row, h, mu and the nodes kept."""
+    return dataclasses.replace(trajectory, t=trajectory.t[-1:], q=trajectory.q[-1:],
+                               p=trajectory.p[-1:], lam=trajectory.lam[:0],
+                               u=trajectory.u[:0], s=trajectory.s[:0])
 
 
 def failed_result(kind, status, message, **stats):

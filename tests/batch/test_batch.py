@@ -201,6 +201,24 @@ def test_simulate_many_matches_serial_runs(client):
     assert [np.array_equal(a.trajectory.q, b.trajectory.q) for a, b in zip(one_disc, results)] == [True, True]
 
 
+def test_simulate_many_keeps_only_the_final_knot_on_request(client):
+    """keep="final": each result holds the last knot of the serial run (the oracle), a
+    Newton failure's too, with the whole run's stats."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 40, "variant": v}
+            for c in (0.5, 2.0) for v in ("+", "-")]
+    runs.append({"q0": [0, 0, 0], "v0": [1, 0, 1], "steps": 40, "tol": 1e-300})
+    results = batch.simulate_many(disc, runs, keep="final", client=client, progress=False)
+    for got, run in zip(results, runs):
+        want = dmoc.simulate(disc, **run, throw=False)
+        assert got.status == want.status and got.stats["completed_steps"] == want.stats["completed_steps"]
+        assert got.trajectory.steps == 0 and got.trajectory.t.tolist() == want.trajectory.t[-1:].tolist()
+        assert np.array_equal(got.trajectory.q, want.trajectory.q[-1:])
+        assert np.array_equal(got.trajectory.p, want.trajectory.p[-1:])
+        assert np.array_equal(got.trajectory.mu, want.trajectory.mu)
+    assert results[-1].status == "newton_failed" and results[-1].stats["completed_steps"] < 40
+
+
 def test_problem_round_trips_through_bytes():
     problem = dmoc.problems.rolling_disk_steering(20, variant="-")
     copy = batch.unpack_problem(batch.pack_problem(problem))
@@ -231,6 +249,8 @@ def test_simulate_many_rejects_bad_arguments():
         batch.simulate_many([disc, disc], [run])
     with pytest.raises(TypeError, match="`runs` must be a sequence of dict"):
         batch.simulate_many(disc, [run, 3])
+    with pytest.raises(ValueError, match="`keep` must be one of 'trajectory', 'final'; got 'last'"):
+        batch.simulate_many(disc, [run], keep="last")
 
 
 def test_motion_primitives_example(client, tmp_path, capsys):

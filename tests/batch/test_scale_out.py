@@ -128,6 +128,20 @@ def test_a_kept_cluster_keeps_each_workers_solver_across_calls():
     _assert_same_as_serial(problems, second)
 
 
+def test_a_clusters_workers_run_without_dasks_malloc_trimming_and_profiler(monkeypatch):
+    """Dask's nannies set MALLOC_TRIM_THRESHOLD_=65536 in the workers they spawn (and in
+    the spawning process), which makes each solve about 1.3x slower, and its workers sample
+    their threads every 10 ms; a dmoc Cluster's workers do neither."""
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)   # put by other clusters
+    assert dask.config.get("distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_")
+    assert dask.config.get("distributed.worker.profile.enabled")
+    with batch.Cluster(workers=1) as cluster:
+        seen = cluster.client.run(lambda: (os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+                                           dask.config.get("distributed.worker.profile.enabled")))
+    assert list(seen.values()) == [(None, False)]
+    assert "MALLOC_TRIM_THRESHOLD_" not in os.environ
+
+
 def _fresh_problems_only():
     from dmoc.batch import tasks
     tasks._LOADED.clear()
