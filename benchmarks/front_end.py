@@ -21,6 +21,8 @@ import sys
 import tempfile
 import time
 
+from checkouts import imported_dmoc
+
 DEMO_SOLVES = """
 import numpy as np, dmoc
 from dmoc.cli.registry import BUILT_IN
@@ -80,9 +82,7 @@ def main():
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load average "
           f"{'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     for checkout in args.checkouts:
-        found = subprocess.run([sys.executable, "-c", "import dmoc; print(dmoc.__file__)"],
-                               env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
-                               capture_output=True, text=True, check=True).stdout.strip()
+        found = imported_dmoc(checkout)
         print(f"{checkout}: dmoc from {found}")
     times = {(c, case): {k: [] for k in ("with", "without", "cpu with", "cpu without", "solve")}
              for c in args.checkouts for case in CASES}

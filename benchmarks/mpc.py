@@ -37,6 +37,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
+from checkouts import imported_dmoc  # noqa: E402
 
 
 def closed_loop(horizon, steps, warm_up):
@@ -120,9 +121,7 @@ def main():
     print(f"# {platform.platform()}, {platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} cores; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     for checkout in args.checkouts:
-        found = subprocess.run([sys.executable, "-c", "import dmoc; print(dmoc.__file__)"],
-                               env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
-                               capture_output=True, text=True, check=True).stdout.strip()
+        found = imported_dmoc(checkout)
         print(f"# {checkout}: dmoc from {found}")
     print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps\n")
     runs = {(c, kind): [] for c in args.checkouts for kind in ("warmed-up", "fresh")}

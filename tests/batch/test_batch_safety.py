@@ -30,14 +30,6 @@ ROOT = pathlib.Path(__file__).parents[2]
 GUARD = 120      # seconds after which a test that has not returned fails as a hang
 
 
-@pytest.fixture(scope="module")
-def client():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as cluster, \
-            distributed.Client(cluster) as client:
-        yield client
-
-
 def _within(seconds, call, *args, **kwargs):
     """call(*args, **kwargs) in a daemon thread; its value, its exception, or a test
     failure when it has not returned after `seconds`."""

@@ -20,14 +20,6 @@ from dmoc.batch.chunks import ChunkSizes  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 
 
-@pytest.fixture(scope="module")
-def client():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as cluster, \
-            distributed.Client(cluster) as client:
-        yield client
-
-
 def _weighted(r):
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
     return dmoc.OptimalControlProblem(disc, 20, q_start=[0, 0, 0], q_goal=[0, 1, 0],
