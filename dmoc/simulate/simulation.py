@@ -89,7 +89,10 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         machine, with the same results. None (default): C when it is cached, else once
         this process has spent 0.5 s (about the cost of compiling) in the virtual machine
         on this step Function, mid-run if need be; without a C compiler, always the
-        virtual machine. True: C now (an error without a compiler); False: never.
+        virtual machine. True: C now (an error without a compiler); False: never, with a
+        lighter step Function (no common-subexpression elimination: cheaper to build, as
+        fast in the virtual machine), whose results equal the compiled ones to round-off
+        rather than bit for bit (None and True compute the same bits in either form).
 
     Returns
     -------

@@ -57,7 +57,7 @@ class DiracStepper:
         self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1),
                            ("scale", 1), ("nonfinite", 1)])
         self.equations = self._equations()
-        self.fast = self._fast_step()
+        self.fast = self._fast_step(eliminate=native is not False)
         self.robust = self._robust_step(max_iter)
         horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in _chunk_sizes()]
         self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
@@ -134,7 +134,12 @@ class DiracStepper:
         guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
         return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
 
-    def _fast_step(self):
+    def _fast_step(self, eliminate):
+        """The fast path's Function; with `eliminate`, after common-subexpression
+        elimination (``ca.cse``), which the compiled library is generated from. A stepper
+        that never compiles (native=False) skips it: on the rolling disk with lobatto4 it
+        costs 0.12 s to build (three times the rest of the stepper) and saves 3 % of the
+        virtual machine's time over 2e4 steps (docs/performance.md)."""
         state, u, h, params, y = self._symbols(ca.SX)
         ys = ca.SX.sym("y", y.numel())
         g = self.equations(ys, params)[0]
@@ -143,9 +148,11 @@ class DiracStepper:
             delta = newton_update(y, params)
             y = y - delta
         update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
-        # sin(q_k) once, not per iteration; dense, because the horizons write through
-        # buffers that receive the nonzeros only (a structural zero would shift the columns)
-        outputs = [ca.densify(o) for o in ca.cse(list(self._wrap(state, params, y, update)))]
+        # eliminated: sin(q_k) once, not per iteration; dense, because the horizons write
+        # through buffers that receive the nonzeros only (a structural zero would shift the
+        # columns)
+        outputs = list(self._wrap(state, params, y, update))
+        outputs = [ca.densify(o) for o in (ca.cse(outputs) if eliminate else outputs)]
         return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
     def _newton_update(self, g, y):

@@ -6,7 +6,8 @@ warning and the virtual machine with ``jit=None``, a clear error with ``jit=True
 processes compiling the same step at once both succeed; a uid without a passwd entry and a
 umask of 000 work. Runs that load libraries run in child processes (a crash there is a
 return code, not a dead test run), each against the virtual machine's trajectory computed
-here (``jit=False``, no C involved)."""
+here (``jit=None`` before anything is compiled: no C involved, the Functions the library
+is made from)."""
 
 import hashlib
 import json
@@ -25,7 +26,7 @@ import pytest
 
 import dmoc
 from dmoc.errors import CompiledCodeError
-from dmoc.simulate import cache_folder, compiled
+from dmoc.simulate import cache_folder, compiled, stepper
 
 pytestmark = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
 
@@ -103,10 +104,20 @@ def finish(process):
 
 
 @pytest.fixture(scope="module")
-def vm_q():
-    """The knife edge's positions from the virtual machine (no compiled code)."""
+def vm_q(tmp_path_factory):
+    """The knife edge's positions from the virtual machine (no compiled code), with the
+    Functions the compiled library is made from: the default's (jit=None) before anything
+    is compiled or cached and before its switch (jit=False's lighter Functions agree to
+    round-off only)."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
-    return dmoc.simulate(disc, q0=[0, 0, 0], v0=[1, 0, 1], steps=STEPS, jit=False).trajectory.q
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("DMOC_CACHE_DIR", str(tmp_path_factory.mktemp("empty-cache")))
+        patch.setattr(stepper, "NATIVE_AFTER_SECONDS", float("inf"))
+        dmoc.clear_caches("steppers")
+        run = dmoc.simulate(disc, q0=[0, 0, 0], v0=[1, 0, 1], steps=STEPS, jit=None)
+        dmoc.clear_caches("steppers")
+    assert run.stats["native"] is False
+    return run.trajectory.q
 
 
 @pytest.fixture(scope="module")
