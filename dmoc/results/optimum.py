@@ -2,8 +2,6 @@
 (`verdict.judged_solve`), with the optimum's discretization error estimated or the grid
 refined to an accuracy target (`accuracy`) on request."""
 
-import dataclasses
-
 from .._util import checks
 from .accuracy import estimate_error, optimize_to_accuracy, with_estimate
 from .verdict import judged_solve
@@ -106,13 +104,13 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     no caller uses such an optimum unawares; ``err.result`` keeps it for a look or as a
     guess.
     """
-    keywords = {"guess": guess, "options": options, "reuse_solver": reuse_solver,
-                "expand": expand, "linear_solver_report": linear_solver_report,
-                "throw": throw, "check": check}
+    estimate = checks.boolean("estimate", estimate)
+    keywords = {"options": options, "reuse_solver": reuse_solver, "expand": expand,
+                "linear_solver_report": linear_solver_report, "throw": throw, "check": check}
     if accuracy is not None:
-        return optimize_to_accuracy(problem, accuracy, max_steps=max_steps, **keywords)
-    result = judged_solve(problem, **keywords)
-    if not (checks.boolean("estimate", estimate) and result.success):
+        return optimize_to_accuracy(problem, accuracy, guess=guess, max_steps=max_steps,
+                                    **keywords)
+    result = judged_solve(problem, guess=guess, **keywords)
+    if not (estimate and result.success):
         return result
-    solve_keywords = {k: v for k, v in keywords.items() if k != "guess"}
-    return with_estimate(result, estimate_error(problem, result, **solve_keywords))
+    return with_estimate(result, estimate_error(problem, result, **keywords))
