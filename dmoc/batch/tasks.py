@@ -23,6 +23,7 @@ import cloudpickle
 import distributed
 
 from .._util.cache import BoundedCache
+from .packing import PackedResults
 from ..optimize.solve import OptimizationResult
 from ..results.optimum import optimize
 from ..simulate.simulation import SimulationResult, simulate
@@ -97,7 +98,8 @@ def optimize_chunk(digest, items, options, switches, timeout):
 def simulate_chunk(digest, items, timeout, keep="trajectory"):
     """For each item, ``cloudpickle.dumps(run)``: ``simulate(disc, **run, throw=False)`` on
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
-    ``"final"`` (`final_knot`); as `optimize_chunk`."""
+    ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
+    trajectories travel as a few arrays)."""
     def runner(item):
         def load():
             return shipped(digest, cloudpickle.loads), cloudpickle.loads(item)
@@ -110,7 +112,8 @@ def simulate_chunk(digest, items, timeout, keep="trajectory"):
             return result
         return load, solve
 
-    return _chunk(SimulationResult, [runner(item) for item in items], timeout)
+    results, seconds = _chunk(SimulationResult, [runner(item) for item in items], timeout)
+    return PackedResults(results), seconds
 
 
 def final_knot(trajectory):
