@@ -8,6 +8,8 @@ import threading
 
 import numpy as np
 
+from ..errors import InputError
+
 
 class Evaluator:
     """`function` evaluated on float arrays, its outputs as dense arrays.
@@ -26,8 +28,10 @@ class Evaluator:
     """
 
     def __init__(self, function):
-        if not all(function.sparsity_in(i).is_dense() for i in range(function.n_in())):
-            raise ValueError(f"{function.name()} has a sparse input; Evaluator takes dense ones")
+        sparse = [i for i in range(function.n_in()) if not function.sparsity_in(i).is_dense()]
+        if sparse:
+            raise InputError(f"`function` {function.name()!r} must have dense inputs; "
+                             f"input {sparse[0]} is sparse.")
         self.function = function
         self._inputs = [function.nnz_in(i) for i in range(function.n_in())]
         self._outputs = [_scatter(function.sparsity_out(i)) for i in range(function.n_out())]
@@ -44,8 +48,8 @@ class Evaluator:
         inputs = [np.ascontiguousarray(a, dtype=float).ravel(order="F") for a in args]
         for i, (a, size) in enumerate(zip(inputs, self._inputs)):
             if a.size != size:
-                raise ValueError(f"input {i} of {self.function.name()} takes {size} "
-                                 f"entries; got {a.size}")
+                raise InputError(f"`args[{i}]` must have {size} entries for "
+                                 f"{self.function.name()!r}; got {a.size}.")
             buffer.set_arg(i, memoryview(a))          # `inputs` keeps them alive in run()
         nonzeros = [np.empty(len(rows)) for _, rows, _ in self._outputs]
         for i, values in enumerate(nonzeros):

@@ -1,7 +1,7 @@
 """How a chunk of `simulate_many`'s results travels from its worker to the client: every
 trajectory field concatenated over the chunk's runs into one array (t, q, p over the
-knots, lam, u, s over the steps, mu stacked), so that Dask moves six large frames rather
-than seven small ones per run; the client gets each run's Trajectory back as views of
+knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
+chunk rather than seven per run; the client gets each run's Trajectory back as views of
 those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
 """
 

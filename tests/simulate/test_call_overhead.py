@@ -87,8 +87,11 @@ def test_the_evaluator_equals_casadis_call_with_structural_zeros_and_shapes():
     expected = [np.array(out) for out in f(*args)]
     assert [g.shape for g in got] == [(2, 2), (1, 3), (2, 1)]
     assert all(g.tobytes() == e.tobytes() for g, e in zip(got, expected))
-    with pytest.raises(ValueError, match="input 1 of f takes 4 entries; got 3"):
+    with pytest.raises(ValueError, match=r"`args\[1\]` must have 4 entries for 'f'; got 3"):
         Evaluator(f)(args[0], [1.0, 2.0, 3.0])
+    sparse = ca.Function("g", [ca.SX.sym("x", ca.Sparsity.diag(2))], [ca.SX(1)])
+    with pytest.raises(ValueError, match="'g' must have dense inputs; input 0 is sparse"):
+        Evaluator(sparse)
 
 
 def _executable(path):
