@@ -13,6 +13,7 @@ from .._util.cache import BoundedCache
 from .._util.layout import Layout
 from ..errors import InputError
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
+from .native import nlp_functions
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
@@ -32,19 +33,20 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
 
 
-_SOLVERS = BoundedCache(16, "solvers")    # keyed by (transcription.structure, options): two per structure
+_SOLVERS = BoundedCache(16, "solvers")    # keyed by (transcription.structure, options, jit): two per structure
 
 
-def data_tolerances(transcription, x0):
+def data_tolerances(transcription, x0, jit=False):
     """{"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
     floor of the rows where the data demand it, else {}. The floor of row i is
     eps * sum_j |dg_i/dx_j| |x_j| at the start point x0 (scaled, as IPOPT sees it) in
     absolute coordinates (q, not q - q_ref): the rows difference configurations over h,
     so far from the origin (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them
     below it. Rounded up to a power of 2, so that nearby start points share one solver (the
-    options are its key)."""
+    options are its key). The Jacobian is the solver's (compiled with `jit`, the same
+    numbers)."""
     T = transcription
-    jacobian = T.separable.derivatives()["nlp_jac_g"]
+    jacobian = nlp_functions(T.separable, jit)["nlp_jac_g"]
     x = np.array(x0, dtype=float)
     x[T.x_layout.slice("q")] = T.configurations(x0).ravel()
     J = jacobian(x0, T.p)[1]
@@ -56,10 +58,10 @@ def data_tolerances(transcription, x0):
     return {"tol": floor, "constr_viol_tol": floor}
 
 
-def solver(transcription, options, *, expand, reuse, report):
+def solver(transcription, options, *, expand, reuse, report, jit=False):
     """(the `PackedSolver` of `transcription` with the IPOPT `options`, whether it came
-    from the cache, the path of its journal or None); `expand`, `reuse` and `report` are
-    `optimize`'s `expand`, `reuse_solver` and `linear_solver_report`."""
+    from the cache, the path of its journal or None); `expand`, `reuse`, `report` and
+    `jit` are `optimize`'s `expand`, `reuse_solver`, `linear_solver_report` and `jit`."""
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     if report and "output_file" in options:
         raise InputError("`linear_solver_report` writes IPOPT's journal to a file "
@@ -79,7 +81,7 @@ def solver(transcription, options, *, expand, reuse, report):
         journal = new_journal() if report else None
         try:
             made = ca.nlpsol("dmoc", "ipopt", transcription.nlp,
-                             {**opts, "cache": transcription.separable.derivatives(),
+                             {**opts, "cache": nlp_functions(transcription.separable, jit),
                               **({"ipopt.output_file": journal} if report else {})})
         except RuntimeError as err:
             culprit = _rejected_option(options)
@@ -94,7 +96,7 @@ def solver(transcription, options, *, expand, reuse, report):
         return PackedSolver(made, transcription), journal
 
     solver, journal = build() if not reuse else _SOLVERS.get(
-        (transcription.structure, repr(sorted(opts.items())), report), build)
+        (transcription.structure, repr(sorted(opts.items())), report, jit), build)
     return solver, reuse and not built, journal
 
 

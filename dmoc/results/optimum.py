@@ -8,7 +8,7 @@ from .verdict import judged_solve
 
 
 def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
-             linear_solver_report=False, throw=True, check=True, estimate=False,
+             linear_solver_report=False, jit=False, throw=True, check=True, estimate=False,
              accuracy=None, max_steps=100_000):
     """Solve a DMOC problem with IPOPT and judge the optimum; optionally estimate its
     discretization error or refine the grid to an accuracy target.
@@ -48,6 +48,15 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
         IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
         to the solve. Default False.
+    jit : bool
+        True evaluates the NLP (objective, constraints and their derivatives) as C code,
+        compiled once per NLP structure with the system's C compiler and kept on disk
+        across processes in the private folder of the simulator's compiled steps
+        (`dmoc.optimize.native`; an error without a C compiler). The same operations as
+        in CasADi's virtual machine, so the same optimum and iterations, 4-6 times
+        faster per evaluation; compiling takes about a second the first time, loading the
+        library tens of milliseconds once per process: for re-solves of one structure
+        (docs/stages/optimize.md, "Compiled re-solves"). Default False.
     throw : bool
         Raise SolverError when IPOPT fails or its optimum fails the verdict, and
         `dmoc.Interrupted` when a Ctrl-C (SIGINT) stops it (default); else return the
@@ -106,7 +115,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     """
     estimate = checks.boolean("estimate", estimate)
     keywords = {"options": options, "reuse_solver": reuse_solver, "expand": expand,
-                "linear_solver_report": linear_solver_report, "throw": throw, "check": check}
+                "linear_solver_report": linear_solver_report, "jit": jit, "throw": throw,
+                "check": check}
     if accuracy is not None:
         return optimize_to_accuracy(problem, accuracy, guess=guess, max_steps=max_steps,
                                     **keywords)

@@ -1,0 +1,102 @@
+"""The NLP compiled to C (``jit=True``, `dmoc.optimize.native`) is the same NLP: IPOPT takes
+the same iterations to the same optimum, bit for bit, as with CasADi's virtual machine,
+first solves and warm re-solves alike, on both problems of the rockit comparison and with
+both stage rules; IPOPT really evaluates the compiled library (not the virtual machine),
+which lives in the private compiled-code cache and is loaded, not compiled, by a later
+process. Bad input is named.
+
+Oracle: the virtual machine's solve of the same problem (a separate evaluation path: the
+assembled MX Functions interpreted by CasADi rather than compiled C)."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import dmoc
+import dmoc.problems
+from dmoc._util import compiled
+from dmoc.errors import InputError, InputTypeError
+from dmoc.optimize import native
+from dmoc.optimize.ipopt import solver
+from dmoc.optimize.solve import solve
+
+needs_compiler = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
+
+PROBLEMS = {"knife edge": (dmoc.problems.knife_edge_parking, [0.05, 1.05, 0.05]),
+            "rolling disk": (dmoc.problems.rolling_disk_steering, [1.05, 1.0, None, 1.6])}
+
+
+@pytest.fixture
+def private_cache(tmp_path, monkeypatch):
+    """An empty compiled-code folder of this test's own, and no compiled NLP in memory."""
+    monkeypatch.setenv("DMOC_CACHE_DIR", str(tmp_path))
+    dmoc.clear_caches("compiled_nlps", "solvers")
+    yield tmp_path
+    dmoc.clear_caches("compiled_nlps", "solvers")
+
+
+@needs_compiler
+@pytest.mark.parametrize("rule", ["lobatto3", "lobatto4"])
+@pytest.mark.parametrize("name", sorted(PROBLEMS))
+def test_the_compiled_nlp_gives_the_same_solves_bit_for_bit(private_cache, name, rule):
+    make, neighbour = PROBLEMS[name]
+    problem = make(12, rule=rule)
+    moved = problem.with_boundary(q_goal=neighbour)
+    runs = {}
+    for jit in (False, True):
+        first = solve(problem, jit=jit)
+        runs[jit] = (first, solve(moved, guess=first, jit=jit))
+    for vm, c in zip(runs[False], runs[True]):
+        assert c.stats["iterations"] == vm.stats["iterations"] > 0
+        assert c.cost == vm.cost
+        for field in ("x", "lam_x", "lam_g"):
+            np.testing.assert_array_equal(getattr(c, field), getattr(vm, field))
+    assert runs[True][1].stats["warm_start"]
+    assert len(list(private_cache.glob("dmoc_nlp-*.so"))) == 1
+
+
+@needs_compiler
+def test_ipopt_evaluates_the_compiled_library(private_cache):
+    problem = dmoc.problems.knife_edge_parking(8, rule="lobatto3")
+    solve(problem, jit=True)
+    packed = solver(problem.transcription, {}, expand=False, reuse=True, report=False, jit=True)[0]
+    vm = solver(problem.transcription, {}, expand=False, reuse=True, report=False, jit=False)[0]
+    for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l"):
+        assert packed.nlpsol.get_function(name).class_name() == "External"
+        assert vm.nlpsol.get_function(name).class_name() == "MXFunction"
+
+
+CHILD = """
+import dmoc.problems
+from dmoc.optimize.solve import solve
+r = solve(dmoc.problems.knife_edge_parking(8, rule="lobatto3"), jit=True)
+print(r.stats["build_time"], r.cost)
+"""
+
+
+@needs_compiler
+def test_a_later_process_loads_the_library_without_compiling(private_cache):
+    env = {**os.environ, "DMOC_CACHE_DIR": str(private_cache)}
+    runs = [subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True,
+                           text=True, check=True).stdout.split() for _ in range(2)]
+    libraries = list(private_cache.glob("dmoc_nlp-*.so"))
+    assert len(libraries) == 1
+    stamp = libraries[0].stat().st_mtime_ns
+    subprocess.run([sys.executable, "-c", CHILD], env=env, check=True, capture_output=True)
+    assert libraries[0].stat().st_mtime_ns == stamp              # loaded, not compiled again
+    assert runs[0][1] == runs[1][1]
+    assert float(runs[1][0]) < float(runs[0][0])                 # the compile is in the first build
+
+
+def test_jit_without_a_compiler_is_named(private_cache, monkeypatch):
+    monkeypatch.setattr(native, "compiler", lambda: None)
+    with pytest.raises(InputError, match="`jit=True` needs a C compiler"):
+        dmoc.optimize(dmoc.problems.knife_edge_parking(8), jit=True)
+
+
+def test_jit_must_be_a_bool():
+    with pytest.raises(InputTypeError, match="jit"):
+        solve(dmoc.problems.knife_edge_parking(8), jit="yes")
