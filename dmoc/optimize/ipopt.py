@@ -34,6 +34,7 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
 
 
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (transcription.structure, options, jit): two per structure
+_ROW_SUMS = BoundedCache(16, "row_sums")  # keyed by (transcription.structure, jit): `_largest_row_sum`
 
 
 def data_tolerances(transcription, x0, jit=False):
@@ -46,16 +47,27 @@ def data_tolerances(transcription, x0, jit=False):
     options are its key). The Jacobian is the solver's (compiled with `jit`, the same
     numbers)."""
     T = transcription
-    jacobian = nlp_functions(T.separable, jit)["nlp_jac_g"]
     x = np.array(x0, dtype=float)
     x[T.x_layout.slice("q")] = T.configurations(x0).ravel()
-    J = jacobian(x0, T.p)[1]
-    rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
-    floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
+    largest = _ROW_SUMS.get((T.structure, jit), lambda: _largest_row_sum(T.separable, jit))
+    floor = np.finfo(float).eps * float(largest(np.concatenate([x0, x, T.p])))
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))
     return {"tol": floor, "constr_viol_tol": floor}
+
+
+def _largest_row_sum(separable, jit):
+    """Function ``[x; x_abs; p] -> max_i sum_j |dg_i/dx_j(x, p)| |x_abs_j|`` (0 without
+    rows): one call and one stacked argument from Python (CasADi converts each NumPy
+    argument on its own, `PackedSolver`) instead of a call per operation."""
+    n_x, n_p = separable.n_x, separable.n_p
+    z = ca.MX.sym("z", 2 * n_x + n_p)
+    x, x_abs, p = z[:n_x], z[n_x:2 * n_x], z[2 * n_x:]
+    jacobian = nlp_functions(separable, jit)["nlp_jac_g"](x, p)[1]
+    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x_abs))
+    return ca.Function("largest_row_sum", [z], [ca.mmax(rows) if separable.n_g else ca.MX(0)],
+                       ["z"], ["largest"])
 
 
 def solver(transcription, options, *, expand, reuse, report, jit=False):
