@@ -33,9 +33,9 @@ PROBLEMS = {"knife edge": (dmoc.problems.knife_edge_parking, [0.05, 1.05, 0.05])
 def private_cache(tmp_path, monkeypatch):
     """An empty compiled-code folder of this test's own, and no compiled NLP in memory."""
     monkeypatch.setenv("DMOC_CACHE_DIR", str(tmp_path))
-    dmoc.clear_caches("compiled_nlps", "solvers")
+    dmoc.clear_caches("compiled_nlps", "row_sums", "solvers")
     yield tmp_path
-    dmoc.clear_caches("compiled_nlps", "solvers")
+    dmoc.clear_caches("compiled_nlps", "row_sums", "solvers")
 
 
 @needs_compiler
