@@ -1,13 +1,14 @@
 """Benchmark: the five Functions IPOPT calls in a DMOC solve (nlp_f, nlp_g, nlp_grad_f,
-nlp_jac_g, nlp_hess_l), per call, in CasADi's virtual machine ("VM", the default) against
-the same Functions compiled to C (``jit=True``, `dmoc.optimize.native`), at the problems
+nlp_jac_g, nlp_hess_l), per call, in CasADi's virtual machine on the MX graph of mapped
+terms ("VM", the default), expanded to flat SX Functions ("SX", ``expand=True``) and
+compiled to C ("C", ``jit=True``; `dmoc.optimize.evaluation`), at the problems
 and N of the rockit comparison (`peers_resolve.py`: the least N reaching 1e-6 of J*), with
 the sizes IPOPT's KKT matrix is made of (nonzeros of jac_g and of the Hessian's upper
-triangle) and the time to compile the library and to load it from the cache folder
-(docs/performance.md, "Re-solves against rockit").
+triangle), the time to expand the five Functions, to compile the library and to load it
+from the cache folder (docs/performance.md, "Re-solves against rockit").
 
 Each Function is evaluated `--calls` times inside one call of its serial ``map`` (no Python
-between the calls, as in IPOPT) at the optimum (x) and random multipliers; VM and C
+between the calls, as in IPOPT) at the optimum (x) and random multipliers; VM, SX and C
 alternate `--repeat` times in one process, the least time per call kept. Run with a python
 that has rockit (the peers' environment) to add rockit's own five Functions (its expanded
 SX NLP, taken out of its ``ocp.to_function`` solver) for the problems' rockit N.
@@ -30,7 +31,7 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc.optimize import native  # noqa: E402
+from dmoc.optimize import evaluation  # noqa: E402
 from dmoc.optimize.solve import solve  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -76,27 +77,32 @@ def dmoc_rows(calls, repeat, rng):
             T = problem.transcription
             x = solve(problem).x / T.x_scale
             vm = T.separable.functions()
+            tic = time.perf_counter()
+            flat = evaluation.nlp_functions(T.separable, expand=True)
+            expand_s = time.perf_counter() - tic
             dmoc.clear_caches("compiled_nlps")
             tic = time.perf_counter()
-            compiled = native.nlp_functions(T.separable, True)
+            compiled = evaluation.nlp_functions(T.separable, jit=True)
             compile_s = time.perf_counter() - tic
             dmoc.clear_caches("compiled_nlps")
             tic = time.perf_counter()
-            native.nlp_functions(T.separable, True)
+            evaluation.nlp_functions(T.separable, jit=True)
             load_s = time.perf_counter() - tic
             jac, hess = sizes(vm)
             print(f"\n{name}, {rule}, N = {N}: x {T.x_layout.size}, g {T.g_layout.size}, nnz jac_g "
-                  f"{jac}, nnz triu hess_l {hess}; compile {compile_s:.2f} s, load "
-                  f"{load_s * 1e3:.1f} ms")
-            total = {"VM": 0.0, "C": 0.0}
+                  f"{jac}, nnz triu hess_l {hess}; expand {expand_s * 1e3:.1f} ms, compile "
+                  f"{compile_s:.2f} s, load {load_s * 1e3:.1f} ms")
+            print(f"  {'Function':<11}{'VM us':>9}{'SX us':>9}{'C us':>9}{'SX/VM':>7}{'C/VM':>7}"
+                  f"{'SX instructions':>17}")
+            total = dict.fromkeys(("VM", "SX", "C"), 0.0)
             for f in NAMES:
-                t = per_call({"VM": vm[f], "C": compiled[f]},
+                t = per_call({"VM": vm[f], "SX": flat[f], "C": compiled[f]},
                              arguments(f, x, T.p, T.g_layout.size, rng), calls, repeat)
                 total = {k: total[k] + t[k] for k in total}
-                print(f"  {f:<11}{t['VM'] * 1e6:9.1f} us VM{t['C'] * 1e6:9.1f} us C"
-                      f"{t['C'] / t['VM']:7.2f}   ({vm[f].expand().n_instructions()} SX instructions)")
-            print(f"  {'sum':<11}{total['VM'] * 1e6:9.1f} us VM{total['C'] * 1e6:9.1f} us C"
-                  f"{total['C'] / total['VM']:7.2f}")
+                print(f"  {f:<11}" + "".join(f"{t[k] * 1e6:9.1f}" for k in total)
+                      + f"{t['SX'] / t['VM']:7.2f}{t['C'] / t['VM']:7.2f}{flat[f].n_instructions():17d}")
+            print(f"  {'sum':<11}" + "".join(f"{total[k] * 1e6:9.1f}" for k in total)
+                  + f"{total['SX'] / total['VM']:7.2f}{total['C'] / total['VM']:7.2f}")
 
 
 def rockit_rows(calls, repeat, rng):
@@ -120,13 +126,13 @@ def rockit_rows(calls, repeat, rng):
         x, p = sol.sol.sol.value(opti.x), sol.sol.sol.value(opti.p)
         jac, hess = sizes(functions)
         print(f"\nrockit {name}, N = {N}: x {opti.nx}, g {opti.ng}, nnz jac_g {jac}, nnz triu "
-              f"hess_l {hess}")
+              f"hess_l {hess}\n  {'Function':<11}{'SX us':>9}{'SX instructions':>17}")
         total = 0.0
         for f in NAMES:
             t = per_call({"SX": functions[f]}, arguments(f, x, p, opti.ng, rng), calls, repeat)["SX"]
             total += t
-            print(f"  {f:<11}{t * 1e6:9.1f} us SX   ({functions[f].n_instructions()} SX instructions)")
-        print(f"  {'sum':<11}{total * 1e6:9.1f} us SX")
+            print(f"  {f:<11}{t * 1e6:9.1f}{functions[f].n_instructions():17d}")
+        print(f"  {'sum':<11}{total * 1e6:9.1f}")
 
 
 def main(argv=None):

@@ -10,11 +10,12 @@ previous optimum (primal and dual), `--repeat` times: median wall time per re-so
 IPOPT's iterations, its wall time and the part in NLP function evaluations, NLP size.
 dmoc is timed from the new goal: ``problem.with_boundary(q_goal=g)`` then
 ``dmoc.optimize(new, guess=previous)`` ("judged"), the same with ``check=False``
-("unjudged"), the raw ``dmoc.optimize.solve`` ("raw"), or the raw solve with the NLP
-compiled to C (``jit=True``, "raw C": compiled or loaded when the original goal is solved,
-before the timing). rockit (not a dependency of dmoc: run this script with the python
-of an environment that has rockit-meco and dmoc) solves the reduced ODEs of `rockit_ocp`
-by multiple shooting (one RK4 step per interval, piecewise-linear controls, the goal an ``ocp.parameter``, the NLP expanded), re-solved by
+("unjudged"), the raw ``dmoc.optimize.solve`` ("raw"), or the raw solve with the NLP's
+Functions expanded to SX (``expand=True``, "raw SX") or compiled to C (``jit=True``, "raw
+C"), built when the original goal is solved, before the timing. rockit (not a dependency
+of dmoc: run this script with the python of an environment that has rockit-meco and dmoc)
+solves the reduced ODEs of `rockit_ocp` by multiple shooting (one RK4 step per interval,
+piecewise-linear controls, the goal an ``ocp.parameter``, the NLP expanded), re-solved by
 "solve": ``ocp.set_value``, the previous optimum set as the start of rockit's Opti,
 ``ocp.solve()`` (rockit's per-signal ``ocp.set_initial`` would re-transcribe the problem
 at every solve), and "function": ``ocp.to_function`` of goal, start x and multipliers,
@@ -60,7 +61,7 @@ DURATION = 4.0
 # (m R^2 + I) theta'' = u0, J phi'' = u1)
 REDUCED_INERTIA = {"knife edge": (1.0, 1.0), "rolling disk": (1.5, 0.25)}
 DMOC_RULES = ("lobatto3", "lobatto4")
-DMOC_RUNS = ("judged", "unjudged", "raw", "raw C")
+DMOC_RUNS = ("judged", "unjudged", "raw", "raw SX", "raw C")
 
 
 def goals(name, count):
@@ -122,8 +123,9 @@ def dmoc_resolve(name, rule, N, repeat, count):
     problem = dmoc_problem(name, N, rule, targets[0])
     calls = {"judged": dmoc.optimize, "unjudged": lambda p, **k: dmoc.optimize(p, check=False, **k),
              "raw": solve}
-    if "jit" in inspect.signature(solve).parameters:      # checkouts from before jit have no "raw C"
-        calls["raw C"] = lambda p, **k: solve(p, jit=True, **k)
+    if "jit" in inspect.signature(solve).parameters:      # checkouts from before jit: no "raw C",
+        calls["raw SX"] = lambda p, **k: solve(p, expand=True, **k)     # and expand=True
+        calls["raw C"] = lambda p, **k: solve(p, jit=True, **k)         # expanded f and g only
     out = {"size": [problem.transcription.x_layout.size, problem.transcription.g_layout.size]}
     for run, call in calls.items():
         previous = call(problem, options={"print_level": 0})

@@ -13,7 +13,7 @@ from .._util.cache import BoundedCache
 from .._util.layout import Layout
 from ..errors import InputError
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
-from .native import nlp_functions
+from .evaluation import nlp_functions
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
@@ -64,7 +64,7 @@ def _largest_row_sum(separable, jit):
     n_x, n_p = separable.n_x, separable.n_p
     z = ca.MX.sym("z", 2 * n_x + n_p)
     x, x_abs, p = z[:n_x], z[n_x:2 * n_x], z[2 * n_x:]
-    jacobian = nlp_functions(separable, jit)["nlp_jac_g"](x, p)[1]
+    jacobian = nlp_functions(separable, jit=jit)["nlp_jac_g"](x, p)[1]
     rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x_abs))
     return ca.Function("largest_row_sum", [z], [ca.mmax(rows) if separable.n_g else ca.MX(0)],
                        ["z"], ["largest"])
@@ -91,10 +91,10 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
         """(a new solver, the path of its own journal or None, removed with the solver)."""
         built.append(True)
         journal = new_journal() if report else None
+        cache = nlp_functions(transcription.separable, expand=expand, jit=jit)
         try:
             made = ca.nlpsol("dmoc", "ipopt", transcription.nlp,
-                             {**opts, "cache": nlp_functions(transcription.separable, jit),
-                              **({"ipopt.output_file": journal} if report else {})})
+                             {**opts, "cache": cache, **({"ipopt.output_file": journal} if report else {})})
         except RuntimeError as err:
             culprit = _rejected_option(options)
             if culprit is None and "option" not in str(err).lower():

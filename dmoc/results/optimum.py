@@ -41,9 +41,12 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         True (default): take the solver of an earlier problem of the same structure and
         options from the cache; False builds a fresh one, dropped after the call.
     expand : bool
-        True expands f and g to SX, which no longer pays: IPOPT evaluates the derivatives
-        assembled from the terms (``problem.transcription.separable``) either way
-        (docs/performance.md). Default False.
+        True evaluates the NLP's five Functions (f, g and the derivatives assembled from
+        the terms, ``problem.transcription.separable.functions()``) as flat SX Functions
+        instead of the MX graph of mapped terms: the same operations, so the same optimum
+        and iterations, 1.3-5 times faster per evaluation, for 15-30 ms more to build at
+        N of 10-30 (growing with N; `dmoc.optimize.evaluation`). For re-solves without a C
+        compiler; `jit` is faster still. Default False.
     linear_solver_report : bool
         True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
         IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
@@ -52,7 +55,7 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         True evaluates the NLP (objective, constraints and their derivatives) as C code,
         compiled once per NLP structure with the system's C compiler and kept on disk
         across processes in the private folder of the simulator's compiled steps
-        (`dmoc.optimize.native`; an error without a C compiler). The same operations as
+        (`dmoc.optimize.evaluation`; an error without a C compiler). The same operations as
         in CasADi's virtual machine, so the same optimum and iterations, 4-6 times
         faster per evaluation; compiling takes about a second the first time, loading the
         library tens of milliseconds once per process: for re-solves of one structure

@@ -1,12 +1,13 @@
-"""The NLP compiled to C (``jit=True``, `dmoc.optimize.native`) is the same NLP: IPOPT takes
-the same iterations to the same optimum, bit for bit, as with CasADi's virtual machine,
-first solves and warm re-solves alike, on both problems of the rockit comparison and with
-both stage rules; IPOPT really evaluates the compiled library (not the virtual machine),
-which lives in the private compiled-code cache and is loaded, not compiled, by a later
+"""The NLP expanded to SX (``expand=True``) or compiled to C (``jit=True``,
+`dmoc.optimize.evaluation`) is the same NLP: IPOPT takes the same iterations to the same
+optimum, bit for bit, as with CasADi's virtual machine on the MX graph, first solves and
+warm re-solves alike, on both problems of the rockit comparison and with both stage rules;
+IPOPT really evaluates the flat or compiled Functions (not the MX graph); the compiled
+library lives in the private compiled-code cache and is loaded, not compiled, by a later
 process. Bad input is named.
 
 Oracle: the virtual machine's solve of the same problem (a separate evaluation path: the
-assembled MX Functions interpreted by CasADi rather than compiled C)."""
+assembled MX Functions interpreted by CasADi rather than flattened or compiled)."""
 
 import os
 import subprocess
@@ -19,7 +20,7 @@ import dmoc
 import dmoc.problems
 from dmoc._util import compiled
 from dmoc.errors import InputError, InputTypeError
-from dmoc.optimize import native
+from dmoc.optimize import evaluation
 from dmoc.optimize.ipopt import solver
 from dmoc.optimize.solve import solve
 
@@ -33,40 +34,44 @@ PROBLEMS = {"knife edge": (dmoc.problems.knife_edge_parking, [0.05, 1.05, 0.05])
 def private_cache(tmp_path, monkeypatch):
     """An empty compiled-code folder of this test's own, and no compiled NLP in memory."""
     monkeypatch.setenv("DMOC_CACHE_DIR", str(tmp_path))
-    dmoc.clear_caches("compiled_nlps", "row_sums", "solvers")
+    dmoc.clear_caches("compiled_nlps", "expanded_nlps", "row_sums", "solvers")
     yield tmp_path
-    dmoc.clear_caches("compiled_nlps", "row_sums", "solvers")
+    dmoc.clear_caches("compiled_nlps", "expanded_nlps", "row_sums", "solvers")
 
 
-@needs_compiler
+MODES = {"expand": {"expand": True},
+         "jit": pytest.param({"jit": True}, marks=needs_compiler)}
+
+
+@pytest.mark.parametrize("mode", MODES.values(), ids=MODES.keys())
 @pytest.mark.parametrize("rule", ["lobatto3", "lobatto4"])
 @pytest.mark.parametrize("name", sorted(PROBLEMS))
-def test_the_compiled_nlp_gives_the_same_solves_bit_for_bit(private_cache, name, rule):
+def test_flat_and_compiled_nlps_give_the_same_solves_bit_for_bit(private_cache, name, rule, mode):
     make, neighbour = PROBLEMS[name]
     problem = make(12, rule=rule)
     moved = problem.with_boundary(q_goal=neighbour)
-    runs = {}
-    for jit in (False, True):
-        first = solve(problem, jit=jit)
-        runs[jit] = (first, solve(moved, guess=first, jit=jit))
-    for vm, c in zip(runs[False], runs[True]):
-        assert c.stats["iterations"] == vm.stats["iterations"] > 0
-        assert c.cost == vm.cost
+    runs = []
+    for switches in ({}, mode):
+        first = solve(problem, **switches)
+        runs.append((first, solve(moved, guess=first, **switches)))
+    for vm, other in zip(*runs):
+        assert other.stats["iterations"] == vm.stats["iterations"] > 0
+        assert other.cost == vm.cost
         for field in ("x", "lam_x", "lam_g"):
-            np.testing.assert_array_equal(getattr(c, field), getattr(vm, field))
-    assert runs[True][1].stats["warm_start"]
-    assert len(list(private_cache.glob("dmoc_nlp-*.so"))) == 1
+            np.testing.assert_array_equal(getattr(other, field), getattr(vm, field))
+    assert runs[1][1].stats["warm_start"]
+    assert len(list(private_cache.glob("dmoc_nlp-*.so"))) == (1 if "jit" in mode else 0)
 
 
-@needs_compiler
-def test_ipopt_evaluates_the_compiled_library(private_cache):
+@pytest.mark.parametrize("mode, kind", [({"jit": False, "expand": False}, "MXFunction"),
+                                        ({"jit": False, "expand": True}, "SXFunction"),
+                                        pytest.param({"jit": True, "expand": False}, "External",
+                                                     marks=needs_compiler)])
+def test_ipopt_evaluates_the_functions_of_the_mode(private_cache, mode, kind):
     problem = dmoc.problems.knife_edge_parking(8, rule="lobatto3")
-    solve(problem, jit=True)
-    packed = solver(problem.transcription, {}, expand=False, reuse=True, report=False, jit=True)[0]
-    vm = solver(problem.transcription, {}, expand=False, reuse=True, report=False, jit=False)[0]
+    packed = solver(problem.transcription, {}, reuse=True, report=False, **mode)[0]
     for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l"):
-        assert packed.nlpsol.get_function(name).class_name() == "External"
-        assert vm.nlpsol.get_function(name).class_name() == "MXFunction"
+        assert packed.nlpsol.get_function(name).class_name() == kind
 
 
 CHILD = """
@@ -92,7 +97,7 @@ def test_a_later_process_loads_the_library_without_compiling(private_cache):
 
 
 def test_jit_without_a_compiler_is_named(private_cache, monkeypatch):
-    monkeypatch.setattr(native, "compiler", lambda: None)
+    monkeypatch.setattr(evaluation, "compiler", lambda: None)
     with pytest.raises(InputError, match="`jit=True` needs a C compiler"):
         dmoc.optimize(dmoc.problems.knife_edge_parking(8), jit=True)
 
