@@ -33,7 +33,7 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
 
 
-_SOLVERS = BoundedCache(16, "solvers")    # keyed by (transcription.structure, options, jit): two per structure
+_SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure
 _ROW_SUMS = BoundedCache(16, "row_sums")  # keyed by (transcription.structure, jit): `_largest_row_sum`
 
 
@@ -81,10 +81,12 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
     if report:
         merged["file_print_level"] = JOURNAL_LEVEL
     # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
-    # gradient function CasADi would generate for them is most of a solver's build
-    opts = {"expand": expand, "print_time": False, "error_on_fail": False,
-            "no_nlp_grad": True, "calc_lam_p": False,
-            **{"ipopt." + k: v for k, v in merged.items()}}
+    # gradient function CasADi would generate for them is most of a solver's build.
+    # CasADi's own "expand" stays off: the cache holds all five Functions IPOPT calls, in
+    # the form `expand` and `jit` ask for (`nlp_functions`), and expanding the unused MX
+    # oracle besides cost 4-9 ms per build at N = 31-100.
+    opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True,
+            "calc_lam_p": False, **{"ipopt." + k: v for k, v in merged.items()}}
     built = []
 
     def build():
@@ -108,7 +110,7 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
         return PackedSolver(made, transcription), journal
 
     solver, journal = build() if not reuse else _SOLVERS.get(
-        (transcription.structure, repr(sorted(opts.items())), report, jit), build)
+        (transcription.structure, repr(sorted(opts.items())), report, expand, jit), build)
     return solver, reuse and not built, journal
 
 
