@@ -44,9 +44,10 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         True evaluates the NLP's five Functions (f, g and the derivatives assembled from
         the terms, ``problem.transcription.separable.functions()``) as flat SX Functions
         instead of the MX graph of mapped terms: the same operations, so the same optimum
-        and iterations, 1.3-5 times faster per evaluation, for 15-30 ms more to build at
-        N of 10-30 (growing with N; `dmoc.optimize.evaluation`). For re-solves without a C
-        compiler; `jit` is faster still. Default False.
+        and iterations, 1.05-5 times faster per evaluation (g and the Jacobian least),
+        for 12-25 ms more to build at N of 10-30 (growing with N;
+        `dmoc.optimize.evaluation`). For re-solves without a C compiler; `jit` is faster
+        still. Default False.
     linear_solver_report : bool
         True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
         IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
@@ -56,8 +57,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         compiled once per NLP structure with the system's C compiler and kept on disk
         across processes in the private folder of the simulator's compiled steps
         (`dmoc.optimize.evaluation`; an error without a C compiler). The same operations as
-        in CasADi's virtual machine, so the same optimum and iterations, 4-6 times
-        faster per evaluation; compiling takes about a second the first time, loading the
+        in CasADi's virtual machine, so the same optimum and iterations, 2-6 times
+        faster per evaluation; compiling takes about 1-3 s the first time, loading the
         library tens of milliseconds once per process: for re-solves of one structure
         (docs/stages/optimize.md, "Compiled re-solves"). Default False.
     throw : bool
