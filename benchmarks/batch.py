@@ -45,7 +45,7 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
-from dmoc.simulate import compiled  # noqa: E402
+from dmoc._util import compiled  # noqa: E402
 
 WORKERS = 2
 
