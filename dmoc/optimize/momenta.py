@@ -6,13 +6,19 @@ construction. Each value declares the columns of x's block "p", the rows imposed
 step, and how the step terms, the goal rows and `momenta(x)` read p_k.
 """
 
+import hashlib
+
+import casadi as ca
 import numpy as np
 
 from .._util import checks
+from .._util.cache import BoundedCache
 from ..principle.explicit import single_output, solved_rows, substitutable
 from .terms import broadcast, inputs_of
 
 MOMENTA = ("substituted", "variables")
+
+_MOMENTA = BoundedCache(32, "momenta")     # Functions (x, p) -> p_0 ... p_N of substituted momenta
 
 
 def momentum_treatment(momenta, residual):
@@ -118,15 +124,28 @@ class SubstitutedMomenta:
 
     def momenta_function(self, slots):
         """``momenta(x, p) -> P`` (n, N+1): p_0 from x and the explicit p_{k+1} of every
-        step. It holds index arrays and p1 only, not the problem."""
+        step, one CasADi Function of (x, p) built on the first call and kept in a bounded
+        cache per residual, N and index arrays (one call and two conversions per use, not
+        one per input of p1). It holds index arrays and p1 only, not the problem."""
         X, N, q_ref, p1 = slots.X, slots.N, slots.q_ref, self.p1
         windows = {k: slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()}
+        first = X["p"][:, :1]
+        key = (self.residual.key, N, hashlib.sha256(b"".join(
+            repr((k, src, index.shape)).encode() + np.ascontiguousarray(index).tobytes()
+            for k, (src, index) in {**windows, "p0": ("x", first), "q_ref": ("p", q_ref)}.items())).hexdigest())
+
+        def build(n_x, n_p):
+            x, p = ca.MX.sym("x", n_x), ca.MX.sym("p", n_p)
+            source = {"x": x, "q": x, "p": p}
+            args = {k: source[src][ca.DM(broadcast(index, N))] + (ca.repmat(p[ca.DM(q_ref)], 1, N)
+                                                                   if src == "q" else 0)
+                    for k, (src, index) in windows.items()}
+            P = ca.horzcat(x[ca.DM(first)], p1.map(N)(**args)["p1"])
+            return ca.Function("momenta", [x, p], [P], ["x", "p"], ["P"])
 
         def momenta(x, p):
-            source = {"x": x, "q": x, "p": p}
-            args = {k: source[src][broadcast(index, N)] + (p[q_ref] if src == "q" else 0)
-                    for k, (src, index) in windows.items()}
-            return np.hstack([x[X["p"][:, :1]], np.array(p1.map(N)(**args)["p1"])])
+            function = _MOMENTA.get((key, x.size, p.size), lambda: build(x.size, p.size))
+            return function(x, p).full()
         return momenta
 
     def __repr__(self):

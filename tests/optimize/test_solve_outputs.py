@@ -89,3 +89,31 @@ def test_cost_and_most_violated_row_are_those_of_the_returned_x(name):
         assert result.stats["max_violation"] == pytest.approx(violation, rel=0.0, abs=1e-24)
         if violation > 1e-24:
             assert result.stats["most_violated"] == where
+
+
+def _momentum_problems():
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule="lobatto3")
+    free = dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0], duration=(0.5, 3.0))
+    far = dmoc.problems.knife_edge_parking(12).with_boundary(q_start=[1e5, -3e4, 0.1],
+                                                              p_start=[0.3, -0.2, 0.1])
+    return {"midpoint": dmoc.problems.knife_edge_parking(12), "free final time lobatto3": free,
+            "far, start momentum": far}
+
+
+@pytest.mark.parametrize("name", list(_momentum_problems()))
+def test_substituted_momenta_are_the_explicit_p1_of_each_step(name):
+    """`Transcription.momenta` (one mapped Function of x and p) against p1 called step by
+    step on the blocks of x: p_0 from x, p_{k+1} = p1(q_k, q_{k+1}, s_k, u_k, h), bitwise
+    (the same SX algorithm on the same numbers), at a point that is not an optimum."""
+    problem = _momentum_problems()[name]
+    T, N, lay = problem.transcription, problem.steps, problem.x_layout
+    x = solve(problem).x + 1e-3 * np.sin(np.arange(lay.size))
+    p1 = problem.momentum_treatment.p1
+    q = T.configurations(x)
+    h = problem.final_time.step(lay, x)
+    blocks = {name: lay.unpack(x, name) for name in ("lam", "s", "u")}
+    expected = [lay.unpack(x, "p")[:, 0]]
+    for k in range(N):
+        values = {"q0": q[k], "q1": q[k + 1], "h": h, **{b: v[:, k] for b, v in blocks.items()}}
+        expected.append(np.array(p1(**{i: values[i] for i in p1.name_in()})["p1"]).ravel())
+    np.testing.assert_array_equal(T.momenta(x), np.array(expected))
