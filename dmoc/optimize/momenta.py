@@ -130,9 +130,7 @@ class SubstitutedMomenta:
         X, N, q_ref, p1 = slots.X, slots.N, slots.q_ref, self.p1
         windows = {k: slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()}
         first = X["p"][:, :1]
-        key = (self.residual.key, N, hashlib.sha256(b"".join(
-            repr((k, src, index.shape)).encode() + np.ascontiguousarray(index).tobytes()
-            for k, (src, index) in {**windows, "p0": ("x", first), "q_ref": ("p", q_ref)}.items())).hexdigest())
+        key = (self.residual.key, N, _slots_key({**windows, "p0": ("x", first), "q_ref": ("p", q_ref)}))
 
         def build(n_x, n_p):
             x, p = ca.MX.sym("x", n_x), ca.MX.sym("p", n_p)
@@ -151,3 +149,11 @@ class SubstitutedMomenta:
     def __repr__(self):
         return "SubstitutedMomenta()"
 
+
+def _slots_key(slots):
+    """A key of named slots {name: (source, index array)} by value."""
+    digest = hashlib.sha256()
+    for name, (source, index) in slots.items():
+        digest.update(repr((name, source, index.shape)).encode())
+        digest.update(np.ascontiguousarray(index).tobytes())
+    return digest.hexdigest()

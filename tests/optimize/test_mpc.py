@@ -134,7 +134,8 @@ def test_on_failure_shift_follows_the_last_plan_until_it_is_used_up():
         q, p = run.trajectory.q[-1], run.trajectory.p[-1]
         np.testing.assert_allclose(q, plan.q[k + 1], rtol=0, atol=1e-9)
         np.testing.assert_allclose(p, plan.p[k + 1], rtol=0, atol=1e-8)
-    assert [(r.success, r.plan_age) for r in controller.log] == [(True, 0), (False, 1), (False, 2), (False, 3)]
+    assert [(r.success, r.plan_age) for r in controller.log] == [
+        (True, 0), (False, 1), (False, 2), (False, 3)]
     assert controller.plan is not None and controller.plan.cost == optimum.cost
     with pytest.raises(dmoc.SolverError, match=r"MPC step 4: .*plan is used up \(4 failed solves in a row\)"):
         controller.step(q, p=p)
