@@ -123,22 +123,23 @@ class Transcription(ReadOnly):
         """q_ref, p, and the blocks q, v_start and v_goal of `lbx` and `ubx` (set anew:
         the state bounds, the given boundary data fixed) from `problem`'s data; the
         path constraints checked at the given ends."""
-        N, lay = problem.steps, self._x_layout
+        N, lay, n = problem.steps, self._x_layout, problem.disc.system.n
         q_ref = reference(problem.q_start, problem.q_goal)
         self._q_ref = _frozen(q_ref)
         p_start = np.zeros(0) if problem.p_start is None else problem.p_start
         self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
                                           p_start]))
-        state_bounds = problem.state_bounds
-        for bound, side in ((lbx, 0), (ubx, 1)):
-            view = {name: lay.unpack(bound, name) for name in ("q", "v_start", "v_goal")}
-            view["q"][:] = (state_bounds[side] - q_ref)[:, None]
-            view["v_start"][:] = view["v_goal"][:] = (-np.inf, np.inf)[side]
-            for name, col, data in (("q", 0, problem.q_start - q_ref), ("q", N, problem.q_goal - q_ref),
-                                    ("v_start", 0, _start_velocity(problem)),
-                                    ("v_goal", 0, problem.v_goal)):
-                fixed = np.isfinite(data)
-                view[name][fixed, col] = data[fixed]
+        q, v_start, v_goal = (lay.slice(name) for name in ("q", "v_start", "v_goal"))
+        for bound, side, unbounded in ((lbx, 0, -np.inf), (ubx, 1, np.inf)):
+            bound[q] = np.tile(problem.state_bounds[side] - q_ref, N + 1)
+            bound[v_start] = bound[v_goal] = unbounded
+        # the given data, fixed: q_0 and q_N (column 0 and N of block q), v_start, v_goal
+        data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
+                               problem.v_goal])
+        entries = np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
+                                  v_start.start + np.arange(n), v_goal.start + np.arange(n)])
+        fixed = np.isfinite(data)
+        lbx[entries[fixed]] = ubx[entries[fixed]] = data[fixed]
         if problem.path_constraints is not None:
             refuse_violated_ends(problem.path_constraints, problem)
         self._lbx, self._ubx = _frozen(lbx), _frozen(ubx)
