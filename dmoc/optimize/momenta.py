@@ -6,8 +6,6 @@ construction. Each value declares the columns of x's block "p", the rows imposed
 step, and how the step terms, the goal rows and `momenta(x)` read p_k.
 """
 
-import hashlib
-
 import casadi as ca
 import numpy as np
 
@@ -18,7 +16,7 @@ from .terms import broadcast, inputs_of
 
 MOMENTA = ("substituted", "variables")
 
-_MOMENTA = BoundedCache(32, "momenta")     # Functions (x, p) -> p_0 ... p_N of substituted momenta
+_MOMENTA = BoundedCache(32, "momenta")     # p1 mapped over N steps on stacked inputs, by (residual, N)
 
 
 def momentum_treatment(momenta, residual):
@@ -124,36 +122,29 @@ class SubstitutedMomenta:
 
     def momenta_function(self, slots):
         """``momenta(x, p) -> P`` (n, N+1): p_0 from x and the explicit p_{k+1} of every
-        step, one CasADi Function of (x, p) built on the first call and kept in a bounded
-        cache per residual, N and index arrays (one call and two conversions per use, not
-        one per input of p1). It holds index arrays and p1 only, not the problem."""
-        X, N, q_ref, p1 = slots.X, slots.N, slots.q_ref, self.p1
-        windows = {k: slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()}
-        first = X["p"][:, :1]
-        key = (self.residual.key, N, _slots_key({**windows, "p0": ("x", first), "q_ref": ("p", q_ref)}))
-
-        def build(n_x, n_p):
-            x, p = ca.MX.sym("x", n_x), ca.MX.sym("p", n_p)
-            source = {"x": x, "q": x, "p": p}
-            args = {k: source[src][ca.DM(broadcast(index, N))] + (ca.repmat(p[ca.DM(q_ref)], 1, N)
-                                                                   if src == "q" else 0)
-                    for k, (src, index) in windows.items()}
-            P = ca.horzcat(x[ca.DM(first)], p1.map(N)(**args)["p1"])
-            return ca.Function("momenta", [x, p], [P], ["x", "p"], ["P"])
+        step: the windows of p1's inputs gathered from x and p, stacked, and p1 mapped over
+        the N steps on that one stacked input (a Function kept in a bounded cache per
+        residual and N, so that a call converts one array, not one per input of p1). It
+        holds index arrays and p1 only, not the problem."""
+        X, N, q_ref, p1, key = slots.X, slots.N, slots.q_ref, self.p1, (self.residual.key, slots.N)
+        windows = [slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()]
 
         def momenta(x, p):
-            function = _MOMENTA.get((key, x.size, p.size), lambda: build(x.size, p.size))
-            return function(x, p).full()
+            source = {"x": x, "q": x, "p": p}
+            stacked = np.vstack([source[src][broadcast(index, N)] + (p[q_ref] if src == "q" else 0)
+                                 for src, index in windows])
+            mapped = _MOMENTA.get(key, lambda: _stacked(p1).map(N))
+            return np.hstack([x[X["p"][:, :1]], mapped(stacked).full()])
         return momenta
 
     def __repr__(self):
         return "SubstitutedMomenta()"
 
 
-def _slots_key(slots):
-    """A key of named slots {name: (source, index array)} by value."""
-    digest = hashlib.sha256()
-    for name, (source, index) in slots.items():
-        digest.update(repr((name, source, index.shape)).encode())
-        digest.update(np.ascontiguousarray(index).tobytes())
-    return digest.hexdigest()
+def _stacked(function):
+    """`function` of column-vector inputs as a Function of one input, their stack (in
+    the order of its inputs), calling it."""
+    sizes = [function.numel_in(i) for i in range(function.n_in())]
+    z = ca.MX.sym("z", sum(sizes))
+    inputs = ca.vertsplit(z, np.cumsum([0] + sizes).tolist())
+    return ca.Function(function.name() + "_stacked", [z], [function(*inputs)], ["z"], function.name_out())
