@@ -41,9 +41,10 @@ class MPCStep:
         Wall seconds of the whole `MPC.step` (boundary data, warm start, solve).
     warm_start : bool
         Whether IPOPT started from the shifted previous optimum's x and multipliers.
-    plan_age : int
+    plan_age : int or None
         Which optimum `u` comes from: 0 this step's, k > 0 (after failed solves, with
-        ``on_failure="shift"``) the plan of k steps before, at its step k.
+        ``on_failure="shift"``) the plan of k steps before, at its step k; None when the
+        step raised.
     """
 
     q: np.ndarray
@@ -84,6 +85,8 @@ class MPC:
 
     Attributes
     ----------
+    on_failure : str
+        The `on_failure` policy.
     problem : OptimalControlProblem
         The problem of the last step (its start the last measurement).
     plan : OptimizationResult or None
@@ -98,6 +101,8 @@ class MPC:
     s_k, u_k and the dynamics and path rows of step k) takes the value of step k + 1, the
     last step's repeated; the boundary blocks keep theirs. IPOPT starts from it with
     ``warm_start_init_point`` (x clipped into the new bounds: q_0 is the measurement).
+    After k failed solves in a row (``on_failure="shift"``) it is the last optimum moved
+    k + 1 steps on.
 
     Examples
     --------
@@ -160,16 +165,16 @@ class MPC:
                 and self._age + 1 < self.problem.steps:
             self._age += 1
         else:
-            self._record(q, p, None, result, tic)
+            self._record(q, p, None, result, tic, None)
             raise self._failure(result)
         u = self.plan.trajectory.u[self._age].copy()
-        self._record(q, p, u, result, tic)
+        self._record(q, p, u, result, tic, self._age)
         return u
 
-    def _record(self, q, p, u, result, tic):
+    def _record(self, q, p, u, result, tic, age):
         self.log.append(MPCStep(q, p, u, result.success, result.status, result.stats["iterations"],
                                 result.stats["solve_time"], time.perf_counter() - tic,
-                                result.stats["warm_start"], self._age))
+                                result.stats["warm_start"], age))
 
     def _failure(self, result):
         """The error of a failed step: Interrupted for a Ctrl-C, else SolverError saying

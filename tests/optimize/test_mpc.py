@@ -139,7 +139,8 @@ def test_on_failure_shift_follows_the_last_plan_until_it_is_used_up():
     assert controller.plan is not None and controller.plan.cost == optimum.cost
     with pytest.raises(dmoc.SolverError, match=r"MPC step 4: .*plan is used up \(4 failed solves in a row\)"):
         controller.step(q, p=p)
-    assert len(controller.log) == 5 and controller.log[-1].u is None
+    last = controller.log[-1]
+    assert len(controller.log) == 5 and last.u is None and last.plan_age is None
 
 
 def test_on_failure_shift_raises_when_the_first_solve_fails():
