@@ -49,7 +49,7 @@ import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
-from dmoc.simulate import compiled  # noqa: E402
+from dmoc._util import compiled  # noqa: E402
 
 WORKERS = 2
 

@@ -10,9 +10,11 @@ previous optimum (primal and dual), `--repeat` times: median wall time per re-so
 IPOPT's iterations, its wall time and the part in NLP function evaluations, NLP size.
 dmoc is timed from the new goal: ``problem.with_boundary(q_goal=g)`` then
 ``dmoc.optimize(new, guess=previous)`` ("judged"), the same with ``check=False``
-("unjudged"), or the raw ``dmoc.optimize.solve`` ("raw"). rockit (not a dependency of dmoc:
-run this script with the python of an environment that has rockit-meco and dmoc) solves
-the reduced ODEs of `rockit_ocp` by multiple shooting (one RK4 step per interval,
+("unjudged"), the raw ``dmoc.optimize.solve`` ("raw"), or the raw solve with the NLP's
+Functions expanded to SX (``expand=True``, "raw SX") or compiled to C (``jit=True``, "raw
+C"), built when the original goal is solved, before the timing. rockit (not a dependency
+of dmoc: run this script with the python of an environment that has rockit-meco and dmoc)
+solves the reduced ODEs of `rockit_ocp` by multiple shooting (one RK4 step per interval,
 piecewise-linear controls, the goal an ``ocp.parameter``, the NLP expanded), re-solved by
 "solve": ``ocp.set_value``, the previous optimum set as the start of rockit's Opti,
 ``ocp.solve()`` (rockit's per-signal ``ocp.set_initial`` would re-transcribe the problem
@@ -29,6 +31,7 @@ kept. Without rockit the script says so and exits.
 
 import argparse
 import importlib.metadata
+import inspect
 import json
 import os
 import platform
@@ -58,7 +61,7 @@ DURATION = 4.0
 # (m R^2 + I) theta'' = u0, J phi'' = u1)
 REDUCED_INERTIA = {"knife edge": (1.0, 1.0), "rolling disk": (1.5, 0.25)}
 DMOC_RULES = ("lobatto3", "lobatto4")
-DMOC_RUNS = ("judged", "unjudged", "raw")
+DMOC_RUNS = ("judged", "unjudged", "raw", "raw SX", "raw C")
 
 
 def goals(name, count):
@@ -120,6 +123,9 @@ def dmoc_resolve(name, rule, N, repeat, count):
     problem = dmoc_problem(name, N, rule, targets[0])
     calls = {"judged": dmoc.optimize, "unjudged": lambda p, **k: dmoc.optimize(p, check=False, **k),
              "raw": solve}
+    if "jit" in inspect.signature(solve).parameters:      # checkouts from before jit: no "raw C",
+        calls["raw SX"] = lambda p, **k: solve(p, expand=True, **k)     # and expand=True
+        calls["raw C"] = lambda p, **k: solve(p, jit=True, **k)         # expanded f and g only
     out = {"size": [problem.transcription.x_layout.size, problem.transcription.g_layout.size]}
     for run, call in calls.items():
         previous = call(problem, options={"print_level": 0})
@@ -296,6 +302,8 @@ def table(name, n_star, measured, checkouts):
     rows += [(rule, os.path.basename(c), n_star[name, rule], measured[rule, c], run)
              for rule in DMOC_RULES for c in checkouts for run in DMOC_RUNS]
     for method, checkout, N, out, run in rows:
+        if run not in out:
+            continue
         s, it, ipopt, fun = out[run]
         gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
         print(f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>10}"

@@ -34,7 +34,7 @@ from checkouts import imported_dmoc  # noqa: E402
 def calls(steps, count):
     """{steps: median seconds per call} of `count` calls of each size, in this process."""
     import dmoc
-    from dmoc.simulate import compiled
+    from dmoc._util import compiled
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
     jit = compiled.compiler() is not None
     for n in steps:

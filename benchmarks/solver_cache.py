@@ -1,7 +1,7 @@
 """What the benchmarks share about dmoc's solver: emptying its cache, so that a timed solve
 builds its solver anew as the baselines do, and passing dmoc's switches (``expand``,
 ``reuse_solver``) as keywords of `optimize` where the checkout has them, inside `options`
-on older checkouts. ``dmoc.clear_caches("solvers")`` where it exists;
+on older checkouts. ``dmoc.clear_caches("solvers")`` (and "row_sums") where it exists;
 checkouts without it (benchmarks compare checkouts through PYTHONPATH) kept the cache as
 ``_SOLVERS`` in dmoc.ipopt or dmoc.optimize."""
 
@@ -15,7 +15,11 @@ import dmoc
 def forget_solvers():
     """Empty dmoc's solver cache."""
     if hasattr(dmoc, "clear_caches"):
-        dmoc.clear_caches("solvers")
+        # the row sums of the data tolerances are built with the solver (checkouts from
+        # before them have no such cache)
+        from dmoc._util.cache import cache_names
+        names = cache_names()
+        dmoc.clear_caches("solvers", *(["row_sums"] if "row_sums" in names else []))
         return
     for name in ("dmoc.optimize", "dmoc.ipopt"):
         module = importlib.import_module(name) if importlib.util.find_spec(name) else None

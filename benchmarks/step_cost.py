@@ -5,7 +5,7 @@ Dirac step: ``dmoc.simulate`` (midpoint rule, variant "+"), three unrolled Newto
 iterations on the n + m equations of (37) in the increment q1 - q0 and lam, the residual
 max-norm of every step checked, evaluated over the horizon in ``mapaccum`` chunks: "dirac"
 is the default path (``jit=None``: the compiled C library, cached on disk by an earlier
-run, see dmoc.simulate.compiled), "dirac-jit" with ``jit=True``, "dirac-vm" the same step
+run, see dmoc._util.compiled), "dirac-jit" with ``jit=True``, "dirac-vm" the same step
 in CasADi's virtual machine (``jit=False``: what runs without a C compiler). Run against an
 older checkout (PYTHONPATH), "dirac" is whatever that version's default is. Baselines, each
 an SX step Function run with ``mapaccum``: "rk4-ode", classical RK4 on the hand-reduced ODE

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.simulate import compiled, stepper
+from dmoc._util import compiled
+from dmoc.simulate import stepper
 
 ROOT = pathlib.Path(__file__).parents[1]
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="sends SIGINT to a child process")

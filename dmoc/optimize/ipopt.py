@@ -13,6 +13,7 @@ from .._util.cache import BoundedCache
 from .._util.layout import Layout
 from ..errors import InputError
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
+from .evaluation import nlp_functions
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
@@ -32,34 +33,47 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
 
 
-_SOLVERS = BoundedCache(16, "solvers")    # keyed by (transcription.structure, options): two per structure
+_SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure
+_ROW_SUMS = BoundedCache(16, "row_sums")  # keyed by (transcription.structure, jit): `_largest_row_sum`
 
 
-def data_tolerances(transcription, x0):
+def data_tolerances(transcription, x0, jit=False):
     """{"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
     floor of the rows where the data demand it, else {}. The floor of row i is
     eps * sum_j |dg_i/dx_j| |x_j| at the start point x0 (scaled, as IPOPT sees it) in
     absolute coordinates (q, not q - q_ref): the rows difference configurations over h,
     so far from the origin (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them
     below it. Rounded up to a power of 2, so that nearby start points share one solver (the
-    options are its key)."""
+    options are its key). The Jacobian is the solver's (compiled with `jit`, the same
+    numbers)."""
     T = transcription
-    jacobian = T.separable.derivatives()["nlp_jac_g"]
     x = np.array(x0, dtype=float)
     x[T.x_layout.slice("q")] = T.configurations(x0).ravel()
-    J = jacobian(x0, T.p)[1]
-    rows = ca.mtimes(ca.fabs(J), ca.DM(np.abs(x)))
-    floor = np.finfo(float).eps * (float(ca.mmax(rows)) if rows.numel() else 0.0)
+    largest = _ROW_SUMS.get((T.structure, jit), lambda: _largest_row_sum(T.separable, jit))
+    floor = np.finfo(float).eps * float(largest(np.concatenate([x0, x, T.p])))
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))
     return {"tol": floor, "constr_viol_tol": floor}
 
 
-def solver(transcription, options, *, expand, reuse, report):
+def _largest_row_sum(separable, jit):
+    """Function ``[x; x_abs; p] -> max_i sum_j |dg_i/dx_j(x, p)| |x_abs_j|`` (0 without
+    rows): one call and one stacked argument from Python (CasADi converts each NumPy
+    argument on its own, `PackedSolver`) instead of a call per operation."""
+    n_x, n_p = separable.n_x, separable.n_p
+    z = ca.MX.sym("z", 2 * n_x + n_p)
+    x, x_abs, p = z[:n_x], z[n_x:2 * n_x], z[2 * n_x:]
+    jacobian = nlp_functions(separable, jit=jit)["nlp_jac_g"](x, p)[1]
+    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x_abs))
+    return ca.Function("largest_row_sum", [z], [ca.mmax(rows) if separable.n_g else ca.MX(0)],
+                       ["z"], ["largest"])
+
+
+def solver(transcription, options, *, expand, reuse, report, jit=False):
     """(the `PackedSolver` of `transcription` with the IPOPT `options`, whether it came
-    from the cache, the path of its journal or None); `expand`, `reuse` and `report` are
-    `optimize`'s `expand`, `reuse_solver` and `linear_solver_report`."""
+    from the cache, the path of its journal or None); `expand`, `reuse`, `report` and
+    `jit` are `optimize`'s `expand`, `reuse_solver`, `linear_solver_report` and `jit`."""
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     if report and "output_file" in options:
         raise InputError("`linear_solver_report` writes IPOPT's journal to a file "
@@ -67,20 +81,22 @@ def solver(transcription, options, *, expand, reuse, report):
     if report:
         merged["file_print_level"] = JOURNAL_LEVEL
     # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
-    # gradient function CasADi would generate for them is most of a solver's build
-    opts = {"expand": expand, "print_time": False, "error_on_fail": False,
-            "no_nlp_grad": True, "calc_lam_p": False,
-            **{"ipopt." + k: v for k, v in merged.items()}}
+    # gradient function CasADi would generate for them is most of a solver's build.
+    # CasADi's own "expand" stays off: the cache holds all five Functions IPOPT calls, in
+    # the form `expand` and `jit` ask for (`nlp_functions`), and expanding the unused MX
+    # oracle besides cost 4-9 ms per build at N = 31-100.
+    opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True,
+            "calc_lam_p": False, **{"ipopt." + k: v for k, v in merged.items()}}
     built = []
 
     def build():
         """(a new solver, the path of its own journal or None, removed with the solver)."""
         built.append(True)
         journal = new_journal() if report else None
+        cache = nlp_functions(transcription.separable, expand=expand, jit=jit)
         try:
             made = ca.nlpsol("dmoc", "ipopt", transcription.nlp,
-                             {**opts, "cache": transcription.separable.derivatives(),
-                              **({"ipopt.output_file": journal} if report else {})})
+                             {**opts, "cache": cache, **({"ipopt.output_file": journal} if report else {})})
         except RuntimeError as err:
             culprit = _rejected_option(options)
             if culprit is None and "option" not in str(err).lower():
@@ -94,7 +110,7 @@ def solver(transcription, options, *, expand, reuse, report):
         return PackedSolver(made, transcription), journal
 
     solver, journal = build() if not reuse else _SOLVERS.get(
-        (transcription.structure, repr(sorted(opts.items())), report), build)
+        (transcription.structure, repr(sorted(opts.items())), report, expand, jit), build)
     return solver, reuse and not built, journal
 
 

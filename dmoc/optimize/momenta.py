@@ -6,13 +6,17 @@ construction. Each value declares the columns of x's block "p", the rows imposed
 step, and how the step terms, the goal rows and `momenta(x)` read p_k.
 """
 
+import casadi as ca
 import numpy as np
 
 from .._util import checks
+from .._util.cache import BoundedCache
 from ..principle.explicit import single_output, solved_rows, substitutable
 from .terms import broadcast, inputs_of
 
 MOMENTA = ("substituted", "variables")
+
+_MOMENTA = BoundedCache(32, "momenta")     # p1 mapped over N steps on stacked inputs, by (residual, N)
 
 
 def momentum_treatment(momenta, residual):
@@ -118,17 +122,29 @@ class SubstitutedMomenta:
 
     def momenta_function(self, slots):
         """``momenta(x, p) -> P`` (n, N+1): p_0 from x and the explicit p_{k+1} of every
-        step. It holds index arrays and p1 only, not the problem."""
-        X, N, q_ref, p1 = slots.X, slots.N, slots.q_ref, self.p1
-        windows = {k: slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()}
+        step: the windows of p1's inputs gathered from x and p, stacked, and p1 mapped over
+        the N steps on that one stacked input (a Function kept in a bounded cache per
+        residual and N, so that a call converts one array, not one per input of p1). It
+        holds index arrays and p1 only, not the problem."""
+        X, N, q_ref, p1, key = slots.X, slots.N, slots.q_ref, self.p1, (self.residual.key, slots.N)
+        windows = [slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()]
 
         def momenta(x, p):
             source = {"x": x, "q": x, "p": p}
-            args = {k: source[src][broadcast(index, N)] + (p[q_ref] if src == "q" else 0)
-                    for k, (src, index) in windows.items()}
-            return np.hstack([x[X["p"][:, :1]], np.array(p1.map(N)(**args)["p1"])])
+            stacked = np.vstack([source[src][broadcast(index, N)] + (p[q_ref] if src == "q" else 0)
+                                 for src, index in windows])
+            mapped = _MOMENTA.get(key, lambda: _stacked(p1).map(N))
+            return np.hstack([x[X["p"][:, :1]], mapped(stacked).full()])
         return momenta
 
     def __repr__(self):
         return "SubstitutedMomenta()"
 
+
+def _stacked(function):
+    """`function` of column-vector inputs as a Function of one input, their stack (in
+    the order of its inputs), calling it."""
+    sizes = [function.numel_in(i) for i in range(function.n_in())]
+    z = ca.MX.sym("z", sum(sizes))
+    inputs = ca.vertsplit(z, np.cumsum([0] + sizes).tolist())
+    return ca.Function(function.name() + "_stacked", [z], [function(*inputs)], ["z"], function.name_out())

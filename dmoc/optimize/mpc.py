@@ -2,7 +2,8 @@
 receding-horizon controller re-solves one problem structure from each measured state, its
 start given by a momentum (`OptimalControlProblem(p_start=...)`), with IPOPT's kept solver
 warm-started from the previous optimum shifted by one step, primal and dual, and applies
-the first step's controls.
+the first step's controls; a failed solve raises, or (``on_failure="shift"``) the last
+optimum's plan is followed one more step.
 """
 
 import dataclasses
@@ -11,9 +12,11 @@ import time
 import numpy as np
 
 from .._util import checks
-from ..errors import InputError
+from ..errors import InputError, Interrupted, SolverError
 from .problem import OptimalControlProblem
 from .solve import solve        # the raw IPOPT solve of one problem
+
+ON_FAILURE = ("raise", "shift")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -24,9 +27,11 @@ class MPCStep:
     ----------
     q, p : ndarray, shape (n,)
         The measured start.
-    u : ndarray, shape (len(control_nodes) * n_u,)
-        The controls applied over the step, at the rule's control nodes.
+    u : ndarray, shape (len(control_nodes) * n_u,), or None
+        The controls applied over the step, at the rule's control nodes; None when the
+        step raised.
     success : bool
+        Whether this step's solve succeeded.
     status : str
         IPOPT's return status.
     iterations : int
@@ -36,6 +41,10 @@ class MPCStep:
         Wall seconds of the whole `MPC.step` (boundary data, warm start, solve).
     warm_start : bool
         Whether IPOPT started from the shifted previous optimum's x and multipliers.
+    plan_age : int or None
+        Which optimum `u` comes from: 0 this step's, k > 0 (after failed solves, with
+        ``on_failure="shift"``) the plan of k steps before, at its step k; None when the
+        step raised.
     """
 
     q: np.ndarray
@@ -47,6 +56,7 @@ class MPCStep:
     solve_time: float
     step_time: float
     warm_start: bool
+    plan_age: int = 0
 
 
 class MPC:
@@ -64,13 +74,23 @@ class MPC:
         optimum shifted by one step.
     options : dict, optional
         IPOPT options (`optimize`).
+    on_failure : {"raise", "shift"}
+        What a step does when IPOPT does not converge. "raise" (default): raise
+        SolverError (the failed solve in `.result`); no control is returned. "shift":
+        return the controls of the last optimum's plan at the step that follows it (the
+        plan moved on by one step per failed solve, which the model can follow from the
+        plan's own states), and raise SolverError only when no plan is left: the first
+        solve failed, or N solves in a row. Either way the step is recorded in `log`.
+        A Ctrl-C during a solve raises Interrupted.
 
     Attributes
     ----------
+    on_failure : str
+        The `on_failure` policy.
     problem : OptimalControlProblem
         The problem of the last step (its start the last measurement).
     plan : OptimizationResult or None
-        The last step's optimum over the horizon.
+        The last optimum over the horizon (of the last step whose solve succeeded).
     log : list of MPCStep
         One record per step.
 
@@ -81,6 +101,8 @@ class MPC:
     s_k, u_k and the dynamics and path rows of step k) takes the value of step k + 1, the
     last step's repeated; the boundary blocks keep theirs. IPOPT starts from it with
     ``warm_start_init_point`` (x clipped into the new bounds: q_0 is the measurement).
+    After k failed solves in a row (``on_failure="shift"``) it is the last optimum moved
+    k + 1 steps on.
 
     Examples
     --------
@@ -91,15 +113,16 @@ class MPC:
     ((2,), True)
     """
 
-    def __init__(self, problem, *, guess=None, options=None):
+    def __init__(self, problem, *, guess=None, options=None, on_failure="raise"):
         checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+        self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
         if not np.isfinite(problem.q_start).all():
             raise InputError("`problem` must have a fully given `q_start`: the controller's "
                              "measurements replace it, and the NLP keeps its structure.")
         n = problem.disc.system.n
         start = problem.p_start if problem.p_start is not None else np.zeros(n)
         self.problem = problem.with_boundary(p_start=start)
-        self.plan, self.log = None, []
+        self.plan, self.log, self._age = None, [], 0
         self._guess, self._options = guess, options
 
     def step(self, q, *, v=None, p=None):
@@ -115,7 +138,16 @@ class MPC:
         -------
         ndarray, shape (len(control_nodes) * n_u,)
             The first step's controls at the rule's control nodes (node by node), to apply
-            over one step h (``simulate(..., controls=u[None])``).
+            over one step h (``simulate(..., controls=u[None])``); after a failed solve with
+            ``on_failure="shift"``, those of the last optimum's plan at the step that follows.
+
+        Raises
+        ------
+        SolverError
+            IPOPT did not converge and `on_failure` is "raise", or no plan is left to
+            follow; its `.result` holds the last iterate.
+        Interrupted
+            A Ctrl-C stopped IPOPT.
         """
         tic = time.perf_counter()
         system = self.problem.disc.system
@@ -125,32 +157,55 @@ class MPC:
         p = (np.array(system.momentum(q, checks.array("v", v, (system.n,)))).ravel() if p is None
              else checks.array("p", p, (system.n,)))
         self.problem = self.problem.with_boundary(q_start=q, p_start=p)
-        guess = self._guess if self.plan is None else shifted(self.plan, self.problem)
+        guess = self._guess if self.plan is None else shifted(self.plan, self.problem, self._age + 1)
         result = solve(self.problem, guess=guess, options=self._options, throw=False)
-        u = result.trajectory.u[0].copy()
-        self.plan = result
-        self.log.append(MPCStep(q, p, u, result.success, result.status, result.stats["iterations"],
-                                result.stats["solve_time"], time.perf_counter() - tic,
-                                result.stats["warm_start"]))
+        if result.success:
+            self.plan, self._age = result, 0
+        elif result.status != "interrupted" and self.on_failure == "shift" and self.plan is not None \
+                and self._age + 1 < self.problem.steps:
+            self._age += 1
+        else:
+            self._record(q, p, None, result, tic, None)
+            raise self._failure(result)
+        u = self.plan.trajectory.u[self._age].copy()
+        self._record(q, p, u, result, tic, self._age)
         return u
 
+    def _record(self, q, p, u, result, tic, age):
+        self.log.append(MPCStep(q, p, u, result.success, result.status, result.stats["iterations"],
+                                result.stats["solve_time"], time.perf_counter() - tic,
+                                result.stats["warm_start"], age))
 
-def shifted(result, problem):
-    """`result` (an optimum of `problem`'s structure) moved one step on: the blocks of x,
-    lam_x and lam_g indexed by step take the next step's values, the last repeated."""
+    def _failure(self, result):
+        """The error of a failed step: Interrupted for a Ctrl-C, else SolverError saying
+        why no control is returned."""
+        step = len(self.log) - 1
+        if result.status == "interrupted":
+            return Interrupted(f"MPC step {step}: {result.message}", result)
+        why = ("on_failure='raise'" if self.on_failure == "raise" else
+               "no plan to follow: the first solve failed" if self.plan is None else
+               f"the last optimum's plan is used up ({self._age + 1} failed solves in a row)")
+        return SolverError(f"MPC step {step}: {result.message} No control is applied ({why}); "
+                           f"the last iterate is in `.result`.", result)
+
+
+def shifted(result, problem, steps=1):
+    """`result` (an optimum of `problem`'s structure) moved `steps` steps on (0 < steps < N):
+    the blocks of x, lam_x and lam_g indexed by step take the values of `steps` steps
+    later, the last repeated."""
     T, N = problem.transcription, problem.steps
-    return dataclasses.replace(result, x=_shifted(result.x, T.x_layout, N),
-                               lam_x=_shifted(result.lam_x, T.x_layout, N),
-                               lam_g=_shifted(result.lam_g, T.g_layout, N))
+    return dataclasses.replace(result, x=_shifted(result.x, T.x_layout, N, steps),
+                               lam_x=_shifted(result.lam_x, T.x_layout, N, steps),
+                               lam_g=_shifted(result.lam_g, T.g_layout, N, steps))
 
 
-def _shifted(vector, layout, steps):
+def _shifted(vector, layout, steps, by):
     """`vector` with each block of N or N + 1 columns (one per step or knot; N > 1) moved
-    one column to the left, its last column kept."""
+    `by` columns to the left, its last column repeated."""
     out = np.array(vector, dtype=float)
     for offset, rows, cols in layout.blocks.values():
         if cols > 1 and cols in (steps, steps + 1):
             block = out[offset:offset + rows * cols].reshape(cols, rows)     # column-major
-            block[:-1] = block[1:].copy()
+            block[:-by] = block[by:].copy()
+            block[-by:] = block[-1]
     return out
-

@@ -159,24 +159,33 @@ class OptimalControlProblem(ReadOnly):
         self._state_bounds = _bounds("state_bounds", state_bounds, n)
         for bound in (*self._control_bounds, *self._state_bounds):
             bound.flags.writeable = False
-        self._set_boundary(q_start, q_goal, v_start, v_goal, p_start)
+        self._set_boundary({"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "p_start": p_start,
+                            "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
         self._transcription = Transcription(self)
 
-    def _set_boundary(self, q_start, q_goal, v_start, v_goal, p_start=None):
+    def _set_boundary(self, given):
+        """Set the boundary data in `given` ({name: value} among q_start, q_goal, v_start,
+        v_goal, p_start; a start momentum replaces the start velocity) and check the ends
+        whose data they change; the other data stay as they were, checked."""
         n, sys = self._disc.system.n, self._disc.system
-        self._q_start = boundary_vector("q_start", q_start, n)
-        self._q_goal = boundary_vector("q_goal", q_goal, n)
-        self._p_start = start_momentum(p_start, v_start, n)
-        if self._p_start is not None:
-            v_start = [None] * n
-        self._v_start = boundary_vector("v_start", np.zeros(n) if v_start is None else v_start, n)
-        self._v_goal = boundary_vector("v_goal", np.zeros(n) if v_goal is None else v_goal, n)
-        check_holonomic_boundary(sys, self._q_start, self._q_goal)
+        for name in ("q_start", "q_goal"):
+            if name in given:
+                setattr(self, "_" + name, boundary_vector(name, given[name], n))
+        if "p_start" in given or "v_start" in given:
+            self._p_start = start_momentum(given.get("p_start"), given.get("v_start"), n)
+            v_start = given.get("v_start")
+            self._v_start = boundary_vector("v_start", [None] * n if self._p_start is not None else
+                                            np.zeros(n) if v_start is None else v_start, n)
+        if "v_goal" in given:
+            self._v_goal = boundary_vector("v_goal", given["v_goal"], n)
+        if "q_start" in given or "q_goal" in given:
+            check_holonomic_boundary(sys, self._q_start, self._q_goal)
         for end, q, v in (("start", self._q_start, self._v_start), ("goal", self._q_goal, self._v_goal)):
-            if fully_given(q, v):
+            if given.keys() & {"q_" + end, "v_" + end} and fully_given(q, v):
                 check_allowed_velocity("v_" + end, sys, q, v)
         lower, upper = self._state_bounds
-        for name, data in (("q_start", self._q_start), ("q_goal", self._q_goal)):
+        for name in (k for k in ("q_start", "q_goal") if k in given):
+            data = getattr(self, "_" + name)
             outside = np.isfinite(data) & ((data < lower) | (data > upper))
             if outside.any():
                 raise InputError(f"`{name}` must lie within `state_bounds`; entries "
@@ -205,13 +214,9 @@ class OptimalControlProblem(ReadOnly):
         ([0.2, 1.0, 0.0], True)
         """
         new = copy.copy(self)
-        given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal}
-        kept = {k: [None if np.isnan(x) else x for x in getattr(self, k)] for k in given}
-        if p_start is None and v_start is None and self._p_start is not None:
-            p_start = self._p_start                 # the start stays a momentum
-        if p_start is not None:
-            kept["v_start"] = None
-        new._set_boundary(**{k: kept[k] if v is None else v for k, v in given.items()}, p_start=p_start)
+        given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal,
+                 "p_start": p_start}
+        new._set_boundary({k: v for k, v in given.items() if v is not None})
         same_nlp = (new.velocity_rows == self.velocity_rows
                     and (new.p_start is None) == (self.p_start is None))
         new._transcription = self._transcription.with_bounds(new) if same_nlp else Transcription(new)

@@ -144,6 +144,15 @@ class SeparableNLP:
             self._derivatives = self._assemble()
         return self._derivatives
 
+    def functions(self):
+        """``{name: Function}`` of every evaluation IPOPT makes: nlp_f ``(x, p) -> f`` and
+        nlp_g ``(x, p) -> g`` (the mapped terms, as ``casadi.nlpsol`` builds them from `f`
+        and `g`) and those of `derivatives`; what `dmoc.optimize.evaluation` expands or compiles."""
+        x, p = self.x, self.p
+        return {"nlp_f": ca.Function("nlp_f", [x, p], [self.f], ["x", "p"], ["f"]),
+                "nlp_g": ca.Function("nlp_g", [x, p], [self.g], ["x", "p"], ["g"]),
+                **self.derivatives()}
+
     def _assemble(self):
         x, p, sigma, lam = self.x, self.p, ca.MX.sym("lam_f"), ca.MX.sym("lam_g", self.n_g)
         parts = {"grad": [], "jac": [], "hess": []}

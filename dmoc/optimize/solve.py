@@ -140,7 +140,7 @@ SWITCHES = {"reuse_solver": True, "expand": False, "linear_solver_report": False
 
 
 def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
-          linear_solver_report=False, throw=True):
+          linear_solver_report=False, jit=False, throw=True):
     """Solve a DMOC problem with IPOPT, without judging the optimum: `dmoc.optimize` with
     ``check=False``, whose docstring gives the parameters.
 
@@ -150,7 +150,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
         Its `success` is IPOPT's; its `verdict` None.
     """
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
-    throw = checks.boolean("throw", throw)
+    throw, jit = checks.boolean("throw", throw), checks.boolean("jit", jit)
     checks.instance("guess", guess, (Trajectory, OptimizationResult, type(None)),
                     "a Trajectory, an OptimizationResult or None")
     options = None if options is None else checks.ipopt_options("options", options)
@@ -162,9 +162,9 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     D, R = T.x_scale, T.g_scale      # IPOPT iterates on x / D, imposes R g
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
-        T, {**data_tolerances(T, x0 / D), "warm_start_init_point": "yes" if warm else "no", **options},
+        T, {**data_tolerances(T, x0 / D, jit), "warm_start_init_point": "yes" if warm else "no", **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
-        report=switches["linear_solver_report"])
+        report=switches["linear_solver_report"], jit=jit)
     build_time = time.perf_counter() - tic
     journal_start = linear_solver.journal_end(journal) if journal else 0
     tic = time.perf_counter()

@@ -98,38 +98,51 @@ class Transcription(ReadOnly):
     def with_bounds(self, problem):
         """This transcription with the bounds and parameter values of `problem`, which must
         have the same NLP (new boundary data with the same velocity rows, or new parameter
-        values): the layouts, scales and terms are shared."""
+        values): the layouts, scales and terms are shared, and so are the bounds that do
+        not read boundary data (of u, h and g)."""
         new = object.__new__(Transcription)
         new.__dict__.update(self.__dict__)
-        new._set_bounds(problem)
+        new._set_boundary_bounds(problem, self._lbx.copy(), self._ubx.copy())
         return new
 
     def _set_bounds(self, problem):
-        N, lay = problem.steps, self._x_layout
+        lay = self._x_layout
+        lbx, ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
+        step_range = problem.final_time.step_range(problem.steps)
+        for bound, side in ((lbx, 0), (ubx, 1)):
+            lay.unpack(bound, "u")[:] = np.tile(problem.control_bounds[side],
+                                                len(problem.disc.rule.control_nodes))[:, None]
+            lay.unpack(bound, "h")[:] = step_range[side]
+        lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
+        for name in ("path", "path_knots"):
+            lbg[self._g_layout.slice(name)] = -np.inf
+        self._lbg, self._ubg = _frozen(lbg), _frozen(ubg)
+        self._set_boundary_bounds(problem, lbx, ubx)
+
+    def _set_boundary_bounds(self, problem, lbx, ubx):
+        """q_ref, p, and the blocks q, v_start and v_goal of `lbx` and `ubx` (set anew:
+        the state bounds, the given boundary data fixed) from `problem`'s data; the
+        path constraints checked at the given ends."""
+        N, lay, n = problem.steps, self._x_layout, problem.disc.system.n
         q_ref = reference(problem.q_start, problem.q_goal)
         self._q_ref = _frozen(q_ref)
         p_start = np.zeros(0) if problem.p_start is None else problem.p_start
         self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
                                           p_start]))
-        control_bounds, state_bounds = problem.control_bounds, problem.state_bounds
-        step_range = problem.final_time.step_range(N)
-        lbx, ubx = np.full(lay.size, -np.inf), np.full(lay.size, np.inf)
-        for bound, side in ((lbx, 0), (ubx, 1)):
-            view = {name: lay.unpack(bound, name) for name in ("q", "u", "v_start", "v_goal", "h")}
-            view["q"][:] = (state_bounds[side] - q_ref)[:, None]
-            view["u"][:] = np.tile(control_bounds[side], len(problem.disc.rule.control_nodes))[:, None]
-            for name, col, data in (("q", 0, problem.q_start - q_ref), ("q", N, problem.q_goal - q_ref),
-                                    ("v_start", 0, _start_velocity(problem)),
-                                    ("v_goal", 0, problem.v_goal)):
-                fixed = np.isfinite(data)
-                view[name][fixed, col] = data[fixed]
-            view["h"][:] = step_range[side]
-        lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
-        for name in ("path", "path_knots"):
-            lbg[self._g_layout.slice(name)] = -np.inf
+        q, v_start, v_goal = (lay.slice(name) for name in ("q", "v_start", "v_goal"))
+        for bound, side, unbounded in ((lbx, 0, -np.inf), (ubx, 1, np.inf)):
+            bound[q] = np.tile(problem.state_bounds[side] - q_ref, N + 1)
+            bound[v_start] = bound[v_goal] = unbounded
+        # the given data, fixed: q_0 and q_N (column 0 and N of block q), v_start, v_goal
+        data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
+                               problem.v_goal])
+        entries = np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
+                                  v_start.start + np.arange(n), v_goal.start + np.arange(n)])
+        fixed = np.isfinite(data)
+        lbx[entries[fixed]] = ubx[entries[fixed]] = data[fixed]
         if problem.path_constraints is not None:
             refuse_violated_ends(problem.path_constraints, problem)
-        self._lbx, self._ubx, self._lbg, self._ubg = (_frozen(b) for b in (lbx, ubx, lbg, ubg))
+        self._lbx, self._ubx = _frozen(lbx), _frozen(ubx)
 
     nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")
     separable = property(lambda self: self._separable, doc="The NLP as terms (`SeparableNLP`).")

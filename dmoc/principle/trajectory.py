@@ -291,7 +291,7 @@ def _stage_nodes(nodes, n, columns):
     of the `columns` of s."""
     nodes = tuple(float(c) for c in np.ravel(checks.real_array(
         "stage_nodes", nodes, "a sequence of step times in (0, 1)")))
-    if not all(0.0 < c < 1.0 for c in nodes) or np.any(np.diff(nodes) <= 0):
+    if not all(0.0 < c < 1.0 for c in nodes) or any(b <= a for a, b in zip(nodes, nodes[1:])):
         raise InputError(f"`stage_nodes` must increase within (0, 1); got {nodes}.")
     if len(nodes) * n > columns:
         raise InputError(f"`s` must hold the {len(nodes)} stage configurations of "

@@ -8,7 +8,7 @@ from .verdict import judged_solve
 
 
 def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
-             linear_solver_report=False, throw=True, check=True, estimate=False,
+             linear_solver_report=False, jit=False, throw=True, check=True, estimate=False,
              accuracy=None, max_steps=100_000):
     """Solve a DMOC problem with IPOPT and judge the optimum; optionally estimate its
     discretization error or refine the grid to an accuracy target.
@@ -41,13 +41,26 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         True (default): take the solver of an earlier problem of the same structure and
         options from the cache; False builds a fresh one, dropped after the call.
     expand : bool
-        True expands f and g to SX, which no longer pays: IPOPT evaluates the derivatives
-        assembled from the terms (``problem.transcription.separable``) either way
-        (docs/performance.md). Default False.
+        True evaluates the NLP's five Functions (f, g and the derivatives assembled from
+        the terms, ``problem.transcription.separable.functions()``) as flat SX Functions
+        instead of the MX graph of mapped terms: the same operations, so the same optimum
+        and iterations, 1.05-5 times faster per evaluation (g and the Jacobian least),
+        for 12-25 ms more to build at N of 10-30 (growing with N;
+        `dmoc.optimize.evaluation`). For re-solves without a C compiler; `jit` is faster
+        still. Default False.
     linear_solver_report : bool
         True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
         IPOPT's detailed journal (`dmoc.optimize.linear_solver`); writing it adds 10-30 %
         to the solve. Default False.
+    jit : bool
+        True evaluates the NLP (objective, constraints and their derivatives) as C code,
+        compiled once per NLP structure with the system's C compiler and kept on disk
+        across processes in the private folder of the simulator's compiled steps
+        (`dmoc.optimize.evaluation`; an error without a C compiler). The same operations as
+        in CasADi's virtual machine, so the same optimum and iterations, 2-6 times
+        faster per evaluation; compiling takes about 1-3 s the first time, loading the
+        library tens of milliseconds once per process: for re-solves of one structure
+        (docs/stages/optimize.md, "Compiled re-solves"). Default False.
     throw : bool
         Raise SolverError when IPOPT fails or its optimum fails the verdict, and
         `dmoc.Interrupted` when a Ctrl-C (SIGINT) stops it (default); else return the
@@ -106,7 +119,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     """
     estimate = checks.boolean("estimate", estimate)
     keywords = {"options": options, "reuse_solver": reuse_solver, "expand": expand,
-                "linear_solver_report": linear_solver_report, "throw": throw, "check": check}
+                "linear_solver_report": linear_solver_report, "jit": jit, "throw": throw,
+                "check": check}
     if accuracy is not None:
         return optimize_to_accuracy(problem, accuracy, guess=guess, max_steps=max_steps,
                                     **keywords)

@@ -14,6 +14,7 @@ import numpy as np
 from ._canvas import save_png
 from .diagnostic_plots import (control_work, plot_constraint_violation, plot_convergence,
                                plot_cost_convergence, plot_energy_balance, plot_energy_error)
+from .kept_out import kept_out_region
 from .path_plot import plot_path
 from .time_plots import plot_controls, plot_states
 from .._util import checks
@@ -70,7 +71,10 @@ def save_trajectory_plots(traj, out, name, *, disc=None, problem=None, names=Non
         Needed for the constraint-violation and energy plots; its system gives the
         default `names` and `units`.
     problem : OptimalControlProblem, optional
-        The problem `traj` solves: its discretization, goal and bounds are drawn.
+        The problem `traj` solves: its discretization, goal and bounds are drawn, and,
+        unless `obstacles` are given, the region of the first plane that its path
+        constraints keep out (`kept_out_region`: the rows that read the plane's two
+        coordinates alone).
     names, control_names : sequence of str, optional
         Names of the coordinates and of the controls.
     units : mapping, optional
@@ -116,6 +120,8 @@ def _figures(traj, name, disc, problem, names, control_names, units, heading, go
     figures, t_unit = {}, units["t"] if units else ""
     paths = planes(names)
     for i, (x, y) in enumerate(paths):
+        if i == 0 and obstacles is None and problem is not None:
+            obstacles = kept_out_region(problem, x, y)
         figures["path"] = plot_path(
             traj, x=x, y=y, heading=heading, goal=goal, labels=(names[x], names[y]),
             units=units, obstacles=obstacles if i == 0 else None, color=f"C{i}",

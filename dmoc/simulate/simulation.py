@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._util import checks
-from . import compiled
+from .._util import compiled
 from .._util.cache import BoundedCache
 from ..mechanics.given import start_momentum
 from ..discrete import Discretization
@@ -84,7 +84,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         unrolled Newton iterations) did not converge.
     jit : bool or None
         Run the fast path as C code, compiled once per step Function with the system's C
-        compiler and cached on disk across calls and processes (`dmoc.simulate.compiled`;
+        compiler and cached on disk across calls and processes (`dmoc._util.compiled`;
         compiled once, then loaded), several times faster per step than CasADi's virtual
         machine, with the same results. None (default): C when it is cached, else once
         this process has spent 0.5 s (about the cost of compiling) in the virtual machine

@@ -9,7 +9,7 @@ q_k and the stage values less q_k; the other end variable enters the "right" row
 (-p1 or -q1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
 Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
 redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's horizons of
-1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc.simulate.compiled`).
+1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc._util.compiled`).
 """
 
 import time
@@ -18,7 +18,7 @@ import warnings
 import casadi as ca
 import numpy as np
 
-from . import compiled
+from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 
@@ -41,7 +41,7 @@ class DiracStepper:
     input, so one stepper serves every h.
 
     `native` picks how the fast path's horizons run: True, as the compiled C `library`
-    (`dmoc.simulate.compiled.Library`, compiled at once unless cached on disk); False, in
+    (`dmoc._util.compiled.Library`, compiled at once unless cached on disk); False, in
     CasADi's virtual machine; None, compiled if the library is cached, else as soon as this
     stepper has spent NATIVE_AFTER_SECONDS in the virtual machine (about what compiling
     costs, so a run never costs more than about twice the better choice; also mid-run;

@@ -51,3 +51,22 @@ def test_ocp_names_free_symbols_and_boundary_outside_bounds(disc):
         dmoc.OptimalControlProblem(disc, 10, path_constraints=lambda q, v, u: q[0] - stray, **base)
     with pytest.raises(ValueError, match="`q_goal` must lie within `state_bounds`"):
         dmoc.OptimalControlProblem(disc, 10, state_bounds=([-1, -1, -1], [1, 0.5, 1]), **base)
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"q_start": [0.0, 2.0, 0.0]}, "`q_start` must lie within `state_bounds`"),
+    ({"q_goal": [0.0, -2.0, 0.0]}, "`q_goal` must lie within `state_bounds`"),
+    ({"v_goal": [0.0, 1.0, 0.0]}, "`v_goal` violates the velocity constraints"),
+    ({"v_start": [1.0, 1.0, 0.0], "q_start": [0.0, 0.0, 0.0]}, "`v_start` violates the velocity constraints"),
+    ({"v_start": [0.0, 0.0, 0.0], "p_start": [0.0, 0.0, 0.0]}, "not both"),
+    ({"p_start": [0.0, np.nan, 0.0]}, "`p_start`"),
+    ({"q_start": [0.0, 0.0]}, r"`q_start` must have shape \(3,\)"),
+])
+def test_with_boundary_checks_the_data_it_changes(disc, change, words):
+    """`with_boundary` checks only the ends whose data change, but those as the constructor
+    does (the data of a fully given end against its velocity constraints, both ends
+    against the state bounds)."""
+    base = dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0], q_goal=[0, 1, 0],
+                                      state_bounds=([-1, -1, -1], [1, 1.5, 1]))
+    with pytest.raises(dmoc.InputError, match=words):
+        base.with_boundary(**change)

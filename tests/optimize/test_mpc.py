@@ -12,6 +12,7 @@ import pytest
 
 import dmoc
 from dmoc.optimize.mpc import shifted
+from dmoc.optimize.solve import solve
 
 
 def parking(rule="midpoint", steps=12):
@@ -62,6 +63,11 @@ def test_the_warm_start_is_the_plan_moved_one_step():
         np.testing.assert_array_equal(lay.unpack(moved.x, name), lay.unpack(result.x, name))
     np.testing.assert_array_equal(g_lay.unpack(moved.lam_g, "goal"), g_lay.unpack(result.lam_g, "goal"))
     assert moved.structure == result.structure and N == 12
+    by_three = shifted(result, problem, 3)          # after two failed solves (on_failure="shift")
+    for name in ("q", "u"):
+        old, new = lay.unpack(result.x, name), lay.unpack(by_three.x, name)
+        np.testing.assert_array_equal(new[:, :-3], old[:, 3:])
+        np.testing.assert_array_equal(new[:, -3:], np.repeat(old[:, -1:], 3, axis=1))
 
 
 def test_bad_measurements_and_problems_are_refused():
@@ -89,3 +95,57 @@ def test_the_closed_loop_example_runs_with_a_short_horizon(tmp_path, capsys):
     assert "final state" in capsys.readouterr().out
     for name in ("path", "solve_times"):
         assert (tmp_path / f"mpc_knife_edge_{name}.png").stat().st_size > 1000
+
+
+def _failing(steps, **keywords):
+    """(the model problem, its optimum from rest, a controller that starts there): its first
+    solve starts at that optimum (0 iterations); IPOPT may take 2 iterations, and every
+    later step (3-4 from the shifted plan) fails."""
+    problem = parking(steps=steps)
+    optimum = solve(problem.with_boundary(p_start=[0.0, 0.0, 0.0]))
+    controller = dmoc.MPC(problem, guess=optimum, options={"max_iter": 2}, **keywords)
+    return problem, optimum, controller
+
+
+def test_a_failed_solve_raises_by_default_and_is_recorded():
+    problem, optimum, controller = _failing(12)
+    u = controller.step(np.zeros(3), p=np.zeros(3))
+    plan = optimum.trajectory
+    with pytest.raises(dmoc.SolverError, match=r"MPC step 1: IPOPT: Maximum_Iterations_Exceeded.*"
+                                               r"No control is applied \(on_failure='raise'\)") as err:
+        controller.step(plan.q[1], p=plan.p[1])
+    assert not err.value.result.success
+    assert [r.success for r in controller.log] == [True, False] and controller.log[1].u is None
+    assert controller.plan.cost == optimum.cost
+    np.testing.assert_array_equal(u, plan.u[0])
+
+
+def test_on_failure_shift_follows_the_last_plan_until_it_is_used_up():
+    """After each failed solve the controls of the last optimum's next step; a plant that is
+    the model then stays on that optimum's states (the simulator, from the measured
+    state), until N failed solves in a row leave no plan."""
+    problem, optimum, controller = _failing(4, on_failure="shift")
+    plan = optimum.trajectory
+    q, p = np.zeros(3), np.zeros(3)
+    for k in range(4):
+        u = controller.step(q, p=p)
+        np.testing.assert_array_equal(u, plan.u[k])
+        run = dmoc.simulate(problem.disc, q0=q, p0=p, steps=1, controls=u[None], jit=False)
+        q, p = run.trajectory.q[-1], run.trajectory.p[-1]
+        np.testing.assert_allclose(q, plan.q[k + 1], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(p, plan.p[k + 1], rtol=0, atol=1e-8)
+    assert [(r.success, r.plan_age) for r in controller.log] == [
+        (True, 0), (False, 1), (False, 2), (False, 3)]
+    assert controller.plan is not None and controller.plan.cost == optimum.cost
+    with pytest.raises(dmoc.SolverError, match=r"MPC step 4: .*plan is used up \(4 failed solves in a row\)"):
+        controller.step(q, p=p)
+    last = controller.log[-1]
+    assert len(controller.log) == 5 and last.u is None and last.plan_age is None
+
+
+def test_on_failure_shift_raises_when_the_first_solve_fails():
+    controller = dmoc.MPC(parking(), options={"max_iter": 2}, on_failure="shift")
+    with pytest.raises(dmoc.SolverError, match="no plan to follow: the first solve failed"):
+        controller.step(np.zeros(3), p=np.zeros(3))
+    with pytest.raises(dmoc.InputError, match=r"`on_failure` must be one of 'raise', 'shift'; got 'apply'"):
+        dmoc.MPC(parking(), on_failure="apply")

@@ -130,8 +130,9 @@ def test_guess_from_another_grid_starts_from_least_squares_multipliers():
 
 
 def test_expanded_oracle_gives_the_same_optimum():
-    """options={"expand": True} expands f and g to SX while IPOPT keeps the assembled
-    derivatives: the same iterations and optimum as the MX graph."""
+    """options={"expand": True} (the deprecated spelling of expand=True) expands f, g and
+    the assembled derivatives to SX: the same iterations and optimum as the MX graph
+    (bit for bit: tests/optimize/test_evaluation.py)."""
     problem = dmoc.problems.rolling_disk_steering(30)
     mx, sx = dmoc.optimize(problem), dmoc.optimize(problem, options={"expand": True})
     assert sx.stats["iterations"] == mx.stats["iterations"]

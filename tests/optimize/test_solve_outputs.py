@@ -10,6 +10,7 @@ x, and `most_violated` of that g. The fallback, where x was moved onto a bound a
 IPOPT's last f and g, is held by tests/optimize/test_scaling.py (relaxed bounds).
 """
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -89,3 +90,70 @@ def test_cost_and_most_violated_row_are_those_of_the_returned_x(name):
         assert result.stats["max_violation"] == pytest.approx(violation, rel=0.0, abs=1e-24)
         if violation > 1e-24:
             assert result.stats["most_violated"] == where
+
+
+def _momentum_problems():
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule="lobatto3")
+    free = dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0], duration=(0.5, 3.0))
+    far = dmoc.problems.knife_edge_parking(12).with_boundary(q_start=[1e5, -3e4, 0.1],
+                                                              p_start=[0.3, -0.2, 0.1])
+    return {"midpoint": dmoc.problems.knife_edge_parking(12), "free final time lobatto3": free,
+            "far, start momentum": far}
+
+
+@pytest.mark.parametrize("name", list(_momentum_problems()))
+def test_substituted_momenta_are_the_explicit_p1_of_each_step(name):
+    """`Transcription.momenta` (one mapped Function of x and p) against p1 called step by
+    step on the blocks of x: p_0 from x, p_{k+1} = p1(q_k, q_{k+1}, s_k, u_k, h), bitwise
+    (the same SX algorithm on the same numbers), at a point that is not an optimum."""
+    problem = _momentum_problems()[name]
+    T, N, lay = problem.transcription, problem.steps, problem.x_layout
+    x = solve(problem).x + 1e-3 * np.sin(np.arange(lay.size))
+    p1 = problem.momentum_treatment.p1
+    q = T.configurations(x)
+    h = problem.final_time.step(lay, x)
+    blocks = {name: lay.unpack(x, name) for name in ("lam", "s", "u")}
+    expected = [lay.unpack(x, "p")[:, 0]]
+    for k in range(N):
+        values = {"q0": q[k], "q1": q[k + 1], "h": h, **{b: v[:, k] for b, v in blocks.items()}}
+        expected.append(np.array(p1(**{i: values[i] for i in p1.name_in()})["p1"]).ravel())
+    np.testing.assert_array_equal(T.momenta(x), np.array(expected))
+
+
+def _bounded_parking(q_goal=(0.0, 1.0, None), **start):
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule="lobatto3")
+    return dmoc.OptimalControlProblem(
+        disc, 10, q_goal=q_goal, **start, control_bounds=([-20, None], [20, 30]),
+        state_bounds=([-0.5, -0.5, None], [0.5, 1.5, None]),
+        path_constraints=lambda q, v, u: ca.vertcat(q[2] - 1.0, -q[2] - 1.0))
+
+
+_RESTATED = {   # (the first statement's start, the new boundary data of `with_boundary`)
+    "new start momentum": ({"q_start": [0, 0, 0], "p_start": [0, 0, 0]},
+                           {"q_start": [0.1, 0.05, 0.2], "p_start": [0.3, -0.1, 0.2]}),
+    "momentum to velocity": ({"q_start": [0, 0, 0], "p_start": [0.1, 0, 0]}, {"v_start": [0, 0, 0]}),
+    "velocity to momentum": ({"q_start": [0, 0, 0]}, {"p_start": [0.1, 0.2, 0.0]}),
+    "new goal": ({"q_start": [0, 0, 0]}, {"q_goal": [0.2, 1.2, 0.3], "v_goal": [0, 0, 0]}),
+}
+
+
+@pytest.mark.parametrize("case", list(_RESTATED))
+def test_with_boundary_states_what_a_new_problem_states(case):
+    """`with_boundary` (checks of the changed ends only, the bounds of u, h and g shared)
+    against the problem built anew from the same data: the same boundary data, bounds and
+    p bitwise, and so the same IPOPT inputs: the same x, multipliers and iterations."""
+    first, change = _RESTATED[case]
+    restated = _bounded_parking(**first).with_boundary(**change)
+    start = {k: v for k, v in {**first, **change}.items()
+             if not (k == "p_start" and "v_start" in change or k == "v_start" and "p_start" in change)}
+    anew = _bounded_parking(**start)
+    for name in ("q_start", "q_goal", "v_start", "v_goal"):
+        np.testing.assert_array_equal(getattr(restated, name), getattr(anew, name), err_msg=name)
+    assert (restated.p_start is None) == (anew.p_start is None)
+    for name in ("lbx", "ubx", "lbg", "ubg", "p", "q_ref"):
+        np.testing.assert_array_equal(getattr(restated, name), getattr(anew, name), err_msg=name)
+    assert restated.structure == anew.structure
+    a, b = solve(restated), solve(anew)
+    for name in ("x", "lam_x", "lam_g"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    assert a.stats["iterations"] == b.stats["iterations"] and a.success

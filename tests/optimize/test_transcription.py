@@ -65,3 +65,36 @@ def test_free_start_velocity_is_kept_in_the_allowed_set(variant):
     v_opt = problem.x_layout.unpack(result.x, "v_start")[:, 0]
     theta0 = result.trajectory.q[0, 2]
     assert abs(-np.sin(theta0) * v_opt[0] + np.cos(theta0) * v_opt[1]) < 1e-9
+
+
+@pytest.mark.parametrize("restate", [False, True])
+def test_bounds_fix_the_given_data_and_bound_the_rest(restate):
+    """lbx and ubx written out block by block from the statement: q_0 and the given
+    entries of q_N fixed (x holds q - q_ref), the other knots within the state bounds, u
+    within the control bounds at every control node, v_start fixed at 0 for a start
+    momentum, v_goal fixed, every other block free; the same after `with_boundary`
+    (which shares the bounds of u, h and g and writes the boundary blocks anew)."""
+    disc = dmoc.discretize(knife_edge(), H, rule="lobatto3")
+    lower, upper = np.array([-0.5, -0.6, -np.inf]), np.array([0.5, 1.5, np.inf])
+    q_start, q_goal, v_goal = np.array([0.1, 0.2, 0.3]), np.array([0.0, 1.0, np.nan]), np.zeros(3)
+    problem = dmoc.OptimalControlProblem(
+        disc, N, q_start=q_start, q_goal=[0.0, 1.0, None], p_start=[1, 2, 3],
+        control_bounds=([-2, None], [2, 3]), state_bounds=([-0.5, -0.6, None], [0.5, 1.5, None]))
+    if restate:
+        q_start, q_goal = np.array([0.2, -0.1, 0.0]), np.array([0.3, 1.1, np.nan])
+        problem = problem.with_boundary(q_start=q_start, q_goal=[0.3, 1.1, None], p_start=[0, 1, 0])
+    lay, q_ref, nodes = problem.x_layout, q_start, len(disc.rule.control_nodes)
+    np.testing.assert_array_equal(problem.q_ref, q_ref)
+    for bound, side, data_side in ((problem.lbx, lower, -np.inf), (problem.ubx, upper, np.inf)):
+        q = lay.unpack(bound, "q")
+        np.testing.assert_array_equal(q[:, 1:N], np.repeat((side - q_ref)[:, None], N - 1, axis=1))
+        np.testing.assert_array_equal(q[:, 0], q_start - q_ref)
+        np.testing.assert_array_equal(q[:, N], np.where(np.isnan(q_goal), side - q_ref, q_goal - q_ref))
+        u = lay.unpack(bound, "u")
+        control = [-2.0, -np.inf] if data_side < 0 else [2.0, 3.0]
+        np.testing.assert_array_equal(u, np.repeat(np.array(control * nodes)[:, None], N, axis=1))
+        np.testing.assert_array_equal(lay.unpack(bound, "v_start")[:, 0], np.zeros(3))
+        np.testing.assert_array_equal(lay.unpack(bound, "v_goal")[:, 0], v_goal)
+        for name in ("p", "lam", "s", "mu", "nu"):
+            assert (lay.unpack(bound, name) == data_side).all(), name
+    assert nodes == 3 and lay.numel("h") == 0

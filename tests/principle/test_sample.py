@@ -107,10 +107,11 @@ def test_sample_outside_the_horizon_is_refused(t, bad):
     np.testing.assert_array_equal(traj.sample([-1e-13, T + 1e-12]).q, traj.q[[0, -1]])
 
 
-def test_stage_nodes_are_checked():
+@pytest.mark.parametrize("nodes", [(1.0,), (0.6, 0.3), (0.3, 0.3)])
+def test_stage_nodes_are_checked(nodes):
     with pytest.raises(dmoc.InputError, match=r"`stage_nodes` must increase within \(0, 1\)"):
         dmoc.Trajectory([0, 1], [[0.0], [1.0]], [[0.0]] * 2, [[]], [[0.0]], 1.0, "+",
-                        s=[[0.5]], stage_nodes=(1.0,))
+                        s=[[0.5, 0.5]], stage_nodes=nodes)
     with pytest.raises(dmoc.InputError, match=r"`s` must hold the 2 stage configurations"):
         dmoc.Trajectory([0, 1], [[0.0], [1.0]], [[0.0]] * 2, [[]], [[0.0]], 1.0, "+",
                         s=[[0.5]], stage_nodes=(0.3, 0.6))

@@ -13,7 +13,7 @@ import pytest
 import dmoc
 from dmoc._util.numeric import Evaluator
 from dmoc.principle.trajectory import Trajectory
-from dmoc.simulate import compiled
+from dmoc._util import compiled
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
 

@@ -1,4 +1,4 @@
-"""The simulator's compiled C step (dmoc.simulate.compiled, cached on disk) gives what
+"""The simulator's compiled C step (dmoc._util.compiled, cached on disk) gives what
 CasADi's virtual machine gives, bit for bit; the default switches to it mid-run and falls
 back with a warning when no compiler works or no working directory exists. Iteration
 counts and identities only, no timing."""
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.simulate import compiled
+from dmoc._util import compiled
 from dmoc.simulate import stepper as stepper_module
 from dmoc.systems import knife_edge
 

@@ -26,7 +26,8 @@ import pytest
 
 import dmoc
 from dmoc.errors import CompiledCodeError
-from dmoc.simulate import cache_folder, compiled, stepper
+from dmoc._util import cache_folder, compiled
+from dmoc.simulate import stepper
 
 pytestmark = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
 

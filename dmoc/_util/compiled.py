@@ -1,5 +1,6 @@
 """CasADi Functions compiled to C once and kept on disk, keyed by what they compute and how
-they are compiled: the simulator's step horizons (`stepper`). A library's key is the
+they are compiled: the simulator's step horizons (`dmoc.simulate.stepper`) and, with
+``jit=True``, the optimizer's NLP Functions (`dmoc.optimize.evaluation`). A library's key is the
 SHA-256 of the serialized Functions, the CasADi version, the machine, the compiler (its
 resolved path and its ``--version`` output) and its flags, so every process and every later
 session loads the same code with `casadi.external` instead of compiling again; where no C
@@ -32,7 +33,8 @@ def compiler():
     """Resolved path of the C compiler, or None when there is none (or ``CC`` is set empty).
 
     Found once per process for each value of ``CC`` and ``PATH`` (`shutil.which` and
-    `os.path.realpath` cost 0.1 ms, on every `simulate` call with ``jit=True``), and found
+    `os.path.realpath` cost 0.1 ms, on every `simulate` or `optimize` call with
+    ``jit=True``), and found
     again when the file found then is no longer the same (another file, mode or
     modification time, e.g. a link moved to another compiler). A compiler put earlier on
     an unchanged ``PATH`` during the process is not seen; a missing compiler is looked for
@@ -130,7 +132,7 @@ class Library:
             if g is None or not _same_signature(f, g):
                 cache_folder.discard(path)
                 raise CompiledCodeError(
-                    f"{path} does not hold the compiled {f.name()!r} of this step"
+                    f"{path} does not hold the compiled {f.name()!r} asked for"
                     + (f" ({reason})" if g is None else "") + "; it was removed and is "
                     "compiled again on the next run.")
             loaded[f.name()] = g

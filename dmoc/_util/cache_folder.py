@@ -1,5 +1,5 @@
-"""Where the compiled step libraries (`compiled`) live and how they are kept: a private
-folder (`dmoc._util.private_folder`), each library named by the SHA-256 of its own bytes
+"""Where the compiled libraries (`compiled`: the simulator's steps, the optimizer's NLPs)
+live and how they are kept: a private folder (`dmoc._util.private_folder`), each library named by the SHA-256 of its own bytes
 and loaded only when its bytes still hash to that name, at most ``$DMOC_CACHE_MAX_BYTES``
 of libraries (least recently used removed first), and no compile's temporary folder left
 behind for long.
@@ -16,7 +16,7 @@ import shutil
 import tempfile
 import time
 
-from .._util.private_folder import private_folder
+from .private_folder import private_folder
 from ..errors import CompiledCodeError
 
 MAX_BYTES = 256 * 2**20        # default bound of the libraries' total size
