@@ -23,7 +23,6 @@ the creation of the IPOPT solver it includes), the median warm step, and their r
 import argparse
 import json
 import os
-import pathlib
 import platform
 import subprocess
 import sys
@@ -37,7 +36,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
-from checkouts import imported_dmoc  # noqa: E402
+from checkouts import add_checkouts, imported_dmoc  # noqa: E402
 
 
 def closed_loop(horizon, steps, warm_up):
@@ -112,7 +111,7 @@ def main():
     parser.add_argument("--horizon", type=int, default=30)
     parser.add_argument("--steps", type=int, default=40)
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])])
+    add_checkouts(parser)
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:

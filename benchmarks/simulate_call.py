@@ -16,7 +16,6 @@ in ms, and the ratio of each checkout to the first.
 import argparse
 import json
 import os
-import pathlib
 import platform
 import subprocess
 import sys
@@ -28,7 +27,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-from checkouts import imported_dmoc  # noqa: E402
+from checkouts import add_checkouts, imported_dmoc  # noqa: E402
 
 
 def calls(steps, count):
@@ -61,7 +60,7 @@ def main():
     parser.add_argument("--steps", type=int, nargs="+", default=[10, 100, 1000])
     parser.add_argument("--calls", type=int, default=300)
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])])
+    add_checkouts(parser)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
