@@ -28,6 +28,7 @@ limit, which other jobs on the machine inflate much less than the wall times.
 
     python benchmarks/batch.py                 # 1000 problems at N = 20, 100, 400; 1000 runs
     python benchmarks/batch.py --quick         # 100 problems at N = 20, 100; 100 runs
+    python benchmarks/batch.py --only simulate # the simulate rows only (1000 runs)
 """
 
 import argparse
@@ -167,6 +168,8 @@ def main(argv=None):
     parser.add_argument("--count", type=int, help="items per row (default 1000, quick 100)")
     parser.add_argument("--steps", type=int, nargs="+", help="N of the parking rows")
     parser.add_argument("--sim-steps", type=int, default=1000)
+    parser.add_argument("--only", choices=("optimize", "simulate", "overhead"), nargs="+",
+                        default=("optimize", "simulate", "overhead"), help="rows to run")
     args = parser.parse_args(argv)
     count = args.count or (100 if args.quick else 1000)
     steps = args.steps or ([20, 100] if args.quick else [20, 100, 400])
@@ -176,19 +179,21 @@ def main(argv=None):
     print(f"{'row':28s} {'serial s':>9s} {'batch s':>9s} {'speed-up':>9s} {'cpu bound':>10s} "
           f"{'max |diff|':>11s}")
     print("-" * 81)
-    started = with_start(steps[0], count)
+    started = with_start(steps[0], count) if "optimize" in args.only else None
     with batch.Cluster(workers=WORKERS) as cluster:
-        for k, N in enumerate(steps):
+        for k, N in enumerate(steps if "optimize" in args.only else ()):
             serial_wall, *row = optimize_row(cluster, N, count)
             print(line(f"optimize {count} at N = {N}", serial_wall, *row))
             if k == 0:
                 print(f"{'  with the cluster start':28s} {serial_wall:9.2f} {started:9.2f} "
                       f"{serial_wall / started:9.2f}")
-        for row in simulate_rows(cluster, args.sim_steps, count):
+        for row in simulate_rows(cluster, args.sim_steps, count) if "simulate" in args.only else ():
             print(line(*row))
-        serial_item, batch_item, added = overhead_row(cluster, count)
-    print(f"\nempty problem: serial {serial_item * 1e3:.2f} ms/item, batch {batch_item * 1e3:.2f} "
-          f"ms/item on {WORKERS} workers, overhead {added * 1e3:.2f} worker-ms/item")
+        if "overhead" in args.only:
+            serial_item, batch_item, added = overhead_row(cluster, count)
+            print(f"\nempty problem: serial {serial_item * 1e3:.2f} ms/item, batch "
+                  f"{batch_item * 1e3:.2f} ms/item on {WORKERS} workers, overhead "
+                  f"{added * 1e3:.2f} worker-ms/item")
     print("load average %.2f %.2f %.2f at end" % os.getloadavg())
 
 
