@@ -3,6 +3,7 @@ trajectory field concatenated over the chunk's runs into one array (t, q, p over
 knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
 chunk rather than seven per run; the client gets each run's Trajectory back as views of
 those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
+On the client's machine the arrays go through shared memory (`dmoc.batch.sharing`).
 """
 
 import dataclasses
@@ -10,17 +11,27 @@ import dataclasses
 import numpy as np
 
 from ..principle.trajectory import Trajectory
+from . import sharing
 
 KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
 STEP_FIELDS = ("lam", "u", "s")          # N rows per run
 
 
 class PackedResults(list):
-    """A list of SimulationResults that pickles as a few arrays (`pack`); unpickled, it is
+    """A list of SimulationResults that pickles as a few arrays (`pack`), written to a
+    file of shared memory when `share` (`sharing.Exchange`) allows it; unpickled, it is
     a plain list of equal results (`unpack`), in the same order."""
 
+    def __init__(self, results, share=None):
+        super().__init__(results)
+        self.share = share
+
     def __reduce__(self):
-        return unpack, pack(self)
+        heads, arrays = pack(self)
+        written = None if arrays is None else sharing.write(arrays, self.share)
+        if written is not None:
+            return unpack_shared, (heads, *written)
+        return unpack, (heads, arrays)
 
 
 def pack(results):
@@ -70,6 +81,11 @@ def unpack(heads, arrays):
             knot, step, run = knot + steps + 1, step + steps, run + 1
         results.append(result)
     return results
+
+
+def unpack_shared(heads, path, layout):
+    """`unpack` of arrays that `sharing.write` put in the file `path`."""
+    return unpack(heads, sharing.read(path, layout))
 
 
 def _widths(traj):

@@ -1,0 +1,125 @@
+"""How the packed trajectories of a chunk of `simulate_many` (`dmoc.batch.packing`) reach
+a client on the same machine as their worker: through a file of shared memory instead of
+Dask's TCP frames, which cost about a quarter of a batch of 1000 runs of 1000 steps
+(docs/performance.md, "Fourth round").
+
+The client owns the exchange (`Exchange`): for the length of a batch it keeps a beacon,
+an empty file of its own in `FOLDER` with a random name. A worker that sees the beacon,
+owned by its own user, shares that folder with the client: it writes the chunk's arrays
+into a new file next to it (created exclusively, mode 0600) and sends only its name and
+layout. Any other worker (another machine, a container with its own /dev/shm, another
+user) and any chunk under `MIN_BYTES` sends the arrays through Dask as before. The client
+maps the file copy-on-write after checking that its own user owns it, that no one else
+may write it, and that its size is the layout's, then removes it at once. The file holds
+numbers only: nothing in it is unpickled or run. At the end of the batch the client
+removes the beacon and then every file left with its prefix (chunks whose results never
+arrived); a worker that finds the beacon gone after creating its file removes the file
+itself, so no file outlives the batch whatever its order of events, unless the client's
+process is killed.
+"""
+
+import glob
+import mmap
+import os
+import secrets
+import stat
+
+import numpy as np
+
+FOLDER = "/dev/shm"
+
+# Chunks whose arrays are smaller travel through Dask: a file costs a few system calls.
+MIN_BYTES = 1 << 20
+
+
+class Exchange:
+    """The client's side of one batch: ``with Exchange() as share:`` gives the value
+    (beacon path, MIN_BYTES) the workers' `write` takes, or None where `FOLDER` cannot be
+    used; on exit the beacon and every file left of the batch are removed."""
+
+    def __init__(self):
+        self.prefix = os.path.join(FOLDER, f"dmoc-batch-{secrets.token_hex(12)}")
+
+    def __enter__(self):
+        try:
+            os.close(os.open(self.prefix, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW,
+                             0o600))
+        except OSError:            # no shared-memory folder here: Dask carries everything
+            return None
+        return self.prefix, MIN_BYTES
+
+    def __exit__(self, *exc):
+        for path in [self.prefix, *glob.glob(glob.escape(self.prefix) + "-*")]:
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+
+
+def write(arrays, share):
+    """(path, layout) of a new file of `share` holding `arrays` ({name: ndarray}) one after
+    the other, or None when the worker does not share the client's folder (no beacon of
+    its own user), the arrays are under the size limit, or the file cannot be made.
+    ``layout[name] = (offset, dtype, shape)``."""
+    if share is None:
+        return None
+    beacon, min_bytes = share
+    size = sum(a.nbytes for a in arrays.values())
+    if size < max(min_bytes, 1) or not _own(beacon):
+        return None
+    path = f"{beacon}-{secrets.token_hex(8)}"
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+    except OSError:
+        return None
+    try:
+        os.ftruncate(fd, size)
+        with mmap.mmap(fd, size) as memory:
+            layout, offset = {}, 0
+            for name, a in arrays.items():
+                _view(memory, offset, a.dtype, a.shape)[...] = a
+                layout[name] = (offset, a.dtype.str, a.shape)
+                offset += a.nbytes
+        if not os.path.exists(beacon):      # the batch ended meanwhile: no one will read it
+            raise OSError("the batch's beacon is gone")
+    except (OSError, ValueError):
+        os.unlink(path)
+        return None
+    finally:
+        os.close(fd)
+    return path, layout
+
+
+def read(path, layout):
+    """The arrays `write` put in the file `path`, as copy-on-write views of its memory;
+    the file is removed. Raises OSError when the file is not one the worker of this
+    user wrote for this layout."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    finally:
+        if os.path.lexists(path):
+            os.unlink(path)
+    try:
+        info = os.fstat(fd)
+        size = max((offset + np.dtype(dtype).itemsize * int(np.prod(shape))
+                    for offset, dtype, shape in layout.values()), default=0)
+        if (not stat.S_ISREG(info.st_mode) or info.st_uid != os.getuid()
+                or info.st_mode & 0o077 or info.st_size != size):
+            raise OSError(f"{path} is not a file of this user's batch of the expected size")
+        memory = mmap.mmap(fd, size, access=mmap.ACCESS_COPY)
+    finally:
+        os.close(fd)
+    return {name: _view(memory, offset, np.dtype(dtype), shape)
+            for name, (offset, dtype, shape) in layout.items()}
+
+
+def _own(path):
+    """Whether `path` exists and belongs to this process's user."""
+    try:
+        return os.stat(path, follow_symlinks=False).st_uid == os.getuid()
+    except OSError:
+        return False
+
+
+def _view(memory, offset, dtype, shape):
+    return np.frombuffer(memory, dtype, int(np.prod(shape)), offset).reshape(shape)
