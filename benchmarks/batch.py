@@ -28,7 +28,7 @@ limit, which other jobs on the machine inflate much less than the wall times.
 
     python benchmarks/batch.py                 # 1000 problems at N = 20, 100, 400; 1000 runs
     python benchmarks/batch.py --quick         # 100 problems at N = 20, 100; 100 runs
-    python benchmarks/batch.py --only simulate # the simulate rows only (1000 runs)
+    python benchmarks/batch.py --only simulate --repeat 5   # the simulate rows, medians of 5
 """
 
 import argparse
@@ -106,31 +106,42 @@ def with_start(steps, count):
     return wall
 
 
-def simulate_rows(cluster, steps, count):
+def simulate_rows(cluster, steps, count, repeat=1):
     """(label, serial wall, serial CPU, batch wall, batch CPU, max |dq|) of `count`
     knife-edge runs of `steps` steps, for ``keep="trajectory"`` and ``keep="final"``
-    (compared with the last knot of the serial runs)."""
+    (compared with the last knot of the serial runs): medians of `repeat` rounds, each
+    timing the serial loop and then each batch, so that both see the same load."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
     jit = compiled.compiler() is not None           # the same path serially and on the workers
     runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
             for c in np.linspace(0.5, 2.0, count)]
     dmoc.simulate(disc, **runs[0])
-    serial_wall, serial_cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
-    rows = []
     for keep in ("trajectory", "final"):
         batch.simulate_many(disc, runs[:2 * WORKERS], keep=keep, client=cluster, progress=False)
-        wall, cpu, results = timed(lambda: batch.simulate_many(
-            disc, runs, keep=keep, client=cluster, progress=False), cluster)
-        dq = max(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
-                 for a, b in zip(results, serial))
-        label = f"simulate {count} x {steps} steps" if keep == "trajectory" else '  keep="final"'
-        rows.append((label, serial_wall, serial_cpu, wall, cpu, dq))
     packed_in_process(disc, runs)     # as on a worker after its first chunk: memory reused
-    wall, cpu, results = timed(lambda: packed_in_process(disc, runs))
-    dq = max(np.abs(a.trajectory.q - b.trajectory.q).max() for a, b in zip(results, serial))
-    # one process, one core: its "cpu bound" column is serial CPU / its CPU
-    rows.append(("  in one process, packed", serial_wall, serial_cpu, wall, WORKERS * cpu, dq))
-    return rows
+    times = {"serial": [], "trajectory": [], "final": [], "packed": []}
+    dq = dict.fromkeys(times, 0.0)
+    for _ in range(repeat):
+        wall, cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
+        times["serial"].append((wall, cpu))
+        for keep in ("trajectory", "final"):
+            wall, cpu, results = timed(lambda: batch.simulate_many(
+                disc, runs, keep=keep, client=cluster, progress=False), cluster)
+            times[keep].append((wall, cpu))
+            dq[keep] = max(dq[keep], *(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
+                                       for a, b in zip(results, serial)))
+        wall, cpu, results = timed(lambda: packed_in_process(disc, runs))
+        times["packed"].append((wall, cpu))
+        dq["packed"] = max(dq["packed"], *(np.abs(a.trajectory.q - b.trajectory.q).max()
+                                           for a, b in zip(results, serial)))
+    median = {k: np.median(np.array(v), axis=0) for k, v in times.items()}
+    serial_wall, serial_cpu = median["serial"]
+    return [(f"simulate {count} x {steps} steps", serial_wall, serial_cpu, *median["trajectory"],
+             dq["trajectory"]),
+            ('  keep="final"', serial_wall, serial_cpu, *median["final"], dq["final"]),
+            # one process, one core: its "cpu bound" column is serial CPU / its CPU
+            ("  in one process, packed", serial_wall, serial_cpu, median["packed"][0],
+             WORKERS * median["packed"][1], dq["packed"])]
 
 
 def packed_in_process(disc, runs):
@@ -168,6 +179,8 @@ def main(argv=None):
     parser.add_argument("--count", type=int, help="items per row (default 1000, quick 100)")
     parser.add_argument("--steps", type=int, nargs="+", help="N of the parking rows")
     parser.add_argument("--sim-steps", type=int, default=1000)
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="rounds of the simulate rows (medians; default 1)")
     parser.add_argument("--only", choices=("optimize", "simulate", "overhead"), nargs="+",
                         default=("optimize", "simulate", "overhead"), help="rows to run")
     args = parser.parse_args(argv)
@@ -187,7 +200,7 @@ def main(argv=None):
             if k == 0:
                 print(f"{'  with the cluster start':28s} {serial_wall:9.2f} {started:9.2f} "
                       f"{serial_wall / started:9.2f}")
-        for row in simulate_rows(cluster, args.sim_steps, count) if "simulate" in args.only else ():
+        for row in simulate_rows(cluster, args.sim_steps, count, args.repeat) if "simulate" in args.only else ():
             print(line(*row))
         if "overhead" in args.only:
             serial_item, batch_item, added = overhead_row(cluster, count)

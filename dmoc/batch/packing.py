@@ -27,15 +27,22 @@ class PackedResults(list):
         self.share = share
 
     def __reduce__(self):
-        heads, arrays = pack(self)
-        written = None if arrays is None else sharing.write(arrays, self.share)
-        if written is not None:
-            return unpack_shared, (heads, *written)
+        file = sharing.SharedFile(self.share)
+        heads, arrays = pack(self, file.allocate)
+        if arrays is not None and file.seal():
+            return unpack_shared, (heads, file.path, file.layout)
         return unpack, (heads, arrays)
 
 
-def pack(results):
+def pack(results, allocate=None):
     """(heads, arrays) of the SimulationResults `results`.
+
+    Parameters
+    ----------
+    results : list of SimulationResult
+    allocate : callable, optional
+        ``allocate({name: (shape, dtype)})`` gives the arrays to fill
+        (`sharing.SharedFile.allocate`), or None for new ones (the default).
 
     Returns
     -------
@@ -52,9 +59,17 @@ def pack(results):
     if not packed:
         return [(r, None) for r in results], None
     chosen = {id(r) for r in packed}
-    arrays = {name: np.concatenate([getattr(r.trajectory, name) for r in packed])
-              for name in (*KNOT_FIELDS, *STEP_FIELDS)}
-    arrays["mu"] = np.stack([r.trajectory.mu for r in packed])
+    columns = {name: [getattr(r.trajectory, name) for r in packed]
+               for name in (*KNOT_FIELDS, *STEP_FIELDS, "mu")}
+    shapes = {name: ((sum(len(a) for a in parts), *parts[0].shape[1:]), np.result_type(*parts))
+              for name, parts in columns.items()}
+    shapes["mu"] = ((len(packed), *columns["mu"][0].shape), shapes["mu"][1])
+    arrays = allocate(shapes) if allocate is not None else None
+    if arrays is None:
+        arrays = {name: np.empty(shape, dtype) for name, (shape, dtype) in shapes.items()}
+    for name in (*KNOT_FIELDS, *STEP_FIELDS):
+        np.concatenate(columns[name], out=arrays[name])
+    np.stack(columns["mu"], out=arrays["mu"])
     heads = []
     for r in results:
         if id(r) not in chosen:

@@ -34,7 +34,7 @@ MIN_BYTES = 1 << 20
 
 class Exchange:
     """The client's side of one batch: ``with Exchange() as share:`` gives the value
-    (beacon path, MIN_BYTES) the workers' `write` takes, or None where `FOLDER` cannot be
+    (beacon path, MIN_BYTES) a worker's `SharedFile` takes, or None where `FOLDER` cannot be
     used; on exit the beacon and every file left of the batch are removed."""
 
     def __init__(self):
@@ -56,42 +56,65 @@ class Exchange:
                 pass
 
 
-def write(arrays, share):
-    """(path, layout) of a new file of `share` holding `arrays` ({name: ndarray}) one after
-    the other, or None when the worker does not share the client's folder (no beacon of
-    its own user), the arrays are under the size limit, or the file cannot be made.
+class SharedFile:
+    """A worker's file for the arrays of one chunk (`allocate`), when `share`, the
+    client's `Exchange`, reaches this worker and the arrays reach `MIN_BYTES`. `path`
+    and `layout` name the file once `seal` has kept it:
     ``layout[name] = (offset, dtype, shape)``."""
-    if share is None:
-        return None
-    beacon, min_bytes = share
-    size = sum(a.nbytes for a in arrays.values())
-    if size < max(min_bytes, 1) or not _own(beacon):
-        return None
-    path = f"{beacon}-{secrets.token_hex(8)}"
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
-    except OSError:
-        return None
-    try:
-        os.ftruncate(fd, size)
-        with mmap.mmap(fd, size) as memory:
-            layout, offset = {}, 0
-            for name, a in arrays.items():
-                _view(memory, offset, a.dtype, a.shape)[...] = a
-                layout[name] = (offset, a.dtype.str, a.shape)
-                offset += a.nbytes
-        if not os.path.exists(beacon):      # the batch ended meanwhile: no one will read it
-            raise OSError("the batch's beacon is gone")
-    except (OSError, ValueError):
-        os.unlink(path)
-        return None
-    finally:
-        os.close(fd)
-    return path, layout
+
+    def __init__(self, share):
+        self.share, self.path, self.layout = share, None, None
+
+    def allocate(self, shapes):
+        """{name: writable array of shapes[name] = (shape, dtype)} in a new file of the
+        client's folder (created exclusively, mode 0600), or None where there is none."""
+        layout, offset = {}, 0
+        for name, (shape, dtype) in shapes.items():
+            layout[name] = (offset, np.dtype(dtype).str, tuple(shape))
+            offset += np.dtype(dtype).itemsize * int(np.prod(shape))
+        memory = self._file(offset)
+        if memory is None:
+            return None
+        self.layout = layout
+        return {name: _view(memory, *layout[name]) for name in layout}
+
+    def seal(self):
+        """Whether the arrays went to a file the client will read: its batch is still on
+        (the beacon is there); otherwise the file is removed."""
+        if self.path is None:
+            return False
+        if os.path.exists(self.share[0]):
+            return True
+        os.unlink(self.path)
+        self.path = None
+        return False
+
+    def _file(self, size):
+        """A shared mapping of a new file of `size` bytes next to the beacon, or None."""
+        if self.share is None:
+            return None
+        beacon, min_bytes = self.share
+        if size < max(min_bytes, 1) or not _own(beacon):
+            return None
+        path = f"{beacon}-{secrets.token_hex(8)}"
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+        except OSError:
+            return None
+        try:
+            os.ftruncate(fd, size)
+            memory = mmap.mmap(fd, size)
+        except OSError:
+            os.unlink(path)
+            return None
+        finally:
+            os.close(fd)
+        self.path = path
+        return memory
 
 
 def read(path, layout):
-    """The arrays `write` put in the file `path`, as copy-on-write views of its memory;
+    """The arrays a `SharedFile` put in the file `path`, as copy-on-write views of its memory;
     the file is removed. Raises OSError when the file is not one the worker of this
     user wrote for this layout."""
     try:

@@ -24,9 +24,20 @@ def _arrays():
             "mu": rng.random((2, 1))}
 
 
+def _write(share):
+    """What a worker does with a chunk's arrays: (path, layout), or None (through Dask)."""
+    file, arrays = sharing.SharedFile(share), _arrays()
+    into = file.allocate({name: (a.shape, a.dtype) for name, a in arrays.items()})
+    if into is None:
+        return None
+    for name, a in arrays.items():
+        into[name][...] = a
+    return (file.path, file.layout) if file.seal() else None
+
+
 def test_what_a_worker_writes_the_client_reads_bit_for_bit(folder):
     with sharing.Exchange() as share:
-        path, layout = sharing.write(_arrays(), (share[0], 0))
+        path, layout = _write((share[0], 0))
         assert oct(os.stat(path).st_mode & 0o777) == "0o600"
         back = sharing.read(path, layout)
         assert not os.path.exists(path)
@@ -38,9 +49,9 @@ def test_what_a_worker_writes_the_client_reads_bit_for_bit(folder):
 
 def test_small_chunks_and_workers_without_the_beacon_use_dask(folder):
     with sharing.Exchange() as share:
-        assert sharing.write(_arrays(), share) is None            # under MIN_BYTES
-        assert sharing.write(_arrays(), (share[0] + "-other", 0)) is None
-        assert sharing.write(_arrays(), None) is None
+        assert _write(share) is None            # under MIN_BYTES
+        assert _write((share[0] + "-other", 0)) is None
+        assert _write(None) is None
     assert list(folder.iterdir()) == []
 
 
@@ -52,8 +63,8 @@ def test_no_folder_means_no_exchange(monkeypatch, tmp_path):
 
 def test_files_of_results_that_never_arrived_are_removed_at_the_end(folder):
     with sharing.Exchange() as share:
-        sharing.write(_arrays(), (share[0], 0))
-        sharing.write(_arrays(), (share[0], 0))
+        _write((share[0], 0))
+        _write((share[0], 0))
         assert len(list(folder.iterdir())) == 3              # the beacon and two chunks
     assert list(folder.iterdir()) == []
 
@@ -62,14 +73,14 @@ def test_a_chunk_written_after_its_batch_ended_removes_itself(folder, monkeypatc
     with sharing.Exchange() as share:
         pass
     monkeypatch.setattr(sharing, "_own", lambda path: True)   # seen just before the end
-    assert sharing.write(_arrays(), (share[0], 0)) is None
+    assert _write((share[0], 0)) is None
     assert list(folder.iterdir()) == []
 
 
 @pytest.mark.parametrize("spoil", ["others may write", "wrong size"])
 def test_the_client_refuses_a_file_it_cannot_trust(folder, spoil):
     with sharing.Exchange() as share:
-        path, layout = sharing.write(_arrays(), (share[0], 0))
+        path, layout = _write((share[0], 0))
         if spoil == "others may write":
             os.chmod(path, 0o622)
         else:
