@@ -102,7 +102,9 @@ class SharedFile:
         except OSError:
             return None
         try:
-            os.ftruncate(fd, size)
+            # reserved, not only sized: a full /dev/shm (64 MB in a Docker container by
+            # default) then fails here instead of killing the worker with SIGBUS later
+            os.posix_fallocate(fd, 0, size)
             memory = mmap.mmap(fd, size)
         except OSError:
             os.unlink(path)

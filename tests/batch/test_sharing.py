@@ -89,3 +89,13 @@ def test_the_client_refuses_a_file_it_cannot_trust(folder, spoil):
         with pytest.raises(OSError, match="not a file of this user's batch"):
             sharing.read(path, layout)
         assert not os.path.exists(path)
+
+
+def test_a_full_folder_means_dask_and_no_file(folder, monkeypatch):
+    def full(fd, offset, size):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(os, "posix_fallocate", full)
+    with sharing.Exchange() as share:
+        assert _write((share[0], 0)) is None
+        assert len(list(folder.iterdir())) == 1                  # the beacon alone
+    assert list(folder.iterdir()) == []
