@@ -118,7 +118,10 @@ class SharedFile:
 def read(path, layout):
     """The arrays a `SharedFile` put in the file `path`, as copy-on-write views of its memory;
     the file is removed. Raises OSError when the file is not one the worker of this
-    user wrote for this layout."""
+    user wrote for this layout (nor any path outside `FOLDER`'s batch files)."""
+    if (os.path.dirname(path) != FOLDER
+            or not os.path.basename(path).startswith("dmoc-batch-")):
+        raise OSError(f"{path} is not a file of this user's batch")
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
     finally:

@@ -77,6 +77,14 @@ def test_a_chunk_written_after_its_batch_ended_removes_itself(folder, monkeypatc
     assert list(folder.iterdir()) == []
 
 
+def test_the_client_reads_nothing_outside_its_batch_files(folder, tmp_path_factory):
+    elsewhere = tmp_path_factory.mktemp("elsewhere") / "dmoc-batch-x"
+    elsewhere.write_bytes(b"")
+    with pytest.raises(OSError, match="not a file of this user's batch"):
+        sharing.read(str(elsewhere), {})
+    assert elsewhere.exists()
+
+
 @pytest.mark.parametrize("spoil", ["others may write", "wrong size"])
 def test_the_client_refuses_a_file_it_cannot_trust(folder, spoil):
     with sharing.Exchange() as share:
