@@ -99,7 +99,7 @@ def unpack(heads, arrays):
 
 
 def unpack_shared(heads, path, layout):
-    """`unpack` of arrays that `sharing.write` put in the file `path`."""
+    """`unpack` of arrays that a `sharing.SharedFile` put in the file `path`."""
     return unpack(heads, sharing.read(path, layout))
 
 
