@@ -28,6 +28,7 @@ limit, which other jobs on the machine inflate much less than the wall times.
 
     python benchmarks/batch.py                 # 1000 problems at N = 20, 100, 400; 1000 runs
     python benchmarks/batch.py --quick         # 100 problems at N = 20, 100; 100 runs
+    python benchmarks/batch.py --only simulate --repeat 5   # the simulate rows, medians of 5
 """
 
 import argparse
@@ -105,31 +106,42 @@ def with_start(steps, count):
     return wall
 
 
-def simulate_rows(cluster, steps, count):
+def simulate_rows(cluster, steps, count, repeat=1):
     """(label, serial wall, serial CPU, batch wall, batch CPU, max |dq|) of `count`
     knife-edge runs of `steps` steps, for ``keep="trajectory"`` and ``keep="final"``
-    (compared with the last knot of the serial runs)."""
+    (compared with the last knot of the serial runs): medians of `repeat` rounds, each
+    timing the serial loop and then each batch, so that both see the same load."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
     jit = compiled.compiler() is not None           # the same path serially and on the workers
     runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
             for c in np.linspace(0.5, 2.0, count)]
     dmoc.simulate(disc, **runs[0])
-    serial_wall, serial_cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
-    rows = []
     for keep in ("trajectory", "final"):
         batch.simulate_many(disc, runs[:2 * WORKERS], keep=keep, client=cluster, progress=False)
-        wall, cpu, results = timed(lambda: batch.simulate_many(
-            disc, runs, keep=keep, client=cluster, progress=False), cluster)
-        dq = max(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
-                 for a, b in zip(results, serial))
-        label = f"simulate {count} x {steps} steps" if keep == "trajectory" else '  keep="final"'
-        rows.append((label, serial_wall, serial_cpu, wall, cpu, dq))
     packed_in_process(disc, runs)     # as on a worker after its first chunk: memory reused
-    wall, cpu, results = timed(lambda: packed_in_process(disc, runs))
-    dq = max(np.abs(a.trajectory.q - b.trajectory.q).max() for a, b in zip(results, serial))
-    # one process, one core: its "cpu bound" column is serial CPU / its CPU
-    rows.append(("  in one process, packed", serial_wall, serial_cpu, wall, WORKERS * cpu, dq))
-    return rows
+    times = {"serial": [], "trajectory": [], "final": [], "packed": []}
+    dq = dict.fromkeys(times, 0.0)
+    for _ in range(repeat):
+        wall, cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
+        times["serial"].append((wall, cpu))
+        for keep in ("trajectory", "final"):
+            wall, cpu, results = timed(lambda: batch.simulate_many(
+                disc, runs, keep=keep, client=cluster, progress=False), cluster)
+            times[keep].append((wall, cpu))
+            dq[keep] = max(dq[keep], *(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
+                                       for a, b in zip(results, serial)))
+        wall, cpu, results = timed(lambda: packed_in_process(disc, runs))
+        times["packed"].append((wall, cpu))
+        dq["packed"] = max(dq["packed"], *(np.abs(a.trajectory.q - b.trajectory.q).max()
+                                           for a, b in zip(results, serial)))
+    median = {k: np.median(np.array(v), axis=0) for k, v in times.items()}
+    serial_wall, serial_cpu = median["serial"]
+    return [(f"simulate {count} x {steps} steps", serial_wall, serial_cpu, *median["trajectory"],
+             dq["trajectory"]),
+            ('  keep="final"', serial_wall, serial_cpu, *median["final"], dq["final"]),
+            # one process, one core: its "cpu bound" column is serial CPU / its CPU
+            ("  in one process, packed", serial_wall, serial_cpu, median["packed"][0],
+             WORKERS * median["packed"][1], dq["packed"])]
 
 
 def packed_in_process(disc, runs):
@@ -167,6 +179,10 @@ def main(argv=None):
     parser.add_argument("--count", type=int, help="items per row (default 1000, quick 100)")
     parser.add_argument("--steps", type=int, nargs="+", help="N of the parking rows")
     parser.add_argument("--sim-steps", type=int, default=1000)
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="rounds of the simulate rows (medians; default 1)")
+    parser.add_argument("--only", choices=("optimize", "simulate", "overhead"), nargs="+",
+                        default=("optimize", "simulate", "overhead"), help="rows to run")
     args = parser.parse_args(argv)
     count = args.count or (100 if args.quick else 1000)
     steps = args.steps or ([20, 100] if args.quick else [20, 100, 400])
@@ -176,19 +192,21 @@ def main(argv=None):
     print(f"{'row':28s} {'serial s':>9s} {'batch s':>9s} {'speed-up':>9s} {'cpu bound':>10s} "
           f"{'max |diff|':>11s}")
     print("-" * 81)
-    started = with_start(steps[0], count)
+    started = with_start(steps[0], count) if "optimize" in args.only else None
     with batch.Cluster(workers=WORKERS) as cluster:
-        for k, N in enumerate(steps):
+        for k, N in enumerate(steps if "optimize" in args.only else ()):
             serial_wall, *row = optimize_row(cluster, N, count)
             print(line(f"optimize {count} at N = {N}", serial_wall, *row))
             if k == 0:
                 print(f"{'  with the cluster start':28s} {serial_wall:9.2f} {started:9.2f} "
                       f"{serial_wall / started:9.2f}")
-        for row in simulate_rows(cluster, args.sim_steps, count):
+        for row in simulate_rows(cluster, args.sim_steps, count, args.repeat) if "simulate" in args.only else ():
             print(line(*row))
-        serial_item, batch_item, added = overhead_row(cluster, count)
-    print(f"\nempty problem: serial {serial_item * 1e3:.2f} ms/item, batch {batch_item * 1e3:.2f} "
-          f"ms/item on {WORKERS} workers, overhead {added * 1e3:.2f} worker-ms/item")
+        if "overhead" in args.only:
+            serial_item, batch_item, added = overhead_row(cluster, count)
+            print(f"\nempty problem: serial {serial_item * 1e3:.2f} ms/item, batch "
+                  f"{batch_item * 1e3:.2f} ms/item on {WORKERS} workers, overhead "
+                  f"{added * 1e3:.2f} worker-ms/item")
     print("load average %.2f %.2f %.2f at end" % os.getloadavg())
 
 

@@ -1,8 +1,8 @@
 """How many items one task of a batch carries: enough that a task takes about `TARGET`
-seconds of its worker's CPU, so that Dask's cost per task (a few milliseconds: scheduling,
-round trips, pickling, in the client, the scheduler and the worker) is small next to the
-solves, and few enough that every worker thread still gets several tasks before the
-batch ends."""
+seconds of its worker's CPU, so that Dask's cost per task (about 5 ms of CPU on the
+2-vCPU machine of docs/performance.md: scheduling, round trips, pickling, in the client,
+the scheduler and the worker) is small next to the solves, and few enough that every
+worker thread still gets a couple of tasks before the batch ends."""
 
 import math
 from collections import deque
@@ -13,11 +13,12 @@ TARGET = 0.2
 
 # The chunks each worker thread gets at least from the items still queued, so that the
 # last tasks end close together ...
-SHARES = 4
+SHARES = 2
 
 # ... but no chunk carries less than FLOOR CPU seconds (unless fewer items are left): a
-# chunk of one millisecond would leave its worker waiting for the round trip of the next.
-FLOOR = 0.02
+# task costs Dask about 5 ms of CPU, which a chunk of 0.05 s keeps under a tenth
+# (docs/performance.md, "Fourth round").
+FLOOR = 0.05
 
 # The per-item costs the median is taken over: the latest ones, so a first solve that
 # built its solver is soon outweighed.
@@ -32,11 +33,11 @@ class ChunkSizes:
     cost of an item, at least one.
 
     >>> sizes = ChunkSizes()
-    >>> sizes.next(1000, 2)
-    1
+    >>> sizes.known, sizes.next(1000, 2)
+    (False, 1)
     >>> sizes.measured([0.004, 0.005, 0.006])
     >>> sizes.next(1000, 2), sizes.next(40, 2), sizes.next(8, 2)
-    (40, 5, 4)
+    (40, 10, 10)
     """
 
     def __init__(self):
@@ -45,6 +46,11 @@ class ChunkSizes:
     def measured(self, seconds):
         """Record the CPU seconds each item of a finished chunk took on its worker."""
         self._seconds.extend(seconds)
+
+    @property
+    def known(self):
+        """Whether a cost has been measured."""
+        return bool(self._seconds)
 
     def next(self, queued, threads):
         """The size of the next chunk, with `queued` items left and `threads` worker

@@ -3,6 +3,7 @@ trajectory field concatenated over the chunk's runs into one array (t, q, p over
 knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
 chunk rather than seven per run; the client gets each run's Trajectory back as views of
 those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
+On the client's machine the arrays go through shared memory (`dmoc.batch.sharing`).
 """
 
 import dataclasses
@@ -10,21 +11,38 @@ import dataclasses
 import numpy as np
 
 from ..principle.trajectory import Trajectory
+from . import sharing
 
 KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
 STEP_FIELDS = ("lam", "u", "s")          # N rows per run
 
 
 class PackedResults(list):
-    """A list of SimulationResults that pickles as a few arrays (`pack`); unpickled, it is
+    """A list of SimulationResults that pickles as a few arrays (`pack`), written to a
+    file of shared memory when `share` (`sharing.Exchange`) allows it; unpickled, it is
     a plain list of equal results (`unpack`), in the same order."""
 
+    def __init__(self, results, share=None):
+        super().__init__(results)
+        self.share = share
+
     def __reduce__(self):
-        return unpack, pack(self)
+        file = sharing.SharedFile(self.share)
+        heads, arrays = pack(self, file.allocate)
+        if arrays is not None and file.seal():
+            return unpack_shared, (heads, file.path, file.layout)
+        return unpack, (heads, arrays)
 
 
-def pack(results):
+def pack(results, allocate=None):
     """(heads, arrays) of the SimulationResults `results`.
+
+    Parameters
+    ----------
+    results : list of SimulationResult
+    allocate : callable, optional
+        ``allocate({name: (shape, dtype)})`` gives the arrays to fill
+        (`sharing.SharedFile.allocate`), or None for new ones (the default).
 
     Returns
     -------
@@ -41,9 +59,17 @@ def pack(results):
     if not packed:
         return [(r, None) for r in results], None
     chosen = {id(r) for r in packed}
-    arrays = {name: np.concatenate([getattr(r.trajectory, name) for r in packed])
-              for name in (*KNOT_FIELDS, *STEP_FIELDS)}
-    arrays["mu"] = np.stack([r.trajectory.mu for r in packed])
+    columns = {name: [getattr(r.trajectory, name) for r in packed]
+               for name in (*KNOT_FIELDS, *STEP_FIELDS, "mu")}
+    shapes = {name: ((sum(len(a) for a in parts), *parts[0].shape[1:]), np.result_type(*parts))
+              for name, parts in columns.items()}
+    shapes["mu"] = ((len(packed), *columns["mu"][0].shape), shapes["mu"][1])
+    arrays = allocate(shapes) if allocate is not None else None
+    if arrays is None:
+        arrays = {name: np.empty(shape, dtype) for name, (shape, dtype) in shapes.items()}
+    for name in (*KNOT_FIELDS, *STEP_FIELDS):
+        np.concatenate(columns[name], out=arrays[name])
+    np.stack(columns["mu"], out=arrays["mu"])
     heads = []
     for r in results:
         if id(r) not in chosen:
@@ -70,6 +96,11 @@ def unpack(heads, arrays):
             knot, step, run = knot + steps + 1, step + steps, run + 1
         results.append(result)
     return results
+
+
+def unpack_shared(heads, path, layout):
+    """`unpack` of arrays that a `sharing.SharedFile` put in the file `path`."""
+    return unpack(heads, sharing.read(path, layout))
 
 
 def _widths(traj):

@@ -4,9 +4,10 @@ order, whatever happens to the items, the workers or the client (docs/batch.md, 
 semantics").
 
 At most `CHUNKS_PER_THREAD` chunks per worker thread are in flight, so that the next
-chunk's size uses the costs measured so far. The client waits in ticks of `TICK` seconds,
-so that the batch's deadline, a cluster left without workers and Ctrl-C are noticed while
-nothing arrives.
+chunk's size uses the costs measured so far; until a cost is measured, one chunk of one
+item per thread (each task costs Dask about 5 ms of CPU). The client waits in ticks of
+`TICK` seconds, so that the batch's deadline, a cluster left without workers and Ctrl-C
+are noticed while nothing arrives.
 """
 
 import sys
@@ -127,11 +128,12 @@ class Batch:
 
     def _fill(self, threads):
         """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
-        thread are in flight: consecutive items of one shipment, as many as
-        `ChunkSizes.next` says. An item whose chunk lost its workers goes alone, and while
-        such items are left only one task is in flight, so that a worker's death fails
-        that task alone. `threads`: the cluster's worker threads."""
-        limit = 1 if self.alone else CHUNKS_PER_THREAD * threads
+        thread are in flight (one per thread until a cost is measured): consecutive items
+        of one shipment, as many as `ChunkSizes.next` says. An item whose chunk lost its
+        workers goes alone, and while such items are left only one task is in flight, so
+        that a worker's death fails that task alone. `threads`: the cluster's worker
+        threads."""
+        limit = 1 if self.alone else (CHUNKS_PER_THREAD if self.sizes.known else 1) * threads
         while self.queued and len(self.flying) < limit:
             first = self.queued.popleft()
             digest, chunk = self.items[first][0], [first]

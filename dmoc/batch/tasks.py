@@ -96,11 +96,12 @@ def optimize_chunk(digest, items, options, switches, timeout):
     return _chunk(OptimizationResult, [solver(item) for item in items], timeout)
 
 
-def simulate_chunk(digest, items, timeout, keep="trajectory"):
+def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
     """For each item, ``cloudpickle.dumps(run)``: ``simulate(disc, **run, throw=False)`` on
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
     ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
-    trajectories travel as a few arrays)."""
+    trajectories travel as a few arrays, through shared memory when `share`, the client's
+    `sharing.Exchange`, reaches this worker)."""
     def runner(item):
         def load():
             return shipped(digest, cloudpickle.loads), cloudpickle.loads(item)
@@ -114,7 +115,7 @@ def simulate_chunk(digest, items, timeout, keep="trajectory"):
         return load, solve
 
     results, seconds = _chunk(SimulationResult, [runner(item) for item in items], timeout)
-    return PackedResults(results), seconds
+    return PackedResults(results, share), seconds
 
 
 def final_knot(trajectory):
