@@ -11,6 +11,7 @@ import numpy as np
 
 from .._util import checks
 from .._util.cache import BoundedCache
+from .._util.conversions import column, vector
 from ..principle.explicit import single_output, solved_rows, substitutable
 from .terms import broadcast, inputs_of
 
@@ -125,8 +126,8 @@ class SubstitutedMomenta:
         step: the windows of p1's inputs gathered from x and p, stacked, and p1 mapped over
         the N steps on that one stacked input (a Function kept in a bounded cache per
         residual and N, so that a call converts one array, not one per input of p1). The
-        stack is gathered by two index arrays made once (`_gathering`; 0.17 -> 0.06 ms per
-        call at N = 30, window by window before). It holds index arrays and p1 only, not
+        stack is gathered by two index arrays made once (`_gathering`) and converted
+        through lists (`dmoc._util.conversions`). It holds index arrays and p1 only, not
         the problem."""
         X, N, p1, key = slots.X, slots.N, self.p1, (self.residual.key, slots.N)
         windows = [slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()]
@@ -135,7 +136,8 @@ class SubstitutedMomenta:
         def momenta(x, p):
             values = np.concatenate([x, p, _ZERO])
             mapped = _MOMENTA.get(key, lambda: _stacked(p1).map(N))
-            return np.hstack([x[X["p"][:, :1]], mapped(values[gather] + values[shift]).full()])
+            stacked = column((values[gather] + values[shift]).ravel(), gather.shape[1])
+            return np.hstack([x[X["p"][:, :1]], vector(mapped(stacked)).reshape(N, -1).T])
         return momenta
 
     def __repr__(self):
@@ -146,9 +148,10 @@ _ZERO = np.zeros(1)
 
 
 def _gathering(windows, q_ref, N, n_x, n_p):
-    """(gather, shift): index arrays (rows, N) into ``values = [x; p; 0]`` (x of `n_x`
-    entries, p of `n_p`) such that ``values[gather] + values[shift]`` stacks the `windows`
-    ((source, index) of p1's inputs, in order) over the N steps, with q_ref (index (n, 1)
+    """(gather, shift): index arrays (N, rows) into ``values = [x; p; 0]`` (x of `n_x`
+    entries, p of `n_p`) such that ``values[gather] + values[shift]`` is the transpose of
+    the stack (rows, N) of the `windows` ((source, index) of p1's inputs, in order) over the
+    N steps (so that, raveled, it is the stack column by column), with q_ref (index (n, 1)
     into p) added to the slots of source "q" and 0.0 to the others: the additions of
     gathering each window on its own, entry by entry."""
     offset, zero = {"x": 0, "q": 0, "p": n_x}, n_x + n_p
@@ -157,7 +160,7 @@ def _gathering(windows, q_ref, N, n_x, n_p):
         rows = broadcast(index, N)
         gather.append(rows + offset[src])
         shift.append(np.broadcast_to(q_ref + n_x, rows.shape) if src == "q" else np.full(rows.shape, zero))
-    return np.vstack(gather), np.vstack(shift)
+    return np.vstack(gather).T.copy(), np.vstack(shift).T.copy()
 
 
 def _stacked(function):
