@@ -12,7 +12,9 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
   ``dmoc.simulate`` against ``simulate_many``, both in compiled C (``jit=True``; the
   virtual machine where there is no C compiler), the step built before timing; then
   ``simulate_many(keep="final")``, which returns the last knot of each run only, against
-  the same serial loop.
+  the same serial loop; and "in one process, packed": the worker's path without Dask, the
+  same runs with ``throw=False`` as one chunk pickled and unpickled as it travels
+  (`dmoc.batch.packing`), which tells the cost of packing from the parallel speed-up.
 - **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
   and on the cluster: seconds per item, and the worker-seconds a batch adds per item,
   2 x batch - serial (its cost of shipping, scheduling and collecting).
@@ -30,6 +32,7 @@ limit, which other jobs on the machine inflate much less than the wall times.
 
 import argparse
 import os
+import pickle
 import platform
 import resource
 import time
@@ -44,6 +47,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
+from dmoc.batch.packing import PackedResults  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 from dmoc._util import compiled  # noqa: E402
 
@@ -120,7 +124,21 @@ def simulate_rows(cluster, steps, count):
                  for a, b in zip(results, serial))
         label = f"simulate {count} x {steps} steps" if keep == "trajectory" else '  keep="final"'
         rows.append((label, serial_wall, serial_cpu, wall, cpu, dq))
+    packed_in_process(disc, runs)     # as on a worker after its first chunk: memory reused
+    wall, cpu, results = timed(lambda: packed_in_process(disc, runs))
+    dq = max(np.abs(a.trajectory.q - b.trajectory.q).max() for a, b in zip(results, serial))
+    # one process, one core: its "cpu bound" column is serial CPU / its CPU
+    rows.append(("  in one process, packed", serial_wall, serial_cpu, wall, WORKERS * cpu, dq))
     return rows
+
+
+def packed_in_process(disc, runs):
+    """The runs as a worker's task makes them (``throw=False``), as one chunk pickled and
+    unpickled with out-of-band buffers, as Dask moves it."""
+    buffers = []
+    data = pickle.dumps(PackedResults([dmoc.simulate(disc, **run, throw=False) for run in runs]),
+                        protocol=5, buffer_callback=buffers.append)
+    return pickle.loads(data, buffers=buffers)
 
 
 def overhead_row(cluster, count):

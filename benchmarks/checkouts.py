@@ -2,6 +2,7 @@
 several checkouts in one run start a child per checkout with PYTHONPATH set to it)."""
 
 import os
+import pathlib
 import subprocess
 import sys
 import tempfile
@@ -13,3 +14,10 @@ def imported_dmoc(checkout):
     return subprocess.run([sys.executable, "-c", "import dmoc; print(dmoc.__file__)"],
                           env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
                           capture_output=True, text=True, check=True).stdout.strip()
+
+
+def add_checkouts(parser):
+    """`parser`'s option ``--checkouts DIR ...``: the dmoc checkouts a benchmark compares,
+    each on PYTHONPATH in turn (default: the checkout holding this folder)."""
+    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])],
+                        help="dmoc checkouts to compare, each on PYTHONPATH in turn (default: this one)")

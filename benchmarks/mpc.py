@@ -30,7 +30,6 @@ every timed process finds the library in the cache (its step 0 loads it).
 import argparse
 import json
 import os
-import pathlib
 import platform
 import subprocess
 import sys
@@ -44,7 +43,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
-from checkouts import imported_dmoc  # noqa: E402
+from checkouts import add_checkouts, imported_dmoc  # noqa: E402
 
 
 def closed_loop(horizon, steps, warm_up, jit=False):
@@ -136,7 +135,7 @@ def main():
     parser.add_argument("--horizon", type=int, default=30)
     parser.add_argument("--steps", type=int, default=40)
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])])
+    add_checkouts(parser)
     parser.add_argument("--jit", action="store_true", help="also run dmoc.MPC(problem, jit=True)")
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
     args = parser.parse_args()

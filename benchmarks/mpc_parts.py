@@ -29,6 +29,8 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
+from checkouts import add_checkouts  # noqa: E402
+
 # (label, module, attribute path): what MPC.step calls, in the order it calls them
 PARTS = (("with_boundary", "dmoc.optimize.problem", "OptimalControlProblem.with_boundary"),
          ("  Transcription.with_bounds", "dmoc.optimize.transcription", "Transcription.with_bounds"),
@@ -100,7 +102,7 @@ def main():
     parser.add_argument("--horizon", type=int, default=30)
     parser.add_argument("--steps", type=int, default=240)
     parser.add_argument("--repeat", type=int, default=5)
-    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])])
+    add_checkouts(parser)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:

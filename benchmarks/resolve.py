@@ -31,6 +31,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
+from checkouts import add_checkouts  # noqa: E402
 
 CASES = {
     "knife edge": lambda N, goal: dmoc.problems.knife_edge_parking(N, goal=goal),
@@ -74,8 +75,7 @@ def main(argv=None):
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=3, help="fresh processes per case (default 3)")
-    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])],
-                        help="dmoc checkouts to compare, each on PYTHONPATH in turn (default: this one)")
+    add_checkouts(parser)
     args = parser.parse_args(argv)
     print(f"python {platform.python_version()}, casadi {ca.__version__}; load average "
           f"{'%.2f %.2f %.2f' % os.getloadavg()}; checkouts {', '.join(args.checkouts)}")

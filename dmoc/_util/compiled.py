@@ -30,14 +30,41 @@ FLAGS = ("-O2", "-fPIC", "-shared")
 
 
 def compiler():
-    """Resolved path of the C compiler, or None when there is none (or ``CC`` is set empty)."""
-    name = os.environ.get("CC")
-    candidates = (name,) if name is not None else ("cc", "gcc")
+    """Resolved path of the C compiler, or None when there is none (or ``CC`` is set empty).
+
+    Found once per process for each value of ``CC`` and ``PATH`` (`shutil.which` and
+    `os.path.realpath` cost 0.1 ms, on every `simulate` or `optimize` call with
+    ``jit=True``), and found
+    again when the file found then is no longer the same (another file, mode or
+    modification time, e.g. a link moved to another compiler). A compiler put earlier on
+    an unchanged ``PATH`` during the process is not seen; a missing compiler is looked for
+    on every call."""
+    key = (os.environ.get("CC"), os.environ.get("PATH"))
+    found = _FOUND.get(key)
+    if found is not None and _file_identity(found[0]) == found[1]:
+        return found[2]
+    candidates = (key[0],) if key[0] is not None else ("cc", "gcc")
     for candidate in candidates:
         path = shutil.which(candidate) if candidate else None
         if path:
-            return os.path.realpath(path)
+            resolved = os.path.realpath(path)
+            if os.path.isabs(path):         # a relative one depends on the working folder
+                _FOUND[key] = (path, _file_identity(path), resolved)
+            return resolved
     return None
+
+
+_FOUND = {}     # (CC, PATH) -> (the path found, its `_file_identity`, its resolved path)
+
+
+def _file_identity(path):
+    """What tells the file at `path` (links followed) from another: device, inode, mode and
+    modification time; None when there is none."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_mode, st.st_mtime_ns
 
 
 @functools.lru_cache(maxsize=8)

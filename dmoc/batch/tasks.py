@@ -13,7 +13,6 @@ thread of its own, which the task abandons when the time is up; the task then re
 the results so far and the client queues the chunk's other items again.
 """
 
-import dataclasses
 import threading
 import time
 import traceback
@@ -21,9 +20,12 @@ import traceback
 import casadi as ca
 import cloudpickle
 import distributed
+import numpy as np
 
 from .._util.cache import BoundedCache
+from .packing import PackedResults
 from ..optimize.solve import OptimizationResult
+from ..principle.trajectory import Trajectory
 from ..results.optimum import optimize
 from ..simulate.simulation import SimulationResult, simulate
 
@@ -97,7 +99,8 @@ def optimize_chunk(digest, items, options, switches, timeout):
 def simulate_chunk(digest, items, timeout, keep="trajectory"):
     """For each item, ``cloudpickle.dumps(run)``: ``simulate(disc, **run, throw=False)`` on
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
-    ``"final"`` (`final_knot`); as `optimize_chunk`."""
+    ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
+    trajectories travel as a few arrays)."""
     def runner(item):
         def load():
             return shipped(digest, cloudpickle.loads), cloudpickle.loads(item)
@@ -110,15 +113,19 @@ def simulate_chunk(digest, items, timeout, keep="trajectory"):
             return result
         return load, solve
 
-    return _chunk(SimulationResult, [runner(item) for item in items], timeout)
+    results, seconds = _chunk(SimulationResult, [runner(item) for item in items], timeout)
+    return PackedResults(results), seconds
 
 
 def final_knot(trajectory):
     """The last knot of `trajectory` as a Trajectory of no step: t, q, p of shape (1, ...)
-    at t_N, lam, u, s with no row, h, mu and the nodes kept."""
-    return dataclasses.replace(trajectory, t=trajectory.t[-1:], q=trajectory.q[-1:],
-                               p=trajectory.p[-1:], lam=trajectory.lam[:0],
-                               u=trajectory.u[:0], s=trajectory.s[:0])
+    at t_N, lam, u, s with no row, h, mu and the nodes kept; copies, so the run's arrays
+    can go."""
+    t, q, p = (np.array(x[-1:]) for x in (trajectory.t, trajectory.q, trajectory.p))
+    lam, u, s = (np.array(x[:0]) for x in (trajectory.lam, trajectory.u, trajectory.s))
+    return Trajectory.unchecked(t, q, p, lam, u, trajectory.h, trajectory.variant,
+                                trajectory.mu, s, trajectory.control_nodes,
+                                trajectory.stage_nodes)
 
 
 def failed_result(kind, status, message, **stats):

@@ -88,6 +88,22 @@ class Trajectory:
         self.mu = (np.zeros(self.lam.shape[1]) if self.mu is None else
                    checks.array("mu", self.mu, (np.size(self.mu),), allow_nan=True))
 
+    @classmethod
+    def unchecked(cls, t, q, p, lam, u, h, variant, mu, s, control_nodes, stage_nodes):
+        """The Trajectory of these fields as they are: no check, no copy.
+
+        For dmoc's consumers, which build every field with the shapes and types the
+        checks of ``Trajectory(...)`` would give it (float arrays, `h` a float, `variant`
+        a formulation's name, the nodes tuples of floats): those checks cost about
+        50 us, as much as a short simulation's steps. The arrays are kept as given,
+        views included: nothing else may write to them. Construct a Trajectory of your
+        own arrays with ``Trajectory(...)``, which checks and copies them.
+        """
+        traj = object.__new__(cls)
+        traj.__dict__.update(t=t, q=q, p=p, lam=lam, u=u, h=h, variant=variant, mu=mu, s=s,
+                             control_nodes=control_nodes, stage_nodes=stage_nodes)
+        return traj
+
     @property
     def steps(self):
         """Number of steps N."""

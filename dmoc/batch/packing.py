@@ -1,0 +1,77 @@
+"""How a chunk of `simulate_many`'s results travels from its worker to the client: every
+trajectory field concatenated over the chunk's runs into one array (t, q, p over the
+knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
+chunk rather than seven per run; the client gets each run's Trajectory back as views of
+those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
+"""
+
+import dataclasses
+
+import numpy as np
+
+from ..principle.trajectory import Trajectory
+
+KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
+STEP_FIELDS = ("lam", "u", "s")          # N rows per run
+
+
+class PackedResults(list):
+    """A list of SimulationResults that pickles as a few arrays (`pack`); unpickled, it is
+    a plain list of equal results (`unpack`), in the same order."""
+
+    def __reduce__(self):
+        return unpack, pack(self)
+
+
+def pack(results):
+    """(heads, arrays) of the SimulationResults `results`.
+
+    Returns
+    -------
+    heads : list, one per result
+        (result without its trajectory, (N, h, variant, control_nodes, stage_nodes) of
+        its trajectory), or (result, None) for a result kept whole: one without a
+        trajectory, or whose trajectory's columns differ from the first packed one's.
+    arrays : dict of ndarray, or None when no trajectory is packed
+        ``t`` (K,), ``q``, ``p`` (K, n) with K the sum of N + 1 over the packed runs;
+        ``lam``, ``u``, ``s`` (sum of N, ...); ``mu`` (runs, m).
+    """
+    widths = [_widths(r.trajectory) for r in results if r.trajectory is not None]
+    packed = [r for r in results if r.trajectory is not None and _widths(r.trajectory) == widths[0]]
+    if not packed:
+        return [(r, None) for r in results], None
+    chosen = {id(r) for r in packed}
+    arrays = {name: np.concatenate([getattr(r.trajectory, name) for r in packed])
+              for name in (*KNOT_FIELDS, *STEP_FIELDS)}
+    arrays["mu"] = np.stack([r.trajectory.mu for r in packed])
+    heads = []
+    for r in results:
+        if id(r) not in chosen:
+            heads.append((r, None))
+            continue
+        traj = r.trajectory
+        heads.append((dataclasses.replace(r, trajectory=None),
+                      (traj.steps, traj.h, traj.variant, traj.control_nodes, traj.stage_nodes)))
+    return heads, arrays
+
+
+def unpack(heads, arrays):
+    """The list of results `pack` made `heads` and `arrays` of, each packed trajectory
+    made of views of `arrays`."""
+    results, knot, step, run = [], 0, 0, 0
+    for result, shape in heads:
+        if shape is not None:
+            steps, h, variant, control_nodes, stage_nodes = shape
+            knots, rows = slice(knot, knot + steps + 1), slice(step, step + steps)
+            t, q, p = (arrays[name][knots] for name in KNOT_FIELDS)
+            lam, u, s = (arrays[name][rows] for name in STEP_FIELDS)
+            result.trajectory = Trajectory.unchecked(t, q, p, lam, u, h, variant, arrays["mu"][run],
+                                                     s, control_nodes, stage_nodes)
+            knot, step, run = knot + steps + 1, step + steps, run + 1
+        results.append(result)
+    return results
+
+
+def _widths(traj):
+    """The columns of each field of `traj`, which a concatenation needs equal."""
+    return tuple(getattr(traj, name).shape[1:] for name in (*KNOT_FIELDS, *STEP_FIELDS, "mu"))

@@ -1,0 +1,115 @@
+"""A chunk of simulate_many's results travels as a few arrays (dmoc.batch.packing) and
+arrives as the results the serial runs give (the oracle: `dmoc.simulate` in this
+process), field by field and bit for bit: mixed step counts and variants, Newton failures
+with their partial trajectories, items that raised (no trajectory), final knots only."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+distributed = pytest.importorskip("distributed")
+
+import dmoc  # noqa: E402
+from dmoc import batch  # noqa: E402
+from dmoc.batch import tasks  # noqa: E402
+from dmoc.batch.packing import PackedResults  # noqa: E402
+from dmoc.simulate.simulation import SimulationResult  # noqa: E402
+
+FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
+
+
+def _runs(count):
+    """Runs of 3 to 40 steps, both variants, some controlled; every 17th fails Newton's
+    tolerance (a partial trajectory), every 29th has a `q0` of the wrong size (raises)."""
+    runs = []
+    for i in range(count):
+        steps = 3 + (7 * i) % 38
+        run = {"q0": [0, 0, 0.01 * i], "v0": [np.cos(0.01 * i), np.sin(0.01 * i), 1.0],
+               "steps": steps, "variant": "+-"[i % 2]}
+        if i % 3 == 0:
+            run["controls"] = np.full((steps, 2), 0.1 * (i % 5))
+        if i % 17 == 16:
+            run["tol"] = 1e-300
+        if i % 29 == 28:
+            run["q0"] = [0, 0]
+        runs.append(run)
+    return runs
+
+
+def _serial(disc, run, keep):
+    try:
+        result = dmoc.simulate(disc, **run, throw=False)
+    except ValueError as err:
+        return None, err
+    if keep == "final":
+        result.trajectory = tasks.final_knot(result.trajectory)
+    return result, None
+
+
+def _assert_same(got, disc, run, keep):
+    want, error = _serial(disc, run, keep)
+    if error is not None:
+        assert got.status == "exception" and got.trajectory is None and str(error) in got.message
+        return
+    assert (got.success, got.status, got.message) == (want.success, want.status, want.message)
+    assert {k: v for k, v in got.stats.items() if k not in ("wall_time", "worker")} == \
+        {k: v for k, v in want.stats.items() if k != "wall_time"}
+    for name in FIELDS:
+        a, b = getattr(got.trajectory, name), getattr(want.trajectory, name)
+        assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+    for name in ("h", "variant", "control_nodes", "stage_nodes"):
+        assert getattr(got.trajectory, name) == getattr(want.trajectory, name), name
+
+
+def _in_process(disc, runs, keep):
+    """What a worker's task makes of `runs` (results of `simulate` or of an exception)."""
+    results = []
+    for run in runs:
+        want, error = _serial(disc, run, keep)
+        results.append(want if error is None else tasks.failed_result(
+            SimulationResult, "exception", f"{type(error).__name__}: {error}"))
+    return results
+
+
+@pytest.mark.parametrize("keep", ["trajectory", "final"])
+def test_a_packed_chunk_unpickles_as_the_serial_results_from_a_few_buffers(keep):
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    runs = _runs(60)
+    buffers = []
+    data = pickle.dumps(PackedResults(_in_process(disc, runs, keep)), protocol=5,
+                        buffer_callback=buffers.append)
+    assert len(buffers) <= len(FIELDS)           # not 7 per run
+    results = pickle.loads(data, buffers=buffers)
+    assert type(results) is list and len(results) == len(runs)
+    for got, run in zip(results, runs):
+        _assert_same(got, disc, run, keep)
+    trajectories = [r.trajectory for r in results if r.trajectory is not None]
+    for a, b in zip(trajectories, trajectories[1:]):       # each run's rows are its own
+        assert not any(np.shares_memory(getattr(a, f), getattr(b, f)) for f in FIELDS)
+
+
+def test_trajectories_of_other_columns_travel_whole():
+    """A chunk of runs whose trajectories have other columns (not made by simulate_many,
+    whose chunks share one discretization) still round-trips."""
+    knife = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    disk = dmoc.discretize(dmoc.systems.rolling_disk(), 0.05)
+    results = [dmoc.simulate(knife, q0=[0, 0, 0], v0=[1, 0, 1], steps=4),
+               dmoc.simulate(disk, q0=[0, 0, 0, 0], v0=[1, 0, 1, 0.5], steps=6)]
+    back = pickle.loads(pickle.dumps(PackedResults(results)))
+    for got, want in zip(back, results):
+        for name in FIELDS:
+            assert getattr(got.trajectory, name).tobytes() == getattr(want.trajectory, name).tobytes()
+
+
+@pytest.mark.parametrize("keep", ["trajectory", "final"])
+def test_simulate_many_with_mixed_steps_and_failures_in_its_chunks_equals_serial(client, keep):
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    runs = _runs(150)
+    with distributed.get_task_stream(client=client) as stream:
+        results = batch.simulate_many(disc, runs, keep=keep, client=client, progress=False)
+    assert len(stream.data) <= len(runs) // 4           # chunks of several runs
+    for got, run in zip(results, runs):
+        _assert_same(got, disc, run, keep)
+    assert sum(r.status == "newton_failed" for r in results) == 8
+    assert sum(r.status == "exception" for r in results) == 5
