@@ -1,15 +1,17 @@
 """Benchmark: the Python of a raw re-solve outside IPOPT, the conversions of issue 25's
 second pass (NumPy to DM and back through lists, `dmoc._util.conversions`; the
-substituted momenta gathered by index arrays made once) against the conversions before
-them, interleaved call by call in one process.
+substituted momenta gathered by index arrays made once; the result's Trajectory assembled
+without re-checking) against the code before them, interleaved call by call in one
+process.
 
 On rolling-disk steering (lobatto4, N = 11) and knife-edge parking (lobatto3, N = 28; and
 the MPC's horizon, midpoint, N = 30, from a start momentum), the N of the rockit
 comparison (docs/performance.md), the pieces that changed are timed in their new form and
 in their old one (written out below: CasADi's own conversion of the NumPy arrays, and the
 momenta's windows gathered one by one): the packed IPOPT call (`PackedSolver.__call__`,
-IPOPT included), the data's row sums (`data_tolerances`) and the result's momenta
-(`Transcription.momenta`); then the whole raw re-solve ``solve(problem.with_boundary(
+IPOPT included), the data's row sums (`data_tolerances`), the result's momenta
+(`Transcription.momenta`) and its trajectory (`trajectory_from_x`); then the whole raw
+re-solve ``solve(problem.with_boundary(
 q_goal=g), guess=previous, jit=True)`` with the old and the new pieces swapped in. Every
 pair is checked to give the same bits. Reported: medians over `--calls` alternating calls
 (microseconds) and new / old.
@@ -30,7 +32,9 @@ import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
 from dmoc.optimize import ipopt, momenta as momenta_module  # noqa: E402
 from dmoc.optimize.guess import start_point  # noqa: E402
-from dmoc.optimize.solve import solve  # noqa: E402
+from dmoc.optimize import solve as solve_module  # noqa: E402
+from dmoc.optimize.solve import solve, trajectory_from_x  # noqa: E402
+from dmoc.principle.trajectory import Trajectory  # noqa: E402
 from dmoc.optimize.terms import broadcast  # noqa: E402
 from dmoc._util.conversions import column  # noqa: E402
 
@@ -48,7 +52,7 @@ CASES = {
 
 
 def old_packed_call(self, **inputs):
-    """`PackedSolver.__call__` before: CasADi converts the NumPy vector and `full()`."""
+    """`PackedSolver.__call__` before: the output by `full()`."""
     z = np.concatenate([inputs[name] for name in self._inputs.blocks])
     return self._outputs.split(self._function(z).full().ravel())
 
@@ -87,6 +91,18 @@ def old_momenta(problem):
     return momenta
 
 
+def old_trajectory(problem, x, momenta):
+    """`trajectory_from_x` before: the checking constructor, `momenta` the old momenta."""
+    T, N = problem.transcription, problem.steps
+    lay = T.x_layout
+    h = problem.final_time.step(lay, x)
+    mu = lay.unpack(x, "mu")[:, 0] if lay.numel("mu") else np.zeros(problem.disc.system.m)
+    return Trajectory(h * np.arange(N + 1), T.configurations(x), momenta(x, T.p),
+                      lay.unpack(x, "lam").T, lay.unpack(x, "u").T, h, problem.formulation.name,
+                      mu, lay.unpack(x, "s").T, problem.disc.rule.control_nodes,
+                      problem.disc.rule.stage_nodes)
+
+
 def alternate(old, new, calls):
     """(median old, median new) seconds of `calls` alternating calls; their results
     checked to be the same bits."""
@@ -112,7 +128,11 @@ def same(a, b):
     elif hasattr(a, "x") and hasattr(a, "lam_g"):
         for field in ("x", "lam_x", "lam_g", "cost"):
             same(getattr(a, field), getattr(b, field))
-        same(a.trajectory.p, b.trajectory.p)
+        same(a.trajectory, b.trajectory)
+    elif isinstance(a, Trajectory):
+        for field in ("t", "q", "p", "lam", "u", "h", "mu", "s"):
+            same(getattr(a, field), getattr(b, field))
+        assert (a.variant, a.control_nodes, a.stage_nodes) == (b.variant, b.control_nodes, b.stage_nodes)
     else:
         assert np.array_equal(np.asarray(a, dtype=float).view(np.int64),
                               np.asarray(b, dtype=float).view(np.int64)), (a, b)
@@ -144,6 +164,8 @@ def case(name, make, goals, calls):
         "packed IPOPT call": (lambda: old_packed_call(packed, **inputs), lambda: NEW_PACKED_CALL(packed, **inputs)),
         "data tolerances' row sums": (lambda: old_row_sums(T, x0 / D, True), lambda: new_row_sums(T, x0 / D, True)),
         "result's momenta": (lambda: old_p(x, T.p), lambda: T.momenta(x)),
+        "result's trajectory (momenta included)": (lambda: old_trajectory(new, x, old_p),
+                                                   lambda: trajectory_from_x(new, x)),
     }
     print(f"\n{name}: x {T.x_layout.size}, g {T.g_layout.size}")
     print(f"{'piece':42s} {'old us':>9s} {'new us':>9s} {'new/old':>8s}")
@@ -155,13 +177,12 @@ def case(name, make, goals, calls):
     def resolve(old):
         def run():
             swapped(old)
-            saved = T.__class__.momenta
             if old:
-                T.__class__.momenta = lambda self, x: old_p(np.asarray(x, dtype=float), self.p)
+                solve_module.trajectory_from_x = lambda problem, x: old_trajectory(problem, x, old_p)
             try:
                 return solve(moved[state["i"] % 2], guess=previous, jit=True)
             finally:
-                T.__class__.momenta = saved
+                solve_module.trajectory_from_x = trajectory_from_x
                 swapped(False)
         return run
     a, b = alternate(resolve(True), resolve(False), max(calls // 4, 50))

@@ -121,7 +121,12 @@ class PackedSolver:
     20 us each plus 25 ns per entry on the machine of docs/performance.md; stacked, the
     eight inputs and five outputs of a solve cost one conversion each way, about 0.1 ms
     less per solve (3 % of a warm MPC step at N = 30), for about 0.4 ms (N = 100) to
-    1.3 ms (N = 1000) once, when the solver is created.
+    1.3 ms (N = 1000) once, when the solver is created. The output is read by its
+    nonzeros (`dmoc._util.conversions.vector`, quicker than ``full()``); the input stays
+    a NumPy array: given as a DM (`conversions.column`, quicker), a Ctrl-C inside IPOPT
+    after any call of CasADi's buffer interface in the process (`dmoc._util.numeric`)
+    ended the call in ``SystemError: ... returned a result with an exception set``
+    instead of returning the last iterate (tests/test_interrupts.py).
 
     Parameters
     ----------
@@ -151,7 +156,7 @@ class PackedSolver:
         """{"x", "f", "g", "lam_x", "lam_g"}: 1-d arrays (f of shape (1,)) of the solve from
         the `inputs` of nlpsol (x0, p, lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-        return self._outputs.split(vector(self._function(column(z))))
+        return self._outputs.split(vector(self._function(z)))
 
     def stats(self):
         """IPOPT's statistics of the last solve: the packed Function's, which are those of
