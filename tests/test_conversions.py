@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from dmoc._util.conversions import column, vector
+from dmoc.errors import InputError
 
 SPECIAL = np.array([0.0, -0.0, 5e-324, -1e-310, np.inf, -np.inf, np.nan, 1.0 / 3.0,
                     np.nextafter(1.0, 2.0), -1.7976931348623157e308, 2.0 ** -1074 * 3])
@@ -37,7 +38,7 @@ def test_vector_has_the_bits_of_full_in_fortran_order():
 
 
 def test_vector_refuses_a_sparse_dm():
-    with pytest.raises(ValueError, match="`dense` must be a dense DM; got 1 nonzeros of 4"):
+    with pytest.raises(InputError, match="`dense` must be a dense DM; got 1 nonzeros of 4"):
         vector(ca.DM(ca.Sparsity.triplet(2, 2, [0], [0]), 1.0))
 
 

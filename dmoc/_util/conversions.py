@@ -9,6 +9,8 @@ docs/performance.md, for 1300 entries: 72 against 139 us into a DM, about 2/3 of
 import casadi as ca
 import numpy as np
 
+from ..errors import InputError
+
 
 def column(vector, rows=None):
     """The DM of a 1-d float array, through a list of floats: a column, or with `rows`
@@ -27,6 +29,6 @@ def vector(dense):
     [1.0, -0.0, 2.5]
     """
     if dense.nnz() != dense.numel():
-        raise ValueError(f"`dense` must be a dense DM; got {dense.nnz()} nonzeros of "
+        raise InputError(f"`dense` must be a dense DM; got {dense.nnz()} nonzeros of "
                          f"{dense.numel()} entries.")
     return np.array(dense.nonzeros())
