@@ -16,7 +16,14 @@ table (wall and CPU time of `MPC.step`, IPOPT's wall share, iterations, ratios t
 checkouts see the same load) the first step (alone, with the NLP's build, and without
 the creation of the IPOPT solver it includes), the median warm step, and their ratios.
 
-    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3]
+With `--jit` every checkout whose `dmoc.MPC` takes `jit` also runs the loop with
+``dmoc.MPC(problem, jit=True)`` (the NLP's Functions compiled to C, "jit" rows). The
+children share a compiled-code folder of their own (a new temporary DMOC_CACHE_DIR), into
+which one uncounted warmed-up process compiles the library first: the seconds its step 0
+spent creating the solver (compiling and loading) are reported as the compile time, and
+every timed process finds the library in the cache (its step 0 loads it).
+
+    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3] [--jit]
     python benchmarks/mpc.py --checkouts /work/main /path/to/branch     # before/after
 """
 
@@ -39,7 +46,7 @@ from dmoc.problems import knife_edge_parking  # noqa: E402
 from checkouts import add_checkouts, imported_dmoc  # noqa: E402
 
 
-def closed_loop(horizon, steps, warm_up):
+def closed_loop(horizon, steps, warm_up, jit=False):
     """The per-step records (dicts) of one closed loop, in this process."""
     if warm_up:
         dmoc.optimize(knife_edge_parking(20))       # load IPOPT and the plugins
@@ -47,7 +54,7 @@ def closed_loop(horizon, steps, warm_up):
     problem = knife_edge_parking(horizon, duration=0.1 * horizon)
     plant = dmoc.discretize(dmoc.systems.knife_edge(mass=1.1), problem.disc.h)
     wall, cpu = time.perf_counter(), time.process_time()
-    controller = dmoc.MPC(problem)          # builds the NLP of the momentum start
+    controller = dmoc.MPC(problem, **({"jit": True} if jit else {}))   # builds the NLP
     build = {"step": time.perf_counter() - wall, "cpu": time.process_time() - cpu}
     q, p, cpu = np.zeros(3), np.zeros(3), []
     for k in range(steps):
@@ -90,20 +97,37 @@ def summary(build, records):
     return "; ".join(parts) + f"; all succeeded: {succeeded}"
 
 
-def child(checkout, kind, args):
+def child(checkout, kind, args, jit=False):
     """(build, records) of one fresh process of `checkout` (its dmoc on PYTHONPATH)."""
     out = subprocess.run(
         [sys.executable, __file__, "--child", kind, "--horizon", str(args.horizon), "--steps",
-         str(args.steps)], env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
-        capture_output=True, text=True, check=True).stdout
+         str(args.steps)] + (["--jit"] if jit else []), env={**os.environ, "PYTHONPATH": checkout},
+        cwd=tempfile.gettempdir(), capture_output=True, text=True, check=True).stdout
     return json.loads(out)
 
 
 def medians(processes):
-    """The median over `processes` of the warm median CPU and of its ratio to the first step."""
-    warm = [np.median([r["cpu"] for r in records[1:]]) for _, records in processes]
-    ratio = [w / records[0]["cpu"] for w, (_, records) in zip(warm, processes)]
-    return f"warm CPU median {1e3 * np.median(warm):.2f} ms, {np.median(ratio):.3f} x the first step"
+    """The medians over `processes` of the warm median CPU, the first step's CPU, their
+    ratio (quartiles in brackets), the first step's solver creation, and the warm median
+    over the first step without it (wall)."""
+    warm = np.array([np.median([r["cpu"] for r in records[1:]]) for _, records in processes])
+    first = np.array([records[0]["cpu"] for _, records in processes])
+    ratio = warm / first
+    bare = [np.median([r["step"] for r in records[1:]]) / (records[0]["step"] - build["solver"])
+            for build, records in processes]
+    return (f"warm CPU median {1e3 * np.median(warm):.2f} ms, first step CPU "
+            f"{1e3 * np.median(first):.2f} ms, warm / first {np.median(ratio):.3f} "
+            f"({np.quantile(ratio, 0.25):.3f}-{np.quantile(ratio, 0.75):.3f}); the first step's "
+            f"solver creation {1e3 * np.median([b['solver'] for b, _ in processes]):.1f} ms wall, "
+            f"warm / first without it (wall) {np.median(bare):.3f}")
+
+
+def takes_jit(checkout):
+    """Whether the `dmoc.MPC` of `checkout` takes `jit`."""
+    code = "import inspect, dmoc; print('jit' in inspect.signature(dmoc.MPC).parameters)"
+    return subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": checkout},
+                          cwd=tempfile.gettempdir(), capture_output=True, text=True,
+                          check=True).stdout.strip() == "True"
 
 
 def main():
@@ -112,33 +136,43 @@ def main():
     parser.add_argument("--steps", type=int, default=40)
     parser.add_argument("--repeat", type=int, default=3)
     add_checkouts(parser)
+    parser.add_argument("--jit", action="store_true", help="also run dmoc.MPC(problem, jit=True)")
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        print(json.dumps(closed_loop(args.horizon, args.steps, args.child == "warmed-up")))
+        print(json.dumps(closed_loop(args.horizon, args.steps, args.child == "warmed-up", args.jit)))
         return
+    if args.jit:        # the children's own compiled-code folder
+        os.environ["DMOC_CACHE_DIR"] = tempfile.mkdtemp(prefix="dmoc-mpc-bench-")
     print(f"# {platform.platform()}, {platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} cores; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     for checkout in args.checkouts:
         found = imported_dmoc(checkout)
         print(f"# {checkout}: dmoc from {found}")
     print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps\n")
-    runs = {(c, kind): [] for c in args.checkouts for kind in ("warmed-up", "fresh")}
+    variants = [(c, False) for c in args.checkouts] + [(c, True) for c in args.checkouts
+                                                        if args.jit and takes_jit(c)]
+    for checkout, jit in variants:
+        if jit:
+            build, _ = child(checkout, "warmed-up", args, jit=True)
+            print(f"{checkout} jit: compiling and loading the NLP's library (step 0's solver "
+                  f"creation, the cache folder empty): {build['solver']:.2f} s wall")
+    runs = {(c, jit, kind): [] for c, jit in variants for kind in ("warmed-up", "fresh")}
     for _ in range(args.repeat):
         for kind in ("warmed-up", "fresh"):
-            for checkout in args.checkouts:         # interleaved: all see the same load
-                runs[checkout, kind].append(child(checkout, kind, args))
-    build, records = runs[args.checkouts[-1], "warmed-up"][0]
+            for checkout, jit in variants:          # interleaved: all see the same load
+                runs[checkout, jit, kind].append(child(checkout, kind, args, jit))
+    build, records = runs[variants[-1][0], variants[-1][1], "warmed-up"][0]
     print(f"building the NLP of the structure (dmoc.MPC(problem)): {1e3 * build['step']:.1f} ms "
           f"wall, {1e3 * build['cpu']:.1f} ms CPU\n")
     table(records)
     print()
-    for (checkout, kind), processes in runs.items():
+    for (checkout, jit, kind), processes in runs.items():
         for i, (build, records) in enumerate(processes):
-            print(f"{checkout} {kind} process {i}: {summary(build, records)}")
+            print(f"{checkout}{' jit' if jit else ''} {kind} process {i}: {summary(build, records)}")
     print()
-    for (checkout, kind), processes in runs.items():
-        print(f"{checkout} {kind}: {medians(processes)}")
+    for (checkout, jit, kind), processes in runs.items():
+        print(f"{checkout}{' jit' if jit else ''} {kind}: {medians(processes)}")
     print(f"# load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
 
 

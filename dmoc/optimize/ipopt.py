@@ -10,6 +10,7 @@ import casadi as ca
 import numpy as np
 
 from .._util.cache import BoundedCache
+from .._util.conversions import column, vector
 from .._util.layout import Layout
 from ..errors import InputError
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
@@ -50,7 +51,7 @@ def data_tolerances(transcription, x0, jit=False):
     x = np.array(x0, dtype=float)
     x[T.x_layout.slice("q")] = T.configurations(x0).ravel()
     largest = _ROW_SUMS.get((T.structure, jit), lambda: _largest_row_sum(T.separable, jit))
-    floor = np.finfo(float).eps * float(largest(np.concatenate([x0, x, T.p])))
+    floor = np.finfo(float).eps * float(largest(column(np.concatenate([x0, x, T.p]))))
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))
@@ -120,7 +121,12 @@ class PackedSolver:
     20 us each plus 25 ns per entry on the machine of docs/performance.md; stacked, the
     eight inputs and five outputs of a solve cost one conversion each way, about 0.1 ms
     less per solve (3 % of a warm MPC step at N = 30), for about 0.4 ms (N = 100) to
-    1.3 ms (N = 1000) once, when the solver is created.
+    1.3 ms (N = 1000) once, when the solver is created. The output is read by its
+    nonzeros (`dmoc._util.conversions.vector`, quicker than ``full()``); the input stays
+    a NumPy array: given as a DM (`conversions.column`, quicker), a Ctrl-C inside IPOPT
+    after any call of CasADi's buffer interface in the process (`dmoc._util.numeric`)
+    ended the call in ``SystemError: ... returned a result with an exception set``
+    instead of returning the last iterate (tests/test_interrupts.py).
 
     Parameters
     ----------
@@ -150,7 +156,7 @@ class PackedSolver:
         """{"x", "f", "g", "lam_x", "lam_g"}: 1-d arrays (f of shape (1,)) of the solve from
         the `inputs` of nlpsol (x0, p, lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-        return self._outputs.split(self._function(z).full().ravel())
+        return self._outputs.split(vector(self._function(z)))
 
     def stats(self):
         """IPOPT's statistics of the last solve: the packed Function's, which are those of

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._util import checks
 from .._util.cache import BoundedCache
+from .._util.conversions import column, vector
 from ..principle.explicit import single_output, solved_rows, substitutable
 from .terms import broadcast, inputs_of
 
@@ -124,21 +125,42 @@ class SubstitutedMomenta:
         """``momenta(x, p) -> P`` (n, N+1): p_0 from x and the explicit p_{k+1} of every
         step: the windows of p1's inputs gathered from x and p, stacked, and p1 mapped over
         the N steps on that one stacked input (a Function kept in a bounded cache per
-        residual and N, so that a call converts one array, not one per input of p1). It
-        holds index arrays and p1 only, not the problem."""
-        X, N, q_ref, p1, key = slots.X, slots.N, slots.q_ref, self.p1, (self.residual.key, slots.N)
+        residual and N, so that a call converts one array, not one per input of p1). The
+        stack is gathered by two index arrays made once (`_gathering`) and converted
+        through lists (`dmoc._util.conversions`). It holds index arrays and p1 only, not
+        the problem."""
+        X, N, p1, key = slots.X, slots.N, self.p1, (self.residual.key, slots.N)
         windows = [slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()]
+        gather, shift = _gathering(windows, slots.q_ref, N, slots.n_x, slots.n_p)
 
         def momenta(x, p):
-            source = {"x": x, "q": x, "p": p}
-            stacked = np.vstack([source[src][broadcast(index, N)] + (p[q_ref] if src == "q" else 0)
-                                 for src, index in windows])
+            values = np.concatenate([x, p, _ZERO])
             mapped = _MOMENTA.get(key, lambda: _stacked(p1).map(N))
-            return np.hstack([x[X["p"][:, :1]], mapped(stacked).full()])
+            stacked = column((values[gather] + values[shift]).ravel(), gather.shape[1])
+            return np.hstack([x[X["p"][:, :1]], vector(mapped(stacked)).reshape(N, -1).T])
         return momenta
 
     def __repr__(self):
         return "SubstitutedMomenta()"
+
+
+_ZERO = np.zeros(1)
+
+
+def _gathering(windows, q_ref, N, n_x, n_p):
+    """(gather, shift): index arrays (N, rows) into ``values = [x; p; 0]`` (x of `n_x`
+    entries, p of `n_p`) such that ``values[gather] + values[shift]`` is the transpose of
+    the stack (rows, N) of the `windows` ((source, index) of p1's inputs, in order) over the
+    N steps (so that, raveled, it is the stack column by column), with q_ref (index (n, 1)
+    into p) added to the slots of source "q" and 0.0 to the others: the additions of
+    gathering each window on its own, entry by entry."""
+    offset, zero = {"x": 0, "q": 0, "p": n_x}, n_x + n_p
+    gather, shift = [], []
+    for src, index in windows:
+        rows = broadcast(index, N)
+        gather.append(rows + offset[src])
+        shift.append(np.broadcast_to(q_ref + n_x, rows.shape) if src == "q" else np.full(rows.shape, zero))
+    return np.vstack(gather).T.copy(), np.vstack(shift).T.copy()
 
 
 def _stacked(function):

@@ -74,6 +74,11 @@ class MPC:
         optimum shifted by one step.
     options : dict, optional
         IPOPT options (`optimize`).
+    expand, jit : bool
+        How IPOPT evaluates the NLP in every solve, as `optimize`'s switches of the same
+        names (docs/stages/optimize.md, "Compiled re-solves"): flat SX Functions, or C
+        compiled once per structure (or loaded from the compiled-code cache) when the
+        first step builds the solver. The same iterations and bits as the default.
     on_failure : {"raise", "shift"}
         What a step does when IPOPT does not converge. "raise" (default): raise
         SolverError (the failed solve in `.result`); no control is returned. "shift":
@@ -113,9 +118,11 @@ class MPC:
     ((2,), True)
     """
 
-    def __init__(self, problem, *, guess=None, options=None, on_failure="raise"):
+    def __init__(self, problem, *, guess=None, options=None, on_failure="raise", expand=False,
+                 jit=False):
         checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
         self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
+        self._switches = {"expand": checks.boolean("expand", expand), "jit": checks.boolean("jit", jit)}
         if not np.isfinite(problem.q_start).all():
             raise InputError("`problem` must have a fully given `q_start`: the controller's "
                              "measurements replace it, and the NLP keeps its structure.")
@@ -158,7 +165,7 @@ class MPC:
              else checks.array("p", p, (system.n,)))
         self.problem = self.problem.with_boundary(q_start=q, p_start=p)
         guess = self._guess if self.plan is None else shifted(self.plan, self.problem, self._age + 1)
-        result = solve(self.problem, guess=guess, options=self._options, throw=False)
+        result = solve(self.problem, guess=guess, options=self._options, throw=False, **self._switches)
         if result.success:
             self.plan, self._age = result, 0
         elif result.status != "interrupted" and self.on_failure == "shift" and self.plan is not None \

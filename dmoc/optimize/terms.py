@@ -37,7 +37,7 @@ def transcribe(problem, layouts, scales):
         (`momenta_function` of the problem's momentum treatment).
     """
     X, P, G = (_indices(lay) for lay in layouts)
-    step = _StepSlots(problem, X, P, G, scales)
+    step = _StepSlots(problem, X, P, G, scales, (layouts[0].size, layouts[1].size))
     terms = problem.momentum_treatment.dynamics_terms(step, G["dynamics"]) + [step.start(), step.goal()]
     path, N = problem.path_constraints, problem.steps
     at = (("path", (0, N), "g", G["path"]),                     # the midpoints, then the rows
@@ -54,10 +54,11 @@ def transcribe(problem, layouts, scales):
 class _StepSlots:
     """The windows of x and p that the step terms read, by slot name. A slot of source
     "q" holds configurations q - q_ref (x is centered on the boundary data, see
-    `Transcription.q_ref`); the term adds q_ref back."""
+    `Transcription.q_ref`); the term adds q_ref back. `sizes` are those of x and p."""
 
-    def __init__(self, problem, X, P, G, scales):
+    def __init__(self, problem, X, P, G, scales, sizes):
         self.problem, self.X, self.P, self.G, self.N = problem, X, P, G, problem.steps
+        self.n_x, self.n_p = sizes
         self.scales = scales
         self.h = problem.final_time.slot(X, P)
         self.q_ref, self.w = P["q_ref"], ("p", P["w"])

@@ -1,7 +1,8 @@
 """The NLP expanded to SX (``expand=True``) or compiled to C (``jit=True``,
 `dmoc.optimize.evaluation`) is the same NLP: IPOPT takes the same iterations to the same
 optimum, bit for bit, as with CasADi's virtual machine on the MX graph, first solves and
-warm re-solves alike, on both problems of the rockit comparison and with both stage rules;
+warm re-solves alike, on both problems of the rockit comparison and with both stage rules,
+and an MPC's closed loop (`dmoc.MPC(..., expand=, jit=)`) step by step;
 IPOPT really evaluates the flat or compiled Functions (not the MX graph); the compiled
 library lives in the private compiled-code cache and is loaded, not compiled, by a later
 process. Bad input is named.
@@ -72,6 +73,45 @@ def test_ipopt_evaluates_the_functions_of_the_mode(private_cache, mode, kind):
     packed = solver(problem.transcription, {}, reuse=True, report=False, **mode)[0]
     for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l"):
         assert packed.nlpsol.get_function(name).class_name() == kind
+
+
+def closed_loop(steps, **switches):
+    """(the records of `steps` MPC steps on knife-edge parking against a 10 % heavier plant
+    kicked at step 2: (applied u, plan's x, lam_x, lam_g, iterations) per step; the MPC)."""
+    problem = dmoc.problems.knife_edge_parking(10, duration=1.0)
+    plant = dmoc.discretize(dmoc.systems.knife_edge(mass=1.1), problem.disc.h)
+    controller = dmoc.MPC(problem, **switches)
+    q, p, records = np.zeros(3), np.zeros(3), []
+    for k in range(steps):
+        u = controller.step(q, p=p)
+        plan = controller.plan
+        records.append((u, plan.x, plan.lam_x, plan.lam_g, plan.stats["iterations"]))
+        p = p + (0.3 if k == 2 else 0.0) * np.array([np.cos(q[2]), np.sin(q[2]), 1.0])
+        run = dmoc.simulate(plant, q0=q, p0=p, steps=1, controls=u[None], jit=False)
+        q, p = run.trajectory.q[-1], run.trajectory.p[-1]
+    return records, controller
+
+
+@pytest.mark.parametrize("mode", MODES.values(), ids=MODES.keys())
+def test_the_mpc_closed_loop_is_the_same_bit_for_bit(private_cache, mode):
+    (vm, _), (other, controller) = closed_loop(5), closed_loop(5, **mode)
+    assert [r.warm_start for r in controller.log] == [False] + [True] * 4
+    kept, reused, _ = solver(controller.problem.transcription, {"warm_start_init_point": "yes"},
+                             reuse=True, report=False, **{"expand": False, "jit": False, **mode})
+    assert reused and kept.nlpsol.get_function("nlp_jac_g").class_name() == (
+        "External" if "jit" in mode else "SXFunction")
+    for a, b in zip(vm, other):
+        for x, y in zip(a[:4], b[:4]):
+            np.testing.assert_array_equal(y, x)
+        assert b[4] == a[4] > 0
+    assert len(list(private_cache.glob("dmoc_nlp-*.so"))) == (1 if "jit" in mode else 0)
+
+
+def test_the_mpc_refuses_a_switch_that_is_not_a_bool():
+    with pytest.raises(InputTypeError, match="`jit` must be True or False"):
+        dmoc.MPC(dmoc.problems.knife_edge_parking(8), jit=1)
+    with pytest.raises(InputTypeError, match="`expand` must be True or False"):
+        dmoc.MPC(dmoc.problems.knife_edge_parking(8), expand="no")
 
 
 CHILD = """

@@ -19,7 +19,8 @@ import dmoc.problems
 from dmoc.optimize import ipopt
 from dmoc.optimize.guess import start_point
 from dmoc.optimize.mpc import shifted
-from dmoc.optimize.solve import most_violated, solve
+from dmoc.optimize.solve import most_violated, solve, trajectory_from_x
+from dmoc.principle.trajectory import Trajectory
 
 
 def _inputs(problem, guess=None):
@@ -157,3 +158,45 @@ def test_with_boundary_states_what_a_new_problem_states(case):
     for name in ("x", "lam_x", "lam_g"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     assert a.stats["iterations"] == b.stats["iterations"] and a.success
+
+
+FIELDS = ("t", "q", "p", "lam", "u", "h", "variant", "mu", "s", "control_nodes", "stage_nodes")
+
+
+def _trajectory_problems():
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule="lobatto3")
+    return {**_momentum_problems(),
+            "carried momenta": dmoc.OptimalControlProblem(
+                disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0], momenta="variables"),
+            "(-) variant with mu": dmoc.OptimalControlProblem(
+                disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0], variant="-"),
+            "rolling disk lobatto4": dmoc.problems.rolling_disk_steering(8, rule="lobatto4")}
+
+
+@pytest.mark.parametrize("name", list(_trajectory_problems()))
+def test_the_results_trajectory_is_what_the_checking_constructor_makes_of_it(name):
+    """`trajectory_from_x` assembles the fields without the checks (`Trajectory.unchecked`):
+    each must be what ``Trajectory(...)`` (the oracle, which checks and copies) makes of
+    the same values, bit for bit, of the same type, shape and dtype, and an array of its
+    own (not a view of x); an x with NaN takes the checking constructor itself."""
+    problem = _trajectory_problems()[name]
+    x = solve(problem).x + 1e-3 * np.cos(np.arange(problem.x_layout.size))
+    for point in (x, np.where(np.arange(x.size) == 3, np.nan, x)):
+        fast = trajectory_from_x(problem, point)
+        checked = Trajectory(*(getattr(fast, f) for f in FIELDS))
+        for f in FIELDS:
+            a, b = getattr(fast, f), getattr(checked, f)
+            assert type(a) is type(b), f
+            if isinstance(a, np.ndarray):
+                assert a.dtype == b.dtype and a.shape == b.shape and a.base is None, f
+                np.testing.assert_array_equal(a.view(np.int64), b.view(np.int64))
+            else:
+                assert a == b, f
+
+
+def test_a_non_finite_iterate_is_refused_as_before():
+    problem = dmoc.problems.knife_edge_parking(6)
+    x = solve(problem).x.copy()
+    x[problem.x_layout.slice("u")] = np.inf
+    with pytest.raises(dmoc.InputError, match="must be finite; entry"):
+        trajectory_from_x(problem, x)
