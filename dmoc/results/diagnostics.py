@@ -107,7 +107,8 @@ def end_velocities(disc, traj):
     """The velocities of each step's interpolant at its two ends, shapes (N, n) and (N, n):
     q'_k(0) and q'_k(h) of the rule's polynomial through q_k, the stage configurations and
     q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
-    rules."""
+    rules. The step's Function is built once per rule, n and stage rows and kept (cache
+    ``"end_velocities"``): a verdict per re-solve does not rebuild it."""
     key = (disc.rule, disc.system.n, traj.s.shape[1])
     velocities = _END_VELOCITIES.get(key, lambda: _end_velocity_function(*key))
     start, end = velocities.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
