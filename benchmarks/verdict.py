@@ -5,10 +5,10 @@ For knife-edge parking and rolling-disk steering (dmoc.problems, variant "+") wi
 at each N: "first" is the process's first judged solve of that structure and rule (the
 replay's Newton step is built then, once per discretization structure); "again" a judged
 re-solve of the same problem; "raw" the same re-solve with ``check=False``. Reported: wall
-seconds of the optimize call (best of `--repeat` fresh processes for "first", best of
+milliseconds of the optimize call (best of `--repeat` fresh processes for "first", best of
 `--repeat` calls for the others) and the ratios judged / raw.
 
-    python benchmarks/verdict.py
+    python benchmarks/verdict.py [--repeat 3] [--steps 100 1000] [--rules midpoint lobatto3 lobatto4]
 """
 
 import argparse
@@ -49,6 +49,8 @@ def one_process(name, rule, N, repeat):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--steps", type=int, nargs="+", default=STEPS, help="N (default 100 1000)")
+    parser.add_argument("--rules", nargs="+", default=RULES, choices=RULES)
     parser.add_argument("--child", nargs=3)
     args = parser.parse_args()
     if args.child:
@@ -56,12 +58,12 @@ def main():
         print(one_process(name, rule, int(N), args.repeat))
         return
     print(f"# {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
-          f"dmoc at {os.path.dirname(dmoc.__file__)}")
-    print(f"{'problem':13s} {'rule':9s} {'N':>5s} {'first':>8s} {'again':>8s} {'raw':>8s} "
+          f"dmoc at {os.path.dirname(dmoc.__file__)}; load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    print(f"{'problem':13s} {'rule':9s} {'N':>5s} {'first ms':>9s} {'again ms':>9s} {'raw ms':>9s} "
           f"{'first/raw':>9s} {'again/raw':>9s}")
     for name in CASES:
-        for rule in RULES:
-            for N in STEPS:
+        for rule in args.rules:
+            for N in args.steps:
                 firsts, again, raw = [], None, None
                 for _ in range(args.repeat):
                     out = subprocess.run([sys.executable, __file__, "--repeat", str(args.repeat),
@@ -71,8 +73,9 @@ def main():
                     firsts.append(f)
                     again, raw = min(again or a, a), min(raw or r, r)
                 first = min(firsts)
-                print(f"{name:13s} {rule:9s} {N:5d} {first:8.3f} {again:8.3f} {raw:8.3f} "
+                print(f"{name:13s} {rule:9s} {N:5d} {first * 1e3:9.2f} {again * 1e3:9.2f} {raw * 1e3:9.2f} "
                       f"{first / raw:9.2f} {again / raw:9.2f}", flush=True)
+    print(f"# load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 
 if __name__ == "__main__":

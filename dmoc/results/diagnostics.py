@@ -6,6 +6,7 @@ import casadi as ca
 import numpy as np
 
 from .._util import checks
+from .._util.cache import BoundedCache
 from ..discrete import Discretization
 from ..errors import InputError
 from ..principle.formulations import as_formulation
@@ -106,15 +107,26 @@ def end_velocities(disc, traj):
     """The velocities of each step's interpolant at its two ends, shapes (N, n) and (N, n):
     q'_k(0) and q'_k(h) of the rule's polynomial through q_k, the stage configurations and
     q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
-    rules."""
-    n, rule = disc.system.n, disc.rule
-    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
-                    (("q0", n), ("q1", n), ("s", traj.s.shape[1]), ("h", 1)))
-    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
-                                    ((0.0, 1.0), (1.0, 1.0)))
-    velocities = ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]])
+    rules. The step's Function is built once per rule, n and stage rows and kept (cache
+    ``"end_velocities"``): a verdict per re-solve does not rebuild it."""
+    key = (disc.rule, disc.system.n, traj.s.shape[1])
+    velocities = _END_VELOCITIES.get(key, lambda: _end_velocity_function(*key))
     start, end = velocities.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
     return np.array(start).T, np.array(end).T
+
+
+_END_VELOCITIES = BoundedCache(32, "end_velocities")    # keyed by (rule, n, stage rows): not per N or h
+
+
+def _end_velocity_function(rule, n, n_stages):
+    """The Function (q0, q1, s, h) -> (q'(0), q'(h)) of one step's interpolant under `rule`
+    (`end_velocities`), for n coordinates and `n_stages` stage rows."""
+    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
+                    (("q0", n), ("q1", n), ("s", n_stages), ("h", 1)))
+    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
+                                    ((0.0, 1.0), (1.0, 1.0)))
+    return ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]],
+                       ["q0", "q1", "s", "h"], ["start", "end"])
 
 
 def velocity_changes(disc, traj):
