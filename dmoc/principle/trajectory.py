@@ -104,6 +104,22 @@ class Trajectory:
                              control_nodes=control_nodes, stage_nodes=stage_nodes)
         return traj
 
+    @classmethod
+    def assembled(cls, t, q, p, lam, u, h, variant, mu, s, control_nodes, stage_nodes):
+        """The Trajectory of these fields made as ``Trajectory(...)`` makes them (each array
+        a float array of its own, `mu` None as zeros, `h` a float, the nodes tuples of
+        floats), without its checks (`unchecked`).
+
+        For dmoc's consumers, whose fields meet those checks by construction (finite
+        arrays of the right shapes, h > 0, a formulation's name, a rule's nodes): the
+        simulator's runs and the optimizer's optima.
+        """
+        t, q, p, lam, u, s = (np.array(a, dtype=float) for a in (t, q, p, lam, u, s))
+        mu = np.zeros(lam.shape[1]) if mu is None else np.array(mu, dtype=float)
+        control_nodes, stage_nodes = (tuple(float(c) for c in np.ravel(nodes))
+                                      for nodes in (control_nodes, stage_nodes))
+        return cls.unchecked(t, q, p, lam, u, float(h), variant, mu, s, control_nodes, stage_nodes)
+
     @property
     def steps(self):
         """Number of steps N."""

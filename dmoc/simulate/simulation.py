@@ -217,18 +217,16 @@ def step_controls(disc, controls, steps):
 
 def _assemble(stepper, formulation, disc, controls, acc, out):
     """Trajectory from the horizon's states (the start first) and per-step outputs
-    (time-major arrays): each field a float array of its own, as ``Trajectory(...)``
-    would copy it, without its checks (`Trajectory.unchecked`)."""
+    (time-major arrays), its fields copied as ``Trajectory(...)`` copies them, without its
+    checks (`Trajectory.assembled`; mu None, a (-) run that failed at its first step, is
+    no impulse)."""
     h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
     p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
                                                stepper.residual.m)
-    if mu is None:          # a (-) run that failed at its first step: no impulse applied
-        mu = np.zeros(lam.shape[1])
-    t, q, p, lam, u, mu, s = (np.array(x, dtype=float) for x in (
-        h * np.arange(acc.shape[0]), state["q"], p, lam, controls, mu, per_step["s"]))
-    return Trajectory.unchecked(t, q, p, lam, u, float(h), formulation.name, mu, s,
-                                disc.rule.control_nodes, disc.rule.stage_nodes)
+    return Trajectory.assembled(h * np.arange(acc.shape[0]), state["q"], p, lam, controls, h,
+                                formulation.name, mu, per_step["s"], disc.rule.control_nodes,
+                                disc.rule.stage_nodes)
 
 
 def _interrupted(traj, stats, throw):
