@@ -34,9 +34,8 @@ def compiler():
 
     Found once per process for each value of ``CC`` and ``PATH`` (`shutil.which` and
     `os.path.realpath` cost 0.1 ms, on every `simulate` or `optimize` call with
-    ``jit=True``), and found
-    again when the file found then is no longer the same (another file, mode or
-    modification time, e.g. a link moved to another compiler). A compiler put earlier on
+    ``jit=True``), and found again when the file found then is no longer the same
+    (another file, mode or modification time, e.g. a link moved to another compiler). A compiler put earlier on
     an unchanged ``PATH`` during the process is not seen; a missing compiler is looked for
     on every call."""
     key = (os.environ.get("CC"), os.environ.get("PATH"))

@@ -20,7 +20,6 @@ import traceback
 import casadi as ca
 import cloudpickle
 import distributed
-import numpy as np
 
 from .._util.cache import BoundedCache
 from .packing import PackedResults
@@ -122,11 +121,9 @@ def final_knot(trajectory):
     """The last knot of `trajectory` as a Trajectory of no step: t, q, p of shape (1, ...)
     at t_N, lam, u, s with no row, h, mu and the nodes kept; copies, so the run's arrays
     can go."""
-    t, q, p = (np.array(x[-1:]) for x in (trajectory.t, trajectory.q, trajectory.p))
-    lam, u, s = (np.array(x[:0]) for x in (trajectory.lam, trajectory.u, trajectory.s))
-    return Trajectory.unchecked(t, q, p, lam, u, trajectory.h, trajectory.variant,
-                                trajectory.mu, s, trajectory.control_nodes,
-                                trajectory.stage_nodes)
+    tr = trajectory
+    return Trajectory.assembled(tr.t[-1:], tr.q[-1:], tr.p[-1:], tr.lam[:0], tr.u[:0], tr.h,
+                                tr.variant, tr.mu, tr.s[:0], tr.control_nodes, tr.stage_nodes)
 
 
 def failed_result(kind, status, message, **stats):
