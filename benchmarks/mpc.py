@@ -16,14 +16,18 @@ table (wall and CPU time of `MPC.step`, IPOPT's wall share, iterations, ratios t
 checkouts see the same load) the first step (alone, with the NLP's build, and without
 the creation of the IPOPT solver it includes), the median warm step, and their ratios.
 
-With `--jit` every checkout whose `dmoc.MPC` takes `jit` also runs the loop with
+"default" rows run `dmoc.MPC(problem)` as each checkout defines it (since issue 25's third
+pass the NLP expanded to flat SX Functions; before, the MX graph). With `--mx` every
+checkout whose `dmoc.MPC` takes `expand` also runs ``dmoc.MPC(problem, expand=False)``
+("mx" rows, the MX graph in CasADi's virtual machine). With `--jit` every checkout whose
+`dmoc.MPC` takes `jit` also runs the loop with
 ``dmoc.MPC(problem, jit=True)`` (the NLP's Functions compiled to C, "jit" rows). The
 children share a compiled-code folder of their own (a new temporary DMOC_CACHE_DIR), into
 which one uncounted warmed-up process compiles the library first: the seconds its step 0
 spent creating the solver (compiling and loading) are reported as the compile time, and
 every timed process finds the library in the cache (its step 0 loads it).
 
-    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3] [--jit]
+    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3] [--mx] [--jit]
     python benchmarks/mpc.py --checkouts /work/main /path/to/branch     # before/after
 """
 
@@ -46,15 +50,19 @@ from dmoc.problems import knife_edge_parking  # noqa: E402
 from checkouts import add_checkouts, imported_dmoc  # noqa: E402
 
 
-def closed_loop(horizon, steps, warm_up, jit=False):
-    """The per-step records (dicts) of one closed loop, in this process."""
+SWITCHES = {"default": {}, "mx": {"expand": False}, "jit": {"jit": True}}
+
+
+def closed_loop(horizon, steps, warm_up, mode="default"):
+    """The per-step records (dicts) of one closed loop, in this process; `mode` a key of
+    SWITCHES (the keywords of `dmoc.MPC`)."""
     if warm_up:
         dmoc.optimize(knife_edge_parking(20))       # load IPOPT and the plugins
         dmoc.clear_caches()
     problem = knife_edge_parking(horizon, duration=0.1 * horizon)
     plant = dmoc.discretize(dmoc.systems.knife_edge(mass=1.1), problem.disc.h)
     wall, cpu = time.perf_counter(), time.process_time()
-    controller = dmoc.MPC(problem, **({"jit": True} if jit else {}))   # builds the NLP
+    controller = dmoc.MPC(problem, **SWITCHES[mode])   # builds the NLP
     build = {"step": time.perf_counter() - wall, "cpu": time.process_time() - cpu}
     q, p, cpu = np.zeros(3), np.zeros(3), []
     for k in range(steps):
@@ -97,11 +105,11 @@ def summary(build, records):
     return "; ".join(parts) + f"; all succeeded: {succeeded}"
 
 
-def child(checkout, kind, args, jit=False):
+def child(checkout, kind, args, mode="default"):
     """(build, records) of one fresh process of `checkout` (its dmoc on PYTHONPATH)."""
     out = subprocess.run(
         [sys.executable, __file__, "--child", kind, "--horizon", str(args.horizon), "--steps",
-         str(args.steps)] + (["--jit"] if jit else []), env={**os.environ, "PYTHONPATH": checkout},
+         str(args.steps), "--mode", mode], env={**os.environ, "PYTHONPATH": checkout},
         cwd=tempfile.gettempdir(), capture_output=True, text=True, check=True).stdout
     return json.loads(out)
 
@@ -122,9 +130,9 @@ def medians(processes):
             f"warm / first without it (wall) {np.median(bare):.3f}")
 
 
-def takes_jit(checkout):
-    """Whether the `dmoc.MPC` of `checkout` takes `jit`."""
-    code = "import inspect, dmoc; print('jit' in inspect.signature(dmoc.MPC).parameters)"
+def takes(checkout, switch):
+    """Whether the `dmoc.MPC` of `checkout` takes the keyword `switch`."""
+    code = f"import inspect, dmoc; print({switch!r} in inspect.signature(dmoc.MPC).parameters)"
     return subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": checkout},
                           cwd=tempfile.gettempdir(), capture_output=True, text=True,
                           check=True).stdout.strip() == "True"
@@ -137,10 +145,13 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     add_checkouts(parser)
     parser.add_argument("--jit", action="store_true", help="also run dmoc.MPC(problem, jit=True)")
+    parser.add_argument("--mx", action="store_true",
+                        help="also run dmoc.MPC(problem, expand=False) (the MX graph)")
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
+    parser.add_argument("--mode", choices=SWITCHES, default="default", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        print(json.dumps(closed_loop(args.horizon, args.steps, args.child == "warmed-up", args.jit)))
+        print(json.dumps(closed_loop(args.horizon, args.steps, args.child == "warmed-up", args.mode)))
         return
     if args.jit:        # the children's own compiled-code folder
         os.environ["DMOC_CACHE_DIR"] = tempfile.mkdtemp(prefix="dmoc-mpc-bench-")
@@ -150,29 +161,30 @@ def main():
         found = imported_dmoc(checkout)
         print(f"# {checkout}: dmoc from {found}")
     print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps\n")
-    variants = [(c, False) for c in args.checkouts] + [(c, True) for c in args.checkouts
-                                                        if args.jit and takes_jit(c)]
-    for checkout, jit in variants:
-        if jit:
-            build, _ = child(checkout, "warmed-up", args, jit=True)
+    variants = [(c, "default") for c in args.checkouts]
+    variants += [(c, mode) for mode, switch, wanted in (("mx", "expand", args.mx), ("jit", "jit", args.jit))
+                 for c in args.checkouts if wanted and takes(c, switch)]
+    for checkout, mode in variants:
+        if mode == "jit":
+            build, _ = child(checkout, "warmed-up", args, "jit")
             print(f"{checkout} jit: compiling and loading the NLP's library (step 0's solver "
                   f"creation, the cache folder empty): {build['solver']:.2f} s wall")
-    runs = {(c, jit, kind): [] for c, jit in variants for kind in ("warmed-up", "fresh")}
+    runs = {(c, mode, kind): [] for c, mode in variants for kind in ("warmed-up", "fresh")}
     for _ in range(args.repeat):
         for kind in ("warmed-up", "fresh"):
-            for checkout, jit in variants:          # interleaved: all see the same load
-                runs[checkout, jit, kind].append(child(checkout, kind, args, jit))
+            for checkout, mode in variants:          # interleaved: all see the same load
+                runs[checkout, mode, kind].append(child(checkout, kind, args, mode))
     build, records = runs[variants[-1][0], variants[-1][1], "warmed-up"][0]
     print(f"building the NLP of the structure (dmoc.MPC(problem)): {1e3 * build['step']:.1f} ms "
           f"wall, {1e3 * build['cpu']:.1f} ms CPU\n")
     table(records)
     print()
-    for (checkout, jit, kind), processes in runs.items():
+    for (checkout, mode, kind), processes in runs.items():
         for i, (build, records) in enumerate(processes):
-            print(f"{checkout}{' jit' if jit else ''} {kind} process {i}: {summary(build, records)}")
+            print(f"{checkout} {mode} {kind} process {i}: {summary(build, records)}")
     print()
-    for (checkout, jit, kind), processes in runs.items():
-        print(f"{checkout}{' jit' if jit else ''} {kind}: {medians(processes)}")
+    for (checkout, mode, kind), processes in runs.items():
+        print(f"{checkout} {mode} {kind}: {medians(processes)}")
     print(f"# load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
 
 

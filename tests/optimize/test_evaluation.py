@@ -92,12 +92,18 @@ def closed_loop(steps, **switches):
     return records, controller
 
 
-@pytest.mark.parametrize("mode", MODES.values(), ids=MODES.keys())
+MPC_MODES = {"default": {}, "expand": {"expand": True},
+             "jit": pytest.param({"jit": True}, marks=needs_compiler)}
+
+
+@pytest.mark.parametrize("mode", MPC_MODES.values(), ids=MPC_MODES.keys())
 def test_the_mpc_closed_loop_is_the_same_bit_for_bit(private_cache, mode):
-    (vm, _), (other, controller) = closed_loop(5), closed_loop(5, **mode)
+    """The MPC's default (expanded) and its compiled evaluations against the MX graph
+    (``expand=False``), step by step."""
+    (vm, _), (other, controller) = closed_loop(5, expand=False), closed_loop(5, **mode)
     assert [r.warm_start for r in controller.log] == [False] + [True] * 4
     kept, reused, _ = solver(controller.problem.transcription, {"warm_start_init_point": "yes"},
-                             reuse=True, report=False, **{"expand": False, "jit": False, **mode})
+                             reuse=True, report=False, **{"expand": True, "jit": False, **mode})
     assert reused and kept.nlpsol.get_function("nlp_jac_g").class_name() == (
         "External" if "jit" in mode else "SXFunction")
     for a, b in zip(vm, other):
