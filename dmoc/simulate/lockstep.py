@@ -1,0 +1,133 @@
+"""Many runs of the Dirac integrator in lockstep: runs that share a stepper (the same step
+residual, tol, max_iter and jit), h and their number of steps N take each chunk of
+steps together, the horizon of that chunk evaluated for all of them in one call
+(`DiracStepper.horizons_of`, CasADi's map of the same horizon `simulate` calls) and
+their steps accepted at once. A run whose step is not accepted leaves the lockstep at
+that step and goes on alone, as `simulate` would have gone on there
+(`DiracStepper.resume`): every result equals ``simulate``'s bit for bit, at a fraction of
+its cost per run in Python (docs/performance.md, "Sixth: runs in lockstep").
+"""
+
+import time
+
+import numpy as np
+
+from .simulation import conclude, memory_needed, prepare
+from .stepper import LOCKSTEP, chunk_length
+
+# the most bytes of arrays (`memory_needed`) one group of runs in lockstep holds at once
+# beyond their results: 256 knife-edge runs of 1000 steps
+GROUP_BYTES = 1 << 26
+
+
+def simulate_lockstep(runs):
+    """`simulate` of each of `runs` (`simulation.Run`, from `prepare`), the runs of each
+    of their `groups` in lockstep: the SimulationResults in the order of `runs`, each
+    what ``simulate`` returns for the same arguments but ``stats["wall_time"]`` (its
+    group's time so far). With ``throw``, a failed run raises as ``simulate`` does once
+    its group has run."""
+    results = [None] * len(runs)
+    for members in groups(runs):
+        group = [runs[i] for i in members]
+        stepped = run_lockstep(group[0].stepper, np.array([run.start for run in group]),
+                               np.array([run.controls for run in group]), group[0].disc.h)
+        for i, run, outcome in zip(members, group, stepped):
+            results[i] = conclude(run, outcome)
+    return results
+
+
+def simulate_runs(disc, runs):
+    """``[simulate(disc, **run, throw=False) for run in runs]`` in lockstep
+    (`simulate_lockstep`): the same results but the wall times, in less time.
+
+    Parameters
+    ----------
+    disc : Discretization
+    runs : sequence of dict
+        Keyword arguments of `simulate` for each run, as for `dmoc.batch.simulate_many`.
+
+    Returns
+    -------
+    list of SimulationResult
+        In the order of `runs`. A bad argument raises (InputError) as `simulate` does.
+    """
+    return simulate_lockstep([prepare(disc, **run, throw=False) for run in runs])
+
+
+def groups(runs):
+    """Lists of indices into `runs` of the runs that step in lockstep: the same stepper,
+    h and number of steps; at most as many runs as hold GROUP_BYTES of arrays
+    (`memory_needed`), so that a group's arrays stay a bounded multiple of one run's."""
+    found = {}
+    for i, run in enumerate(runs):
+        key = (id(run.stepper), run.disc.h, run.controls.shape[0])
+        found.setdefault(key, []).append(i)
+    split = []
+    for members in found.values():
+        first = runs[members[0]]
+        most = max(1, GROUP_BYTES // memory_needed(first.disc, first.controls.shape[0]))
+        split.extend(members[j:j + most] for j in range(0, len(members), most))
+    return split
+
+
+def run_lockstep(stepper, starts, controls, h):
+    """`stepper.run` of R runs that start from `starts` (R, state.size) under `controls`
+    (R, N, n_controls), chunk by chunk together: one tuple of `DiracStepper.run` per run,
+    in order. A run whose step k the fast path does not converge goes on alone from k
+    (`DiracStepper.resume`). On a KeyboardInterrupt every run still in lockstep keeps
+    the steps of the chunks before (interrupted, as `run`)."""
+    R, N = controls.shape[:2]
+    acc = np.empty((R, N + 1, stepper.state.size))
+    out = np.empty((R, N, stepper.out.size))
+    acc[:, 0] = starts
+    outcomes = [None] * R
+    active, k = np.arange(R), 0
+    try:
+        while k < N and active.size:
+            c = chunk_length(N - k)
+            stepper.native_if_due()
+            tic = time.perf_counter()
+            following, per_step = _evaluate(stepper, acc[active, k], controls[active, k:k + c], h)
+            if not stepper.native:
+                stepper.vm_seconds += time.perf_counter() - tic
+            acc[active, k + 1:k + 1 + c], out[active, k:k + c] = following, per_step
+            ok = stepper.accepted(per_step.reshape(-1, stepper.out.size)).reshape(-1, c)
+            for i, steps_ok in zip(active[~ok.all(axis=1)], ok[~ok.all(axis=1)]):
+                outcomes[i] = stepper.resume(acc[i], out[i], controls[i], h,
+                                             k + int(np.argmin(steps_ok)), redo=True)
+                if outcomes[i][4]:              # interrupted while alone
+                    raise KeyboardInterrupt
+            active = active[ok.all(axis=1)]
+            k += c
+    except KeyboardInterrupt:
+        for i in active:
+            if outcomes[i] is None:
+                outcomes[i] = (acc[i, :k + 1], out[i, :k], None, 0, True)
+        return outcomes
+    for i in active:
+        outcomes[i] = (acc[i], out[i], None, 0, False)
+    return outcomes
+
+
+def _evaluate(stepper, states, controls, h):
+    """The fast path's next states (A, c, state.size) and outputs (A, c, out.size) of c
+    steps of A runs from `states` (A, state.size) under `controls` (A, c, n_controls):
+    the runs in blocks of LOCKSTEP, then of the powers of two that make up the rest, each
+    block one call of the mapped horizon."""
+    A, c = controls.shape[:2]
+    states, controls = np.ascontiguousarray(states), np.ascontiguousarray(controls, dtype=float)
+    following = np.empty((A, c, stepper.state.size))
+    per_step = np.empty((A, c, stepper.out.size))
+    steps = np.full(min(A, LOCKSTEP) * c, float(h))
+    first = 0
+    while first < A:
+        width = min(LOCKSTEP, 1 << ((A - first).bit_length() - 1))
+        block = slice(first, first + width)
+        buffer, evaluate = stepper.horizons_of(c, width)
+        for i, a in enumerate((states[block], controls[block], steps[:width * c])):
+            buffer.set_arg(i, memoryview(a))
+        buffer.set_res(0, memoryview(following[block]))
+        buffer.set_res(1, memoryview(per_step[block]))
+        evaluate()
+        first += width
+    return following, per_step
