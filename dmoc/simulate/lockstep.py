@@ -8,6 +8,7 @@ that step and goes on alone, as `simulate` would have gone on there
 its cost per run in Python (docs/performance.md, "Sixth: runs in lockstep").
 """
 
+import threading
 import time
 
 import numpy as np
@@ -16,8 +17,10 @@ from .simulation import conclude, memory_needed, prepare
 from .stepper import LOCKSTEP, chunk_length
 
 # the most bytes of arrays (`memory_needed`) one group of runs in lockstep holds at once
-# beyond their results: 256 knife-edge runs of 1000 steps
-GROUP_BYTES = 1 << 26
+# beyond their results: about 140 knife-edge runs of 1000 steps
+GROUP_BYTES = 1 << 25
+
+_SCRATCH = threading.local()        # the memory of `_scratch`, one per thread
 
 
 def simulate_lockstep(runs):
@@ -73,31 +76,39 @@ def groups(runs):
 def run_lockstep(stepper, starts, controls, h):
     """`stepper.run` of R runs that start from `starts` (R, state.size) under `controls`
     (R, N, n_controls), chunk by chunk together: one tuple of `DiracStepper.run` per run,
-    in order. A run whose step k the fast path does not converge goes on alone from k
-    (`DiracStepper.resume`). On a KeyboardInterrupt every run still in lockstep keeps
-    the steps of the chunks before (interrupted, as `run`)."""
+    in order, whose arrays are views of this thread's scratch memory (`_scratch`), valid
+    until its next call (`conclude` copies them). A run whose step k the fast path does
+    not converge goes on alone from k (`DiracStepper.resume`). On a KeyboardInterrupt
+    every run still in lockstep keeps the steps of the chunks before (interrupted, as
+    `run`)."""
     R, N = controls.shape[:2]
-    acc = np.empty((R, N + 1, stepper.state.size))
-    out = np.empty((R, N, stepper.out.size))
+    S, O, widest = stepper.state.size, stepper.out.size, chunk_length(N)
+    arrays = _scratch({"acc": (R, N + 1, S), "out": (R, N, O), "following": R * widest * S,
+                       "per_step": R * widest * O})
+    acc, out = arrays["acc"], arrays["out"]
     acc[:, 0] = starts
     outcomes = [None] * R
     active, k = np.arange(R), 0
     try:
         while k < N and active.size:
             c = chunk_length(N - k)
+            runs = slice(None) if active.size == R else active      # all: no gather, no scatter
+            following = arrays["following"][:active.size * c * S].reshape(active.size, c, S)
+            per_step = arrays["per_step"][:active.size * c * O].reshape(active.size, c, O)
             stepper.native_if_due()
             tic = time.perf_counter()
-            following, per_step = _evaluate(stepper, acc[active, k], controls[active, k:k + c], h)
+            _evaluate(stepper, acc[runs, k], controls[runs, k:k + c], h, following, per_step)
             if not stepper.native:
                 stepper.vm_seconds += time.perf_counter() - tic
-            acc[active, k + 1:k + 1 + c], out[active, k:k + c] = following, per_step
-            ok = stepper.accepted(per_step.reshape(-1, stepper.out.size)).reshape(-1, c)
-            for i, steps_ok in zip(active[~ok.all(axis=1)], ok[~ok.all(axis=1)]):
+            acc[runs, k + 1:k + 1 + c], out[runs, k:k + c] = following, per_step
+            ok = stepper.accepted(per_step.reshape(-1, O)).reshape(-1, c)
+            whole = ok.all(axis=1)
+            for i, steps_ok in zip(active[~whole], ok[~whole]):
                 outcomes[i] = stepper.resume(acc[i], out[i], controls[i], h,
                                              k + int(np.argmin(steps_ok)), redo=True)
                 if outcomes[i][4]:              # interrupted while alone
                     raise KeyboardInterrupt
-            active = active[ok.all(axis=1)]
+            active = active[whole]
             k += c
     except KeyboardInterrupt:
         for i in active:
@@ -109,15 +120,13 @@ def run_lockstep(stepper, starts, controls, h):
     return outcomes
 
 
-def _evaluate(stepper, states, controls, h):
-    """The fast path's next states (A, c, state.size) and outputs (A, c, out.size) of c
-    steps of A runs from `states` (A, state.size) under `controls` (A, c, n_controls):
-    the runs in blocks of LOCKSTEP, then of the powers of two that make up the rest, each
-    block one call of the mapped horizon."""
+def _evaluate(stepper, states, controls, h, following, per_step):
+    """Write to `following` (A, c, state.size) and `per_step` (A, c, out.size) the fast
+    path's next states and outputs of c steps of A runs from `states` (A, state.size)
+    under `controls` (A, c, n_controls): the runs in blocks of LOCKSTEP, then of the
+    powers of two that make up the rest, each block one call of the mapped horizon."""
     A, c = controls.shape[:2]
     states, controls = np.ascontiguousarray(states), np.ascontiguousarray(controls, dtype=float)
-    following = np.empty((A, c, stepper.state.size))
-    per_step = np.empty((A, c, stepper.out.size))
     steps = np.full(min(A, LOCKSTEP) * c, float(h))
     first = 0
     while first < A:
@@ -130,4 +139,18 @@ def _evaluate(stepper, states, controls, h):
         buffer.set_res(1, memoryview(per_step[block]))
         evaluate()
         first += width
-    return following, per_step
+
+
+def _scratch(shapes):
+    """Float arrays of the `shapes` ({name: shape}) in memory this thread reuses from call
+    to call (grown when too small): a group's arrays are tens of MB, which fresh
+    allocations would fault in page by page each time."""
+    sizes = {name: int(np.prod(shape)) for name, shape in shapes.items()}
+    memory = getattr(_SCRATCH, "memory", None)
+    if memory is None or memory.size < sum(sizes.values()):
+        memory = _SCRATCH.memory = np.empty(sum(sizes.values()))
+    arrays, at = {}, 0
+    for name, shape in shapes.items():
+        arrays[name] = memory[at:at + sizes[name]].reshape(shape)
+        at += sizes[name]
+    return arrays
