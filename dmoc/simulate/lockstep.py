@@ -32,8 +32,12 @@ def simulate_lockstep(runs):
     results = [None] * len(runs)
     for members in groups(runs):
         group = [runs[i] for i in members]
-        stepped = run_lockstep(group[0].stepper, np.array([run.start for run in group]),
-                               np.array([run.controls for run in group]), group[0].disc.h)
+        if len(group) == 1:           # alone: no lockstep to gain, no scratch memory to keep
+            run = group[0]
+            stepped = [run.stepper.run(run.start, run.controls, run.disc.h)]
+        else:
+            stepped = run_lockstep(group[0].stepper, np.array([run.start for run in group]),
+                                   np.array([run.controls for run in group]), group[0].disc.h)
         for i, run, outcome in zip(members, group, stepped):
             results[i] = conclude(run, outcome)
     return results
@@ -143,12 +147,16 @@ def _evaluate(stepper, states, controls, h, following, per_step):
 
 def _scratch(shapes):
     """Float arrays of the `shapes` ({name: shape}) in memory this thread reuses from call
-    to call (grown when too small): a group's arrays are tens of MB, which fresh
-    allocations would fault in page by page each time."""
+    to call (grown when too small, up to 2 GROUP_BYTES; larger ones are fresh each time):
+    a group's arrays are tens of MB, which fresh allocations would fault in page by page
+    each time."""
     sizes = {name: int(np.prod(shape)) for name, shape in shapes.items()}
+    total = sum(sizes.values())
     memory = getattr(_SCRATCH, "memory", None)
-    if memory is None or memory.size < sum(sizes.values()):
-        memory = _SCRATCH.memory = np.empty(sum(sizes.values()))
+    if memory is None or memory.size < total:
+        memory = np.empty(total)
+        if 8 * total <= 2 * GROUP_BYTES:        # kept up to about what a group needs
+            _SCRATCH.memory = memory
     arrays, at = {}, 0
     for name, shape in shapes.items():
         arrays[name] = memory[at:at + sizes[name]].reshape(shape)
