@@ -57,6 +57,15 @@ def simulate_runs(disc, runs):
     -------
     list of SimulationResult
         In the order of `runs`. A bad argument raises (InputError) as `simulate` does.
+
+    Examples
+    --------
+    >>> import dmoc
+    >>> from dmoc.simulate.lockstep import simulate_runs
+    >>> disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    >>> runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 10} for c in (0.5, 1.0, 2.0)]
+    >>> [r.trajectory.q.shape for r in simulate_runs(disc, runs)]
+    [(11, 3), (11, 3), (11, 3)]
     """
     return simulate_lockstep([prepare(disc, **run, throw=False) for run in runs])
 
