@@ -3,7 +3,8 @@ loop ``[dmoc.simulate(disc, **run, throw=False) for run in runs]``, interleaved 
 process (docs/performance.md, "Sixth: runs in lockstep").
 
 Each round times the serial loop, then the same runs in lockstep, then each part of a
-run alone (the checks and start of `prepare`, the steps, `conclude`'s trajectory and
+run alone (the checks and start of `prepare`, the steps one run at a time and in
+lockstep, group by group as `simulate_runs` makes them, `conclude`'s trajectory and
 verdict), on knife-edge runs of `--steps` steps (v0 = (c, 0, 1)), compiled step
 (``jit=True``; the virtual machine without a C compiler); medians over `--repeat` rounds,
 in microseconds per run; the results are compared bit for bit.
@@ -23,7 +24,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc._util import compiled  # noqa: E402
-from dmoc.simulate.lockstep import run_lockstep, simulate_runs  # noqa: E402
+from dmoc.simulate.lockstep import groups, run_lockstep, simulate_runs  # noqa: E402
 from dmoc.simulate.simulation import conclude, prepare  # noqa: E402
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
@@ -47,9 +48,10 @@ def rounds(disc, runs, repeat):
         prepared = clock("  prepare", lambda: [prepare(disc, **run, throw=False) for run in runs])
         alone = clock("  steps, one run at a time", lambda: [
             r.stepper.run(r.start, r.controls, disc.h) for r in prepared])
-        clock("  steps in lockstep", lambda: run_lockstep(
-            prepared[0].stepper, np.array([r.start for r in prepared]),
-            np.array([r.controls for r in prepared]), disc.h))
+        clock("  steps in lockstep", lambda: [run_lockstep(
+            prepared[0].stepper, np.array([prepared[i].start for i in members]),
+            np.array([prepared[i].controls for i in members]), disc.h)
+            for members in groups(prepared)])
         clock("  conclude", lambda: [conclude(r, a) for r, a in zip(prepared, alone)])
     return times
 
