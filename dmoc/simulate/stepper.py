@@ -10,6 +10,8 @@ q_k and the stage values less q_k; the other end variable enters the "right" row
 Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
 redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's horizons of
 1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc._util.compiled`).
+Runs in lockstep (`dmoc.simulate.lockstep`) evaluate the same horizons mapped over
+several runs (`horizons_of`), and a run that leaves them goes on with `resume`.
 """
 
 import time
