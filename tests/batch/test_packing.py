@@ -193,7 +193,7 @@ def test_runs_in_lockstep_on_the_workers_equal_serial_runs(client, how):
                                       timeout=60 if how == "timeout" else None)
     finally:
         if how == "lockstep raises":
-            assert sum(client.run(_break_lockstep, False).values()) >= 2     # each task's
+            assert sum(client.run(_break_lockstep, False).values()) >= 1     # a chunk of several runs
     for got, run in zip(results, runs):
         _assert_same(got, disc, run, "trajectory")
     statuses = {r.status for r in results}
