@@ -14,7 +14,9 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
   ``simulate_many(keep="final")``, which returns the last knot of each run only, against
   the same serial loop; and "in one process, packed": the worker's path without Dask, the
   same runs with ``throw=False`` as one chunk pickled and unpickled as it travels
-  (`dmoc.batch.packing`), which tells the cost of packing from the parallel speed-up.
+  (`dmoc.batch.packing`), which tells the cost of packing from the parallel speed-up;
+  "in one process, lockstep": the same with the runs in lockstep, as a worker's task
+  steps them (`dmoc.simulate.lockstep`).
 - **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
   and on the cluster: seconds per item, and the worker-seconds a batch adds per item,
   2 x batch - serial (its cost of shipping, scheduling and collecting).
@@ -50,6 +52,7 @@ import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
+from dmoc.simulate.lockstep import simulate_runs  # noqa: E402
 from dmoc._util import compiled  # noqa: E402
 
 WORKERS = 2
@@ -119,7 +122,8 @@ def simulate_rows(cluster, steps, count, repeat=1):
     for keep in ("trajectory", "final"):
         batch.simulate_many(disc, runs[:2 * WORKERS], keep=keep, client=cluster, progress=False)
     packed_in_process(disc, runs)     # as on a worker after its first chunk: memory reused
-    times = {"serial": [], "trajectory": [], "final": [], "packed": []}
+    packed_in_process(disc, runs, simulate_runs)
+    times = {"serial": [], "trajectory": [], "final": [], "packed": [], "lockstep": []}
     dq = dict.fromkeys(times, 0.0)
     for _ in range(repeat):
         wall, cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
@@ -130,10 +134,11 @@ def simulate_rows(cluster, steps, count, repeat=1):
             times[keep].append((wall, cpu))
             dq[keep] = max(dq[keep], *(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
                                        for a, b in zip(results, serial)))
-        wall, cpu, results = timed(lambda: packed_in_process(disc, runs))
-        times["packed"].append((wall, cpu))
-        dq["packed"] = max(dq["packed"], *(np.abs(a.trajectory.q - b.trajectory.q).max()
-                                           for a, b in zip(results, serial)))
+        for name, simulated in (("packed", None), ("lockstep", simulate_runs)):
+            wall, cpu, results = timed(lambda: packed_in_process(disc, runs, simulated))
+            times[name].append((wall, cpu))
+            dq[name] = max(dq[name], *(np.abs(a.trajectory.q - b.trajectory.q).max()
+                                       for a, b in zip(results, serial)))
     median = {k: np.median(np.array(v), axis=0) for k, v in times.items()}
     serial_wall, serial_cpu = median["serial"]
     return [(f"simulate {count} x {steps} steps", serial_wall, serial_cpu, *median["trajectory"],
@@ -141,15 +146,19 @@ def simulate_rows(cluster, steps, count, repeat=1):
             ('  keep="final"', serial_wall, serial_cpu, *median["final"], dq["final"]),
             # one process, one core: its "cpu bound" column is serial CPU / its CPU
             ("  in one process, packed", serial_wall, serial_cpu, median["packed"][0],
-             WORKERS * median["packed"][1], dq["packed"])]
+             WORKERS * median["packed"][1], dq["packed"]),
+            ("  in one process, lockstep", serial_wall, serial_cpu, median["lockstep"][0],
+             WORKERS * median["lockstep"][1], dq["lockstep"])]
 
 
-def packed_in_process(disc, runs):
-    """The runs as a worker's task makes them (``throw=False``), as one chunk pickled and
-    unpickled with out-of-band buffers, as Dask moves it."""
+def packed_in_process(disc, runs, simulated=None):
+    """The runs as a worker's task makes them (``throw=False``; one by one, or by
+    `simulated`, e.g. `simulate_runs`), as one chunk pickled and unpickled with
+    out-of-band buffers, as Dask moves it."""
     buffers = []
-    data = pickle.dumps(PackedResults([dmoc.simulate(disc, **run, throw=False) for run in runs]),
-                        protocol=5, buffer_callback=buffers.append)
+    results = (simulated(disc, runs) if simulated is not None
+               else [dmoc.simulate(disc, **run, throw=False) for run in runs])
+    data = pickle.dumps(PackedResults(results), protocol=5, buffer_callback=buffers.append)
     return pickle.loads(data, buffers=buffers)
 
 

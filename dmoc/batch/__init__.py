@@ -120,7 +120,9 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
 
     Each worker gets each Discretization once (its compiled step is built or loaded once
     per worker process) and each run as its keyword arguments, in chunks as in
-    `optimize_many`.
+    `optimize_many`; the runs of a chunk that share a stepper, h and their number of
+    steps step in lockstep (`dmoc.simulate.lockstep`: the results of `simulate` bit for
+    bit, for less CPU per run), unless `timeout` is set (then each runs alone).
 
     Parameters
     ----------
@@ -144,7 +146,8 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     list of SimulationResult, length B
         In input order; a Newton failure has ``status="newton_failed"`` and the steps
         before it; an item that produced no run has ``trajectory=None`` and one of the
-        statuses of `optimize_many`. ``stats["worker"]`` is the worker's address.
+        statuses of `optimize_many`. ``stats["worker"]`` is the worker's address;
+        ``stats["wall_time"]`` of a run in lockstep includes its group's other runs.
 
     Raises
     ------

@@ -26,7 +26,8 @@ from .packing import PackedResults
 from ..optimize.solve import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..results.optimum import optimize
-from ..simulate.simulation import SimulationResult, simulate
+from ..simulate.lockstep import simulate_lockstep
+from ..simulate.simulation import Run, SimulationResult, prepare, simulate
 
 # digest -> [the Shipments registered with it, their bytes] in this worker process, while
 # a batch runs (not a BoundedCache: `clear_caches` must not empty it)
@@ -100,21 +101,53 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
     ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
     trajectories travel as a few arrays, through shared memory when `share`, the client's
-    `sharing.Exchange`, reaches this worker)."""
+    `sharing.Exchange`, reaches this worker).
+
+    Without a `timeout`, the runs that can step together do so in lockstep
+    (`dmoc.simulate.lockstep`: the same results as one by one, for less CPU); each item's
+    seconds are then the chunk's CPU seconds over its items. With a `timeout`, each item
+    runs alone, in a thread the task can abandon."""
     def runner(item):
         def load():
             return shipped(digest, cloudpickle.loads), cloudpickle.loads(item)
 
         def solve(loaded):
             disc, run = loaded
-            result = simulate(disc, **run, throw=False)
-            if keep == "final" and result.trajectory is not None:
-                result.trajectory = final_knot(result.trajectory)
-            return result
+            return simulate(disc, **run, throw=False)
         return load, solve
 
-    results, seconds = _chunk(SimulationResult, [runner(item) for item in items], timeout)
+    calls = [runner(item) for item in items]
+    if timeout is None:
+        results, seconds = _in_lockstep(calls)
+    else:
+        results, seconds = _chunk(SimulationResult, calls, timeout)
+    for result in results:
+        if keep == "final" and result.trajectory is not None:
+            result.trajectory = final_knot(result.trajectory)
     return PackedResults(results, share), seconds
+
+
+def _in_lockstep(calls):
+    """(results, seconds) of the (load, solve) `calls` of `simulate_chunk`: each item's
+    arguments loaded and checked (`prepare`) in its own guard, then the runs prepared
+    stepped in lockstep (`simulate_lockstep`); should that raise, each of them runs
+    alone (`_guarded`), so an error stays its item's. Each result is stamped with this
+    worker's address; the seconds are the chunk's CPU time shared equally."""
+    tic = time.process_time()
+    results, runs = [], {}
+    for i, (load, _) in enumerate(calls):
+        loaded = _attempt(SimulationResult, load, lambda pair: prepare(pair[0], **pair[1], throw=False))
+        if isinstance(loaded, Run):
+            runs[i] = loaded
+        results.append(loaded)
+    try:
+        stepped = simulate_lockstep(list(runs.values()))
+    except BaseException:       # any error of the group: each item again, alone
+        stepped = [_guarded(SimulationResult, *calls[i], None)[0] for i in runs]
+    for i, result in zip(runs, stepped):
+        results[i] = result
+    _stamp(results)
+    return results, [(time.process_time() - tic) / len(calls)] * len(calls)
 
 
 def final_knot(trajectory):
@@ -146,10 +179,15 @@ def _chunk(kind, calls, timeout):
         results.append(result)
         if not finished:
             break
+    _stamp(results)
+    return results, seconds
+
+
+def _stamp(results):
+    """Each result's ``stats["worker"]``: the address of this worker."""
     worker = distributed.get_worker().address
     for result in results:
         result.stats["worker"] = worker
-    return results, seconds
 
 
 def _guarded(kind, load, solve, timeout):

@@ -124,6 +124,33 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     >>> res.trajectory.q.shape, res.success
     ((11, 3), True)
     """
+    run = prepare(disc, q0=q0, v0=v0, p0=p0, steps=steps, controls=controls, variant=variant,
+                  throw=throw, tol=tol, max_iter=max_iter, jit=jit)
+    return conclude(run, run.stepper.run(run.start, run.controls, disc.h))
+
+
+@dataclass
+class Run:
+    """A run of `simulate` checked and ready to step (`prepare`): its discretization,
+    formulation, stepper (shared by every run of the same residual, tol, max_iter and
+    jit), start state (stepper.state.size,), controls (steps, disc.n_controls), `throw`,
+    `tol`, and the `perf_counter` time its stepper was asked for (where wall_time starts)."""
+
+    disc: Discretization
+    formulation: object
+    stepper: DiracStepper
+    start: np.ndarray
+    controls: np.ndarray
+    throw: bool
+    tol: float
+    tic: float
+
+
+def prepare(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", throw=True,
+            tol=1e-12, max_iter=50, jit=None):
+    """The arguments of `simulate` checked, and what its steps start from: the start
+    momentum (``v0`` through dL/dv), the controls at every control node, the stepper.
+    Raises as `simulate` does for a bad argument."""
     checks.instance("disc", disc, Discretization, "a Discretization")
     sys = disc.system
     formulation = as_formulation(variant, disc)
@@ -143,17 +170,23 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     start = np.zeros(stepper.state.size)
     for name, value in (("q", q0), ("p", p_start), ("dq", disc.h * v_guess)):
         start[stepper.state.slice(name)] = value
-    acc, out, failed_rnorm, redone, interrupted = stepper.run(start, controls, disc.h)
-    wall = time.perf_counter() - tic
-    k = out.shape[0]
-    traj = _assemble(stepper, formulation, disc, controls[:k], acc, out)
+    return Run(disc, formulation, stepper, start, controls, throw, tol, tic)
+
+
+def conclude(run, stepped):
+    """The SimulationResult of `run` from what its stepper returned (`DiracStepper.run`):
+    the trajectory of the steps kept, the stats, and the verdict (raised with `throw`)."""
+    acc, out, failed_rnorm, redone, interrupted = stepped
+    wall = time.perf_counter() - run.tic
+    stepper, k = run.stepper, out.shape[0]
+    traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out)
     rnorm = stepper.out.split(out)["rnorm"]
-    stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
+    stats = {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
              "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
              "wall_time": wall}
     if interrupted:
-        return _interrupted(traj, stats, throw)
-    return _finish(traj, stats, failed_rnorm, tol, throw)
+        return _interrupted(traj, stats, run.throw)
+    return _finish(traj, stats, failed_rnorm, run.tol, run.throw)
 
 
 # the smallest residual relative to the momenta that a converged step can be asked for:

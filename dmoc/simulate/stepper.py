@@ -10,6 +10,8 @@ q_k and the stage values less q_k; the other end variable enters the "right" row
 Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
 redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's horizons of
 1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc._util.compiled`).
+Runs in lockstep (`dmoc.simulate.lockstep`) evaluate the same horizons mapped over
+several runs (`horizons_of`), and a run that leaves them goes on with `resume`.
 """
 
 import time
@@ -27,6 +29,8 @@ MINOR_UNKNOWNS = 6  # blocks up to this size are inverted by cofactors: fewer op
 NATIVE_AFTER_SECONDS = 0.5
 CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most
                   # log2(CHUNK) + 1 horizons are ever built per stepper
+LOCKSTEP = 16     # runs per call in lockstep (`horizons_of`): CasADi's map builds in
+                  # ~0.1 ms up to a few dozen runs, in tens of ms for hundreds
 
 
 class DiracStepper:
@@ -61,7 +65,7 @@ class DiracStepper:
         self.robust = self._robust_step(max_iter)
         horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in _chunk_sizes()]
         self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
-        self._chunks = {f.numel_in(2): f.buffer() for f in horizons}
+        self._use(horizons)
         self.native, self.vm_seconds = False, 0.0
         self._auto = native is None and self.library.key is not None
         if native or (self._auto and self.library.cached()):
@@ -78,8 +82,35 @@ class DiracStepper:
             warnings.warn(f"{err}\nSimulating in CasADi's virtual machine instead.", RuntimeWarning)
             self._auto = False
             return
-        self._chunks = {c: f.buffer() for c, f in zip(_chunk_sizes(), library.values())}
+        self._use(library.values())
         self.native = True
+
+    def _use(self, horizons):
+        """Evaluate the chunks with `horizons` (of 1, 2, 4, ..., CHUNK steps) from now on:
+        each through a buffer of its own, and, for runs in lockstep, through buffers of its
+        map over 1, 2, 4, ..., LOCKSTEP runs, made when first used (`horizons_of`)."""
+        self._horizons = dict(zip(_chunk_sizes(), horizons))
+        self._chunks = {c: f.buffer() for c, f in self._horizons.items()}
+        self._mapped = {}
+
+    def horizons_of(self, steps, runs):
+        """(buffer, evaluate) of the horizon of `steps` steps mapped over `runs` runs
+        (a power of two up to LOCKSTEP): CasADi's serial map, which calls the one horizon
+        (compiled or in the virtual machine) for each run in turn, on columns that hold
+        the runs one after another: inputs state (runs, state.size), u (runs, steps,
+        n_controls), h (runs * steps,), outputs next (runs, steps, state.size) and out
+        (runs, steps, out.size), C-contiguous."""
+        key = (steps, runs)
+        if key not in self._mapped:
+            mapped = self._horizons[steps].map(f"horizon_{steps}_x{runs}", "serial", runs, [], [])
+            self._mapped[key] = mapped.buffer()
+        return self._mapped[key]
+
+    def native_if_due(self):
+        """With `native` None, go native once the virtual machine has had its
+        NATIVE_AFTER_SECONDS (before the next chunk)."""
+        if self._auto and not self.native and self.vm_seconds >= NATIVE_AFTER_SECONDS:
+            self._go_native()
 
     def _equations(self):
         """G(y, params) -> (g, p0, q1, p1) with params = (q0, p0', u, h): the equations, the
@@ -222,9 +253,18 @@ class DiracStepper:
         N = controls.shape[0]
         acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
         acc[0] = start
-        done = [0, 0]           # steps accepted, steps redone: what an interrupt keeps
+        return self.resume(acc, out, controls, h, 0, redo=False)
+
+    def resume(self, acc, out, controls, h, k, redo):
+        """`run` from step `k` of arrays whose rows up to k (states) and k - 1 (outputs)
+        are done, redoing step k with the line-search Newton first when `redo` (the fast
+        path did not converge it): how a run that leaves the lockstep goes on
+        (`dmoc.simulate.lockstep`) as `run` would have gone on at that step."""
+        done = [k, 0]           # steps accepted, steps redone: what an interrupt keeps
         try:
-            rnorm = self._steps(acc, out, controls, h, done)
+            rnorm = self._redo(acc, out, controls, h, done) if redo else None
+            if rnorm is None:
+                rnorm = self._steps(acc, out, controls, h, done)
         except KeyboardInterrupt:
             k, redone = done
             return acc[:k + 1], out[:k], None, redone, True
@@ -238,25 +278,40 @@ class DiracStepper:
         steps = np.full(min(N, CHUNK), float(h))
         while done[0] < N:
             k = done[0]
-            c = min(CHUNK, 1 << ((N - k).bit_length() - 1))
-            if self._auto and not self.native and self.vm_seconds >= NATIVE_AFTER_SECONDS:
-                self._go_native()
+            c = chunk_length(N - k)
+            self.native_if_due()
             tic = time.perf_counter()
             self._chunk(acc[k], controls[k:k + c], steps[:c], acc[k + 1:k + 1 + c], out[k:k + c])
             if not self.native:
                 self.vm_seconds += time.perf_counter() - tic
             ok = self.accepted(out[k:k + c])
             j = int(np.argmin(ok)) if not ok.all() else c
-            done[0] = k = k + j
-            if j < c:       # redo step k with the line-search Newton
-                acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
-                if not self.accepted(out1)[0]:
-                    finite = out1[0, self.out.slice("nonfinite").start] == 0
-                    return float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
-                acc[k + 1], out[k] = acc1[0], out1[0]
-                done[0] = k + 1
-                done[1] += 1
+            done[0] = k + j
+            if j < c:
+                rnorm = self._redo(acc, out, controls, h, done)
+                if rnorm is not None:
+                    return rnorm
         return None
+
+    def _redo(self, acc, out, controls, h, done):
+        """Redo step k = done[0], which the fast path did not converge, with the line-search
+        Newton; None when it converges (then counted in `done`), else its rnorm (NaN when
+        non-finite)."""
+        k = done[0]
+        acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
+        if not self.accepted(out1)[0]:
+            finite = out1[0, self.out.slice("nonfinite").start] == 0
+            return float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
+        acc[k + 1], out[k] = acc1[0], out1[0]
+        done[0] = k + 1
+        done[1] += 1
+        return None
+
+
+def chunk_length(remaining):
+    """Steps of the next compiled call with `remaining` steps to go: the largest power of
+    two up to `remaining` and CHUNK."""
+    return min(CHUNK, 1 << (remaining.bit_length() - 1))
 
 
 def _chunk_sizes():

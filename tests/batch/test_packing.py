@@ -142,3 +142,60 @@ def test_trajectories_through_shared_memory_equal_serial_and_leave_no_file(
     shared[0].q[...] = 7.0                       # writable, and no other run sees it
     assert not any((t.q == 7.0).all() for t in shared[1:])
     assert list(tmp_path.iterdir()) == []
+
+
+def _pendulum():
+    """L = v^2/2 + cos q, f = 0.4 v^2 + u: a kick u = 20 needs the line-search Newton, a
+    kick u = 300 leaves the midpoint step without a real solution."""
+    import casadi as ca
+    return dmoc.MechanicalSystem(lambda q, v: 0.5 * v[0] ** 2 + ca.cos(q[0]), 1,
+                                 force=lambda q, v, u: 0.4 * v[0] ** 2 + u[0], n_u=1)
+
+
+def _kicked_runs(count, steps=30):
+    runs = []
+    for i in range(count):
+        controls = np.full((steps, 1), 0.01 * i)
+        controls[(3 * i) % steps] = (0.0, 20.0, 300.0)[i % 3]
+        runs.append({"q0": [0.1 * i], "v0": [1.0], "steps": steps, "controls": controls,
+                     "variant": "+-"[i % 2]})
+    return runs
+
+
+def _raise(*args, **kwargs):
+    from dmoc.simulate import lockstep
+    lockstep.raised += 1
+    raise RuntimeError("lockstep broke")
+
+
+def _break_lockstep(broken):
+    """In a worker: make `run_lockstep` raise (counting in `lockstep.raised`), or restore
+    it; returns how often it raised."""
+    from dmoc.simulate import lockstep
+    if broken:
+        lockstep.saved, lockstep.run_lockstep, lockstep.raised = lockstep.run_lockstep, _raise, 0
+        return 0
+    lockstep.run_lockstep = lockstep.saved
+    return lockstep.raised
+
+
+@pytest.mark.parametrize("how", ["lockstep", "timeout", "lockstep raises"])
+def test_runs_in_lockstep_on_the_workers_equal_serial_runs(client, how):
+    """A worker steps a chunk's runs in lockstep (no `timeout`), one by one with a
+    `timeout`, and one by one again when the lockstep raises: the results are the serial
+    ones every time, redone steps and failures included."""
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = _kicked_runs(60)
+    if how == "lockstep raises":
+        client.run(_break_lockstep, True)
+    try:
+        results = batch.simulate_many(disc, runs, client=client, progress=False,
+                                      timeout=60 if how == "timeout" else None)
+    finally:
+        if how == "lockstep raises":
+            assert sum(client.run(_break_lockstep, False).values()) >= 1     # a chunk of several runs
+    for got, run in zip(results, runs):
+        _assert_same(got, disc, run, "trajectory")
+    statuses = {r.status for r in results}
+    assert statuses == {"converged", "newton_failed"}
+    assert any(r.success and r.stats["robust_steps"] for r in results)

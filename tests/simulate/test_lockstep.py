@@ -1,0 +1,162 @@
+"""Runs in lockstep (dmoc.simulate.lockstep) give what `simulate` gives for each run alone
+(the oracle: the existing single-run path, called run by run), field by field and bit for
+bit, with the same status, message and stats but the wall time: runs that the fast path
+converges throughout, runs whose steps the line-search Newton redoes (a kick), runs that
+fail (no real solution, or a NaN force), both variants, a rule with stages, jit True,
+False and None, runs of other lengths and variants mixed in, blocks of every width."""
+
+from dataclasses import fields
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import dmoc
+from dmoc._util import compiled
+from dmoc.errors import InputError
+from dmoc.simulate import lockstep
+from dmoc.simulate.lockstep import simulate_lockstep, simulate_runs
+from dmoc.simulate.simulation import memory_needed, prepare
+
+FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
+JITS = [False, None, pytest.param(True, marks=pytest.mark.skipif(
+    compiled.compiler() is None, reason="no C compiler"))]
+
+
+def _pendulum():
+    """L = v^2/2 + cos q, f = v^2 + u: a kick u = 20 needs the line-search Newton, a kick
+    u = 300 leaves the midpoint step without a real solution, sqrt(u) of u < 0 is NaN."""
+    return dmoc.MechanicalSystem(lambda q, v: 0.5 * v[0] ** 2 + ca.cos(q[0]), 1,
+                                 force=lambda q, v, u: 0.4 * v[0] ** 2 + u[0] + ca.sqrt(u[1]),
+                                 n_u=2)
+
+
+def _pendulum_runs(steps, variant):
+    """Runs of `steps` steps: quiet ones, kicked ones (redone steps), failing ones at
+    several steps, a NaN force, one failing at its first step."""
+    runs = []
+    for i in range(37):
+        controls = np.zeros((steps, 2))
+        controls[:, 0] = 0.01 * i
+        if i % 5 == 1:
+            controls[(3 * i) % steps, 0] = 20.0              # robust redo, then on
+        if i % 7 == 2:
+            controls[(5 * i) % steps, 0] = 300.0             # Newton fails there
+        if i == 11:
+            controls[steps // 2, 1] = -1.0                   # NaN force
+        if i == 13:
+            controls[0, 0] = 300.0                           # fails at once
+        runs.append({"q0": [0.1 * i], "v0": [1.0 - 0.02 * i], "steps": steps,
+                     "controls": controls, "variant": variant})
+    return runs
+
+
+def _assert_same(got, want):
+    """`got` equals `want` bit for bit in every field, status, message and stats but the
+    wall time."""
+    assert (got.success, got.status, got.message) == (want.success, want.status, want.message)
+    assert {k: v for k, v in got.stats.items() if k != "wall_time"} == \
+        {k: v for k, v in want.stats.items() if k != "wall_time"}
+    for name in FIELDS:
+        a, b = getattr(got.trajectory, name), getattr(want.trajectory, name)
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), name
+        assert a.flags.c_contiguous and a.flags.owndata, name     # copies of their own
+    for name in ("h", "variant", "control_nodes", "stage_nodes"):
+        assert getattr(got.trajectory, name) == getattr(want.trajectory, name), name
+
+
+def _serial(disc, runs):
+    return [dmoc.simulate(disc, **run, throw=False) for run in runs]
+
+
+@pytest.mark.parametrize("jit", JITS)
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_kicked_and_failing_runs_in_lockstep_equal_the_runs_alone(jit, variant):
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = [dict(run, jit=jit) for run in _pendulum_runs(40, variant)]
+    want = _serial(disc, runs)
+    got = simulate_runs(disc, runs)
+    for a, b in zip(got, want):
+        _assert_same(a, b)
+    statuses = [r.status for r in want]
+    assert {"converged", "newton_failed", "non_finite"} <= set(statuses)
+    assert any(r.success and r.stats["robust_steps"] for r in want)
+    assert any(r.stats["completed_steps"] == 0 for r in want)
+
+
+@pytest.mark.parametrize("jit", JITS)
+@pytest.mark.parametrize("rule", ["midpoint", "lobatto3"])
+def test_mixed_lengths_variants_and_tolerances_come_back_in_order(jit, rule):
+    """Groups of several lengths, variants and tolerances (one of them failing every
+    run), a rule with stages and its controls at the nodes, h shared by two
+    discretizations of one stepper."""
+    disc = dmoc.discretize(dmoc.systems.rolling_disk(), 0.05, rule=rule)
+    runs = []
+    for i in range(40):
+        steps = (33, 1, 70)[i % 3]
+        run = {"q0": [0.1 * i, 0, 0, 0], "v0": [1, 0, 1, 0.5 - 0.01 * i], "steps": steps,
+               "variant": "+-"[i % 2], "jit": jit}
+        if i % 4 == 0:
+            run["controls"] = np.column_stack([np.sin(0.1 * np.arange(steps) + i),
+                                               np.cos(0.2 * np.arange(steps))])
+        if i % 9 == 0:
+            run["tol"] = 1e-300
+        runs.append(run)
+    for a, b in zip(simulate_runs(disc, runs), _serial(disc, runs)):
+        _assert_same(a, b)
+
+
+def test_small_groups_and_every_block_width(monkeypatch):
+    """Groups cut by the memory bound (here 3 runs) and by nothing (blocks of 16, 8, 4, 2,
+    1 runs for 31) give the same results."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
+    runs = [{"q0": [0, 0, 0.01 * i], "v0": [np.cos(0.01 * i), np.sin(0.01 * i), 1.0],
+             "steps": 300} for i in range(31)]
+    want = _serial(disc, runs)
+    for a, b in zip(simulate_runs(disc, runs), want):
+        _assert_same(a, b)
+    bytes_of_one = memory_needed(disc, 300)
+    monkeypatch.setattr(lockstep, "GROUP_BYTES", 3 * bytes_of_one)
+    assert [len(g) for g in lockstep.groups([prepare(disc, **run) for run in runs])] == [3] * 10 + [1]
+    for a, b in zip(simulate_runs(disc, runs), want):
+        _assert_same(a, b)
+
+
+def test_with_throw_the_first_failed_run_raises_as_simulate_does():
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = _pendulum_runs(20, "+")[:4]
+    prepared = [prepare(disc, **run) for run in runs]
+    with pytest.raises(dmoc.SolverError) as info:
+        simulate_lockstep(prepared)
+    first = next(run for run in runs if not dmoc.simulate(disc, **run, throw=False).success)
+    with pytest.raises(dmoc.SolverError) as alone:
+        dmoc.simulate(disc, **first)
+    assert str(info.value) == str(alone.value)
+
+
+def test_bad_arguments_raise_as_simulate_does():
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    with pytest.raises(InputError, match="`q0`"):
+        simulate_runs(disc, [{"q0": [0, 0, 0], "v0": [1, 0, 1], "steps": 5},
+                             {"q0": [0, 0], "v0": [1, 0, 1], "steps": 5}])
+
+
+def test_an_interrupt_keeps_the_chunks_before(monkeypatch):
+    """Ctrl-C during the second chunk: every run keeps the first chunk's steps, status
+    "interrupted", as `simulate` keeps the chunks before an interrupt."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
+    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 96} for c in (0.5, 1.0, 2.0)]
+    evaluate, calls = lockstep._evaluate, []
+
+    def interrupted(*args):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return evaluate(*args)
+    monkeypatch.setattr(lockstep, "_evaluate", interrupted)
+    got = simulate_runs(disc, runs)
+    whole = _serial(disc, runs)
+    for a, b in zip(got, whole):
+        assert a.status == "interrupted" and a.stats["completed_steps"] == 64
+        assert np.array_equal(a.trajectory.q, b.trajectory.q[:65])
+        assert [f.name for f in fields(a)] == [f.name for f in fields(b)]
