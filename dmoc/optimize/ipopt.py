@@ -32,6 +32,20 @@ from .evaluation import nlp_functions
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "bound_relax_factor": 0.0, "honor_original_bounds": "yes",
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
+# per start (`start_options`): warm_start_init_point as above; and for a warm start
+# mumps_scaling 0, no scaling of the KKT matrix by MUMPS (its default 77 computes one at
+# every factorization): a re-solve next to an optimum of the same, already scaled NLP
+# (`scaling`) factorizes its KKT matrices accurately without it, with the same iterations
+# on the benchmarks' re-solves and MPC steps, about 2-3 % less of IPOPT's time
+# (docs/performance.md, "Re-solves against rockit, third pass"). A first solve keeps it.
+WARM_START_OPTIONS = {"warm_start_init_point": "yes", "mumps_scaling": 0}
+COLD_START_OPTIONS = {"warm_start_init_point": "no"}
+
+
+def start_options(warm):
+    """The IPOPT options of a warm (True: x and multipliers of a previous optimum of the
+    same structure) or cold start, `WARM_START_OPTIONS` or `COLD_START_OPTIONS`."""
+    return WARM_START_OPTIONS if warm else COLD_START_OPTIONS
 
 
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure

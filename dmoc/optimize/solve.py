@@ -20,7 +20,7 @@ from ..errors import InputError, Interrupted, SolverError, TrajectoryFileError
 from . import interrupt
 from .guess import start_point
 from .._util.files import atomic_write, writable_file
-from .ipopt import data_tolerances, iteration_count, linear_algebra
+from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
 from ..principle.trajectory import RESULT_PREFIX, Trajectory, read
@@ -172,7 +172,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     D, R = T.x_scale, T.g_scale      # IPOPT iterates on x / D, imposes R g
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
-        T, {**data_tolerances(T, x0 / D, jit), "warm_start_init_point": "yes" if warm else "no", **options},
+        T, {**data_tolerances(T, x0 / D, jit), **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
         report=switches["linear_solver_report"], jit=jit)
     build_time = time.perf_counter() - tic
