@@ -11,7 +11,9 @@ goals of `peers_resolve.py` in a cycle, with the former pieces swapped in ("befo
 former row sums and q_ref, the trajectory made at once) and without ("after"): medians
 over `--calls` alternating calls, and of the re-solves also the median time outside
 IPOPT (the call's time less ``stats["solve_time"]``). Every pair is checked to give the
-same bits (x, multipliers, cost, iterations and, once made, the trajectory).
+same bits (x, multipliers, cost, iterations and, once made, the trajectory). Last, IPOPT's
+time in two chains of warm re-solves, with MUMPS's scaling of the KKT matrices (before)
+and without (after, `dmoc.optimize.ipopt.WARM_START_OPTIONS`): the same iterations.
 
     python benchmarks/resolve_outside.py [--calls 1000]
 """
@@ -85,14 +87,15 @@ def former_velocity_rows(problem):
 
 def alternate(pair, calls, check=True):
     """[median seconds] of `calls` alternating calls of the two functions in `pair`; with
-    `check`, their outputs of the first round have the same bits (`same`)."""
+    `check`, their outputs of the first round have the same bits (`same`); without, a
+    function that returns a float returns its own time."""
     (old, new), times = pair, ([], [])
     for i in range(calls):
         outs = []
         for k, f in enumerate((old, new)):
             tic = time.perf_counter()
             outs.append(f())
-            times[k].append(time.perf_counter() - tic)
+            times[k].append(outs[-1] if isinstance(outs[-1], float) else time.perf_counter() - tic)
         if i == 0 and check:
             same(*outs)
     return [float(np.median(t)) for t in times]
@@ -182,6 +185,33 @@ def case(name, make, goal, q_goal, calls):
     print(f"{'  of it outside IPOPT':44s} {1e6 * outside[0]:10.1f} {1e6 * outside[1]:9.1f} "
           f"{outside[1] / outside[0]:13.3f}")
     same(*state["previous"])                   # the two chains stayed the same, bit for bit
+    scaled = alternate(warm_chains(problem, goal, q_goal, previous), rounds, check=False)
+    print(f"{'IPOPT time of a warm re-solve, MUMPS scaling':44s} {1e6 * scaled[0]:10.1f} "
+          f"{1e6 * scaled[1]:9.1f} {scaled[1] / scaled[0]:13.3f}")
+
+
+def warm_chains(problem, goal, q_goal, previous):
+    """Two chains of raw re-solves over the goals, the first with MUMPS's scaling of the
+    KKT matrices as before (``mumps_scaling`` 77, MUMPS's default), the second without (0,
+    `WARM_START_OPTIONS`): each returns IPOPT's time (``stats["solve_time"]``); the same
+    iterations are asserted, and the optima agree to 1e-12 (not bit for bit: the pivots'
+    scaling differs)."""
+    state = {"i": 0, "previous": [previous, previous]}
+
+    def chain(k):
+        def run():
+            moved = problem.with_boundary(q_goal=q_goal(goal + OFFSETS[state["i"] % len(OFFSETS)]))
+            options = {"mumps_scaling": 77} if k == 0 else {}
+            result = solve(moved, guess=state["previous"][k], jit=True, options=options)
+            state["previous"][k] = result
+            if k == 1:
+                state["i"] += 1
+                a, b = state["previous"]
+                assert a.stats["iterations"] == b.stats["iterations"]
+                assert np.max(np.abs(a.x - b.x)) <= 1e-12 * max(1.0, np.max(np.abs(a.x)))
+            return result.stats["solve_time"]
+        return run
+    return chain(0), chain(1)
 
 
 def main():
