@@ -16,6 +16,7 @@ time in two chains of warm re-solves, with MUMPS's scaling of the KKT matrices (
 and without (after, `dmoc.optimize.ipopt.WARM_START_OPTIONS`): the same iterations.
 
     python benchmarks/resolve_outside.py [--calls 1000]
+    perf record -D 4000 -F 1500 --call-graph dwarf,32768 python benchmarks/resolve_outside.py --loop 1500
 """
 
 import argparse
@@ -214,10 +215,33 @@ def warm_chains(problem, goal, q_goal, previous):
     return chain(0), chain(1)
 
 
+def loop(count):
+    """`count` warm raw re-solves of the rolling disk (the first case, jit=True), the goals
+    in a cycle, after 50 uncounted: a steady loop to sample with ``perf record`` or
+    cProfile. Prints the median wall time and IPOPT's (``solve_time``) per re-solve."""
+    make, goal, q_goal = CASES["rolling disk, lobatto4, N = 11"]
+    problem = make()
+    previous = solve(problem.with_boundary(q_goal=q_goal(goal)), jit=True)
+    wall, ipopt_time = [], []
+    for i in range(50 + count):
+        tic = time.perf_counter()
+        previous = solve(problem.with_boundary(q_goal=q_goal(goal + OFFSETS[i % len(OFFSETS)])),
+                         guess=previous, jit=True)
+        wall.append(time.perf_counter() - tic)
+        ipopt_time.append(previous.stats["solve_time"])
+    print(f"{count} raw re-solves: median {1e3 * np.median(wall[50:]):.3f} ms, of it IPOPT "
+          f"{1e3 * np.median(ipopt_time[50:]):.3f} ms")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--calls", type=int, default=1000)
+    parser.add_argument("--loop", type=int, default=0,
+                        help="only run this many raw re-solves of the disk (for perf or cProfile)")
     args = parser.parse_args()
+    if args.loop:
+        loop(args.loop)
+        return
     print(f"dmoc from {dmoc.__file__}; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     for name, (make, goal, q_goal) in CASES.items():
         case(name, make, goal, q_goal, args.calls)
