@@ -126,3 +126,23 @@ def test_the_row_sums_of_one_stacked_x_and_p_are_the_former_ones(jit):
             assert float(largest(column(np.concatenate([x0, T.p])))) == \
                 _former_largest_row_sum(T, x0, jit)
     assert ipopt.data_tolerances(far.transcription, far.transcription.lbx.clip(-1e7, 1e7))
+
+
+@pytest.mark.parametrize("name", ["rolling disk lobatto4", "parking"])
+def test_warm_re_solves_without_mumps_scaling_take_the_same_iterations(name):
+    """A warm start runs IPOPT with ``mumps_scaling`` 0 (`ipopt.WARM_START_OPTIONS`); the
+    oracle is the same chain of re-solves with MUMPS's own default (77) given in
+    `options`: the same iterations, optima within 1e-12, and a first solve unchanged (the
+    cold options keep MUMPS's scaling: the same bits as with 77 given)."""
+    assert ipopt.start_options(True)["mumps_scaling"] == 0
+    assert "mumps_scaling" not in ipopt.start_options(False)
+    problem = _problems()[name]
+    cold, scaled = solve(problem), solve(problem, options={"mumps_scaling": 77})
+    np.testing.assert_array_equal(cold.x, scaled.x)
+    for step in (0.02, 0.05, -0.03):
+        goal = [None if np.isnan(g) else g + step for g in problem.q_goal]
+        moved = problem.with_boundary(q_goal=goal)
+        cold = solve(moved, guess=cold)
+        scaled = solve(moved, guess=scaled, options={"mumps_scaling": 77})
+        assert cold.stats["warm_start"] and cold.stats["iterations"] == scaled.stats["iterations"]
+        np.testing.assert_allclose(cold.x, scaled.x, rtol=0.0, atol=1e-12 * max(1.0, np.abs(scaled.x).max()))
