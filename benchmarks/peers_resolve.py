@@ -19,14 +19,22 @@ piecewise-linear controls, the goal an ``ocp.parameter``, the NLP expanded), re-
 "solve": ``ocp.set_value``, the previous optimum set as the start of rockit's Opti,
 ``ocp.solve()`` (rockit's per-signal ``ocp.set_initial`` would re-transcribe the problem
 at every solve), and "function": ``ocp.to_function`` of goal, start x and multipliers,
-rockit's advice for repeated solves. IPOPT options as dmoc's defaults. "max dJ/J" is the
-largest relative difference of a dmoc re-solve's cost from rockit's at the same goal.
+rockit's advice for repeated solves. With `--rockit-jit` also "function C": the same with
+the NLP's Functions compiled to C by CasADi (nlpsol ``jit``, gcc -O2 as dmoc's
+``jit=True``), the like-for-like peer of dmoc's "raw C" (rockit's "function" evaluates
+expanded SX in CasADi's virtual machine, like dmoc's "raw SX"); compiling takes 20-40 s
+per child process. IPOPT options as dmoc's defaults. "max dJ/J" is the largest relative
+difference of a dmoc re-solve's cost from rockit's at the same goal. "IPOPT ms" is
+CasADi's ``t_wall_total`` for rockit and dmoc's ``stats["solve_time"]``, the wall time of
+its packed nlpsol call, which also holds the NumPy conversions of its inputs and outputs
+(about 0.1 ms): the column "IPOPT/" overstates dmoc's share by that much.
 
 dmoc runs in a child process per checkout (``--checkouts A B``: PYTHONPATH set to each),
 interleaved with rockit's child, `--rounds` times; per method the round of least time is
 kept. Without rockit the script says so and exits.
 
     /work/venv-peers/bin/python benchmarks/peers_resolve.py [--repeat 5] [--rounds 3] [--checkouts DIR ...]
+        [--rockit-jit]
 """
 
 import argparse
@@ -153,9 +161,10 @@ def dmoc_cost(name, rule):
 
 # ---- rockit ---------------------------------------------------------------------------
 
-def rockit_ocp(name, N):
+def rockit_ocp(name, N, jit=False):
     """(ocp, goal parameter) of rockit's problem `name` on N multiple-shooting intervals,
-    minimizing int |u|^2 dt over 4 s from rest to rest at the goal (x, y, heading).
+    minimizing int |u|^2 dt over 4 s from rest to rest at the goal (x, y, heading); with
+    `jit` its NLP's Functions compiled to C by CasADi (gcc -O2).
 
     The reduced ODE, states (x, y, heading, speed along the path, turning rate), controls
     u continuous and piecewise linear (``ocp.control(2, order=1)``): knife edge, blade
@@ -184,7 +193,8 @@ def rockit_ocp(name, N):
     bend = ca.sin(np.pi * ocp.t / DURATION)     # a start point off the singular rest: face the goal
     ocp.set_initial(heading, np.arctan2(GOAL[name][1], GOAL[name][0]) * bend)
     ocp.set_initial(speed, np.hypot(*GOAL[name][:2]) / DURATION * bend)
-    ocp.solver("ipopt", {"print_time": False, "record_time": True, "expand": True,
+    compiled = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O2"], "verbose": False}}
+    ocp.solver("ipopt", {"print_time": False, "record_time": True, "expand": True, **(compiled if jit else {}),
                          "ipopt": {**IPOPT, "warm_start_init_point": "yes"}})
     ocp.method(rockit.MultipleShooting(N=N, M=1, intg="rk"))
     return ocp, goal
@@ -220,32 +230,44 @@ def ipopt_figures(st):
     return st["iter_count"], st["t_wall_total"], functions
 
 
-def rockit_resolve(name, N, repeat, count):
+def rockit_resolve(name, N, repeat, count, jit=False):
     """(this process) rockit's re-solves, as `dmoc_resolve` returns them: runs "solve"
     (``set_value``, the warm start, ``ocp.solve()``) and "function" (rockit's
-    ``ocp.to_function`` of goal, start x and multipliers, its advice for repeated solves)."""
+    ``ocp.to_function`` of goal, start x and multipliers, its advice for repeated solves);
+    with `jit` also "function C", the function re-solve of the NLP compiled to C."""
     targets = goals(name, count)
     ocp, goal = rockit_ocp(name, N)
     sol = rockit_solve(ocp, goal, targets[0])
     opti = ocp._method.opti                  # the NLP's x and lam_g
-    first = sol.sol.sol.value(opti.x), sol.sol.sol.value(opti.lam_g)
+    function = function_step(ocp, goal, sol)
 
     def solve_step(value):
         nonlocal sol
         warm_start(ocp, sol)
         sol = rockit_solve(ocp, goal, value)
         return (*ipopt_figures(sol.stats), float(sol.value(ocp.objective)))
-    resolve = ocp.to_function("resolve", [goal, opti.x, opti.lam_g], [opti.x, opti.lam_g, opti.f])
-    x, lam_g = first
+    out = {"size": [opti.nx, opti.ng]}
+    out["solve"], out["costs"] = cycle(solve_step, targets, repeat)
+    out["function"], _ = cycle(function, targets, repeat)
+    if jit:
+        compiled, goal = rockit_ocp(name, N, jit=True)
+        out["function C"], _ = cycle(function_step(compiled, goal, rockit_solve(compiled, goal, targets[0])),
+                                     targets, repeat)
+    return out
 
-    def function_step(value):
+
+def function_step(ocp, goal, sol):
+    """step(goal value) of rockit's function re-solve (``ocp.to_function`` of goal, start x
+    and multipliers), started from its optimum `sol`."""
+    opti = ocp._method.opti
+    resolve = ocp.to_function("resolve", [goal, opti.x, opti.lam_g], [opti.x, opti.lam_g, opti.f])
+    x, lam_g = sol.sol.sol.value(opti.x), sol.sol.sol.value(opti.lam_g)
+
+    def step(value):
         nonlocal x, lam_g
         x, lam_g, cost = resolve(value, x, lam_g)
         return (*ipopt_figures(resolve.stats()), float(cost))
-    out = {"size": [opti.nx, opti.ng]}
-    out["solve"], out["costs"] = cycle(solve_step, targets, repeat)
-    out["function"], _ = cycle(function_step, targets, repeat)
-    return out
+    return step
 
 
 # ---- the run --------------------------------------------------------------------------
@@ -260,10 +282,11 @@ def child(checkout, *arguments):
 
 
 def one(argv):
-    """(child) argv = [name, method, N, repeat, count]: print the re-solves as JSON."""
+    """(child) argv = [name, method, N, repeat, count]: print the re-solves as JSON; method
+    "rockit-jit" is "rockit" with its "function C" run."""
     name, method, N, repeat, count = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4])
-    if method == "rockit":
-        print(json.dumps(rockit_resolve(name, N, repeat, count)))
+    if method.startswith("rockit"):
+        print(json.dumps(rockit_resolve(name, N, repeat, count, jit=method == "rockit-jit")))
     else:
         print(json.dumps(dmoc_resolve(name, method, N, repeat, count)))
 
@@ -291,14 +314,17 @@ def least_loaded(outs):
 
 def table(name, n_star, measured, checkouts):
     """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT
-    and function seconds, the NLP size, the ratios to rockit's two re-solves and of IPOPT's
-    time to rockit's, and the largest cost difference from rockit's."""
+    and function seconds, the NLP size, the ratios to rockit's re-solves (solve, function,
+    and function C when measured) and of IPOPT's time to rockit's function re-solve, and
+    the largest cost difference from rockit's."""
     rock = measured["rockit"]
-    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>10}{'ms':>8}{'it':>5}"
-            f"{'IPOPT ms':>9}{'fun ms':>7}{'/solve':>7}{'/function':>10}{'IPOPT/':>7}{'max dJ/J':>9}")
-    print(f"\n{name} (ratios: to rockit's solve and function re-solves; IPOPT's to rockit's "
+    runs = [run for run in ("solve", "function", "function C") if run in rock]
+    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'it':>5}"
+            f"{'IPOPT ms':>9}{'fun ms':>7}{'/solve':>7}{'/function':>10}"
+            + (f"{'/C':>6}" if "function C" in runs else "") + f"{'IPOPT/':>7}{'max dJ/J':>9}")
+    print(f"\n{name} (ratios: to rockit's {', '.join(runs)} re-solves; IPOPT's to rockit's "
           f"function)\n{head}\n" + "-" * len(head))
-    rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in ("solve", "function")]
+    rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in runs]
     rows += [(rule, os.path.basename(c), n_star[name, rule], measured[rule, c], run)
              for rule in DMOC_RULES for c in checkouts for run in DMOC_RUNS]
     for method, checkout, N, out, run in rows:
@@ -306,9 +332,10 @@ def table(name, n_star, measured, checkouts):
             continue
         s, it, ipopt, fun = out[run]
         gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
-        print(f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>10}"
+        to_c = f"{s / rock['function C'][0]:>6.2f}" if "function C" in runs else ""
+        print(f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>11}"
               f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}"
-              f"{s / rock['solve'][0]:>7.2f}{s / rock['function'][0]:>10.2f}"
+              f"{s / rock['solve'][0]:>7.2f}{s / rock['function'][0]:>10.2f}{to_c}"
               f"{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}")
 
 
@@ -324,6 +351,8 @@ def main(argv=None):
     parser.add_argument("--goals", type=int, default=5, help="goals near the original (<= 6)")
     parser.add_argument("--checkouts", nargs="+", default=[os.getcwd()],
                         help="dmoc checkouts to time (default: the current directory)")
+    parser.add_argument("--rockit-jit", action="store_true",
+                        help="also rockit's function re-solve compiled to C (20-40 s per child)")
     args = parser.parse_args(argv)
     try:
         import rockit  # noqa: F401
@@ -340,7 +369,8 @@ def main(argv=None):
         counts = str(args.repeat), str(args.goals)
         rounds = []
         for _ in range(args.rounds):            # interleaved: all see the same load
-            rounds.append({"rockit": child(args.checkouts[0], name, "rockit",
+            rockit = "rockit-jit" if args.rockit_jit else "rockit"
+            rounds.append({"rockit": child(args.checkouts[0], name, rockit,
                                            str(n_star[name, "rockit"]), *counts)})
             for rule in DMOC_RULES:
                 for checkout in args.checkouts:

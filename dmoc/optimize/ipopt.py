@@ -32,6 +32,20 @@ from .evaluation import nlp_functions
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "bound_relax_factor": 0.0, "honor_original_bounds": "yes",
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
+# per start (`start_options`): warm_start_init_point as above; and for a warm start
+# mumps_scaling 0, no scaling of the KKT matrix by MUMPS (its default 77 computes one at
+# every factorization): a re-solve next to an optimum of the same, already scaled NLP
+# (`scaling`) factorizes its KKT matrices accurately without it, with the same iterations
+# on the benchmarks' re-solves and MPC steps, about 2-3 % less of IPOPT's time
+# (docs/performance.md, "Re-solves against rockit, third pass"). A first solve keeps it.
+WARM_START_OPTIONS = {"warm_start_init_point": "yes", "mumps_scaling": 0}
+COLD_START_OPTIONS = {"warm_start_init_point": "no"}
+
+
+def start_options(warm):
+    """The IPOPT options of a warm (True: x and multipliers of a previous optimum of the
+    same structure) or cold start, `WARM_START_OPTIONS` or `COLD_START_OPTIONS`."""
+    return WARM_START_OPTIONS if warm else COLD_START_OPTIONS
 
 
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure
@@ -48,25 +62,28 @@ def data_tolerances(transcription, x0, jit=False):
     options are its key). The Jacobian is the solver's (compiled with `jit`, the same
     numbers)."""
     T = transcription
-    x = np.array(x0, dtype=float)
-    x[T.x_layout.slice("q")] = T.configurations(x0).ravel()
-    largest = _ROW_SUMS.get((T.structure, jit), lambda: _largest_row_sum(T.separable, jit))
-    floor = np.finfo(float).eps * float(largest(column(np.concatenate([x0, x, T.p]))))
+    largest = _ROW_SUMS.get((T.structure, jit), lambda: _largest_row_sum(T, jit))
+    floor = np.finfo(float).eps * float(largest(column(np.concatenate([x0, T.p]))))
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))
     return {"tol": floor, "constr_viol_tol": floor}
 
 
-def _largest_row_sum(separable, jit):
-    """Function ``[x; x_abs; p] -> max_i sum_j |dg_i/dx_j(x, p)| |x_abs_j|`` (0 without
-    rows): one call and one stacked argument from Python (CasADi converts each NumPy
-    argument on its own, `PackedSolver`) instead of a call per operation."""
-    n_x, n_p = separable.n_x, separable.n_p
-    z = ca.MX.sym("z", 2 * n_x + n_p)
-    x, x_abs, p = z[:n_x], z[n_x:2 * n_x], z[2 * n_x:]
+def _largest_row_sum(transcription, jit):
+    """Function ``[x; p] -> max_i sum_j |dg_i/dx_j(x, p)| |x_abs_j|`` (0 without rows),
+    x_abs the x of absolute configurations: its block q plus p's q_ref at every knot, the
+    sum `Transcription.configurations` forms (x + 0 elsewhere: the same absolute values).
+    One call of one stacked argument from Python (CasADi converts each argument on its
+    own, `PackedSolver`) instead of a call per operation."""
+    separable, lay = transcription.separable, transcription.x_layout
+    n_x, q = separable.n_x, lay.slice("q")
+    z = ca.MX.sym("z", n_x + separable.n_p)
+    x, p = z[:n_x], z[n_x:]
+    q_ref = p[transcription.p_layout.slice("q_ref")]
+    shift = ca.vertcat(ca.MX(q.start, 1), ca.repmat(q_ref, lay.blocks["q"][2], 1), ca.MX(n_x - q.stop, 1))
     jacobian = nlp_functions(separable, jit=jit)["nlp_jac_g"](x, p)[1]
-    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x_abs))
+    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x + shift))
     return ca.Function("largest_row_sum", [z], [ca.mmax(rows) if separable.n_g else ca.MX(0)],
                        ["z"], ["largest"])
 

@@ -192,6 +192,8 @@ class OptimalControlProblem(ReadOnly):
                                  f"{np.flatnonzero(outside).tolist()} do not.")
         for data in (self._q_start, self._q_goal, self._v_start, self._v_goal):
             data.flags.writeable = False
+        self._velocity_rows = {"start": self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start),
+                               "goal": imposes_velocity_rows(self._q_goal, self._v_goal)}
 
     def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None, p_start=None):
         """This problem with new boundary data; arguments left None keep this problem's
@@ -217,7 +219,7 @@ class OptimalControlProblem(ReadOnly):
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal,
                  "p_start": p_start}
         new._set_boundary({k: v for k, v in given.items() if v is not None})
-        same_nlp = (new.velocity_rows == self.velocity_rows
+        same_nlp = (new._velocity_rows == self._velocity_rows
                     and (new.p_start is None) == (self.p_start is None))
         new._transcription = self._transcription.with_bounds(new) if same_nlp else Transcription(new)
         return new
@@ -311,9 +313,9 @@ class OptimalControlProblem(ReadOnly):
     @property
     def velocity_rows(self):
         """{"start": bool, "goal": bool}: whether A(q) v = 0 is imposed at that end
-        (`dmoc.optimize.boundary.imposes_velocity_rows`)."""
-        return {"start": self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start),
-                "goal": imposes_velocity_rows(self._q_goal, self._v_goal)}
+        (`dmoc.optimize.boundary.imposes_velocity_rows`), found when the boundary data are
+        set."""
+        return dict(self._velocity_rows)
 
     @property
     def variant(self):

@@ -14,12 +14,13 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .._util import checks
+from .._util.deferred import DeferredField, Pending, made
 from .problem import OptimalControlProblem
 from ..errors import InputError, Interrupted, SolverError, TrajectoryFileError
 from . import interrupt
 from .guess import start_point
 from .._util.files import atomic_write, writable_file
-from .ipopt import data_tolerances, iteration_count, linear_algebra
+from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
 from ..principle.trajectory import RESULT_PREFIX, Trajectory, read
@@ -33,7 +34,11 @@ class OptimizationResult:
     Attributes
     ----------
     trajectory : Trajectory
-        The optimal trajectory, or the last iterate when not `success`.
+        The optimal trajectory, or the last iterate when not `success`. A solve whose x is
+        finite makes it from `x` on first access (the same fields, bit for bit, as when
+        made at once) and keeps it: a re-solve whose caller reads only x, the
+        multipliers and the cost (a warm start) does not pay its momenta and arrays (0.1-0.2
+        ms at N = 11-28, docs/performance.md). A pickle or copy holds it made.
     cost : float
     success : bool
         IPOPT converged and, for `dmoc.optimize` with ``check=True``, the verdict passed.
@@ -71,7 +76,7 @@ class OptimizationResult:
         optimum was not judged (``check=False``, the raw `solve`, or IPOPT did not converge).
     """
 
-    trajectory: Trajectory
+    trajectory: Trajectory = DeferredField()
     cost: float
     success: bool
     status: str
@@ -83,6 +88,11 @@ class OptimizationResult:
     structure: str = ""
     q_ref: np.ndarray = None
     verdict: Verdict = None
+
+    def __getstate__(self):
+        """The fields, the trajectory made: a pickle or copy holds no pending computation
+        (nor the problem it reads)."""
+        return made(self)
 
     def save(self, path):
         """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
@@ -162,7 +172,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     D, R = T.x_scale, T.g_scale      # IPOPT iterates on x / D, imposes R g
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
-        T, {**data_tolerances(T, x0 / D, jit), "warm_start_init_point": "yes" if warm else "no", **options},
+        T, {**data_tolerances(T, x0 / D, jit), **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
         report=switches["linear_solver_report"], jit=jit)
     build_time = time.perf_counter() - tic
@@ -184,7 +194,10 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
              "max_violation": worst[0], "most_violated": worst[1]}
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
-    traj = trajectory_from_x(problem, x)
+    # made on first access when x is finite (`OptimizationResult.trajectory`); the copy
+    # keeps it from writes into result.x
+    traj = Pending(trajectory_from_x, problem, x.copy()) if np.isfinite(x).all() else \
+        trajectory_from_x(problem, x)
     success = bool(st["success"])
     where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
     if st["return_status"] == "Invalid_Number_Detected":

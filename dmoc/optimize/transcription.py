@@ -186,7 +186,7 @@ def reference(q_start, q_goal):
     configuration variables are q - q_ref, of the size of the motion rather than of the
     coordinates, so that IPOPT's steps and tolerances do not depend on where the motion
     takes place (e.g. map coordinates of 1e6 m)."""
-    return np.where(np.isfinite(q_start), q_start, np.nan_to_num(q_goal, nan=0.0))
+    return np.where(np.isfinite(q_start), q_start, np.where(np.isfinite(q_goal), q_goal, 0.0))
 
 
 def _start_velocity(problem):

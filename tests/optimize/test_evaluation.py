@@ -22,7 +22,7 @@ import dmoc.problems
 from dmoc._util import compiled
 from dmoc.errors import InputError, InputTypeError
 from dmoc.optimize import evaluation
-from dmoc.optimize.ipopt import solver
+from dmoc.optimize.ipopt import solver, start_options
 from dmoc.optimize.solve import solve
 
 needs_compiler = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
@@ -102,7 +102,7 @@ def test_the_mpc_closed_loop_is_the_same_bit_for_bit(private_cache, mode):
     (``expand=False``), step by step."""
     (vm, _), (other, controller) = closed_loop(5, expand=False), closed_loop(5, **mode)
     assert [r.warm_start for r in controller.log] == [False] + [True] * 4
-    kept, reused, _ = solver(controller.problem.transcription, {"warm_start_init_point": "yes"},
+    kept, reused, _ = solver(controller.problem.transcription, start_options(True),
                              reuse=True, report=False, **{"expand": True, "jit": False, **mode})
     assert reused and kept.nlpsol.get_function("nlp_jac_g").class_name() == (
         "External" if "jit" in mode else "SXFunction")

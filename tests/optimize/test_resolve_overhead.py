@@ -1,0 +1,148 @@
+"""What a raw re-solve leaves out or does once is the same as what it did before, bit for
+bit (issue 25, "Re-solves against rockit, third pass" in docs/performance.md): the result's
+trajectory, made on first access, is the one `trajectory_from_x` makes of the returned x
+at once; the data's row sums of one stacked [x; p] (q_ref added to the configurations
+inside the Function) are those of the former [x; x_abs; p], x_abs formed in NumPy.
+
+Oracles: `trajectory_from_x` called on the result's x (the path `solve` took before), and
+the former row-sum Function written out below (a separate code path, the same Jacobian).
+"""
+
+import copy
+import pickle
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import dmoc
+import dmoc.problems
+from dmoc._util.compiled import compiler
+from dmoc._util.conversions import column
+from dmoc._util.deferred import Pending
+from dmoc.optimize import ipopt
+from dmoc.optimize.evaluation import nlp_functions
+from dmoc.optimize.solve import OptimizationResult, solve, trajectory_from_x
+
+FIELDS = ("t", "q", "p", "lam", "u", "h", "variant", "mu", "s", "control_nodes", "stage_nodes")
+
+
+def _same_trajectory(a, b):
+    for f in FIELDS:
+        x, y = getattr(a, f), getattr(b, f)
+        assert type(x) is type(y), f
+        if isinstance(x, np.ndarray):
+            assert x.dtype == y.dtype and x.shape == y.shape, f
+            np.testing.assert_array_equal(x.view(np.int64), y.view(np.int64), err_msg=f)
+        else:
+            assert x == y, f
+
+
+def _problems():
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule="lobatto3")
+    return {"parking": dmoc.problems.knife_edge_parking(12),
+            "rolling disk lobatto4": dmoc.problems.rolling_disk_steering(8, rule="lobatto4"),
+            "carried momenta, (-)": dmoc.OptimalControlProblem(
+                disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0], momenta="variables", variant="-"),
+            "free final time": dmoc.OptimalControlProblem(
+                disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0], duration=(0.5, 3.0))}
+
+
+@pytest.mark.parametrize("name", list(_problems()))
+def test_a_re_solves_trajectory_is_made_on_first_access_as_before(name):
+    """Cold and warm re-solve (new goal, the previous optimum as guess): nothing is made
+    until the field is read; then the fields are `trajectory_from_x`'s of the result's x,
+    bit for bit, kept (the same object on the next read), and a write into result.x
+    before the first read does not reach them."""
+    problem = _problems()[name]
+    cold = solve(problem)
+    goal = np.where(np.isfinite(problem.q_goal), problem.q_goal + 0.05, np.nan)
+    warm = solve(problem.with_boundary(q_goal=[None if np.isnan(g) else g for g in goal]), guess=cold)
+    for result, stated in ((cold, problem), (warm, None)):
+        assert isinstance(vars(result)["trajectory"], Pending)
+        x = result.x.copy()
+        result.x[:] = np.nan                    # the trajectory is of the x IPOPT returned
+        made = result.trajectory
+        result.x[:] = x
+        assert made is result.trajectory and vars(result)["trajectory"] is made
+        if stated is not None:
+            _same_trajectory(made, trajectory_from_x(stated, x))
+    _same_trajectory(warm.trajectory, trajectory_from_x(
+        problem.with_boundary(q_goal=[None if np.isnan(g) else g for g in goal]), warm.x))
+
+
+def test_pickles_copies_and_field_copies_hold_the_trajectory_itself():
+    """A pickle (dmoc.batch ships results as guesses), a copy and a result built from
+    ``vars(result)`` give the trajectory that the original gives."""
+    problem = dmoc.problems.knife_edge_parking(10)
+    for make in (lambda r: pickle.loads(pickle.dumps(r)), copy.copy, copy.deepcopy,
+                 lambda r: OptimizationResult(**vars(r))):
+        result = solve(problem)
+        other = make(result)
+        _same_trajectory(other.trajectory, trajectory_from_x(problem, result.x))
+        np.testing.assert_array_equal(other.x, result.x)
+
+
+def test_a_judged_optimum_and_a_failed_solve_carry_the_same_trajectory():
+    """`dmoc.optimize` (the verdict reads the trajectory) and a solve stopped by max_iter
+    (the last iterate) give `trajectory_from_x` of their x."""
+    problem = dmoc.problems.knife_edge_parking(40)
+    judged = dmoc.optimize(problem)
+    stopped = solve(problem, options={"max_iter": 2}, throw=False)
+    assert judged.verdict is not None and not stopped.success
+    for result in (judged, stopped):
+        _same_trajectory(result.trajectory, trajectory_from_x(problem, result.x))
+
+
+def _former_largest_row_sum(T, x0, jit):
+    """`data_tolerances`' row sums as computed before: [x; x_abs; p], x_abs formed in NumPy
+    by `Transcription.configurations`."""
+    separable = T.separable
+    n_x, n_p = separable.n_x, separable.n_p
+    z = ca.MX.sym("z", 2 * n_x + n_p)
+    x, x_abs, p = z[:n_x], z[n_x:2 * n_x], z[2 * n_x:]
+    jacobian = nlp_functions(separable, jit=jit)["nlp_jac_g"](x, p)[1]
+    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x_abs))
+    largest = ca.Function("former", [z], [ca.mmax(rows)])
+    absolute = np.array(x0, dtype=float)
+    absolute[T.x_layout.slice("q")] = T.configurations(x0).ravel()
+    return float(largest(column(np.concatenate([x0, absolute, T.p]))))
+
+
+@pytest.mark.parametrize("jit", [False, pytest.param(True, marks=pytest.mark.skipif(
+    compiler() is None, reason="jit=True needs a C compiler"))])
+def test_the_row_sums_of_one_stacked_x_and_p_are_the_former_ones(jit):
+    """At random points of every scale (1e-3 to 1e6) of a problem near and one far from
+    the origin (q ~ 1e6, where the floor rises above 1e-10): the same float."""
+    rng = np.random.default_rng(7)
+    near = dmoc.problems.rolling_disk_steering(6, rule="lobatto4")
+    far = dmoc.problems.knife_edge_parking(8).with_boundary(q_start=[1e6, -3e5, 0.3],
+                                                            q_goal=[1e6 + 1.0, -3e5, 0.2])
+    for problem in (near, far):
+        T = problem.transcription
+        largest = ipopt._largest_row_sum(T, jit)
+        for _ in range(10):
+            x0 = rng.normal(size=T.x_layout.size) * 10.0 ** rng.uniform(-3, 6)
+            assert float(largest(column(np.concatenate([x0, T.p])))) == \
+                _former_largest_row_sum(T, x0, jit)
+    assert ipopt.data_tolerances(far.transcription, far.transcription.lbx.clip(-1e7, 1e7))
+
+
+@pytest.mark.parametrize("name", ["rolling disk lobatto4", "parking"])
+def test_warm_re_solves_without_mumps_scaling_take_the_same_iterations(name):
+    """A warm start runs IPOPT with ``mumps_scaling`` 0 (`ipopt.WARM_START_OPTIONS`); the
+    oracle is the same chain of re-solves with MUMPS's own default (77) given in
+    `options`: the same iterations, optima within 1e-12, and a first solve unchanged (the
+    cold options keep MUMPS's scaling: the same bits as with 77 given)."""
+    assert ipopt.start_options(True)["mumps_scaling"] == 0
+    assert "mumps_scaling" not in ipopt.start_options(False)
+    problem = _problems()[name]
+    cold, scaled = solve(problem), solve(problem, options={"mumps_scaling": 77})
+    np.testing.assert_array_equal(cold.x, scaled.x)
+    for step in (0.02, 0.05, -0.03):
+        goal = [None if np.isnan(g) else g + step for g in problem.q_goal]
+        moved = problem.with_boundary(q_goal=goal)
+        cold = solve(moved, guess=cold)
+        scaled = solve(moved, guess=scaled, options={"mumps_scaling": 77})
+        assert cold.stats["warm_start"] and cold.stats["iterations"] == scaled.stats["iterations"]
+        np.testing.assert_allclose(cold.x, scaled.x, rtol=0.0, atol=1e-12 * max(1.0, np.abs(scaled.x).max()))
