@@ -179,7 +179,8 @@ class MPC:
         else:
             self._record(q, p, None, result, tic, None)
             raise self._failure(result)
-        u = self.plan.trajectory.u[self._age].copy()
+        # read from x: the plan's Trajectory is made only when a caller asks for it
+        u = self.problem.transcription.x_layout.unpack(self.plan.x, "u")[:, self._age].copy()
         self._record(q, p, u, result, tic, self._age)
         return u
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import dmoc
+from dmoc._util.deferred import Pending
 from dmoc.optimize.mpc import shifted
 from dmoc.optimize.solve import solve
 
@@ -45,6 +46,18 @@ def test_closed_loop_steps_are_the_optima_and_the_plant_follows_the_plan(rule):
     assert max(r.iterations for r in log[1:]) < log[0].iterations
     assert all(r.step_time >= r.solve_time > 0 for r in log)
     np.testing.assert_array_equal(log[-1].q, q)
+
+
+
+def test_a_step_applies_the_plans_first_controls_and_leaves_its_trajectory_unmade():
+    """The applied controls are read from the plan's x: bit for bit its trajectory's first
+    controls, and the trajectory (made on first access) is not made by the step."""
+    controller = dmoc.MPC(parking("lobatto3"))
+    for q in (np.zeros(3), np.array([0.01, 0.0, 0.02])):
+        u = controller.step(q, p=np.zeros(3))
+        assert isinstance(vars(controller.plan)["trajectory"], Pending)
+        np.testing.assert_array_equal(u, controller.plan.trajectory.u[0])
+        assert u.shape == (len(controller.problem.disc.rule.control_nodes) * 2,)
 
 
 def test_the_warm_start_is_the_plan_moved_one_step():
