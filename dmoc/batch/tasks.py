@@ -118,20 +118,21 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
 
     calls = [runner(item) for item in items]
     if timeout is None:
-        results, seconds = _in_lockstep(calls)
+        results, seconds = _in_lockstep(calls, keep == "final")
     else:
         results, seconds = _chunk(SimulationResult, calls, timeout)
-    for result in results:
-        if keep == "final" and result.trajectory is not None:
-            result.trajectory = final_knot(result.trajectory)
+        for result in results:
+            if keep == "final" and result.trajectory is not None:
+                result.trajectory = final_knot(result.trajectory)
     return PackedResults(results, share), seconds
 
 
-def _in_lockstep(calls):
+def _in_lockstep(calls, final):
     """(results, seconds) of the (load, solve) `calls` of `simulate_chunk`: each item's
     arguments loaded and checked (`prepare`) in its own guard, then the runs prepared
-    stepped in lockstep (`simulate_lockstep`); should that raise, each of them runs
-    alone (`_guarded`), so an error stays its item's. Each result is stamped with this
+    stepped in lockstep (`simulate_lockstep`, their trajectories of the last knot only
+    when `final`); should that raise, each of them runs alone (`_guarded`, then cut to
+    `final_knot`), so an error stays its item's. Each result is stamped with this
     worker's address; the seconds are the chunk's CPU time shared equally."""
     tic = time.process_time()
     results, runs = [], {}
@@ -141,9 +142,12 @@ def _in_lockstep(calls):
             runs[i] = loaded
         results.append(loaded)
     try:
-        stepped = simulate_lockstep(list(runs.values()))
+        stepped = simulate_lockstep(list(runs.values()), final=final)
     except BaseException:       # any error of the group: each item again, alone
         stepped = [_guarded(SimulationResult, *calls[i], None)[0] for i in runs]
+        for result in stepped:
+            if final and result.trajectory is not None:
+                result.trajectory = final_knot(result.trajectory)
     for i, result in zip(runs, stepped):
         results[i] = result
     _stamp(results)
@@ -151,12 +155,11 @@ def _in_lockstep(calls):
 
 
 def final_knot(trajectory):
-    """The last knot of `trajectory` as a Trajectory of no step: t, q, p of shape (1, ...)
-    at t_N, lam, u, s with no row, h, mu and the nodes kept; copies, so the run's arrays
-    can go."""
+    """The last knot of `trajectory` as a Trajectory of no step (`Trajectory.assembled`
+    with ``final``); copies, so the run's arrays can go."""
     tr = trajectory
-    return Trajectory.assembled(tr.t[-1:], tr.q[-1:], tr.p[-1:], tr.lam[:0], tr.u[:0], tr.h,
-                                tr.variant, tr.mu, tr.s[:0], tr.control_nodes, tr.stage_nodes)
+    return Trajectory.assembled(tr.t, tr.q, tr.p, tr.lam, tr.u, tr.h, tr.variant, tr.mu, tr.s,
+                                tr.control_nodes, tr.stage_nodes, final=True)
 
 
 def failed_result(kind, status, message, **stats):

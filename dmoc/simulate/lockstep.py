@@ -23,12 +23,12 @@ GROUP_BYTES = 1 << 25
 _SCRATCH = threading.local()        # the memory of `_scratch`, one per thread
 
 
-def simulate_lockstep(runs):
+def simulate_lockstep(runs, *, final=False):
     """`simulate` of each of `runs` (`simulation.Run`, from `prepare`), the runs of each
     of their `groups` in lockstep: the SimulationResults in the order of `runs`, each
     what ``simulate`` returns for the same arguments but ``stats["wall_time"]`` (its
-    group's time so far). With ``throw``, a failed run raises as ``simulate`` does once
-    its group has run."""
+    group's time so far), its trajectory of the last knot only when `final` (`conclude`).
+    With ``throw``, a failed run raises as ``simulate`` does once its group has run."""
     results = [None] * len(runs)
     for members in groups(runs):
         group = [runs[i] for i in members]
@@ -39,7 +39,7 @@ def simulate_lockstep(runs):
             stepped = run_lockstep(group[0].stepper, np.array([run.start for run in group]),
                                    np.array([run.controls for run in group]), group[0].disc.h)
         for i, run, outcome in zip(members, group, stepped):
-            results[i] = conclude(run, outcome)
+            results[i] = conclude(run, outcome, final=final)
     return results
 
 

@@ -173,14 +173,15 @@ def prepare(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", th
     return Run(disc, formulation, stepper, start, controls, throw, tol, tic)
 
 
-def conclude(run, stepped):
+def conclude(run, stepped, *, final=False):
     """The SimulationResult of `run` from what its stepper returned (`DiracStepper.run`):
-    the trajectory of the steps kept, the stats, and the verdict (raised with `throw`)."""
+    the trajectory of the steps kept (of its last knot only when `final`, as
+    `Trajectory.assembled` cuts it), the stats, and the verdict (raised with `throw`)."""
     acc, out, failed_rnorm, redone, interrupted = stepped
     wall = time.perf_counter() - run.tic
     stepper, k = run.stepper, out.shape[0]
-    traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out)
-    rnorm = stepper.out.split(out)["rnorm"]
+    traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out, final)
+    rnorm = out[:, stepper.out.slice("rnorm")]
     stats = {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
              "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
              "wall_time": wall}
@@ -248,23 +249,24 @@ def step_controls(disc, controls, steps):
     return checks.array("controls", controls, (steps, disc.n_controls))
 
 
-def _assemble(stepper, formulation, disc, controls, acc, out):
+def _assemble(stepper, formulation, disc, controls, acc, out, final):
     """Trajectory from the horizon's states (the start first) and per-step outputs
     (time-major arrays), its fields copied as ``Trajectory(...)`` copies them, without its
-    checks (`Trajectory.assembled`; mu None, a (-) run that failed at its first step, is
-    no impulse)."""
+    checks (`Trajectory.assembled`, of the last knot only when `final`; mu None, a (-)
+    run that failed at its first step, is no impulse)."""
     h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
     p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
                                                stepper.residual.m)
     return Trajectory.assembled(h * np.arange(acc.shape[0]), state["q"], p, lam, controls, h,
                                 formulation.name, mu, per_step["s"], disc.rule.control_nodes,
-                                disc.rule.stage_nodes)
+                                disc.rule.stage_nodes, final)
 
 
 def _interrupted(traj, stats, throw):
-    """The result of a run stopped by Ctrl-C after `traj.steps` accepted steps."""
-    k = traj.steps
+    """The result of a run stopped by Ctrl-C after ``stats["completed_steps"]`` accepted
+    steps."""
+    k = stats["completed_steps"]
     result = SimulationResult(
         traj, False, "interrupted",
         f"interrupted (KeyboardInterrupt) after {k} of {stats['steps']} steps (t = "
@@ -276,7 +278,7 @@ def _interrupted(traj, stats, throw):
 
 def _finish(traj, stats, failed_rnorm, tol, throw):
     """Report success, or the failed step with the trajectory before it."""
-    k, steps = traj.steps, stats["steps"]
+    k, steps = stats["completed_steps"], stats["steps"]
     if k == steps:
         return SimulationResult(traj, True, "converged",
                                 f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)

@@ -160,3 +160,19 @@ def test_an_interrupt_keeps_the_chunks_before(monkeypatch):
         assert a.status == "interrupted" and a.stats["completed_steps"] == 64
         assert np.array_equal(a.trajectory.q, b.trajectory.q[:65])
         assert [f.name for f in fields(a)] == [f.name for f in fields(b)]
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_final_assembles_the_last_knot_of_each_run_as_final_knot_cuts_it(variant):
+    """``final=True``: each trajectory is the last knot of `simulate`'s, cut as the batch
+    cuts a whole one (`final_knot`), every other field of the result unchanged; runs that
+    fail (the knot they reached) included."""
+    from dmoc.batch.tasks import final_knot
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = _pendulum_runs(40, variant)
+    want = _serial(disc, runs)
+    got = simulate_lockstep([prepare(disc, **run, throw=False) for run in runs], final=True)
+    for a, b in zip(got, want):
+        b.trajectory = final_knot(b.trajectory)
+        _assert_same(a, b)
+        assert a.trajectory.q.shape == (1, 1) and a.trajectory.u.shape == (0, 2)
