@@ -3,11 +3,12 @@ loop ``[dmoc.simulate(disc, **run, throw=False) for run in runs]``, interleaved 
 process (docs/performance.md, "Sixth: runs in lockstep").
 
 Each round times the serial loop, then the same runs in lockstep, then each part of a
-run alone (the checks and start of `prepare`, the steps one run at a time and in
-lockstep, group by group as `simulate_runs` makes them, `conclude`'s trajectory and
-verdict), on knife-edge runs of `--steps` steps (v0 = (c, 0, 1)), compiled step
-(``jit=True``; the virtual machine without a C compiler); medians over `--repeat` rounds,
-in microseconds per run; the results are compared bit for bit.
+run alone (the checks and start of all runs, `prepare_runs`, the steps one run at a time
+and in lockstep, group by group as `simulate_runs` makes them, `conclude`'s trajectory and
+verdict, and with the trajectory's last knot only, as ``keep="final"``), on knife-edge
+runs of `--steps` steps (v0 = (c, 0, 1)), compiled step (``jit=True``; the virtual
+machine without a C compiler); medians over `--repeat` rounds, in microseconds per run;
+the results are compared bit for bit.
 
     python benchmarks/lockstep.py                       # 250 runs of 1000 steps, 9 rounds
     python benchmarks/lockstep.py --runs 1000 --steps 100
@@ -25,7 +26,7 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc._util import compiled  # noqa: E402
 from dmoc.simulate.lockstep import groups, run_lockstep, simulate_runs  # noqa: E402
-from dmoc.simulate.simulation import conclude, prepare  # noqa: E402
+from dmoc.simulate.simulation import conclude, prepare_runs  # noqa: E402
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
 
@@ -45,7 +46,8 @@ def rounds(disc, runs, repeat):
         together = clock("lockstep", lambda: simulate_runs(disc, runs))
         assert all(np.array_equal(getattr(a.trajectory, f), getattr(b.trajectory, f))
                    for a, b in zip(serial, together) for f in FIELDS)
-        prepared = clock("  prepare", lambda: [prepare(disc, **run, throw=False) for run in runs])
+        prepared = clock("  prepare", lambda: prepare_runs(disc, [dict(run, throw=False)
+                                                                  for run in runs]))
         alone = clock("  steps, one run at a time", lambda: [
             r.stepper.run(r.start, r.controls, disc.h) for r in prepared])
         clock("  steps in lockstep", lambda: [run_lockstep(
@@ -53,6 +55,8 @@ def rounds(disc, runs, repeat):
             np.array([prepared[i].controls for i in members]), disc.h)
             for members in groups(prepared)])
         clock("  conclude", lambda: [conclude(r, a) for r, a in zip(prepared, alone)])
+        clock("  conclude, last knot only", lambda: [conclude(r, a, final=True)
+                                                      for r, a in zip(prepared, alone)])
     return times
 
 

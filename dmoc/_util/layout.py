@@ -32,15 +32,17 @@ class Layout:
             self.blocks[name] = (offset, int(rows), int(cols))
             offset += int(rows) * int(cols)
         self.size = offset
+        # made once: a simulation's results split its arrays with them run by run
+        self._slices = {name: slice(offset, offset + rows * cols)
+                        for name, (offset, rows, cols) in self.blocks.items()}
 
     def slice(self, name):
         """The slice of block `name` in the flat vector."""
-        offset, rows, cols = self.blocks[name]
-        return slice(offset, offset + rows * cols)
+        return self._slices[name]
 
     def slices(self):
         """{name: slice} of every block, in order."""
-        return {name: self.slice(name) for name in self.blocks}
+        return dict(self._slices)
 
     def numel(self, name):
         """Number of entries of block `name`."""
@@ -59,7 +61,7 @@ class Layout:
         """{name: block} of a flat column `vector`: CasADi columns or numpy 1-d arrays
         (along the last axis for a stack of vectors, shape (k, size))."""
         if isinstance(vector, np.ndarray):
-            return {name: vector[..., s] for name, s in self.slices().items()}
+            return {name: vector[..., s] for name, s in self._slices.items()}
         offsets = [s.start for s in self.slices().values()] + [self.size]
         return dict(zip(self.blocks, ca.vertsplit(vector, offsets)))   # columns, also when empty
 

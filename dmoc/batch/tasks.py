@@ -27,7 +27,7 @@ from ..optimize.solve import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..results.optimum import optimize
 from ..simulate.lockstep import simulate_lockstep
-from ..simulate.simulation import Run, SimulationResult, prepare, simulate
+from ..simulate.simulation import Run, SimulationResult, prepare_runs, simulate
 
 # digest -> [the Shipments registered with it, their bytes] in this worker process, while
 # a batch runs (not a BoundedCache: `clear_caches` must not empty it)
@@ -118,45 +118,57 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
 
     calls = [runner(item) for item in items]
     if timeout is None:
-        results, seconds = _in_lockstep(calls)
+        results, seconds = _in_lockstep(calls, keep == "final")
     else:
         results, seconds = _chunk(SimulationResult, calls, timeout)
-    for result in results:
-        if keep == "final" and result.trajectory is not None:
-            result.trajectory = final_knot(result.trajectory)
+        for result in results:
+            if keep == "final" and result.trajectory is not None:
+                result.trajectory = final_knot(result.trajectory)
     return PackedResults(results, share), seconds
 
 
-def _in_lockstep(calls):
+def _in_lockstep(calls, final):
     """(results, seconds) of the (load, solve) `calls` of `simulate_chunk`: each item's
-    arguments loaded and checked (`prepare`) in its own guard, then the runs prepared
-    stepped in lockstep (`simulate_lockstep`); should that raise, each of them runs
-    alone (`_guarded`), so an error stays its item's. Each result is stamped with this
-    worker's address; the seconds are the chunk's CPU time shared equally."""
+    arguments loaded in its own guard, then checked together (`prepare_runs`: an item
+    refused gets its own "exception" result) and the runs prepared stepped in lockstep
+    (`simulate_lockstep`, their trajectories of the last knot only when `final`); should
+    that raise, each item runs alone (`_guarded`, then cut to `final_knot`), so an error
+    stays its item's. Each result is stamped with this worker's address; the seconds are
+    the chunk's CPU time shared equally."""
     tic = time.process_time()
-    results, runs = [], {}
-    for i, (load, _) in enumerate(calls):
-        loaded = _attempt(SimulationResult, load, lambda pair: prepare(pair[0], **pair[1], throw=False))
-        if isinstance(loaded, Run):
-            runs[i] = loaded
-        results.append(loaded)
+    results = [_attempt(SimulationResult, load, lambda pair: pair) for load, _ in calls]
+    loaded = {i: pair for i, pair in enumerate(results) if not isinstance(pair, SimulationResult)}
     try:
-        stepped = simulate_lockstep(list(runs.values()))
+        stepped = _lockstep(list(loaded.values()), final)
     except BaseException:       # any error of the group: each item again, alone
-        stepped = [_guarded(SimulationResult, *calls[i], None)[0] for i in runs]
-    for i, result in zip(runs, stepped):
+        stepped = [_guarded(SimulationResult, *calls[i], None)[0] for i in loaded]
+        for result in stepped:
+            if final and result.trajectory is not None:
+                result.trajectory = final_knot(result.trajectory)
+    for i, result in zip(loaded, stepped):
         results[i] = result
     _stamp(results)
     return results, [(time.process_time() - tic) / len(calls)] * len(calls)
 
 
+def _lockstep(loaded, final):
+    """The SimulationResults of the (disc, run) pairs `loaded`, all of one shipment (one
+    Discretization): `prepare_runs`, then `simulate_lockstep` of the runs prepared."""
+    if not loaded:
+        return []
+    prepared = prepare_runs(loaded[0][0], [dict(run, throw=False) for _, run in loaded])
+    stepped = iter(simulate_lockstep([run for run in prepared if isinstance(run, Run)],
+                                     final=final))
+    return [next(stepped) if isinstance(run, Run) else
+            _caught(SimulationResult, "exception", "", run) for run in prepared]
+
+
 def final_knot(trajectory):
-    """The last knot of `trajectory` as a Trajectory of no step: t, q, p of shape (1, ...)
-    at t_N, lam, u, s with no row, h, mu and the nodes kept; copies, so the run's arrays
-    can go."""
+    """The last knot of `trajectory` as a Trajectory of no step (`Trajectory.assembled`
+    with ``final``); copies, so the run's arrays can go."""
     tr = trajectory
-    return Trajectory.assembled(tr.t[-1:], tr.q[-1:], tr.p[-1:], tr.lam[:0], tr.u[:0], tr.h,
-                                tr.variant, tr.mu, tr.s[:0], tr.control_nodes, tr.stage_nodes)
+    return Trajectory.assembled(tr.t, tr.q, tr.p, tr.lam, tr.u, tr.h, tr.variant, tr.mu, tr.s,
+                                tr.control_nodes, tr.stage_nodes, final=True)
 
 
 def failed_result(kind, status, message, **stats):
@@ -223,4 +235,4 @@ def _attempt(kind, load, solve):
 def _caught(kind, status, context, err):
     message = f"{type(err).__name__}: {err}"
     return failed_result(kind, status, f"{context}: {message}" if context else message,
-                         traceback=traceback.format_exc())
+                         traceback="".join(traceback.format_exception(err)))

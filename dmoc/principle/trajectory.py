@@ -105,15 +105,20 @@ class Trajectory:
         return traj
 
     @classmethod
-    def assembled(cls, t, q, p, lam, u, h, variant, mu, s, control_nodes, stage_nodes):
+    def assembled(cls, t, q, p, lam, u, h, variant, mu, s, control_nodes, stage_nodes,
+                  final=False):
         """The Trajectory of these fields made as ``Trajectory(...)`` makes them (each array
         a float array of its own, `mu` None as zeros, `h` a float, the nodes tuples of
-        floats), without its checks (`unchecked`).
+        floats), without its checks (`unchecked`); with `final`, of its last knot only:
+        t, q, p of shape (1, ...) at t_N, lam, u, s with no row, h, mu and the nodes
+        kept (only those rows are copied).
 
         For dmoc's consumers, whose fields meet those checks by construction (finite
         arrays of the right shapes, h > 0, a formulation's name, a rule's nodes): the
         simulator's runs and the optimizer's optima.
         """
+        if final:
+            t, q, p, lam, u, s = t[-1:], q[-1:], p[-1:], lam[:0], u[:0], s[:0]
         t, q, p, lam, u, s = (np.array(a, dtype=float) for a in (t, q, p, lam, u, s))
         mu = np.zeros(lam.shape[1]) if mu is None else np.array(mu, dtype=float)
         control_nodes, stage_nodes = (tuple(float(c) for c in np.ravel(nodes))

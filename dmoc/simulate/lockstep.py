@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from .simulation import conclude, memory_needed, prepare
+from .simulation import conclude, memory_needed, prepare_runs
 from .stepper import LOCKSTEP, chunk_length
 
 # the most bytes of arrays (`memory_needed`) one group of runs in lockstep holds at once
@@ -23,12 +23,12 @@ GROUP_BYTES = 1 << 25
 _SCRATCH = threading.local()        # the memory of `_scratch`, one per thread
 
 
-def simulate_lockstep(runs):
+def simulate_lockstep(runs, *, final=False):
     """`simulate` of each of `runs` (`simulation.Run`, from `prepare`), the runs of each
     of their `groups` in lockstep: the SimulationResults in the order of `runs`, each
     what ``simulate`` returns for the same arguments but ``stats["wall_time"]`` (its
-    group's time so far). With ``throw``, a failed run raises as ``simulate`` does once
-    its group has run."""
+    group's time so far), its trajectory of the last knot only when `final` (`conclude`).
+    With ``throw``, a failed run raises as ``simulate`` does once its group has run."""
     results = [None] * len(runs)
     for members in groups(runs):
         group = [runs[i] for i in members]
@@ -37,9 +37,9 @@ def simulate_lockstep(runs):
             stepped = [run.stepper.run(run.start, run.controls, run.disc.h)]
         else:
             stepped = run_lockstep(group[0].stepper, np.array([run.start for run in group]),
-                                   np.array([run.controls for run in group]), group[0].disc.h)
+                                   _stacked([run.controls for run in group]), group[0].disc.h)
         for i, run, outcome in zip(members, group, stepped):
-            results[i] = conclude(run, outcome)
+            results[i] = conclude(run, outcome, final=final)
     return results
 
 
@@ -67,7 +67,19 @@ def simulate_runs(disc, runs):
     >>> [r.trajectory.q.shape for r in simulate_runs(disc, runs)]
     [(11, 3), (11, 3), (11, 3)]
     """
-    return simulate_lockstep([prepare(disc, **run, throw=False) for run in runs])
+    prepared = prepare_runs(disc, [dict(run, throw=False) for run in runs])
+    for run in prepared:
+        if isinstance(run, Exception):
+            raise run
+    return simulate_lockstep(prepared)
+
+
+def _stacked(controls):
+    """The runs' `controls` (N, n_controls) as one array (R, N, n_controls): a read-only
+    view when they are one array (`prepare_runs` shares the zeros), else a copy."""
+    if all(c is controls[0] for c in controls):
+        return np.broadcast_to(controls[0], (len(controls),) + controls[0].shape)
+    return np.array(controls)
 
 
 def groups(runs):

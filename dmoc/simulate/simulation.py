@@ -12,7 +12,7 @@ import numpy as np
 from .._util import checks
 from .._util import compiled
 from .._util.cache import BoundedCache
-from ..mechanics.given import start_momentum
+from ..mechanics.given import given_start, start_momenta
 from ..discrete import Discretization
 from ..errors import InputError, Interrupted, SolverError
 from ..principle.formulations import as_formulation
@@ -149,38 +149,106 @@ class Run:
 def prepare(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", throw=True,
             tol=1e-12, max_iter=50, jit=None):
     """The arguments of `simulate` checked, and what its steps start from: the start
-    momentum (``v0`` through dL/dv), the controls at every control node, the stepper.
-    Raises as `simulate` does for a bad argument."""
+    momentum (``v0`` through dL/dv), the controls at every control node, the stepper
+    (`prepare_runs` of one run). Raises as `simulate` does for a bad argument."""
+    run = prepare_runs(disc, [dict(q0=q0, v0=v0, p0=p0, steps=steps, controls=controls,
+                                   variant=variant, throw=throw, tol=tol, max_iter=max_iter,
+                                   jit=jit)])[0]
+    if isinstance(run, Exception):
+        raise run
+    return run
+
+
+def prepare_runs(disc, runs):
+    """`prepare` of each of `runs` (dicts of its keyword arguments), what they share done
+    once: the start momenta p_0 = dL/dv(q0, v0) and the velocity checks of all runs in
+    mapped calls (`start_momenta`: the bits of one run's), one stepper lookup for runs of
+    the same formulation, tol, max_iter and jit, one array of zero controls (read-only)
+    for runs of the same length without controls.
+
+    Returns
+    -------
+    list
+        For each run its `Run`, or the exception `prepare` raises for it alone: its first
+        failed check, in the order of `simulate`'s checks.
+    """
     checks.instance("disc", disc, Discretization, "a Discretization")
-    sys = disc.system
+    given = [_attempt(_given, disc, **run) for run in runs]
+    velocity = [i for i, g in enumerate(given) if isinstance(g, dict) and g["v0"] is not None]
+    if velocity:
+        q0, v0 = (np.array([given[i][name] for i in velocity]) for name in ("q0", "v0"))
+        momenta, errors = start_momenta(disc.system, q0, v0)
+        for i, p, error in zip(velocity, momenta, errors):
+            given[i] = error or dict(given[i], p0=p)
+    shared = {}
+    return [g if isinstance(g, Exception) else _attempt(_ready, disc, g, shared) for g in given]
+
+
+def _attempt(function, *args, **kwargs):
+    """``function(*args, **kwargs)``, or the exception it raises."""
+    try:
+        return function(*args, **kwargs)
+    except Exception as err:        # the run's own error, raised or kept by the caller
+        return err
+
+
+def _given(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", throw=True,
+           tol=1e-12, max_iter=50, jit=None):
+    """The checks of one run up to its start velocity or momentum (`given_start`), in
+    `simulate`'s order: the checked arguments by name."""
     formulation = as_formulation(variant, disc)
     steps = checks.positive_int("steps", steps)
     tol = checks.positive_float("tol", tol)
     max_iter = checks.positive_int("max_iter", max_iter)
     throw = checks.boolean("throw", throw)
-    q0 = checks.array("q0", q0, (sys.n,))
-    p_start, v_guess = start_momentum(sys, q0, v0, p0)
+    q0 = checks.array("q0", q0, (disc.system.n,))
+    v0, p0 = given_start(disc.system, q0, v0, p0)
+    return dict(formulation=formulation, steps=steps, tol=tol, max_iter=max_iter, throw=throw,
+                q0=q0, v0=v0, p0=p0, controls=controls, jit=jit)
+
+
+def _ready(disc, given, shared):
+    """The Run of the `given` arguments (`_given`, with the start momentum p0), the checks
+    after the start's in `simulate`'s order; `shared` holds what runs of one call share."""
+    steps = given["steps"]
     _check_memory(disc, steps)
-    controls = step_controls(disc, controls, steps)
-    residual = step_residual(disc, formulation)
+    if given["controls"] is None:
+        controls = shared.get(("zeros", steps))
+        if controls is None:
+            controls = shared[("zeros", steps)] = step_controls(disc, None, steps)
+            controls.flags.writeable = False
+    else:
+        controls = step_controls(disc, given["controls"], steps)
+    key = (given["formulation"], given["tol"], given["max_iter"], given["jit"])
     tic = time.perf_counter()
-    native = _native(jit)
-    stepper = _STEPPERS.get((residual.key, tol, max_iter, native),
-                            lambda: DiracStepper(residual, tol, max_iter, native))
+    stepper = shared.get(key) if given["jit"] is None or isinstance(given["jit"], bool) else None
+    if stepper is None:
+        stepper = shared[key] = _stepper(disc, *key)
     start = np.zeros(stepper.state.size)
-    for name, value in (("q", q0), ("p", p_start), ("dq", disc.h * v_guess)):
+    v_guess = np.zeros(disc.system.n) if given["v0"] is None else given["v0"]
+    for name, value in (("q", given["q0"]), ("p", given["p0"]), ("dq", disc.h * v_guess)):
         start[stepper.state.slice(name)] = value
-    return Run(disc, formulation, stepper, start, controls, throw, tol, tic)
+    return Run(disc, given["formulation"], stepper, start, controls, given["throw"], given["tol"], tic)
 
 
-def conclude(run, stepped):
+def _stepper(disc, formulation, tol, max_iter, jit):
+    """The DiracStepper of `disc`'s residual in `formulation` (`step_residual`, checked as
+    for `simulate`), kept across calls (`_STEPPERS`)."""
+    residual = step_residual(disc, formulation)
+    native = _native(jit)
+    return _STEPPERS.get((residual.key, tol, max_iter, native),
+                         lambda: DiracStepper(residual, tol, max_iter, native))
+
+
+def conclude(run, stepped, *, final=False):
     """The SimulationResult of `run` from what its stepper returned (`DiracStepper.run`):
-    the trajectory of the steps kept, the stats, and the verdict (raised with `throw`)."""
+    the trajectory of the steps kept (of its last knot only when `final`, as
+    `Trajectory.assembled` cuts it), the stats, and the verdict (raised with `throw`)."""
     acc, out, failed_rnorm, redone, interrupted = stepped
     wall = time.perf_counter() - run.tic
     stepper, k = run.stepper, out.shape[0]
-    traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out)
-    rnorm = stepper.out.split(out)["rnorm"]
+    traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out, final)
+    rnorm = out[:, stepper.out.slice("rnorm")]
     stats = {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
              "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
              "wall_time": wall}
@@ -248,23 +316,24 @@ def step_controls(disc, controls, steps):
     return checks.array("controls", controls, (steps, disc.n_controls))
 
 
-def _assemble(stepper, formulation, disc, controls, acc, out):
+def _assemble(stepper, formulation, disc, controls, acc, out, final):
     """Trajectory from the horizon's states (the start first) and per-step outputs
     (time-major arrays), its fields copied as ``Trajectory(...)`` copies them, without its
-    checks (`Trajectory.assembled`; mu None, a (-) run that failed at its first step, is
-    no impulse)."""
+    checks (`Trajectory.assembled`, of the last knot only when `final`; mu None, a (-)
+    run that failed at its first step, is no impulse)."""
     h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
     p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
                                                stepper.residual.m)
     return Trajectory.assembled(h * np.arange(acc.shape[0]), state["q"], p, lam, controls, h,
                                 formulation.name, mu, per_step["s"], disc.rule.control_nodes,
-                                disc.rule.stage_nodes)
+                                disc.rule.stage_nodes, final)
 
 
 def _interrupted(traj, stats, throw):
-    """The result of a run stopped by Ctrl-C after `traj.steps` accepted steps."""
-    k = traj.steps
+    """The result of a run stopped by Ctrl-C after ``stats["completed_steps"]`` accepted
+    steps."""
+    k = stats["completed_steps"]
     result = SimulationResult(
         traj, False, "interrupted",
         f"interrupted (KeyboardInterrupt) after {k} of {stats['steps']} steps (t = "
@@ -276,7 +345,7 @@ def _interrupted(traj, stats, throw):
 
 def _finish(traj, stats, failed_rnorm, tol, throw):
     """Report success, or the failed step with the trajectory before it."""
-    k, steps = traj.steps, stats["steps"]
+    k, steps = stats["completed_steps"], stats["steps"]
     if k == steps:
         return SimulationResult(traj, True, "converged",
                                 f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)

@@ -179,23 +179,26 @@ def _break_lockstep(broken):
     return lockstep.raised
 
 
-@pytest.mark.parametrize("how", ["lockstep", "timeout", "lockstep raises"])
-def test_runs_in_lockstep_on_the_workers_equal_serial_runs(client, how):
+@pytest.mark.parametrize("how, keep", [("lockstep", "trajectory"), ("timeout", "trajectory"),
+                                       ("lockstep raises", "trajectory"),
+                                       ("lockstep raises", "final")])
+def test_runs_in_lockstep_on_the_workers_equal_serial_runs(client, how, keep):
     """A worker steps a chunk's runs in lockstep (no `timeout`), one by one with a
-    `timeout`, and one by one again when the lockstep raises: the results are the serial
-    ones every time, redone steps and failures included."""
+    `timeout`, and one by one again when the lockstep raises (then cut to the last knot
+    with `keep="final"`): the results are the serial ones every time, redone steps and
+    failures included."""
     disc = dmoc.discretize(_pendulum(), 0.1)
     runs = _kicked_runs(60)
     if how == "lockstep raises":
         client.run(_break_lockstep, True)
     try:
-        results = batch.simulate_many(disc, runs, client=client, progress=False,
+        results = batch.simulate_many(disc, runs, keep=keep, client=client, progress=False,
                                       timeout=60 if how == "timeout" else None)
     finally:
         if how == "lockstep raises":
             assert sum(client.run(_break_lockstep, False).values()) >= 1     # a chunk of several runs
     for got, run in zip(results, runs):
-        _assert_same(got, disc, run, "trajectory")
+        _assert_same(got, disc, run, keep)
     statuses = {r.status for r in results}
     assert statuses == {"converged", "newton_failed"}
     assert any(r.success and r.stats["robust_steps"] for r in results)

@@ -16,7 +16,7 @@ from dmoc._util import compiled
 from dmoc.errors import InputError
 from dmoc.simulate import lockstep
 from dmoc.simulate.lockstep import simulate_lockstep, simulate_runs
-from dmoc.simulate.simulation import memory_needed, prepare
+from dmoc.simulate.simulation import memory_needed, prepare, prepare_runs
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
 JITS = [False, None, pytest.param(True, marks=pytest.mark.skipif(
@@ -160,3 +160,64 @@ def test_an_interrupt_keeps_the_chunks_before(monkeypatch):
         assert a.status == "interrupted" and a.stats["completed_steps"] == 64
         assert np.array_equal(a.trajectory.q, b.trajectory.q[:65])
         assert [f.name for f in fields(a)] == [f.name for f in fields(b)]
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_final_assembles_the_last_knot_of_each_run_as_final_knot_cuts_it(variant):
+    """``final=True``: each trajectory is the last knot of `simulate`'s, cut as the batch
+    cuts a whole one (`final_knot`), every other field of the result unchanged; runs that
+    fail (the knot they reached) included."""
+    from dmoc.batch.tasks import final_knot
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = _pendulum_runs(40, variant)
+    want = _serial(disc, runs)
+    got = simulate_lockstep([prepare(disc, **run, throw=False) for run in runs], final=True)
+    for a, b in zip(got, want):
+        b.trajectory = final_knot(b.trajectory)
+        _assert_same(a, b)
+        assert a.trajectory.q.shape == (1, 1) and a.trajectory.u.shape == (0, 2)
+
+
+def test_each_bad_run_gets_the_error_simulate_raises_for_it_alone():
+    """`prepare_runs` keeps each run's own error, the first check it fails in
+    `simulate`'s order (a v0 off the constraints before bad controls), type and
+    message; the good runs among them are prepared as `prepare` prepares them."""
+    disc = dmoc.discretize(dmoc.systems.rolling_disk(), 0.05)
+    good = {"q0": [0, 0, 0, 0], "v0": [1, 0, 1, 0.5], "steps": 7}
+    bad = [{"q0": [0, 0, 0], "v0": [1, 0, 1, 0.5]}, {"p0": [0, 0, 0, 0]},
+           {"v0": [1, 1, 1, 0.5]}, {"v0": [1, 1, 1, 0.5], "controls": np.zeros((3, 2))},
+           {"controls": np.zeros((3, 2))}, {"tol": -1.0}, {"jit": 1}, {"steps": 0},
+           {"v0": None, "p0": [1, 2]}, {"v0": [1, 0, np.nan, 0]}, {"variant": "x"},
+           {"steps": 10 ** 15}]
+    runs = []
+    for i, change in enumerate(bad):            # each bad run followed by a good one
+        runs += [dict(good, **change), dict(good, q0=[0.1 * i, 0, 0, 0])]
+    prepared = prepare_runs(disc, runs)
+    for run, got in zip(runs, prepared):
+        try:
+            want = prepare(disc, **run)
+        except Exception as err:            # noqa: BLE001 - the oracle's own error
+            assert type(got) is type(err) and str(got) == str(err)
+            with pytest.raises(type(err)) as alone:
+                dmoc.simulate(disc, **run)
+            assert str(alone.value) == str(err)
+        else:
+            assert np.array_equal(got.start, want.start) and got.stepper is want.stepper
+            assert np.array_equal(got.controls, want.controls)
+    assert sum(isinstance(r, Exception) for r in prepared) == len(bad)
+    assert "violates the velocity constraints" in str(prepared[4])
+    assert "violates the velocity constraints" in str(prepared[6])
+
+
+def test_start_momenta_of_many_runs_have_the_bits_of_one_run_each():
+    """More runs than one mapped call takes (blocks of 64, 32, 4): each start momentum
+    and each result as `simulate` alone gives it."""
+    disc = dmoc.discretize(dmoc.systems.rolling_disk(), 0.05)
+    rng = np.random.default_rng(3)
+    runs = []
+    for i in range(100):
+        q0, roll = rng.normal(size=4) * 3, rng.normal()      # x' = cos(phi) theta', ...
+        runs.append({"q0": q0, "v0": [np.cos(q0[3]) * roll, np.sin(q0[3]) * roll, roll,
+                                      rng.normal()], "steps": 4})
+    for a, b in zip(simulate_runs(disc, runs), _serial(disc, runs)):
+        _assert_same(a, b)
