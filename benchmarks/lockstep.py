@@ -26,7 +26,8 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc._util import compiled  # noqa: E402
 from dmoc.simulate.lockstep import groups, run_lockstep, simulate_runs  # noqa: E402
-from dmoc.simulate.simulation import conclude, prepare_runs  # noqa: E402
+from dmoc.simulate.preparation import prepare_runs  # noqa: E402
+from dmoc.simulate.simulation import conclude  # noqa: E402
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
 

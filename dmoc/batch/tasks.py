@@ -27,7 +27,8 @@ from ..optimize.solve import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..results.optimum import optimize
 from ..simulate.lockstep import simulate_lockstep
-from ..simulate.simulation import Run, SimulationResult, prepare_runs, simulate
+from ..simulate.preparation import Run, prepare_runs
+from ..simulate.simulation import SimulationResult, simulate
 
 # digest -> [the Shipments registered with it, their bytes] in this worker process, while
 # a batch runs (not a BoundedCache: `clear_caches` must not empty it)

@@ -13,7 +13,8 @@ import time
 
 import numpy as np
 
-from .simulation import conclude, memory_needed, prepare_runs
+from .preparation import memory_needed, prepare_runs
+from .simulation import conclude
 from .stepper import LOCKSTEP, chunk_length
 
 # the most bytes of arrays (`memory_needed`) one group of runs in lockstep holds at once

@@ -1,24 +1,17 @@
 """Consumer 1 of the step residual: the Dirac integrator. Each step solves the residual R
 of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.simulate.stepper`),
 the horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
+A run is checked and started by `dmoc.simulate.preparation` and concluded here.
 """
 
-import os
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._util import checks
-from .._util import compiled
-from .._util.cache import BoundedCache
-from ..mechanics.given import given_start, start_momenta
-from ..discrete import Discretization
-from ..errors import InputError, Interrupted, SolverError
-from ..principle.formulations import as_formulation
-from ..principle.residual import step_residual
-from .stepper import DiracStepper
+from ..errors import Interrupted, SolverError
 from ..principle.trajectory import Trajectory
+from .preparation import prepare
 
 
 @dataclass
@@ -129,117 +122,6 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     return conclude(run, run.stepper.run(run.start, run.controls, disc.h))
 
 
-@dataclass
-class Run:
-    """A run of `simulate` checked and ready to step (`prepare`): its discretization,
-    formulation, stepper (shared by every run of the same residual, tol, max_iter and
-    jit), start state (stepper.state.size,), controls (steps, disc.n_controls), `throw`,
-    `tol`, and the `perf_counter` time its stepper was asked for (where wall_time starts)."""
-
-    disc: Discretization
-    formulation: object
-    stepper: DiracStepper
-    start: np.ndarray
-    controls: np.ndarray
-    throw: bool
-    tol: float
-    tic: float
-
-
-def prepare(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", throw=True,
-            tol=1e-12, max_iter=50, jit=None):
-    """The arguments of `simulate` checked, and what its steps start from: the start
-    momentum (``v0`` through dL/dv), the controls at every control node, the stepper
-    (`prepare_runs` of one run). Raises as `simulate` does for a bad argument."""
-    run = prepare_runs(disc, [dict(q0=q0, v0=v0, p0=p0, steps=steps, controls=controls,
-                                   variant=variant, throw=throw, tol=tol, max_iter=max_iter,
-                                   jit=jit)])[0]
-    if isinstance(run, Exception):
-        raise run
-    return run
-
-
-def prepare_runs(disc, runs):
-    """`prepare` of each of `runs` (dicts of its keyword arguments), what they share done
-    once: the start momenta p_0 = dL/dv(q0, v0) and the velocity checks of all runs in
-    mapped calls (`start_momenta`: the bits of one run's), one stepper lookup for runs of
-    the same formulation, tol, max_iter and jit, one array of zero controls (read-only)
-    for runs of the same length without controls.
-
-    Returns
-    -------
-    list
-        For each run its `Run`, or the exception `prepare` raises for it alone: its first
-        failed check, in the order of `simulate`'s checks.
-    """
-    checks.instance("disc", disc, Discretization, "a Discretization")
-    given = [_attempt(_given, disc, **run) for run in runs]
-    velocity = [i for i, g in enumerate(given) if isinstance(g, dict) and g["v0"] is not None]
-    if velocity:
-        q0, v0 = (np.array([given[i][name] for i in velocity]) for name in ("q0", "v0"))
-        momenta, errors = start_momenta(disc.system, q0, v0)
-        for i, p, error in zip(velocity, momenta, errors):
-            given[i] = error or dict(given[i], p0=p)
-    shared = {}
-    return [g if isinstance(g, Exception) else _attempt(_ready, disc, g, shared) for g in given]
-
-
-def _attempt(function, *args, **kwargs):
-    """``function(*args, **kwargs)``, or the exception it raises."""
-    try:
-        return function(*args, **kwargs)
-    except Exception as err:        # the run's own error, raised or kept by the caller
-        return err
-
-
-def _given(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", throw=True,
-           tol=1e-12, max_iter=50, jit=None):
-    """The checks of one run up to its start velocity or momentum (`given_start`), in
-    `simulate`'s order: the checked arguments by name."""
-    formulation = as_formulation(variant, disc)
-    steps = checks.positive_int("steps", steps)
-    tol = checks.positive_float("tol", tol)
-    max_iter = checks.positive_int("max_iter", max_iter)
-    throw = checks.boolean("throw", throw)
-    q0 = checks.array("q0", q0, (disc.system.n,))
-    v0, p0 = given_start(disc.system, q0, v0, p0)
-    return dict(formulation=formulation, steps=steps, tol=tol, max_iter=max_iter, throw=throw,
-                q0=q0, v0=v0, p0=p0, controls=controls, jit=jit)
-
-
-def _ready(disc, given, shared):
-    """The Run of the `given` arguments (`_given`, with the start momentum p0), the checks
-    after the start's in `simulate`'s order; `shared` holds what runs of one call share."""
-    steps = given["steps"]
-    _check_memory(disc, steps)
-    if given["controls"] is None:
-        controls = shared.get(("zeros", steps))
-        if controls is None:
-            controls = shared[("zeros", steps)] = step_controls(disc, None, steps)
-            controls.flags.writeable = False
-    else:
-        controls = step_controls(disc, given["controls"], steps)
-    key = (given["formulation"], given["tol"], given["max_iter"], given["jit"])
-    tic = time.perf_counter()
-    stepper = shared.get(key) if given["jit"] is None or isinstance(given["jit"], bool) else None
-    if stepper is None:
-        stepper = shared[key] = _stepper(disc, *key)
-    start = np.zeros(stepper.state.size)
-    v_guess = np.zeros(disc.system.n) if given["v0"] is None else given["v0"]
-    for name, value in (("q", given["q0"]), ("p", given["p0"]), ("dq", disc.h * v_guess)):
-        start[stepper.state.slice(name)] = value
-    return Run(disc, given["formulation"], stepper, start, controls, given["throw"], given["tol"], tic)
-
-
-def _stepper(disc, formulation, tol, max_iter, jit):
-    """The DiracStepper of `disc`'s residual in `formulation` (`step_residual`, checked as
-    for `simulate`), kept across calls (`_STEPPERS`)."""
-    residual = step_residual(disc, formulation)
-    native = _native(jit)
-    return _STEPPERS.get((residual.key, tol, max_iter, native),
-                         lambda: DiracStepper(residual, tol, max_iter, native))
-
-
 def conclude(run, stepped, *, final=False):
     """The SimulationResult of `run` from what its stepper returned (`DiracStepper.run`):
     the trajectory of the steps kept (of its last knot only when `final`, as
@@ -260,60 +142,6 @@ def conclude(run, stepped, *, final=False):
 # the smallest residual relative to the momenta that a converged step can be asked for:
 # 100 units of round-off (evaluating R sums and multiplies O(n) terms of size |p|)
 ROUNDOFF_FLOOR = 100 * np.finfo(float).eps
-
-_STEPPERS = BoundedCache(16, "steppers")     # keyed by (residual key, tol, max_iter, native): h is an input
-
-
-def _native(jit):
-    """`jit` checked: None, or True (then a C compiler must exist), or False."""
-    if jit is None:
-        return None
-    if checks.boolean("jit", jit) and compiled.compiler() is None:
-        raise InputError("`jit=True` needs a C compiler: none found (set CC to one, or use "
-                         "jit=None to fall back to CasADi's virtual machine).")
-    return jit
-
-
-def memory_needed(disc, steps):
-    """Bytes of the float arrays a run of `steps` steps holds at once: the stepper's states
-    (q, p, dq, nu, s) and per-step outputs (p0, nu, s and 4 scalars), the controls, and the
-    Trajectory's t, q, p, lam, u, s; a lower bound (CasADi's work arrays come on top)."""
-    n, m, ns, nc = disc.system.n, disc.n_multipliers, disc.n_stages, disc.n_controls
-    per_step = (3 * n + m + ns) + (n + m + ns + 4) + nc + (1 + 2 * n + m + nc + ns)
-    return 8 * (steps + 1) * per_step
-
-
-def physical_memory():
-    """Bytes of memory of this machine, or None where the OS does not say."""
-    try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):        # no sysconf (Windows), or no such name
-        return None
-
-
-def _check_memory(disc, steps):
-    """Refuse, naming `steps`, a run whose arrays alone would not fit in the machine's memory."""
-    needed, available = memory_needed(disc, steps), physical_memory()
-    if available is not None and needed > available:
-        raise InputError(f"`steps` = {steps} needs at least {needed:.3g} bytes for the "
-                         f"trajectory's arrays, more than this machine's memory "
-                         f"({available:.3g} bytes); simulate fewer steps, or the horizon in "
-                         f"pieces (each run starting from the last state of the previous).")
-
-
-def step_controls(disc, controls, steps):
-    """`controls` as an array (steps, disc.n_controls): zeros if None; a control held over
-    each step, shape (steps, n_u), is repeated at every control node of the rule."""
-    n_u, nodes = disc.system.n_u, len(disc.rule.control_nodes)
-    if controls is None:
-        return np.zeros((steps, disc.n_controls))
-    try:
-        shape = np.shape(controls)
-    except ValueError:           # ragged: `checks.array` below names it
-        shape = None
-    if nodes > 1 and shape == (steps, n_u):
-        controls = np.tile(checks.array("controls", controls, (steps, n_u)), (1, nodes))
-    return checks.array("controls", controls, (steps, disc.n_controls))
 
 
 def _assemble(stepper, formulation, disc, controls, acc, out, final):

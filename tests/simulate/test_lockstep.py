@@ -16,7 +16,7 @@ from dmoc._util import compiled
 from dmoc.errors import InputError
 from dmoc.simulate import lockstep
 from dmoc.simulate.lockstep import simulate_lockstep, simulate_runs
-from dmoc.simulate.simulation import memory_needed, prepare, prepare_runs
+from dmoc.simulate.preparation import memory_needed, prepare, prepare_runs
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
 JITS = [False, None, pytest.param(True, marks=pytest.mark.skipif(
