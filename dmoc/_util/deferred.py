@@ -3,6 +3,8 @@ computation, made and kept when it is first read, so that a result pays for a fi
 caller reads (the raw re-solve's Trajectory, docs/stages/optimize.md) only when one does.
 """
 
+import dataclasses
+
 
 class Pending:
     """``make(*args)``, not made yet: the value of a `DeferredField` until first read.
@@ -58,3 +60,21 @@ def made(instance):
     """The instance's ``__dict__`` with every `Pending` value made (kept in place too): the
     state to pickle or copy, which holds no computation."""
     return {name: getattr(instance, name) for name in list(vars(instance))}
+
+
+def replace(instance, **changes):
+    """``dataclasses.replace(instance, **changes)`` with every field not made yet passed on
+    as its `Pending`, not made (`dataclasses.replace` reads every field it is not given).
+
+    >>> from dataclasses import dataclass
+    >>> @dataclass
+    ... class Box:
+    ...     value: float = DeferredField()
+    ...     label: str = "a"
+    >>> moved = replace(Box(Pending(float, "2.5")), label="b")
+    >>> vars(moved)["value"], moved.label
+    (Pending(float), 'b')
+    """
+    pending = {name: value for name, value in vars(instance).items()
+               if isinstance(value, Pending) and name not in changes}
+    return dataclasses.replace(instance, **pending, **changes)

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from .._util import checks
+from .._util import checks, deferred
 from ..errors import InputError, Interrupted, SolverError
 from .problem import OptimalControlProblem
 from .solve import solve        # the raw IPOPT solve of one problem
@@ -207,9 +207,10 @@ def shifted(result, problem, steps=1):
     the blocks of x, lam_x and lam_g indexed by step take the values of `steps` steps
     later, the last repeated."""
     T, N = problem.transcription, problem.steps
-    return dataclasses.replace(result, x=_shifted(result.x, T.x_layout, N, steps),
-                               lam_x=_shifted(result.lam_x, T.x_layout, N, steps),
-                               lam_g=_shifted(result.lam_g, T.g_layout, N, steps))
+    # its trajectory, unread, stays unmade (a warm start reads x and the multipliers)
+    return deferred.replace(result, x=_shifted(result.x, T.x_layout, N, steps),
+                            lam_x=_shifted(result.lam_x, T.x_layout, N, steps),
+                            lam_g=_shifted(result.lam_g, T.g_layout, N, steps))
 
 
 def _shifted(vector, layout, steps, by):

@@ -53,11 +53,13 @@ def test_a_step_applies_the_plans_first_controls_and_leaves_its_trajectory_unmad
     """The applied controls are read from the plan's x: bit for bit its trajectory's first
     controls, and the trajectory (made on first access) is not made by the step."""
     controller = dmoc.MPC(parking("lobatto3"))
-    for q in (np.zeros(3), np.array([0.01, 0.0, 0.02])):
-        u = controller.step(q, p=np.zeros(3))
-        assert isinstance(vars(controller.plan)["trajectory"], Pending)
-        np.testing.assert_array_equal(u, controller.plan.trajectory.u[0])
-        assert u.shape == (len(controller.problem.disc.rule.control_nodes) * 2,)
+    controller.step(np.zeros(3), p=np.zeros(3))
+    first = controller.plan
+    u = controller.step(np.array([0.01, 0.0, 0.02]), p=np.zeros(3))   # warm: `first` shifted
+    for plan in (first, controller.plan):
+        assert isinstance(vars(plan)["trajectory"], Pending)
+    np.testing.assert_array_equal(u, controller.plan.trajectory.u[0])
+    assert u.shape == (len(controller.problem.disc.rule.control_nodes) * 2,)
 
 
 def test_the_warm_start_is_the_plan_moved_one_step():
