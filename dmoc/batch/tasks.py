@@ -122,9 +122,8 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
         results, seconds = _in_lockstep(calls, keep == "final")
     else:
         results, seconds = _chunk(SimulationResult, calls, timeout)
-        for result in results:
-            if keep == "final" and result.trajectory is not None:
-                result.trajectory = final_knot(result.trajectory)
+        if keep == "final":
+            _cut_to_final_knots(results)
     return PackedResults(results, share), seconds
 
 
@@ -143,9 +142,8 @@ def _in_lockstep(calls, final):
         stepped = _lockstep(list(loaded.values()), final)
     except BaseException:       # any error of the group: each item again, alone
         stepped = [_guarded(SimulationResult, *calls[i], None)[0] for i in loaded]
-        for result in stepped:
-            if final and result.trajectory is not None:
-                result.trajectory = final_knot(result.trajectory)
+        if final:
+            _cut_to_final_knots(stepped)
     for i, result in zip(loaded, stepped):
         results[i] = result
     _stamp(results)
@@ -162,6 +160,13 @@ def _lockstep(loaded, final):
                                      final=final))
     return [next(stepped) if isinstance(run, Run) else
             _caught(SimulationResult, "exception", "", run) for run in prepared]
+
+
+def _cut_to_final_knots(results):
+    """Each of `results` that has a trajectory keeps only its last knot (`final_knot`)."""
+    for result in results:
+        if result.trajectory is not None:
+            result.trajectory = final_knot(result.trajectory)
 
 
 def final_knot(trajectory):

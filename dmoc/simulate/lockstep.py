@@ -25,7 +25,7 @@ _SCRATCH = threading.local()        # the memory of `_scratch`, one per thread
 
 
 def simulate_lockstep(runs, *, final=False):
-    """`simulate` of each of `runs` (`simulation.Run`, from `prepare`), the runs of each
+    """`simulate` of each of `runs` (`preparation.Run`, from `prepare_runs`), the runs of each
     of their `groups` in lockstep: the SimulationResults in the order of `runs`, each
     what ``simulate`` returns for the same arguments but ``stats["wall_time"]`` (its
     group's time so far), its trajectory of the last knot only when `final` (`conclude`).
