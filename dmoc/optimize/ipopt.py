@@ -127,8 +127,9 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
             weakref.finalize(made, remove_journal, journal).atexit = False
         return PackedSolver(made, transcription), journal
 
+    # with `jit`, `expand` changes nothing (`nlp_functions`): one solver for both
     solver, journal = build() if not reuse else _SOLVERS.get(
-        (transcription.structure, repr(sorted(opts.items())), report, expand, jit), build)
+        (transcription.structure, repr(sorted(opts.items())), report, expand and not jit, jit), build)
     return solver, reuse and not built, journal
 
 

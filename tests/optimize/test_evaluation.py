@@ -75,6 +75,16 @@ def test_ipopt_evaluates_the_functions_of_the_mode(private_cache, mode, kind):
         assert packed.nlpsol.get_function(name).class_name() == kind
 
 
+@needs_compiler
+def test_a_compiled_solver_is_shared_whatever_expand_says(private_cache):
+    problem = dmoc.problems.knife_edge_parking(8, rule="lobatto3")
+    first = solver(problem.transcription, {}, reuse=True, report=False, jit=True, expand=False)[0]
+    again, reused, _ = solver(problem.transcription, {}, reuse=True, report=False, jit=True, expand=True)
+    assert reused and again is first
+    flat, reused, _ = solver(problem.transcription, {}, reuse=True, report=False, jit=False, expand=True)
+    assert not reused and flat is not first
+
+
 def closed_loop(steps, **switches):
     """(the records of `steps` MPC steps on knife-edge parking against a 10 % heavier plant
     kicked at step 2: (applied u, plan's x, lam_x, lam_g, iterations) per step; the MPC)."""
