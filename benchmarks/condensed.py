@@ -45,7 +45,7 @@ from dmoc.optimize.ipopt import (DEFAULT_IPOPT_OPTIONS, PackedSolver, data_toler
 from dmoc.principle.explicit import single_output, solved_rows  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from nlp_functions import CASES  # noqa: E402
+from nlp_functions import CASES, per_call  # noqa: E402
 from peers_resolve import dmoc_problem, goals, moved  # noqa: E402
 
 # Newton on the stage rows: stop at |rows| <= ABSTOL or |step| <= ABSTOL_STEP
@@ -77,10 +77,11 @@ def step_rows(problem, multipliers):
 
 
 def condensed(problem, multipliers=False):
-    """(nlp, keep_x, keep_g): the NLP of `problem`'s transcription with block "s" of x (and
+    """(nlp, keep_x, keep_g, newton): the NLP of `problem`'s transcription with block "s" of x (and
     with `multipliers` the interior multipliers lam[m:] of every step) replaced by the
     per-step Newton solution of the rows of `step_rows`, and those rows dropped. `keep_x`,
-    `keep_g`: the entries of the full (scaled) x and g that it keeps, in order."""
+    `keep_g`: the entries of the full (scaled) x and g that it keeps, in order; `newton`:
+    Function ``(x, p) -> z``, the Newton solutions of every step alone."""
     T, N, rule, m = problem.transcription, problem.steps, problem.disc.rule, problem.disc.system.m
     lay, n_x, n_g = T.x_layout, T.x_layout.size, T.g_layout.size
     if problem.final_time.free:
@@ -111,7 +112,8 @@ def condensed(problem, multipliers=False):
     x = ca.vertcat(xc, ca.vec(z) / ca.DM(D[gone_x.ravel(order="F")]))[order.tolist()]
     full = ca.Function("fg", [T.nlp["x"], T.nlp["p"]], [T.nlp["f"], T.nlp["g"]])
     f, g = full(x, p)
-    return {"x": xc, "p": p, "f": f, "g": g[keep_g.tolist()]}, keep_x, keep_g
+    return ({"x": xc, "p": p, "f": f, "g": g[keep_g.tolist()]}, keep_x, keep_g,
+            ca.Function("newton", [xc, p], [z], ["x", "p"], ["z"]))
 
 
 def ad_functions(nlp):
@@ -146,11 +148,11 @@ class Variant:
     """One NLP and evaluation: a cold and a warm solver, the entries of the full x and g it
     keeps, its sizes, and its warm-start chain."""
 
-    def __init__(self, label, cold, warm, keep_x, keep_g, functions):
+    def __init__(self, label, cold, warm, keep_x, keep_g, functions, newton=None):
         self.label, self.cold, self.warm, self.keep_x, self.keep_g = label, cold, warm, keep_x, keep_g
         jac, hess = functions["nlp_jac_g"], functions["nlp_hess_l"]
         self.size = (keep_x.size, keep_g.size, jac.sparsity_out(1).nnz(), hess.sparsity_out(0).nnz())
-        self.previous = None
+        self.previous, self.newton, self.newton_time = None, newton, None
 
     def solve(self, problem, warm):
         """(the solution in the full x's unscaled units on the kept entries, its stats);
@@ -173,7 +175,7 @@ class Variant:
             raise RuntimeError(f"{self.label}: {st['return_status']}")
         self.previous = sol
         fun = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
-        return D[kx] * sol["x"], (wall, iteration_count(st), fun, float(sol["f"][0]))
+        return D[kx] * sol["x"], (wall, iteration_count(st), fun, st["n_call_nlp_g"], float(sol["f"][0]))
 
 
 def variants(problem):
@@ -184,24 +186,27 @@ def variants(problem):
     if data_tolerances(T, x0):
         raise RuntimeError("this problem raises IPOPT's tolerances: not compared here")
     every_x, every_g = np.arange(sizes[0]), np.arange(sizes[1])
-    nlps = [("full, AD", T.nlp, every_x, every_g)]
+    nlps = [("full, AD", T.nlp, every_x, every_g, None)]
     for label, multipliers in (("condensed s", False), ("condensed s, lam", True)):
         nlps.append((label, *condensed(problem, multipliers)))
-    ad = {label: ad_functions(nlp) for label, nlp, _, _ in nlps}
+    ad = {label: ad_functions(nlp) for label, nlp, *_ in nlps}
     out = []
     for evaluation in ("VM", "SX", "C"):
         cold, warm = (dmoc_solver(T, start_options(w), expand=evaluation == "SX", reuse=False,
                                   report=False, jit=evaluation == "C")[0] for w in (False, True))
         out.append(Variant(f"full, dmoc, {evaluation}", cold, warm, every_x, every_g,
                            T.separable.derivatives()))
-        for label, nlp, kx, kg in nlps:
+        for label, nlp, kx, kg, newton in nlps:
             if evaluation == "SX" and label.startswith("condensed"):
                 continue        # a rootfinder has no SX form
             own = ad[label]
             functions = {"VM": lambda: own, "SX": lambda: {k: f.expand() for k, f in own.items()},
                          "C": lambda: Library(own.values(), "condensed_bench").load()}[evaluation]()
             cold, warm = (nlpsol(nlp, functions, w, (kx.size, kg.size, sizes[2])) for w in (False, True))
-            out.append(Variant(f"{label}, {evaluation}", cold, warm, kx, kg, own))
+            if evaluation == "C" and newton is not None:
+                newton = Library([newton], "condensed_newton").load()["newton"]
+            out.append(Variant(f"{label}, {evaluation}", cold, warm, kx, kg, own,
+                               newton if evaluation == "C" else None))
     return out
 
 
@@ -232,6 +237,9 @@ def measure(name, rule, N, rounds, count):
     bad = {k: w for k, w in worst.items() if not w <= AGREEMENT}
     if bad:
         raise RuntimeError(f"{name} {rule}: optima differ from dmoc's by {bad}")
+    for v in every:                         # the compiled Newton solves alone, at the optimum
+        if v.newton is not None:
+            v.newton_time = per_call({"newton": v.newton}, [v.previous["x"], problem.transcription.p], 200, 7)["newton"]
     cold = {v.label: [] for v in every}
     warm = {v.label: [] for v in every}
     moved_problems = [moved(problem, name, g) for g in list(targets[1:]) + [targets[0]]]
@@ -247,15 +255,16 @@ def table(name, rule, N, every, worst, timed):
     ref = {kind: np.median([r[0] for r in timed[kind][every[0].label]]) for kind in timed}
     print(f"\n{name}, {rule}, N = {N}")
     print("| variant | x, g | nnz jac_g, triu hess | max abs dq, du | start | ms | it "
-          "| fun ms | rest ms | / dmoc VM |")
-    print("|---|---|---|---:|---|---:|---:|---:|---:|---:|")
+          "| fun ms | rest ms | / dmoc VM | g evals | Newton us |")
+    print("|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for v in every:
         for kind in ("cold", "warm"):
             rows = np.array(timed[kind][v.label])
-            wall, it, fun, _ = np.median(rows, axis=0)
+            wall, it, fun, evals, _ = np.median(rows, axis=0)
+            newton = "" if v.newton_time is None else f"{1e6 * v.newton_time:.1f}"
             print(f"| {v.label} | {v.size[0]}, {v.size[1]} | {v.size[2]}, {v.size[3]} "
                   f"| {worst[v.label]:.1e} | {kind} | {1e3 * wall:.2f} | {it:g} "
-                  f"| {1e3 * fun:.2f} | {1e3 * (wall - fun):.2f} | {wall / ref[kind]:.2f} |")
+                  f"| {1e3 * fun:.2f} | {1e3 * (wall - fun):.2f} | {wall / ref[kind]:.2f} | {evals:g} | {newton} |")
 
 
 def main(argv=None):
