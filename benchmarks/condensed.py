@@ -5,22 +5,28 @@ The condensed NLP is built from the same transcription and the same step residua
 step the residual's "stage" rows (n_stages rows; they read q_k, q_{k+1}, lam_k, s_k, u_k
 and h, not p_k) are solved for s_k by Newton (CasADi's ``fast_newton`` rootfinder, from the
 stages on the chord), and the transcription's own f and g are evaluated at the full x with
-those s; its variables are x without block "s", its rows g without the stage rows. Its
-derivatives are CasADi's (the implicit function theorem through the rootfinder), so the
-full NLP is also run with CasADi's derivatives of the same f and g ("full, AD") besides
-dmoc's own path ("full, dmoc": the derivatives assembled from the terms,
-`dmoc.optimize.separable`, through `dmoc.optimize.ipopt.solver`). Evaluations: CasADi's
-virtual machine (VM), expanded to SX (not possible through a rootfinder), and C (the five
-Functions compiled by dmoc's `Library`, as ``jit=True``; dmoc's own path with ``jit=True``).
+those s; its variables are x without block "s", its rows g without the stage rows
+("condensed s"). "condensed s, lam" also eliminates the interior multipliers lam_k[m:] with
+the constraint rows of the higher Legendre moments (it keeps the end node's multiplier and
+the zeroth moment). Their derivatives are CasADi's (the implicit function theorem through
+the rootfinder), so the full NLP is also run with CasADi's derivatives of the same f and g
+("full, AD") besides dmoc's own path ("full, dmoc": the derivatives assembled from the
+terms, `dmoc.optimize.separable`, through `dmoc.optimize.ipopt.solver`). Evaluations:
+CasADi's virtual machine (VM), expanded to SX (not possible through a rootfinder), and C
+(the five Functions compiled by dmoc's `Library`, as ``jit=True``; dmoc's own path with
+``jit=True``).
 
 Per problem (the four cases and N of `peers_resolve.py`: rolling disk lobatto4 N = 11 and
 lobatto3 N = 31, knife edge lobatto3 N = 28 and lobatto4 N = 14), in one process, every
 variant in turn per round: a cold solve at the original goal (dmoc's default guess, zero
-multipliers) and warm re-solves at `--goals` goals near it in a cycle (the previous optimum,
-primal and dual, clipped into the new bounds, as `dmoc.optimize.guess.start_point`), with
-dmoc's IPOPT options for each start (`DEFAULT_IPOPT_OPTIONS`, `start_options`); medians over
-the rounds. Before timing, every variant's optimum is checked against dmoc's (q and u, at
-the original goal and at every re-solve goal).
+multipliers) and warm re-solves at `--goals` goals near it and at the original goal, in a
+cycle (from the previous optimum, primal and dual, clipped into the new bounds, as
+`dmoc.optimize.guess.start_point`), with dmoc's IPOPT options for each start
+(`DEFAULT_IPOPT_OPTIONS`, `start_options`); medians over the rounds. Before timing, every
+variant's optimum is checked against dmoc's (q and u, at the original goal and at every
+re-solve goal). Columns: "fun" the nlpsol's t_wall_nlp_*
+summed, "rest" the packed call's wall time less it, "Newton us" the compiled Newton
+solutions of all steps alone, per call at the optimum.
 
     python benchmarks/condensed.py [--rounds 15] [--goals 5] [--cases 0 1 2 3]
 """
@@ -161,7 +167,8 @@ class Variant:
         D, R, kx, kg = T.x_scale, T.g_scale, self.keep_x, self.keep_g
         lbx, ubx = (T.lbx / D)[kx], (T.ubx / D)[kx]
         if warm:
-            x0, lam_x0, lam_g0 = np.clip(self.previous["x"], lbx, ubx), self.previous["lam_x"], self.previous["lam_g"]
+            last = self.previous
+            x0, lam_x0, lam_g0 = np.clip(last["x"], lbx, ubx), last["lam_x"], last["lam_g"]
         else:
             x0, lam_x0, lam_g0 = start_point(problem, None)
             x0, lam_x0, lam_g0 = (x0 / D)[kx], (lam_x0 * D)[kx], (lam_g0 / R)[kg]
@@ -239,7 +246,8 @@ def measure(name, rule, N, rounds, count):
         raise RuntimeError(f"{name} {rule}: optima differ from dmoc's by {bad}")
     for v in every:                         # the compiled Newton solves alone, at the optimum
         if v.newton is not None:
-            v.newton_time = per_call({"newton": v.newton}, [v.previous["x"], problem.transcription.p], 200, 7)["newton"]
+            at = [v.previous["x"], problem.transcription.p]
+            v.newton_time = per_call({"newton": v.newton}, at, 200, 7)["newton"]
     cold = {v.label: [] for v in every}
     warm = {v.label: [] for v in every}
     moved_problems = [moved(problem, name, g) for g in list(targets[1:]) + [targets[0]]]
@@ -264,7 +272,8 @@ def table(name, rule, N, every, worst, timed):
             newton = "" if v.newton_time is None else f"{1e6 * v.newton_time:.1f}"
             print(f"| {v.label} | {v.size[0]}, {v.size[1]} | {v.size[2]}, {v.size[3]} "
                   f"| {worst[v.label]:.1e} | {kind} | {1e3 * wall:.2f} | {it:g} "
-                  f"| {1e3 * fun:.2f} | {1e3 * (wall - fun):.2f} | {wall / ref[kind]:.2f} | {evals:g} | {newton} |")
+                  f"| {1e3 * fun:.2f} | {1e3 * (wall - fun):.2f} | {wall / ref[kind]:.2f} "
+                  f"| {evals:g} | {newton} |")
 
 
 def main(argv=None):
