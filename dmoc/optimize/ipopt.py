@@ -102,9 +102,11 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
     # gradient function CasADi would generate for them is most of a solver's build.
     # CasADi's own "expand" stays off: the cache holds all five Functions IPOPT calls, in
     # the form `expand` and `jit` ask for (`nlp_functions`), and expanding the unused MX
-    # oracle besides cost 4-9 ms per build at N = 31-100.
+    # oracle besides cost 4-9 ms per build at N = 31-100. record_time: CasADi's wall time of
+    # the nlpsol call itself (stats t_wall_total, `ipopt_time`), without the packed call's
+    # conversions, measured as rockit's re-solves are (docs/performance.md).
     opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True,
-            "calc_lam_p": False, **{"ipopt." + k: v for k, v in merged.items()}}
+            "calc_lam_p": False, "record_time": True, **{"ipopt." + k: v for k, v in merged.items()}}
     built = []
 
     def build():
