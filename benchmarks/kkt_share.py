@@ -36,6 +36,7 @@ import time
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+os.environ.setdefault("GFORTRAN_UNBUFFERED_PRECONNECTED", "y")    # MUMPS's report written as it goes
 
 import numpy as np  # noqa: E402
 
