@@ -22,6 +22,9 @@ MUMPS's report at ``mumps_print_level`` 2). A fifth row re-solves dmoc without t
 bound multipliers of its fixed variables (``fixed_variable_treatment``
 "make_parameter_nodual"; dmoc's default "make_parameter" has IPOPT evaluate the gradient
 again for them at every iteration): the same iterates, a diagnostic, not dmoc's result.
+Last, dmoc's packed IPOPT call with its stacked input handed to CasADi as a NumPy array
+(before) and as a list of floats (`dmoc.optimize.ipopt.PackedSolver`), alternating, at
+an optimum: the same bits, the time of each.
 
     /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife]
 """
@@ -160,6 +163,37 @@ def kkt(name, rule, N, N_rockit, targets):
     return out
 
 
+def packed_input(name, rule, N, targets, calls):
+    """(median us of the packed IPOPT call with its input as a NumPy array (before) and as
+    a list (`dmoc.optimize.ipopt.PackedSolver`, now), the number of entries): `calls`
+    alternating calls at the optimum of the second goal, from its own x and multipliers
+    (0 iterations: the call's conversions stand out); the outputs of the two have the same
+    bits (asserted)."""
+    from dmoc._util.conversions import vector
+    from dmoc.optimize import ipopt
+    from dmoc.optimize.solve import solve
+    problem = peers.moved(peers.dmoc_problem(name, N, rule, targets[0]), name, targets[1])
+    T, D, R = problem.transcription, problem.transcription.x_scale, problem.transcription.g_scale
+    optimum = solve(problem, jit=True, guess=solve(problem, jit=True))
+    packed = ipopt.solver(T, ipopt.start_options(True), expand=False, reuse=True, report=False, jit=True)[0]
+    inputs = {"x0": optimum.x / D, "p": T.p, "lam_x0": optimum.lam_x * D, "lam_g0": optimum.lam_g / R,
+              "lbx": T.lbx / D, "ubx": T.ubx / D, "lbg": T.lbg * R, "ubg": T.ubg * R}
+
+    def as_array():
+        z = np.concatenate([inputs[k] for k in packed._inputs.blocks])
+        return packed._outputs.split(vector(packed._function(z)))
+    seconds = ([], [])
+    for i in range(calls):
+        outs = []
+        for k, call in enumerate((as_array, lambda: packed(**inputs))):
+            tic = time.perf_counter()
+            outs.append(call())
+            seconds[k].append(time.perf_counter() - tic)
+        if i == 0:
+            assert all(np.array_equal(outs[0][k].view(np.int64), outs[1][k].view(np.int64)) for k in outs[0])
+    return [float(np.median(t)) * 1e6 for t in seconds], sum(v.size for v in inputs.values())
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=40, help="cycles over the goals (default 40)")
@@ -200,6 +234,10 @@ def main():
         print(f"  {method:<7} variables {s['variables']}, rows {s['rows']}, KKT rows {s['variables'] + s['rows']}, "
               f"nnz jac_g {s['jac']}, hess_l {s['hess']}; entries in the factors {s['factor'][0]}, "
               f"operations per factorization {s['factor'][1]:.3g}")
+    (array, listed), entries = packed_input(name, rule, N, targets, 20 * args.repeat)
+    print(f"\ndmoc's packed IPOPT call at an optimum (0 iterations), its input of {entries} entries as a "
+          f"NumPy array (before) {array:.1f} us, as a list (now) {listed:.1f} us: {listed / array:.3f}, "
+          f"{array - listed:.1f} us less; the same bits")
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 
