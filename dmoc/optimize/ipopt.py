@@ -144,7 +144,7 @@ class PackedSolver:
     nonzeros (`dmoc._util.conversions.vector`, quicker than ``full()``); the input is
     handed over as a list of floats, which CasADi converts quicker than a NumPy array (that
     one entry by entry through Python: CasADi's ``DM_from_array`` hands over ``m.flat``):
-    the same floats, 76-81 us less per call at 1839-2314 entries
+    the same floats, about 50-80 us less per call at 1839-2314 entries
     (docs/performance.md, "IPOPT's share of a re-solve, dmoc against rockit"). Not as a
     DM (`conversions.column`): then a Ctrl-C inside IPOPT ended the call in "IpoptException
     ... Unknown Exception" or ``SystemError: ... returned a result with an exception set``
