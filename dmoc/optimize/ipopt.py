@@ -102,9 +102,11 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
     # gradient function CasADi would generate for them is most of a solver's build.
     # CasADi's own "expand" stays off: the cache holds all five Functions IPOPT calls, in
     # the form `expand` and `jit` ask for (`nlp_functions`), and expanding the unused MX
-    # oracle besides cost 4-9 ms per build at N = 31-100.
+    # oracle besides cost 4-9 ms per build at N = 31-100. record_time: CasADi's wall time of
+    # the nlpsol call itself (stats t_wall_total, `ipopt_time`), without the packed call's
+    # conversions, measured as rockit's re-solves are (docs/performance.md).
     opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True,
-            "calc_lam_p": False, **{"ipopt." + k: v for k, v in merged.items()}}
+            "calc_lam_p": False, "record_time": True, **{"ipopt." + k: v for k, v in merged.items()}}
     built = []
 
     def build():
@@ -140,11 +142,15 @@ class PackedSolver:
     eight inputs and five outputs of a solve cost one conversion each way, about 0.1 ms
     less per solve (3 % of a warm MPC step at N = 30), for about 0.4 ms (N = 100) to
     1.3 ms (N = 1000) once, when the solver is created. The output is read by its
-    nonzeros (`dmoc._util.conversions.vector`, quicker than ``full()``); the input stays
-    a NumPy array: given as a DM (`conversions.column`, quicker), a Ctrl-C inside IPOPT
-    after any call of CasADi's buffer interface in the process (`dmoc._util.numeric`)
-    ended the call in ``SystemError: ... returned a result with an exception set``
-    instead of returning the last iterate (tests/test_interrupts.py).
+    nonzeros (`dmoc._util.conversions.vector`, quicker than ``full()``); the input is
+    handed over as a list of floats, which CasADi converts quicker than a NumPy array (that
+    one entry by entry through Python: CasADi's ``DM_from_array`` hands over ``m.flat``):
+    the same floats, about 50-80 us less per call at 1839-2314 entries
+    (docs/performance.md, "IPOPT's share of a re-solve, dmoc against rockit"). Not as a
+    DM (`conversions.column`): then a Ctrl-C inside IPOPT ended the call in "IpoptException
+    ... Unknown Exception" or ``SystemError: ... returned a result with an exception set``
+    instead of returning the last iterate (tests/test_interrupts.py); with a list, as with
+    a NumPy array, the last iterate is returned.
 
     Parameters
     ----------
@@ -174,7 +180,7 @@ class PackedSolver:
         """{"x", "f", "g", "lam_x", "lam_g"}: 1-d arrays (f of shape (1,)) of the solve from
         the `inputs` of nlpsol (x0, p, lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-        return self._outputs.split(vector(self._function(z)))
+        return self._outputs.split(vector(self._function(z.tolist())))
 
     def stats(self):
         """IPOPT's statistics of the last solve: the packed Function's, which are those of

@@ -52,7 +52,9 @@ class OptimizationResult:
         ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
         when a solver of the same structure and options was reused), ``solver_reused``,
         ``warm_start`` (True when IPOPT started from a previous optimum's x and
-        multipliers), ``solve_time`` (wall seconds in IPOPT), ``function_time`` (the part
+        multipliers), ``solve_time`` (wall seconds of the solver call), ``ipopt_time`` (of them
+        the seconds in CasADi's IPOPT call itself, as CasADi records them: without the
+        conversions of the inputs and outputs), ``function_time`` (the part
         of it spent evaluating the NLP functions and derivatives; the rest is mostly the
         linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
         whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
@@ -190,7 +192,8 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "build_time": 0.0 if reused else build_time, "solver_reused": reused,
              "warm_start": warm,
-             "solve_time": solve_time, **linear_algebra(st),
+             "solve_time": solve_time, "ipopt_time": st.get("t_wall_total", solve_time),
+             **linear_algebra(st),
              "max_violation": worst[0], "most_violated": worst[1]}
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)

@@ -146,3 +146,23 @@ def test_warm_re_solves_without_mumps_scaling_take_the_same_iterations(name):
         scaled = solve(moved, guess=scaled, options={"mumps_scaling": 77})
         assert cold.stats["warm_start"] and cold.stats["iterations"] == scaled.stats["iterations"]
         np.testing.assert_allclose(cold.x, scaled.x, rtol=0.0, atol=1e-12 * max(1.0, np.abs(scaled.x).max()))
+
+
+@pytest.mark.parametrize("name", ["rolling disk lobatto4", "free final time"])
+def test_the_packed_call_of_a_list_gives_the_solvers_own_outputs(name):
+    """`ipopt.PackedSolver` hands its stacked input to CasADi as a list of floats; the
+    oracle is the nlpsol it wraps called on the eight NumPy inputs one by one (CasADi's
+    own conversions): every output the same bits, cold and warm."""
+    problem = _problems()[name]
+    T = problem.transcription
+    first = solve(problem)
+    packed = ipopt.solver(T, ipopt.start_options(True), expand=False, reuse=True, report=False)[0]
+    D, R = T.x_scale, T.g_scale
+    inputs = {"x0": first.x / D + 0.01, "p": T.p, "lam_x0": first.lam_x * D, "lam_g0": first.lam_g / R,
+              "lbx": T.lbx / D, "ubx": T.ubx / D, "lbg": T.lbg * R, "ubg": T.ubg * R}
+    ours = packed(**inputs)
+    theirs = packed.nlpsol(**inputs)
+    assert packed.stats()["iter_count"] > 0
+    for key, value in ours.items():
+        np.testing.assert_array_equal(value.view(np.int64), np.array(theirs[key]).ravel().view(np.int64),
+                                      err_msg=key)
