@@ -28,7 +28,11 @@ class PackedResults(list):
 
     def __reduce__(self):
         file = sharing.SharedFile(self.share)
-        heads, arrays = pack(self, file.allocate)
+        try:
+            heads, arrays = pack(self, file.allocate)
+        except BaseException:      # the slot taken must not stay locked
+            file.release()
+            raise
         if arrays is not None and file.seal():
             return unpack_shared, (heads, file.path, file.layout)
         return unpack, (heads, arrays)
