@@ -8,6 +8,7 @@ and the problems built alike with other goals. Any other problem is shipped itse
 """
 
 import hashlib
+import pickle
 
 import cloudpickle
 import numpy as np
@@ -27,7 +28,7 @@ def digest(data):
 
 def problem_items(problems, guesses):
     """(shipments {digest: bytes}, items [(digest, bytes)]): each item's bytes are
-    ``cloudpickle.dumps((boundary, parameter_values, guess))`` for `tasks.optimize_chunk`,
+    ``pickled((boundary, parameter_values, guess))`` for `tasks.optimize_chunk`,
     to be applied to the problem shipped under its digest."""
     shipments, items, shipped = {}, [], {}     # shipped: structure -> [(problem, digest)]
     for i, (problem, guess) in enumerate(zip(problems, guesses)):
@@ -45,7 +46,7 @@ def problem_items(problems, guesses):
 
 def run_items(discs, runs):
     """(shipments {digest: bytes}, items [(digest, bytes)]): each distinct Discretization
-    (by identity) shipped once, each run as ``cloudpickle.dumps(run)`` for
+    (by identity) shipped once, each run as ``pickled(run)`` for
     `tasks.simulate_chunk`."""
     shipments, items, names = {}, [], {}
     for i, (disc, run) in enumerate(zip(discs, runs)):
@@ -79,10 +80,31 @@ def rebuilds(base, problem, bounds, values):
         np.array_equal(getattr(rebuilt, k), getattr(problem, k)) for k in _ARRAYS)
 
 
+# Types plain pickle writes as cloudpickle does (by value, or by reference to numpy, which
+# every worker imports), in about a third of its time (docs/performance.md, "Ninth").
+_PLAIN = (bool, int, float, complex, str, bytes, type(None))
+
+
 def pickled(name, value):
-    """``cloudpickle.dumps(value)``; the worker task unpickles it."""
+    """``cloudpickle.dumps(value)``, or the same object as plain ``pickle.dumps`` writes it
+    when `value` is plain data (`plain`); the worker task unpickles it."""
     try:
-        return cloudpickle.dumps(value)
+        return pickle.dumps(value, protocol=5) if plain(value) else cloudpickle.dumps(value)
     except Exception as err:
         raise InputTypeError(f"`{name}` cannot be pickled for the workers: "
                              f"{type(err).__name__}: {err}") from err
+
+
+def plain(value, depth=0):
+    """Whether `value` is numbers, strings, numpy arrays or scalars of numbers, and lists,
+    tuples and dicts (of str keys) of them, nested at most 8 deep."""
+    kind = type(value)
+    if kind in _PLAIN:
+        return True
+    if depth >= 8:
+        return False
+    if kind in (list, tuple):
+        return all(plain(item, depth + 1) for item in value)
+    if kind is dict:
+        return all(type(key) is str and plain(item, depth + 1) for key, item in value.items())
+    return (kind is np.ndarray or isinstance(value, np.generic)) and value.dtype.kind in "biufc"

@@ -77,7 +77,7 @@ def shipped(digest, unpack):
 
 
 def optimize_chunk(digest, items, options, switches, timeout):
-    """For each item, ``cloudpickle.dumps((boundary, parameter_values, guess))``:
+    """For each item, ``shipping.pickled((boundary, parameter_values, guess))``:
     `optimize` on the shipped problem with that boundary data (``with_boundary``) and
     those parameter values (``with_parameters``), ``throw=False``; never raises for an
     item. Returns (results, seconds per item), results possibly fewer than items (a
@@ -98,7 +98,7 @@ def optimize_chunk(digest, items, options, switches, timeout):
 
 
 def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
-    """For each item, ``cloudpickle.dumps(run)``: ``simulate(disc, **run, throw=False)`` on
+    """For each item, ``shipping.pickled(run)``: ``simulate(disc, **run, throw=False)`` on
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
     ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
     trajectories travel as a few arrays, through shared memory when `share`, the client's

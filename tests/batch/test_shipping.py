@@ -185,3 +185,28 @@ def test_a_batch_takes_its_shipments_back(client):
     assert all(r.success for r in first)
     assert set(client.run(_shipped_bytes).values()) == {0}
     assert client.run_on_scheduler(_dmoc_plugins) == []
+
+
+def test_plain_data_is_pickled_plainly_and_anything_else_by_cloudpickle():
+    """A run of numbers, strings and numpy arrays is written by plain pickle (faster),
+    which gives the same object as cloudpickle; a local class, a function or a cyclic
+    list is not plain and goes through cloudpickle, which pickles them by value."""
+    import pickle
+
+    import cloudpickle
+
+    class Local:
+        pass
+
+    run = {"q0": [0, 0.5, np.float64(1.0)], "v0": np.array([1.0, 0.0, 1.0]), "steps": 3,
+           "variant": "-", "controls": np.zeros((3, 2)), "jit": None, "tol": (1e-12,)}
+    assert shipping.plain(run) and shipping.pickled("run", run) == pickle.dumps(run, protocol=5)
+    back = pickle.loads(shipping.pickled("run", run))
+    assert back.keys() == run.keys() and back["v0"].tobytes() == run["v0"].tobytes()
+    assert pickle.loads(cloudpickle.dumps(run))["q0"] == back["q0"]
+    cyclic = []
+    cyclic.append(cyclic)
+    for other in ({"force": lambda u: u}, {"x": Local()}, cyclic, {1: 2.0},
+                  np.array(["a"]), np.array([None]), np.ma.array([1.0])):
+        assert not shipping.plain(other)
+    assert pickle.loads(shipping.pickled("run", {"force": lambda u: 2 * u}))["force"](3) == 6
