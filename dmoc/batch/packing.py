@@ -58,8 +58,8 @@ def pack(results, allocate=None):
         ``t`` (K,), ``q``, ``p`` (K, n) with K the sum of N + 1 over the packed runs;
         ``lam``, ``u``, ``s`` (sum of N, ...); ``mu`` (runs, m).
     """
-    widths = [_widths(r.trajectory) for r in results if r.trajectory is not None]
-    packed = [r for r in results if r.trajectory is not None and _widths(r.trajectory) == widths[0]]
+    widths = [(r, _widths(r.trajectory)) for r in results if r.trajectory is not None]
+    packed = [r for r, width in widths if width == widths[0][1]]
     if not packed:
         return [(r, None) for r in results], None
     chosen = {id(r) for r in packed}
