@@ -45,7 +45,8 @@ KEPT_BYTES = 1 << 26
 TOKEN, STATE, HEADER = 16, 8, 64
 FREE = bytes(STATE)
 
-_POOL = []                       # the client's free Slots
+_POOL = []                       # the client's free Slots, of the process `_POOL_PID`
+_POOL_PID = [os.getpid()]        # (a process forked from the client makes a pool of its own)
 _POOL_LOCK = threading.Lock()
 
 
@@ -90,6 +91,11 @@ class Exchange:
         if not hasattr(os, "memfd_create") or not os.path.isdir(f"/proc/{os.getpid()}/fd"):
             return None
         with _POOL_LOCK:
+            if _POOL_PID[0] != os.getpid():
+                for slot in _POOL:
+                    os.close(slot.fd)            # this process's copy of the parent's slot
+                _POOL.clear()
+                _POOL_PID[0] = os.getpid()
             self.slots = _POOL[:SLOTS]
             del _POOL[:SLOTS]
         try:

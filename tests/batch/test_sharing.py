@@ -147,3 +147,24 @@ def test_no_memfd_means_no_exchange(monkeypatch):
     monkeypatch.delattr(os, "memfd_create")
     with sharing.Exchange() as share:
         assert share is None
+
+
+def test_a_forked_process_lends_slots_of_its_own():
+    with sharing.Exchange() as share:
+        parents = share[1]
+    read, write = os.pipe()
+    child = os.fork()
+    if child == 0:                                     # pragma: no cover - the child
+        try:
+            with sharing.Exchange() as share:
+                fresh = not {token for _, token in share[1]} & {token for _, token in parents}
+                written = _write(_any_size(share))
+                ok = fresh and written is not None and sharing.read(*written)["q"].shape == (7, 3)
+            os.write(write, b"1" if ok else b"0")
+        finally:
+            os._exit(0)
+    os.close(write)
+    assert os.read(read, 1) == b"1"
+    os.waitpid(child, 0)
+    with sharing.Exchange() as share:
+        assert share[1] == parents                     # the parent's slots are still its own
