@@ -127,7 +127,7 @@ def simulate_rows(cluster, steps, count, repeat=1):
     packed_in_process(disc, runs)     # as on a worker after its first chunk: memory reused
     packed_in_process(disc, runs, simulate_runs)
     packed_in_process(disc, runs, simulate_runs, shared=True)
-    times = {"serial": [], "trajectory": [], "final": [], "packed": [], "lockstep": [], "shared": []}
+    times = {name: [] for name in ("serial", "trajectory", "final", "packed", "lockstep", "shared")}
     dq = dict.fromkeys(times, 0.0)
     for _ in range(repeat):
         wall, cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
@@ -138,8 +138,10 @@ def simulate_rows(cluster, steps, count, repeat=1):
             times[keep].append((wall, cpu))
             dq[keep] = max(dq[keep], *(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
                                        for a, b in zip(results, serial)))
-        for name, simulated in (("packed", None), ("lockstep", simulate_runs), ("shared", simulate_runs)):
-            wall, cpu, results = timed(lambda: packed_in_process(disc, runs, simulated, name == "shared"))
+        for name, simulated in (("packed", None), ("lockstep", simulate_runs),
+                                ("shared", simulate_runs)):
+            wall, cpu, results = timed(lambda: packed_in_process(disc, runs, simulated,
+                                                                 name == "shared"))
             times[name].append((wall, cpu))
             dq[name] = max(dq[name], *(np.abs(a.trajectory.q - b.trajectory.q).max()
                                        for a, b in zip(results, serial)))

@@ -129,7 +129,8 @@ def test_trajectories_through_shared_memory_equal_serial_and_free_their_slots(
     monkeypatch.setattr(sharing, "MIN_BYTES", 0)
     chunks = []
     read = sharing.read
-    monkeypatch.setattr(sharing, "read", lambda path, layout: chunks.append(path) or read(path, layout))
+    monkeypatch.setattr(sharing, "read",
+                        lambda path, layout: chunks.append(path) or read(path, layout))
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
     runs = _runs(150)
     results = batch.simulate_many(disc, runs, keep=keep, client=client, progress=False)
@@ -139,7 +140,8 @@ def test_trajectories_through_shared_memory_equal_serial_and_free_their_slots(
     shared = [r.trajectory for r in results if r.trajectory is not None]
     shared[0].q[...] = 7.0                       # writable, and no other run sees it
     assert not any((t.q == 7.0).all() for t in shared[1:])
-    assert {os.pread(slot.fd, sharing.STATE, sharing.TOKEN) for slot in sharing._POOL} == {sharing.FREE}
+    states = {os.pread(slot.fd, sharing.STATE, sharing.TOKEN) for slot in sharing._POOL}
+    assert states == {sharing.FREE}
 
 
 def _pendulum():
