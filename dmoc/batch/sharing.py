@@ -227,18 +227,29 @@ def _opened(pid, fd, token):
 def _open(pid, fd, token):
     """`_Opened` of ``/proc/<pid>/fd/<fd>`` if it is a file of this user that starts with
     `token`, else None."""
+    handle = _reach(pid, fd)
     try:
-        handle = os.open(f"/proc/{pid}/fd/{fd}", os.O_RDWR | os.O_CLOEXEC)
-    except OSError:
-        return None
-    try:
-        trusted = _trusted(handle, token)
+        trusted = handle is not None and _trusted(handle, token)
     except OSError:
         trusted = False
     if trusted:
         return _Opened(handle)
-    os.close(handle)
+    if handle is not None:
+        os.close(handle)
     return None
+
+
+def _reach(pid, fd):
+    """A descriptor of ``/proc/<pid>/fd/<fd>``, checked to be a regular file of this user
+    before it is opened at all, or None."""
+    path = f"/proc/{pid}/fd/{fd}"
+    try:
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode) or info.st_uid != os.getuid():
+            return None
+        return os.open(path, os.O_RDWR | os.O_CLOEXEC | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError:
+        return None
 
 
 def _trusted(handle, token):
@@ -253,13 +264,16 @@ def read(path, layout):
     not the client's of this token, does not hold this ticket, or is too small for the
     layout."""
     pid, fd, token, ticket = path
-    handle = os.open(f"/proc/{pid}/fd/{fd}", os.O_RDWR | os.O_CLOEXEC)
+    handle = _reach(pid, fd)
+    refused = OSError(f"/proc/{pid}/fd/{fd} is not a slot of this batch holding that chunk")
+    if handle is None:
+        raise refused
     try:
         size = max((offset + np.dtype(dtype).itemsize * int(np.prod(shape))
                     for offset, dtype, shape in layout.values()), default=0)
         if (not _trusted(handle, token) or os.pread(handle, STATE, TOKEN) != ticket
                 or os.fstat(handle).st_size < HEADER + size):
-            raise OSError(f"/proc/{pid}/fd/{fd} is not a slot of this batch holding that chunk")
+            raise refused
         arrays = {}
         for name, (offset, dtype, shape) in layout.items():
             arrays[name] = np.empty(shape, dtype)

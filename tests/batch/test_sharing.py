@@ -168,3 +168,17 @@ def test_a_forked_process_lends_slots_of_its_own():
     os.waitpid(child, 0)
     with sharing.Exchange() as share:
         assert share[1] == parents                     # the parent's slots are still its own
+
+
+def test_the_client_reads_nothing_but_a_regular_file_of_its_user(tmp_path):
+    with sharing.Exchange() as share:
+        (pid, fd, token, ticket), layout = _write(_any_size(share))
+        read, write = os.pipe()
+        try:
+            for other in (read, 10 ** 6):                # a pipe; no such descriptor
+                with pytest.raises(OSError, match="not a slot of this batch"):
+                    sharing.read((pid, other, token, ticket), layout)
+        finally:
+            os.close(read)
+            os.close(write)
+        assert sharing.read((pid, fd, token, ticket), layout)["q"].shape == (7, 3)
