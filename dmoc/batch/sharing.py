@@ -2,7 +2,7 @@
 a client on the same machine as their worker: through shared memory that both reuse from
 batch to batch, instead of Dask's TCP frames, which cost about a quarter of a batch of 1000
 runs of 1000 steps (docs/performance.md, "Fourth round"), or new pages each time, which
-cost as much as the copy of the data many times over ("Ninth").
+cost many times the copy of the data ("Ninth").
 
 The client owns the memory: a pool of `Slot`s, anonymous shared-memory files (memfd) that
 only its process holds, kept from batch to batch up to `KEPT_BYTES` and gone with the
@@ -10,7 +10,7 @@ process. For the length of a batch it lends `SLOTS` of them (`Exchange`) and tel
 workers its process id and, per slot, the descriptor and a random token written at the
 start of the file. A worker that can open the slot through ``/proc/<pid>/fd/<fd>`` (the
 kernel allows that to the same user only), finds the token there and takes the slot's
-lock (``flock``) writes a chunk's arrays into it, marks it with a random ticket and sends
+lock (``flock``), writes a chunk's arrays into it, marks it with a random ticket and sends
 only the slot, the ticket and the layout. Any other worker (another machine, another
 process namespace, another user), every slot busy, or a chunk under `MIN_BYTES`: the
 arrays go through Dask as before. The client copies the arrays out (`read`: its results
