@@ -16,7 +16,9 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
   same runs with ``throw=False`` as one chunk pickled and unpickled as it travels
   (`dmoc.batch.packing`), which tells the cost of packing from the parallel speed-up;
   "in one process, lockstep": the same with the runs in lockstep, as a worker's task
-  steps them (`dmoc.simulate.lockstep`).
+  steps them (`dmoc.simulate.lockstep`); "... through shared memory": the same in chunks
+  of 125 runs through `dmoc.batch.sharing`, written and read back in this process, as a
+  worker on the client's machine sends them.
 - **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
   and on the cluster: seconds per item, and the worker-seconds a batch adds per item,
   2 x batch - serial (its cost of shipping, scheduling and collecting).
@@ -50,6 +52,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
+from dmoc.batch import sharing  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 from dmoc.simulate.lockstep import simulate_runs  # noqa: E402
@@ -123,7 +126,8 @@ def simulate_rows(cluster, steps, count, repeat=1):
         batch.simulate_many(disc, runs[:2 * WORKERS], keep=keep, client=cluster, progress=False)
     packed_in_process(disc, runs)     # as on a worker after its first chunk: memory reused
     packed_in_process(disc, runs, simulate_runs)
-    times = {"serial": [], "trajectory": [], "final": [], "packed": [], "lockstep": []}
+    packed_in_process(disc, runs, simulate_runs, shared=True)
+    times = {name: [] for name in ("serial", "trajectory", "final", "packed", "lockstep", "shared")}
     dq = dict.fromkeys(times, 0.0)
     for _ in range(repeat):
         wall, cpu, serial = timed(lambda: [dmoc.simulate(disc, **run) for run in runs])
@@ -134,8 +138,10 @@ def simulate_rows(cluster, steps, count, repeat=1):
             times[keep].append((wall, cpu))
             dq[keep] = max(dq[keep], *(np.abs(a.trajectory.q - b.trajectory.q[-len(a.trajectory.q):]).max()
                                        for a, b in zip(results, serial)))
-        for name, simulated in (("packed", None), ("lockstep", simulate_runs)):
-            wall, cpu, results = timed(lambda: packed_in_process(disc, runs, simulated))
+        for name, simulated in (("packed", None), ("lockstep", simulate_runs),
+                                ("shared", simulate_runs)):
+            wall, cpu, results = timed(lambda: packed_in_process(disc, runs, simulated,
+                                                                 name == "shared"))
             times[name].append((wall, cpu))
             dq[name] = max(dq[name], *(np.abs(a.trajectory.q - b.trajectory.q).max()
                                        for a, b in zip(results, serial)))
@@ -148,18 +154,25 @@ def simulate_rows(cluster, steps, count, repeat=1):
             ("  in one process, packed", serial_wall, serial_cpu, median["packed"][0],
              WORKERS * median["packed"][1], dq["packed"]),
             ("  in one process, lockstep", serial_wall, serial_cpu, median["lockstep"][0],
-             WORKERS * median["lockstep"][1], dq["lockstep"])]
+             WORKERS * median["lockstep"][1], dq["lockstep"]),
+            ("  ... through shared memory", serial_wall, serial_cpu, median["shared"][0],
+             WORKERS * median["shared"][1], dq["shared"])]
 
 
-def packed_in_process(disc, runs, simulated=None):
+def packed_in_process(disc, runs, simulated=None, shared=False):
     """The runs as a worker's task makes them (``throw=False``; one by one, or by
     `simulated`, e.g. `simulate_runs`), as one chunk pickled and unpickled with
-    out-of-band buffers, as Dask moves it."""
+    out-of-band buffers, as Dask moves it; with `shared`, in chunks of 125 runs through
+    shared memory (`dmoc.batch.sharing`) as a worker on the client's machine sends them."""
     buffers = []
     results = (simulated(disc, runs) if simulated is not None
                else [dmoc.simulate(disc, **run, throw=False) for run in runs])
-    data = pickle.dumps(PackedResults(results), protocol=5, buffer_callback=buffers.append)
-    return pickle.loads(data, buffers=buffers)
+    if not shared:
+        data = pickle.dumps(PackedResults(results), protocol=5, buffer_callback=buffers.append)
+        return pickle.loads(data, buffers=buffers)
+    with sharing.Exchange() as share:
+        return [result for i in range(0, len(results), 125)
+                for result in pickle.loads(pickle.dumps(PackedResults(results[i:i + 125], share)))]
 
 
 def overhead_row(cluster, count):

@@ -19,8 +19,8 @@ STEP_FIELDS = ("lam", "u", "s")          # N rows per run
 
 class PackedResults(list):
     """A list of SimulationResults that pickles as a few arrays (`pack`), written to a
-    file of shared memory when `share` (`sharing.Exchange`) allows it; unpickled, it is
-    a plain list of equal results (`unpack`), in the same order."""
+    slot of the client's shared memory when `share` (`sharing.Exchange`) allows it;
+    unpickled, it is a plain list of equal results (`unpack`), in the same order."""
 
     def __init__(self, results, share=None):
         super().__init__(results)
@@ -28,7 +28,11 @@ class PackedResults(list):
 
     def __reduce__(self):
         file = sharing.SharedFile(self.share)
-        heads, arrays = pack(self, file.allocate)
+        try:
+            heads, arrays = pack(self, file.allocate)
+        except BaseException:      # the slot taken must not stay locked
+            file.release()
+            raise
         if arrays is not None and file.seal():
             return unpack_shared, (heads, file.path, file.layout)
         return unpack, (heads, arrays)
@@ -99,7 +103,7 @@ def unpack(heads, arrays):
 
 
 def unpack_shared(heads, path, layout):
-    """`unpack` of arrays that a `sharing.SharedFile` put in the file `path`."""
+    """`unpack` of arrays that a `sharing.SharedFile` put in the slot `path` (copied out)."""
     return unpack(heads, sharing.read(path, layout))
 
 

@@ -1,152 +1,295 @@
 """How the packed trajectories of a chunk of `simulate_many` (`dmoc.batch.packing`) reach
-a client on the same machine as their worker: through a file of shared memory instead of
-Dask's TCP frames, which cost about a quarter of a batch of 1000 runs of 1000 steps
-(docs/performance.md, "Fourth round").
+a client on the same machine as their worker: through shared memory that both reuse from
+batch to batch, instead of Dask's TCP frames, which cost about a quarter of a batch of 1000
+runs of 1000 steps (docs/performance.md, "Fourth round"), or new pages each time, which
+cost many times the copy of the data ("Ninth").
 
-The client owns the exchange (`Exchange`): for the length of a batch it keeps a beacon,
-an empty file of its own in `FOLDER` with a random name. A worker that sees the beacon,
-owned by its own user, shares that folder with the client: it writes the chunk's arrays
-into a new file next to it (created exclusively, mode 0600) and sends only its name and
-layout. Any other worker (another machine, a container with its own /dev/shm, another
-user) and any chunk under `MIN_BYTES` sends the arrays through Dask as before. The client
-maps the file copy-on-write after checking that its own user owns it, that no one else
-may write it, and that its size is the layout's, then removes it at once. The file holds
-numbers only: nothing in it is unpickled or run. At the end of the batch the client
-removes the beacon and then every file left with its prefix (chunks whose results never
-arrived); a worker that finds the beacon gone after creating its file removes the file
-itself, so no file outlives the batch whatever its order of events, unless the client's
-process is killed.
+The client owns the memory: a pool of `Slot`s, anonymous shared-memory files (memfd) that
+only its process holds, kept from batch to batch up to `KEPT_BYTES` and gone with the
+process. For the length of a batch it lends `SLOTS` of them (`Exchange`) and tells the
+workers its process id and, per slot, the descriptor and a random token written at the
+start of the file. A worker that can open the slot through ``/proc/<pid>/fd/<fd>`` (the
+kernel allows that to the same user only), finds the token there and takes the slot's
+lock (``flock``), writes a chunk's arrays into it, marks it with a random ticket and sends
+only the slot, the ticket and the layout. Any other worker (another machine, another
+process namespace, another user), every slot busy, or a chunk under `MIN_BYTES`: the
+arrays go through Dask as before. The client copies the arrays out (`read`: its results
+are ordinary numpy arrays of its own, as serial runs give) and marks the slot free for the
+next chunk. The file holds numbers only: nothing in it is unpickled or run.
 """
 
-import glob
+import fcntl
 import mmap
 import os
 import secrets
 import stat
+import threading
+import weakref
 
 import numpy as np
 
-FOLDER = "/dev/shm"
-
-# Chunks whose arrays are smaller travel through Dask: a file costs a few system calls.
+# Chunks whose arrays are smaller travel through Dask: a slot costs a few system calls.
 MIN_BYTES = 1 << 20
+
+# Slots one batch borrows: a worker writes a chunk into a slot when Dask asks it for the
+# results and the client frees the slot as it receives them, so a few per worker suffice;
+# an unused slot is an empty file.
+SLOTS = 8
+
+# Bytes of slots the client keeps between batches (the rest are emptied): about what a
+# batch of 1000 runs of 1000 knife-edge steps keeps in flight on 2 workers.
+KEPT_BYTES = 1 << 26
+
+# A slot's file: its token (16 bytes), its state (8 bytes: FREE, or the ticket of the chunk
+# written there and not yet read), then from HEADER on the chunk's arrays.
+TOKEN, STATE, HEADER = 16, 8, 64
+FREE = bytes(STATE)
+
+_POOL = []                       # the client's free Slots, of the process `_POOL_PID`
+_POOL_PID = [os.getpid()]        # (a process forked from the client makes a pool of its own)
+_POOL_LOCK = threading.Lock()
+
+
+class Slot:
+    """A file of shared memory of the client's process (memfd): its descriptor `fd` and the
+    random `token` written at its start."""
+
+    def __init__(self):
+        self.fd = os.memfd_create("dmoc-batch", os.MFD_CLOEXEC)
+        self.token = secrets.token_bytes(TOKEN)
+        os.pwrite(self.fd, self.token + FREE, 0)
+
+    def reset(self, kept):
+        """Mark the slot free and empty it when `kept` bytes of slots are kept already; its
+        size (bytes), or None when a writer holds it (then it is closed, not kept)."""
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(self.fd)
+            return None
+        try:
+            os.pwrite(self.fd, FREE, TOKEN)
+            size = os.fstat(self.fd).st_size
+            if kept + size > KEPT_BYTES and size > HEADER:
+                os.ftruncate(self.fd, HEADER)
+                size = HEADER
+            return size
+        finally:
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
 
 
 class Exchange:
     """The client's side of one batch: ``with Exchange() as share:`` gives the value
-    (beacon path, MIN_BYTES) a worker's `SharedFile` takes, or None where `FOLDER` cannot be
-    used; on exit the beacon and every file left of the batch are removed."""
+    (pid, ((fd, token), ...), MIN_BYTES) a worker's `SharedFile` takes, or None where this
+    system has no memfd or no /proc; on exit the slots are freed, whatever was left in them,
+    and go back to the pool (`KEPT_BYTES`)."""
 
     def __init__(self):
-        self.prefix = os.path.join(FOLDER, f"dmoc-batch-{secrets.token_hex(12)}")
+        self.slots = []
 
     def __enter__(self):
-        try:
-            os.close(os.open(self.prefix, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW,
-                             0o600))
-        except OSError:            # no shared-memory folder here: Dask carries everything
+        if not hasattr(os, "memfd_create") or not os.path.isdir(f"/proc/{os.getpid()}/fd"):
             return None
-        return self.prefix, MIN_BYTES
+        with _POOL_LOCK:
+            if _POOL_PID[0] != os.getpid():
+                for slot in _POOL:
+                    os.close(slot.fd)            # this process's copy of the parent's slot
+                _POOL.clear()
+                _POOL_PID[0] = os.getpid()
+            self.slots = _POOL[:SLOTS]
+            del _POOL[:SLOTS]
+        try:
+            while len(self.slots) < SLOTS:
+                self.slots.append(Slot())
+        except OSError:          # no memory for a file now: Dask carries the rest
+            if not self.slots:
+                return None
+        return os.getpid(), tuple((slot.fd, slot.token) for slot in self.slots), MIN_BYTES
 
     def __exit__(self, *exc):
-        for path in [self.prefix, *glob.glob(glob.escape(self.prefix) + "-*")]:
-            try:
-                os.unlink(path)
-            except OSError:
-                pass
+        kept, returned = 0, []
+        for slot in self.slots:
+            size = slot.reset(kept)
+            if size is not None:
+                kept += size
+                returned.append(slot)
+        with _POOL_LOCK:
+            _POOL.extend(returned)
+        self.slots = []
 
 
 class SharedFile:
-    """A worker's file for the arrays of one chunk (`allocate`), when `share`, the
-    client's `Exchange`, reaches this worker and the arrays reach `MIN_BYTES`. `path`
-    and `layout` name the file once `seal` has kept it:
+    """A worker's slot for the arrays of one chunk (`allocate`), when `share`, the client's
+    `Exchange`, reaches this worker and the arrays reach `MIN_BYTES`. `path` and `layout`
+    name them once `seal` has marked them: ``path = (pid, fd, token, ticket)``,
     ``layout[name] = (offset, dtype, shape)``."""
 
     def __init__(self, share):
-        self.share, self.path, self.layout = share, None, None
+        self.share, self.path, self.layout, self._held = share, None, None, None
 
     def allocate(self, shapes):
-        """{name: writable array of shapes[name] = (shape, dtype)} in a new file of the
-        client's folder (created exclusively, mode 0600), or None where there is none."""
-        layout, offset = {}, 0
+        """{name: writable array of shapes[name] = (shape, dtype)} in a free slot of the
+        client, held (locked) until `seal` or `release`, or None where there is none."""
+        layout, size = {}, 0
         for name, (shape, dtype) in shapes.items():
-            layout[name] = (offset, np.dtype(dtype).str, tuple(shape))
-            offset += np.dtype(dtype).itemsize * int(np.prod(shape))
-        memory = self._file(offset)
-        if memory is None:
+            layout[name] = (size, np.dtype(dtype).str, tuple(shape))
+            size += np.dtype(dtype).itemsize * int(np.prod(shape))
+        if self.share is None or size < max(self.share[2], 1):
             return None
-        self.layout = layout
-        return {name: _view(memory, *layout[name]) for name in layout}
+        pid, slots, _ = self.share
+        for fd, token in slots:
+            opened = _opened(pid, fd, token)
+            memory = opened.hold(HEADER + size) if opened is not None else None
+            if memory is not None:
+                self._held, self.layout = (opened, (pid, fd, token)), layout
+                return {name: _view(memory, offset + HEADER, dtype, shape)
+                        for name, (offset, dtype, shape) in layout.items()}
+        return None
 
     def seal(self):
-        """Whether the arrays went to a file the client will read: its batch is still on
-        (the beacon is there); otherwise the file is removed."""
-        if self.path is None:
+        """Whether the arrays went to a slot the client will read: the slot is marked with
+        a new ticket and let go."""
+        if self._held is None:
             return False
-        if os.path.exists(self.share[0]):
-            return True
-        os.unlink(self.path)
-        self.path = None
-        return False
+        (opened, where), ticket = self._held, FREE
+        while ticket == FREE:
+            ticket = secrets.token_bytes(STATE)
+        opened.let_go(ticket)
+        self._held, self.path = None, (*where, ticket)
+        return True
 
-    def _file(self, size):
-        """A shared mapping of a new file of `size` bytes next to the beacon, or None."""
-        if self.share is None:
+    def release(self):
+        """Let go of a slot taken by `allocate` and not sealed (its arrays not sent)."""
+        if self._held is not None:
+            self._held[0].let_go(FREE)
+            self._held = None
+
+
+class _Opened:
+    """A worker's descriptor and mapping of one slot of a client."""
+
+    def __init__(self, fd):
+        self.fd, self.memory, self.lock = fd, None, threading.Lock()
+        weakref.finalize(self, os.close, fd)     # when no chunk in writing holds it either
+
+    def hold(self, size):
+        """The slot's mapping of at least `size` bytes, locked (against the other threads of
+        this process, and with ``flock`` the other processes), if it is free; else None."""
+        if not self.lock.acquire(blocking=False):
             return None
-        beacon, min_bytes = self.share
-        if size < max(min_bytes, 1) or not _own(beacon):
-            return None
-        path = f"{beacon}-{secrets.token_hex(8)}"
         try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
+            self.lock.release()
             return None
         try:
-            # reserved, not only sized: a full /dev/shm (64 MB in a Docker container by
-            # default) then fails here instead of killing the worker with SIGBUS later
-            os.posix_fallocate(fd, 0, size)
-            memory = mmap.mmap(fd, size)
+            if os.pread(self.fd, STATE, TOKEN) == FREE:
+                if os.fstat(self.fd).st_size < size:
+                    # reserved, not only sized: a full memory then fails here instead of
+                    # killing the worker with SIGBUS when it writes
+                    os.posix_fallocate(self.fd, 0, size)
+                if self.memory is None or len(self.memory) < size:
+                    self.memory = mmap.mmap(self.fd, size)
+                return self.memory
         except OSError:
-            os.unlink(path)
-            return None
+            pass
+        fcntl.flock(self.fd, fcntl.LOCK_UN)
+        self.lock.release()
+        return None
+
+    def let_go(self, state):
+        """Write the slot's `state` and unlock it."""
+        try:
+            os.pwrite(self.fd, state, TOKEN)
         finally:
-            os.close(fd)
-        self.path = path
-        return memory
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
+            self.lock.release()
+
+
+# (pid, fd, token) -> _Opened (or None: not this client's slot), of one client process at a
+# time and at most 2 SLOTS of them: the mappings of other slots are dropped then
+_OPENED = {}
+_OPENED_LOCK = threading.Lock()
+
+
+def _opened(pid, fd, token):
+    """This worker's `_Opened` slot `fd` of the client process `pid`, or None when it is
+    not that client's slot of this `token` (another machine or process namespace)."""
+    key = (pid, fd, token)
+    with _OPENED_LOCK:
+        if key not in _OPENED:
+            if len(_OPENED) >= 2 * SLOTS or any(other[0] != pid for other in _OPENED):
+                _OPENED.clear()
+            _OPENED[key] = _open(pid, fd, token)
+        return _OPENED[key]
+
+
+def _open(pid, fd, token):
+    """`_Opened` of ``/proc/<pid>/fd/<fd>`` if it is a file of this user that starts with
+    `token`, else None."""
+    handle = _reach(pid, fd)
+    try:
+        trusted = handle is not None and _trusted(handle, token)
+    except OSError:
+        trusted = False
+    if trusted:
+        return _Opened(handle)
+    if handle is not None:
+        os.close(handle)
+    return None
+
+
+def _reach(pid, fd):
+    """A descriptor of ``/proc/<pid>/fd/<fd>``, checked to be a regular file of this user
+    before it is opened at all, or None."""
+    path = f"/proc/{pid}/fd/{fd}"
+    try:
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode) or info.st_uid != os.getuid():
+            return None
+        return os.open(path, os.O_RDWR | os.O_CLOEXEC | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError:
+        return None
+
+
+def _trusted(handle, token):
+    info = os.fstat(handle)
+    return (stat.S_ISREG(info.st_mode) and info.st_uid == os.getuid()
+            and os.pread(handle, TOKEN, 0) == token)
 
 
 def read(path, layout):
-    """The arrays a `SharedFile` put in the file `path`, as copy-on-write views of its memory;
-    the file is removed. Raises OSError when the file is not one the worker of this
-    user wrote for this layout (nor any path outside `FOLDER`'s batch files)."""
-    if (os.path.dirname(path) != FOLDER
-            or not os.path.basename(path).startswith("dmoc-batch-")):
-        raise OSError(f"{path} is not a file of this user's batch")
+    """The arrays a `SharedFile` put in the slot `path` = (pid, fd, token, ticket), copied
+    out into arrays of this process; the slot is then free. Raises OSError when the slot is
+    not the client's of this token, does not hold this ticket, or is too small for the
+    layout."""
+    pid, fd, token, ticket = path
+    handle = _reach(pid, fd)
+    refused = OSError(f"/proc/{pid}/fd/{fd} is not a slot of this batch holding that chunk")
+    if handle is None:
+        raise refused
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
-    finally:
-        if os.path.lexists(path):
-            os.unlink(path)
-    try:
-        info = os.fstat(fd)
         size = max((offset + np.dtype(dtype).itemsize * int(np.prod(shape))
                     for offset, dtype, shape in layout.values()), default=0)
-        if (not stat.S_ISREG(info.st_mode) or info.st_uid != os.getuid()
-                or info.st_mode & 0o077 or info.st_size != size):
-            raise OSError(f"{path} is not a file of this user's batch of the expected size")
-        memory = mmap.mmap(fd, size, access=mmap.ACCESS_COPY)
+        if (not _trusted(handle, token) or os.pread(handle, STATE, TOKEN) != ticket
+                or os.fstat(handle).st_size < HEADER + size):
+            raise refused
+        arrays = {}
+        for name, (offset, dtype, shape) in layout.items():
+            arrays[name] = np.empty(shape, dtype)
+            _read_into(handle, memoryview(arrays[name].reshape(-1)).cast("B"), HEADER + offset)
+        os.pwrite(handle, FREE, TOKEN)
     finally:
-        os.close(fd)
-    return {name: _view(memory, offset, np.dtype(dtype), shape)
-            for name, (offset, dtype, shape) in layout.items()}
+        os.close(handle)
+    return arrays
 
 
-def _own(path):
-    """Whether `path` exists and belongs to this process's user."""
-    try:
-        return os.stat(path, follow_symlinks=False).st_uid == os.getuid()
-    except OSError:
-        return False
+def _read_into(handle, buffer, offset):
+    while len(buffer):
+        count = os.preadv(handle, [buffer], offset)
+        if count <= 0:
+            raise OSError("a slot ended before its arrays")
+        buffer, offset = buffer[count:], offset + count
 
 
 def _view(memory, offset, dtype, shape):

@@ -1,6 +1,9 @@
 """The shared-memory exchange of simulate_many's packed arrays (dmoc.batch.sharing): what
-a worker writes the client reads back bit for bit; a file the client did not make safe is
-refused; no file outlives its batch, whichever side stops first."""
+a worker writes into a slot of the client's pool the client reads back bit for bit, into
+arrays of its own, and the slot is free again; a slot that is not the client's, not of
+this chunk or too small is refused; busy slots, small chunks and full memory go through
+Dask; whatever a batch leaves in its slots is freed at its end, and the pool keeps at
+most KEPT_BYTES."""
 
 import os
 
@@ -11,22 +14,27 @@ pytest.importorskip("distributed")
 
 from dmoc.batch import sharing  # noqa: E402
 
-
-@pytest.fixture
-def folder(tmp_path, monkeypatch):
-    monkeypatch.setattr(sharing, "FOLDER", str(tmp_path))
-    return tmp_path
+if not hasattr(os, "memfd_create") or not os.path.isdir("/proc/self/fd"):
+    pytest.skip("no memfd or /proc here: every chunk goes through Dask", allow_module_level=True)
 
 
-def _arrays():
-    rng = np.random.default_rng(0)
-    return {"t": rng.random(7), "q": rng.random((7, 3)), "lam": rng.random((6, 0)),
+@pytest.fixture(autouse=True)
+def empty_pool():
+    """Each test starts with no slot in the pool, as a new client process."""
+    for slot in sharing._POOL:
+        os.close(slot.fd)
+    sharing._POOL.clear()
+
+
+def _arrays(rows=7):
+    rng = np.random.default_rng(rows)
+    return {"t": rng.random(rows), "q": rng.random((rows, 3)), "lam": rng.random((rows - 1, 0)),
             "mu": rng.random((2, 1))}
 
 
-def _write(share):
+def _write(share, rows=7):
     """What a worker does with a chunk's arrays: (path, layout), or None (through Dask)."""
-    file, arrays = sharing.SharedFile(share), _arrays()
+    file, arrays = sharing.SharedFile(share), _arrays(rows)
     into = file.allocate({name: (a.shape, a.dtype) for name, a in arrays.items()})
     if into is None:
         return None
@@ -35,75 +43,142 @@ def _write(share):
     return (file.path, file.layout) if file.seal() else None
 
 
-def test_what_a_worker_writes_the_client_reads_bit_for_bit(folder):
+def _any_size(share):
+    """`share` with every chunk large enough for a slot."""
+    return (*share[:2], 0)
+
+
+def _states(slots):
+    return [os.pread(slot.fd, sharing.STATE, sharing.TOKEN) for slot in slots]
+
+
+def test_what_a_worker_writes_the_client_reads_bit_for_bit_into_its_own_arrays():
     with sharing.Exchange() as share:
-        path, layout = _write((share[0], 0))
-        assert oct(os.stat(path).st_mode & 0o777) == "0o600"
+        path, layout = _write(_any_size(share))
         back = sharing.read(path, layout)
-        assert not os.path.exists(path)
         for name, a in _arrays().items():
             assert back[name].shape == a.shape and back[name].tobytes() == a.tobytes()
-        back["q"][0, 0] = 5.0                    # a private copy-on-write page
-    assert list(folder.iterdir()) == []
+            assert back[name].flags.owndata and back[name].flags.writeable
+        with pytest.raises(OSError, match="not a slot of this batch holding that chunk"):
+            sharing.read(path, layout)                 # read once: the slot is free again
+        assert _write(_any_size(share)) is not None    # and takes the next chunk
 
 
-def test_small_chunks_and_workers_without_the_beacon_use_dask(folder):
+def test_slots_are_reused_across_batches_and_freed_at_the_end():
     with sharing.Exchange() as share:
-        assert _write(share) is None            # under MIN_BYTES
-        assert _write((share[0] + "-other", 0)) is None
+        first = _write(_any_size(share))[0][:3]
+        _write(_any_size(share))                        # never read
+        lent = share[1]
+    assert set(_states(sharing._POOL)) == {sharing.FREE}
+    with sharing.Exchange() as share:
+        assert share[1] == lent                          # the pool lends the same slots
+        assert _write(_any_size(share))[0][:3] == first  # the first one free again
+
+
+def test_the_pool_keeps_at_most_kept_bytes(monkeypatch):
+    monkeypatch.setattr(sharing, "KEPT_BYTES", 2 * sharing.HEADER + 8 * 50)
+    with sharing.Exchange() as share:
+        for _ in range(3):
+            _write(_any_size(share), rows=10)
+    sizes = [os.fstat(slot.fd).st_size for slot in sharing._POOL]
+    assert sizes[0] == sharing.HEADER + 8 * 42 and max(sizes[1:]) <= sharing.HEADER
+
+
+def test_small_chunks_busy_slots_and_no_share_use_dask():
+    with sharing.Exchange() as share:
+        assert _write(share) is None                     # under MIN_BYTES
         assert _write(None) is None
-    assert list(folder.iterdir()) == []
+        held = []
+        for _ in range(sharing.SLOTS):
+            file = sharing.SharedFile(_any_size(share))
+            assert file.allocate({"t": ((4,), float)}) is not None
+            held.append(file)
+        assert _write(_any_size(share)) is None           # every slot is being written
+        held[0].release()
+        assert _write(_any_size(share)) is not None
+        for file in held[1:]:
+            file.release()
 
 
-def test_no_folder_means_no_exchange(monkeypatch, tmp_path):
-    monkeypatch.setattr(sharing, "FOLDER", str(tmp_path / "missing"))
+def test_a_worker_uses_no_slot_that_is_not_the_clients():
+    with sharing.Exchange() as share:
+        pid, slots, _ = share
+        wrong_token = tuple((fd, bytes(sharing.TOKEN)) for fd, _ in slots)
+        assert _write((pid, wrong_token, 0)) is None
+        no_such_process = max(int(p) for p in os.listdir("/proc") if p.isdigit()) + 10 ** 6
+        assert _write((no_such_process, slots, 0)) is None
+
+
+@pytest.mark.parametrize("spoil", ["token", "ticket", "layout"])
+def test_the_client_refuses_a_slot_it_cannot_trust(spoil):
+    with sharing.Exchange() as share:
+        (pid, fd, token, ticket), layout = _write(_any_size(share))
+        if spoil == "token":
+            token = bytes(sharing.TOKEN)
+        elif spoil == "ticket":
+            ticket = bytes(reversed(ticket))
+        else:
+            layout["mu"] = (layout["mu"][0], "<f8", (1 << 20, 1))
+        with pytest.raises(OSError, match="not a slot of this batch holding that chunk"):
+            sharing.read((pid, fd, token, ticket), layout)
+
+
+def test_full_memory_means_dask_and_a_free_slot(monkeypatch):
+    def full(fd, offset, size):
+        raise OSError(28, "No space left on device")
+    with sharing.Exchange() as share:
+        monkeypatch.setattr(os, "posix_fallocate", full)
+        assert _write(_any_size(share), rows=100_000) is None
+        monkeypatch.undo()
+        assert _write(_any_size(share), rows=100_000) is not None     # not left locked
+
+
+def test_a_slot_a_writer_still_holds_at_the_end_leaves_the_pool():
+    exchange = sharing.Exchange()
+    with exchange as share:
+        file = sharing.SharedFile(_any_size(share))
+        file.allocate({"t": ((4,), float)})
+        held = next(slot for slot in exchange.slots if slot.fd == file._held[1][1])
+    assert held not in sharing._POOL and len(sharing._POOL) == sharing.SLOTS - 1
+    file.release()
+
+
+def test_no_memfd_means_no_exchange(monkeypatch):
+    monkeypatch.delattr(os, "memfd_create")
     with sharing.Exchange() as share:
         assert share is None
 
 
-def test_files_of_results_that_never_arrived_are_removed_at_the_end(folder):
+def test_a_forked_process_lends_slots_of_its_own():
     with sharing.Exchange() as share:
-        _write((share[0], 0))
-        _write((share[0], 0))
-        assert len(list(folder.iterdir())) == 3              # the beacon and two chunks
-    assert list(folder.iterdir()) == []
-
-
-def test_a_chunk_written_after_its_batch_ended_removes_itself(folder, monkeypatch):
+        parents = share[1]
+    read, write = os.pipe()
+    child = os.fork()
+    if child == 0:                                     # pragma: no cover - the child
+        try:
+            with sharing.Exchange() as share:
+                fresh = not {token for _, token in share[1]} & {token for _, token in parents}
+                written = _write(_any_size(share))
+                ok = fresh and written is not None and sharing.read(*written)["q"].shape == (7, 3)
+            os.write(write, b"1" if ok else b"0")
+        finally:
+            os._exit(0)
+    os.close(write)
+    assert os.read(read, 1) == b"1"
+    os.waitpid(child, 0)
     with sharing.Exchange() as share:
-        pass
-    monkeypatch.setattr(sharing, "_own", lambda path: True)   # seen just before the end
-    assert _write((share[0], 0)) is None
-    assert list(folder.iterdir()) == []
+        assert share[1] == parents                     # the parent's slots are still its own
 
 
-def test_the_client_reads_nothing_outside_its_batch_files(folder, tmp_path_factory):
-    elsewhere = tmp_path_factory.mktemp("elsewhere") / "dmoc-batch-x"
-    elsewhere.write_bytes(b"")
-    with pytest.raises(OSError, match="not a file of this user's batch"):
-        sharing.read(str(elsewhere), {})
-    assert elsewhere.exists()
-
-
-@pytest.mark.parametrize("spoil", ["others may write", "wrong size"])
-def test_the_client_refuses_a_file_it_cannot_trust(folder, spoil):
+def test_the_client_reads_nothing_but_a_regular_file_of_its_user(tmp_path):
     with sharing.Exchange() as share:
-        path, layout = _write((share[0], 0))
-        if spoil == "others may write":
-            os.chmod(path, 0o622)
-        else:
-            layout["t"] = (0, "<f8", (8,))
-            layout["mu"] = (layout["mu"][0], "<f8", (3, 1))
-        with pytest.raises(OSError, match="not a file of this user's batch"):
-            sharing.read(path, layout)
-        assert not os.path.exists(path)
-
-
-def test_a_full_folder_means_dask_and_no_file(folder, monkeypatch):
-    def full(fd, offset, size):
-        raise OSError(28, "No space left on device")
-    monkeypatch.setattr(os, "posix_fallocate", full)
-    with sharing.Exchange() as share:
-        assert _write((share[0], 0)) is None
-        assert len(list(folder.iterdir())) == 1                  # the beacon alone
-    assert list(folder.iterdir()) == []
+        (pid, fd, token, ticket), layout = _write(_any_size(share))
+        read, write = os.pipe()
+        try:
+            for other in (read, 10 ** 6):                # a pipe; no such descriptor
+                with pytest.raises(OSError, match="not a slot of this batch"):
+                    sharing.read((pid, other, token, ticket), layout)
+        finally:
+            os.close(read)
+            os.close(write)
+        assert sharing.read((pid, fd, token, ticket), layout)["q"].shape == (7, 3)
