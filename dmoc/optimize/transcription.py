@@ -93,6 +93,7 @@ class Transcription(ReadOnly):
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
         self._path_knot_rows = knot_rows(path) if path else ()
+        self._end_checks = {}       # `refuse_violated_ends`' checks, shared with `with_bounds`
         self._set_bounds(problem)
 
     def with_bounds(self, problem):
@@ -141,7 +142,7 @@ class Transcription(ReadOnly):
         fixed = np.isfinite(data)
         lbx[entries[fixed]] = ubx[entries[fixed]] = data[fixed]
         if problem.path_constraints is not None:
-            refuse_violated_ends(problem.path_constraints, problem)
+            refuse_violated_ends(problem.path_constraints, problem, self._end_checks)
         self._lbx, self._ubx = _frozen(lbx), _frozen(ubx)
 
     nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")
