@@ -1,9 +1,11 @@
-"""`with_boundary` and `with_parameters` check the given ends against the path constraints
-imposed at the knots with checks built once per NLP and set of free entries
-(`parameters.refuse_violated_ends`): the oracle is a new OptimalControlProblem stated with
-the same data, which builds its checks afresh; both must accept the same ends and refuse
-the others with the same message, whatever was checked before (a check kept from other
-free entries or other parameter values would go stale)."""
+"""What `with_boundary` and `with_parameters` keep from the problem they copy instead of
+building it again: the checks of the given ends against the path constraints imposed at
+the knots, built once per NLP and set of free entries (`parameters.refuse_violated_ends`),
+the state bounds of x's block q, formed again only when q_ref changes, and the entries the
+data fix. The oracle is a new OptimalControlProblem stated with the same data, which
+builds everything afresh: both must accept the same ends and refuse the others with the
+same message, and give the same bounds bit for bit, whatever came before (a piece kept
+from other free entries, another q_ref or other parameter values would go stale)."""
 
 import casadi as ca
 import numpy as np
@@ -78,3 +80,28 @@ def test_a_kept_problem_solves_as_a_new_one():
     for name in ("x", "lam_x", "lam_g"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     assert a.cost == b.cost
+
+
+def test_bounds_after_chains_of_new_boundary_data_are_a_new_problems():
+    """Chains of `with_boundary` (q_start kept or moved, so q_ref kept or not; goals with
+    free entries, whose given entries set q_ref where the start is free) and
+    `with_parameters`: lbx, ubx, p and q_ref the same bits as a new problem's, the state
+    bounds a signed zero included (the bounds are in the system's units: the new
+    problem's scales, set by its own boundary data, do not enter them)."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    bounds = ([-0.0, -2.0, None], [3.0, None, 0.0])
+
+    def new(q_start, q_goal, r=1.0):
+        return dmoc.OptimalControlProblem(disc, 6, q_start=q_start, q_goal=q_goal, state_bounds=bounds,
+                                          parameters={"r": r}, running_cost=lambda q, v, u, w: w["r"] * ca.sumsqr(u))
+    data = [([0, 0, 0], [1, 1, 0]), ([-0.0, 0, 0], [1, 1, 0]), ([0, 0, 0], [None, 1, -0.5]), ([0.5, 0, -0.0], [1, None, 0]),
+            ([None, 0, -1], [2, 1, None]), ([None, 0, -1], [0.0, 1, None]), ([0, 0, 0], [1, 1, 0])]
+    problem = new(*data[0])
+    for q_start, q_goal in data + data[::-1]:
+        problem = problem.with_boundary(q_start=q_start, q_goal=q_goal)
+        fresh = new(q_start, q_goal)
+        for name in ("lbx", "ubx", "p", "q_ref"):
+            a, b = getattr(problem.transcription, name), getattr(fresh.transcription, name)
+            np.testing.assert_array_equal(a.view(np.int64), b.view(np.int64), err_msg=f"{name} {q_start} {q_goal}")
+    heavier = problem.with_parameters(r=2.0)
+    np.testing.assert_array_equal(heavier.transcription.p, new(*data[-1], r=2.0).transcription.p)
