@@ -129,7 +129,8 @@ class Transcription(ReadOnly):
         N, lay, n = problem.steps, self._x_layout, problem.disc.system.n
         q_ref = reference(problem.q_start, problem.q_goal)
         if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
-            self._q_bounds = tuple(_frozen(np.tile(problem.state_bounds[side] - q_ref, N + 1)) for side in (0, 1))
+            self._q_bounds = tuple(_frozen(np.tile(problem.state_bounds[side] - q_ref, N + 1))
+                                   for side in (0, 1))
         self._q_ref = _frozen(q_ref)
         p_start = np.zeros(0) if problem.p_start is None else problem.p_start
         self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
@@ -143,7 +144,8 @@ class Transcription(ReadOnly):
                                problem.v_goal])
         if "_data_entries" not in vars(self):
             self._data_entries = _frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
-                                                         v_start.start + np.arange(n), v_goal.start + np.arange(n)]))
+                                                         v_start.start + np.arange(n),
+                                                         v_goal.start + np.arange(n)]))
         fixed = np.isfinite(data)
         lbx[self._data_entries[fixed]] = ubx[self._data_entries[fixed]] = data[fixed]
         if problem.path_constraints is not None:

@@ -92,16 +92,19 @@ def test_bounds_after_chains_of_new_boundary_data_are_a_new_problems():
     bounds = ([-0.0, -2.0, None], [3.0, None, 0.0])
 
     def new(q_start, q_goal, r=1.0):
-        return dmoc.OptimalControlProblem(disc, 6, q_start=q_start, q_goal=q_goal, state_bounds=bounds,
-                                          parameters={"r": r}, running_cost=lambda q, v, u, w: w["r"] * ca.sumsqr(u))
-    data = [([0, 0, 0], [1, 1, 0]), ([-0.0, 0, 0], [1, 1, 0]), ([0, 0, 0], [None, 1, -0.5]), ([0.5, 0, -0.0], [1, None, 0]),
-            ([None, 0, -1], [2, 1, None]), ([None, 0, -1], [0.0, 1, None]), ([0, 0, 0], [1, 1, 0])]
+        return dmoc.OptimalControlProblem(
+            disc, 6, q_start=q_start, q_goal=q_goal, state_bounds=bounds, parameters={"r": r},
+            running_cost=lambda q, v, u, w: w["r"] * ca.sumsqr(u))
+    data = [([0, 0, 0], [1, 1, 0]), ([-0.0, 0, 0], [1, 1, 0]), ([0, 0, 0], [None, 1, -0.5]),
+            ([0.5, 0, -0.0], [1, None, 0]), ([None, 0, -1], [2, 1, None]), ([None, 0, -1], [0.0, 1, None]),
+            ([0, 0, 0], [1, 1, 0])]
     problem = new(*data[0])
     for q_start, q_goal in data + data[::-1]:
         problem = problem.with_boundary(q_start=q_start, q_goal=q_goal)
         fresh = new(q_start, q_goal)
         for name in ("lbx", "ubx", "p", "q_ref"):
             a, b = getattr(problem.transcription, name), getattr(fresh.transcription, name)
-            np.testing.assert_array_equal(a.view(np.int64), b.view(np.int64), err_msg=f"{name} {q_start} {q_goal}")
+            np.testing.assert_array_equal(a.view(np.int64), b.view(np.int64),
+                                          err_msg=f"{name} {q_start} {q_goal}")
     heavier = problem.with_parameters(r=2.0)
     np.testing.assert_array_equal(heavier.transcription.p, new(*data[-1], r=2.0).transcription.p)
