@@ -181,7 +181,7 @@ def packed_input(name, rule, N, targets, calls):
 
     def as_array():
         z = np.concatenate([inputs[k] for k in packed._inputs.blocks])
-        return packed._outputs.split(vector(packed._function(z)))
+        return packed._outputs.split(vector(packed._function.function(z)))
     seconds = ([], [])
     for i in range(calls):
         outs = []

@@ -42,9 +42,7 @@ class Evaluator:
         order (a vector of shape (n,) for an input (n, 1)), real and checked by the
         caller: a list of arrays of the outputs' shapes (rows, columns), structural
         zeros as 0.0."""
-        if not hasattr(self._local, "buffer"):
-            self._local.buffer = self.function.buffer()
-        buffer, run = self._local.buffer
+        buffer, run = self._buffer()
         inputs = [np.ascontiguousarray(a, dtype=float).ravel(order="F") for a in args]
         for i, (a, size) in enumerate(zip(inputs, self._inputs)):
             if a.size != size:
@@ -54,8 +52,29 @@ class Evaluator:
         nonzeros = [np.empty(len(rows)) for _, rows, _ in self._outputs]
         for i, values in enumerate(nonzeros):
             buffer.set_res(i, memoryview(values))
-        run()
+        try:
+            run()
+        except SystemError as err:
+            # a KeyboardInterrupt raised inside the Function (by CasADi's check of Python's
+            # signals in IPOPT's callbacks: IPOPT stops and returns its last iterate) is
+            # left set when the call returns, which Python reports as a SystemError caused
+            # by it; the outputs are written, and they are returned, the interrupt swallowed
+            # as CasADi's ordinary call swallows it (`dmoc.optimize.interrupt`)
+            if not isinstance(err.__cause__, KeyboardInterrupt):
+                raise
         return [_dense(values, *output) for values, output in zip(nonzeros, self._outputs)]
+
+    def stats(self):
+        """The Function's statistics (``casadi.Function.stats``) of its last call, read
+        through this thread's buffer (``function.stats()`` has none when only buffers
+        have called the Function)."""
+        return self._buffer()[0].stats()
+
+    def _buffer(self):
+        """(buffer, run) of this thread, made on its first call."""
+        if not hasattr(self._local, "buffer"):
+            self._local.buffer = self.function.buffer()
+        return self._local.buffer
 
 
 def _scatter(sparsity):

@@ -10,8 +10,8 @@ import casadi as ca
 import numpy as np
 
 from .._util.cache import BoundedCache
-from .._util.conversions import column, vector
 from .._util.layout import Layout
+from .._util.numeric import Evaluator
 from ..errors import InputError
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
 from .evaluation import nlp_functions
@@ -62,8 +62,8 @@ def data_tolerances(transcription, x0, jit=False):
     options are its key). The Jacobian is the solver's (compiled with `jit`, the same
     numbers)."""
     T = transcription
-    largest = _ROW_SUMS.get((T.structure, jit), lambda: _largest_row_sum(T, jit))
-    floor = np.finfo(float).eps * float(largest(column(np.concatenate([x0, T.p]))))
+    largest = _ROW_SUMS.get((T.structure, jit), lambda: Evaluator(_largest_row_sum(T, jit)))
+    floor = np.finfo(float).eps * float(largest(np.concatenate([x0, T.p]))[0][0, 0])
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))
@@ -74,8 +74,8 @@ def _largest_row_sum(transcription, jit):
     """Function ``[x; p] -> max_i sum_j |dg_i/dx_j(x, p)| |x_abs_j|`` (0 without rows),
     x_abs the x of absolute configurations: its block q plus p's q_ref at every knot, the
     sum `Transcription.configurations` forms (x + 0 elsewhere: the same absolute values).
-    One call of one stacked argument from Python (CasADi converts each argument on its
-    own, `PackedSolver`) instead of a call per operation."""
+    One call of one stacked argument from Python instead of a call per operation,
+    evaluated through its buffer (`data_tolerances` wraps it in an `Evaluator`)."""
     separable, lay = transcription.separable, transcription.x_layout
     n_x, q = separable.n_x, lay.slice("q")
     z = ca.MX.sym("z", n_x + separable.n_p)
@@ -137,20 +137,13 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
 
 class PackedSolver:
     """An IPOPT nlpsol called on NumPy vectors through one stacked input and one stacked
-    output. CasADi converts each NumPy argument and result of a call on its own, at about
-    20 us each plus 25 ns per entry on the machine of docs/performance.md; stacked, the
-    eight inputs and five outputs of a solve cost one conversion each way, about 0.1 ms
-    less per solve (3 % of a warm MPC step at N = 30), for about 0.4 ms (N = 100) to
-    1.3 ms (N = 1000) once, when the solver is created. The output is read by its
-    nonzeros (`dmoc._util.conversions.vector`, quicker than ``full()``); the input is
-    handed over as a list of floats, which CasADi converts quicker than a NumPy array (that
-    one entry by entry through Python: CasADi's ``DM_from_array`` hands over ``m.flat``):
-    the same floats, about 50-80 us less per call at 1839-2314 entries
-    (docs/performance.md, "IPOPT's share of a re-solve, dmoc against rockit"). Not as a
-    DM (`conversions.column`): then a Ctrl-C inside IPOPT ended the call in "IpoptException
-    ... Unknown Exception" or ``SystemError: ... returned a result with an exception set``
-    instead of returning the last iterate (tests/test_interrupts.py); with a list, as with
-    a NumPy array, the last iterate is returned.
+    output, read and written in place through the packed Function's buffer
+    (`dmoc._util.numeric.Evaluator`, one buffer per thread): no conversion to or from
+    ``casadi.DM`` at all, the same floats in and out. Called as an ordinary CasADi Function
+    on a list of floats, as before, the call spent 263-323 us outside IPOPT's own time
+    on the rolling disk (1839 entries in, 1009 out), through the buffer 13-19 us
+    (docs/performance.md, "The Python around IPOPT, third pass"). The stacked form is
+    kept: the solver is called through one input and one output.
 
     Parameters
     ----------
@@ -174,17 +167,17 @@ class PackedSolver:
         self._outputs = Layout([("x", n_x), ("f", 1), ("g", n_g), ("lam_x", n_x), ("lam_g", n_g)])
         z = ca.MX.sym("z", self._inputs.size)
         sol = nlpsol(**self._inputs.split(z))
-        self._function = ca.Function("ipopt_packed", [z], [self._outputs.join(sol)], ["z"], ["sol"])
+        self._function = Evaluator(ca.Function("ipopt_packed", [z], [self._outputs.join(sol)], ["z"], ["sol"]))
 
     def __call__(self, **inputs):
         """{"x", "f", "g", "lam_x", "lam_g"}: 1-d arrays (f of shape (1,)) of the solve from
         the `inputs` of nlpsol (x0, p, lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-        return self._outputs.split(vector(self._function(z.tolist())))
+        return self._outputs.split(self._function(z)[0][:, 0])
 
     def stats(self):
-        """IPOPT's statistics of the last solve: the packed Function's, which are those of
-        the nlpsol it calls (the nlpsol's own `stats()` are of its direct calls)."""
+        """IPOPT's statistics of the last solve: the packed Function's, which are
+        those of the nlpsol it calls (the nlpsol's own `stats()` are of its direct calls)."""
         return self._function.stats()
 
 

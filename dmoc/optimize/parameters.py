@@ -129,22 +129,22 @@ def knot_rows(path):
     return tuple(int(i) for i in np.array(out[path.index_out("knot_rows")]).ravel())
 
 
-def refuse_violated_ends(path, problem):
+def refuse_violated_ends(path, problem, made):
     """InputError when a given end, q_start or q_goal, violates a row of the path
     constraints that is imposed at the knots (`path_function`'s g0, g1: the rows that read
     the configuration alone): such a problem has no solution. Rows that read a free entry
-    of that end are not checked."""
-    x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
-    w = ca.SX.sym("w", problem.parameters.layout.size)
-    inputs = {k: x[k] for k in ("q0", "q1", "s", "u", "h")}
-    for end, output, q in (("q_start", "g0", "q0"), ("q_goal", "g1", "q1")):
+    of that end are not checked. `made` is a dict that keeps the check of each end per
+    set of free entries (`_end_rows`: it depends on `path` and that set alone), shared by
+    the problems of one NLP (`Transcription.with_bounds`), so that new boundary data are
+    checked without building it again (0.6 ms per ``with_boundary``, docs/performance.md)."""
+    for end, output in (("q_start", "g0"), ("q_goal", "g1")):
         given = getattr(problem, end)
-        g = path(**inputs, w=w)[output]
-        free = x[q][np.flatnonzero(~np.isfinite(given)).tolist()]
-        rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], free)]
+        key = (end, np.isfinite(given).tobytes())
+        if key not in made:
+            made[key] = _end_rows(path, problem, output, given)
+        rows, at_end = made[key]
         if not rows:
             continue
-        at_end = ca.Function("at_end", [x[q], w], [g[rows]])
         values = np.array(at_end(np.nan_to_num(given), problem.parameters.vector())).ravel()
         worst = int(np.argmax(values))
         if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
@@ -153,6 +153,19 @@ def refuse_violated_ends(path, problem):
                 f"... q_N, the ends included; got g[{knot_rows(path)[rows[worst]]}] = "
                 f"{values[worst]:.6g} there. "
                 f"Move `{end}` or the constraint.")
+
+
+def _end_rows(path, problem, output, given):
+    """(the rows of `path`'s `output`, g0 or g1, that read no free (NaN) entry of the end
+    configuration `given`, the Function (q, w) -> those rows at that end, or None without
+    rows)."""
+    x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
+    w = ca.SX.sym("w", problem.parameters.layout.size)
+    q = x["q0" if output == "g0" else "q1"]
+    g = path(**{k: x[k] for k in ("q0", "q1", "s", "u", "h")}, w=w)[output]
+    free = q[np.flatnonzero(~np.isfinite(given)).tolist()]
+    rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], free)]
+    return rows, ca.Function("at_end", [q, w], [g[rows]]) if rows else None
 
 
 # CasADi's comparisons and logical operations: an entry that is one is a 0/1 value

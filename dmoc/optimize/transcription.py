@@ -93,6 +93,7 @@ class Transcription(ReadOnly):
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
         self._path_knot_rows = knot_rows(path) if path else ()
+        self._end_checks = {}       # `refuse_violated_ends`' checks, shared with `with_bounds`
         self._set_bounds(problem)
 
     def with_bounds(self, problem):
@@ -122,26 +123,33 @@ class Transcription(ReadOnly):
     def _set_boundary_bounds(self, problem, lbx, ubx):
         """q_ref, p, and the blocks q, v_start and v_goal of `lbx` and `ubx` (set anew:
         the state bounds, the given boundary data fixed) from `problem`'s data; the
-        path constraints checked at the given ends."""
+        path constraints checked at the given ends. The state bounds of block q are formed
+        again only when q_ref changes (its bits), and the entries the data fix are found
+        once per NLP: a `with_bounds` that keeps q_start reuses both."""
         N, lay, n = problem.steps, self._x_layout, problem.disc.system.n
         q_ref = reference(problem.q_start, problem.q_goal)
+        if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
+            self._q_bounds = tuple(_frozen(np.tile(problem.state_bounds[side] - q_ref, N + 1))
+                                   for side in (0, 1))
         self._q_ref = _frozen(q_ref)
         p_start = np.zeros(0) if problem.p_start is None else problem.p_start
         self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
                                           p_start]))
         q, v_start, v_goal = (lay.slice(name) for name in ("q", "v_start", "v_goal"))
-        for bound, side, unbounded in ((lbx, 0, -np.inf), (ubx, 1, np.inf)):
-            bound[q] = np.tile(problem.state_bounds[side] - q_ref, N + 1)
+        for bound, q_bound, unbounded in ((lbx, self._q_bounds[0], -np.inf), (ubx, self._q_bounds[1], np.inf)):
+            bound[q] = q_bound
             bound[v_start] = bound[v_goal] = unbounded
         # the given data, fixed: q_0 and q_N (column 0 and N of block q), v_start, v_goal
         data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
                                problem.v_goal])
-        entries = np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
-                                  v_start.start + np.arange(n), v_goal.start + np.arange(n)])
+        if "_data_entries" not in vars(self):
+            self._data_entries = _frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
+                                                         v_start.start + np.arange(n),
+                                                         v_goal.start + np.arange(n)]))
         fixed = np.isfinite(data)
-        lbx[entries[fixed]] = ubx[entries[fixed]] = data[fixed]
+        lbx[self._data_entries[fixed]] = ubx[self._data_entries[fixed]] = data[fixed]
         if problem.path_constraints is not None:
-            refuse_violated_ends(problem.path_constraints, problem)
+            refuse_violated_ends(problem.path_constraints, problem, self._end_checks)
         self._lbx, self._ubx = _frozen(lbx), _frozen(ubx)
 
     nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")

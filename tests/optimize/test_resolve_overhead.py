@@ -10,6 +10,7 @@ the former row-sum Function written out below (a separate code path, the same Ja
 
 import copy
 import pickle
+import threading
 
 import casadi as ca
 import numpy as np
@@ -20,6 +21,7 @@ import dmoc.problems
 from dmoc._util.compiled import compiler
 from dmoc._util.conversions import column
 from dmoc._util.deferred import Pending
+from dmoc._util.numeric import Evaluator
 from dmoc.optimize import ipopt
 from dmoc.optimize.evaluation import nlp_functions
 from dmoc.optimize.solve import OptimizationResult, solve, trajectory_from_x
@@ -121,10 +123,12 @@ def test_the_row_sums_of_one_stacked_x_and_p_are_the_former_ones(jit):
     for problem in (near, far):
         T = problem.transcription
         largest = ipopt._largest_row_sum(T, jit)
+        through_buffer = Evaluator(largest)        # as `data_tolerances` calls it
         for _ in range(10):
             x0 = rng.normal(size=T.x_layout.size) * 10.0 ** rng.uniform(-3, 6)
-            assert float(largest(column(np.concatenate([x0, T.p])))) == \
-                _former_largest_row_sum(T, x0, jit)
+            z = np.concatenate([x0, T.p])
+            assert float(largest(column(z))) == _former_largest_row_sum(T, x0, jit) == \
+                through_buffer(z)[0][0, 0]
     assert ipopt.data_tolerances(far.transcription, far.transcription.lbx.clip(-1e7, 1e7))
 
 
@@ -149,10 +153,11 @@ def test_warm_re_solves_without_mumps_scaling_take_the_same_iterations(name):
 
 
 @pytest.mark.parametrize("name", ["rolling disk lobatto4", "free final time"])
-def test_the_packed_call_of_a_list_gives_the_solvers_own_outputs(name):
-    """`ipopt.PackedSolver` hands its stacked input to CasADi as a list of floats; the
-    oracle is the nlpsol it wraps called on the eight NumPy inputs one by one (CasADi's
-    own conversions): every output the same bits, cold and warm."""
+def test_the_packed_call_through_its_buffer_gives_the_solvers_own_outputs(name):
+    """`ipopt.PackedSolver` hands its stacked input to CasADi through the packed
+    Function's buffer (no conversion); the oracle is the nlpsol it wraps called on the
+    eight NumPy inputs one by one (CasADi's own conversions): every output the same bits,
+    cold and warm."""
     problem = _problems()[name]
     T = problem.transcription
     first = solve(problem)
@@ -166,3 +171,26 @@ def test_the_packed_call_of_a_list_gives_the_solvers_own_outputs(name):
     for key, value in ours.items():
         np.testing.assert_array_equal(value.view(np.int64), np.array(theirs[key]).ravel().view(np.int64),
                                       err_msg=key)
+
+
+def test_a_solve_in_another_thread_reports_its_own_stats():
+    """The packed call has a buffer per thread (made on the thread's first call) and
+    reads IPOPT's statistics through it: a warm re-solve in the main thread and then a
+    cold solve in another thread on the one cached solver each report the iterations
+    (and x) of the same solve made alone on a solver of its own (``reuse_solver=False``:
+    the oracle)."""
+    problem = dmoc.problems.knife_edge_parking(12)
+    first = solve(problem)
+    moved = problem.with_boundary(q_goal=[0.1, 1.1, 0.1])
+    cold = {"options": dict(ipopt.WARM_START_OPTIONS)}      # the warm solve's solver, zero multipliers
+    alone = {"warm": solve(moved, guess=first, reuse_solver=False),
+             "cold": solve(moved, reuse_solver=False, **cold)}
+    assert alone["warm"].stats["iterations"] != alone["cold"].stats["iterations"]
+    got = {"warm": solve(moved, guess=first)}
+    thread = threading.Thread(target=lambda: got.update(cold=solve(moved, **cold)))
+    thread.start()
+    thread.join()
+    assert got["cold"].stats["solver_reused"]      # the solver the warm solve built
+    for key, result in got.items():
+        assert result.stats["iterations"] == alone[key].stats["iterations"], key
+        np.testing.assert_array_equal(result.x, alone[key].x, err_msg=key)
