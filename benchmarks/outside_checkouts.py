@@ -36,24 +36,16 @@ PROBLEMS = ("rolling disk, lobatto4, N = 11", "knife edge, lobatto3, N = 28")
 
 def resolves(name, count):
     """(child) {"wall", "ipopt": per re-solve seconds, "digest": of the chain's bits}."""
-    import time
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ.setdefault(var, "1")
-    from resolve_outside import CASES, OFFSETS
-    from dmoc.optimize.solve import solve
-    make, goal, q_goal = CASES[name]
-    problem = make()
-    previous = solve(problem.with_boundary(q_goal=q_goal(goal)), jit=True)
+    from resolve_outside import warm_resolves
     wall, ipopt, digest = [], [], hashlib.sha256()
-    for i in range(30 + count):
-        tic = time.perf_counter()
-        previous = solve(problem.with_boundary(q_goal=q_goal(goal + OFFSETS[i % len(OFFSETS)])),
-                         guess=previous, jit=True)
-        wall.append(time.perf_counter() - tic)
-        ipopt.append(previous.stats["ipopt_time"])
-        for array in (previous.x, previous.lam_x, previous.lam_g, np.float64(previous.cost)):
+    for seconds, result in warm_resolves(name, 30 + count):
+        wall.append(seconds)
+        ipopt.append(result.stats["ipopt_time"])
+        for array in (result.x, result.lam_x, result.lam_g, np.float64(result.cost)):
             digest.update(np.ascontiguousarray(array, dtype=float).tobytes())
-        digest.update(repr(sorted((k, v) for k, v in previous.stats.items() if k not in TIMES)).encode())
+        digest.update(repr(sorted((k, v) for k, v in result.stats.items() if k not in TIMES)).encode())
     return {"wall": wall[30:], "ipopt": ipopt[30:], "digest": digest.hexdigest()}
 
 

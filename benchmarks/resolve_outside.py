@@ -215,22 +215,29 @@ def warm_chains(problem, goal, q_goal, previous):
     return chain(0), chain(1)
 
 
+def warm_resolves(name, total):
+    """Yield (wall seconds, result) of `total` warm raw re-solves ``solve(problem.
+    with_boundary(q_goal=g), guess=previous, jit=True)`` of case `name`, the goals of
+    OFFSETS in a cycle, each from the previous optimum (the wall time with `with_boundary`)."""
+    make, goal, q_goal = CASES[name]
+    problem = make()
+    previous = solve(problem.with_boundary(q_goal=q_goal(goal)), jit=True)
+    for i in range(total):
+        tic = time.perf_counter()
+        previous = solve(problem.with_boundary(q_goal=q_goal(goal + OFFSETS[i % len(OFFSETS)])),
+                         guess=previous, jit=True)
+        yield time.perf_counter() - tic, previous
+
+
 def loop(count):
     """`count` warm raw re-solves of the rolling disk (the first case, jit=True), the goals
     in a cycle, after 50 uncounted: a steady loop to sample with ``perf record`` or
     cProfile. Prints the median wall time and IPOPT's (``solve_time``) per re-solve."""
-    make, goal, q_goal = CASES["rolling disk, lobatto4, N = 11"]
-    problem = make()
-    previous = solve(problem.with_boundary(q_goal=q_goal(goal)), jit=True)
-    wall, ipopt_time = [], []
-    for i in range(50 + count):
-        tic = time.perf_counter()
-        previous = solve(problem.with_boundary(q_goal=q_goal(goal + OFFSETS[i % len(OFFSETS)])),
-                         guess=previous, jit=True)
-        wall.append(time.perf_counter() - tic)
-        ipopt_time.append(previous.stats["solve_time"])
-    print(f"{count} raw re-solves: median {1e3 * np.median(wall[50:]):.3f} ms, of it IPOPT "
-          f"{1e3 * np.median(ipopt_time[50:]):.3f} ms")
+    chain = list(warm_resolves("rolling disk, lobatto4, N = 11", 50 + count))[50:]
+    wall = [seconds for seconds, _ in chain]
+    ipopt_time = [result.stats["solve_time"] for _, result in chain]
+    print(f"{count} raw re-solves: median {1e3 * np.median(wall):.3f} ms, of it IPOPT "
+          f"{1e3 * np.median(ipopt_time):.3f} ms")
 
 
 def main():
