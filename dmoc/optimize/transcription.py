@@ -94,6 +94,11 @@ class Transcription(ReadOnly):
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
         self._path_knot_rows = knot_rows(path) if path else ()
         self._end_checks = {}       # `refuse_violated_ends`' checks, shared with `with_bounds`
+        q, v_start, v_goal = (self._x_layout.slice(name) for name in ("q", "v_start", "v_goal"))
+        # the entries of x the boundary data fix: q_0 and q_N (column 0 and N of block q),
+        # v_start, v_goal (in the order `_set_boundary_bounds` stacks the data)
+        self._data_entries = _frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
+                                                     v_start.start + np.arange(n), v_goal.start + np.arange(n)]))
         self._set_bounds(problem)
 
     def with_bounds(self, problem):
@@ -124,9 +129,9 @@ class Transcription(ReadOnly):
         """q_ref, p, and the blocks q, v_start and v_goal of `lbx` and `ubx` (set anew:
         the state bounds, the given boundary data fixed) from `problem`'s data; the
         path constraints checked at the given ends. The state bounds of block q are formed
-        again only when q_ref changes (its bits), and the entries the data fix are found
-        once per NLP: a `with_bounds` that keeps q_start reuses both."""
-        N, lay, n = problem.steps, self._x_layout, problem.disc.system.n
+        again only when q_ref changes (its bits): a `with_bounds` that keeps q_start
+        reuses them."""
+        N, lay = problem.steps, self._x_layout
         q_ref = reference(problem.q_start, problem.q_goal)
         if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
             self._q_bounds = tuple(_frozen(np.tile(problem.state_bounds[side] - q_ref, N + 1))
@@ -139,13 +144,9 @@ class Transcription(ReadOnly):
         for bound, q_bound, unbounded in ((lbx, self._q_bounds[0], -np.inf), (ubx, self._q_bounds[1], np.inf)):
             bound[q] = q_bound
             bound[v_start] = bound[v_goal] = unbounded
-        # the given data, fixed: q_0 and q_N (column 0 and N of block q), v_start, v_goal
+        # the given data, fixed at `_data_entries`
         data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
                                problem.v_goal])
-        if "_data_entries" not in vars(self):
-            self._data_entries = _frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
-                                                         v_start.start + np.arange(n),
-                                                         v_goal.start + np.arange(n)]))
         fixed = np.isfinite(data)
         lbx[self._data_entries[fixed]] = ubx[self._data_entries[fixed]] = data[fixed]
         if problem.path_constraints is not None:
