@@ -15,6 +15,7 @@ from .._util.numeric import Evaluator
 from ..errors import InputError
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
 from .evaluation import nlp_functions
+from .fixed_multipliers import FixedMultipliers
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
@@ -29,9 +30,14 @@ from .evaluation import nlp_functions
 # the MC64 matching. The DMOC KKT matrices are banded, so AMD orders them well and MC64
 # and the automatic ordering cost more than the factorizations themselves, for the same
 # iterations (docs/performance.md).
+# fixed_variable_treatment make_parameter_nodual: IPOPT takes the fixed entries of x (the
+# given boundary data) out of its problem, as with its default make_parameter, but does not
+# compute their bound multipliers at every iteration (a gradient of f each); the solver
+# computes them once after the solve (`FixedMultipliers`), the same bits.
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "bound_relax_factor": 0.0, "honor_original_bounds": "yes",
-                         "mumps_permuting_scaling": 0, "mumps_pivot_order": 0}
+                         "mumps_permuting_scaling": 0, "mumps_pivot_order": 0,
+                         "fixed_variable_treatment": "make_parameter_nodual"}
 # per start (`start_options`): warm_start_init_point as above; and for a warm start
 # mumps_scaling 0, no scaling of the KKT matrix by MUMPS (its default 77 computes one at
 # every factorization): a re-solve next to an optimum of the same, already scaled NLP
@@ -114,6 +120,7 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
         built.append(True)
         journal = new_journal() if report else None
         cache = nlp_functions(transcription.separable, expand=expand, jit=jit)
+        nodual = str(merged["fixed_variable_treatment"]).lower() == "make_parameter_nodual"
         try:
             made = ca.nlpsol("dmoc", "ipopt", transcription.nlp,
                              {**opts, "cache": cache, **({"ipopt.output_file": journal} if report else {})})
@@ -127,7 +134,7 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
                              f"for the allowed values).\n{err}") from None
         if journal:     # a solver dropped (reuse_solver=False, or evicted) takes its journal along
             weakref.finalize(made, remove_journal, journal).atexit = False
-        return PackedSolver(made, transcription), journal
+        return PackedSolver(made, transcription, FixedMultipliers(cache) if nodual else None), journal
 
     # with `jit`, `expand` changes nothing (`nlp_functions`): one solver for both
     solver, journal = build() if not reuse else _SOLVERS.get(
@@ -151,6 +158,10 @@ class PackedSolver:
         The IPOPT solver of `transcription`'s NLP.
     transcription : Transcription
         Gives the sizes n_x, n_g and n_p of x, g and p.
+    fixed_multipliers : FixedMultipliers or None
+        Given when IPOPT leaves the bound multipliers of fixed entries (lbx == ubx) zero
+        (``fixed_variable_treatment`` "make_parameter_nodual"): the call's ``lam_x`` holds
+        them, computed after the solve, as "make_parameter" gives them.
 
     Attributes
     ----------
@@ -158,10 +169,10 @@ class PackedSolver:
         The solver itself.
     """
 
-    def __init__(self, nlpsol, transcription):
+    def __init__(self, nlpsol, transcription, fixed_multipliers=None):
         n_x, n_g, n_p = (transcription.x_layout.size, transcription.g_layout.size,
                          transcription.p_layout.size)
-        self.nlpsol = nlpsol
+        self.nlpsol, self._fixed_multipliers = nlpsol, fixed_multipliers
         self._inputs = Layout([("x0", n_x), ("p", n_p), ("lam_x0", n_x), ("lam_g0", n_g),
                                ("lbx", n_x), ("ubx", n_x), ("lbg", n_g), ("ubg", n_g)])
         self._outputs = Layout([("x", n_x), ("f", 1), ("g", n_g), ("lam_x", n_x), ("lam_g", n_g)])
@@ -173,7 +184,11 @@ class PackedSolver:
         """{"x", "f", "g", "lam_x", "lam_g"}: 1-d arrays (f of shape (1,)) of the solve from
         the `inputs` of nlpsol (x0, p, lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-        return self._outputs.split(self._function(z)[0][:, 0])
+        sol = self._outputs.split(self._function(z)[0][:, 0])
+        fixed = np.flatnonzero(inputs["lbx"] == inputs["ubx"])
+        if self._fixed_multipliers is not None and fixed.size:
+            sol["lam_x"][fixed] = self._fixed_multipliers(sol["x"], inputs["p"], sol["lam_g"], fixed)
+        return sol
 
     def stats(self):
         """IPOPT's statistics of the last solve: the packed Function's, which are
