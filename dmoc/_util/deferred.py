@@ -26,9 +26,10 @@ class Pending:
 
 
 class DeferredField:
-    """A required dataclass field whose value may be given as a `Pending`: the first read
-    makes it and keeps it in its place (the instance's ``__dict__``), so every later read,
+    """A dataclass field whose value may be given as a `Pending`: the first read makes it
+    and keeps it in its place (the instance's ``__dict__``), so every later read,
     ``vars()``, equality and ``repr`` see the value itself; anything else is kept as given.
+    Required unless a `default` is given.
 
     Examples
     --------
@@ -41,11 +42,16 @@ class DeferredField:
     (2.5, {'value': 2.5})
     """
 
+    def __init__(self, *default):
+        self._default = default         # () or (the default,)
+
     def __set_name__(self, owner, name):
         self.name = name
 
     def __get__(self, instance, owner=None):
         if instance is None:        # no class-level default: dataclass makes the field required
+            if self._default:
+                return self._default[0]
             raise AttributeError(self.name)
         value = instance.__dict__[self.name]
         if isinstance(value, Pending):

@@ -7,15 +7,17 @@ import numpy as np
 
 from ..principle.trajectory import Trajectory
 from ..errors import InputError
+from .fixed_multipliers import fixed_entries, ipopt_start
 from .scaling import lengths
 
 
-def start_point(problem, guess):
+def start_point(problem, guess, fixed=None):
     """(x0, lam_x0, lam_g0) for IPOPT from `guess`: None, a Trajectory, or an
     OptimizationResult. A result of a problem with the same NLP structure
     (``result.structure == problem.structure``) is taken as it is, its configurations
     re-centered on this problem's q_ref, its x clipped into the new bounds (new boundary
-    data) and its multipliers kept; any other guess gives its
+    data) and its multipliers kept (lam_x as `fixed_multipliers.ipopt_start` gives it for
+    problem's fixed entries `fixed`: `fixed_entries`' if None); any other guess gives its
     trajectory, resampled, and zero multipliers (a cold start)."""
     T = problem.transcription
     cold = np.zeros(T.lbx.size), np.zeros(T.lbg.size)
@@ -24,7 +26,8 @@ def start_point(problem, guess):
     if guess.structure == T.structure and guess.lam_g is not None and guess.q_ref is not None:
         x = np.array(guess.x, dtype=float)
         x[T.x_layout.slice("q")] += np.tile(guess.q_ref - T.q_ref, problem.steps + 1)
-        return np.clip(x, T.lbx, T.ubx), guess.lam_x, guess.lam_g
+        fixed = fixed_entries(T) if fixed is None else fixed
+        return np.clip(x, T.lbx, T.ubx), ipopt_start(guess, fixed), guess.lam_g
     return (initial_guess(problem, guess.trajectory),) + cold
 
 

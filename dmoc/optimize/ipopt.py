@@ -160,19 +160,21 @@ class PackedSolver:
         Gives the sizes n_x, n_g and n_p of x, g and p.
     fixed_multipliers : FixedMultipliers or None
         Given when IPOPT leaves the bound multipliers of fixed entries (lbx == ubx) zero
-        (``fixed_variable_treatment`` "make_parameter_nodual"): the call's ``lam_x`` holds
-        them, computed after the solve, as "make_parameter" gives them.
+        (``fixed_variable_treatment`` "make_parameter_nodual"), to compute them after the
+        solve as "make_parameter" gives them.
 
     Attributes
     ----------
     nlpsol : casadi.Function
         The solver itself.
+    fixed_multipliers : FixedMultipliers or None
+        As given.
     """
 
     def __init__(self, nlpsol, transcription, fixed_multipliers=None):
         n_x, n_g, n_p = (transcription.x_layout.size, transcription.g_layout.size,
                          transcription.p_layout.size)
-        self.nlpsol, self._fixed_multipliers = nlpsol, fixed_multipliers
+        self.nlpsol, self.fixed_multipliers = nlpsol, fixed_multipliers
         self._inputs = Layout([("x0", n_x), ("p", n_p), ("lam_x0", n_x), ("lam_g0", n_g),
                                ("lbx", n_x), ("ubx", n_x), ("lbg", n_g), ("ubg", n_g)])
         self._outputs = Layout([("x", n_x), ("f", 1), ("g", n_g), ("lam_x", n_x), ("lam_g", n_g)])
@@ -184,11 +186,7 @@ class PackedSolver:
         """{"x", "f", "g", "lam_x", "lam_g"}: 1-d arrays (f of shape (1,)) of the solve from
         the `inputs` of nlpsol (x0, p, lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-        sol = self._outputs.split(self._function(z)[0][:, 0])
-        fixed = np.flatnonzero(inputs["lbx"] == inputs["ubx"])
-        if self._fixed_multipliers is not None and fixed.size:
-            sol["lam_x"][fixed] = self._fixed_multipliers(sol["x"], inputs["p"], sol["lam_g"], fixed)
-        return sol
+        return self._outputs.split(self._function(z)[0][:, 0])
 
     def stats(self):
         """IPOPT's statistics of the last solve: the packed Function's, which are

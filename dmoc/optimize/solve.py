@@ -18,6 +18,7 @@ from .._util.deferred import DeferredField, Pending, made
 from .problem import OptimalControlProblem
 from ..errors import InputError, Interrupted, SolverError, TrajectoryFileError
 from . import interrupt
+from .fixed_multipliers import deferred as deferred_lam_x
 from .guess import start_point
 from .._util.files import atomic_write, writable_file
 from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
@@ -68,6 +69,9 @@ class OptimizationResult:
     lam_x, lam_g : ndarray, shapes like x and like problem.g_layout
         IPOPT's multipliers of the bounds and of the constraints at `x`, converted to the
         unscaled NLP (``lam_x = lam_x_ipopt / x_scale``, ``lam_g = g_scale * lam_g_ipopt``).
+        The entries of lam_x whose bounds are equal (the given boundary data) are made on
+        first access, as IPOPT's ``fixed_variable_treatment`` "make_parameter" makes them
+        (`dmoc.optimize.fixed_multipliers`; a warm start from the result does not read them).
     structure : str
         The problem's `structure` key: a result warm-starts (primal and dual) any problem
         with the same key, e.g. one from ``problem.with_boundary(...)``.
@@ -85,7 +89,7 @@ class OptimizationResult:
     message: str
     stats: dict = field(default_factory=dict)
     x: np.ndarray = None
-    lam_x: np.ndarray = None
+    lam_x: np.ndarray = DeferredField(None)
     lam_g: np.ndarray = None
     structure: str = ""
     q_ref: np.ndarray = None
@@ -169,9 +173,11 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     options, switches = _switches(options or {}, {"reuse_solver": reuse_solver, "expand": expand,
                                                   "linear_solver_report": linear_solver_report})
     T = problem.transcription
-    x0, lam_x0, lam_g0 = start_point(problem, guess)
-    warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     D, R = T.x_scale, T.g_scale      # IPOPT iterates on x / D, imposes R g
+    lbx, ubx = T.lbx / D, T.ubx / D
+    fixed = np.flatnonzero(lbx == ubx)      # `fixed_entries`
+    x0, lam_x0, lam_g0 = start_point(problem, guess, fixed)
+    warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
         T, {**data_tolerances(T, x0 / D, jit), **start_options(warm), **options},
@@ -180,7 +186,6 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     build_time = time.perf_counter() - tic
     journal_start = linear_solver.journal_end(journal) if journal else 0
     tic = time.perf_counter()
-    lbx, ubx = T.lbx / D, T.ubx / D
     with interrupt.watch() as sigints:
         sol = solver(x0=x0 / D, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
                      lbx=lbx, ubx=ubx, lbg=T.lbg * R, ubg=T.ubg * R)
@@ -214,8 +219,10 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     status, stopped = st["return_status"], interrupt.verdict(sigints, stats["iterations"], cost)
     if stopped:     # a Ctrl-C, not a violated constraint, ended the solve
         (status, message), success = stopped, False
+    lam_x = sol["lam_x"] / D if solver.fixed_multipliers is None else deferred_lam_x(
+        solver.fixed_multipliers, sol["lam_x"] / D, fixed, (sol["x"], T.p, sol["lam_g"], D))
     result = OptimizationResult(traj, cost, success, status, message, stats,
-                                x, sol["lam_x"] / D, R * sol["lam_g"], T.structure, T.q_ref.copy())
+                                x, lam_x, R * sol["lam_g"], T.structure, T.q_ref.copy())
     if stopped and throw:
         raise Interrupted(message + " The last iterate is in `.result`.", result)
     if not success and throw:

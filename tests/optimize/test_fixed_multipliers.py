@@ -18,6 +18,7 @@ import pytest
 import dmoc
 import dmoc.problems
 from dmoc._util.compiled import compiler
+from dmoc._util.deferred import Pending
 from dmoc.optimize import ipopt
 from dmoc.optimize.mpc import shifted
 from dmoc.optimize.solve import solve
@@ -70,12 +71,17 @@ def test_the_fixed_entries_multipliers_are_ipopts_own_bit_for_bit(name, mode):
     _same(ours, own)
     fixed = problem.transcription.lbx == problem.transcription.ubx
     assert fixed.any() and np.any(ours.lam_x[fixed] != 0.0)
+    unread = ours
     for step in (1.0, -1.0):
         moved = problem.with_boundary(q_goal=[None if g is None else p + step * (g - p)
                                               for g, p in zip(goal, problem.q_goal)])
         ours, own = solve(moved, guess=ours, **mode), solve(moved, guess=own, options=IPOPT_OWN, **mode)
-        assert ours.stats["warm_start"]
+        unread = solve(moved, guess=unread, **mode)
+        assert ours.stats["warm_start"] and unread.stats["warm_start"]
         _same(ours, own)
+    # warm-started from results whose fixed multipliers were never made: the same chain
+    assert isinstance(vars(unread)["lam_x"], Pending)
+    _same(unread, own)
 
 
 def test_a_stopped_solve_and_a_shifted_warm_start_keep_ipopts_bits():
@@ -122,3 +128,17 @@ def test_ipopts_own_treatments_are_left_to_it():
     constraint = solve(problem, options={"fixed_variable_treatment": "make_constraint"})
     fixed = problem.transcription.lbx == problem.transcription.ubx
     np.testing.assert_allclose(constraint.lam_x[fixed], default.lam_x[fixed], rtol=1e-6, atol=1e-8)
+
+
+def test_a_warm_start_with_other_fixed_entries_reads_the_made_multipliers():
+    """A goal entry set free (the same NLP, one fixed entry fewer): the guess's fixed
+    multipliers are made and handed to IPOPT as the start of that entry's bound
+    multipliers, as IPOPT's own make_parameter result would hand them: the same bits."""
+    problem = dmoc.problems.knife_edge_parking(12)
+    freed = problem.with_boundary(q_goal=[0.0, 1.0, None])
+    assert freed.structure == problem.structure
+    assert (freed.transcription.lbx == freed.transcription.ubx).sum() < \
+        (problem.transcription.lbx == problem.transcription.ubx).sum()
+    ours, own = solve(problem), solve(problem, options=IPOPT_OWN)
+    assert isinstance(vars(ours)["lam_x"], Pending)
+    _same(solve(freed, guess=ours), solve(freed, guess=own, options=IPOPT_OWN))
