@@ -7,6 +7,7 @@ an exception of another callback, so `watch` notes every SIGINT that arrives dur
 solve.
 """
 
+import _signal       # the C module under `signal`, without its wrappers' enum conversions
 import contextlib
 import signal
 import threading
@@ -19,9 +20,14 @@ def watch():
     """A list that gets an entry for each SIGINT Python handles inside the block; the
     handler in place before is still called (by default it raises KeyboardInterrupt).
     Outside the main thread (where Python handles no signal) or when SIGINT is ignored or
-    left to the system, the list stays empty and nothing is installed."""
+    left to the system, the list stays empty and nothing is installed. The handlers are
+    read and set through `_signal`, the C module whose functions `signal` wraps: the
+    wrappers' conversions of handlers to enums (a ValueError caught for every callable)
+    took 15-20 us of the block's 22 us per solve (docs/performance.md, "The re-solve,
+    fourth pass"); only a handler that is no callable would convert, and none is
+    installed then."""
     seen = []
-    previous = signal.getsignal(signal.SIGINT)
+    previous = _signal.getsignal(signal.SIGINT)
     if threading.current_thread() is not threading.main_thread() or not callable(previous):
         yield seen
         return
@@ -30,11 +36,11 @@ def watch():
         seen.append(signum)
         previous(signum, frame)
 
-    signal.signal(signal.SIGINT, noted)
+    _signal.signal(signal.SIGINT, noted)
     try:
         yield seen
     finally:
-        signal.signal(signal.SIGINT, previous)
+        _signal.signal(signal.SIGINT, previous)
 
 
 def verdict(seen, iterations, cost):

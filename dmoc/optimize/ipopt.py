@@ -55,6 +55,7 @@ def start_options(warm):
 
 
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure
+_OPTION_SETS = BoundedCache(64, "solver_options")   # keyed by (defaults, options' reprs, report): `_nlpsol_options`
 _ROW_SUMS = BoundedCache(16, "row_sums")  # keyed by (transcription.structure, jit): `_largest_row_sum`
 
 
@@ -98,21 +99,13 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
     """(the `PackedSolver` of `transcription` with the IPOPT `options`, whether it came
     from the cache, the path of its journal or None); `expand`, `reuse`, `report` and
     `jit` are `optimize`'s `expand`, `reuse_solver`, `linear_solver_report` and `jit`."""
-    merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     if report and "output_file" in options:
         raise InputError("`linear_solver_report` writes IPOPT's journal to a file "
                          "of its own; leave out `options` 'output_file' or the report.")
-    if report:
-        merged["file_print_level"] = JOURNAL_LEVEL
-    # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
-    # gradient function CasADi would generate for them is most of a solver's build.
-    # CasADi's own "expand" stays off: the cache holds all five Functions IPOPT calls, in
-    # the form `expand` and `jit` ask for (`nlp_functions`), and expanding the unused MX
-    # oracle besides cost 4-9 ms per build at N = 31-100. record_time: CasADi's wall time of
-    # the nlpsol call itself (stats t_wall_total, `ipopt_time`), without the packed call's
-    # conversions, measured as rockit's re-solves are (docs/performance.md).
-    opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True,
-            "calc_lam_p": False, "record_time": True, **{"ipopt." + k: v for k, v in merged.items()}}
+    # the options' reprs stand for their values, as in the solvers' key
+    merged, opts, key = _OPTION_SETS.get(
+        (tuple(DEFAULT_IPOPT_OPTIONS.items()), tuple((k, repr(v)) for k, v in options.items()), report),
+        lambda: _nlpsol_options(options, report))
     built = []
 
     def build():
@@ -138,8 +131,28 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
 
     # with `jit`, `expand` changes nothing (`nlp_functions`): one solver for both
     solver, journal = build() if not reuse else _SOLVERS.get(
-        (transcription.structure, repr(sorted(opts.items())), report, expand and not jit, jit), build)
+        (transcription.structure, key, report, expand and not jit, jit), build)
     return solver, reuse and not built, journal
+
+
+def _nlpsol_options(options, report):
+    """(the IPOPT `options` over DEFAULT_IPOPT_OPTIONS, the nlpsol options they make,
+    their key in the solver cache: the repr of the sorted nlpsol options). Kept per set of
+    defaults, `options` and `report` (`_OPTION_SETS`): making them and their key took
+    about 50 us per solve (docs/performance.md, "The re-solve, fourth pass")."""
+    merged = {**DEFAULT_IPOPT_OPTIONS, **options}
+    if report:
+        merged["file_print_level"] = JOURNAL_LEVEL
+    # no_nlp_grad: the multipliers of p (the fixed step h) are not wanted, and the
+    # gradient function CasADi would generate for them is most of a solver's build.
+    # CasADi's own "expand" stays off: the cache holds all five Functions IPOPT calls, in
+    # the form `expand` and `jit` ask for (`nlp_functions`), and expanding the unused MX
+    # oracle besides cost 4-9 ms per build at N = 31-100. record_time: CasADi's wall time of
+    # the nlpsol call itself (stats t_wall_total, `ipopt_time`), without the packed call's
+    # conversions, measured as rockit's re-solves are (docs/performance.md).
+    opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True,
+            "calc_lam_p": False, "record_time": True, **{"ipopt." + k: v for k, v in merged.items()}}
+    return merged, opts, repr(sorted(opts.items()))
 
 
 class PackedSolver:

@@ -194,3 +194,35 @@ def test_a_solve_in_another_thread_reports_its_own_stats():
     for key, result in got.items():
         assert result.stats["iterations"] == alone[key].stats["iterations"], key
         np.testing.assert_array_equal(result.x, alone[key].x, err_msg=key)
+
+
+def _former_key(options, report):
+    """The solver cache's key of the options before they were kept per set: the repr of
+    the sorted nlpsol options, made at every solve."""
+    merged = {**ipopt.DEFAULT_IPOPT_OPTIONS, **options}
+    if report:
+        merged["file_print_level"] = ipopt.JOURNAL_LEVEL
+    opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True, "calc_lam_p": False,
+            "record_time": True, **{"ipopt." + k: v for k, v in merged.items()}}
+    return repr(sorted(opts.items()))
+
+
+def test_solvers_are_shared_exactly_when_the_former_keys_agree(monkeypatch):
+    """The nlpsol options and their key are kept per set of defaults, options (by their
+    reprs) and report: two solves share a solver exactly when the former key, made anew
+    at every solve, says so; changing DEFAULT_IPOPT_OPTIONS gives another solver."""
+    problem = dmoc.problems.knife_edge_parking(6)
+    T = problem.transcription
+    sets = [({}, False), ({}, False), ({"tol": 1e-8}, False), ({"tol": 1.0e-8}, False),
+            ({"tol": np.float64(1e-8)}, False), ({"print_level": 0}, False),
+            ({"print_level": 0.0}, False), ({"mu_strategy": "adaptive", "tol": 1e-8}, False),
+            ({"tol": 1e-8, "mu_strategy": "adaptive"}, False), ({}, True),
+            ({"file_print_level": 3}, True), (ipopt.start_options(True), False)]
+    solvers = [ipopt.solver(T, dict(options), expand=False, reuse=True, report=report)[0]
+               for options, report in sets]
+    for i, (a, ka) in enumerate(zip(solvers, sets)):
+        for b, kb in zip(solvers[i:], sets[i:]):
+            assert (a is b) == (_former_key(*ka) == _former_key(*kb)), (ka, kb)
+    monkeypatch.setitem(ipopt.DEFAULT_IPOPT_OPTIONS, "max_iter", 999)
+    changed = ipopt.solver(T, {}, expand=False, reuse=True, report=False)[0]
+    assert changed is not solvers[0]
