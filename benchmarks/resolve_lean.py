@@ -11,13 +11,19 @@ called in turn (which goes first alternating); medians per re-solve of the wall 
 IPOPT's (``stats["ipopt_time"]``) and the difference. Every pair has the same bits (x,
 lam_x, lam_g, cost, iterations), asserted after the timing. Then two pieces in their
 former form (written out below) and their new one, hot, alternating: the solver's options
-and cache key, and the SIGINT watch.
+and cache key, and the SIGINT watch. With `--loop`, instead, where the time outside IPOPT
+goes inside a loop of warm raw re-solves of the disk: each piece of `solve` (and
+`with_boundary`) wrapped in a timer, medians per re-solve (the timers add their own
+microsecond each).
 
     python benchmarks/resolve_lean.py [--count 600] [--calls 20000]
+    python benchmarks/resolve_lean.py --loop 1000
 """
 
 import argparse
 import contextlib
+import functools
+import importlib
 import os
 import signal
 import time
@@ -30,7 +36,7 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc.optimize import interrupt, ipopt  # noqa: E402
 from dmoc.optimize.solve import solve  # noqa: E402
-from resolve_outside import CASES, OFFSETS  # noqa: E402
+from resolve_outside import CASES, OFFSETS, warm_resolves  # noqa: E402
 
 BEFORE = {"fixed_variable_treatment": "make_parameter"}
 
@@ -113,12 +119,73 @@ def pieces(calls):
     return out
 
 
+def loop_pieces(count):
+    """{piece: median seconds per re-solve} of `count` warm raw re-solves of the disk (after
+    30 uncounted), each piece of `solve` timed where `solve` calls it; "outside" is the
+    re-solve's wall time less IPOPT's."""
+    module = importlib.import_module("dmoc.optimize.solve")
+    spent = {}
+
+    def timed(label, function):
+        @functools.wraps(function)
+        def wrapper(*args, **kwargs):
+            tic = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                spent.setdefault(label, []).append(time.perf_counter() - tic)
+        return wrapper
+
+    original = interrupt.watch
+
+    @contextlib.contextmanager
+    def watch():
+        tic = time.perf_counter()
+        with original() as seen:
+            entered = time.perf_counter()
+            yield seen
+            left = time.perf_counter()
+        spent.setdefault("SIGINT watch (enter and exit)", []).append(time.perf_counter() - left + entered - tic)
+
+    wrapped = {"start_point": "start point", "data_tolerances": "data's tolerances",
+               "ipopt_solver": "solver lookup", "_values_at_x": "f and g at x",
+               "most_violated": "most violated row", "linear_algebra": "linear_algebra(stats)"}
+    patches = [(module, name, timed(label, getattr(module, name))) for name, label in wrapped.items()]
+    patches += [(module.interrupt, "watch", watch),
+                (ipopt.PackedSolver, "__call__", timed("packed call less IPOPT", ipopt.PackedSolver.__call__)),
+                (ipopt.PackedSolver, "stats", timed("IPOPT's stats()", ipopt.PackedSolver.stats)),
+                (dmoc.OptimalControlProblem, "with_boundary",
+                 timed("with_boundary", dmoc.OptimalControlProblem.with_boundary))]
+    saved = [(owner, name, vars(owner)[name]) for owner, name, _ in patches]
+    for owner, name, value in patches:
+        setattr(owner, name, value)
+    try:
+        chain = list(warm_resolves("rolling disk, lobatto4, N = 11", 30 + count))[30:]
+    finally:
+        for owner, name, value in saved:
+            setattr(owner, name, value)
+    ipopt_time = np.array([result.stats["ipopt_time"] for _, result in chain])
+    spent = {label: np.array(times[-count:]) for label, times in spent.items()}
+    spent["packed call less IPOPT"] = spent["packed call less IPOPT"] - ipopt_time
+    wall = np.array([seconds for seconds, _ in chain])
+    return {"re-solve": float(np.median(wall)), "IPOPT": float(np.median(ipopt_time)),
+            "outside": float(np.median(wall - ipopt_time)),
+            **{label: float(np.median(times)) for label, times in spent.items()}}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--count", type=int, default=600, help="re-solves per chain and problem")
     parser.add_argument("--calls", type=int, default=20000, help="calls per piece")
+    parser.add_argument("--loop", type=int, default=0, help="only time the pieces in this many re-solves")
     args = parser.parse_args()
     print(f"dmoc from {dmoc.__file__}; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start\n")
+    if args.loop:
+        print("| rolling disk, lobatto4, N = 11: in the loop | us per re-solve |\n|---|---:|")
+        for label, seconds in loop_pieces(args.loop).items():
+            print(f"| {label} | {1e6 * seconds:.1f} |")
+        print(f"\nload average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
+        return
     print("| problem | fixed variables' multipliers | ms | IPOPT ms | outside ms | ms / before | IPOPT / before |")
     print("|---|---|---:|---:|---:|---:|---:|")
     for name in ("rolling disk, lobatto4, N = 11", "knife edge, lobatto3, N = 28"):
