@@ -290,36 +290,22 @@ def _caller_level():
 
 def most_violated(transcription, g):
     """(largest bound violation, its description) over the constraint vector g of
-    `transcription` (`worst_row`)."""
-    worst, i = worst_row(transcription, g)
-    if i is None:
-        return worst, "none"
+    `transcription`."""
+    violation = np.maximum(transcription.lbg - g, g - transcription.ubg)
+    violation = np.where(np.isnan(violation), np.inf, np.maximum(violation, 0.0))
+    if violation.size == 0:
+        return 0.0, "none"
+    i = int(np.argmax(violation))
     group, row, col = transcription.g_layout.locate(i)
     if group == "dynamics":
         rows = transcription.dynamics_rows.slices()
         name = next(k for k, s in rows.items() if s.start <= row < s.stop)
-        return worst, f"dynamics at step {col} ({name} row {row - rows[name].start})"
+        return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
     if group == "path":
-        return worst, f"path constraint {row} at step {col}"
+        return float(violation[i]), f"path constraint {row} at step {col}"
     if group == "path_knots":
-        return worst, f"path constraint {transcription.path_knot_rows[row]} at knot {col}"
-    return worst, f"boundary condition '{group}' row {row}"
-
-
-def worst_row(transcription, g):
-    """(the largest ``max(lbg - g, g - ubg, 0)`` over the rows of g, a NaN counted as
-    infinite; its first row, None without rows), the elementwise maxima with 0 and the
-    NaN's replacement formed only where needed."""
-    violation = np.maximum(transcription.lbg - g, g - transcription.ubg)
-    if violation.size == 0:
-        return 0.0, None
-    i = int(np.argmax(violation))          # the first NaN if there is one
-    if np.isnan(violation[i]):
-        violation = np.where(np.isnan(violation), np.inf, violation)
-        i = int(np.argmax(violation))
-    elif not violation[i] > 0.0:           # none violated: every max(., 0) is a zero
-        i = 0
-    return float(np.maximum(violation[i], 0.0)), i
+        return float(violation[i]), f"path constraint {transcription.path_knot_rows[row]} at knot {col}"
+    return float(violation[i]), f"boundary condition '{group}' row {row}"
 
 
 def trajectory_from_x(problem, x):

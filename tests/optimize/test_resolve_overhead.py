@@ -10,9 +10,7 @@ the former row-sum Function written out below (a separate code path, the same Ja
 
 import copy
 import pickle
-import sys
 import threading
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -26,10 +24,7 @@ from dmoc._util.deferred import Pending
 from dmoc._util.numeric import Evaluator
 from dmoc.optimize import ipopt
 from dmoc.optimize.evaluation import nlp_functions
-from dmoc.optimize.solve import OptimizationResult, solve, trajectory_from_x, worst_row
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-from lane_change_problem import lane_change  # noqa: E402
+from dmoc.optimize.solve import OptimizationResult, solve, trajectory_from_x
 
 FIELDS = ("t", "q", "p", "lam", "u", "h", "variant", "mu", "s", "control_nodes", "stage_nodes")
 
@@ -231,32 +226,3 @@ def test_solvers_are_shared_exactly_when_the_former_keys_agree(monkeypatch):
     monkeypatch.setitem(ipopt.DEFAULT_IPOPT_OPTIONS, "max_iter", 999)
     changed = ipopt.solver(T, {}, expand=False, reuse=True, report=False)[0]
     assert changed is not solvers[0]
-
-
-def _former_most_violated(transcription, g):
-    """`most_violated`'s figure and row before (every max(., 0) and NaN -> inf formed)."""
-    violation = np.maximum(transcription.lbg - g, g - transcription.ubg)
-    violation = np.where(np.isnan(violation), np.inf, np.maximum(violation, 0.0))
-    i = int(np.argmax(violation))
-    return float(violation[i]), i
-
-
-def test_the_most_violated_row_is_the_former_one():
-    """Random constraint vectors with rows met (zeros of both signs, inside the path
-    constraints' bound), violated, infinite and NaN: the same figure (bits) and row as
-    the former form (`worst_row`, which `most_violated` describes)."""
-    rng = np.random.default_rng(3)
-    for problem in (dmoc.problems.knife_edge_parking(6), lane_change(8)):
-        T = problem.transcription
-        n = T.g_layout.size
-        specials = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, 1e-300, -1e-300])
-        for case in range(400):
-            g = rng.normal(size=n) * 10.0 ** rng.integers(-12, 2)
-            if case % 4 == 0:
-                g = -np.abs(g) * (T.lbg < 0)          # every row met: zeros and path rows inside
-            k = rng.integers(0, 4)
-            g[rng.integers(0, n, size=k)] = rng.choice(specials, size=k)
-            worst, row = worst_row(T, g)
-            figure, former = _former_most_violated(T, g)
-            assert np.float64(worst).view(np.int64) == np.float64(figure).view(np.int64)
-            assert row == former
