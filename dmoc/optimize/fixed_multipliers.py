@@ -64,11 +64,10 @@ class FixedMultipliers:
         return Evaluator(function), position[columns[kept]], rows[kept]
 
 
-def fixed_entries(transcription):
-    """The entries of x IPOPT fixes (an int array, ascending): equal bounds as IPOPT sees
-    them, scaled (``lbx / x_scale == ubx / x_scale``)."""
-    T = transcription
-    return np.flatnonzero(T.lbx / T.x_scale == T.ubx / T.x_scale)
+def fixed_entries(lbx, ubx):
+    """The entries of x IPOPT fixes (an int array, ascending): those whose bounds as IPOPT
+    sees them, scaled (``lbx / x_scale``, ``ubx / x_scale``), are equal."""
+    return np.flatnonzero(lbx == ubx)
 
 
 def deferred(multipliers, lam_x, fixed, scaled):

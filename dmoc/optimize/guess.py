@@ -17,7 +17,7 @@ def start_point(problem, guess, fixed=None):
     (``result.structure == problem.structure``) is taken as it is, its configurations
     re-centered on this problem's q_ref, its x clipped into the new bounds (new boundary
     data) and its multipliers kept (lam_x as `fixed_multipliers.ipopt_start` gives it for
-    problem's fixed entries `fixed`: `fixed_entries`' if None); any other guess gives its
+    problem's fixed entries `fixed`, by default `fixed_entries`); any other guess gives its
     trajectory, resampled, and zero multipliers (a cold start)."""
     T = problem.transcription
     cold = np.zeros(T.lbx.size), np.zeros(T.lbg.size)
@@ -26,7 +26,7 @@ def start_point(problem, guess, fixed=None):
     if guess.structure == T.structure and guess.lam_g is not None and guess.q_ref is not None:
         x = np.array(guess.x, dtype=float)
         x[T.x_layout.slice("q")] += np.tile(guess.q_ref - T.q_ref, problem.steps + 1)
-        fixed = fixed_entries(T) if fixed is None else fixed
+        fixed = fixed_entries(T.lbx / T.x_scale, T.ubx / T.x_scale) if fixed is None else fixed
         return np.clip(x, T.lbx, T.ubx), ipopt_start(guess, fixed), guess.lam_g
     return (initial_guess(problem, guess.trajectory),) + cold
 

@@ -32,8 +32,8 @@ from .fixed_multipliers import FixedMultipliers
 # iterations (docs/performance.md).
 # fixed_variable_treatment make_parameter_nodual: IPOPT takes the fixed entries of x (the
 # given boundary data) out of its problem, as with its default make_parameter, but does not
-# compute their bound multipliers at every iteration (a gradient of f each); the solver
-# computes them once after the solve (`FixedMultipliers`), the same bits.
+# compute their bound multipliers at every iteration (a gradient of f each); they are
+# made when a result's lam_x is first read (`FixedMultipliers`), the same bits.
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "bound_relax_factor": 0.0, "honor_original_bounds": "yes",
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0,
@@ -113,7 +113,7 @@ def solver(transcription, options, *, expand, reuse, report, jit=False):
         built.append(True)
         journal = new_journal() if report else None
         cache = nlp_functions(transcription.separable, expand=expand, jit=jit)
-        nodual = str(merged["fixed_variable_treatment"]).lower() == "make_parameter_nodual"
+        nodual = str(merged.get("fixed_variable_treatment")).lower() == "make_parameter_nodual"
         try:
             made = ca.nlpsol("dmoc", "ipopt", transcription.nlp,
                              {**opts, "cache": cache, **({"ipopt.output_file": journal} if report else {})})

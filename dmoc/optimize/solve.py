@@ -18,7 +18,7 @@ from .._util.deferred import DeferredField, Pending, made
 from .problem import OptimalControlProblem
 from ..errors import InputError, Interrupted, SolverError, TrajectoryFileError
 from . import interrupt
-from .fixed_multipliers import deferred as deferred_lam_x
+from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
 from .._util.files import atomic_write, writable_file
 from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
@@ -175,7 +175,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     T = problem.transcription
     D, R = T.x_scale, T.g_scale      # IPOPT iterates on x / D, imposes R g
     lbx, ubx = T.lbx / D, T.ubx / D
-    fixed = np.flatnonzero(lbx == ubx)      # `fixed_entries`
+    fixed = fixed_entries(lbx, ubx)
     x0, lam_x0, lam_g0 = start_point(problem, guess, fixed)
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     tic = time.perf_counter()
