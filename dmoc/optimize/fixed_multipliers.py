@@ -93,6 +93,8 @@ def ipopt_start(result, fixed):
     returned it (IPOPT drops the start multipliers of fixed entries: the same solve);
     else completed."""
     value = vars(result).get("lam_x")
-    if isinstance(value, Pending) and value.make is _completed and np.array_equal(value.args[2], fixed):
+    # both index arrays come from `fixed_entries` (intp): equal bytes are equal entries
+    # (0.3 us against np.array_equal's 5 us)
+    if isinstance(value, Pending) and value.make is _completed and value.args[2].tobytes() == fixed.tobytes():
         return value.args[1]
     return result.lam_x
