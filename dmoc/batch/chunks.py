@@ -33,8 +33,8 @@ class ChunkSizes:
     """The size of the next chunk from the CPU seconds the items took on their workers.
 
     Until a cost is measured a chunk holds its thread's share of the queue,
-    ``queued / (SHARES * threads)`` (at most FIRST items), and its worker returns it after `budget` = TARGET
-    CPU seconds with the items it ran (`tasks.simulate_chunk`); then
+    ``queued / (SHARES * threads)`` (at most FIRST items), and its worker returns it after
+    `budget` = TARGET CPU seconds with the items it ran (`tasks.simulate_chunk`); then
     ``min(TARGET / cost, max(queued / (SHARES * threads), FLOOR / cost))`` for the median
     cost of an item, at least one, with no budget.
 

@@ -41,9 +41,10 @@ RESTART_TIMEOUT = 10
 
 def run(task, arguments, shipments, items, kind, client, *, label, progress, batch_timeout,
         connect_timeout):
-    """``task(digest, [bytes, ...], *arguments)`` on chunks of `items` ((digest, bytes)
-    each) after shipping `shipments` ({digest: bytes}); the results of `kind` in input
-    order (`Batch.collect`)."""
+    """``task(digest, [bytes, ...], *arguments)`` on chunks of `items` ((digest, data)
+    each, the bytes of data, ``bytes(data)``, made as its chunk is submitted:
+    `shipping.item`) after shipping `shipments` ({digest: bytes}); the results of `kind`
+    in input order (`Batch.collect`)."""
     client, owned = client_of(client, connect_timeout)
     names = []
     try:
@@ -142,16 +143,18 @@ class Batch:
             while (len(chunk) < size and self.queued and self.queued[0] not in self.alone
                    and self.items[self.queued[0]][0] == digest):
                 chunk.append(self.queued.popleft())
-            future = self.client.submit(self.task, digest, [self.items[i][1] for i in chunk],
-                                        *self.arguments, budget=self.sizes.budget,
+            data = [bytes(self.items[i][1]) for i in chunk]
+            future = self.client.submit(self.task, digest, data, *self.arguments,
+                                        budget=self.sizes.budget,
                                         key=f"{self.key}-{self.submitted}",
                                         pure=False, retries=RETRIES)
             self.flying[future], self.submitted = chunk, self.submitted + 1
 
     def _land(self, future):
         """Take the results of a finished chunk; the number of items that got one. Items a
-        timeout or the chunk's budget left unrun are queued again; the items of a chunk whose workers kept
-        dying are queued again one per chunk, so only the culprit ends "worker_lost"."""
+        timeout or the chunk's budget left unrun are queued again; the items of a chunk
+        whose workers kept dying are queued again one per chunk, so only the culprit ends
+        "worker_lost"."""
         chunk = self.flying.pop(future)
         try:
             results, seconds = future.result()
