@@ -39,8 +39,8 @@ class ChunkSizes:
     cost of an item, at least one, with no budget.
 
     >>> sizes = ChunkSizes()
-    >>> sizes.known, sizes.next(1000, 2), sizes.budget
-    (False, 250, 0.2)
+    >>> sizes.next(1000, 2), sizes.budget
+    (250, 0.2)
     >>> sizes.measured([0.004, 0.005, 0.006])
     >>> sizes.next(1000, 2), sizes.next(40, 2), sizes.next(8, 2), sizes.budget
     (40, 10, 10, None)
@@ -52,11 +52,6 @@ class ChunkSizes:
     def measured(self, seconds):
         """Record the CPU seconds each item of a finished chunk took on its worker."""
         self._seconds.extend(seconds)
-
-    @property
-    def known(self):
-        """Whether a cost has been measured."""
-        return bool(self._seconds)
 
     @property
     def budget(self):
