@@ -10,7 +10,8 @@ item's ``"undeserializable"`` result and not an error of the worker. Everything 
 raises, `SystemExit` and `KeyboardInterrupt` included, is caught, so one item cannot end
 the worker process that runs its neighbours. With a per-item timeout each item runs in a
 thread of its own, which the task abandons when the time is up; the task then returns
-the results so far and the client queues the chunk's other items again.
+the results so far and the client queues the chunk's other items again; so does a chunk
+sent with a CPU budget (before any item's cost is measured) once it has spent it.
 """
 
 import math
@@ -205,7 +206,7 @@ def failed_result(kind, status, message, **stats):
     return SimulationResult(None, False, status, message, stats)
 
 
-def _chunk(kind, calls, timeout, budget=None):
+def _chunk(kind, calls, timeout, budget):
     """(results, seconds) of each (load, solve) of `calls` in turn (`_guarded`), up to and
     including the first that times out or that spends the `budget` (CPU seconds of the
     chunk; None: no limit); each result stamped with this worker's address. The seconds
