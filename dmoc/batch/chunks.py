@@ -20,6 +20,10 @@ SHARES = 2
 # (docs/performance.md, "Fourth round").
 FLOOR = 0.05
 
+# The most items of a chunk sized before a cost is measured: those its worker does not
+# reach within its budget travel for nothing, and a guess can be kilobytes.
+FIRST = 256
+
 # The per-item costs the median is taken over: the latest ones, so a first solve that
 # built its solver is soon outweighed.
 WINDOW = 64
@@ -28,16 +32,18 @@ WINDOW = 64
 class ChunkSizes:
     """The size of the next chunk from the CPU seconds the items took on their workers.
 
-    Until a cost is measured every chunk holds one item; then
+    Until a cost is measured a chunk holds its thread's share of the queue,
+    ``queued / (SHARES * threads)`` (at most FIRST items), and its worker returns it after
+    `budget` = TARGET CPU seconds with the items it ran (`tasks.simulate_chunk`); then
     ``min(TARGET / cost, max(queued / (SHARES * threads), FLOOR / cost))`` for the median
-    cost of an item, at least one.
+    cost of an item, at least one, with no budget.
 
     >>> sizes = ChunkSizes()
-    >>> sizes.known, sizes.next(1000, 2)
-    (False, 1)
+    >>> sizes.next(1000, 2), sizes.budget
+    (250, 0.2)
     >>> sizes.measured([0.004, 0.005, 0.006])
-    >>> sizes.next(1000, 2), sizes.next(40, 2), sizes.next(8, 2)
-    (40, 10, 10)
+    >>> sizes.next(1000, 2), sizes.next(40, 2), sizes.next(8, 2), sizes.budget
+    (40, 10, 10, None)
     """
 
     def __init__(self):
@@ -48,15 +54,18 @@ class ChunkSizes:
         self._seconds.extend(seconds)
 
     @property
-    def known(self):
-        """Whether a cost has been measured."""
-        return bool(self._seconds)
+    def budget(self):
+        """The CPU seconds after which a worker returns the next chunk with the results of
+        the items it ran so far (the client queues the others again): `TARGET` until a
+        cost is measured, None after."""
+        return None if self._seconds else TARGET
 
     def next(self, queued, threads):
         """The size of the next chunk, with `queued` items left and `threads` worker
         threads."""
+        share = math.ceil(queued / (SHARES * threads))
         if not self._seconds:
-            return 1
+            return min(share, FIRST)
         cost = max(median(self._seconds), 1e-6)
-        balanced = max(math.ceil(queued / (SHARES * threads)), math.ceil(FLOOR / cost))
+        balanced = max(share, math.ceil(FLOOR / cost))
         return max(1, min(int(TARGET / cost), balanced))

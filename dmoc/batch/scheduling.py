@@ -4,8 +4,10 @@ order, whatever happens to the items, the workers or the client (docs/batch.md, 
 semantics").
 
 At most `CHUNKS_PER_THREAD` chunks per worker thread are in flight, so that the next
-chunk's size uses the costs measured so far; until a cost is measured, one chunk of one
-item per thread (each task costs Dask about 5 ms of CPU). The client waits in ticks of
+chunk's size uses the costs measured so far; until a cost is measured, the chunks carry a
+CPU budget after which their workers return them with the items run so far
+(`ChunkSizes.budget`), so no worker waits for the client to size its work and a chunk of
+slow items ends within its budget. The client waits in ticks of
 `TICK` seconds, so that the batch's deadline, a cluster left without workers and Ctrl-C
 are noticed while nothing arrives.
 """
@@ -39,9 +41,10 @@ RESTART_TIMEOUT = 10
 
 def run(task, arguments, shipments, items, kind, client, *, label, progress, batch_timeout,
         connect_timeout):
-    """``task(digest, [bytes, ...], *arguments)`` on chunks of `items` ((digest, bytes)
-    each) after shipping `shipments` ({digest: bytes}); the results of `kind` in input
-    order (`Batch.collect`)."""
+    """``task(digest, [bytes, ...], *arguments)`` on chunks of `items` ((digest, data)
+    each, the bytes of data, ``bytes(data)``, made as its chunk is submitted:
+    `shipping.item`) after shipping `shipments` ({digest: bytes}); the results of `kind`
+    in input order (`Batch.collect`)."""
     client, owned = client_of(client, connect_timeout)
     names = []
     try:
@@ -128,12 +131,11 @@ class Batch:
 
     def _fill(self, threads):
         """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
-        thread are in flight (one per thread until a cost is measured): consecutive items
-        of one shipment, as many as `ChunkSizes.next` says. An item whose chunk lost its
-        workers goes alone, and while such items are left only one task is in flight, so
-        that a worker's death fails that task alone. `threads`: the cluster's worker
-        threads."""
-        limit = 1 if self.alone else (CHUNKS_PER_THREAD if self.sizes.known else 1) * threads
+        thread are in flight: consecutive items of one shipment, as many as
+        `ChunkSizes.next` says, with its `budget`. An item whose chunk lost its workers
+        goes alone, and while such items are left only one task is in flight, so that a
+        worker's death fails that task alone. `threads`: the cluster's worker threads."""
+        limit = 1 if self.alone else CHUNKS_PER_THREAD * threads
         while self.queued and len(self.flying) < limit:
             first = self.queued.popleft()
             digest, chunk = self.items[first][0], [first]
@@ -141,15 +143,18 @@ class Batch:
             while (len(chunk) < size and self.queued and self.queued[0] not in self.alone
                    and self.items[self.queued[0]][0] == digest):
                 chunk.append(self.queued.popleft())
-            future = self.client.submit(self.task, digest, [self.items[i][1] for i in chunk],
-                                        *self.arguments, key=f"{self.key}-{self.submitted}",
+            data = [bytes(self.items[i][1]) for i in chunk]
+            future = self.client.submit(self.task, digest, data, *self.arguments,
+                                        budget=self.sizes.budget,
+                                        key=f"{self.key}-{self.submitted}",
                                         pure=False, retries=RETRIES)
             self.flying[future], self.submitted = chunk, self.submitted + 1
 
     def _land(self, future):
         """Take the results of a finished chunk; the number of items that got one. Items a
-        timeout left unrun are queued again; the items of a chunk whose workers kept
-        dying are queued again one per chunk, so only the culprit ends "worker_lost"."""
+        timeout or the chunk's budget left unrun are queued again; the items of a chunk
+        whose workers kept dying are queued again one per chunk, so only the culprit ends
+        "worker_lost"."""
         chunk = self.flying.pop(future)
         try:
             results, seconds = future.result()

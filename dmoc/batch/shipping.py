@@ -27,9 +27,9 @@ def digest(data):
 
 
 def problem_items(problems, guesses):
-    """(shipments {digest: bytes}, items [(digest, bytes)]): each item's bytes are
-    ``pickled((boundary, parameter_values, guess))`` for `tasks.optimize_chunk`,
-    to be applied to the problem shipped under its digest."""
+    """(shipments {digest: bytes}, items [(digest, data)]): each item's data (`item`) is
+    ``(boundary, parameter_values, guess)`` for `tasks.optimize_chunk`, to be applied to
+    the problem shipped under its digest."""
     shipments, items, shipped = {}, [], {}     # shipped: structure -> [(problem, digest)]
     for i, (problem, guess) in enumerate(zip(problems, guesses)):
         data = boundary(problem), problem.parameter_values
@@ -40,21 +40,20 @@ def problem_items(problems, guesses):
             name = digest(packed)
             shipments[name] = packed
             candidates.append((problem, name))
-        items.append((name, pickled(f"guesses[{i}]", (*data, guess))))
+        items.append((name, item(f"guesses[{i}]", (*data, guess))))
     return shipments, items
 
 
 def run_items(discs, runs):
-    """(shipments {digest: bytes}, items [(digest, bytes)]): each distinct Discretization
-    (by identity) shipped once, each run as ``pickled(run)`` for
-    `tasks.simulate_chunk`."""
+    """(shipments {digest: bytes}, items [(digest, data)]): each distinct Discretization
+    (by identity) shipped once, each run as ``item(run)`` for `tasks.simulate_chunk`."""
     shipments, items, names = {}, [], {}
     for i, (disc, run) in enumerate(zip(discs, runs)):
         if id(disc) not in names:
             data = pickled(f"disc[{i}]", disc)
             names[id(disc)] = digest(data)
             shipments[names[id(disc)]] = data
-        items.append((names[id(disc)], pickled(f"runs[{i}]", run)))
+        items.append((names[id(disc)], item(f"runs[{i}]", run)))
     return shipments, items
 
 
@@ -93,6 +92,29 @@ def pickled(name, value):
     except Exception as err:
         raise InputTypeError(f"`{name}` cannot be pickled for the workers: "
                              f"{type(err).__name__}: {err}") from err
+
+
+def item(name, value):
+    """An item's data: ``bytes(item(name, value)) == pickled(name, value)``. Plain data
+    (`plain`) is pickled when its chunk is submitted (`Plain`), so the workers start
+    before the client has pickled every item; anything else now, by cloudpickle, so that
+    an argument that cannot be pickled is refused before anything is submitted."""
+    return Plain(value) if plain(value) else pickled(name, value)
+
+
+class Plain:
+    """Plain data (`plain`) whose bytes, ``pickle.dumps(value)``, are made the first time
+    they are asked for (``bytes(data)``) and kept for a chunk submitted again."""
+
+    __slots__ = ("value", "_bytes")
+
+    def __init__(self, value):
+        self.value, self._bytes = value, None
+
+    def __bytes__(self):
+        if self._bytes is None:
+            self._bytes = pickle.dumps(self.value, protocol=5)
+        return self._bytes
 
 
 def plain(value, depth=0):

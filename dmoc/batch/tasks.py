@@ -10,9 +10,11 @@ item's ``"undeserializable"`` result and not an error of the worker. Everything 
 raises, `SystemExit` and `KeyboardInterrupt` included, is caught, so one item cannot end
 the worker process that runs its neighbours. With a per-item timeout each item runs in a
 thread of its own, which the task abandons when the time is up; the task then returns
-the results so far and the client queues the chunk's other items again.
+the results so far and the client queues the chunk's other items again; so does a chunk
+sent with a CPU budget (before any item's cost is measured) once it has spent it.
 """
 
+import math
 import threading
 import time
 import traceback
@@ -76,12 +78,13 @@ def shipped(digest, unpack):
     return _LOADED.get(digest, lambda: unpack(_SHIPPED[digest][1]))
 
 
-def optimize_chunk(digest, items, options, switches, timeout):
+def optimize_chunk(digest, items, options, switches, timeout, budget=None):
     """For each item, ``shipping.pickled((boundary, parameter_values, guess))``:
     `optimize` on the shipped problem with that boundary data (``with_boundary``) and
     those parameter values (``with_parameters``), ``throw=False``; never raises for an
-    item. Returns (results, seconds per item), results possibly fewer than items (a
-    timeout ends the chunk)."""
+    item. Returns (results, seconds per item), results possibly fewer than items: a
+    timeout ends the chunk, and so does the item that spends the `budget` (CPU seconds of
+    the chunk; None: no limit), which the client sets while it knows no item's cost."""
     def solver(item):
         def load():
             return shipped(digest, unpack_problem), cloudpickle.loads(item)
@@ -94,10 +97,10 @@ def optimize_chunk(digest, items, options, switches, timeout):
             return optimize(problem, guess=guess, options=options, **switches, throw=False)
         return load, solve
 
-    return _chunk(OptimizationResult, [solver(item) for item in items], timeout)
+    return _chunk(OptimizationResult, [solver(item) for item in items], timeout, budget)
 
 
-def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
+def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget=None):
     """For each item, ``shipping.pickled(run)``: ``simulate(disc, **run, throw=False)`` on
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
     ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
@@ -107,7 +110,9 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
     Without a `timeout`, the runs that can step together do so in lockstep
     (`dmoc.simulate.lockstep`: the same results as one by one, for less CPU); each item's
     seconds are then the chunk's CPU seconds over its items. With a `timeout`, each item
-    runs alone, in a thread the task can abandon."""
+    runs alone, in a thread the task can abandon. With a `budget`, the chunk ends once it
+    has spent that many CPU seconds, as in `optimize_chunk` (in lockstep, groups of 1, 2,
+    4, ... runs, `_in_budget`)."""
     def runner(item):
         def load():
             return shipped(digest, cloudpickle.loads), cloudpickle.loads(item)
@@ -119,12 +124,29 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None):
 
     calls = [runner(item) for item in items]
     if timeout is None:
-        results, seconds = _in_lockstep(calls, keep == "final")
+        results, seconds = _in_budget(calls, keep == "final", budget)
     else:
-        results, seconds = _chunk(SimulationResult, calls, timeout)
+        results, seconds = _chunk(SimulationResult, calls, timeout, budget)
         if keep == "final":
             _cut_to_final_knots(results)
     return PackedResults(results, share), seconds
+
+
+def _in_budget(calls, final, budget):
+    """(results, seconds) of the first of `calls` run in lockstep (`_in_lockstep`): all of
+    them when `budget` is None; else groups of 1, 2, 4, ... items, each at most what the
+    CPU seconds left of the `budget` pay at the cost per item so far, until the budget is
+    spent (so a chunk of slow items still returns within about its budget)."""
+    if budget is None:
+        return _in_lockstep(calls, final)
+    results, seconds, size = [], [], 1
+    while len(results) < len(calls) and sum(seconds) < budget:
+        group, spent = _in_lockstep(calls[len(results):len(results) + size], final)
+        results += group
+        seconds += spent
+        affordable = (budget - sum(seconds)) * len(results) / max(sum(seconds), 1e-9)
+        size = max(1, min(2 * size, math.floor(affordable)))
+    return results, seconds
 
 
 def _in_lockstep(calls, final):
@@ -184,18 +206,19 @@ def failed_result(kind, status, message, **stats):
     return SimulationResult(None, False, status, message, stats)
 
 
-def _chunk(kind, calls, timeout):
+def _chunk(kind, calls, timeout, budget):
     """(results, seconds) of each (load, solve) of `calls` in turn (`_guarded`), up to and
-    including the first that times out; each result stamped with this worker's address.
-    The seconds are this process's CPU time over the item, which other jobs on the
-    machine do not inflate as they do the wall time."""
+    including the first that times out or that spends the `budget` (CPU seconds of the
+    chunk; None: no limit); each result stamped with this worker's address. The seconds
+    are this process's CPU time over the item, which other jobs on the machine do not
+    inflate as they do the wall time."""
     results, seconds = [], []
     for load, solve in calls:
         tic = time.process_time()
         result, finished = _guarded(kind, load, solve, timeout)
         seconds.append(time.process_time() - tic)
         results.append(result)
-        if not finished:
+        if not finished or (budget is not None and sum(seconds) >= budget):
             break
     _stamp(results)
     return results, seconds

@@ -202,3 +202,44 @@ def test_runs_in_lockstep_on_the_workers_equal_serial_runs(client, how, keep):
     statuses = {r.status for r in results}
     assert statuses == {"converged", "newton_failed"}
     assert any(r.success and r.stats["robust_steps"] for r in results)
+
+
+def _calls(disc, runs):
+    """(load, solve) pairs of `tasks.simulate_chunk` for `runs`, already unpickled."""
+    return [((lambda run=run: (disc, run)), lambda loaded: dmoc.simulate(loaded[0], **loaded[1],
+                                                                          throw=False))
+            for run in runs]
+
+
+@pytest.mark.parametrize("keep", ["trajectory", "final"])
+def test_a_chunk_ends_once_it_has_spent_its_budget(keep, monkeypatch):
+    """A chunk with a CPU budget runs its first run alone and stops when the budget is
+    spent (in lockstep, and one by one with a `timeout`); without one, or with enough,
+    it runs them all; what it returns are the serial results."""
+    monkeypatch.setattr(tasks, "_stamp", lambda results: None)     # no worker here
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    runs = _runs(40)
+    final = keep == "final"
+    for budget, count in ((1e-9, 1), (None, 40), (1e3, 40)):
+        results, seconds = tasks._in_budget(_calls(disc, runs), final, budget)
+        assert len(results) == len(seconds) == count
+        for got, run in zip(results, runs):
+            _assert_same(got, disc, run, keep)
+        results, seconds = tasks._chunk(SimulationResult, _calls(disc, runs), 60, budget)
+        assert len(results) == len(seconds) == count
+
+
+@pytest.mark.parametrize("keep", ["trajectory", "final"])
+def test_runs_a_budget_left_unrun_are_queued_again_and_run_once(client, keep, monkeypatch):
+    """Before a cost is measured the client sends chunks with a budget (`ChunkSizes.budget`,
+    TARGET): with a budget smaller than any run, the first chunks return one result each,
+    the client queues their other runs again, and every run gets its serial result."""
+    from dmoc.batch import chunks
+    monkeypatch.setattr(chunks, "TARGET", 1e-9)
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    runs = _runs(30)
+    with distributed.get_task_stream(client=client) as stream:
+        results = batch.simulate_many(disc, runs, keep=keep, client=client, progress=False)
+    assert len(stream.data) == len(runs)        # every chunk returned after one run
+    for got, run in zip(results, runs):
+        _assert_same(got, disc, run, keep)

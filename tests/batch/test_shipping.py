@@ -119,7 +119,7 @@ def test_an_item_that_kills_its_chunks_workers_is_the_only_one_lost():
 
 
 @pytest.mark.parametrize("seconds, queued, threads, size", [
-    ([], 1000, 2, 1),                                 # nothing measured yet
+    ([], 1000, 2, 250),                               # nothing measured yet: a thread's share
     ([0.004, 0.005, 0.006], 1000, 2, 40),             # 0.2 s / 5 ms
     ([0.004, 0.005, 0.006], 80, 2, 20),               # 80 / (2 chunks x 2 threads)
     ([0.004, 0.005, 0.006], 40, 2, 10),               # the tail: at least 0.05 s a chunk
