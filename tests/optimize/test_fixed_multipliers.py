@@ -131,10 +131,14 @@ def test_ipopts_own_treatments_are_left_to_it():
 
 
 def test_a_warm_start_with_other_fixed_entries_reads_the_made_multipliers():
-    """A goal entry set free (the same NLP, one fixed entry fewer): the guess's fixed
-    multipliers are made and handed to IPOPT as the start of that entry's bound
-    multipliers, as IPOPT's own make_parameter result would hand them: the same bits."""
-    problem = dmoc.problems.knife_edge_parking(12)
+    """A goal entry set free (the same NLP, one fixed entry fewer) within finite state
+    bounds, so that IPOPT takes a start for its bound multipliers: the guess's fixed
+    multipliers are made and handed to IPOPT as that start, as IPOPT's own make_parameter
+    result would hand them: the same bits (a start of zero, the multiplier not made, gives
+    other iterates)."""
+    knife = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    problem = dmoc.OptimalControlProblem(knife, 12, q_start=[0, 0, 0], q_goal=[0.0, 1.0, 0.3],
+                                         state_bounds=([-2.0, -2.0, -0.5], [2.0, 2.0, 0.5]))
     freed = problem.with_boundary(q_goal=[0.0, 1.0, None])
     assert freed.structure == problem.structure
     assert (freed.transcription.lbx == freed.transcription.ubx).sum() < \
