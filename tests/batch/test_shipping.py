@@ -209,4 +209,13 @@ def test_plain_data_is_pickled_plainly_and_anything_else_by_cloudpickle():
     for other in ({"force": lambda u: u}, {"x": Local()}, cyclic, {1: 2.0},
                   np.array(["a"]), np.array([None]), np.ma.array([1.0])):
         assert not shipping.plain(other)
+
+    class Number(float):
+        pass
+
+    scalars = [np.bool_(True), np.int8(1), np.uint64(2), np.float32(0.5), np.complex64(1j)]
+    for scalar in scalars:                # alone, in a list, as a dict's value
+        assert shipping.plain(scalar) and shipping.plain([scalar]) and shipping.plain({"x": scalar})
+    for other in (Number(1.0), np.datetime64("2026-01-01"), np.str_("a"), [[[[[[[[[1]]]]]]]]]):
+        assert not shipping.plain(other) and not shipping.plain([other]) and not shipping.plain({"x": other})
     assert pickle.loads(shipping.pickled("run", {"force": lambda u: 2 * u}))["force"](3) == 6
