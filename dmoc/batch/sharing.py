@@ -265,7 +265,7 @@ def read(path, layout):
     one read per chunk: numpy backs a large buffer with huge pages, so the copy faults in
     far fewer pages than one array per field); the slot is then free. Raises OSError when
     the slot is not the client's of this token, does not hold this ticket, or is too small
-    for the layout, and ValueError when the layout names anything but arrays of numbers."""
+    for the layout, or when the layout places anything but arrays of numbers."""
     pid, fd, token, ticket = path
     handle = _reach(pid, fd)
     refused = OSError(f"/proc/{pid}/fd/{fd} is not a slot of this batch holding that chunk")
@@ -288,13 +288,14 @@ def read(path, layout):
 
 def _spans(layout):
     """{name: (start, stop, dtype, shape)} of the arrays `layout` places in a slot, after
-    its header; ValueError unless each is an array of numbers at an offset >= 0."""
+    its header; OSError (a slot refused) unless each is an array of numbers at an offset
+    >= 0."""
     spans = {}
     for name, (offset, dtype, shape) in layout.items():
         dtype, shape = np.dtype(dtype), tuple(int(n) for n in shape)
         if dtype.kind not in "biufc" or offset < 0 or min(shape, default=0) < 0:
-            raise ValueError(f"a chunk's layout must place arrays of numbers; got {name!r}: "
-                             f"{(offset, dtype.str, shape)}")
+            raise OSError(f"a slot's layout must place arrays of numbers; got {name!r}: "
+                          f"{(offset, dtype.str, shape)}")
         spans[name] = (offset, offset + dtype.itemsize * math.prod(shape), dtype, shape)
     return spans
 
