@@ -19,6 +19,7 @@ next chunk. The file holds numbers only: nothing in it is unpickled or run.
 """
 
 import fcntl
+import math
 import mmap
 import os
 import secrets
@@ -260,28 +261,43 @@ def _trusted(handle, token):
 
 def read(path, layout):
     """The arrays a `SharedFile` put in the slot `path` = (pid, fd, token, ticket), copied
-    out into arrays of this process; the slot is then free. Raises OSError when the slot is
-    not the client's of this token, does not hold this ticket, or is too small for the
-    layout."""
+    out into one new buffer of this process, of which they are views (one allocation and
+    one read per chunk: numpy backs a large buffer with huge pages, so the copy faults in
+    far fewer pages than one array per field); the slot is then free. Raises OSError when
+    the slot is not the client's of this token, does not hold this ticket, or is too small
+    for the layout, or when the layout places anything but arrays of numbers."""
     pid, fd, token, ticket = path
     handle = _reach(pid, fd)
     refused = OSError(f"/proc/{pid}/fd/{fd} is not a slot of this batch holding that chunk")
     if handle is None:
         raise refused
     try:
-        size = max((offset + np.dtype(dtype).itemsize * int(np.prod(shape))
-                    for offset, dtype, shape in layout.values()), default=0)
+        spans = _spans(layout)
+        size = max((stop for _, stop, _, _ in spans.values()), default=0)
         if (not _trusted(handle, token) or os.pread(handle, STATE, TOKEN) != ticket
                 or os.fstat(handle).st_size < HEADER + size):
             raise refused
-        arrays = {}
-        for name, (offset, dtype, shape) in layout.items():
-            arrays[name] = np.empty(shape, dtype)
-            _read_into(handle, memoryview(arrays[name].reshape(-1)).cast("B"), HEADER + offset)
+        buffer = np.empty(size, np.uint8)
+        _read_into(handle, memoryview(buffer), HEADER)
         os.pwrite(handle, FREE, TOKEN)
     finally:
         os.close(handle)
-    return arrays
+    return {name: buffer[start:stop].view(dtype).reshape(shape)
+            for name, (start, stop, dtype, shape) in spans.items()}
+
+
+def _spans(layout):
+    """{name: (start, stop, dtype, shape)} of the arrays `layout` places in a slot, after
+    its header; OSError (a slot refused) unless each is an array of numbers at an offset
+    >= 0."""
+    spans = {}
+    for name, (offset, dtype, shape) in layout.items():
+        dtype, shape = np.dtype(dtype), tuple(int(n) for n in shape)
+        if dtype.kind not in "biufc" or offset < 0 or min(shape, default=0) < 0:
+            raise OSError(f"a slot's layout must place arrays of numbers; got {name!r}: "
+                          f"{(offset, dtype.str, shape)}")
+        spans[name] = (offset, offset + dtype.itemsize * math.prod(shape), dtype, shape)
+    return spans
 
 
 def _read_into(handle, buffer, offset):

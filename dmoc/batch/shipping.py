@@ -80,8 +80,10 @@ def rebuilds(base, problem, bounds, values):
 
 
 # Types plain pickle writes as cloudpickle does (by value, or by reference to numpy, which
-# every worker imports), in about a third of its time (docs/performance.md, "Ninth").
-_PLAIN = (bool, int, float, complex, str, bytes, type(None))
+# every worker imports), in about a third of its time (docs/performance.md, "Ninth"): the
+# built-in scalars, and numpy's scalars of numbers (`_LEAVES`, looked up by exact type).
+_LEAVES = frozenset((bool, int, float, complex, str, bytes, type(None))) | frozenset(
+    kind for kind in np.sctypeDict.values() if np.dtype(kind).kind in "biufc")
 
 
 def pickled(name, value):
@@ -121,12 +123,13 @@ def plain(value, depth=0):
     """Whether `value` is numbers, strings, numpy arrays or scalars of numbers, and lists,
     tuples and dicts (of str keys) of them, nested at most 8 deep."""
     kind = type(value)
-    if kind in _PLAIN:
+    if kind in _LEAVES:
         return True
     if depth >= 8:
         return False
-    if kind in (list, tuple):
-        return all(plain(item, depth + 1) for item in value)
+    if kind is list or kind is tuple:
+        return all(type(item) in _LEAVES or plain(item, depth + 1) for item in value)
     if kind is dict:
-        return all(type(key) is str and plain(item, depth + 1) for key, item in value.items())
+        return all(type(key) is str and (type(item) in _LEAVES or plain(item, depth + 1))
+                   for key, item in value.items())
     return (kind is np.ndarray or isinstance(value, np.generic)) and value.dtype.kind in "biufc"

@@ -56,9 +56,12 @@ def test_what_a_worker_writes_the_client_reads_bit_for_bit_into_its_own_arrays()
     with sharing.Exchange() as share:
         path, layout = _write(_any_size(share))
         back = sharing.read(path, layout)
+        owner = back["t"].base                        # one buffer of the client per chunk
+        assert type(owner) is np.ndarray and owner.flags.owndata and owner.flags.writeable
         for name, a in _arrays().items():
             assert back[name].shape == a.shape and back[name].tobytes() == a.tobytes()
-            assert back[name].flags.owndata and back[name].flags.writeable
+            assert back[name].base is owner and back[name].flags.writeable
+            assert back[name].flags.aligned and back[name].dtype == a.dtype
         with pytest.raises(OSError, match="not a slot of this batch holding that chunk"):
             sharing.read(path, layout)                 # read once: the slot is free again
         assert _write(_any_size(share)) is not None    # and takes the next chunk
@@ -107,6 +110,15 @@ def test_a_worker_uses_no_slot_that_is_not_the_clients():
         assert _write((pid, wrong_token, 0)) is None
         no_such_process = max(int(p) for p in os.listdir("/proc") if p.isdigit()) + 10 ** 6
         assert _write((no_such_process, slots, 0)) is None
+
+
+def test_the_client_reads_numbers_only():
+    with sharing.Exchange() as share:
+        path, layout = _write(_any_size(share))
+        for spoilt in [(0, "|O", (1,)), (-8, "<f8", (1,)), (0, "<f8", (-1, 3))]:
+            with pytest.raises(OSError, match="arrays of numbers"):
+                sharing.read(path, dict(layout, mu=spoilt))
+        assert sharing.read(path, layout)["mu"].shape == (2, 1)    # the slot kept its chunk
 
 
 @pytest.mark.parametrize("spoil", ["token", "ticket", "layout"])

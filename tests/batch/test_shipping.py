@@ -209,4 +209,46 @@ def test_plain_data_is_pickled_plainly_and_anything_else_by_cloudpickle():
     for other in ({"force": lambda u: u}, {"x": Local()}, cyclic, {1: 2.0},
                   np.array(["a"]), np.array([None]), np.ma.array([1.0])):
         assert not shipping.plain(other)
+
+    class Number(float):
+        pass
+
+    scalars = [np.bool_(True), np.int8(1), np.uint64(2), np.float32(0.5), np.complex64(1j)]
+    for scalar in scalars:                # alone, in a list, as a dict's value
+        assert shipping.plain(scalar) and shipping.plain([scalar]) and shipping.plain({"x": scalar})
+    for other in (Number(1.0), np.datetime64("2026-01-01"), np.str_("a"), [[[[[[[[[1]]]]]]]]]):
+        assert not shipping.plain(other) and not shipping.plain([other]) and not shipping.plain({"x": other})
     assert pickle.loads(shipping.pickled("run", {"force": lambda u: 2 * u}))["force"](3) == 6
+
+
+def test_the_chunks_of_one_fill_go_to_the_scheduler_in_one_message():
+    """`Batch._fill` submits the chunks it fills in one `Client.map` call (one message:
+    the client holds back a message sent within 10 ms of the previous one, so chunks
+    submitted one by one reach the second worker later): consecutive items, each chunk
+    of one shipment, the item bytes as `shipping.item` makes them, its own key."""
+    from dmoc.batch import scheduling
+
+    class Client:
+        calls = []
+
+        def map(self, task, *iterables, **keywords):
+            self.calls.append((task, iterables, keywords))
+            return [object() for _ in iterables[0]]
+
+    runs = [{"q0": [0.0, 0.0, float(i)], "steps": 5} for i in range(24)]
+    items = [("a" if i < 8 else "b", shipping.item(f"runs[{i}]", run)) for i, run in enumerate(runs)]
+    fill = scheduling.Batch(Client(), len, ("argument",), items, None, "simulate")
+    fill._fill(2)
+    [(task, (digests, data, arguments), keywords)] = Client.calls
+    chunks = list(fill.flying.values())
+    assert task is len and len(chunks) == scheduling.CHUNKS_PER_THREAD * 2
+    assert [i for chunk in chunks for i in chunk] == list(range(sum(map(len, chunks))))
+    assert digests == [items[chunk[0]][0] for chunk in chunks]
+    assert all({items[i][0] for i in chunk} == {digest} for chunk, digest in zip(chunks, digests))
+    assert digests == ["a", "a", "b", "b"]                  # a chunk ends with its shipment
+    assert data == [[shipping.pickled("run", runs[i]) for i in chunk] for chunk in chunks]
+    assert list(arguments) == ["argument"] * len(chunks)
+    assert keywords["budget"] == ChunkSizes().budget and keywords["pure"] is False
+    assert len(set(keywords["key"])) == len(chunks)
+    fill._fill(2)                                       # as many in flight as allowed
+    assert len(Client.calls) == 1
