@@ -22,7 +22,7 @@ from .boundary import (boundary_vector, check_holonomic_boundary, fully_given, i
 from .final_time import FixedFinalTime, FreeFinalTime
 from .momenta import momentum_treatment
 from .parameters import ProblemParameters, cost_function, path_function
-from .read_only import ReadOnly
+from .read_only import ReadOnly, frozen
 from .transcription import Transcription
 
 
@@ -158,7 +158,7 @@ class OptimalControlProblem(ReadOnly):
         self._control_bounds = _bounds("control_bounds", control_bounds, sys.n_u)
         self._state_bounds = _bounds("state_bounds", state_bounds, n)
         for bound in (*self._control_bounds, *self._state_bounds):
-            bound.flags.writeable = False
+            frozen(bound)
         self._set_boundary({"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "p_start": p_start,
                             "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
         self._transcription = Transcription(self)
@@ -166,21 +166,25 @@ class OptimalControlProblem(ReadOnly):
     def _set_boundary(self, given):
         """Set the boundary data in `given` ({name: value} among q_start, q_goal, v_start,
         v_goal, p_start; a start momentum replaces the start velocity) and check the ends
-        whose data they change; the other data stay as they were, checked."""
+        whose data they change; the other data, and where their ends impose velocity rows,
+        stay as they were, checked."""
         n, sys = self._disc.system.n, self._disc.system
         for name in ("q_start", "q_goal"):
             if name in given:
-                setattr(self, "_" + name, boundary_vector(name, given[name], n))
+                setattr(self, "_" + name, frozen(boundary_vector(name, given[name], n)))
         if "p_start" in given or "v_start" in given:
             self._p_start = start_momentum(given.get("p_start"), given.get("v_start"), n)
             v_start = given.get("v_start")
-            self._v_start = boundary_vector("v_start", [None] * n if self._p_start is not None else
-                                            np.zeros(n) if v_start is None else v_start, n)
+            self._v_start = frozen(boundary_vector(
+                "v_start", [None] * n if self._p_start is not None else np.zeros(n) if v_start is None
+                else v_start, n))
         if "v_goal" in given:
-            self._v_goal = boundary_vector("v_goal", given["v_goal"], n)
+            self._v_goal = frozen(boundary_vector("v_goal", given["v_goal"], n))
         if "q_start" in given or "q_goal" in given:
             check_holonomic_boundary(sys, self._q_start, self._q_goal)
-        for end, q, v in (("start", self._q_start, self._v_start), ("goal", self._q_goal, self._v_goal)):
+        ends = [end for end, names in _END_DATA.items() if not given.keys().isdisjoint(names)]
+        for end in ends:
+            q, v = getattr(self, "_q_" + end), getattr(self, "_v_" + end)
             if given.keys() & {"q_" + end, "v_" + end} and fully_given(q, v):
                 check_allowed_velocity("v_" + end, sys, q, v)
         lower, upper = self._state_bounds
@@ -190,10 +194,12 @@ class OptimalControlProblem(ReadOnly):
             if outside.any():
                 raise InputError(f"`{name}` must lie within `state_bounds`; entries "
                                  f"{np.flatnonzero(outside).tolist()} do not.")
-        for data in (self._q_start, self._q_goal, self._v_start, self._v_goal):
-            data.flags.writeable = False
-        self._velocity_rows = {"start": self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start),
-                               "goal": imposes_velocity_rows(self._q_goal, self._v_goal)}
+        rows = dict(getattr(self, "_velocity_rows", {}))      # a copy's own
+        if "start" in ends:
+            rows["start"] = self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start)
+        if "goal" in ends:
+            rows["goal"] = imposes_velocity_rows(self._q_goal, self._v_goal)
+        self._velocity_rows = rows
 
     def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None, p_start=None):
         """This problem with new boundary data; arguments left None keep this problem's
@@ -336,6 +342,11 @@ class OptimalControlProblem(ReadOnly):
         T = self._transcription
         return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
                 f"free_time={self.free_time}, x: {T.x_layout.size}, g: {T.g_layout.size})")
+
+
+# the boundary data of each end: given any of them, that end's checks and velocity rows are
+# made again (`_set_boundary`)
+_END_DATA = {"start": ("q_start", "v_start", "p_start"), "goal": ("q_goal", "v_goal")}
 
 
 def _bounds(name, value, size):

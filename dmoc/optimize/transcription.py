@@ -10,7 +10,7 @@ import numpy as np
 
 from .._util.layout import Layout
 from .parameters import knot_rows, refuse_violated_ends
-from .read_only import ReadOnly
+from .read_only import ReadOnly, frozen
 from .scaling import nlp_scales
 from .terms import transcribe
 
@@ -86,7 +86,7 @@ class Transcription(ReadOnly):
                                  ("path", (path.numel_out(0) if path else 0, N)),
                                  ("path_knots", (path.numel_out(1) if path else 0, N + 1))])
         q_ref = reference(problem.q_start, problem.q_goal)
-        self._x_scale, self._g_scale = (_frozen(s) for s in nlp_scales(
+        self._x_scale, self._g_scale = (frozen(s) for s in nlp_scales(
             disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
             problem.q_goal - problem.q_start))
         self._separable, self._momenta = transcribe(
@@ -97,7 +97,7 @@ class Transcription(ReadOnly):
         q, v_start, v_goal = (self._x_layout.slice(name) for name in ("q", "v_start", "v_goal"))
         # the entries of x the boundary data fix: q_0 and q_N (column 0 and N of block q),
         # v_start, v_goal (in the order `_set_boundary_bounds` stacks the data)
-        self._data_entries = _frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
+        self._data_entries = frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
                                                      v_start.start + np.arange(n), v_goal.start + np.arange(n)]))
         self._set_bounds(problem)
 
@@ -105,10 +105,11 @@ class Transcription(ReadOnly):
         """This transcription with the bounds and parameter values of `problem`, which must
         have the same NLP (new boundary data with the same velocity rows, or new parameter
         values): the layouts, scales and terms are shared, and so are the bounds that do
-        not read boundary data (of u, h and g)."""
+        not read boundary data (of u, h and g) and, while q_ref keeps its bits, the state
+        bounds of block q and (with the same parameters and start momentum) p."""
         new = object.__new__(Transcription)
         new.__dict__.update(self.__dict__)
-        new._set_boundary_bounds(problem, self._lbx.copy(), self._ubx.copy())
+        new._set_boundary_bounds(problem)
         return new
 
     def _set_bounds(self, problem):
@@ -122,28 +123,31 @@ class Transcription(ReadOnly):
         lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
         for name in ("path", "path_knots"):
             lbg[self._g_layout.slice(name)] = -np.inf
-        self._lbg, self._ubg = _frozen(lbg), _frozen(ubg)
-        self._set_boundary_bounds(problem, lbx, ubx)
+        self._lbg, self._ubg = frozen(lbg), frozen(ubg)
+        self._open_bounds = (lbx, ubx)
+        self._set_boundary_bounds(problem)
 
-    def _set_boundary_bounds(self, problem, lbx, ubx):
-        """q_ref, p, and the blocks q, v_start and v_goal of `lbx` and `ubx` (set anew:
-        the state bounds, the given boundary data fixed) from `problem`'s data; the
-        path constraints checked at the given ends. The state bounds of block q are formed
-        again only when q_ref changes (its bits): a `with_bounds` that keeps q_start
-        reuses them."""
-        N, lay = problem.steps, self._x_layout
+    def _set_boundary_bounds(self, problem):
+        """q_ref, p, `lbx` and `ubx` from `problem`'s data: the open bounds (those of u and
+        h, of block q the state bounds, infinite elsewhere) with the given boundary data
+        fixed; the path constraints checked at the given ends. The open bounds and p are
+        formed again only when q_ref changes (its bits), and p also when the problem's
+        parameters or start momentum are other objects: a `with_bounds` that keeps q_ref
+        (new goals for a given start) copies the open bounds and writes the data."""
         q_ref = reference(problem.q_start, problem.q_goal)
+        p_data = (problem.parameters, problem.p_start)
         if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
-            self._q_bounds = tuple(_frozen(np.tile(problem.state_bounds[side] - q_ref, N + 1))
-                                   for side in (0, 1))
-        self._q_ref = _frozen(q_ref)
-        p_start = np.zeros(0) if problem.p_start is None else problem.p_start
-        self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
-                                          p_start]))
-        q, v_start, v_goal = (lay.slice(name) for name in ("q", "v_start", "v_goal"))
-        for bound, q_bound, unbounded in ((lbx, self._q_bounds[0], -np.inf), (ubx, self._q_bounds[1], np.inf)):
-            bound[q] = q_bound
-            bound[v_start] = bound[v_goal] = unbounded
+            q = self._x_layout.slice("q")
+            self._open_bounds = tuple(frozen(np.concatenate([
+                bound[:q.start], np.tile(problem.state_bounds[side] - q_ref, problem.steps + 1),
+                bound[q.stop:]])) for side, bound in enumerate(self._open_bounds))
+            self._q_ref, self._p_data = frozen(q_ref), None
+        if self._p_data is None or any(a is not b for a, b in zip(p_data, self._p_data)):
+            p_start = np.zeros(0) if problem.p_start is None else problem.p_start
+            self._p = frozen(np.concatenate([problem.final_time.p_values, self._q_ref,
+                                             problem.parameters.vector(), p_start]))
+            self._p_data = p_data
+        lbx, ubx = (bound.copy() for bound in self._open_bounds)
         # the given data, fixed at `_data_entries`
         data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
                                problem.v_goal])
@@ -151,7 +155,7 @@ class Transcription(ReadOnly):
         lbx[self._data_entries[fixed]] = ubx[self._data_entries[fixed]] = data[fixed]
         if problem.path_constraints is not None:
             refuse_violated_ends(problem.path_constraints, problem, self._end_checks)
-        self._lbx, self._ubx = _frozen(lbx), _frozen(ubx)
+        self._lbx, self._ubx = frozen(lbx), frozen(ubx)
 
     nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")
     separable = property(lambda self: self._separable, doc="The NLP as terms (`SeparableNLP`).")
@@ -202,10 +206,3 @@ def _start_velocity(problem):
     """The values of x's block "v_start": the problem's, or zeros (fixed, read by no row)
     when the start is given by its momentum."""
     return problem.v_start if problem.p_start is None else np.zeros_like(problem.v_start)
-
-
-def _frozen(array):
-    """`array` made read-only, so that a problem's bounds and scales are changed only
-    through `with_boundary` and `with_parameters`."""
-    array.flags.writeable = False
-    return array
