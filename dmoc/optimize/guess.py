@@ -25,7 +25,7 @@ def start_point(problem, guess, fixed=None):
         return (initial_guess(problem, guess),) + cold
     if guess.structure == T.structure and guess.lam_g is not None and guess.q_ref is not None:
         x = np.array(guess.x, dtype=float)
-        x[T.x_layout.slice("q")] += np.tile(guess.q_ref - T.q_ref, problem.steps + 1)
+        x[T.x_layout.slice("q")].reshape(problem.steps + 1, -1)[:] += guess.q_ref - T.q_ref    # each knot
         fixed = fixed_entries(T.lbx / T.x_scale, T.ubx / T.x_scale) if fixed is None else fixed
         return np.clip(x, T.lbx, T.ubx), ipopt_start(guess, fixed), guess.lam_g
     return (initial_guess(problem, guess.trajectory),) + cold

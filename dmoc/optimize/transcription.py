@@ -106,7 +106,7 @@ class Transcription(ReadOnly):
         have the same NLP (new boundary data with the same velocity rows, or new parameter
         values): the layouts, scales and terms are shared, and so are the bounds that do
         not read boundary data (of u, h and g) and, while q_ref keeps its bits, the state
-        bounds of block q and (with the same parameters and start momentum) p."""
+        bounds of block q."""
         new = object.__new__(Transcription)
         new.__dict__.update(self.__dict__)
         new._set_boundary_bounds(problem)
@@ -130,23 +130,19 @@ class Transcription(ReadOnly):
     def _set_boundary_bounds(self, problem):
         """q_ref, p, `lbx` and `ubx` from `problem`'s data: the open bounds (those of u and
         h, of block q the state bounds, infinite elsewhere) with the given boundary data
-        fixed; the path constraints checked at the given ends. The open bounds and p are
-        formed again only when q_ref changes (its bits), and p also when the problem's
-        parameters or start momentum are other objects: a `with_bounds` that keeps q_ref
-        (new goals for a given start) copies the open bounds and writes the data."""
+        fixed; the path constraints checked at the given ends. The open bounds are formed
+        again only when q_ref changes (its bits): a `with_bounds` that keeps q_ref (new
+        goals for a given start) copies them and writes the data."""
         q_ref = reference(problem.q_start, problem.q_goal)
-        p_data = (problem.parameters, problem.p_start)
         if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
             q = self._x_layout.slice("q")
             self._open_bounds = tuple(frozen(np.concatenate([
                 bound[:q.start], np.tile(problem.state_bounds[side] - q_ref, problem.steps + 1),
                 bound[q.stop:]])) for side, bound in enumerate(self._open_bounds))
-            self._q_ref, self._p_data = frozen(q_ref), None
-        if self._p_data is None or any(a is not b for a, b in zip(p_data, self._p_data)):
-            p_start = np.zeros(0) if problem.p_start is None else problem.p_start
-            self._p = frozen(np.concatenate([problem.final_time.p_values, self._q_ref,
-                                             problem.parameters.vector(), p_start]))
-            self._p_data = p_data
+        self._q_ref = frozen(q_ref)
+        p_start = np.zeros(0) if problem.p_start is None else problem.p_start
+        self._p = frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
+                                         p_start]))
         lbx, ubx = (bound.copy() for bound in self._open_bounds)
         # the given data, fixed at `_data_entries`
         data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
