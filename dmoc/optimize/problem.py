@@ -6,8 +6,6 @@ once as values. Its `transcription` (`dmoc.optimize.transcription`) is the NLP b
 from it, once.
 """
 
-import copy
-
 import casadi as ca
 import numpy as np
 
@@ -201,6 +199,13 @@ class OptimalControlProblem(ReadOnly):
             rows["goal"] = imposes_velocity_rows(self._q_goal, self._v_goal)
         self._velocity_rows = rows
 
+    def _copy(self):
+        """A shallow copy, its attributes this problem's until set anew (as `copy.copy`
+        makes it, without its protocol's calls: a re-solve's `with_boundary` pays it)."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
     def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None, p_start=None):
         """This problem with new boundary data; arguments left None keep this problem's
         (a given `p_start` replaces the start velocity, a given `v_start` the start
@@ -221,7 +226,7 @@ class OptimalControlProblem(ReadOnly):
         >>> moved.q_goal.tolist(), moved.structure == problem.structure
         ([0.2, 1.0, 0.0], True)
         """
-        new = copy.copy(self)
+        new = self._copy()
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal,
                  "p_start": p_start}
         new._set_boundary({k: v for k, v in given.items() if v is not None})
@@ -246,7 +251,7 @@ class OptimalControlProblem(ReadOnly):
         >>> heavier.parameter_values["r"].tolist(), heavier.structure == problem.structure
         ([10.0], True)
         """
-        new = copy.copy(self)
+        new = self._copy()
         new._parameters = self._parameters.with_values(**values)
         new._transcription = self._transcription.with_bounds(new)
         return new
@@ -263,7 +268,7 @@ class OptimalControlProblem(ReadOnly):
         >>> finer.steps, finer.disc.h
         (40, 0.1)
         """
-        new = copy.copy(self)
+        new = self._copy()
         new._steps = checks.positive_int("steps", steps)
         new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
         if not self.free_time:

@@ -51,6 +51,9 @@ class Transcription(ReadOnly):
         The scaling by the system's inertia at `q_ref` (`dmoc.optimize.scaling`).
     lbx, ubx, lbg, ubg : ndarray
         Bounds of x and g (read-only arrays).
+    scaled_g_bounds : tuple of ndarray
+        (``lbg * g_scale``, ``ubg * g_scale``), shapes (g_layout.size,): the bounds of the
+        scaled rows IPOPT imposes, made once per NLP (shared by `with_bounds`).
     p : ndarray, shape (p_layout.size,)
         The values of the parameter vector: the step h (fixed final time), q_ref, the
         stacked parameter values (block ``w``) and the start momentum (block ``p_start``).
@@ -124,6 +127,7 @@ class Transcription(ReadOnly):
         for name in ("path", "path_knots"):
             lbg[self._g_layout.slice(name)] = -np.inf
         self._lbg, self._ubg = frozen(lbg), frozen(ubg)
+        self._scaled_g_bounds = (frozen(lbg * self._g_scale), frozen(ubg * self._g_scale))
         self._open_bounds = (lbx, ubx)
         self._set_boundary_bounds(problem)
 
@@ -165,6 +169,8 @@ class Transcription(ReadOnly):
     ubx = property(lambda self: self._ubx, doc="Upper bounds of x.")
     lbg = property(lambda self: self._lbg, doc="Lower bounds of g.")
     ubg = property(lambda self: self._ubg, doc="Upper bounds of g.")
+    scaled_g_bounds = property(lambda self: self._scaled_g_bounds,
+                               doc="(lbg * g_scale, ubg * g_scale), the bounds IPOPT imposes.")
     p = property(lambda self: self._p, doc="Values of the parameter vector p.")
     q_ref = property(lambda self: self._q_ref, doc="The configuration x is centered on.")
     path_knot_rows = property(lambda self: self._path_knot_rows,
