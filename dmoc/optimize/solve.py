@@ -299,9 +299,8 @@ def most_violated(transcription, g):
     i = int(np.argmax(violation))
     group, row, col = transcription.g_layout.locate(i)
     if group == "dynamics":
-        rows = transcription.dynamics_rows.slices()
-        name = next(k for k, s in rows.items() if s.start <= row < s.stop)
-        return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
+        name, row_in_block, _ = transcription.dynamics_rows.locate(row)     # blocks of one column
+        return float(violation[i]), f"dynamics at step {col} ({name} row {row_in_block})"
     if group == "path":
         return float(violation[i]), f"path constraint {row} at step {col}"
     if group == "path_knots":
