@@ -152,7 +152,8 @@ class Transcription(ReadOnly):
         data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
                                problem.v_goal])
         fixed = np.isfinite(data)
-        lbx[self._data_entries[fixed]] = ubx[self._data_entries[fixed]] = data[fixed]
+        entries, values = self._data_entries[fixed], data[fixed]
+        lbx[entries] = ubx[entries] = values
         if problem.path_constraints is not None:
             refuse_violated_ends(problem.path_constraints, problem, self._end_checks)
         self._lbx, self._ubx = frozen(lbx), frozen(ubx)
