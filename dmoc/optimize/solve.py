@@ -177,7 +177,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     lbx, ubx = T.lbx / D, T.ubx / D
     fixed = fixed_entries(lbx, ubx)
     x0, lam_x0, lam_g0 = start_point(problem, guess, fixed)
-    x0 = x0 / D
+    x0 = x0 / D        # scaled: IPOPT and the data's tolerances read it
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
