@@ -172,7 +172,7 @@ def array_with_none(name, value, size, fill):
     for i, x in enumerate(raw):
         if x is not None and (isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real)):
             raise InputTypeError(f"`{name}` must hold real numbers or None; entry {i} is {x!r}.")
-        if x is not None and np.isnan(x):
+        if x is not None and (x != x if isinstance(x, float) else np.isnan(x)):     # x != x: NaN
             raise InputError(f"`{name}` entry {i} is NaN; only None leaves an entry free "
                              f"(unbounded, for bounds).")
     return np.array([fill if x is None else float(x) for x in raw], dtype=float)

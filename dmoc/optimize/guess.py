@@ -20,15 +20,19 @@ def start_point(problem, guess, fixed=None):
     problem's fixed entries `fixed`, by default `fixed_entries`); any other guess gives its
     trajectory, resampled, and zero multipliers (a cold start)."""
     T = problem.transcription
-    cold = np.zeros(T.lbx.size), np.zeros(T.lbg.size)
     if guess is None or isinstance(guess, Trajectory):
-        return (initial_guess(problem, guess),) + cold
+        return (initial_guess(problem, guess),) + _cold(T)
     if guess.structure == T.structure and guess.lam_g is not None and guess.q_ref is not None:
         x = np.array(guess.x, dtype=float)
-        x[T.x_layout.slice("q")] += np.tile(guess.q_ref - T.q_ref, problem.steps + 1)
+        x[T.x_layout.slice("q")].reshape(problem.steps + 1, -1)[:] += guess.q_ref - T.q_ref    # each knot
         fixed = fixed_entries(T.lbx / T.x_scale, T.ubx / T.x_scale) if fixed is None else fixed
         return np.clip(x, T.lbx, T.ubx), ipopt_start(guess, fixed), guess.lam_g
-    return (initial_guess(problem, guess.trajectory),) + cold
+    return (initial_guess(problem, guess.trajectory),) + _cold(T)
+
+
+def _cold(transcription):
+    """The multipliers of a cold start: (lam_x, lam_g) zero."""
+    return np.zeros(transcription.lbx.size), np.zeros(transcription.lbg.size)
 
 
 def initial_guess(problem, guess=None):

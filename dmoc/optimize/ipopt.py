@@ -57,6 +57,7 @@ def start_options(warm):
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure
 _OPTION_SETS = BoundedCache(64, "solver_options")   # keyed by (defaults, options' reprs, report): `_nlpsol_options`
 _ROW_SUMS = BoundedCache(16, "row_sums")  # keyed by (transcription.structure, jit): `_largest_row_sum`
+_EPS = np.finfo(float).eps
 
 
 def data_tolerances(transcription, x0, jit=False):
@@ -70,7 +71,7 @@ def data_tolerances(transcription, x0, jit=False):
     numbers)."""
     T = transcription
     largest = _ROW_SUMS.get((T.structure, jit), lambda: Evaluator(_largest_row_sum(T, jit)))
-    floor = np.finfo(float).eps * float(largest(np.concatenate([x0, T.p]))[0][0, 0])
+    floor = _EPS * float(largest(np.concatenate([x0, T.p]))[0][0, 0])
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))

@@ -6,8 +6,6 @@ once as values. Its `transcription` (`dmoc.optimize.transcription`) is the NLP b
 from it, once.
 """
 
-import copy
-
 import casadi as ca
 import numpy as np
 
@@ -22,7 +20,7 @@ from .boundary import (boundary_vector, check_holonomic_boundary, fully_given, i
 from .final_time import FixedFinalTime, FreeFinalTime
 from .momenta import momentum_treatment
 from .parameters import ProblemParameters, cost_function, path_function
-from .read_only import ReadOnly
+from .read_only import ReadOnly, frozen
 from .transcription import Transcription
 
 
@@ -158,7 +156,7 @@ class OptimalControlProblem(ReadOnly):
         self._control_bounds = _bounds("control_bounds", control_bounds, sys.n_u)
         self._state_bounds = _bounds("state_bounds", state_bounds, n)
         for bound in (*self._control_bounds, *self._state_bounds):
-            bound.flags.writeable = False
+            frozen(bound)
         self._set_boundary({"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "p_start": p_start,
                             "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
         self._transcription = Transcription(self)
@@ -166,21 +164,25 @@ class OptimalControlProblem(ReadOnly):
     def _set_boundary(self, given):
         """Set the boundary data in `given` ({name: value} among q_start, q_goal, v_start,
         v_goal, p_start; a start momentum replaces the start velocity) and check the ends
-        whose data they change; the other data stay as they were, checked."""
+        whose data they change; the other data, and where their ends impose velocity rows,
+        stay as they were, checked."""
         n, sys = self._disc.system.n, self._disc.system
         for name in ("q_start", "q_goal"):
             if name in given:
-                setattr(self, "_" + name, boundary_vector(name, given[name], n))
+                setattr(self, "_" + name, frozen(boundary_vector(name, given[name], n)))
         if "p_start" in given or "v_start" in given:
             self._p_start = start_momentum(given.get("p_start"), given.get("v_start"), n)
             v_start = given.get("v_start")
-            self._v_start = boundary_vector("v_start", [None] * n if self._p_start is not None else
-                                            np.zeros(n) if v_start is None else v_start, n)
+            self._v_start = frozen(boundary_vector(
+                "v_start", [None] * n if self._p_start is not None else np.zeros(n) if v_start is None
+                else v_start, n))
         if "v_goal" in given:
-            self._v_goal = boundary_vector("v_goal", given["v_goal"], n)
+            self._v_goal = frozen(boundary_vector("v_goal", given["v_goal"], n))
         if "q_start" in given or "q_goal" in given:
             check_holonomic_boundary(sys, self._q_start, self._q_goal)
-        for end, q, v in (("start", self._q_start, self._v_start), ("goal", self._q_goal, self._v_goal)):
+        ends = [end for end, names in _END_DATA.items() if not given.keys().isdisjoint(names)]
+        for end in ends:
+            q, v = getattr(self, "_q_" + end), getattr(self, "_v_" + end)
             if given.keys() & {"q_" + end, "v_" + end} and fully_given(q, v):
                 check_allowed_velocity("v_" + end, sys, q, v)
         lower, upper = self._state_bounds
@@ -190,10 +192,19 @@ class OptimalControlProblem(ReadOnly):
             if outside.any():
                 raise InputError(f"`{name}` must lie within `state_bounds`; entries "
                                  f"{np.flatnonzero(outside).tolist()} do not.")
-        for data in (self._q_start, self._q_goal, self._v_start, self._v_goal):
-            data.flags.writeable = False
-        self._velocity_rows = {"start": self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start),
-                               "goal": imposes_velocity_rows(self._q_goal, self._v_goal)}
+        rows = dict(getattr(self, "_velocity_rows", {}))      # a copy's own
+        if "start" in ends:
+            rows["start"] = self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start)
+        if "goal" in ends:
+            rows["goal"] = imposes_velocity_rows(self._q_goal, self._v_goal)
+        self._velocity_rows = rows
+
+    def _copy(self):
+        """A shallow copy, its attributes this problem's until set anew (as `copy.copy`
+        makes it, without its protocol's calls: a re-solve's `with_boundary` pays it)."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
 
     def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None, p_start=None):
         """This problem with new boundary data; arguments left None keep this problem's
@@ -215,7 +226,7 @@ class OptimalControlProblem(ReadOnly):
         >>> moved.q_goal.tolist(), moved.structure == problem.structure
         ([0.2, 1.0, 0.0], True)
         """
-        new = copy.copy(self)
+        new = self._copy()
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal,
                  "p_start": p_start}
         new._set_boundary({k: v for k, v in given.items() if v is not None})
@@ -240,7 +251,7 @@ class OptimalControlProblem(ReadOnly):
         >>> heavier.parameter_values["r"].tolist(), heavier.structure == problem.structure
         ([10.0], True)
         """
-        new = copy.copy(self)
+        new = self._copy()
         new._parameters = self._parameters.with_values(**values)
         new._transcription = self._transcription.with_bounds(new)
         return new
@@ -257,7 +268,7 @@ class OptimalControlProblem(ReadOnly):
         >>> finer.steps, finer.disc.h
         (40, 0.1)
         """
-        new = copy.copy(self)
+        new = self._copy()
         new._steps = checks.positive_int("steps", steps)
         new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
         if not self.free_time:
@@ -336,6 +347,11 @@ class OptimalControlProblem(ReadOnly):
         T = self._transcription
         return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
                 f"free_time={self.free_time}, x: {T.x_layout.size}, g: {T.g_layout.size})")
+
+
+# the boundary data of each end: given any of them, that end's checks and velocity rows are
+# made again (`_set_boundary`)
+_END_DATA = {"start": ("q_start", "v_start", "p_start"), "goal": ("q_goal", "v_goal")}
 
 
 def _bounds(name, value, size):

@@ -29,3 +29,10 @@ class ReadOnly:
         kind = type(self).__name__
         return (f"`{kind}.{name}` is read-only and cannot be {done}: "
                 f"{self._CHANGE.get(name, self._CHANGE_ANY)}.")
+
+
+def frozen(array):
+    """`array` made read-only (and returned), so that a problem's data, bounds and scales
+    change only through `with_boundary` and `with_parameters`."""
+    array.flags.writeable = False
+    return array

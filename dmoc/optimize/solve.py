@@ -177,18 +177,19 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     lbx, ubx = T.lbx / D, T.ubx / D
     fixed = fixed_entries(lbx, ubx)
     x0, lam_x0, lam_g0 = start_point(problem, guess, fixed)
+    x0 = x0 / D        # scaled: IPOPT and the data's tolerances read it
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
-        T, {**data_tolerances(T, x0 / D, jit), **start_options(warm), **options},
+        T, {**data_tolerances(T, x0, jit), **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
         report=switches["linear_solver_report"], jit=jit)
     build_time = time.perf_counter() - tic
     journal_start = linear_solver.journal_end(journal) if journal else 0
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
-        sol = solver(x0=x0 / D, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
-                     lbx=lbx, ubx=ubx, lbg=T.lbg * R, ubg=T.ubg * R)
+        sol = solver(x0=x0, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
+                     lbx=lbx, ubx=ubx, lbg=T.scaled_g_bounds[0], ubg=T.scaled_g_bounds[1])
     solve_time = time.perf_counter() - tic
     x = D * sol["x"]
     st = solver.stats()
@@ -298,9 +299,8 @@ def most_violated(transcription, g):
     i = int(np.argmax(violation))
     group, row, col = transcription.g_layout.locate(i)
     if group == "dynamics":
-        rows = transcription.dynamics_rows.slices()
-        name = next(k for k, s in rows.items() if s.start <= row < s.stop)
-        return float(violation[i]), f"dynamics at step {col} ({name} row {row - rows[name].start})"
+        name, row_in_block, _ = transcription.dynamics_rows.locate(row)     # blocks of one column
+        return float(violation[i]), f"dynamics at step {col} ({name} row {row_in_block})"
     if group == "path":
         return float(violation[i]), f"path constraint {row} at step {col}"
     if group == "path_knots":

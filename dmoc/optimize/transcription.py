@@ -10,7 +10,7 @@ import numpy as np
 
 from .._util.layout import Layout
 from .parameters import knot_rows, refuse_violated_ends
-from .read_only import ReadOnly
+from .read_only import ReadOnly, frozen
 from .scaling import nlp_scales
 from .terms import transcribe
 
@@ -51,6 +51,9 @@ class Transcription(ReadOnly):
         The scaling by the system's inertia at `q_ref` (`dmoc.optimize.scaling`).
     lbx, ubx, lbg, ubg : ndarray
         Bounds of x and g (read-only arrays).
+    scaled_g_bounds : tuple of ndarray
+        (``lbg * g_scale``, ``ubg * g_scale``), shapes (g_layout.size,): the bounds of the
+        scaled rows IPOPT imposes, made once per NLP (shared by `with_bounds`).
     p : ndarray, shape (p_layout.size,)
         The values of the parameter vector: the step h (fixed final time), q_ref, the
         stacked parameter values (block ``w``) and the start momentum (block ``p_start``).
@@ -86,7 +89,7 @@ class Transcription(ReadOnly):
                                  ("path", (path.numel_out(0) if path else 0, N)),
                                  ("path_knots", (path.numel_out(1) if path else 0, N + 1))])
         q_ref = reference(problem.q_start, problem.q_goal)
-        self._x_scale, self._g_scale = (_frozen(s) for s in nlp_scales(
+        self._x_scale, self._g_scale = (frozen(s) for s in nlp_scales(
             disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
             problem.q_goal - problem.q_start))
         self._separable, self._momenta = transcribe(
@@ -97,7 +100,7 @@ class Transcription(ReadOnly):
         q, v_start, v_goal = (self._x_layout.slice(name) for name in ("q", "v_start", "v_goal"))
         # the entries of x the boundary data fix: q_0 and q_N (column 0 and N of block q),
         # v_start, v_goal (in the order `_set_boundary_bounds` stacks the data)
-        self._data_entries = _frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
+        self._data_entries = frozen(np.concatenate([q.start + np.arange(n), q.start + N * n + np.arange(n),
                                                      v_start.start + np.arange(n), v_goal.start + np.arange(n)]))
         self._set_bounds(problem)
 
@@ -105,10 +108,11 @@ class Transcription(ReadOnly):
         """This transcription with the bounds and parameter values of `problem`, which must
         have the same NLP (new boundary data with the same velocity rows, or new parameter
         values): the layouts, scales and terms are shared, and so are the bounds that do
-        not read boundary data (of u, h and g)."""
+        not read boundary data (of u, h and g) and, while q_ref keeps its bits, the state
+        bounds of block q."""
         new = object.__new__(Transcription)
         new.__dict__.update(self.__dict__)
-        new._set_boundary_bounds(problem, self._lbx.copy(), self._ubx.copy())
+        new._set_boundary_bounds(problem)
         return new
 
     def _set_bounds(self, problem):
@@ -122,36 +126,37 @@ class Transcription(ReadOnly):
         lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
         for name in ("path", "path_knots"):
             lbg[self._g_layout.slice(name)] = -np.inf
-        self._lbg, self._ubg = _frozen(lbg), _frozen(ubg)
-        self._set_boundary_bounds(problem, lbx, ubx)
+        self._lbg, self._ubg = frozen(lbg), frozen(ubg)
+        self._scaled_g_bounds = (frozen(lbg * self._g_scale), frozen(ubg * self._g_scale))
+        self._open_bounds = (lbx, ubx)
+        self._set_boundary_bounds(problem)
 
-    def _set_boundary_bounds(self, problem, lbx, ubx):
-        """q_ref, p, and the blocks q, v_start and v_goal of `lbx` and `ubx` (set anew:
-        the state bounds, the given boundary data fixed) from `problem`'s data; the
-        path constraints checked at the given ends. The state bounds of block q are formed
-        again only when q_ref changes (its bits): a `with_bounds` that keeps q_start
-        reuses them."""
-        N, lay = problem.steps, self._x_layout
+    def _set_boundary_bounds(self, problem):
+        """q_ref, p, `lbx` and `ubx` from `problem`'s data: the open bounds (those of u and
+        h, of block q the state bounds, infinite elsewhere) with the given boundary data
+        fixed; the path constraints checked at the given ends. The open bounds are formed
+        again only when q_ref changes (its bits): a `with_bounds` that keeps q_ref (new
+        goals for a given start) copies them and writes the data."""
         q_ref = reference(problem.q_start, problem.q_goal)
         if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
-            self._q_bounds = tuple(_frozen(np.tile(problem.state_bounds[side] - q_ref, N + 1))
-                                   for side in (0, 1))
-        self._q_ref = _frozen(q_ref)
+            q = self._x_layout.slice("q")
+            self._open_bounds = tuple(frozen(np.concatenate([
+                bound[:q.start], np.tile(problem.state_bounds[side] - q_ref, problem.steps + 1),
+                bound[q.stop:]])) for side, bound in enumerate(self._open_bounds))
+        self._q_ref = frozen(q_ref)
         p_start = np.zeros(0) if problem.p_start is None else problem.p_start
-        self._p = _frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
-                                          p_start]))
-        q, v_start, v_goal = (lay.slice(name) for name in ("q", "v_start", "v_goal"))
-        for bound, q_bound, unbounded in ((lbx, self._q_bounds[0], -np.inf), (ubx, self._q_bounds[1], np.inf)):
-            bound[q] = q_bound
-            bound[v_start] = bound[v_goal] = unbounded
+        self._p = frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
+                                         p_start]))
+        lbx, ubx = (bound.copy() for bound in self._open_bounds)
         # the given data, fixed at `_data_entries`
         data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
                                problem.v_goal])
         fixed = np.isfinite(data)
-        lbx[self._data_entries[fixed]] = ubx[self._data_entries[fixed]] = data[fixed]
+        entries, values = self._data_entries[fixed], data[fixed]
+        lbx[entries] = ubx[entries] = values
         if problem.path_constraints is not None:
             refuse_violated_ends(problem.path_constraints, problem, self._end_checks)
-        self._lbx, self._ubx = _frozen(lbx), _frozen(ubx)
+        self._lbx, self._ubx = frozen(lbx), frozen(ubx)
 
     nlp = property(lambda self: self._nlp, doc="The NLP's CasADi expressions (see the class).")
     separable = property(lambda self: self._separable, doc="The NLP as terms (`SeparableNLP`).")
@@ -165,6 +170,8 @@ class Transcription(ReadOnly):
     ubx = property(lambda self: self._ubx, doc="Upper bounds of x.")
     lbg = property(lambda self: self._lbg, doc="Lower bounds of g.")
     ubg = property(lambda self: self._ubg, doc="Upper bounds of g.")
+    scaled_g_bounds = property(lambda self: self._scaled_g_bounds,
+                               doc="(lbg * g_scale, ubg * g_scale), the bounds IPOPT imposes.")
     p = property(lambda self: self._p, doc="Values of the parameter vector p.")
     q_ref = property(lambda self: self._q_ref, doc="The configuration x is centered on.")
     path_knot_rows = property(lambda self: self._path_knot_rows,
@@ -202,10 +209,3 @@ def _start_velocity(problem):
     """The values of x's block "v_start": the problem's, or zeros (fixed, read by no row)
     when the start is given by its momentum."""
     return problem.v_start if problem.p_start is None else np.zeros_like(problem.v_start)
-
-
-def _frozen(array):
-    """`array` made read-only, so that a problem's bounds and scales are changed only
-    through `with_boundary` and `with_parameters`."""
-    array.flags.writeable = False
-    return array

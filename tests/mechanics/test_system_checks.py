@@ -4,6 +4,7 @@ the wrong kind are refused naming the argument, every problem reported at once.
 Oracle: the messages, checked by content (the argument they must name)."""
 
 import casadi as ca
+import numpy as np
 import pytest
 
 import dmoc
@@ -80,3 +81,25 @@ def test_lagrangian_without_velocities():
     with pytest.raises(ValueError, match="`lagrangian` must depend on the velocities"):
         system = dmoc.MechanicalSystem(lambda q, v: ca.sin(q[0]), 1)
         dmoc.simulate(dmoc.discretize(system, 0.1), q0=[0.1], v0=[0.0], steps=3)
+
+
+@pytest.mark.parametrize("make", [dmoc.systems.knife_edge, dmoc.systems.rolling_disk,
+                                  dmoc.systems.spherical_pendulum])
+def test_a_zero_velocity_is_allowed_without_evaluating_a(make):
+    """`check_allowed_velocity` passes a zero v (signed zeros too) without A(q): the
+    outcome `velocity_errors` gives from A(q) v, on random q, for zero and other v."""
+    from dmoc.mechanics.given import check_allowed_velocity, velocity_errors
+    system, rng = make(), np.random.default_rng(7)
+    for _ in range(20):
+        q = rng.uniform(-2.0, 2.0, system.n)
+        for v in (np.zeros(system.n), -np.zeros(system.n), rng.uniform(-1.0, 1.0, system.n)):
+            expected = velocity_errors("v", system, q[None, :], v[None, :])[0]
+            try:
+                check_allowed_velocity("v", system, q, v)
+                got = None
+            except dmoc.InputError as err:
+                got = err
+            assert (got is None) == (expected is None)
+            assert got is None or str(got) == str(expected)
+            if not v.any():
+                assert got is None

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.errors import InputError
+from dmoc.errors import InputError, InputTypeError
 
 OBSTACLE = (0.0, 0.5)      # on the way, and at x = 0, where a free x is evaluated
 
@@ -108,3 +108,97 @@ def test_bounds_after_chains_of_new_boundary_data_are_a_new_problems():
                                           err_msg=f"{name} {q_start} {q_goal}")
     heavier = problem.with_parameters(r=2.0)
     np.testing.assert_array_equal(heavier.transcription.p, new(*data[-1], r=2.0).transcription.p)
+
+
+def _refusal(make):
+    """(the type, the message) of the InputError or InputTypeError `make()` raises, or None."""
+    try:
+        make()
+    except (InputError, InputTypeError) as err:
+        return type(err).__name__, str(err)
+    return None
+
+
+def _draw(rng, q):
+    """Boundary data for `test_random_chains_of_boundary_data_are_new_problems`: valid
+    vectors (None entries, signed zeros, velocities in Delta_Q = ker A(q) at a heading q[2],
+    or not) and bad ones (NaN, infinite, a string, a bool, a scalar, a wrong shape)."""
+    kind = rng.integers(14)
+    if kind == 0:
+        return [0.1, float("nan"), 0.0]
+    if kind == 1:
+        return [np.inf, 0.0, 0.0]
+    if kind == 2:
+        return [0.0, "1", 0.0]
+    if kind == 3:
+        return [0.0, True, 0.0]
+    if kind == 4:
+        return 0.5
+    if kind == 5:
+        return [0.0, 1.0]
+    if kind == 6:
+        return [np.float64(np.nan), None, 0.0]
+    if kind in (7, 8):                          # along the blade, and turning on the spot
+        theta = 0.0 if q is None or q[2] is None else q[2]
+        speed = rng.choice([0.0, -0.0, 0.7])
+        return [speed * np.cos(theta), speed * np.sin(theta), float(rng.choice([0.0, 0.3]))]
+    value = [float(v) for v in rng.uniform(-1.5, 1.5, 3)]     # some outside the state bounds
+    value = [-0.0 if abs(v) < 0.1 else v for v in value]
+    return [None if rng.random() < 0.3 else v for v in value]
+
+
+def test_random_chains_of_boundary_data_are_new_problems():
+    """Random chains of `with_boundary` (each end's q, v, or p_start given or kept; good and
+    bad data) against a new problem of the chain's data: the same refusal, word for word,
+    or the same velocity rows, bounds and p bit for bit (so the ends that no argument
+    touches keep their checks and rows rightly, and the bounds written into the kept open
+    bounds are the full path's)."""
+    rng = np.random.default_rng(25)
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    bounds = ([-1.0, -1.2, None], [1.0, None, 1.2])
+
+    def new(data):
+        return dmoc.OptimalControlProblem(disc, 4, state_bounds=bounds, **data)
+
+    data = {"q_start": [0.0, 0.0, 0.0], "q_goal": [0.5, 0.5, 0.0], "v_start": [0.0, 0.0, 0.0],
+            "v_goal": [0.0, 0.0, 0.0]}
+    problem, refused, rebuilt = new(data), 0, 0
+    for _ in range(150):
+        names = rng.choice(["q_start", "q_goal", "v_start", "v_goal", "p_start"], rng.integers(1, 3),
+                           replace=False)
+        given = {}
+        for name in names:
+            end = "q_goal" if name == "v_goal" else "q_start"
+            given[name] = _draw(rng, data[end] if name.startswith("v") else None)
+        if "v_start" in given and "p_start" in given:
+            del given["p_start"]
+        changed = {k: v for k, v in data.items() if not (k in ("v_start", "p_start") and
+                                                           given.keys() & {"v_start", "p_start"})}
+        changed.update(given)
+        expected = _refusal(lambda: new(changed))
+        got = _refusal(lambda: problem.with_boundary(**given))
+        assert got == expected, (given, data)
+        if expected is not None:
+            refused += 1
+            continue
+        moved, fresh = problem.with_boundary(**given), new(changed)
+        assert moved.velocity_rows == fresh.velocity_rows, (given, data)
+        rebuilt += moved.structure != problem.structure
+        for name in ("lbx", "ubx", "lbg", "ubg", "p", "q_ref"):
+            a, b = getattr(moved.transcription, name), getattr(fresh.transcription, name)
+            np.testing.assert_array_equal(a.view(np.int64), b.view(np.int64), err_msg=f"{name} {given}")
+        lbg, ubg = moved.transcription.scaled_g_bounds
+        np.testing.assert_array_equal(lbg, moved.lbg * moved.g_scale)
+        np.testing.assert_array_equal(ubg, moved.ubg * moved.g_scale)
+        for name in ("q_start", "q_goal", "v_start", "v_goal"):
+            np.testing.assert_array_equal(getattr(moved, name), getattr(fresh, name))
+            assert not getattr(moved, name).flags.writeable
+        problem, data = moved, changed
+    assert 30 < refused < 120 and rebuilt > 3, (refused, rebuilt)
+
+
+@pytest.mark.parametrize("nan", [float("nan"), np.float64("nan"), np.float32("nan")])
+def test_nan_boundary_entries_are_refused_whatever_their_float_type(nan):
+    problem = _problem([0, 1, 0])
+    with pytest.raises(InputError, match=r"`q_goal` entry 1 is NaN; only None leaves an entry free"):
+        problem.with_boundary(q_goal=[0.0, nan, 0.0])
