@@ -14,7 +14,6 @@ read medians). Run it from each checkout in turn
     OMP_NUM_THREADS=1 python benchmarks/batch_cpu.py --keep final
 """
 
-import argparse
 import os
 import resource
 import threading
@@ -28,8 +27,9 @@ import psutil  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from dmoc._util import compiled  # noqa: E402
 from dmoc.simulate.lockstep import simulate_runs  # noqa: E402
+
+from batch_stream import knife_edge_batches  # noqa: E402
 
 WORKERS = 2
 
@@ -68,16 +68,7 @@ def batch_cpu(cluster, disc, runs, keep):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--count", type=int, default=1000, help="runs per batch")
-    parser.add_argument("--steps", type=int, default=1000, help="steps per run")
-    parser.add_argument("--batches", type=int, default=7)
-    parser.add_argument("--keep", choices=batch.KEEP, default="trajectory")
-    args = parser.parse_args(argv)
-    print(f"dmoc from {os.path.dirname(dmoc.__file__)}, load average %.2f %.2f %.2f" % os.getloadavg())
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": args.steps, "jit": compiled.compiler() is not None}
-            for c in np.linspace(0.5, 2.0, args.count)]
+    args, disc, runs = knife_edge_batches(__doc__.split("\n\n")[0], 7, argv)
     serial, lockstep = [], []
     for _ in range(3):
         tic = cpu_seconds()

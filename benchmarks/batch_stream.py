@@ -56,17 +56,26 @@ def row(spans, start, stop, cpu, tasks):
     return [tasks if s is None else 1e3 * s for s in seconds]
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def knife_edge_batches(description, batches, argv=None):
+    """(arguments, Discretization, runs) of the batch benchmarks: the command line
+    (--count, --steps, --batches with default `batches`, --keep) parsed and the knife-edge
+    runs it asks for (h = 0.01, compiled step where there is a compiler, v0 = (c, 0, 1),
+    c from 0.5 to 2); prints where dmoc comes from and the load average."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--count", type=int, default=1000, help="runs per batch")
     parser.add_argument("--steps", type=int, default=1000, help="steps per run")
-    parser.add_argument("--batches", type=int, default=5)
+    parser.add_argument("--batches", type=int, default=batches)
     parser.add_argument("--keep", choices=batch.KEEP, default="trajectory")
     args = parser.parse_args(argv)
     print(f"dmoc from {os.path.dirname(dmoc.__file__)}, load average %.2f %.2f %.2f" % os.getloadavg())
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
     runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": args.steps, "jit": compiled.compiler() is not None}
             for c in np.linspace(0.5, 2.0, args.count)]
+    return args, disc, runs
+
+
+def main(argv=None):
+    args, disc, runs = knife_edge_batches(__doc__.split("\n\n")[0], 5, argv)
     rows = []
     print(" ".join(f"{name:>13s}" for name in COLUMNS))
     with batch.Cluster(workers=WORKERS) as cluster:
