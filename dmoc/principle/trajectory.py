@@ -293,12 +293,24 @@ def _invalid(path, kind, reason):
 def _assembled(t, q, p, lam, u, h, mu, s, final):
     """(t, q, p, lam, u, h, mu, s) of `Trajectory.assembled`: each array copied as a float
     array (of the last knot only when `final`), `mu` None as zeros, `h` a float; arrays of
-    one run, or of runs along their leading axes (`assembled_runs`)."""
+    one run, or of runs along their leading axes (`assembled_runs`), then all copied into
+    one buffer (numpy backs a large one with huge pages: far fewer new pages to fault in
+    than one array per field)."""
     if final:
         t, q, p = t[..., -1:], q[..., -1:, :], p[..., -1:, :]
         lam, u, s = lam[..., :0, :], u[..., :0, :], s[..., :0, :]
-    t, q, p, lam, u, s = (np.array(a, dtype=float, order="C") for a in (t, q, p, lam, u, s))
-    mu = np.zeros(lam.shape[:-2] + lam.shape[-1:]) if mu is None else np.array(mu, dtype=float)
+    if mu is None:
+        mu = np.zeros(lam.shape[:-2] + lam.shape[-1:])
+    arrays = (t, q, p, lam, u, s, mu)
+    if q.ndim == 2:
+        copies = [np.array(a, dtype=float, order="C") for a in arrays]
+    else:
+        buffer, copies = np.empty(sum(np.size(a) for a in arrays)), []
+        for a in arrays:
+            copies.append(buffer[:np.size(a)].reshape(np.shape(a)))
+            buffer = buffer[np.size(a):]
+            np.copyto(copies[-1], a)
+    t, q, p, lam, u, s, mu = copies
     return t, q, p, lam, u, float(h), mu, s
 
 
