@@ -291,3 +291,32 @@ def test_runs_checked_together_get_what_each_alone_gets(monkeypatch):
     assert sum(isinstance(r, Exception) for r in prepared) > 50
     assert sum(not isinstance(r, Exception) for r in prepared) > 100
     assert len(kinds) >= 2
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_random_groups_with_failing_runs_equal_the_runs_alone(seed):
+    """Random runs of the pendulum (random lengths from a few, so that groups hold runs
+    that complete every step, concluded together, next to runs that fail or are redone,
+    concluded one by one; random variants, kicks and NaN forces): every result, with
+    the whole trajectory or the last knot only, as `simulate` gives it alone."""
+    rng = np.random.default_rng(seed)
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = []
+    for _ in range(60):
+        steps = int(rng.choice([1, 7, 30]))
+        controls = np.zeros((steps, 2))
+        controls[:, 0] = rng.normal(scale=0.1, size=steps)
+        kick = rng.integers(steps)
+        controls[kick, 0] += rng.choice([0.0, 0.0, 20.0, 300.0])
+        controls[kick, 1] = -1.0 if rng.random() < 0.05 else 0.0
+        runs.append({"q0": [rng.normal()], "v0": [rng.normal()], "steps": steps,
+                     "controls": controls, "variant": str(rng.choice(["+", "-"]))})
+    want = _serial(disc, runs)
+    assert {"converged", "newton_failed"} <= {r.status for r in want}
+    for a, b in zip(simulate_runs(disc, runs), want):
+        _assert_same(a, b)
+    from dmoc.batch.tasks import final_knot
+    finals = simulate_lockstep([prepare(disc, **run, throw=False) for run in runs], final=True)
+    for a, b in zip(finals, want):
+        b.trajectory = final_knot(b.trajectory)
+        _assert_same(a, b)
