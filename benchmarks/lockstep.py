@@ -57,8 +57,8 @@ def rounds(disc, runs, repeat):
             prepared[0].stepper, np.array([prepared[i].start for i in members]),
             np.array([prepared[i].controls for i in members]), disc.h)
             for members in groups(prepared)])
-        clock("  steps in lockstep, then conclude_group", lambda: simulate_lockstep(prepared))
-        clock("  ... with the last knot only", lambda: simulate_lockstep(prepared, final=True))
+        clock("  lockstep + conclude_group", lambda: simulate_lockstep(prepared))
+        clock("  ... last knot only", lambda: simulate_lockstep(prepared, final=True))
         clock("  conclude", lambda: [conclude(r, a) for r, a in zip(prepared, alone)])
         clock("  conclude, last knot only", lambda: [conclude(r, a, final=True)
                                                       for r, a in zip(prepared, alone)])
