@@ -118,7 +118,8 @@ class Trajectory:
         simulator's runs and the optimizer's optima.
         """
         t, q, p, lam, u, h, mu, s = _assembled(t, q, p, lam, u, h, mu, s, final)
-        return cls.unchecked(t, q, p, lam, u, h, variant, mu, s, *_nodes(control_nodes, stage_nodes))
+        nodes = _nodes(control_nodes, stage_nodes)
+        return cls.unchecked(t, q, p, lam, u, h, variant, mu, s, *nodes)
 
     @classmethod
     def assembled_runs(cls, t, q, p, lam, u, h, variant, mu, s, control_nodes, stage_nodes,

@@ -253,8 +253,8 @@ def test_runs_checked_together_get_what_each_alone_gets(monkeypatch):
     from dmoc.simulate import preparation
     disc = dmoc.discretize(dmoc.systems.rolling_disk(), 0.05)
     good_v0 = [1.0, 0.0, 1.0, 0.5]
-    q0s = [[0, 0, 0, 0], (0.1, 0.2, 0.3, 0.0), [1, 2.5, 3, np.float64(0.0)], np.array([3.0, 2, 1, 0]),
-           (0.1, 0.2, 0.3, 0.4), np.arange(4.0),
+    q0s = [[0, 0, 0, 0], (0.1, 0.2, 0.3, 0.0), [1, 2.5, 3, np.float64(0.0)],
+           np.array([3.0, 2, 1, 0]), (0.1, 0.2, 0.3, 0.4), np.arange(4.0),
            np.arange(4), np.arange(4, dtype=np.float32), [2 ** 60, 0, 0, 0], [2 ** 70, 0, 0, 0],
            [True, 0, 0, 0], [True, False, False, True], [0, 0, np.nan, 0], [0, np.inf, 0, 0],
            [0, 0, 0], np.zeros((1, 4)), ["0", 0, 0, 0], [np.int64(3), 0, 0, 0],
