@@ -127,10 +127,11 @@ def conclude(run, stepped, *, final=False):
     the trajectory of the steps kept (of its last knot only when `final`, as
     `Trajectory.assembled` cuts it), the stats, and the verdict (raised with `throw`)."""
     acc, out, failed_rnorm, redone, interrupted = stepped
+    wall = time.perf_counter() - run.tic
     stepper, k = run.stepper, out.shape[0]
     traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out, final)
     rnorm = out[:, stepper.out.slice("rnorm")]
-    stats = _stats(run, k, redone, float(rnorm.max()) if k else 0.0)
+    stats = _stats(run, k, redone, float(rnorm.max()) if k else 0.0, wall)
     if interrupted:
         return _interrupted(traj, stats, run.throw)
     return _finish(traj, stats, failed_rnorm, run.tol, run.throw)
@@ -149,23 +150,23 @@ def conclude_group(runs, controls, acc, out, stepped, *, final=False):
     for i in sorted(set(range(len(runs))).difference(whole)):       # failed or interrupted
         results[i] = conclude(runs[i], stepped[i], final=final)
     if whole:
+        now = time.perf_counter()
         rows = slice(None) if len(whole) == len(runs) else whole
         first = runs[whole[0]]
         trajectories = _assemble(first.stepper, first.formulation, first.disc, controls[rows],
                                  acc[rows], out[rows], final)
         largest = out[rows, :, first.stepper.out.slice("rnorm")].max(axis=(1, 2))
         for i, traj, rnorm in zip(whole, trajectories, largest):
-            stats = _stats(runs[i], N, stepped[i][3], float(rnorm))
+            stats = _stats(runs[i], N, stepped[i][3], float(rnorm), now - runs[i].tic)
             results[i] = _finish(traj, stats, None, runs[i].tol, runs[i].throw)
     return results
 
 
-def _stats(run, k, redone, max_residual):
+def _stats(run, k, redone, max_residual, wall):
     """The stats of `run` after `k` completed steps, `redone` of them by the line-search
-    Newton; its wall time from its `tic` to now."""
+    Newton, `wall` seconds after its `tic`."""
     return {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
-            "max_residual": max_residual, "native": run.stepper.native,
-            "wall_time": time.perf_counter() - run.tic}
+            "max_residual": max_residual, "native": run.stepper.native, "wall_time": wall}
 
 
 # the smallest residual relative to the momenta that a converged step can be asked for:
