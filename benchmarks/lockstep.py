@@ -3,12 +3,14 @@ loop ``[dmoc.simulate(disc, **run, throw=False) for run in runs]``, interleaved 
 process (docs/performance.md, "Sixth: runs in lockstep").
 
 Each round times the serial loop, then the same runs in lockstep, then each part of a
-run alone (the checks and start of all runs, `prepare_runs`, the steps one run at a time
-and in lockstep, group by group as `simulate_runs` makes them, `conclude`'s trajectory and
-verdict, and with the trajectory's last knot only, as ``keep="final"``), on knife-edge
-runs of `--steps` steps (v0 = (c, 0, 1)), compiled step (``jit=True``; the virtual
-machine without a C compiler); medians over `--repeat` rounds, in microseconds per run;
-the results are compared bit for bit.
+run alone (the checks and start of all runs, `prepare_runs`; the steps one run at a time
+and in lockstep, group by group as `simulate_runs` makes them; the steps in lockstep with
+each group's runs concluded together, `conclude_group`, as `simulate_runs` does, with the
+trajectory's last knot only too; and `conclude`'s trajectory and verdict run by run, with
+the last knot only too, as ``keep="final"``), on knife-edge runs of `--steps` steps
+(v0 = (c, 0, 1)), compiled step (``jit=True``; the virtual machine without a C
+compiler); medians over `--repeat` rounds, in microseconds per run; the results are
+compared bit for bit.
 
     python benchmarks/lockstep.py                       # 250 runs of 1000 steps, 9 rounds
     python benchmarks/lockstep.py --runs 1000 --steps 100
@@ -25,7 +27,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc._util import compiled  # noqa: E402
-from dmoc.simulate.lockstep import groups, run_lockstep, simulate_runs  # noqa: E402
+from dmoc.simulate.lockstep import groups, run_lockstep, simulate_lockstep, simulate_runs  # noqa: E402
 from dmoc.simulate.preparation import prepare_runs  # noqa: E402
 from dmoc.simulate.simulation import conclude  # noqa: E402
 
@@ -55,6 +57,8 @@ def rounds(disc, runs, repeat):
             prepared[0].stepper, np.array([prepared[i].start for i in members]),
             np.array([prepared[i].controls for i in members]), disc.h)
             for members in groups(prepared)])
+        clock("  lockstep + conclude_group", lambda: simulate_lockstep(prepared))
+        clock("  ... last knot only", lambda: simulate_lockstep(prepared, final=True))
         clock("  conclude", lambda: [conclude(r, a) for r, a in zip(prepared, alone)])
         clock("  conclude, last knot only", lambda: [conclude(r, a, final=True)
                                                       for r, a in zip(prepared, alone)])

@@ -52,9 +52,11 @@ def constraint_violation_tolerance(scale):
     return 1e-9 * max(1.0, scale)
 
 
-def given_start(system, q0, v0, p0):
+def given_start(system, q0, v0, p0, checked=()):
     """The start data of a run checked as far as it can be alone: exactly one of `v0`
-    (initial velocity; a MechanicalSystem only) or `p0` (initial momentum).
+    (initial velocity; a MechanicalSystem only) or `p0` (initial momentum); those of
+    them named in `checked` are float arrays of shape (n,) that `checks.array` passed
+    already.
 
     Returns
     -------
@@ -73,11 +75,11 @@ def given_start(system, q0, v0, p0):
     n = system.n
     check_configuration("q0", system, q0)
     if p0 is not None:
-        return None, checks.array("p0", p0, (n,))
+        return None, p0 if "p0" in checked else checks.array("p0", p0, (n,))
     if not hasattr(system, "lagrangian"):
         raise InputError("give `p0` (initial momentum) for a HamiltonianSystem: `v0` would need "
                          "the inverse of v = dH/dp(q, p), which dmoc does not form.")
-    return checks.array("v0", v0, (n,)), None
+    return v0 if "v0" in checked else checks.array("v0", v0, (n,)), None
 
 
 def start_momenta(system, q0, v0):

@@ -117,13 +117,22 @@ class Trajectory:
         arrays of the right shapes, h > 0, a formulation's name, a rule's nodes): the
         simulator's runs and the optimizer's optima.
         """
-        if final:
-            t, q, p, lam, u, s = t[-1:], q[-1:], p[-1:], lam[:0], u[:0], s[:0]
-        t, q, p, lam, u, s = (np.array(a, dtype=float) for a in (t, q, p, lam, u, s))
-        mu = np.zeros(lam.shape[1]) if mu is None else np.array(mu, dtype=float)
-        control_nodes, stage_nodes = (tuple(float(c) for c in np.ravel(nodes))
-                                      for nodes in (control_nodes, stage_nodes))
-        return cls.unchecked(t, q, p, lam, u, float(h), variant, mu, s, control_nodes, stage_nodes)
+        t, q, p, lam, u, h, mu, s = _assembled(t, q, p, lam, u, h, mu, s, final)
+        nodes = _nodes(control_nodes, stage_nodes)
+        return cls.unchecked(t, q, p, lam, u, h, variant, mu, s, *nodes)
+
+    @classmethod
+    def assembled_runs(cls, t, q, p, lam, u, h, variant, mu, s, control_nodes, stage_nodes,
+                       final=False):
+        """`assembled` of R runs of the same shapes at once: the arrays t (R, N+1), q, p
+        (R, N+1, n), lam, u, s (R, N, ...), mu (R, m) or None, the other fields shared. A
+        list of R Trajectories, the same fields as `assembled` of each run, whose arrays
+        are its rows of one copy per field (C-contiguous views: a trajectory kept alone
+        keeps the arrays of all R alive)."""
+        t, q, p, lam, u, h, mu, s = _assembled(t, q, p, lam, u, h, mu, s, final)
+        nodes = _nodes(control_nodes, stage_nodes)
+        return [cls.unchecked(t[i], q[i], p[i], lam[i], u[i], h, variant, mu[i], s[i], *nodes)
+                for i in range(q.shape[0])]
 
     @property
     def steps(self):
@@ -280,6 +289,35 @@ def read(cls, path, kind):
 
 def _invalid(path, kind, reason):
     raise TrajectoryFileError(f"{str(path)!r} is not {kind}: {reason}.")
+
+
+def _assembled(t, q, p, lam, u, h, mu, s, final):
+    """(t, q, p, lam, u, h, mu, s) of `Trajectory.assembled`: each array copied as a float
+    array (of the last knot only when `final`), `mu` None as zeros, `h` a float; arrays of
+    one run, or of runs along their leading axes (`assembled_runs`), then all copied into
+    one buffer (numpy backs a large one with huge pages: far fewer new pages to fault in
+    than one array per field)."""
+    if final:
+        t, q, p = t[..., -1:], q[..., -1:, :], p[..., -1:, :]
+        lam, u, s = lam[..., :0, :], u[..., :0, :], s[..., :0, :]
+    if mu is None:
+        mu = np.zeros(lam.shape[:-2] + lam.shape[-1:])
+    arrays = (t, q, p, lam, u, s, mu)
+    if q.ndim == 2:
+        copies = [np.array(a, dtype=float, order="C") for a in arrays]
+    else:
+        buffer, copies = np.empty(sum(np.size(a) for a in arrays)), []
+        for a in arrays:
+            copies.append(buffer[:np.size(a)].reshape(np.shape(a)))
+            buffer = buffer[np.size(a):]
+            np.copyto(copies[-1], a)
+    t, q, p, lam, u, s, mu = copies
+    return t, q, p, lam, u, float(h), mu, s
+
+
+def _nodes(control_nodes, stage_nodes):
+    """The rules' nodes as tuples of floats, as `Trajectory.assembled` keeps them."""
+    return tuple(tuple(float(c) for c in np.ravel(nodes)) for nodes in (control_nodes, stage_nodes))
 
 
 def _time_grid(t, N1, h):

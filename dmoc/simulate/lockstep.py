@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from .preparation import memory_needed, prepare_runs
-from .simulation import conclude
+from .simulation import conclude, conclude_group
 from .stepper import LOCKSTEP, chunk_length
 
 # the most bytes of arrays (`memory_needed`) one group of runs in lockstep holds at once
@@ -28,19 +28,24 @@ def simulate_lockstep(runs, *, final=False):
     """`simulate` of each of `runs` (`preparation.Run`, from `prepare_runs`), the runs of each
     of their `groups` in lockstep: the SimulationResults in the order of `runs`, each
     what ``simulate`` returns for the same arguments but ``stats["wall_time"]`` (its
-    group's time so far), its trajectory of the last knot only when `final` (`conclude`).
-    With ``throw``, a failed run raises as ``simulate`` does once its group has run."""
+    group's time so far), its trajectory of the last knot only when `final`
+    (`conclude_group`: the trajectories of a group's runs that completed every step are
+    rows of one array per field). With ``throw``, a failed run raises as ``simulate``
+    does once its group has run."""
     results = [None] * len(runs)
     for members in groups(runs):
         group = [runs[i] for i in members]
         if len(group) == 1:           # alone: no lockstep to gain, no scratch memory to keep
             run = group[0]
-            stepped = [run.stepper.run(run.start, run.controls, run.disc.h)]
+            concluded = [conclude(run, run.stepper.run(run.start, run.controls, run.disc.h),
+                                  final=final)]
         else:
-            stepped = run_lockstep(group[0].stepper, np.array([run.start for run in group]),
-                                   _stacked([run.controls for run in group]), group[0].disc.h)
-        for i, run, outcome in zip(members, group, stepped):
-            results[i] = conclude(run, outcome, final=final)
+            controls = _stacked([run.controls for run in group])
+            concluded = conclude_group(group, controls, *run_lockstep(
+                group[0].stepper, np.array([run.start for run in group]), controls,
+                group[0].disc.h), final=final)
+        for i, result in zip(members, concluded):
+            results[i] = result
     return results
 
 
@@ -101,9 +106,10 @@ def groups(runs):
 
 def run_lockstep(stepper, starts, controls, h):
     """`stepper.run` of R runs that start from `starts` (R, state.size) under `controls`
-    (R, N, n_controls), chunk by chunk together: one tuple of `DiracStepper.run` per run,
-    in order, whose arrays are views of this thread's scratch memory (`_scratch`), valid
-    until its next call (`conclude` copies them). A run whose step k the fast path does
+    (R, N, n_controls), chunk by chunk together: (states (R, N+1, state.size), outputs
+    (R, N, out.size), one tuple of `DiracStepper.run` per run, in order, whose arrays are
+    views of those), all of this thread's scratch memory (`_scratch`), valid until its
+    next call (`conclude_group` copies them). A run whose step k the fast path does
     not converge goes on alone from k (`DiracStepper.resume`). On a KeyboardInterrupt
     every run still in lockstep keeps the steps of the chunks before (interrupted, as
     `run`)."""
@@ -140,10 +146,10 @@ def run_lockstep(stepper, starts, controls, h):
         for i in active:
             if outcomes[i] is None:
                 outcomes[i] = (acc[i, :k + 1], out[i, :k], None, 0, True)
-        return outcomes
+        return acc, out, outcomes
     for i in active:
         outcomes[i] = (acc[i], out[i], None, 0, False)
-    return outcomes
+    return acc, out, outcomes
 
 
 def _evaluate(stepper, states, controls, h, following, per_step):

@@ -53,10 +53,13 @@ def prepare(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", th
 
 def prepare_runs(disc, runs):
     """`prepare` of each of `runs` (dicts of its keyword arguments), what they share done
-    once: the start momenta p_0 = dL/dv(q0, v0) and the velocity checks of all runs in
-    mapped calls (`start_momenta`: the bits of one run's), one stepper lookup for runs of
-    the same formulation, tol, max_iter and jit, one array of zero controls (read-only)
-    for runs of the same length without controls.
+    once: the scalar checks of runs of equal scalars (`_scalars`), the q0, v0 and p0
+    given as plain numbers checked as one array (`_plain_rows`), the start momenta p_0 =
+    dL/dv(q0, v0) and the velocity checks of all runs in mapped calls (`start_momenta`:
+    the bits of one run's), one stepper lookup for runs of the same formulation, tol,
+    max_iter and jit, one memory check per length, one array of zero controls (read-only)
+    for runs of the same length without controls, the start states of the runs of one
+    stepper as rows of one array (`_starts`).
 
     Returns
     -------
@@ -65,15 +68,17 @@ def prepare_runs(disc, runs):
         failed check, in the order of `simulate`'s checks.
     """
     checks.instance("disc", disc, Discretization, "a Discretization")
-    given = [_attempt(_given, disc, **run) for run in runs]
+    shared, rows = {}, _plain_rows(disc.system.n, runs)
+    given = [_attempt(_given, shared, rows.get(i, {}), disc, **run) for i, run in enumerate(runs)]
     velocity = [i for i, g in enumerate(given) if isinstance(g, dict) and g["v0"] is not None]
     if velocity:
         q0, v0 = (np.array([given[i][name] for i in velocity]) for name in ("q0", "v0"))
         momenta, errors = start_momenta(disc.system, q0, v0)
         for i, p, error in zip(velocity, momenta, errors):
             given[i] = error or dict(given[i], p0=p)
-    shared = {}
-    return [g if isinstance(g, Exception) else _attempt(_ready, disc, g, shared) for g in given]
+    ready = [g if isinstance(g, Exception) else _attempt(_ready, disc, g, shared) for g in given]
+    _starts(disc, [(run, g) for run, g in zip(ready, given) if isinstance(run, Run)])
+    return ready
 
 
 def _attempt(function, *args, **kwargs):
@@ -84,26 +89,83 @@ def _attempt(function, *args, **kwargs):
         return err
 
 
-def _given(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+", throw=True,
-           tol=1e-12, max_iter=50, jit=None):
+def _given(shared, rows, /, disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
+           throw=True, tol=1e-12, max_iter=50, jit=None):
     """The checks of one run up to its start velocity or momentum (`given_start`), in
-    `simulate`'s order: the checked arguments by name."""
-    formulation = as_formulation(variant, disc)
-    steps = checks.positive_int("steps", steps)
-    tol = checks.positive_float("tol", tol)
-    max_iter = checks.positive_int("max_iter", max_iter)
-    throw = checks.boolean("throw", throw)
-    q0 = checks.array("q0", q0, (disc.system.n,))
-    v0, p0 = given_start(disc.system, q0, v0, p0)
+    `simulate`'s order: the checked arguments by name. `shared` holds what the runs of
+    one call share (`_scalars`), `rows` this run's q0, v0 and p0 checked already
+    (`_plain_rows`)."""
+    formulation, steps, tol, max_iter, throw = _scalars(shared, disc, variant, steps, tol,
+                                                        max_iter, throw)
+    q0 = rows["q0"] if "q0" in rows else checks.array("q0", q0, (disc.system.n,))
+    v0, p0 = given_start(disc.system, q0, rows.get("v0", v0), rows.get("p0", p0), tuple(rows))
     return dict(formulation=formulation, steps=steps, tol=tol, max_iter=max_iter, throw=throw,
                 q0=q0, v0=v0, p0=p0, controls=controls, jit=jit)
+
+
+# types whose equal values pass or fail `_scalars`' checks alike, to the same values
+_SCALAR_TYPES = frozenset({bool, int, float, str, np.float64, np.int64})
+
+
+def _scalars(shared, disc, variant, steps, tol, max_iter, throw):
+    """(formulation, steps, tol, max_iter, throw) checked in `simulate`'s order, kept in
+    `shared` under their types and values when each is of `_SCALAR_TYPES` (the checks
+    of equal values of one such type give equal results), for the runs after."""
+    given = (variant, steps, tol, max_iter, throw)
+    key = (("scalars",) + tuple((type(a), a) for a in given)
+           if all(type(a) in _SCALAR_TYPES for a in given) else None)
+    checked = shared.get(key)
+    if checked is None:
+        checked = (as_formulation(variant, disc), checks.positive_int("steps", steps),
+                   checks.positive_float("tol", tol), checks.positive_int("max_iter", max_iter),
+                   checks.boolean("throw", throw))
+        if key is not None:
+            shared[key] = checked
+    return checked
+
+
+# the exact types of numbers in a list or tuple that `_plain_rows` checks together: as
+# one float array they become what `checks.array` makes of each (ints up to 2^53 exactly)
+_PLAIN_NUMBERS = frozenset({float, np.float64, int})
+_EXACT_INT = 2 ** 53
+
+
+def _plain_rows(n, runs):
+    """{index: {name: row}} of the q0, v0 and p0 of `runs` that are plain, finite
+    numbers: a float64 array of shape (n,), or a list or tuple of n floats and ints (of
+    at most 2^53 in size), checked and converted together (one float array of all of
+    them) into the values `checks.array` gives each; any other value is left to
+    `checks.array` of its own run, whose errors name it."""
+    chosen = [(i, name) for i, run in enumerate(runs) if isinstance(run, dict)
+              for name in ("q0", "v0", "p0") if _plain(run.get(name), n)]
+    if not chosen:
+        return {}
+    values = np.array([runs[i][name] for i, name in chosen], dtype=float)
+    rows = {}
+    for (i, name), row, finite in zip(chosen, values, np.isfinite(values).all(axis=1)):
+        if finite:
+            rows.setdefault(i, {})[name] = row
+    return rows
+
+
+def _plain(value, n):
+    """Whether `value` is n plain numbers (`_plain_rows`)."""
+    if type(value) is np.ndarray:
+        return value.dtype == np.float64 and value.shape == (n,)
+    if type(value) not in (list, tuple) or len(value) != n:
+        return False
+    kinds = set(map(type, value))
+    return kinds <= _PLAIN_NUMBERS and (
+        int not in kinds or all(-_EXACT_INT <= x <= _EXACT_INT for x in value if type(x) is int))
 
 
 def _ready(disc, given, shared):
     """The Run of the `given` arguments (`_given`, with the start momentum p0), the checks
     after the start's in `simulate`'s order; `shared` holds what runs of one call share."""
     steps = given["steps"]
-    _check_memory(disc, steps)
+    if ("memory", steps) not in shared:
+        _check_memory(disc, steps)
+        shared[("memory", steps)] = True
     if given["controls"] is None:
         controls = shared.get(("zeros", steps))
         if controls is None:
@@ -116,11 +178,25 @@ def _ready(disc, given, shared):
     stepper = shared.get(key) if given["jit"] is None or isinstance(given["jit"], bool) else None
     if stepper is None:
         stepper = shared[key] = _stepper(disc, *key)
-    start = np.zeros(stepper.state.size)
-    v_guess = np.zeros(disc.system.n) if given["v0"] is None else given["v0"]
-    for name, value in (("q", given["q0"]), ("p", given["p0"]), ("dq", disc.h * v_guess)):
-        start[stepper.state.slice(name)] = value
-    return Run(disc, given["formulation"], stepper, start, controls, given["throw"], given["tol"], tic)
+    return Run(disc, given["formulation"], stepper, None, controls, given["throw"], given["tol"], tic)
+
+
+def _starts(disc, ready):
+    """The `start` of each Run of the (Run, given arguments) pairs `ready` (`_ready`): q0,
+    p0 and h v0 (zeros without v0), the first Newton increment; those of the runs of one
+    stepper rows of one array, made together."""
+    steppers = {}
+    for run, given in ready:
+        steppers.setdefault(id(run.stepper), []).append((run, given))
+    for members in steppers.values():
+        state, n = members[0][0].stepper.state, disc.system.n
+        starts = np.zeros((len(members), state.size))
+        starts[:, state.slice("q")] = [given["q0"] for _, given in members]
+        starts[:, state.slice("p")] = [given["p0"] for _, given in members]
+        starts[:, state.slice("dq")] = disc.h * np.array(
+            [np.zeros(n) if given["v0"] is None else given["v0"] for _, given in members])
+        for (run, _), start in zip(members, starts):
+            run.start = start
 
 
 def _stepper(disc, formulation, tol, max_iter, jit):

@@ -131,12 +131,42 @@ def conclude(run, stepped, *, final=False):
     stepper, k = run.stepper, out.shape[0]
     traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out, final)
     rnorm = out[:, stepper.out.slice("rnorm")]
-    stats = {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
-             "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
-             "wall_time": wall}
+    stats = _stats(run, k, redone, float(rnorm.max()) if k else 0.0, wall)
     if interrupted:
         return _interrupted(traj, stats, run.throw)
     return _finish(traj, stats, failed_rnorm, run.tol, run.throw)
+
+
+def conclude_group(runs, controls, acc, out, stepped, *, final=False):
+    """`conclude` of each of `runs`, R runs stepped in lockstep (`run_lockstep`) under
+    `controls` (R, N, n_controls) into `acc` (R, N+1, state.size) and `out` (R, N,
+    out.size), of which each of `stepped` (what `DiracStepper.run` returns) holds views:
+    the runs that completed every step concluded together, their trajectories rows of one
+    array per field (`Trajectory.assembled_runs`), the others one by one. The same
+    results as `conclude` of each run, but that a trajectory's arrays are views."""
+    N = acc.shape[1] - 1
+    whole = [i for i, (_, o, _, _, cut) in enumerate(stepped) if o.shape[0] == N and not cut]
+    results = [None] * len(runs)
+    for i in sorted(set(range(len(runs))).difference(whole)):       # failed or interrupted
+        results[i] = conclude(runs[i], stepped[i], final=final)
+    if whole:
+        now = time.perf_counter()
+        rows = slice(None) if len(whole) == len(runs) else whole
+        first = runs[whole[0]]
+        trajectories = _assemble(first.stepper, first.formulation, first.disc, controls[rows],
+                                 acc[rows], out[rows], final)
+        largest = out[rows, :, first.stepper.out.slice("rnorm")].max(axis=(1, 2))
+        for i, traj, rnorm in zip(whole, trajectories, largest):
+            stats = _stats(runs[i], N, stepped[i][3], float(rnorm), now - runs[i].tic)
+            results[i] = _finish(traj, stats, None, runs[i].tol, runs[i].throw)
+    return results
+
+
+def _stats(run, k, redone, max_residual, wall):
+    """The stats of `run` after `k` completed steps, `redone` of them by the line-search
+    Newton, `wall` seconds after its `tic`."""
+    return {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
+            "max_residual": max_residual, "native": run.stepper.native, "wall_time": wall}
 
 
 # the smallest residual relative to the momenta that a converged step can be asked for:
@@ -148,14 +178,17 @@ def _assemble(stepper, formulation, disc, controls, acc, out, final):
     """Trajectory from the horizon's states (the start first) and per-step outputs
     (time-major arrays), its fields copied as ``Trajectory(...)`` copies them, without its
     checks (`Trajectory.assembled`, of the last knot only when `final`; mu None, a (-)
-    run that failed at its first step, is no impulse)."""
+    run that failed at its first step, is no impulse); of runs in lockstep along a leading
+    axis of `controls`, `acc` and `out`, the list of their Trajectories
+    (`Trajectory.assembled_runs`)."""
     h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
     p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
                                                stepper.residual.m)
-    return Trajectory.assembled(h * np.arange(acc.shape[0]), state["q"], p, lam, controls, h,
-                                formulation.name, mu, per_step["s"], disc.rule.control_nodes,
-                                disc.rule.stage_nodes, final)
+    t = np.broadcast_to(h * np.arange(acc.shape[-2]), acc.shape[:-1])
+    assembled = Trajectory.assembled if acc.ndim == 2 else Trajectory.assembled_runs
+    return assembled(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
+                     disc.rule.control_nodes, disc.rule.stage_nodes, final)
 
 
 def _interrupted(traj, stats, throw):

@@ -60,7 +60,7 @@ def _assert_same(got, want):
     for name in FIELDS:
         a, b = getattr(got.trajectory, name), getattr(want.trajectory, name)
         assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), name
-        assert a.flags.c_contiguous and a.flags.owndata, name     # copies of their own
+        assert a.flags.c_contiguous and a.flags.writeable, name     # rows of copies of their own
     for name in ("h", "variant", "control_nodes", "stage_nodes"):
         assert getattr(got.trajectory, name) == getattr(want.trajectory, name), name
 
@@ -220,4 +220,103 @@ def test_start_momenta_of_many_runs_have_the_bits_of_one_run_each():
         runs.append({"q0": q0, "v0": [np.cos(q0[3]) * roll, np.sin(q0[3]) * roll, roll,
                                       rng.normal()], "steps": 4})
     for a, b in zip(simulate_runs(disc, runs), _serial(disc, runs)):
+        _assert_same(a, b)
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_a_group_concludes_into_rows_of_its_own_copies(variant):
+    """The runs of a group that complete every step get rows of one copy per field
+    (`conclude_group`): each run's rows its own (no run's arrays overlap another's), and
+    not the scratch memory of the lockstep, which the next group reuses (the first
+    results stay those of `simulate` after a second call on other runs)."""
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = _pendulum_runs(40, variant)
+    first = simulate_runs(disc, runs)
+    simulate_runs(disc, [dict(run, q0=[1.0 - 0.1 * i]) for i, run in enumerate(runs)])
+    for a, b in zip(first, _serial(disc, runs)):
+        _assert_same(a, b)
+    whole = [r.trajectory for r in first if r.success]
+    assert len(whole) > 10 and not whole[0].q.flags.owndata
+    for one, other in zip(whole, whole[1:]):
+        for name in FIELDS:
+            assert not np.shares_memory(getattr(one, name), getattr(other, name)), name
+
+
+def test_runs_checked_together_get_what_each_alone_gets(monkeypatch):
+    """`prepare_runs` checks the scalars of equal runs once and the q0 and v0 given as
+    plain numbers as one array (`_plain_rows`): on runs of every kind of value (lists
+    and tuples of floats, ints, huge ints, bools, numpy scalars, arrays of other dtypes
+    and shapes, NaN and infinities, strings, scalars of other types), each run gets the
+    error that `prepare` raises for it alone with every array checked by `checks.array`
+    (the oracle: `_plain_rows` switched off), type and message, or the same start, bits
+    and stepper."""
+    from dmoc.simulate import preparation
+    disc = dmoc.discretize(dmoc.systems.rolling_disk(), 0.05)
+    good_v0 = [1.0, 0.0, 1.0, 0.5]
+    q0s = [[0, 0, 0, 0], (0.1, 0.2, 0.3, 0.0), [1, 2.5, 3, np.float64(0.0)],
+           np.array([3.0, 2, 1, 0]), (0.1, 0.2, 0.3, 0.4), np.arange(4.0),
+           np.arange(4), np.arange(4, dtype=np.float32), [2 ** 60, 0, 0, 0], [2 ** 70, 0, 0, 0],
+           [True, 0, 0, 0], [True, False, False, True], [0, 0, np.nan, 0], [0, np.inf, 0, 0],
+           [0, 0, 0], np.zeros((1, 4)), ["0", 0, 0, 0], [np.int64(3), 0, 0, 0],
+           [np.float32(0.1), 0, 0, 0], [[0], 0, 0, 0]]
+    v0s = [good_v0, tuple(good_v0), np.array(good_v0), [1, 0, 1, 0], [1, 1, 1, 0.5],
+           [np.nan, 0, 1, 0], [1, 0, 1], "v"]
+    scalars = [{}, {"steps": 7}, {"steps": 7.0}, {"steps": True}, {"tol": 1e-10},
+               {"tol": np.float64(1e-10)}, {"tol": 0}, {"max_iter": np.int64(5)},
+               {"throw": 0}, {"throw": np.bool_(False)}, {"variant": "-"}, {"variant": "x"}]
+    rng = np.random.default_rng(5)
+    runs = []
+    for k in range(300):
+        bad = k % 2                         # every other run of good values only
+        run = {"q0": q0s[rng.integers(len(q0s) if bad else 4)],
+               "v0": v0s[rng.integers(len(v0s) if bad else 3)],
+               "steps": 5, **scalars[rng.integers(len(scalars) if bad else 2)]}
+        if k % 17 == 0:
+            run = {"q0": run["q0"], "p0": run.pop("v0"), "steps": 5}
+        runs.append(run)
+    prepared = prepare_runs(disc, runs)
+    monkeypatch.setattr(preparation, "_plain_rows", lambda n, runs: {})
+    kinds = set()
+    for run, got in zip(runs, prepared):
+        try:
+            want = prepare(disc, **run)
+        except Exception as err:            # noqa: BLE001 - the oracle's own error
+            assert type(got) is type(err) and str(got) == str(err), run
+            kinds.add(type(err))
+        else:
+            assert not isinstance(got, Exception), (run, got)
+            assert got.start.tobytes() == want.start.tobytes() and got.stepper is want.stepper
+            assert (got.throw, got.tol, got.formulation) == (want.throw, want.tol, want.formulation)
+            assert got.controls.shape == want.controls.shape
+    assert sum(isinstance(r, Exception) for r in prepared) > 50
+    assert sum(not isinstance(r, Exception) for r in prepared) > 100
+    assert len(kinds) >= 2
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_random_groups_with_failing_runs_equal_the_runs_alone(seed):
+    """Random runs of the pendulum (random lengths from a few, so that groups hold runs
+    that complete every step, concluded together, next to runs that fail or are redone,
+    concluded one by one; random variants, kicks and NaN forces): every result, with
+    the whole trajectory or the last knot only, as `simulate` gives it alone."""
+    rng = np.random.default_rng(seed)
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = []
+    for _ in range(60):
+        steps = int(rng.choice([1, 7, 30]))
+        controls = np.zeros((steps, 2))
+        controls[:, 0] = rng.normal(scale=0.1, size=steps)
+        kick = rng.integers(steps)
+        controls[kick, 0] += rng.choice([0.0, 0.0, 20.0, 300.0])
+        controls[kick, 1] = -1.0 if rng.random() < 0.05 else 0.0
+        runs.append({"q0": [rng.normal()], "v0": [rng.normal()], "steps": steps,
+                     "controls": controls, "variant": str(rng.choice(["+", "-"]))})
+    want = _serial(disc, runs)
+    assert {"converged", "newton_failed"} <= {r.status for r in want}
+    for a, b in zip(simulate_runs(disc, runs), want):
+        _assert_same(a, b)
+    from dmoc.batch.tasks import final_knot
+    finals = simulate_lockstep([prepare(disc, **run, throw=False) for run in runs], final=True)
+    for a, b in zip(finals, want):
+        b.trajectory = final_knot(b.trajectory)
         _assert_same(a, b)

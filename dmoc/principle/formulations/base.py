@@ -84,8 +84,9 @@ class Formulation:
 
     def trajectory_blocks(self, p_carried, p_used, nu, m):
         """(p, lam, mu) of a Trajectory from a simulation's per-step blocks: `p_carried`
-        (N+1, n) carried momenta, `p_used` (N, n) the p_k the step equations used, `nu`
-        (N, n_lam) the multipliers solved for (the first m at q_k)."""
+        (..., N+1, n) carried momenta, `p_used` (..., N, n) the p_k the step equations
+        used, `nu` (..., N, n_lam) the multipliers solved for (the first m at q_k); the
+        leading axes, if any, those of runs in lockstep (`conclude_group`)."""
         raise NotImplementedError
 
     def momentum_conditions(self, system):
@@ -138,7 +139,7 @@ class PlusForm(Formulation):
         return lam[:, :m]
 
     def trajectory_blocks(self, p_carried, p_used, nu, m):
-        return p_carried, nu, np.zeros(m)
+        return p_carried, nu, np.zeros(nu.shape[:-2] + (m,))
 
     def omega_flat(self, z, z_plus):
         return omega_flat_plus(z, z_plus)
@@ -165,9 +166,10 @@ class MinusForm(Formulation):
         return np.vstack([mu[None, :m], lam[:-1, :m]])
 
     def trajectory_blocks(self, p_carried, p_used, nu, m):
-        N = nu.shape[0]
-        node = np.vstack([nu[1:, :m], np.zeros((min(N, 1), m))])
-        return np.vstack([p_used, p_carried[-1:]]), np.hstack([node, nu[:, m:]]), (nu[0, :m] if N else None)
+        N = nu.shape[-2]
+        node = np.concatenate([nu[..., 1:, :m], np.zeros(nu.shape[:-2] + (min(N, 1), m))], axis=-2)
+        return (np.concatenate([p_used, p_carried[..., -1:, :]], axis=-2),
+                np.concatenate([node, nu[..., m:]], axis=-1), (nu[..., 0, :m] if N else None))
 
     def omega_flat(self, z, z_plus):
         return omega_flat_minus(z, z_plus)
