@@ -71,9 +71,13 @@ def dmoc_method(name, rule, N, targets, options):
     problem = peers.dmoc_problem(name, N, rule, targets[0])
     previous = solve(problem, jit=True, options=options)
     T = problem.transcription
-    if ipopt.data_tolerances(T, previous.x / T.x_scale, jit=True):
+    # the options the data at the start point set (checkouts from before `data_options`:
+    # the tolerances alone); the re-solves' own must be these
+    data = ipopt.data_options(T, previous.x / T.x_scale, options, jit=True) if hasattr(
+        ipopt, "data_options") else ipopt.data_tolerances(T, previous.x / T.x_scale, jit=True)
+    if "tol" in data:
         raise RuntimeError("the data raise the tolerances: the solver below would not be the one used")
-    solver = ipopt.solver(T, {**ipopt.start_options(True), **options}, expand=False, reuse=True,
+    solver = ipopt.solver(T, {**data, **ipopt.start_options(True), **options}, expand=False, reuse=True,
                           report=False, jit=True)[0]      # the kept solver of the warm re-solves
 
     def step(i):
