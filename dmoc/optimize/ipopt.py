@@ -56,7 +56,8 @@ def start_options(warm):
 
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure
 _OPTION_SETS = BoundedCache(64, "solver_options")   # keyed by (defaults, options' reprs, report): `_nlpsol_options`
-_START_FIGURES = BoundedCache(16, "start_figures")  # keyed by (transcription.structure, jit): `_start_figures`
+# keyed by (transcription.structure, jit): `_start_figures` (named for the row sums it held first)
+_START_FIGURES = BoundedCache(16, "row_sums")
 _EPS = np.finfo(float).eps
 # IPOPT's default nlp_scaling_max_gradient: its gradient-based scaling leaves f and the rows
 # unscaled while no entry of grad f and the Jacobian at the start point exceeds it
