@@ -46,7 +46,7 @@ import numpy as np  # noqa: E402
 
 from dmoc._util.compiled import Library  # noqa: E402
 from dmoc.optimize.guess import start_point  # noqa: E402
-from dmoc.optimize.ipopt import (DEFAULT_IPOPT_OPTIONS, PackedSolver, data_options,  # noqa: E402
+from dmoc.optimize.ipopt import (DEFAULT_IPOPT_OPTIONS, PackedSolver, data_tolerances,  # noqa: E402
                                  iteration_count, solver as dmoc_solver, start_options)
 from dmoc.principle.explicit import single_output, solved_rows  # noqa: E402
 
@@ -190,7 +190,7 @@ def variants(problem):
     T = problem.transcription
     sizes = (T.x_layout.size, T.g_layout.size, T.p_layout.size)
     x0 = start_point(problem, None)[0] / T.x_scale
-    if "tol" in data_options(T, x0, {}):
+    if data_tolerances(T, x0):
         raise RuntimeError("this problem raises IPOPT's tolerances: not compared here")
     every_x, every_g = np.arange(sizes[0]), np.arange(sizes[1])
     nlps = [("full, AD", T.nlp, every_x, every_g, None)]

@@ -9,8 +9,8 @@ of goal, start x and multipliers, CasADi ``jit``, gcc -O2), each also with the o
 warm-start MUMPS option (dmoc re-solves with ``mumps_scaling`` 0, rockit with IPOPT's
 default 77), called in turn goal by goal over `peers_resolve.py`'s cycle of goals,
 `--repeat` times (with `--rotate`, the method called first turns goal by goal: in the
-fixed order dmoc's first row follows rockit's and pays the caches they leave). Per method the medians per re-solve of: the call's wall time; IPOPT's
-as CasADi records it (``t_wall_total``, the nlpsol alone: for dmoc without the packed
+fixed order dmoc's first row follows rockit's and pays the caches they leave). Per method
+the medians per re-solve of: the call's wall time; IPOPT's as CasADi records it (``t_wall_total``, the nlpsol alone: for dmoc without the packed
 call's NumPy conversions); its part in function evaluations (``t_wall_nlp_*``); the rest
 of IPOPT (MUMPS and IPOPT's own work); the time outside IPOPT; the iterations; and the
 mean number of calls of each NLP Function per re-solve. Then a re-solve at the goal just
@@ -72,13 +72,9 @@ def dmoc_method(name, rule, N, targets, options):
     problem = peers.dmoc_problem(name, N, rule, targets[0])
     previous = solve(problem, jit=True, options=options)
     T = problem.transcription
-    # the options the data at the start point set (checkouts from before `data_options`:
-    # the tolerances alone); the re-solves' own must be these
-    data = ipopt.data_options(T, previous.x / T.x_scale, options, jit=True) if hasattr(
-        ipopt, "data_options") else ipopt.data_tolerances(T, previous.x / T.x_scale, jit=True)
-    if "tol" in data:
+    if ipopt.data_tolerances(T, previous.x / T.x_scale, jit=True):
         raise RuntimeError("the data raise the tolerances: the solver below would not be the one used")
-    solver = ipopt.solver(T, {**data, **ipopt.start_options(True), **options}, expand=False, reuse=True,
+    solver = ipopt.solver(T, {**ipopt.start_options(True), **options}, expand=False, reuse=True,
                           report=False, jit=True)[0]      # the kept solver of the warm re-solves
 
     def step(i):

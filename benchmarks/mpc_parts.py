@@ -37,8 +37,7 @@ PARTS = (("with_boundary", "dmoc.optimize.problem", "OptimalControlProblem.with_
          ("shifted", "dmoc.optimize.mpc", "shifted"),
          ("solve", "dmoc.optimize.mpc", "solve"),
          ("  start_point", "dmoc.optimize.solve", "start_point"),
-         ("  data_tolerances", "dmoc.optimize.solve", "data_tolerances"),     # checkouts before data_options
-         ("  data_options", "dmoc.optimize.solve", "data_options"),
+         ("  data_tolerances", "dmoc.optimize.solve", "data_tolerances"),
          ("  solver lookup", "dmoc.optimize.solve", "ipopt_solver"),
          ("  IPOPT call", "dmoc.optimize.ipopt", "PackedSolver.__call__"),
          ("  IPOPT stats", "dmoc.optimize.ipopt", "PackedSolver.stats"),

@@ -147,8 +147,7 @@ def loop_pieces(count):
             left = time.perf_counter()
         spent.setdefault("SIGINT watch (enter and exit)", []).append(time.perf_counter() - left + entered - tic)
 
-    data = "data_options" if hasattr(module, "data_options") else "data_tolerances"   # checkouts before it
-    wrapped = {"start_point": "start point", data: "data's tolerances",
+    wrapped = {"start_point": "start point", "data_tolerances": "data's tolerances",
                "ipopt_solver": "solver lookup", "_values_at_x": "f and g at x",
                "most_violated": "most violated row", "linear_algebra": "linear_algebra(stats)"}
     patches = [(module, name, timed(label, getattr(module, name))) for name, label in wrapped.items()]

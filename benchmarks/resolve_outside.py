@@ -126,11 +126,11 @@ class Former:
     q_ref."""
 
     def __enter__(self):
-        solve_module.data_options = lambda T, x0, options, jit=False: former_data_tolerances(T, x0, jit)
+        solve_module.data_tolerances = former_data_tolerances
         transcription_module.reference = former_reference
 
     def __exit__(self, *exc):
-        solve_module.data_options = ipopt.data_options
+        solve_module.data_tolerances = ipopt.data_tolerances
         transcription_module.reference = NEW_REFERENCE
 
 
@@ -146,7 +146,7 @@ def case(name, make, goal, q_goal, calls):
     x = previous.x
     pieces = {
         "data tolerances (row sums)": (lambda: former_data_tolerances(T, x0, True),
-                                       lambda: ipopt.data_options(T, x0, {}, True)),
+                                       lambda: ipopt.data_tolerances(T, x0, True)),
         "q_ref": (lambda: former_reference(new.q_start, new.q_goal),
                   lambda: transcription_module.reference(new.q_start, new.q_goal)),
         "velocity rows (with_boundary's test)": (

@@ -19,7 +19,7 @@ def forget_solvers():
         # before them have no such cache)
         from dmoc._util.cache import cache_names
         names = cache_names()
-        dmoc.clear_caches("solvers", *[n for n in ("row_sums", "start_figures") if n in names])
+        dmoc.clear_caches("solvers", *(["row_sums"] if "row_sums" in names else []))
         return
     for name in ("dmoc.optimize", "dmoc.ipopt"):
         module = importlib.import_module(name) if importlib.util.find_spec(name) else None

@@ -56,73 +56,44 @@ def start_options(warm):
 
 _SOLVERS = BoundedCache(16, "solvers")    # keyed by (structure, options, report, expand, jit): two per structure
 _OPTION_SETS = BoundedCache(64, "solver_options")   # keyed by (defaults, options' reprs, report): `_nlpsol_options`
-# keyed by (transcription.structure, jit): `_start_figures` (named for the row sums it held first)
-_START_FIGURES = BoundedCache(16, "row_sums")
+_ROW_SUMS = BoundedCache(16, "row_sums")  # keyed by (transcription.structure, jit): `_largest_row_sum`
 _EPS = np.finfo(float).eps
-# IPOPT's default nlp_scaling_max_gradient: its gradient-based scaling leaves f and the rows
-# unscaled while no entry of grad f and the Jacobian at the start point exceeds it
-_IPOPT_MAX_GRADIENT = 100.0
 
 
-def data_options(transcription, x0, options, jit=False):
-    """The IPOPT options that the data at the start point x0 (scaled, as IPOPT sees it)
-    demand, from one evaluation of the NLP's Jacobian and gradient there
-    (`_start_figures`):
-
-    - {"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
-      floor of the rows where the data demand it. The floor of row i is
-      eps * sum_j |dg_i/dx_j| |x_j| at x0 in absolute coordinates (q, not q - q_ref): the
-      rows difference configurations over h, so far from the origin (|q| ~ 1e6 m at
-      h = 0.04 s: 1e-8) no iterate can bring them below it. Rounded up to a power of 2,
-      so that nearby start points share one solver (the options are its key).
-    - {"nlp_scaling_method": "none"} when IPOPT's default "gradient-based" scaling would
-      be the identity: it scales f and the rows only where the largest entry of grad f or
-      of the Jacobian at x0 exceeds ``nlp_scaling_max_gradient`` (100), so at or below it
-      the iterates are the same bits without the scaling's evaluation of both at x0 (two
-      calls fewer per solve; the maxima here run over the fixed entries too, so they are
-      never below IPOPT's). Not when `options` (the user's IPOPT options) set any
-      ``nlp_scaling_*`` option, nor when an entry is NaN or infinite.
-
-    The Jacobian and gradient are the solver's (compiled with `jit`, the same numbers).
-    """
+def data_tolerances(transcription, x0, jit=False):
+    """{"tol", "constr_viol_tol"} raised above DEFAULT_IPOPT_OPTIONS' 1e-10 to the rounding
+    floor of the rows where the data demand it, else {}. The floor of row i is
+    eps * sum_j |dg_i/dx_j| |x_j| at the start point x0 (scaled, as IPOPT sees it) in
+    absolute coordinates (q, not q - q_ref): the rows difference configurations over h,
+    so far from the origin (|q| ~ 1e6 m at h = 0.04 s: 1e-8) no iterate can bring them
+    below it. Rounded up to a power of 2, so that nearby start points share one solver (the
+    options are its key). The Jacobian is the solver's (compiled with `jit`, the same
+    numbers)."""
     T = transcription
-    figures = _START_FIGURES.get((T.structure, jit), lambda: Evaluator(_start_figures(T, jit)))
-    row_sum, jacobian, gradient, total = (float(v[0, 0]) for v in figures(np.concatenate([x0, T.p])))
-    out = {}
-    floor = _EPS * row_sum
-    if floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # not when NaN
-        floor = float(2.0 ** np.ceil(np.log2(floor)))
-        out.update(tol=floor, constr_viol_tol=floor)
-    if (np.isfinite(total) and jacobian <= _IPOPT_MAX_GRADIENT and gradient <= _IPOPT_MAX_GRADIENT
-            and not any(key.startswith("nlp_scaling") for key in options)):
-        out["nlp_scaling_method"] = "none"
-    return out
+    largest = _ROW_SUMS.get((T.structure, jit), lambda: Evaluator(_largest_row_sum(T, jit)))
+    floor = _EPS * float(largest(np.concatenate([x0, T.p]))[0][0, 0])
+    if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
+        return {}
+    floor = float(2.0 ** np.ceil(np.log2(floor)))
+    return {"tol": floor, "constr_viol_tol": floor}
 
 
-def _start_figures(transcription, jit):
-    """Function ``[x; p] -> (max_i sum_j |dg_i/dx_j(x, p)| |x_abs_j|, max_ij |dg_i/dx_j|,
-    max_j |df/dx_j|, the sum of the |entries| of both)`` (0 without rows), x_abs the x of
-    absolute configurations: its block q plus p's q_ref at every knot, the sum
-    `Transcription.configurations` forms (x + 0 elsewhere: the same absolute values). The
-    maxima skip NaN entries (CasADi's fmax); the sum is NaN or infinite when an entry is,
-    or when the sum overflows. One call of one stacked argument from Python instead of a
-    call per operation, evaluated through its buffer (`data_options` wraps it in an
-    `Evaluator`)."""
+def _largest_row_sum(transcription, jit):
+    """Function ``[x; p] -> max_i sum_j |dg_i/dx_j(x, p)| |x_abs_j|`` (0 without rows),
+    x_abs the x of absolute configurations: its block q plus p's q_ref at every knot, the
+    sum `Transcription.configurations` forms (x + 0 elsewhere: the same absolute values).
+    One call of one stacked argument from Python instead of a call per operation,
+    evaluated through its buffer (`data_tolerances` wraps it in an `Evaluator`)."""
     separable, lay = transcription.separable, transcription.x_layout
     n_x, q = separable.n_x, lay.slice("q")
     z = ca.MX.sym("z", n_x + separable.n_p)
     x, p = z[:n_x], z[n_x:]
     q_ref = p[transcription.p_layout.slice("q_ref")]
     shift = ca.vertcat(ca.MX(q.start, 1), ca.repmat(q_ref, lay.blocks["q"][2], 1), ca.MX(n_x - q.stop, 1))
-    functions = nlp_functions(separable, jit=jit)
-    gradient = ca.fabs(functions["nlp_grad_f"](x, p)[1])
-    rows = largest = total = ca.MX(0)
-    if separable.n_g:
-        jacobian = ca.fabs(functions["nlp_jac_g"](x, p)[1])
-        rows, largest = ca.mmax(ca.mtimes(jacobian, ca.fabs(x + shift))), ca.mmax(jacobian)
-        total = ca.sum1(ca.sum2(jacobian))
-    return ca.Function("start_figures", [z], [rows, largest, ca.mmax(gradient), total + ca.sum1(gradient)],
-                       ["z"], ["largest_row_sum", "largest_jacobian_entry", "largest_gradient_entry", "total"])
+    jacobian = nlp_functions(separable, jit=jit)["nlp_jac_g"](x, p)[1]
+    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x + shift))
+    return ca.Function("largest_row_sum", [z], [ca.mmax(rows) if separable.n_g else ca.MX(0)],
+                       ["z"], ["largest"])
 
 
 def solver(transcription, options, *, expand, reuse, report, jit=False):

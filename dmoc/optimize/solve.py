@@ -21,7 +21,7 @@ from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
 from .._util.files import atomic_write, writable_file
-from .ipopt import data_options, iteration_count, linear_algebra, start_options
+from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
 from ..principle.trajectory import RESULT_PREFIX, Trajectory, read
@@ -177,11 +177,11 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     lbx, ubx = T.lbx / D, T.ubx / D
     fixed = fixed_entries(lbx, ubx)
     x0, lam_x0, lam_g0 = start_point(problem, guess, fixed)
-    x0 = x0 / D        # scaled: IPOPT and the data's options read it
+    x0 = x0 / D        # scaled: IPOPT and the data's tolerances read it
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
-        T, {**data_options(T, x0, options, jit), **start_options(warm), **options},
+        T, {**data_tolerances(T, x0, jit), **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
         report=switches["linear_solver_report"], jit=jit)
     build_time = time.perf_counter() - tic

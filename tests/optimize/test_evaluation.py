@@ -112,9 +112,7 @@ def test_the_mpc_closed_loop_is_the_same_bit_for_bit(private_cache, mode):
     (``expand=False``), step by step."""
     (vm, _), (other, controller) = closed_loop(5, expand=False), closed_loop(5, **mode)
     assert [r.warm_start for r in controller.log] == [False] + [True] * 4
-    # the options of its warm steps: IPOPT's scaling left out (the identity on the knife
-    # edge, `ipopt.data_options`), the warm start's
-    kept, reused, _ = solver(controller.problem.transcription, {"nlp_scaling_method": "none", **start_options(True)},
+    kept, reused, _ = solver(controller.problem.transcription, start_options(True),
                              reuse=True, report=False, **{"expand": True, "jit": False, **mode})
     assert reused and kept.nlpsol.get_function("nlp_jac_g").class_name() == (
         "External" if "jit" in mode else "SXFunction")

@@ -97,7 +97,7 @@ def test_far_from_the_origin_ipopt_converges_as_near_it():
 
 @pytest.mark.parametrize("at", [FAR, 3 * FAR])
 def test_data_tolerance_is_the_rounding_floor_rounded_up_to_a_power_of_two(at):
-    """The documented rule of `data_options`: tol = constr_viol_tol = the smallest power
+    """The documented rule of `data_tolerances`: tol = constr_viol_tol = the smallest power
     of 2 not below eps * max_i sum_j |dg_i/dx_j| |x_j|, x the start point with its
     configurations absolute; the floor here is not itself a power of 2."""
     problem = far_parking(0.1, at)
@@ -109,7 +109,7 @@ def test_data_tolerance_is_the_rounding_floor_rounded_up_to_a_power_of_two(at):
     x = x0.copy()
     x[problem.x_layout.slice("q")] = (problem.x_layout.unpack(x0, "q") + problem.q_ref[:, None]).T.ravel()
     floor = np.finfo(float).eps * (np.abs(J) @ np.abs(x)).max()
-    tolerances = ipopt.data_options(problem, x0, {})
+    tolerances = ipopt.data_tolerances(problem, x0)
     assert tolerances["tol"] == tolerances["constr_viol_tol"]
     tol = tolerances["tol"]
     assert tol == 2.0 ** round(np.log2(tol)) and floor != 2.0 ** round(np.log2(floor))

@@ -97,7 +97,7 @@ def test_a_judged_optimum_and_a_failed_solve_carry_the_same_trajectory():
 
 
 def _former_largest_row_sum(T, x0, jit):
-    """`data_options`' row sums as computed before: [x; x_abs; p], x_abs formed in NumPy
+    """`data_tolerances`' row sums as computed before: [x; x_abs; p], x_abs formed in NumPy
     by `Transcription.configurations`."""
     separable = T.separable
     n_x, n_p = separable.n_x, separable.n_p
@@ -122,14 +122,14 @@ def test_the_row_sums_of_one_stacked_x_and_p_are_the_former_ones(jit):
                                                             q_goal=[1e6 + 1.0, -3e5, 0.2])
     for problem in (near, far):
         T = problem.transcription
-        largest = ipopt._start_figures(T, jit)
-        through_buffer = Evaluator(largest)        # as `data_options` calls it
+        largest = ipopt._largest_row_sum(T, jit)
+        through_buffer = Evaluator(largest)        # as `data_tolerances` calls it
         for _ in range(10):
             x0 = rng.normal(size=T.x_layout.size) * 10.0 ** rng.uniform(-3, 6)
             z = np.concatenate([x0, T.p])
-            assert float(largest(column(z))[0]) == _former_largest_row_sum(T, x0, jit) == \
+            assert float(largest(column(z))) == _former_largest_row_sum(T, x0, jit) == \
                 through_buffer(z)[0][0, 0]
-    assert "tol" in ipopt.data_options(far.transcription, far.transcription.lbx.clip(-1e7, 1e7), {})
+    assert ipopt.data_tolerances(far.transcription, far.transcription.lbx.clip(-1e7, 1e7))
 
 
 @pytest.mark.parametrize("name", ["rolling disk lobatto4", "parking"])
