@@ -8,8 +8,9 @@ guess=previous, jit=True)``) and rockit's function re-solve compiled to C (``to_
 of goal, start x and multipliers, CasADi ``jit``, gcc -O2), each also with the other's
 warm-start MUMPS option (dmoc re-solves with ``mumps_scaling`` 0, rockit with IPOPT's
 default 77), called in turn goal by goal over `peers_resolve.py`'s cycle of goals,
-`--repeat` times. Per method the medians per re-solve of: the call's wall time; IPOPT's
-as CasADi records it (``t_wall_total``, the nlpsol alone: for dmoc without the packed
+`--repeat` times (with `--rotate`, the method called first turns goal by goal: in the
+fixed order dmoc's first row follows rockit's and pays the caches they leave). Per method
+the medians per re-solve of: the call's wall time; IPOPT's as CasADi records it (``t_wall_total``, the nlpsol alone: for dmoc without the packed
 call's NumPy conversions); its part in function evaluations (``t_wall_nlp_*``); the rest
 of IPOPT (MUMPS and IPOPT's own work); the time outside IPOPT; the iterations; and the
 mean number of calls of each NLP Function per re-solve. Then a re-solve at the goal just
@@ -27,7 +28,7 @@ Last, dmoc's packed IPOPT call with its stacked input handed to CasADi as a NumP
 (before) and as a list of floats (`dmoc.optimize.ipopt.PackedSolver`), alternating, at
 an optimum: the same bits, the time of each.
 
-    /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife]
+    /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife] [--rotate]
 """
 
 import argparse
@@ -199,6 +200,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=40, help="cycles over the goals (default 40)")
     parser.add_argument("--problem", choices=PROBLEMS, default="disk")
+    parser.add_argument("--rotate", action="store_true",
+                        help="turn the order of the methods goal by goal (default: the order listed, "
+                             "so that dmoc's first row follows rockit's)")
     args = parser.parse_args()
     name, rule, N, N_rockit = PROBLEMS[args.problem]
     targets = peers.goals(name, 5)
@@ -212,10 +216,14 @@ def main():
                "rockit function C, MUMPS scaling 0": rockit_method(name, N_rockit, targets, 0)}
     order = list(range(1, len(targets))) + [0]
     rows = {m: [] for m in methods}
+    names, turn = list(methods), 0
     for _ in range(args.repeat):
         for i in order:
-            for method, step in methods.items():
-                rows[method].append(step(i))
+            # with --rotate the method that goes first (after the last one's caches) turns
+            first = turn % len(names) if args.rotate else 0
+            for method in names[first:] + names[:first]:
+                rows[method].append(methods[method](i))
+            turn += 1
     still = {m: [] for m in methods}          # a re-solve at the goal just solved: 0 iterations
     for _ in range(args.repeat):
         for method, step in methods.items():
