@@ -178,6 +178,22 @@ def array_with_none(name, value, size, fill):
     return np.array([fill if x is None else float(x) for x in raw], dtype=float)
 
 
+def bound_pair(name, value, size):
+    """(lower, upper) arrays of shape (size,) with None entries unbounded."""
+    if value is None:
+        return np.full(size, -np.inf), np.full(size, np.inf)
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        raise InputError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},).")
+    lower = array_with_none(name, value[0], size, -np.inf)
+    upper = array_with_none(name, value[1], size, np.inf)
+    if np.isnan(lower).any() or np.isnan(upper).any() or (lower > upper).any():
+        raise InputError(f"`{name}` must satisfy lower <= upper without NaN; got {lower}, {upper}.")
+    if (lower == np.inf).any() or (upper == -np.inf).any():
+        raise InputError(f"`{name}` must have lower bounds below +inf and upper bounds above "
+                         f"-inf (None or -inf/+inf there means unbounded); got {lower}, {upper}.")
+    return lower, upper
+
+
 # IPOPT's integer options (IPOPT's options reference, "The valid range for this integer
 # option", and the advanced ones of `print_advanced_options`): CasADi truncates a float
 # given for one (max_iter 3.7 runs 3 iterations), so a non-integral float is refused.

@@ -19,7 +19,7 @@ from .._util import checks
 from ..discrete import Discretization
 from ..errors import InputError, InputTypeError
 from ..optimize.problem import OptimalControlProblem
-from ..optimize.solve import OptimizationResult
+from ..optimize.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..simulate.simulation import SimulationResult
 from . import scheduling, sharing, shipping, tasks

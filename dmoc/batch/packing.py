@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 
 from ..principle.trajectory import Trajectory
-from . import sharing
+from . import shared_file, sharing
 
 KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
 STEP_FIELDS = ("lam", "u", "s")          # N rows per run
@@ -27,7 +27,7 @@ class PackedResults(list):
         self.share = share
 
     def __reduce__(self):
-        file = sharing.SharedFile(self.share)
+        file = shared_file.SharedFile(self.share)
         try:
             heads, arrays = pack(self, file.allocate)
         except BaseException:      # the slot taken must not stay locked
@@ -46,7 +46,7 @@ def pack(results, allocate=None):
     results : list of SimulationResult
     allocate : callable, optional
         ``allocate({name: (shape, dtype)})`` gives the arrays to fill
-        (`sharing.SharedFile.allocate`), or None for new ones (the default).
+        (`shared_file.SharedFile.allocate`), or None for new ones (the default).
 
     Returns
     -------
@@ -103,7 +103,7 @@ def unpack(heads, arrays):
 
 
 def unpack_shared(heads, path, layout):
-    """`unpack` of arrays that a `sharing.SharedFile` put in the slot `path` (copied out)."""
+    """`unpack` of arrays that a `shared_file.SharedFile` put in the slot `path` (copied out)."""
     return unpack(heads, sharing.read(path, layout))
 
 

@@ -25,7 +25,7 @@ import distributed
 
 from .._util.cache import BoundedCache
 from .packing import PackedResults
-from ..optimize.solve import OptimizationResult
+from ..optimize.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..results.optimum import optimize
 from ..simulate.lockstep import simulate_lockstep

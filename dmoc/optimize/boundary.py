@@ -1,15 +1,17 @@
 """The optimizer's boundary data: which entries of q_0 and q_N a problem may give on
 holonomic constraints, when the step rows already impose g(q_k) = 0 at every node
 (docs/holonomic.md), where the velocity rows A(q) v = 0 are imposed, and a start given by
-its momentum instead of its velocity.
+its momentum instead of its velocity; `set_boundary` sets them, checked, on an
+OptimalControlProblem (built, or copied by `with_boundary`).
 """
 
 import numpy as np
 
 from .._util import checks
 
-from ..mechanics.given import check_configuration
+from ..mechanics.given import check_allowed_velocity, check_configuration
 from ..errors import InputError
+from .read_only import frozen
 
 
 def boundary_vector(name, value, n):
@@ -104,3 +106,49 @@ def start_momentum(p_start, v_start, n):
     p_start = checks.array("p_start", p_start, (n,))
     p_start.flags.writeable = False
     return p_start
+
+
+def set_boundary(problem, given):
+    """Set the boundary data in `given` ({name: value} among q_start, q_goal, v_start,
+    v_goal, p_start; a start momentum replaces the start velocity) on the
+    OptimalControlProblem `problem`, being built or a fresh copy, and check the ends whose
+    data they change; the other data, and where their ends impose velocity rows, stay as
+    they were, checked."""
+    n, sys = problem._disc.system.n, problem._disc.system
+    for name in ("q_start", "q_goal"):
+        if name in given:
+            setattr(problem, "_" + name, frozen(boundary_vector(name, given[name], n)))
+    if "p_start" in given or "v_start" in given:
+        problem._p_start = start_momentum(given.get("p_start"), given.get("v_start"), n)
+        v_start = given.get("v_start")
+        problem._v_start = frozen(boundary_vector(
+            "v_start", [None] * n if problem._p_start is not None else np.zeros(n) if v_start is None
+            else v_start, n))
+    if "v_goal" in given:
+        problem._v_goal = frozen(boundary_vector("v_goal", given["v_goal"], n))
+    if "q_start" in given or "q_goal" in given:
+        check_holonomic_boundary(sys, problem._q_start, problem._q_goal)
+    ends = [end for end, names in _END_DATA.items() if not given.keys().isdisjoint(names)]
+    for end in ends:
+        q, v = getattr(problem, "_q_" + end), getattr(problem, "_v_" + end)
+        if given.keys() & {"q_" + end, "v_" + end} and fully_given(q, v):
+            check_allowed_velocity("v_" + end, sys, q, v)
+    lower, upper = problem._state_bounds
+    for name in (k for k in ("q_start", "q_goal") if k in given):
+        data = getattr(problem, "_" + name)
+        outside = np.isfinite(data) & ((data < lower) | (data > upper))
+        if outside.any():
+            raise InputError(f"`{name}` must lie within `state_bounds`; entries "
+                             f"{np.flatnonzero(outside).tolist()} do not.")
+    rows = dict(getattr(problem, "_velocity_rows", {}))      # a copy's own
+    if "start" in ends:
+        rows["start"] = (problem._p_start is None
+                         and imposes_velocity_rows(problem._q_start, problem._v_start))
+    if "goal" in ends:
+        rows["goal"] = imposes_velocity_rows(problem._q_goal, problem._v_goal)
+    problem._velocity_rows = rows
+
+
+# the boundary data of each end: given any of them, that end's checks and velocity rows are
+# made again (`set_boundary`)
+_END_DATA = {"start": ("q_start", "v_start", "p_start"), "goal": ("q_goal", "v_goal")}

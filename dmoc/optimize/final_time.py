@@ -2,10 +2,13 @@
 residual): fixed, T = N h with the discretization's step h an entry of the NLP's parameter
 vector p, or free in [T_min, T_max], h = T / N an entry of x. The transcription, the guess
 and the result read where h lives and what range it has from this value instead of
-testing a flag.
+testing a flag; `as_final_time` makes it from a problem's `duration` argument.
 """
 
 import numpy as np
+
+from .._util import checks
+from ..errors import InputError
 
 
 class FixedFinalTime:
@@ -92,3 +95,16 @@ class FreeFinalTime:
 
     def __repr__(self):
         return f"FreeFinalTime(T_min={self.duration[0]:g}, T_max={self.duration[1]:g})"
+
+
+def as_final_time(duration, N, h):
+    """The FixedFinalTime (duration None) or FreeFinalTime of the `duration` argument."""
+    if duration is None:
+        return FixedFinalTime(h)
+    if not isinstance(duration, (tuple, list)) or len(duration) != 2:
+        raise InputError(f"`duration` must be None (fixed, steps * h = {N * h:g}) or a pair "
+                         f"(T_min, T_max) for a free final time; got {duration!r}.")
+    T_min, T_max = (checks.positive_float("duration", T) for T in duration)
+    if T_min > T_max:
+        raise InputError(f"`duration` must have T_min <= T_max; got {duration!r}.")
+    return FreeFinalTime(T_min, T_max)

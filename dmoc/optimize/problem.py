@@ -1,6 +1,6 @@
 """Consumer 2 of the step residual, its statement: OptimalControlProblem holds the user's
 DMOC problem (Ober-Bloebaum, Junge & Marsden 2011), the discretization, the boundary data
-(checked by `boundary`), the costs, bounds and parameters, with the step residual of
+(set and checked by `boundary`), the costs, bounds and parameters, with the step residual of
 (37)/(41) that is imposed at every step, the final time and the momentum treatment chosen
 once as values. Its `transcription` (`dmoc.optimize.transcription`) is the NLP built
 from it, once.
@@ -11,13 +11,10 @@ import numpy as np
 
 from .._util import checks
 from ..discrete import Discretization
-from ..errors import InputError
-from ..mechanics.given import check_allowed_velocity
 from ..principle.formulations import as_formulation
 from ..principle.residual import step_residual
-from .boundary import (boundary_vector, check_holonomic_boundary, fully_given, imposes_velocity_rows,
-                       start_momentum)
-from .final_time import FixedFinalTime, FreeFinalTime
+from .boundary import set_boundary
+from .final_time import FixedFinalTime, as_final_time
 from .momenta import momentum_treatment
 from .parameters import ProblemParameters, cost_function, path_function
 from .read_only import ReadOnly, frozen
@@ -146,58 +143,20 @@ class OptimalControlProblem(ReadOnly):
         self._residual = step_residual(disc, self._formulation)
         self._momentum_treatment = momentum_treatment(momenta, self._residual)
         n = sys.n
-        self._final_time = _final_time(duration, N, disc.h)
+        self._final_time = as_final_time(duration, N, disc.h)
         self._parameters = w = ProblemParameters(parameters)
         default = (lambda q, v, u, w: ca.sumsqr(u)) if w.given else (lambda q, v, u: ca.sumsqr(u))
         self._running = cost_function("running_cost", running_cost or default, sys, ("q", "v", "u"), w)
         self._terminal = None if terminal_cost is None else cost_function(
             "terminal_cost", terminal_cost, sys, ("q", "v"), w)
         self._path = None if path_constraints is None else path_function(path_constraints, disc, w)
-        self._control_bounds = _bounds("control_bounds", control_bounds, sys.n_u)
-        self._state_bounds = _bounds("state_bounds", state_bounds, n)
+        self._control_bounds = checks.bound_pair("control_bounds", control_bounds, sys.n_u)
+        self._state_bounds = checks.bound_pair("state_bounds", state_bounds, n)
         for bound in (*self._control_bounds, *self._state_bounds):
             frozen(bound)
-        self._set_boundary({"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "p_start": p_start,
-                            "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
+        set_boundary(self, {"q_start": q_start, "q_goal": q_goal, "v_start": v_start,
+                            "p_start": p_start, "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
         self._transcription = Transcription(self)
-
-    def _set_boundary(self, given):
-        """Set the boundary data in `given` ({name: value} among q_start, q_goal, v_start,
-        v_goal, p_start; a start momentum replaces the start velocity) and check the ends
-        whose data they change; the other data, and where their ends impose velocity rows,
-        stay as they were, checked."""
-        n, sys = self._disc.system.n, self._disc.system
-        for name in ("q_start", "q_goal"):
-            if name in given:
-                setattr(self, "_" + name, frozen(boundary_vector(name, given[name], n)))
-        if "p_start" in given or "v_start" in given:
-            self._p_start = start_momentum(given.get("p_start"), given.get("v_start"), n)
-            v_start = given.get("v_start")
-            self._v_start = frozen(boundary_vector(
-                "v_start", [None] * n if self._p_start is not None else np.zeros(n) if v_start is None
-                else v_start, n))
-        if "v_goal" in given:
-            self._v_goal = frozen(boundary_vector("v_goal", given["v_goal"], n))
-        if "q_start" in given or "q_goal" in given:
-            check_holonomic_boundary(sys, self._q_start, self._q_goal)
-        ends = [end for end, names in _END_DATA.items() if not given.keys().isdisjoint(names)]
-        for end in ends:
-            q, v = getattr(self, "_q_" + end), getattr(self, "_v_" + end)
-            if given.keys() & {"q_" + end, "v_" + end} and fully_given(q, v):
-                check_allowed_velocity("v_" + end, sys, q, v)
-        lower, upper = self._state_bounds
-        for name in (k for k in ("q_start", "q_goal") if k in given):
-            data = getattr(self, "_" + name)
-            outside = np.isfinite(data) & ((data < lower) | (data > upper))
-            if outside.any():
-                raise InputError(f"`{name}` must lie within `state_bounds`; entries "
-                                 f"{np.flatnonzero(outside).tolist()} do not.")
-        rows = dict(getattr(self, "_velocity_rows", {}))      # a copy's own
-        if "start" in ends:
-            rows["start"] = self._p_start is None and imposes_velocity_rows(self._q_start, self._v_start)
-        if "goal" in ends:
-            rows["goal"] = imposes_velocity_rows(self._q_goal, self._v_goal)
-        self._velocity_rows = rows
 
     def _copy(self):
         """A shallow copy, its attributes this problem's until set anew (as `copy.copy`
@@ -229,7 +188,7 @@ class OptimalControlProblem(ReadOnly):
         new = self._copy()
         given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal,
                  "p_start": p_start}
-        new._set_boundary({k: v for k, v in given.items() if v is not None})
+        set_boundary(new, {k: v for k, v in given.items() if v is not None})
         same_nlp = (new._velocity_rows == self._velocity_rows
                     and (new.p_start is None) == (self.p_start is None))
         new._transcription = self._transcription.with_bounds(new) if same_nlp else Transcription(new)
@@ -347,37 +306,3 @@ class OptimalControlProblem(ReadOnly):
         T = self._transcription
         return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
                 f"free_time={self.free_time}, x: {T.x_layout.size}, g: {T.g_layout.size})")
-
-
-# the boundary data of each end: given any of them, that end's checks and velocity rows are
-# made again (`_set_boundary`)
-_END_DATA = {"start": ("q_start", "v_start", "p_start"), "goal": ("q_goal", "v_goal")}
-
-
-def _bounds(name, value, size):
-    """(lower, upper) arrays of shape (size,) with None entries unbounded."""
-    if value is None:
-        return np.full(size, -np.inf), np.full(size, np.inf)
-    if not isinstance(value, (tuple, list)) or len(value) != 2:
-        raise InputError(f"`{name}` must be a pair (lower, upper) of arrays of shape ({size},).")
-    lower = checks.array_with_none(name, value[0], size, -np.inf)
-    upper = checks.array_with_none(name, value[1], size, np.inf)
-    if np.isnan(lower).any() or np.isnan(upper).any() or (lower > upper).any():
-        raise InputError(f"`{name}` must satisfy lower <= upper without NaN; got {lower}, {upper}.")
-    if (lower == np.inf).any() or (upper == -np.inf).any():
-        raise InputError(f"`{name}` must have lower bounds below +inf and upper bounds above "
-                         f"-inf (None or -inf/+inf there means unbounded); got {lower}, {upper}.")
-    return lower, upper
-
-
-def _final_time(duration, N, h):
-    """The FixedFinalTime (duration None) or FreeFinalTime of the `duration` argument."""
-    if duration is None:
-        return FixedFinalTime(h)
-    if not isinstance(duration, (tuple, list)) or len(duration) != 2:
-        raise InputError(f"`duration` must be None (fixed, steps * h = {N * h:g}) or a pair "
-                         f"(T_min, T_max) for a free final time; got {duration!r}.")
-    T_min, T_max = (checks.positive_float("duration", T) for T in duration)
-    if T_min > T_max:
-        raise InputError(f"`duration` must have T_min <= T_max; got {duration!r}.")
-    return FreeFinalTime(T_min, T_max)

@@ -1,9 +1,9 @@
-"""The shared-memory exchange of simulate_many's packed arrays (dmoc.batch.sharing): what
-a worker writes into a slot of the client's pool the client reads back bit for bit, into
-arrays of its own, and the slot is free again; a slot that is not the client's, not of
-this chunk or too small is refused; busy slots, small chunks and full memory go through
-Dask; whatever a batch leaves in its slots is freed at its end, and the pool keeps at
-most KEPT_BYTES."""
+"""The shared-memory exchange of simulate_many's packed arrays (dmoc.batch.sharing, the
+client's side, and dmoc.batch.shared_file, the worker's): what a worker writes into a slot
+of the client's pool the client reads back bit for bit, into arrays of its own, and the
+slot is free again; a slot that is not the client's, not of this chunk or too small is
+refused; busy slots, small chunks and full memory go through Dask; whatever a batch leaves
+in its slots is freed at its end, and the pool keeps at most KEPT_BYTES."""
 
 import os
 
@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from dmoc.batch import sharing  # noqa: E402
+from dmoc.batch import shared_file, sharing  # noqa: E402
 
 if not hasattr(os, "memfd_create") or not os.path.isdir("/proc/self/fd"):
     pytest.skip("no memfd or /proc here: every chunk goes through Dask", allow_module_level=True)
@@ -34,7 +34,7 @@ def _arrays(rows=7):
 
 def _write(share, rows=7):
     """What a worker does with a chunk's arrays: (path, layout), or None (through Dask)."""
-    file, arrays = sharing.SharedFile(share), _arrays(rows)
+    file, arrays = shared_file.SharedFile(share), _arrays(rows)
     into = file.allocate({name: (a.shape, a.dtype) for name, a in arrays.items()})
     if into is None:
         return None
@@ -93,7 +93,7 @@ def test_small_chunks_busy_slots_and_no_share_use_dask():
         assert _write(None) is None
         held = []
         for _ in range(sharing.SLOTS):
-            file = sharing.SharedFile(_any_size(share))
+            file = shared_file.SharedFile(_any_size(share))
             assert file.allocate({"t": ((4,), float)}) is not None
             held.append(file)
         assert _write(_any_size(share)) is None           # every slot is being written
@@ -148,7 +148,7 @@ def test_full_memory_means_dask_and_a_free_slot(monkeypatch):
 def test_a_slot_a_writer_still_holds_at_the_end_leaves_the_pool():
     exchange = sharing.Exchange()
     with exchange as share:
-        file = sharing.SharedFile(_any_size(share))
+        file = shared_file.SharedFile(_any_size(share))
         file.allocate({"t": ((4,), float)})
         held = next(slot for slot in exchange.slots if slot.fd == file._held[1][1])
     assert held not in sharing._POOL and len(sharing._POOL) == sharing.SLOTS - 1

@@ -24,7 +24,8 @@ from dmoc._util.deferred import Pending
 from dmoc._util.numeric import Evaluator
 from dmoc.optimize import ipopt
 from dmoc.optimize.evaluation import nlp_functions
-from dmoc.optimize.solve import OptimizationResult, solve, trajectory_from_x
+from dmoc.optimize.optimization_result import OptimizationResult
+from dmoc.optimize.solve import solve, trajectory_from_x
 
 FIELDS = ("t", "q", "p", "lam", "u", "h", "variant", "mu", "s", "control_nodes", "stage_nodes")
 
