@@ -199,14 +199,14 @@ def packed_input(name, rule, N, targets, calls):
     return [float(np.median(t)) * 1e6 for t in seconds], sum(v.size for v in inputs.values())
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=40, help="cycles over the goals (default 40)")
     parser.add_argument("--problem", choices=PROBLEMS, default="disk")
     parser.add_argument("--rotate", action="store_true",
                         help="turn the order of the methods goal by goal (default: the order listed, "
                              "so that dmoc's first row follows rockit's)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     name, rule, N, N_rockit = PROBLEMS[args.problem]
     targets = peers.goals(name, 5)
     print(f"{name}: dmoc {rule} N = {N}, rockit N = {N_rockit}; load average "

@@ -199,10 +199,10 @@ def case(name, make, goals, calls):
     print(f"{'raw re-solve, jit=True (IPOPT included)':42s} {1e6 * a:9.1f} {1e6 * b:9.1f} {b / a:8.3f}")
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--calls", type=int, default=2000)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print(f"dmoc from {dmoc.__file__}; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     for name, (make, goals) in CASES.items():
         case(name, make, goals, args.calls)
