@@ -6,6 +6,7 @@ Their figures are not checked here (no timing in tests): only that they still ru
 import contextlib
 import importlib
 import io
+import os
 import pathlib
 import sys
 
@@ -28,8 +29,18 @@ QUICK = {
 
 @pytest.fixture(autouse=True)
 def benchmarks_path(monkeypatch):
-    """benchmarks/ first on sys.path, as when a script runs: they import their siblings."""
+    """benchmarks/ first on sys.path, as when a script runs: they import their siblings.
+    Afterwards the scripts leave no trace: their modules (top-level names such as `batch`
+    or `units`) are dropped and the environment they set at import (OMP_NUM_THREADS) is
+    restored."""
     monkeypatch.syspath_prepend(str(BENCHMARKS))
+    environ = dict(os.environ)
+    yield
+    for name, module in list(sys.modules.items()):
+        if pathlib.Path(getattr(module, "__file__", None) or "/").parent == BENCHMARKS:
+            del sys.modules[name]
+    os.environ.clear()
+    os.environ.update(environ)
 
 
 def benchmark(name):
