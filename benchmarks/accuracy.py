@@ -170,14 +170,14 @@ def timed(name, rule, mode, N, repeat):
     return min(runs, key=lambda run: run["time"])
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--start", type=int, default=10, help="N of the target's first level")
     parser.add_argument("--estimates", action="store_true",
                         help="time estimate_error against the solve instead, at N*_J,q")
     parser.add_argument("--one", nargs=4, metavar=("PROBLEM", "RULE", "MODE", "N"), help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.one:
         name, rule, mode, N = args.one
         print(json.dumps(one_run(name, rule, mode, int(N))))

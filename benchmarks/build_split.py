@@ -11,7 +11,9 @@ For each problem and N, the minimum over `--repeat` builds of:
   Python-side implementation avoids;
 
 and the solve time (also the minimum), and build / solve. The system is built once,
-before the clock starts (as the baselines' ODE Function is).
+before the clock starts (as the baselines' ODE Function is). The solves are not judged
+(``check=False``): the verdict is outside both times, and the warm-up's coarse grid
+(N = 10) fails it (under_resolved).
 
     python benchmarks/build_split.py
     PYTHONPATH=/path/to/other/checkout python benchmarks/build_split.py   # compare checkouts
@@ -67,7 +69,7 @@ def split(label, steps, repeat):
         tic = time.perf_counter()
         derivatives = problem.separable.derivatives()
         assembly = time.perf_counter() - tic
-        result = dmoc.optimize(problem)
+        result = dmoc.optimize(problem, check=False)
         runs.append((construct, assembly, result.stats["build_time"], index_floor(derivatives),
                      result.stats["solve_time"]))
     return tuple(min(column) for column in zip(*runs))

@@ -39,10 +39,10 @@ def best_of(repeat, run):
     return min(times)
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     warnings.simplefilter("ignore")
     print(f"# {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
           f"best of {args.repeat}")

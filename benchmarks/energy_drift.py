@@ -22,10 +22,10 @@ def cases():
         yield f"car, b = {b} m", car, [0, 0, 0, 0.5], [5.0, 0, 5.0 * np.tan(0.5) / 2.7, 0]
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=1000.0)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print(f"{'system':26s} {'rule':9s} {'h':>7s} {'rate (1/s)':>11s} {'change':>10s}")
     for name, system, q0, v0 in cases():
         for rule, h in (("midpoint", 0.05), ("midpoint", 0.025), ("lobatto3", 0.1), ("lobatto3", 0.05)):

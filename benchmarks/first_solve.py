@@ -18,10 +18,10 @@ import dmoc.problems  # noqa: E402
 from solver_cache import forget_solvers  # noqa: E402
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=25)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print(f"dmoc from {os.path.dirname(dmoc.__file__)}; load average "
           f"{'%.2f %.2f %.2f' % os.getloadavg()}")
     for name, make in (("A", dmoc.problems.knife_edge_parking), ("B", dmoc.problems.rolling_disk_steering)):

@@ -73,12 +73,12 @@ def run(checkout, arguments, out):
     return wall, cpu, solve
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--checkouts", nargs="+",
                         default=[str(pathlib.Path(__file__).resolve().parents[1])])
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load average "
           f"{'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     for checkout in args.checkouts:

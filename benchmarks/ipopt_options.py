@@ -35,12 +35,12 @@ SETS = {"mumps_mem_percent 100": {"mumps_mem_percent": 100},
         "no NLP scaling (nlp_scaling_method none)": {"nlp_scaling_method": "none"}}
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=40, help="cycles over the goals")
     parser.add_argument("--problem", choices=PROBLEMS, default="disk")
     parser.add_argument("--sets", type=json.loads, default=SETS, help="JSON {name: options}")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     name, rule, N = PROBLEMS[args.problem]
     print(f"{name}, {rule}, N = {N}; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     sets = {"base": {}, **args.sets}

@@ -51,13 +51,13 @@ def judge_times(name, rule, N, repeat):
     return float(np.median(seconds[len(optima):])) * 1e3
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--checkouts", nargs="+", default=[os.getcwd()])
     parser.add_argument("--repeat", type=int, default=20)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--child", nargs=3)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.child:
         name, rule, N = args.child
         print(json.dumps(judge_times(name, rule, int(N), args.repeat)))

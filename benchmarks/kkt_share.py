@@ -25,8 +25,10 @@ fixed variables at every iteration (a gradient each; dmoc's default "make_parame
 leaves them to `dmoc.optimize.fixed_multipliers`, made when result.lam_x is read): the
 same iterates, dmoc's default before the fourth pass.
 Last, dmoc's packed IPOPT call with its stacked input handed to CasADi as a NumPy array
-(before) and as a list of floats (`dmoc.optimize.ipopt.PackedSolver`), alternating, at
-an optimum: the same bits, the time of each.
+(before "IPOPT's share of a re-solve") and through the packed Function's buffer
+(`dmoc.optimize.ipopt.PackedSolver` since "The Python around IPOPT, third pass";
+the list of floats in between is no longer timed), alternating, at an optimum: the same
+bits, the time of each.
 
     /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife] [--rotate]
 """
@@ -166,8 +168,9 @@ def kkt(name, rule, N, N_rockit, targets):
 
 
 def packed_input(name, rule, N, targets, calls):
-    """(median us of the packed IPOPT call with its input as a NumPy array (before) and as
-    a list (`dmoc.optimize.ipopt.PackedSolver`, now), the number of entries): `calls`
+    """(median us of the packed IPOPT call with its input as a NumPy array (before) and
+    through the packed Function's buffer (`dmoc.optimize.ipopt.PackedSolver`, now), the
+    number of entries): `calls`
     alternating calls at the optimum of the second goal, from its own x and multipliers
     (0 iterations: the call's conversions stand out); the outputs of the two have the same
     bits (asserted)."""
@@ -196,14 +199,14 @@ def packed_input(name, rule, N, targets, calls):
     return [float(np.median(t)) * 1e6 for t in seconds], sum(v.size for v in inputs.values())
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=40, help="cycles over the goals (default 40)")
     parser.add_argument("--problem", choices=PROBLEMS, default="disk")
     parser.add_argument("--rotate", action="store_true",
                         help="turn the order of the methods goal by goal (default: the order listed, "
                              "so that dmoc's first row follows rockit's)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     name, rule, N, N_rockit = PROBLEMS[args.problem]
     targets = peers.goals(name, 5)
     print(f"{name}: dmoc {rule} N = {N}, rockit N = {N_rockit}; load average "
@@ -243,10 +246,10 @@ def main():
         print(f"  {method:<7} variables {s['variables']}, rows {s['rows']}, KKT rows {s['variables'] + s['rows']}, "
               f"nnz jac_g {s['jac']}, hess_l {s['hess']}; entries in the factors {s['factor'][0]}, "
               f"operations per factorization {s['factor'][1]:.3g}")
-    (array, listed), entries = packed_input(name, rule, N, targets, 20 * args.repeat)
+    (array, buffered), entries = packed_input(name, rule, N, targets, 20 * args.repeat)
     print(f"\ndmoc's packed IPOPT call at an optimum (0 iterations), its input of {entries} entries as a "
-          f"NumPy array (before) {array:.1f} us, as a list (now) {listed:.1f} us: {listed / array:.3f}, "
-          f"{array - listed:.1f} us less; the same bits")
+          f"NumPy array (before) {array:.1f} us, through the Function's buffer (now) {buffered:.1f} us: "
+          f"{buffered / array:.3f}, {array - buffered:.1f} us less; the same bits")
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 

@@ -10,6 +10,7 @@ where the grid does not resolve the motion), and whether the simulator replays t
     python benchmarks/mixed_inertia.py
 """
 
+import argparse
 import os
 import platform
 import time
@@ -52,7 +53,8 @@ def collocation_row(mass, inertia, heading, method):
     return r.iterations, r.status, r.cost, time.perf_counter() - tic, "", "", ""
 
 
-def main():
+def main(argv=None):
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
     print(f"python {platform.python_version()}, casadi {ca.__version__}; N = {N}; "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
     head = (f"{'theta0':>7}{'m':>8}{'J':>8}  {'method':<16}{'it':>5}  {'status':<30}{'cost':>12}{'s':>8}"

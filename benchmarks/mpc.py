@@ -138,7 +138,7 @@ def takes(checkout, switch):
                           check=True).stdout.strip() == "True"
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--horizon", type=int, default=30)
     parser.add_argument("--steps", type=int, default=40)
@@ -149,7 +149,7 @@ def main():
                         help="also run dmoc.MPC(problem, expand=False) (the MX graph)")
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
     parser.add_argument("--mode", choices=SWITCHES, default="default", help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.child:
         print(json.dumps(closed_loop(args.horizon, args.steps, args.child == "warmed-up", args.mode)))
         return

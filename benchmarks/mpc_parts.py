@@ -97,14 +97,14 @@ def closed_loop(horizon, steps):
             "iterations": float(iterations), "final q": q.tolist()}
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--horizon", type=int, default=30)
     parser.add_argument("--steps", type=int, default=240)
     parser.add_argument("--repeat", type=int, default=5)
     add_checkouts(parser)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.child:
         print(json.dumps(closed_loop(args.horizon, args.steps)))
         return

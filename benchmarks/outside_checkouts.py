@@ -97,16 +97,17 @@ def collect(args, kind, name):
     return runs
 
 
-def main():
-    if sys.argv[1:2] == ["--child"]:
-        run = resolves if sys.argv[2] == "resolve" else boundaries
-        print(json.dumps(run(sys.argv[3], int(sys.argv[4]))))
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--child"]:
+        run = resolves if argv[1] == "resolve" else boundaries
+        print(json.dumps(run(argv[2], int(argv[3]))))
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_checkouts(parser)
     parser.add_argument("--rounds", type=int, default=6)
     parser.add_argument("--count", type=int, default=300)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     for checkout in args.checkouts:
         print(f"{checkout}: {imported_dmoc(checkout)}")
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")

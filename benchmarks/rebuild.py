@@ -10,6 +10,7 @@ process (the first call must build everything); prints the wall times and their 
     PYTHONPATH=/path/to/other/checkout python benchmarks/rebuild.py   # compare checkouts
 """
 
+import argparse
 import os
 import platform
 import subprocess
@@ -45,10 +46,12 @@ def case(name, variant):
             timed_run(make(), q0, v0, 0.0025, variant))
 
 
-def main():
-    if len(sys.argv) == 3:          # one case, in this fresh process
-        print(*case(sys.argv[1], sys.argv[2]))
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if len(argv) == 2:              # one case, in this fresh process
+        print(*case(*argv))
         return
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
     print(f"dmoc from {os.path.dirname(dmoc.__file__)}; python {platform.python_version()}, "
           f"casadi {ca.__version__}; {STEPS} steps, midpoint rule, one process per row")
     head = (f"{'system':<14}{'variant':>8}{'first [s]':>11}{'same sys [s]':>14}{'ratio':>7}"

@@ -173,12 +173,12 @@ def loop_pieces(count):
             **{label: float(np.median(times)) for label, times in spent.items()}}
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--count", type=int, default=600, help="re-solves per chain and problem")
     parser.add_argument("--calls", type=int, default=20000, help="calls per piece")
     parser.add_argument("--loop", type=int, default=0, help="only time the pieces in this many re-solves")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print(f"dmoc from {dmoc.__file__}; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start\n")
     if args.loop:
         print("| rolling disk, lobatto4, N = 11: in the loop | us per re-solve |\n|---|---:|")

@@ -240,12 +240,12 @@ def loop(count):
           f"{1e3 * np.median(ipopt_time):.3f} ms")
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--calls", type=int, default=1000)
     parser.add_argument("--loop", type=int, default=0,
                         help="only run this many raw re-solves of the disk (for perf or cProfile)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.loop:
         loop(args.loop)
         return

@@ -16,6 +16,11 @@ q_goal=g), guess=previous, jit=True)`` with the old and the new pieces swapped i
 pair is checked to give the same bits. Reported: medians over `--calls` alternating calls
 (microseconds) and new / old.
 
+"New" is today's code: the packed IPOPT call and the row sums have gone through their
+Functions' buffers (`dmoc._util.numeric.Evaluator`) since the third pass, not through
+the lists of the second, so their rows compare CasADi's own conversions with the buffers
+(the old forms call the Function the Evaluator wraps, ``Evaluator.function``).
+
     python benchmarks/resolve_python.py [--calls 2000]
 """
 
@@ -36,7 +41,6 @@ from dmoc.optimize import solve as solve_module  # noqa: E402
 from dmoc.optimize.solve import solve, trajectory_from_x  # noqa: E402
 from dmoc.principle.trajectory import Trajectory  # noqa: E402
 from dmoc.optimize.terms import broadcast  # noqa: E402
-from dmoc._util.conversions import column  # noqa: E402
 
 CASES = {
     "rolling disk, lobatto4, N = 11": (
@@ -52,21 +56,28 @@ CASES = {
 
 
 def old_packed_call(self, **inputs):
-    """`PackedSolver.__call__` before: the output by `full()`."""
+    """`PackedSolver.__call__` before: the packed Function called on the NumPy input, the
+    output by `full()`."""
     z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-    return self._outputs.split(self._function(z).full().ravel())
+    return self._outputs.split(self._function.function(z).full().ravel())
+
+
+def old_stats(self):
+    """`PackedSolver.stats` before: those of the packed Function's own last call."""
+    return self._function.function.stats()
 
 
 def old_row_sums(T, x0, jit):
     """`data_tolerances`' row sums before: CasADi converts the NumPy vector (of [x0; p],
     the argument since the third pass, benchmarks/resolve_outside.py)."""
     largest = ipopt._ROW_SUMS.get((T.structure, jit), None)
-    return float(largest(np.concatenate([x0, T.p])))
+    return float(largest.function(np.concatenate([x0, T.p])))
 
 
 def new_row_sums(T, x0, jit):
+    """`data_tolerances`' row sums now: through the Function's buffer."""
     largest = ipopt._ROW_SUMS.get((T.structure, jit), None)
-    return float(largest(column(np.concatenate([x0, T.p]))))
+    return float(largest(np.concatenate([x0, T.p]))[0][0, 0])
 
 
 def old_momenta(problem):
@@ -136,11 +147,12 @@ def same(a, b):
 
 
 def swapped(old):
-    """Install the old (True) or the new (False) packed call and momenta."""
+    """Install the old (True) or the new (False) packed call and its statistics."""
     ipopt.PackedSolver.__call__ = old_packed_call if old else NEW_PACKED_CALL
+    ipopt.PackedSolver.stats = old_stats if old else NEW_STATS
 
 
-NEW_PACKED_CALL = ipopt.PackedSolver.__call__
+NEW_PACKED_CALL, NEW_STATS = ipopt.PackedSolver.__call__, ipopt.PackedSolver.stats
 
 
 def case(name, make, goals, calls):
@@ -187,10 +199,10 @@ def case(name, make, goals, calls):
     print(f"{'raw re-solve, jit=True (IPOPT included)':42s} {1e6 * a:9.1f} {1e6 * b:9.1f} {b / a:8.3f}")
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--calls", type=int, default=2000)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print(f"dmoc from {dmoc.__file__}; load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     for name, (make, goals) in CASES.items():
         case(name, make, goals, args.calls)

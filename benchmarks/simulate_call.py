@@ -55,14 +55,14 @@ def child(checkout, args):
     return {int(k): v for k, v in json.loads(out).items()}
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, nargs="+", default=[10, 100, 1000])
     parser.add_argument("--calls", type=int, default=300)
     parser.add_argument("--repeat", type=int, default=3)
     add_checkouts(parser)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.child:
         print(json.dumps(calls(args.steps, args.calls)))
         return

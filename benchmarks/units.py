@@ -12,6 +12,7 @@ is the SI one), the mixed-inertia blades of benchmarks/mixed_inertia.py, lane ch
     python benchmarks/units.py <git revision>  # before = that revision
 """
 
+import argparse
 import json
 import os
 import platform
@@ -95,7 +96,19 @@ def run(checkout):
     return {row["case"]: row for row in map(json.loads, out.splitlines())}
 
 
-def main(revision):
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("revision", nargs="?", default="main", help="the checkout before (default main)")
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        child()
+    else:
+        compare(args.revision)
+
+
+def compare(revision):
+    """Print the cases solved by `revision` (before) and this checkout (after)."""
     with tempfile.TemporaryDirectory() as before:
         archive = subprocess.run(["git", "-C", ROOT, "archive", revision], capture_output=True, check=True).stdout
         subprocess.run(["tar", "-x", "-C", before], input=archive, check=True)
@@ -115,7 +128,4 @@ def main(revision):
 
 
 if __name__ == "__main__":
-    if sys.argv[1:] == ["--child"]:
-        child()
-    else:
-        main(sys.argv[1] if len(sys.argv) > 1 else "main")
+    main()

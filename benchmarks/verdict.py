@@ -46,13 +46,13 @@ def one_process(name, rule, N, repeat):
     return f"{first} {again} {raw}"
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--steps", type=int, nargs="+", default=STEPS, help="N (default 100 1000)")
     parser.add_argument("--rules", nargs="+", default=RULES, choices=RULES)
     parser.add_argument("--child", nargs=3)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.child:
         name, rule, N = args.child
         print(one_process(name, rule, int(N), args.repeat))
