@@ -46,7 +46,7 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
     Each worker gets each problem structure once and keeps its solver; a problem that
     ``with_boundary`` / ``with_parameters`` of one already shipped rebuilds (the same
     NLP, bounds and p) travels as its boundary data and parameter values only. Items go
-    in chunks of about 0.2 s of measured work (`dmoc.batch.chunks`).
+    in chunks of about 0.5 s of measured work (`dmoc.batch.chunks`).
 
     Parameters
     ----------

@@ -8,8 +8,9 @@ import math
 from collections import deque
 from statistics import median
 
-# CPU seconds of work one task aims at: a few hundred milliseconds (docs/batch.md).
-TARGET = 0.2
+# CPU seconds of work one task aims at: half a second, so that the client's share of Dask's
+# cost per task stays a few per cent of a batch's CPU (docs/performance.md, "Fifteenth").
+TARGET = 0.5
 
 # The chunks each worker thread gets at least from the items still queued, so that the
 # last tasks end close together ...
@@ -40,10 +41,10 @@ class ChunkSizes:
 
     >>> sizes = ChunkSizes()
     >>> sizes.next(1000, 2), sizes.budget
-    (250, 0.2)
+    (250, 0.5)
     >>> sizes.measured([0.004, 0.005, 0.006])
     >>> sizes.next(1000, 2), sizes.next(40, 2), sizes.next(8, 2), sizes.budget
-    (40, 10, 10, None)
+    (100, 10, 10, None)
     """
 
     def __init__(self):

@@ -120,15 +120,15 @@ def test_an_item_that_kills_its_chunks_workers_is_the_only_one_lost():
 
 @pytest.mark.parametrize("seconds, queued, threads, size", [
     ([], 1000, 2, 250),                               # nothing measured yet: a thread's share
-    ([0.004, 0.005, 0.006], 1000, 2, 40),             # 0.2 s / 5 ms
+    ([0.004, 0.005, 0.006], 1000, 2, 100),            # 0.5 s / 5 ms
     ([0.004, 0.005, 0.006], 80, 2, 20),               # 80 / (2 chunks x 2 threads)
     ([0.004, 0.005, 0.006], 40, 2, 10),               # the tail: at least 0.05 s a chunk
-    ([0.3], 1000, 2, 1),                              # slower than the target
-    ([0.5, 0.01, 0.01], 1000, 8, 20),                 # the median, not the first solve
+    ([0.6], 1000, 2, 1),                              # slower than the target
+    ([0.5, 0.01, 0.01], 1000, 8, 50),                 # the median, not the first solve
     ([0.001], 20, 2, 50),                             # the tail: at least 0.05 s a chunk
     ([0.001], 2000, 64, 50),                          # many threads: the same floor
 ])
-def test_chunk_size_aims_at_a_fifth_of_a_second_and_leaves_work_for_every_thread(
+def test_chunk_size_aims_at_half_a_second_and_leaves_work_for_every_thread(
         seconds, queued, threads, size):
     sizes = ChunkSizes()
     sizes.measured(seconds)
