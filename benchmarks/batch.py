@@ -112,15 +112,23 @@ def with_start(steps, count):
     return wall
 
 
+def knife_edge_runs(count, steps):
+    """(Discretization, runs) of the simulate benchmarks: the knife edge at h = 0.01 and
+    `count` runs of `steps` steps from rest at the origin with v0 = (c, 0, 1), c from 0.5
+    to 2, compiled to C where there is a compiler (the same path serially and on the
+    workers)."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
+    jit = compiled.compiler() is not None
+    return disc, [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
+                  for c in np.linspace(0.5, 2.0, count)]
+
+
 def simulate_rows(cluster, steps, count, repeat=1):
     """(label, serial wall, serial CPU, batch wall, batch CPU, max |dq|) of `count`
     knife-edge runs of `steps` steps, for ``keep="trajectory"`` and ``keep="final"``
     (compared with the last knot of the serial runs): medians of `repeat` rounds, each
     timing the serial loop and then each batch, so that both see the same load."""
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    jit = compiled.compiler() is not None           # the same path serially and on the workers
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
-            for c in np.linspace(0.5, 2.0, count)]
+    disc, runs = knife_edge_runs(count, steps)
     dmoc.simulate(disc, **runs[0])
     for keep in ("trajectory", "final"):
         batch.simulate_many(disc, runs[:2 * WORKERS], keep=keep, client=cluster, progress=False)

@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from dmoc._util import compiled  # noqa: E402
+from batch import knife_edge_runs  # noqa: E402
 
 WORKERS = 2
 EARLY = 0.15        # seconds at the start of a batch whose idle time is counted apart
@@ -68,10 +68,7 @@ def knife_edge_batches(description, batches, argv=None):
     parser.add_argument("--keep", choices=batch.KEEP, default="trajectory")
     args = parser.parse_args(argv)
     print(f"dmoc from {os.path.dirname(dmoc.__file__)}, load average %.2f %.2f %.2f" % os.getloadavg())
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": args.steps, "jit": compiled.compiler() is not None}
-            for c in np.linspace(0.5, 2.0, args.count)]
-    return args, disc, runs
+    return (args, *knife_edge_runs(args.count, args.steps))
 
 
 def main(argv=None):

@@ -20,11 +20,10 @@ import time
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from dmoc._util import compiled  # noqa: E402
+from batch import knife_edge_runs  # noqa: E402
 
 TICKS = os.sysconf("SC_CLK_TCK")
 
@@ -67,10 +66,7 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--count", type=int, default=1000)
     args = parser.parse_args(argv)
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    jit = compiled.compiler() is not None
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 1000, "jit": jit}
-            for c in np.linspace(0.5, 2.0, args.count)]
+    disc, runs = knife_edge_runs(args.count, 1000)
     dmoc.simulate(disc, **runs[0])
     print("load average %.2f %.2f %.2f" % os.getloadavg())
     with batch.Cluster(workers=2) as cluster:

@@ -24,9 +24,9 @@ import cloudpickle  # noqa: E402
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc._util import compiled  # noqa: E402
 from dmoc.batch import sharing, shipping, tasks  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
+from batch import knife_edge_runs  # noqa: E402
 
 CHUNK = 125
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
@@ -55,10 +55,7 @@ def main(argv=None):
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--runs", type=int, default=1000)
     args = parser.parse_args(argv)
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    jit = compiled.compiler() is not None
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 1000, "jit": jit}
-            for c in np.linspace(0.5, 2.0, args.runs)]
+    disc, runs = knife_edge_runs(args.runs, 1000)
     serial = [dmoc.simulate(disc, **run) for run in runs]
     items = [bytes(shipping.item("runs", run)) for run in runs]
     calls = [(lambda item=item: (disc, cloudpickle.loads(item)), None) for item in items]
