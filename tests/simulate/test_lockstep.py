@@ -320,3 +320,24 @@ def test_random_groups_with_failing_runs_equal_the_runs_alone(seed):
     for a, b in zip(finals, want):
         b.trajectory = final_knot(b.trajectory)
         _assert_same(a, b)
+
+
+def test_each_run_of_a_group_times_its_wall_from_its_own_start():
+    """``stats["wall_time"]`` of each run of a group that completes every step counts
+    from that run's own `tic` (when its stepper was asked for), not another run's: runs
+    given starts 10 s apart get wall times 10 s apart, each within the clock readings
+    around the call (the oracle: the tics set here and `time.perf_counter`)."""
+    import time
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    prepared = [prepare(disc, q0=[0, 0, 0], v0=[c, 0, 1], steps=5, throw=False)
+                for c in (0.5, 1.0, 2.0, 3.0)]
+    assert len(lockstep.groups(prepared)) == 1
+    base = time.perf_counter()
+    for i, run in enumerate(prepared):
+        run.tic = base - 10.0 * (3 - i)
+    before = time.perf_counter()
+    results = simulate_lockstep(prepared)
+    after = time.perf_counter()
+    for run, result in zip(prepared, results):
+        assert result.success
+        assert before - run.tic <= result.stats["wall_time"] <= after - run.tic
