@@ -341,3 +341,25 @@ def test_each_run_of_a_group_times_its_wall_from_its_own_start():
     for run, result in zip(prepared, results):
         assert result.success
         assert before - run.tic <= result.stats["wall_time"] <= after - run.tic
+
+
+def test_each_run_starts_from_its_own_q0_p0_and_h_v0():
+    """`prepare_runs` of runs of one stepper (velocities and momenta given, mixed): each
+    run's start state is its own q0, its p0 (dL/dv = v0 for L = |v|^2 / 2), h v0 as the
+    first Newton increment (zeros without v0) and zeros elsewhere (the oracle: the state
+    built by hand from the layout). The start guess only steers Newton, so the results
+    alone do not show a wrong one."""
+    disc = dmoc.discretize(dmoc.MechanicalSystem(
+        lambda q, v: 0.5 * (v[0] ** 2 + v[1] ** 2), 2), 0.3)
+    runs = [{"q0": [1.0 * i, -0.5 * i], "steps": 3,
+             **({"v0": [0.7 + i, 2.0 - i]} if i % 2 else {"p0": [0.1 * i, 1.5]})}
+            for i in range(6)]
+    prepared = prepare_runs(disc, runs)
+    assert len({id(run.stepper) for run in prepared}) == 1
+    for given, run in zip(runs, prepared):
+        state = run.stepper.state
+        want = np.zeros(state.size)
+        want[state.slice("q")] = given["q0"]
+        want[state.slice("p")] = given.get("p0", given.get("v0"))
+        want[state.slice("dq")] = 0.3 * np.array(given["v0"]) if "v0" in given else 0.0
+        np.testing.assert_allclose(run.start, want, rtol=1e-15, atol=0)
