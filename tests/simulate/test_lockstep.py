@@ -363,3 +363,26 @@ def test_each_run_starts_from_its_own_q0_p0_and_h_v0():
         want[state.slice("p")] = given.get("p0", given.get("v0"))
         want[state.slice("dq")] = 0.3 * np.array(given["v0"]) if "v0" in given else 0.0
         np.testing.assert_allclose(run.start, want, rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_final_keeps_the_last_knot_of_the_whole_trajectory_cut_by_hand(variant):
+    """``final=True`` on a group of runs (a rule with stages): each trajectory is the
+    whole one of `simulate` alone sliced by hand with numpy (t, q, p of the last knot;
+    lam, u, s with no row, their widths kept; h, mu and the nodes unchanged), not through
+    `Trajectory.assembled`'s own cut."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule="lobatto3")
+    runs = [{"q0": [0, 0, 0.1 * i], "v0": [np.cos(0.1 * i), np.sin(0.1 * i), 1.0],
+             "steps": 6, "variant": variant} for i in range(4)]
+    whole = _serial(disc, runs)
+    got = simulate_lockstep([prepare(disc, **run, throw=False) for run in runs], final=True)
+    for a, b in zip(got, whole):
+        assert a.success and b.success
+        want = b.trajectory
+        assert want.s.shape[1] > 0
+        for name in ("t", "q", "p"):
+            np.testing.assert_array_equal(getattr(a.trajectory, name), getattr(want, name)[-1:])
+        for name in ("lam", "u", "s"):
+            assert getattr(a.trajectory, name).shape == (0,) + getattr(want, name).shape[1:], name
+        np.testing.assert_array_equal(a.trajectory.mu, want.mu)
+        assert a.trajectory.h == want.h and a.trajectory.stage_nodes == want.stage_nodes
