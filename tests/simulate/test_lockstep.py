@@ -386,3 +386,34 @@ def test_final_keeps_the_last_knot_of_the_whole_trajectory_cut_by_hand(variant):
             assert getattr(a.trajectory, name).shape == (0,) + getattr(want, name).shape[1:], name
         np.testing.assert_array_equal(a.trajectory.mu, want.mu)
         assert a.trajectory.h == want.h and a.trajectory.stage_nodes == want.stage_nodes
+
+
+def test_arrays_of_other_dtypes_are_checked_as_checks_array_checks_them(monkeypatch):
+    """q0 and v0 given as numpy arrays of shape (n,) but not float64 (booleans, strings,
+    objects, complex, ints, float32) among good runs: `prepare_runs` gives each run the
+    error or start that `prepare` gives it alone with every array checked by
+    `checks.array` (the oracle: `_plain_rows` switched off)."""
+    from dmoc.simulate import preparation
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    arrays = [np.array([True, False, True]), np.array(["0", "1", "0"]),
+              np.array([0.0, 1, 0], dtype=object), np.array([0, 1j, 0]),
+              np.array([0, 2 ** 62, 1]), np.arange(3, dtype=np.float32),
+              np.arange(3, dtype=np.uint8)]
+    runs = []
+    for a in arrays:
+        runs += [{"q0": a, "v0": [1.0, 0.0, 1.0], "steps": 3},
+                 {"q0": [0.0, 0.0, 0.0], "v0": a, "steps": 3},
+                 {"q0": [0.5, 0.0, 0.0], "v0": [1.0, 0.0, 1.0], "steps": 3}]
+    prepared = prepare_runs(disc, runs)
+    monkeypatch.setattr(preparation, "_plain_rows", lambda n, runs: {})
+    errors = 0
+    for run, got in zip(runs, prepared):
+        try:
+            want = prepare(disc, **run)
+        except Exception as err:            # noqa: BLE001 - the oracle's own error
+            assert type(got) is type(err) and str(got) == str(err), run
+            errors += 1
+        else:
+            assert not isinstance(got, Exception), (run, got)
+            assert got.start.tobytes() == want.start.tobytes()
+    assert errors >= 6
