@@ -320,3 +320,100 @@ def test_random_groups_with_failing_runs_equal_the_runs_alone(seed):
     for a, b in zip(finals, want):
         b.trajectory = final_knot(b.trajectory)
         _assert_same(a, b)
+
+
+def test_each_run_of_a_group_times_its_wall_from_its_own_start():
+    """``stats["wall_time"]`` of each run of a group that completes every step counts
+    from that run's own `tic` (when its stepper was asked for), not another run's: runs
+    given starts 10 s apart get wall times 10 s apart, each within the clock readings
+    around the call (the oracle: the tics set here and `time.perf_counter`)."""
+    import time
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    prepared = [prepare(disc, q0=[0, 0, 0], v0=[c, 0, 1], steps=5, throw=False)
+                for c in (0.5, 1.0, 2.0, 3.0)]
+    assert len(lockstep.groups(prepared)) == 1
+    base = time.perf_counter()
+    for i, run in enumerate(prepared):
+        run.tic = base - 10.0 * (3 - i)
+    before = time.perf_counter()
+    results = simulate_lockstep(prepared)
+    after = time.perf_counter()
+    for run, result in zip(prepared, results):
+        assert result.success
+        assert before - run.tic <= result.stats["wall_time"] <= after - run.tic
+
+
+def test_each_run_starts_from_its_own_q0_p0_and_h_v0():
+    """`prepare_runs` of runs of one stepper (velocities and momenta given, mixed): each
+    run's start state is its own q0, its p0 (dL/dv = v0 for L = |v|^2 / 2), h v0 as the
+    first Newton increment (zeros without v0) and zeros elsewhere (the oracle: the state
+    built by hand from the layout). The start guess only steers Newton, so the results
+    alone do not show a wrong one."""
+    disc = dmoc.discretize(dmoc.MechanicalSystem(
+        lambda q, v: 0.5 * (v[0] ** 2 + v[1] ** 2), 2), 0.3)
+    runs = [{"q0": [1.0 * i, -0.5 * i], "steps": 3,
+             **({"v0": [0.7 + i, 2.0 - i]} if i % 2 else {"p0": [0.1 * i, 1.5]})}
+            for i in range(6)]
+    prepared = prepare_runs(disc, runs)
+    assert len({id(run.stepper) for run in prepared}) == 1
+    for given, run in zip(runs, prepared):
+        state = run.stepper.state
+        want = np.zeros(state.size)
+        want[state.slice("q")] = given["q0"]
+        want[state.slice("p")] = given.get("p0", given.get("v0"))
+        want[state.slice("dq")] = 0.3 * np.array(given["v0"]) if "v0" in given else 0.0
+        np.testing.assert_allclose(run.start, want, rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("variant", ["+", "-"])
+def test_final_keeps_the_last_knot_of_the_whole_trajectory_cut_by_hand(variant):
+    """``final=True`` on a group of runs (a rule with stages): each trajectory is the
+    whole one of `simulate` alone sliced by hand with numpy (t, q, p of the last knot;
+    lam, u, s with no row, their widths kept; h, mu and the nodes unchanged), not through
+    `Trajectory.assembled`'s own cut."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1, rule="lobatto3")
+    runs = [{"q0": [0, 0, 0.1 * i], "v0": [np.cos(0.1 * i), np.sin(0.1 * i), 1.0],
+             "steps": 6, "variant": variant} for i in range(4)]
+    whole = _serial(disc, runs)
+    got = simulate_lockstep([prepare(disc, **run, throw=False) for run in runs], final=True)
+    for a, b in zip(got, whole):
+        assert a.success and b.success
+        want = b.trajectory
+        assert want.s.shape[1] > 0
+        for name in ("t", "q", "p"):
+            np.testing.assert_array_equal(getattr(a.trajectory, name), getattr(want, name)[-1:])
+        for name in ("lam", "u", "s"):
+            assert getattr(a.trajectory, name).shape == (0,) + getattr(want, name).shape[1:], name
+        np.testing.assert_array_equal(a.trajectory.mu, want.mu)
+        assert a.trajectory.h == want.h and a.trajectory.stage_nodes == want.stage_nodes
+
+
+def test_arrays_of_other_dtypes_are_checked_as_checks_array_checks_them(monkeypatch):
+    """q0 and v0 given as numpy arrays of shape (n,) but not float64 (booleans, strings,
+    objects, complex, ints, float32) among good runs: `prepare_runs` gives each run the
+    error or start that `prepare` gives it alone with every array checked by
+    `checks.array` (the oracle: `_plain_rows` switched off)."""
+    from dmoc.simulate import preparation
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    arrays = [np.array([True, False, True]), np.array(["0", "1", "0"]),
+              np.array([0.0, 1, 0], dtype=object), np.array([0, 1j, 0]),
+              np.array([0, 2 ** 62, 1]), np.arange(3, dtype=np.float32),
+              np.arange(3, dtype=np.uint8)]
+    runs = []
+    for a in arrays:
+        runs += [{"q0": a, "v0": [1.0, 0.0, 1.0], "steps": 3},
+                 {"q0": [0.0, 0.0, 0.0], "v0": a, "steps": 3},
+                 {"q0": [0.5, 0.0, 0.0], "v0": [1.0, 0.0, 1.0], "steps": 3}]
+    prepared = prepare_runs(disc, runs)
+    monkeypatch.setattr(preparation, "_plain_rows", lambda n, runs: {})
+    errors = 0
+    for run, got in zip(runs, prepared):
+        try:
+            want = prepare(disc, **run)
+        except Exception as err:            # noqa: BLE001 - the oracle's own error
+            assert type(got) is type(err) and str(got) == str(err), run
+            errors += 1
+        else:
+            assert not isinstance(got, Exception), (run, got)
+            assert got.start.tobytes() == want.start.tobytes()
+    assert errors >= 6
