@@ -56,7 +56,7 @@ from dmoc.batch import sharing  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 from dmoc.simulate.lockstep import simulate_runs  # noqa: E402
-from dmoc._util import compiled  # noqa: E402
+from knife_runs import knife_edge_runs  # noqa: E402
 
 WORKERS = 2
 
@@ -110,17 +110,6 @@ def with_start(steps, count):
     wall, _, results = timed(run)
     costs(results)
     return wall
-
-
-def knife_edge_runs(count, steps):
-    """(Discretization, runs) of the simulate benchmarks: the knife edge at h = 0.01 and
-    `count` runs of `steps` steps from rest at the origin with v0 = (c, 0, 1), c from 0.5
-    to 2, compiled to C where there is a compiler (the same path serially and on the
-    workers)."""
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    jit = compiled.compiler() is not None
-    return disc, [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": steps, "jit": jit}
-                  for c in np.linspace(0.5, 2.0, count)]
 
 
 def simulate_rows(cluster, steps, count, repeat=1):

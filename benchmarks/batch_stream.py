@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from batch import knife_edge_runs  # noqa: E402
+from knife_runs import knife_edge_runs  # noqa: E402
 
 WORKERS = 2
 EARLY = 0.15        # seconds at the start of a batch whose idle time is counted apart

@@ -23,7 +23,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from batch import knife_edge_runs  # noqa: E402
+from knife_runs import knife_edge_runs  # noqa: E402
 
 TICKS = os.sysconf("SC_CLK_TCK")
 

@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc.batch import sharing, shipping, tasks  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
-from batch import knife_edge_runs  # noqa: E402
+from knife_runs import knife_edge_runs  # noqa: E402
 
 CHUNK = 125
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")

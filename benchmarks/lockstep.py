@@ -26,10 +26,10 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc._util import compiled  # noqa: E402
 from dmoc.simulate.lockstep import groups, run_lockstep, simulate_lockstep, simulate_runs  # noqa: E402
 from dmoc.simulate.preparation import prepare_runs  # noqa: E402
 from dmoc.simulate.simulation import conclude  # noqa: E402
+from knife_runs import knife_edge_runs  # noqa: E402
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
 
@@ -71,10 +71,8 @@ def main(argv=None):
     parser.add_argument("--steps", type=int, default=1000)
     parser.add_argument("--repeat", type=int, default=9)
     args = parser.parse_args(argv)
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.01)
-    jit = compiled.compiler() is not None
-    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": args.steps, "jit": jit}
-            for c in np.linspace(0.5, 2.0, args.runs)]
+    disc, runs = knife_edge_runs(args.runs, args.steps)
+    jit = runs[0]["jit"]
     rounds(disc, runs[:20], 1)                                  # build, compile, warm up
     print(f"{args.runs} knife-edge runs of {args.steps} steps, jit={jit}, {args.repeat} rounds, "
           "load average %.2f %.2f %.2f" % os.getloadavg())
