@@ -145,10 +145,12 @@ def conclude_group(runs, controls, acc, out, stepped, *, final=False):
     array per field (`Trajectory.assembled_runs`), the others one by one. The same
     results as `conclude` of each run, but that a trajectory's arrays are views."""
     N = acc.shape[1] - 1
-    whole = [i for i, (_, o, _, _, cut) in enumerate(stepped) if o.shape[0] == N and not cut]
-    results = [None] * len(runs)
-    for i in sorted(set(range(len(runs))).difference(whole)):       # failed or interrupted
-        results[i] = conclude(runs[i], stepped[i], final=final)
+    results, whole = [None] * len(runs), []
+    for i, (_, o, _, _, cut) in enumerate(stepped):
+        if o.shape[0] == N and not cut:
+            whole.append(i)
+        else:                                               # failed or interrupted
+            results[i] = conclude(runs[i], stepped[i], final=final)
     if whole:
         now = time.perf_counter()
         rows = slice(None) if len(whole) == len(runs) else whole
