@@ -169,13 +169,22 @@ def array_with_none(name, value, size, fill):
         raw = np.full(size, raw.item(), dtype=object)
     if raw.shape != (size,):
         raise InputError(f"`{name}` must have shape ({size},) for this system; got {raw.shape}.")
+    out = np.empty(size)
     for i, x in enumerate(raw):
-        if x is not None and (isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real)):
+        if x is None:
+            out[i] = fill
+            continue
+        if not isinstance(x, float) and (isinstance(x, (bool, np.bool_))    # floats pass at once
+                                         or not isinstance(x, numbers.Real)):
             raise InputTypeError(f"`{name}` must hold real numbers or None; entry {i} is {x!r}.")
-        if x is not None and (x != x if isinstance(x, float) else np.isnan(x)):     # x != x: NaN
+        try:
+            out[i] = x
+        except OverflowError:
+            raise InputError(f"`{name}` entry {i} is too large for a float.") from None
+        if out[i] != out[i]:        # NaN
             raise InputError(f"`{name}` entry {i} is NaN; only None leaves an entry free "
                              f"(unbounded, for bounds).")
-    return np.array([fill if x is None else float(x) for x in raw], dtype=float)
+    return out
 
 
 def bound_pair(name, value, size):

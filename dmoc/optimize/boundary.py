@@ -20,7 +20,10 @@ def boundary_vector(name, value, n):
         raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
     if np.ndim(value) == 0:
         raise InputError(f"`{name}` must have shape ({n},) for this system; got ().")
-    return checks.array(name, checks.array_with_none(name, value, n, np.nan), (n,), allow_nan=True)
+    out = checks.array_with_none(name, value, n, np.nan)     # floats of shape (n,), no NaN
+    if np.isinf(out).any():
+        checks.array(name, out, (n,), allow_nan=True)       # refuses it, naming the entry
+    return out
 
 
 def check_holonomic_boundary(system, q_start, q_goal):

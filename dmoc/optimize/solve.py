@@ -167,11 +167,15 @@ def _caller_level():
 def most_violated(transcription, g):
     """(largest bound violation, its description) over the constraint vector g of
     `transcription`."""
-    violation = np.maximum(transcription.lbg - g, g - transcription.ubg)
-    violation = np.where(np.isnan(violation), np.inf, np.maximum(violation, 0.0))
-    if violation.size == 0:
+    if g.size == 0:
         return 0.0, "none"
-    i = int(np.argmax(violation))
+    violation = np.maximum(transcription.lbg - g, g - transcription.ubg)
+    i = int(np.argmax(violation))         # the first NaN when there is one
+    if np.isnan(violation[i]):            # a NaN row counts as violated by inf
+        i = int(np.argmax(np.isnan(violation) | (violation == np.inf)))
+        violation[i] = np.inf
+    elif not violation[i] > 0.0:          # nothing violated: the first row, by 0
+        i, violation[i] = 0, 0.0
     group, row, col = transcription.g_layout.locate(i)
     if group == "dynamics":
         name, row_in_block, _ = transcription.dynamics_rows.locate(row)     # blocks of one column

@@ -17,6 +17,12 @@ from tests._helpers import problem
     (np.nan, dmoc.InputError, "NaN; only None leaves an entry free"),
     (True, dmoc.InputTypeError, "entry 1 is True"),
     ("0.5", dmoc.InputTypeError, "entry 1 is '0.5'"),
+    (np.float32("nan"), dmoc.InputError, "NaN; only None leaves an entry free"),
+    (1j, dmoc.InputTypeError, "entry 1 is 1j"),
+    (np.bool_(False), dmoc.InputTypeError, "entry 1 is (np.)?False"),
+    (10 ** 400, dmoc.InputError, "entry 1 is too large for a float"),
+    (np.inf, dmoc.InputError, r"must be finite; entry \(1,\) is inf"),
+    (-np.inf, dmoc.InputError, r"must be finite; entry \(1,\) is -inf"),
 ])
 def test_only_none_is_free_in_boundary_data(disc, name, entry, error, words):
     data = {"q_start": [0.0, 0.0, 0.0], "q_goal": [0.0, 1.0, 0.0]}
@@ -34,6 +40,14 @@ def test_bounds_refuse_nan_and_bools(disc):
 def test_none_still_means_free(disc):
     problem = dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0], q_goal=[0, 1, None])
     assert np.isnan(problem.q_goal[2]) and np.isfinite(problem.q_goal[:2]).all()
+
+
+@pytest.mark.parametrize("entry", [2, np.int64(2), np.float32(0.1), np.float64(0.1), 0.1,
+                                   __import__("fractions").Fraction(1, 3)])
+def test_boundary_entries_read_as_floats(disc, entry):
+    """Every kind of real number is read as `float(entry)` would read it."""
+    problem = dmoc.OptimalControlProblem(disc, 5, q_start=[0, 0, 0], q_goal=[entry, 1, None])
+    assert problem.q_goal.dtype == float and problem.q_goal[0] == float(entry)
 
 
 @pytest.mark.parametrize("bounds", [([np.inf] * 2, [np.inf] * 2), ([-np.inf] * 2, [-np.inf] * 2)])

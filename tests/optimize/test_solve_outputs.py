@@ -200,3 +200,39 @@ def test_a_non_finite_iterate_is_refused_as_before():
     x[problem.x_layout.slice("u")] = np.inf
     with pytest.raises(dmoc.InputError, match="must be finite; entry"):
         trajectory_from_x(problem, x)
+
+
+def test_most_violated_row_by_its_definition():
+    """The largest violation max(lbg - g, g - ubg, 0) over the rows, a NaN row (or one
+    whose bounds and value are both infinite) counting as violated by inf, the first row
+    of the largest, and row 0 by 0 when none is violated: against that definition written
+    out row by row, on random g with NaN, infinite and feasible entries."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    T = dmoc.OptimalControlProblem(disc, 6, q_start=[0, 0, 0], q_goal=[0, 0.5, None],
+                                   path_constraints=lambda q, v, u: q[0] - 1.0).transcription
+    lbg, ubg = T.lbg, T.ubg
+    assert np.isneginf(lbg).any() and T.g_layout.size > 20
+    rng = np.random.default_rng(7)
+
+    def defined(g):
+        values = []
+        for lo, up, gi in zip(lbg, ubg, g):
+            v = max(lo - gi, gi - up) if not np.isnan(gi) else np.nan
+            values.append(np.inf if np.isnan(v) else max(v, 0.0))
+        i = max(range(len(values)), key=lambda j: (values[j], -j))
+        return values[i], i
+
+    for trial in range(300):
+        g = np.where(rng.random(lbg.size) < 0.5, rng.normal(size=lbg.size) * 1e-3, 0.0)
+        g[lbg == -np.inf] = -np.abs(g[lbg == -np.inf])          # feasible path rows ...
+        if trial % 3 == 0:
+            g[rng.integers(lbg.size)] = -np.abs(rng.normal())   # ... then perhaps not
+        specials = rng.choice([np.nan, np.inf, -np.inf], size=rng.integers(0, 3) * (trial % 2))
+        g[rng.choice(lbg.size, size=specials.size, replace=False)] = specials
+        if trial % 5 == 0:
+            g = np.where(lbg == -np.inf, -1.0, 0.0)             # nothing violated
+        with np.errstate(invalid="ignore"):                     # inf - inf
+            value, row = defined(g)
+            violation, where = most_violated(T, g.copy())
+        assert violation == value
+        assert where == most_violated(T, np.eye(g.size)[row])[1]    # that row alone violated
