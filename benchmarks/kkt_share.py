@@ -9,7 +9,11 @@ of goal, start x and multipliers, CasADi ``jit``, gcc -O2), each also with the o
 warm-start MUMPS option (dmoc re-solves with ``mumps_scaling`` 0, rockit with IPOPT's
 default 77), called in turn goal by goal over `peers_resolve.py`'s cycle of goals,
 `--repeat` times (with `--rotate`, the method called first turns goal by goal: in the
-fixed order dmoc's first row follows rockit's and pays the caches they leave). Per method
+fixed order dmoc's first row follows rockit's and pays the caches they leave; turning
+keeps the cyclic order, so that row still follows rockit's last; with `--blocks`, each
+method re-solves the whole cycle of goals in a row, as a user's loop does, the methods in
+turn and their order reversed cycle by cycle, so that a re-solve follows its own method's
+but for the first of a block). Per method
 the medians per re-solve of: the call's wall time; IPOPT's as CasADi records it (``t_wall_total``, the nlpsol alone: for dmoc without the packed
 call's NumPy conversions); its part in function evaluations (``t_wall_nlp_*``); the rest
 of IPOPT (MUMPS and IPOPT's own work); the time outside IPOPT; the iterations; and the
@@ -30,7 +34,7 @@ Last, dmoc's packed IPOPT call with its stacked input handed to CasADi as a NumP
 the list of floats in between is no longer timed), alternating, at an optimum: the same
 bits, the time of each.
 
-    /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife] [--rotate]
+    /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife] [--rotate | --blocks]
 """
 
 import argparse
@@ -206,6 +210,10 @@ def main(argv=None):
     parser.add_argument("--rotate", action="store_true",
                         help="turn the order of the methods goal by goal (default: the order listed, "
                              "so that dmoc's first row follows rockit's)")
+    parser.add_argument("--blocks", action="store_true",
+                        help="each method re-solves the whole cycle of goals in a row, as a user's "
+                             "loop does, the methods in turn, their order reversed cycle by cycle "
+                             "(default: the methods in turn goal by goal)")
     args = parser.parse_args(argv)
     name, rule, N, N_rockit = PROBLEMS[args.problem]
     targets = peers.goals(name, 5)
@@ -220,9 +228,14 @@ def main(argv=None):
     order = list(range(1, len(targets))) + [0]
     rows = {m: [] for m in methods}
     names, turn = list(methods), 0
-    for _ in range(args.repeat):
+    for cycle in range(args.repeat):
+        if args.blocks:         # a method's re-solve follows its own, but for a block's first
+            for method in names if cycle % 2 == 0 else names[::-1]:
+                rows[method].extend(methods[method](i) for i in order)
+            continue
         for i in order:
-            # with --rotate the method that goes first (after the last one's caches) turns
+            # with --rotate the method that goes first turns; each method still follows the
+            # same one (the cyclic order is kept): dmoc's first row follows rockit's last
             first = turn % len(names) if args.rotate else 0
             for method in names[first:] + names[:first]:
                 rows[method].append(methods[method](i))
