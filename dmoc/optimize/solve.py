@@ -59,51 +59,68 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
         T, {**data_tolerances(T, x0, jit), **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
         report=switches["linear_solver_report"], jit=jit)
-    build_time = time.perf_counter() - tic
+    times = {"build_time": 0.0 if reused else time.perf_counter() - tic, "solver_reused": reused,
+             "warm_start": warm}
     journal_start = linear_solver.journal_end(journal) if journal else 0
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
         sol = solver(x0=x0, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
                      lbx=lbx, ubx=ubx, lbg=T.scaled_g_bounds[0], ubg=T.scaled_g_bounds[1])
-    solve_time = time.perf_counter() - tic
-    x = D * sol["x"]
+    times["solve_time"] = time.perf_counter() - tic
     st = solver.stats()
     cost, g = _values_at_x(T, sol, (lbx, ubx), st["success"])
-    worst = most_violated(T, g / R)
-    stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
-             "build_time": 0.0 if reused else build_time, "solver_reused": reused,
-             "warm_start": warm,
-             "solve_time": solve_time, "ipopt_time": st.get("t_wall_total", solve_time),
-             **linear_algebra(st),
-             "max_violation": worst[0], "most_violated": worst[1]}
+    stats = _statistics(st, times, most_violated(T, g / R))
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
-    # made on first access when x is finite (`OptimizationResult.trajectory`); the copy
-    # keeps it from writes into result.x
-    traj = Pending(trajectory_from_x, problem, x.copy()) if np.isfinite(x).all() else \
-        trajectory_from_x(problem, x)
-    success = bool(st["success"])
-    where = f"; most violated: {worst[1]} (|violation| = {worst[0]:.2e})"
+    status, message, success = _outcome(st, stats["iterations"], cost, stats, sigints, options)
+    result = _result(problem, solver, sol, fixed, (cost, success, status, message, stats))
+    if status == "interrupted" and throw:
+        raise Interrupted(message + " The last iterate is in `.result`.", result)
+    if not success and throw:
+        raise SolverError(message + " The last iterate is in `.result`.", result)
+    return result
+
+
+def _statistics(st, times, worst):
+    """A result's `stats` from IPOPT's statistics `st`, the build and solve `times`
+    ({"build_time", "solver_reused", "warm_start", "solve_time"}) and the most violated
+    row `worst` (`most_violated`)."""
+    return {"iterations": iteration_count(st), "return_status": st["return_status"], **times,
+            "ipopt_time": st.get("t_wall_total", times["solve_time"]), **linear_algebra(st),
+            "max_violation": worst[0], "most_violated": worst[1]}
+
+
+def _outcome(st, iterations, cost, stats, sigints, options):
+    """(status, message, success) of a solve: IPOPT's, with what the status suggests;
+    "interrupted" when a Ctrl-C (`sigints`), not a violated constraint, ended it."""
+    where = f"; most violated: {stats['most_violated']} (|violation| = {stats['max_violation']:.2e})"
     if st["return_status"] == "Invalid_Number_Detected":
         where = ("; an NLP function (dynamics, cost or their derivatives) returned NaN or Inf "
                  "at the start point or an iterate: check the data's scale (h, bounds) and "
                  "the system's functions there")
     elif st["return_status"] == "Invalid_Option":
         where = _refused_option(options)
-    message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, "
-               f"cost {cost:.10g}{where}.")
-    status, stopped = st["return_status"], interrupt.verdict(sigints, stats["iterations"], cost)
-    if stopped:     # a Ctrl-C, not a violated constraint, ended the solve
-        (status, message), success = stopped, False
+    stopped = interrupt.verdict(sigints, iterations, cost)
+    if stopped:
+        return stopped + (False,)
+    return (st["return_status"], f"IPOPT: {st['return_status']} after {iterations} iterations, "
+            f"cost {cost:.10g}{where}.", bool(st["success"]))
+
+
+def _result(problem, solver, sol, fixed, outcome):
+    """The OptimizationResult of the packed call's output `sol` (scaled) of `solver` on
+    `problem`, whose fixed entries are `fixed`, with `outcome` (cost, success, status,
+    message, stats): x, lam_x and lam_g unscaled; the trajectory made on first access when
+    x is finite (`OptimizationResult.trajectory`; the copy keeps it from writes into
+    result.x), and lam_x completed on first access (`fixed_multipliers.deferred`)."""
+    T = problem.transcription
+    D, R = T.x_scale, T.g_scale
+    x = D * sol["x"]
+    traj = Pending(trajectory_from_x, problem, x.copy()) if np.isfinite(x).all() else \
+        trajectory_from_x(problem, x)
     lam_x = sol["lam_x"] / D if solver.fixed_multipliers is None else deferred_lam_x(
         solver.fixed_multipliers, sol["lam_x"] / D, fixed, (sol["x"], T.p, sol["lam_g"], D))
-    result = OptimizationResult(traj, cost, success, status, message, stats,
-                                x, lam_x, R * sol["lam_g"], T.structure, T.q_ref.copy())
-    if stopped and throw:
-        raise Interrupted(message + " The last iterate is in `.result`.", result)
-    if not success and throw:
-        raise SolverError(message + " The last iterate is in `.result`.", result)
-    return result
+    return OptimizationResult(traj, *outcome, x, lam_x, R * sol["lam_g"], T.structure, T.q_ref.copy())
 
 
 def _values_at_x(transcription, sol, bounds, converged):
