@@ -24,7 +24,7 @@ import pytest
 
 import dmoc
 from dmoc import animation, batch, diagnostics, plotting
-from dmoc.discrete.rules import QuadratureRule
+from dmoc.discrete.quadrature_rules import QuadratureRule
 from dmoc.results.accuracy import estimate_error, optimize_to_accuracy
 from dmoc.systems import knife_edge
 

@@ -19,7 +19,8 @@ from .._util.layout import step_symbols
 from ..errors import InputError, InputTypeError
 from ..mechanics.system import HamiltonianSystem, MechanicalSystem
 from .discretization import Discretization, state_functions
-from .rules import Midpoint, QuadratureRule, Rule, virtual_work
+from .quadrature_rules import Midpoint, QuadratureRule
+from .rules import Rule, virtual_work
 
 
 @dataclass(frozen=True)
