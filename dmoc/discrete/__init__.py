@@ -6,7 +6,8 @@ Lagrangian (`degenerate`)."""
 from .discretization import Discretization
 from .discretize import discretize
 from .hamiltonian import (HAMILTONIAN_RULES, HamiltonianDiscretization, HamiltonianMidpoint, HamiltonianRule,
-                          LegendreRule, SymplecticEuler, discrete_legendre)
+                          SymplecticEuler)
+from .legendre_transform import LegendreRule, discrete_legendre
 from .quadrature_rules import RULES, Lobatto3, Lobatto4, Midpoint, QuadratureRule, Trapezoid
 from .rules import Rule
 
