@@ -24,8 +24,9 @@ import pytest
 
 import dmoc
 from dmoc import animation, batch, diagnostics, plotting
-from dmoc.discrete.rules import QuadratureRule
-from dmoc.results.accuracy import estimate_error, optimize_to_accuracy
+from dmoc.discrete.quadrature_rules import QuadratureRule
+from dmoc.results.accuracy import optimize_to_accuracy
+from dmoc.results.error_estimate import estimate_error
 from dmoc.systems import knife_edge
 
 Q0, V0 = [0.0, 0.0, 0.3], [np.cos(0.3), np.sin(0.3), 1.0]

@@ -6,8 +6,10 @@ Lagrangian (`degenerate`)."""
 from .discretization import Discretization
 from .discretize import discretize
 from .hamiltonian import (HAMILTONIAN_RULES, HamiltonianDiscretization, HamiltonianMidpoint, HamiltonianRule,
-                          LegendreRule, SymplecticEuler, discrete_legendre)
-from .rules import RULES, Lobatto3, Lobatto4, Midpoint, QuadratureRule, Rule, Trapezoid
+                          SymplecticEuler)
+from .legendre_transform import LegendreRule, discrete_legendre
+from .quadrature_rules import RULES, Lobatto3, Lobatto4, Midpoint, QuadratureRule, Trapezoid
+from .rules import Rule
 
 __all__ = ["Discretization", "discretize", "Rule", "QuadratureRule", "Midpoint", "Trapezoid", "Lobatto3",
            "Lobatto4", "RULES", "HamiltonianDiscretization", "HamiltonianRule", "SymplecticEuler",

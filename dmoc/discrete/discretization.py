@@ -15,7 +15,8 @@ from .._util.layout import step_symbols
 from ..errors import InputTypeError
 from ..mechanics.system import HamiltonianSystem, MechanicalSystem
 from .degenerate import declared_order
-from .rules import as_rule, quadrature, virtual_work
+from .quadrature_rules import as_rule
+from .rules import quadrature, virtual_work
 
 
 class Discretization:

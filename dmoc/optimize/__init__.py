@@ -1,12 +1,12 @@
 """Consumer 2, the optimizer (DMOC): the user's statement (`problem`, with its boundary rows
 and parameters, its final time `final_time` and momentum treatment `momenta` chosen as
 values, read-only by `read_only`), its NLP (`transcription`: the terms of `terms` in
-`separable`, scaled by `scaling`) and its solution (`solve`: IPOPT through `ipopt`, its
-journal `linear_solver`, the start point `guess` or `waypoints`; its outcome an
-`optimization_result` with the record of a `verdict`), the receding-horizon controller
-`mpc`, the step residual imposed at every step; `problems` holds the built-in examples.
-`dmoc.optimize`, the judged solve, is `solve` followed by the checks of
-`dmoc.results.verdict`."""
+`separable`, assembled by the index arithmetic of `gather_scatter`, scaled by `scaling`)
+and its solution (`solve`: IPOPT through `ipopt`, its journal `linear_solver`, the start
+point `guess` or `waypoints`; its outcome an `optimization_result` with the record of a
+`verdict`), the receding-horizon controller `mpc`, the step residual imposed at every step;
+`problems` holds the built-in examples. `dmoc.optimize`, the judged solve, is `solve`
+followed by the checks of `dmoc.results.verdict`."""
 
 from . import problems
 from .guess import initial_guess

@@ -17,20 +17,8 @@ from .boundary import set_boundary
 from .final_time import FixedFinalTime, as_final_time
 from .momenta import momentum_treatment
 from .parameters import ProblemParameters, cost_function, path_function
-from .read_only import ReadOnly, frozen
+from .read_only import ReadOnly, Transcribed, frozen
 from .transcription import Transcription
-
-
-class _Transcribed:
-    """A read-only attribute of OptimalControlProblem that is its transcription's
-    (``problem.x_layout is problem.transcription.x_layout``)."""
-
-    def __set_name__(self, owner, name):
-        self.name = name
-        self.__doc__ = f"``problem.transcription.{name}`` (`Transcription`)."
-
-    def __get__(self, problem, owner=None):
-        return self if problem is None else getattr(problem._transcription, self.name)
 
 
 class OptimalControlProblem(ReadOnly):
@@ -257,23 +245,23 @@ class OptimalControlProblem(ReadOnly):
                                 doc="Function (q0, q1, s, u, h, w) -> g (g <= 0), or None.")
     transcription = property(lambda self: self._transcription, doc="The problem's Transcription.")
 
-    nlp = _Transcribed()
-    separable = _Transcribed()
-    x_layout = _Transcribed()
-    p_layout = _Transcribed()
-    g_layout = _Transcribed()
-    dynamics_rows = _Transcribed()
-    x_scale = _Transcribed()
-    g_scale = _Transcribed()
-    lbx = _Transcribed()
-    ubx = _Transcribed()
-    lbg = _Transcribed()
-    ubg = _Transcribed()
-    p = _Transcribed()
-    q_ref = _Transcribed()
-    structure = _Transcribed()
-    momenta = _Transcribed()
-    configurations = _Transcribed()
+    nlp = Transcribed()
+    separable = Transcribed()
+    x_layout = Transcribed()
+    p_layout = Transcribed()
+    g_layout = Transcribed()
+    dynamics_rows = Transcribed()
+    x_scale = Transcribed()
+    g_scale = Transcribed()
+    lbx = Transcribed()
+    ubx = Transcribed()
+    lbg = Transcribed()
+    ubg = Transcribed()
+    p = Transcribed()
+    q_ref = Transcribed()
+    structure = Transcribed()
+    momenta = Transcribed()
+    configurations = Transcribed()
 
     @property
     def parameter_values(self):

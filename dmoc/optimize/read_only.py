@@ -1,7 +1,8 @@
 """Read-only public attributes for the optimizer's objects (consumer 2 of the step residual):
 an OptimalControlProblem and its Transcription are built once, and problems that differ
 in their data are new objects (`with_boundary`, `with_parameters`) that may share the
-NLP, so an assignment that would make a problem and its NLP disagree is refused.
+NLP, so an assignment that would make a problem and its NLP disagree is refused; a
+problem's attributes that are its transcription's (`Transcribed`) are read through to it.
 """
 
 
@@ -36,3 +37,15 @@ def frozen(array):
     change only through `with_boundary` and `with_parameters`."""
     array.flags.writeable = False
     return array
+
+
+class Transcribed:
+    """A read-only attribute of OptimalControlProblem that is its transcription's
+    (``problem.x_layout is problem.transcription.x_layout``)."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+        self.__doc__ = f"``problem.transcription.{name}`` (`Transcription`)."
+
+    def __get__(self, problem, owner=None):
+        return self if problem is None else getattr(problem._transcription, self.name)

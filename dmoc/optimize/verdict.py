@@ -45,7 +45,7 @@ class Verdict:
         The knot k and the row of `path_constraints` where it is found; -1 if none.
     discretization_error : float or None
         The estimated distance of the optimum from the continuous one. This is where the
-        estimate of ``dmoc.results.accuracy.estimate_error`` joins the verdict; None:
+        estimate of ``dmoc.results.error_estimate.estimate_error`` joins the verdict; None:
         not estimated.
     """
 

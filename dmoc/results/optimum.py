@@ -1,9 +1,10 @@
 """The public `optimize` (results stage): IPOPT's solve judged by the verdict
-(`verdict.judged_solve`), with the optimum's discretization error estimated or the grid
-refined to an accuracy target (`accuracy`) on request."""
+(`verdict.judged_solve`), with the optimum's discretization error estimated
+(`error_estimate`) or the grid refined to an accuracy target (`accuracy`) on request."""
 
 from .._util import checks
-from .accuracy import estimate_error, optimize_to_accuracy, with_estimate
+from .accuracy import optimize_to_accuracy
+from .error_estimate import estimate_error, with_estimate
 from .verdict import judged_solve
 
 
@@ -74,7 +75,7 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         the raw `dmoc.optimize.solve`.
     estimate : bool
         True: estimate the optimum's discretization error
-        (`dmoc.results.accuracy.estimate_error`: a solve on N/2 steps started from the
+        (`dmoc.results.error_estimate.estimate_error`: a solve on N/2 steps started from the
         optimum and a replay on 2N steps, about 0.3-0.6 of the solve once the replay's
         step is built, docs/performance.md) into ``verdict.discretization_error`` and
         ``stats["error_estimate"]``. Default False.

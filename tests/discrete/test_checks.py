@@ -5,7 +5,7 @@ argument. Oracle: the messages, checked by content."""
 import pytest
 
 import dmoc
-from dmoc.discrete.rules import QuadratureRule
+from dmoc.discrete.quadrature_rules import QuadratureRule
 
 
 def test_empty_quadrature_rule_is_refused():

@@ -16,7 +16,8 @@ from scipy.integrate import solve_ivp
 
 import dmoc
 import dmoc.problems
-from dmoc.results.accuracy import estimate_error, optimize_to_accuracy
+from dmoc.results.accuracy import optimize_to_accuracy
+from dmoc.results.error_estimate import estimate_error
 
 J_STAR = 8.72240586430
 QUIET = {"print_level": 0, "sb": "yes"}
