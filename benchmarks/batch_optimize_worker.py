@@ -102,6 +102,9 @@ def main(argv=None):
     finally:
         tasks.distributed.get_worker = worker
     ms = {name: 1e3 * np.median(s) / len(calls) for name, s in spent.items()}
+    print("rounds (ms per item, alone / together): " + ", ".join(
+        f"{1e3 * a / len(calls):.2f} / {1e3 * b / len(calls):.2f}"
+        for a, b in zip(spent["alone"], spent["together"])))
     print(f"ms of CPU per item, medians of {args.rounds} x {len(calls)} items at N = {args.steps} "
           f"in chunks of {args.chunk}: alone {ms['alone']:.3f}, together {ms['together']:.3f}, "
           f"saved {ms['alone'] - ms['together']:.3f} ({1 - ms['together'] / ms['alone']:.1%}); "
