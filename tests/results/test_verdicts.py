@@ -33,6 +33,17 @@ def rate_limited(limit, steps=50):
                                       path_constraints=lambda q, v, u: ca.vertcat(v[2] - limit, -v[2] - limit))
 
 
+def obstacle(centre):
+    """The differential drive past a disc obstacle whose centre is a parameter w["c"]
+    (tests/optimize/test_knot_path.py): optima of one path Function, other parameters."""
+    disc = dmoc.discretize(dmoc.systems.differential_drive(), 4.0 / 12)
+    problem = dmoc.OptimalControlProblem(
+        disc, 12, q_start=[0, 0, 0, 0, 0], q_goal=[2.0, 0, 0, None, None],
+        path_constraints=lambda q, v, u, w: 0.09 - ca.sumsqr(q[:2] - w["c"]),
+        parameters={"c": [1.0, 0.05]})
+    return problem.with_parameters(c=centre)
+
+
 def car():
     disc = dmoc.discretize(dmoc.systems.car(mass=1500.0), 3.0 / 60)
     return dmoc.OptimalControlProblem(disc, 60, q_start=[0.0] * 4, q_goal=[40.0, 3.5, 0.0, 0.0])
@@ -50,7 +61,7 @@ def optima():
     problems += [knife_edge_parking(10).with_boundary(q_goal=[0.0, y, 0.1]) for y in (0.2, 2.0)]
     problems += [knife_edge_parking(12, rule="lobatto3").with_boundary(q_goal=[0.0, 1.3, 0.2]),
                  rolling_disk_steering(11, rule="lobatto4"), rate_limited(0.3), rate_limited(0.4),
-                 car()]
+                 car(), obstacle([1.0, 0.05]), obstacle([1.1, -0.1])]
     problems = [problems[i] for i in rng.permutation(len(problems))]
     return [(p, dmoc.optimize(p, check=False, throw=False)) for p in problems]
 
