@@ -7,12 +7,15 @@ the items unpickled and rebuilt with ``with_boundary`` on the kept solver:
 - **alone**: each item solved and judged in turn (`tasks._chunk`, the path of a batch
   with a `timeout`, and what every chunk did before the verdicts were grouped);
 - **together**: the items solved in turn, the optima of the chunk judged together
-  (`tasks._solved_then_judged`, a batch without a timeout).
+  (`tasks._solved_then_judged`, a batch without a timeout);
+- for reference, **optimize**: the loop of ``dmoc.optimize`` on the rebuilt problems
+  (what a worker's task ran before it kept the solve and the verdict apart), and
+  **solves only**: IPOPT's solves of the items, not judged (the floor of both paths).
 
-The two alternate round by round in this one process; prints the CPU seconds
+They alternate in this one process, in reverse order every other round; prints the CPU seconds
 (`time.process_time`) per item of each, medians over `--rounds` rounds, and checks that
-both give the same results bit for bit (cost, x, status, message, verdict) and the serial
-``dmoc.optimize``'s. Run it from a checkout:
+"alone" and "together" give the same results bit for bit (cost, x, status, message,
+verdict) as the serial ``dmoc.optimize``. Run it from a checkout:
 
     cd CHECKOUT && OMP_NUM_THREADS=1 PYTHONPATH=. python benchmarks/batch_optimize_worker.py
 """
@@ -44,8 +47,7 @@ def chunk_calls(base, problems, options):
             return base, cloudpickle.loads(item)
 
         def solve(loaded):
-            problem, (boundary, _, guess) = loaded
-            problem = problem.with_boundary(**boundary)
+            problem, guess = rebuilt(loaded)
             return problem, tasks.ipopt_solve(problem, guess=guess, options=options,
                                               throw=False)
         calls.append((load, solve))
@@ -62,6 +64,28 @@ def alone(calls):
 def together(calls):
     """`calls` solved in turn, their optima judged together (`tasks._solved_then_judged`)."""
     return tasks._solved_then_judged(calls, None)[0]
+
+
+def optimize_loop(calls):
+    """``dmoc.optimize`` of each item's problem, rebuilt as `calls` rebuild it."""
+    return [dmoc.optimize(problem, guess=guess, throw=False)
+            for problem, guess in (rebuilt(load()) for load, _ in calls)]
+
+
+def rebuilt(loaded):
+    """(problem, guess) of a loaded item: the shipped problem ``with_boundary`` its data."""
+    problem, (boundary, _, guess) = loaded
+    return problem.with_boundary(**boundary), guess
+
+
+def solves_only(calls):
+    """IPOPT's solve of each item, not judged."""
+    return [solve(load())[1] for load, solve in calls]
+
+
+PATHS = {"alone": alone, "together": together, "optimize": optimize_loop,
+         "solves only": solves_only}
+CHECKED = ("alone", "together")
 
 
 def batch_of(run, calls, chunk):
@@ -93,22 +117,24 @@ def main(argv=None):
     worker = tasks.distributed.get_worker
     tasks.distributed.get_worker = lambda: type("Worker", (), {"address": "this process"})
     try:
-        spent = {"alone": [], "together": []}
-        for _ in range(args.rounds):
-            for name, run in (("alone", alone), ("together", together)):
+        spent = {name: [] for name in PATHS}
+        for r in range(args.rounds):
+            order = list(PATHS.items())
+            for name, run in order if r % 2 == 0 else order[::-1]:     # no path always first
                 seconds, results = batch_of(run, calls, args.chunk)
-                assert all(same(a, b) for a, b in zip(results, serial)), name
+                assert name not in CHECKED or all(same(a, b) for a, b in zip(results, serial)), name
                 spent[name].append(seconds)
     finally:
         tasks.distributed.get_worker = worker
-    ms = {name: 1e3 * np.median(s) / len(calls) for name, s in spent.items()}
-    print("rounds (ms per item, alone / together): " + ", ".join(
-        f"{1e3 * a / len(calls):.2f} / {1e3 * b / len(calls):.2f}"
-        for a, b in zip(spent["alone"], spent["together"])))
-    print(f"ms of CPU per item, medians of {args.rounds} x {len(calls)} items at N = {args.steps} "
-          f"in chunks of {args.chunk}: alone {ms['alone']:.3f}, together {ms['together']:.3f}, "
-          f"saved {ms['alone'] - ms['together']:.3f} ({1 - ms['together'] / ms['alone']:.1%}); "
-          f"all {len(calls)} results equal the serial optimize's bit for bit")
+    print(f"ms of CPU per item, {len(calls)} items at N = {args.steps} in chunks of "
+          f"{args.chunk}, round by round:")
+    for name, seconds in spent.items():
+        print(f"  {name:12s} " + " ".join(f"{1e3 * s / len(calls):6.2f}" for s in seconds)
+              + f"   median {1e3 * np.median(seconds) / len(calls):6.2f}")
+    alone, together = (np.median(spent[name]) for name in CHECKED)
+    print(f"together saves {1e3 * (alone - together) / len(calls):.2f} ms per item "
+          f"({1 - together / alone:.1%}) at the medians; \"alone\" and \"together\" equal the "
+          f"serial optimize's {len(calls)} results bit for bit")
     print("load average %.2f %.2f %.2f at end" % os.getloadavg())
 
 
