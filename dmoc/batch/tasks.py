@@ -27,7 +27,8 @@ from .._util.cache import BoundedCache
 from .packing import PackedResults
 from ..optimize.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
-from ..results.optimum import optimize
+from ..optimize.solve import solve as ipopt_solve
+from ..results.verdict import judge, judged, verdicts
 from ..simulate.lockstep import simulate_lockstep
 from ..simulate.preparation import Run, prepare_runs
 from ..simulate.simulation import SimulationResult, simulate
@@ -84,7 +85,13 @@ def optimize_chunk(digest, items, options, switches, timeout, budget=None):
     those parameter values (``with_parameters``), ``throw=False``; never raises for an
     item. Returns (results, seconds per item), results possibly fewer than items: a
     timeout ends the chunk, and so does the item that spends the `budget` (CPU seconds of
-    the chunk; None: no limit), which the client sets while it knows no item's cost."""
+    the chunk; None: no limit), which the client sets while it knows no item's cost.
+
+    Without a `timeout`, IPOPT solves the items one by one and the optima it converged
+    to are judged together (`_judged`: `dmoc.results.verdict.verdicts`, the same verdicts
+    as one by one, for less CPU); each item's seconds are its solve's CPU seconds and its
+    share of the verdicts'. With a `timeout`, each item is solved and judged alone, in a
+    thread the task can abandon."""
     def solver(item):
         def load():
             return shipped(digest, unpack_problem), cloudpickle.loads(item)
@@ -94,10 +101,55 @@ def optimize_chunk(digest, items, options, switches, timeout, budget=None):
             problem = problem.with_boundary(**boundary)
             if values:
                 problem = problem.with_parameters(**values)
-            return optimize(problem, guess=guess, options=options, **switches, throw=False)
+            return problem, ipopt_solve(problem, guess=guess, options=options, **switches,
+                                        throw=False)
         return load, solve
 
-    return _chunk(OptimizationResult, [solver(item) for item in items], timeout, budget)
+    calls = [solver(item) for item in items]
+    if timeout is None:
+        return _solved_then_judged(calls, budget)
+    return _chunk(OptimizationResult, [(load, lambda loaded, solve=solve: _judged([solve(loaded)])[0])
+                                       for load, solve in calls], timeout, budget)
+
+
+def _solved_then_judged(calls, budget):
+    """(results, seconds) of the (load, solve) `calls` of `optimize_chunk` without a
+    timeout: each item loaded and solved in its own guard (`_attempt`), up to and
+    including the item that spends the `budget` (None: no limit), then the optima judged
+    together (`_judged`); each result stamped with this worker's address. An item's
+    seconds are the CPU seconds of its solve and an equal share of the verdicts'."""
+    solved, seconds = [], []
+    for load, solve in calls:
+        tic = time.process_time()
+        solved.append(_attempt(OptimizationResult, load, solve))
+        seconds.append(time.process_time() - tic)
+        if budget is not None and sum(seconds) >= budget:
+            break
+    tic = time.process_time()
+    results = _judged(solved)
+    share = (time.process_time() - tic) / len(solved)
+    _stamp(results)
+    return results, [spent + share for spent in seconds]
+
+
+def _judged(solved):
+    """The results of `solved`, each a (problem, IPOPT's result) or the result of an item
+    that produced no solve: the converged optima judged together
+    (`dmoc.results.verdict.verdicts`, then `judged`, ``throw=False``), the others as they
+    are, as `optimize` returns each. Should the verdicts raise, each optimum is judged
+    alone, so that an error stays its item's ("exception")."""
+    results = [s if isinstance(s, OptimizationResult) else s[1] for s in solved]
+    converged = [i for i, s in enumerate(solved) if not isinstance(s, OptimizationResult)
+                 and s[1].success]
+    try:
+        found = verdicts([solved[i] for i in converged])
+    except BaseException:       # any error of the group: each optimum again, alone
+        found = [_attempt(OptimizationResult, lambda pair=solved[i]: pair, lambda pair: judge(*pair))
+                 for i in converged]
+    for i, verdict in zip(converged, found):
+        results[i] = verdict if isinstance(verdict, OptimizationResult) else \
+            judged(results[i], verdict, throw=False)
+    return results
 
 
 def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget=None):

@@ -12,6 +12,8 @@ from ..errors import InputError
 from ..principle.formulations import as_formulation
 from ..optimize.problem import OptimalControlProblem
 from ..principle.residual import step_residual
+from ..simulate.lockstep import simulate_lockstep
+from ..simulate.preparation import prepare_runs
 from ..simulate.simulation import simulate
 from ..principle.trajectory import Trajectory, check_trajectory, constraint_violation  # noqa: F401 (re-exported)
 
@@ -108,11 +110,32 @@ def end_velocities(disc, traj):
     q'_k(0) and q'_k(h) of the rule's polynomial through q_k, the stage configurations and
     q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
     rules. The step's Function is built once per rule, n and stage rows and kept (cache
-    ``"end_velocities"``): a verdict per re-solve does not rebuild it."""
-    key = (disc.rule, disc.system.n, traj.s.shape[1])
-    velocities = _END_VELOCITIES.get(key, lambda: _end_velocity_function(*key))
-    start, end = velocities.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T, traj.s.T, traj.h)
-    return np.array(start).T, np.array(end).T
+    ``"end_velocities"``): a verdict per re-solve does not rebuild it. The one-trajectory
+    case of `end_velocities_of`."""
+    return end_velocities_of([(disc, traj)])[0]
+
+
+def end_velocities_of(pairs):
+    """`end_velocities` of each (disc, traj) of `pairs`, a list of (start, end) pairs: the
+    trajectories of one rule, n and stage rows in one call of the kept step Function
+    mapped over all their steps, their columns one trajectory after another. A serial map
+    evaluates the step's Function column by column, so each trajectory's velocities are
+    those of a call of its own bit for bit."""
+    found = {}
+    for i, (disc, traj) in enumerate(pairs):
+        found.setdefault((disc.rule, disc.system.n, traj.s.shape[1]), []).append(i)
+    ends = [None] * len(pairs)
+    for key, members in found.items():
+        velocities = _END_VELOCITIES.get(key, lambda: _end_velocity_function(*key))
+        trajs = [pairs[i][1] for i in members]
+        steps = [traj.steps for traj in trajs]
+        start, end = (np.array(x).T for x in velocities.map(sum(steps))(
+            np.vstack([traj.q[:-1] for traj in trajs]).T, np.vstack([traj.q[1:] for traj in trajs]).T,
+            np.vstack([traj.s for traj in trajs]).T, np.repeat([traj.h for traj in trajs], steps)))
+        bounds = np.cumsum(steps)[:-1]
+        for i, a, b in zip(members, np.split(start, bounds), np.split(end, bounds)):
+            ends[i] = (a, b)
+    return ends
 
 
 _END_VELOCITIES = BoundedCache(32, "end_velocities")    # keyed by (rule, n, stage rows): not per N or h
@@ -129,11 +152,11 @@ def _end_velocity_function(rule, n, n_stages):
                        ["q0", "q1", "s", "h"], ["start", "end"])
 
 
-def velocity_changes(disc, traj):
+def velocity_changes(disc, traj, *, ends=None):
     """The jump of the velocity of the rule's interpolant at every interior knot relative to
     its coordinate's peak, shape (N - 1, n): row k - 1 holds |q'_k(0) - q'_{k-1}(h)| /
-    max |q'| per coordinate (`end_velocities`); 0 for a coordinate at rest (peak below 1e-9
-    of the largest coordinate's).
+    max |q'| per coordinate (`end_velocities`, or `ends`, what it returned for `traj`
+    already); 0 for a coordinate at rest (peak below 1e-9 of the largest coordinate's).
 
     For the midpoint and trapezoid rules q'_k is the step velocity (q_{k+1} - q_k)/h and
     the largest entry per coordinate is `velocity_jumps`; a stage rule's polynomials meet
@@ -142,7 +165,7 @@ def velocity_changes(disc, traj):
     """
     if not check_trajectory(disc, traj) or traj.steps < 2:
         return np.zeros((0, disc.system.n))
-    start, end = end_velocities(disc, traj)
+    start, end = end_velocities(disc, traj) if ends is None else ends
     peak = np.maximum(np.abs(start).max(axis=0), np.abs(end).max(axis=0))
     moving = peak > 1e-9 * peak.max(initial=0.0)
     return np.where(moving, np.abs(start[1:] - end[:-1]) / np.where(moving, peak, 1.0), 0.0)
@@ -181,13 +204,34 @@ def replay(problem, result):
     (fewer steps) where Newton's method fails. It runs in CasADi's virtual machine
     (``jit=False``): preparing the compiled step (serializing its Functions for the cache
     key) costs more than the N steps of an optimum (1.5 s against 0.1 s for the rolling disk
-    with lobatto4, docs/performance.md)."""
+    with lobatto4, docs/performance.md). The one-optimum case of `replays`."""
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     traj = checks.instance("result.trajectory", getattr(result, "trajectory", None), Trajectory,
                             "a Trajectory (give the OptimizationResult of `problem`)")
-    disc = problem.disc.with_step(traj.h)
-    return simulate(disc, q0=traj.q[0], p0=traj.p[0], steps=traj.steps, controls=traj.u,
-                    variant=traj.variant, throw=False, jit=False).trajectory
+    return replays([(problem, traj)])[0]
+
+
+def replays(pairs):
+    """`replay` of each (problem, optimal Trajectory) of `pairs`, a list of Trajectories:
+    the runs of one discretization and step checked together (`prepare_runs`) and all
+    stepped in lockstep (`simulate_lockstep`: those of one stepper, h and N together),
+    each run what `simulate` computes for it bit for bit. Raises the error of the first
+    run `simulate` would refuse, as `simulate` raises it."""
+    found = {}
+    for i, (problem, traj) in enumerate(pairs):
+        found.setdefault((id(problem.disc), traj.h), []).append(i)
+    runs = [None] * len(pairs)
+    for members in found.values():
+        first, traj = pairs[members[0]]
+        prepared = prepare_runs(first.disc.with_step(traj.h), [
+            dict(q0=t.q[0], p0=t.p[0], steps=t.steps, controls=t.u, variant=t.variant,
+                 throw=False, jit=False) for t in (pairs[i][1] for i in members)])
+        for i, run in zip(members, prepared):
+            runs[i] = run
+    for run in runs:
+        if isinstance(run, Exception):
+            raise run
+    return [result.trajectory for result in simulate_lockstep(runs)]
 
 
 def replay_error(problem, result):

@@ -14,7 +14,7 @@ from .._util import checks
 from ..errors import SolverError
 from ..optimize.solve import solve
 from ..optimize.verdict import PASSED, STATUSES, Verdict
-from .diagnostics import compared_momenta, end_velocities, replay, velocity_changes
+from .diagnostics import compared_momenta, end_velocities, end_velocities_of, replays, velocity_changes
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
 # millimetres or kilograms gets the verdict it gets in metres (docs/stages/optimize.md,
@@ -59,17 +59,41 @@ def judge(problem, result):
     same equations as NLP rows, at whatever root IPOPT reached. Their agreement to
     `REPLAY_TOLERANCE` says that IPOPT's root is the simulator's. The velocity jumps are
     those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
-    path constraints are evaluated at every knot (`knot_path_values`).
+    path constraints are evaluated at every knot (`knot_path_values`). The one-optimum
+    case of `verdicts`.
     """
-    traj = result.trajectory
-    replay_q, replay_p, replay_step = _replay_departure(problem, result)
-    changes = velocity_changes(problem.disc, traj)
+    return verdicts([(problem, result)])[0]
+
+
+def verdicts(pairs):
+    """`judge` of each (problem, result) of `pairs`, a list of Verdicts, the same bit for
+    bit as one by one, what the optima share done once: their replays in lockstep
+    (`dmoc.diagnostics.replays`), the interpolants' end velocities of all of them in one
+    call per rule (`end_velocities_of`), their path constraints at the knots in one call
+    per path Function (`_knot_path_values_of`). An error of any optimum (one `simulate`
+    refuses to replay) is raised for all: judge them one by one to tell whose it is."""
+    trajs = [result.trajectory for _, result in pairs]
+    replayed = replays([(problem, traj) for (problem, _), traj in zip(pairs, trajs)])
+    ends = end_velocities_of([(problem.disc, traj) for (problem, _), traj in zip(pairs, trajs)])
+    constrained = [i for i, (problem, _) in enumerate(pairs) if problem.path_constraints is not None]
+    knot_values = dict(zip(constrained, _knot_path_values_of(
+        [(pairs[i][0], trajs[i], ends[i]) for i in constrained])))
+    return [_verdict(problem, traj, simulated, ends[i], knot_values.get(i))
+            for i, ((problem, _), traj, simulated) in enumerate(zip(pairs, trajs, replayed))]
+
+
+def _verdict(problem, traj, simulated, ends, knot_values):
+    """The Verdict on the optimum `traj` of `problem` from its replay `simulated`, its
+    interpolant's end velocities `ends` and its path values at the knots (None without
+    path constraints)."""
+    replay_q, replay_p, replay_step = _replay_departure(problem, traj, simulated)
+    changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
     resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
     changes[:, resting] = 0.0
     k, i = np.unravel_index(np.argmax(changes), changes.shape) if changes.size else (-1, 0)
     jump = float(changes[k, i]) if changes.size else 0.0
-    path, path_step, path_row = _path_violation(problem, traj)
+    path, path_step, path_row = _path_violation(knot_values)
     failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
               jump > JUMP_LIMIT)
     status = next((s for s, f in zip(STATUSES, failed) if f), PASSED)
@@ -85,7 +109,13 @@ def judged_solve(problem, *, check=True, throw=True, **keywords):
     result = solve(problem, throw=throw, **keywords)
     if not (check and result.success):
         return result
-    verdict = judge(problem, result)
+    return judged(result, judge(problem, result), throw=throw)
+
+
+def judged(result, verdict, *, throw=True):
+    """The converged `result` with its `verdict`: as it is when the verdict passed, else
+    with ``success=False``, the verdict's status and its message (`verdict_message`),
+    raised as a SolverError with `throw`."""
     if verdict.passed:
         return dataclasses.replace(result, verdict=verdict)
     result = dataclasses.replace(result, success=False, status=verdict.status, verdict=verdict,
@@ -124,11 +154,9 @@ def verdict_message(verdict, result):
             f"docs/stages/optimize.md, \"Verdicts\".")
 
 
-def _replay_departure(problem, result):
+def _replay_departure(problem, traj, simulated):
     """(max |q - q_opt| / span of q, max |p - p_opt| / max |p_opt|, first step beyond
-    REPLAY_TOLERANCE or -1) of the replay by `simulate` (`replay`)."""
-    traj = result.trajectory
-    simulated = replay(problem, result)
+    REPLAY_TOLERANCE or -1) of the optimum `traj` and its replay `simulated` (`replay`)."""
     if simulated.steps < traj.steps:
         return np.inf, np.inf, simulated.steps + 1
     last = compared_momenta(problem, traj)
@@ -155,26 +183,52 @@ def knot_path_values(problem, traj):
     """The path constraints g evaluated at every knot, shape (N + 1, rows): at (q_k, v_k,
     u(t_k)) with v_k the mean of the interpolants' velocities at q_k from both sides (one
     side at the ends; `dmoc.diagnostics.end_velocities`), through
-    ``problem.path_constraints`` on a straight step centred at q_k with velocity v_k."""
+    ``problem.path_constraints`` on a straight step centred at q_k with velocity v_k.
+    The one-optimum case of `_knot_path_values_of`."""
+    return _knot_path_values_of([(problem, traj, end_velocities(problem.disc, traj))])[0]
+
+
+def _knot_path_values_of(triples):
+    """`knot_path_values` of each (problem, traj, its `end_velocities`) of `triples`: those
+    of one path Function in one call of it mapped over all their knots, their columns
+    one optimum after another (a serial map: each optimum's values bit for bit those of
+    a call of its own)."""
+    found, values = {}, [None] * len(triples)
+    for i, (problem, _, _) in enumerate(triples):
+        found.setdefault(id(problem.path_constraints), []).append(i)
+    for members in found.values():
+        path = triples[members[0]][0].path_constraints
+        columns = [_knot_arguments(*triples[i]) for i in members]
+        g = path.map(sum(c[0].shape[1] for c in columns))(
+            *(np.hstack(parts) for parts in zip(*columns)))[path.index_out("g")]
+        knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
+        for i, block in zip(members, np.split(np.array(g).T, knots)):
+            values[i] = block
+    return values
+
+
+def _knot_arguments(problem, traj, ends):
+    """The arguments (q0, q1, s, u, h, w) of ``problem.path_constraints`` at the N + 1
+    knots of `traj` (`knot_path_values`), one column per knot, from its interpolant's
+    end velocities `ends`."""
     N, h = traj.steps, traj.h
-    start, end = end_velocities(problem.disc, traj)
+    start, end = ends
     v = np.vstack([start[:1], (end[:-1] + start[1:]) / 2, end[-1:]])
     q0, q1 = traj.q - v * h / 2, traj.q + v * h / 2
     chords = np.empty((2 * (N + 1), traj.q.shape[1]))
     chords[0::2], chords[1::2] = q0, q1
     s = problem.disc.rule.stage_guess(chords, np.repeat(traj.p, 2, axis=0))[0::2]
     u = np.tile(traj.control(traj.t), len(traj.control_nodes))
-    g = problem.path_constraints.map(N + 1)(q0.T, q1.T, np.reshape(s, (N + 1, -1)).T, u.T, h,
-                                            problem.parameters.vector())
-    return np.array(g[problem.path_constraints.index_out("g")]).T
+    w = np.repeat(np.reshape(problem.parameters.vector(), (-1, 1)), N + 1, axis=1)
+    return (q0.T, q1.T, np.reshape(s, (N + 1, -1)).T, u.T, np.full((1, N + 1), h), w)
 
 
-def _path_violation(problem, traj):
-    """(largest g_k relative to its row's scale max_k |g_k|, knot, row); (0, -1, -1)
-    without path constraints or violations."""
-    if problem.path_constraints is None:
+def _path_violation(g):
+    """(largest g_k relative to its row's scale max_k |g_k|, knot, row) of the path values
+    at the knots `g` (`knot_path_values`); (0, -1, -1) without path constraints (None) or
+    violations."""
+    if g is None:
         return 0.0, -1, -1
-    g = knot_path_values(problem, traj)
     relative = g / np.maximum(np.abs(g).max(axis=0), np.finfo(float).tiny)
     k, row = np.unravel_index(np.argmax(relative), relative.shape)
     if relative[k, row] <= 0:
