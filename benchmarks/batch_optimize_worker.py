@@ -4,7 +4,7 @@
 items (about what a worker gets: 0.5 s of solves), each chunk as a worker's task runs it,
 the items unpickled and rebuilt with ``with_boundary`` on the kept solver:
 
-- **alone**: each item solved and judged in turn (`tasks._chunk`, the path of a batch
+- **alone**: each item solved and judged in turn (`item_guard.guarded_chunk`, the path of a batch
   with a `timeout`, and what every chunk did before the verdicts were grouped);
 - **together**: the items solved in turn, the optima of the chunk judged together
   (`tasks._solved_then_judged`, a batch without a timeout);
@@ -31,7 +31,7 @@ import cloudpickle  # noqa: E402
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc.batch import shipping, tasks  # noqa: E402
+from dmoc.batch import item_guard, shipping, tasks  # noqa: E402
 from dmoc.optimize.optimization_result import OptimizationResult  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 
@@ -55,8 +55,8 @@ def chunk_calls(base, problems, options):
 
 
 def alone(calls):
-    """Each of `calls` solved and judged in turn (`tasks._chunk`)."""
-    return tasks._chunk(OptimizationResult, [
+    """Each of `calls` solved and judged in turn (`item_guard.guarded_chunk`)."""
+    return item_guard.guarded_chunk(OptimizationResult, [
         (load, lambda loaded, solve=solve: tasks._judged([solve(loaded)])[0])
         for load, solve in calls], None, None)[0]
 

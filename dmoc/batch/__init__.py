@@ -7,7 +7,8 @@ exit or hang reaches another item's result (docs/batch.md, "Failure semantics").
 What crosses a process boundary: each problem structure (an OptimalControlProblem, whose
 CasADi graphs pickle only inside a CasADi pickle context) or discretization once per
 worker, and each item as its data (boundary values, parameters, guess, or a run), in
-chunks sized from the measured cost of an item (`shipping`, `tasks`, `scheduling`).
+chunks sized from the measured cost of an item (`shipping`, `tasks`, `item_guard`,
+`scheduling`).
 """
 
 try:

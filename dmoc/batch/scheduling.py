@@ -22,8 +22,9 @@ import distributed
 from .chunks import ChunkSizes
 from .cluster import client_of, close
 from .errors import BatchInterrupted
+from .item_guard import failed_result
 from .progress import ProgressBar
-from .tasks import Shipment, failed_result
+from .tasks import Shipment
 
 # Re-runs of a task whose worker *returned* an error outside dmoc's task function (e.g. the
 # function itself failed to deserialize there). A task whose worker dies is rescheduled by

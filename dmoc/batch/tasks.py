@@ -15,15 +15,14 @@ sent with a CPU budget (before any item's cost is measured) once it has spent it
 """
 
 import math
-import threading
 import time
-import traceback
 
 import casadi as ca
 import cloudpickle
 import distributed
 
 from .._util.cache import BoundedCache
+from .item_guard import attempt, caught, guarded, guarded_chunk, stamp
 from .packing import PackedResults
 from ..optimize.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
@@ -108,27 +107,27 @@ def optimize_chunk(digest, items, options, switches, timeout, budget=None):
     calls = [solver(item) for item in items]
     if timeout is None:
         return _solved_then_judged(calls, budget)
-    return _chunk(OptimizationResult, [(load, lambda loaded, solve=solve: _judged([solve(loaded)])[0])
+    return guarded_chunk(OptimizationResult, [(load, lambda loaded, solve=solve: _judged([solve(loaded)])[0])
                                        for load, solve in calls], timeout, budget)
 
 
 def _solved_then_judged(calls, budget):
     """(results, seconds) of the (load, solve) `calls` of `optimize_chunk` without a
-    timeout: each item loaded and solved in its own guard (`_attempt`), up to and
+    timeout: each item loaded and solved in its own guard (`attempt`), up to and
     including the item that spends the `budget` (None: no limit), then the optima judged
     together (`_judged`); each result stamped with this worker's address. An item's
     seconds are the CPU seconds of its solve and an equal share of the verdicts'."""
     solved, seconds = [], []
     for load, solve in calls:
         tic = time.process_time()
-        solved.append(_attempt(OptimizationResult, load, solve))
+        solved.append(attempt(OptimizationResult, load, solve))
         seconds.append(time.process_time() - tic)
         if budget is not None and sum(seconds) >= budget:
             break
     tic = time.process_time()
     results = _judged(solved)
     share = (time.process_time() - tic) / len(solved)
-    _stamp(results)
+    stamp(results)
     return results, [spent + share for spent in seconds]
 
 
@@ -144,7 +143,7 @@ def _judged(solved):
     try:
         found = verdicts([solved[i] for i in converged])
     except BaseException:       # any error of the group: each optimum again, alone
-        found = [_attempt(OptimizationResult, lambda pair=solved[i]: pair, lambda pair: judge(*pair))
+        found = [attempt(OptimizationResult, lambda pair=solved[i]: pair, lambda pair: judge(*pair))
                  for i in converged]
     for i, verdict in zip(converged, found):
         results[i] = verdict if isinstance(verdict, OptimizationResult) else \
@@ -178,7 +177,7 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget
     if timeout is None:
         results, seconds = _in_budget(calls, keep == "final", budget)
     else:
-        results, seconds = _chunk(SimulationResult, calls, timeout, budget)
+        results, seconds = guarded_chunk(SimulationResult, calls, timeout, budget)
         if keep == "final":
             _cut_to_final_knots(results)
     return PackedResults(results, share), seconds
@@ -206,21 +205,21 @@ def _in_lockstep(calls, final):
     arguments loaded in its own guard, then checked together (`prepare_runs`: an item
     refused gets its own "exception" result) and the runs prepared stepped in lockstep
     (`simulate_lockstep`, their trajectories of the last knot only when `final`); should
-    that raise, each item runs alone (`_guarded`, then cut to `final_knot`), so an error
+    that raise, each item runs alone (`guarded`, then cut to `final_knot`), so an error
     stays its item's. Each result is stamped with this worker's address; the seconds are
     the chunk's CPU time shared equally."""
     tic = time.process_time()
-    results = [_attempt(SimulationResult, load, lambda pair: pair) for load, _ in calls]
+    results = [attempt(SimulationResult, load, lambda pair: pair) for load, _ in calls]
     loaded = {i: pair for i, pair in enumerate(results) if not isinstance(pair, SimulationResult)}
     try:
         stepped = _lockstep(list(loaded.values()), final)
     except BaseException:       # any error of the group: each item again, alone
-        stepped = [_guarded(SimulationResult, *calls[i], None)[0] for i in loaded]
+        stepped = [guarded(SimulationResult, *calls[i], None)[0] for i in loaded]
         if final:
             _cut_to_final_knots(stepped)
     for i, result in zip(loaded, stepped):
         results[i] = result
-    _stamp(results)
+    stamp(results)
     return results, [(time.process_time() - tic) / len(calls)] * len(calls)
 
 
@@ -233,7 +232,7 @@ def _lockstep(loaded, final):
     stepped = iter(simulate_lockstep([run for run in prepared if isinstance(run, Run)],
                                      final=final))
     return [next(stepped) if isinstance(run, Run) else
-            _caught(SimulationResult, "exception", "", run) for run in prepared]
+            caught(SimulationResult, "exception", "", run) for run in prepared]
 
 
 def _cut_to_final_knots(results):
@@ -249,71 +248,3 @@ def final_knot(trajectory):
     tr = trajectory
     return Trajectory.assembled(tr.t, tr.q, tr.p, tr.lam, tr.u, tr.h, tr.variant, tr.mu, tr.s,
                                 tr.control_nodes, tr.stage_nodes, final=True)
-
-
-def failed_result(kind, status, message, **stats):
-    """A result of `kind` for an item that produced none: no trajectory, success False."""
-    if kind is OptimizationResult:
-        return OptimizationResult(None, float("nan"), False, status, message, stats, None)
-    return SimulationResult(None, False, status, message, stats)
-
-
-def _chunk(kind, calls, timeout, budget):
-    """(results, seconds) of each (load, solve) of `calls` in turn (`_guarded`), up to and
-    including the first that times out or that spends the `budget` (CPU seconds of the
-    chunk; None: no limit); each result stamped with this worker's address. The seconds
-    are this process's CPU time over the item, which other jobs on the machine do not
-    inflate as they do the wall time."""
-    results, seconds = [], []
-    for load, solve in calls:
-        tic = time.process_time()
-        result, finished = _guarded(kind, load, solve, timeout)
-        seconds.append(time.process_time() - tic)
-        results.append(result)
-        if not finished or (budget is not None and sum(seconds) >= budget):
-            break
-    _stamp(results)
-    return results, seconds
-
-
-def _stamp(results):
-    """Each result's ``stats["worker"]``: the address of this worker."""
-    worker = distributed.get_worker().address
-    for result in results:
-        result.stats["worker"] = worker
-
-
-def _guarded(kind, load, solve, timeout):
-    """(solve(load()) as a result of `kind`, whether it finished): an error in `load`
-    gives status "undeserializable", one in `solve` "exception", and a run longer than
-    `timeout` seconds (None: no limit) "timeout"."""
-    if timeout is None:
-        return _attempt(kind, load, solve), True
-    box = []
-    thread = threading.Thread(target=lambda: box.append(_attempt(kind, load, solve)),
-                              name="dmoc-batch-item", daemon=True)
-    thread.start()
-    thread.join(timeout)
-    if box:
-        return box[0], True
-    return failed_result(kind, "timeout", f"the item ran longer than `timeout`={timeout:g} s "
-                         "and was abandoned; its worker is restarted (if it has a nanny) "
-                         "to stop it"), False
-
-
-def _attempt(kind, load, solve):
-    try:
-        loaded = load()
-    except BaseException as err:  # an argument this worker cannot load is the item's result
-        return _caught(kind, "undeserializable", "its arguments could not be unpickled on "
-                       "the worker (is every class they use importable there?)", err)
-    try:
-        return solve(loaded)
-    except BaseException as err:  # SystemExit too: one item must not end the worker
-        return _caught(kind, "exception", "", err)
-
-
-def _caught(kind, status, context, err):
-    message = f"{type(err).__name__}: {err}"
-    return failed_result(kind, status, f"{context}: {message}" if context else message,
-                         traceback="".join(traceback.format_exception(err)))

@@ -69,12 +69,12 @@ def _kill_once(flag):
 
 
 def _fail_once_outside_the_solve(flag):
-    """Run on a worker: its dmoc.batch tasks see a `distributed` whose get_worker() raises
-    the first time any worker calls it (creating `flag`), so exactly one task errs once
-    after dmoc's own call returned (an error of the worker, not of the solve)."""
-    from dmoc.batch import tasks
+    """Run on a worker: its dmoc.batch item guards see a `distributed` whose get_worker()
+    raises the first time any worker calls it (creating `flag`), so exactly one task errs
+    once after dmoc's own call returned (an error of the worker, not of the solve)."""
+    from dmoc.batch import item_guard
 
-    real = tasks.distributed
+    real = item_guard.distributed
 
     class FailsOnce:
         def __getattr__(self, name):
@@ -87,7 +87,7 @@ def _fail_once_outside_the_solve(flag):
                 return real.get_worker()
             raise RuntimeError("the worker failed outside dmoc's call")
 
-    tasks.distributed = FailsOnce()
+    item_guard.distributed = FailsOnce()
 
 
 def test_import_dmoc_does_not_import_dask():

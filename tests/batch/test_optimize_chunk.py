@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.batch import pack_problem, shipping, tasks
+from dmoc.batch import item_guard, pack_problem, shipping, tasks
 from dmoc.problems import knife_edge_parking
 
 OPTIONS = {"max_iter": 12}          # the goal y = 5 needs 16 iterations: IPOPT fails it
@@ -32,7 +32,8 @@ def shipped():
 
 @pytest.fixture(autouse=True)
 def no_worker(monkeypatch):
-    monkeypatch.setattr(tasks, "_stamp", lambda results: None)      # no worker here
+    for module in (tasks, item_guard):
+        monkeypatch.setattr(module, "stamp", lambda results: None)     # no worker here
 
 
 def items_and_oracles(base):

@@ -13,7 +13,7 @@ distributed = pytest.importorskip("distributed")
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from dmoc.batch import tasks  # noqa: E402
+from dmoc.batch import item_guard, tasks  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
 from dmoc.simulate.simulation import SimulationResult  # noqa: E402
 
@@ -68,7 +68,7 @@ def _in_process(disc, runs, keep):
     results = []
     for run in runs:
         want, error = _serial(disc, run, keep)
-        results.append(want if error is None else tasks.failed_result(
+        results.append(want if error is None else item_guard.failed_result(
             SimulationResult, "exception", f"{type(error).__name__}: {error}"))
     return results
 
@@ -216,7 +216,8 @@ def test_a_chunk_ends_once_it_has_spent_its_budget(keep, monkeypatch):
     """A chunk with a CPU budget runs its first run alone and stops when the budget is
     spent (in lockstep, and one by one with a `timeout`); without one, or with enough,
     it runs them all; what it returns are the serial results."""
-    monkeypatch.setattr(tasks, "_stamp", lambda results: None)     # no worker here
+    for module in (tasks, item_guard):
+        monkeypatch.setattr(module, "stamp", lambda results: None)     # no worker here
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
     runs = _runs(40)
     final = keep == "final"
@@ -225,7 +226,7 @@ def test_a_chunk_ends_once_it_has_spent_its_budget(keep, monkeypatch):
         assert len(results) == len(seconds) == count
         for got, run in zip(results, runs):
             _assert_same(got, disc, run, keep)
-        results, seconds = tasks._chunk(SimulationResult, _calls(disc, runs), 60, budget)
+        results, seconds = item_guard.guarded_chunk(SimulationResult, _calls(disc, runs), 60, budget)
         assert len(results) == len(seconds) == count
 
 
