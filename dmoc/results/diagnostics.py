@@ -1,12 +1,13 @@
 """Diagnostics of a computed Trajectory: energy, discrete constraint violation (28) and the
-step residual norms of (37)/(41), each evaluated by mapping a CasADi Function over steps.
+step residual norms of (37)/(41), each evaluated by mapping a CasADi Function over steps;
+an optimum's replay by `simulate`; the interpolants' velocities at the knots
+(`knot_velocities`, re-exported here with the rest of `dmoc.diagnostics`).
 """
 
 import casadi as ca
 import numpy as np
 
 from .._util import checks
-from .._util.cache import BoundedCache
 from ..discrete import Discretization
 from ..errors import InputError
 from ..principle.formulations import as_formulation
@@ -16,6 +17,7 @@ from ..simulate.lockstep import simulate_lockstep
 from ..simulate.preparation import prepare_runs
 from ..simulate.simulation import simulate
 from ..principle.trajectory import Trajectory, check_trajectory, constraint_violation  # noqa: F401 (re-exported)
+from .knot_velocities import end_velocities, velocity_changes, velocity_jumps  # noqa: F401 (re-exported)
 
 
 def energy(disc, traj):
@@ -103,99 +105,6 @@ def residual_norms(disc, traj):
     r = np.array(R(q0=traj.q[:-1].T, p0=traj.p[:-1].T, q1=traj.q[1:].T, p1=traj.p[1:].T,
                    lam=traj.lam.T, s=traj.s.T, u=traj.u.T, h=traj.h)["r"])
     return np.abs(r).max(axis=0)
-
-
-def end_velocities(disc, traj):
-    """The velocities of each step's interpolant at its two ends, shapes (N, n) and (N, n):
-    q'_k(0) and q'_k(h) of the rule's polynomial through q_k, the stage configurations and
-    q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
-    rules. The step's Function is built once per rule, n and stage rows and kept (cache
-    ``"end_velocities"``): a verdict per re-solve does not rebuild it. The one-trajectory
-    case of `end_velocities_of`."""
-    return end_velocities_of([(disc, traj)])[0]
-
-
-def end_velocities_of(pairs):
-    """`end_velocities` of each (disc, traj) of `pairs`, a list of (start, end) pairs: the
-    trajectories of one rule, n and stage rows in one call of the kept step Function
-    mapped over all their steps, their columns one trajectory after another. A serial map
-    evaluates the step's Function column by column, so each trajectory's velocities are
-    those of a call of its own bit for bit."""
-    found = {}
-    for i, (disc, traj) in enumerate(pairs):
-        found.setdefault((disc.rule, disc.system.n, traj.s.shape[1]), []).append(i)
-    ends = [None] * len(pairs)
-    for key, members in found.items():
-        velocities = _END_VELOCITIES.get(key, lambda: _end_velocity_function(*key))
-        trajs = [pairs[i][1] for i in members]
-        steps = [traj.steps for traj in trajs]
-        start, end = (np.array(x).T for x in velocities.map(sum(steps))(
-            np.vstack([traj.q[:-1] for traj in trajs]).T, np.vstack([traj.q[1:] for traj in trajs]).T,
-            np.vstack([traj.s for traj in trajs]).T, np.repeat([traj.h for traj in trajs], steps)))
-        bounds = np.cumsum(steps)[:-1]
-        for i, a, b in zip(members, np.split(start, bounds), np.split(end, bounds)):
-            ends[i] = (a, b)
-    return ends
-
-
-_END_VELOCITIES = BoundedCache(32, "end_velocities")    # keyed by (rule, n, stage rows): not per N or h
-
-
-def _end_velocity_function(rule, n, n_stages):
-    """The Function (q0, q1, s, h) -> (q'(0), q'(h)) of one step's interpolant under `rule`
-    (`end_velocities`), for n coordinates and `n_stages` stage rows."""
-    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
-                    (("q0", n), ("q1", n), ("s", n_stages), ("h", 1)))
-    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
-                                    ((0.0, 1.0), (1.0, 1.0)))
-    return ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]],
-                       ["q0", "q1", "s", "h"], ["start", "end"])
-
-
-def velocity_changes(disc, traj, *, ends=None):
-    """The jump of the velocity of the rule's interpolant at every interior knot relative to
-    its coordinate's peak, shape (N - 1, n): row k - 1 holds |q'_k(0) - q'_{k-1}(h)| /
-    max |q'| per coordinate (`end_velocities`, or `ends`, what it returned for `traj`
-    already); 0 for a coordinate at rest (peak below 1e-9 of the largest coordinate's).
-
-    For the midpoint and trapezoid rules q'_k is the step velocity (q_{k+1} - q_k)/h and
-    the largest entry per coordinate is `velocity_jumps`; a stage rule's polynomials meet
-    with a velocity jump of the order of its error, so a coarse grid that a high-order rule
-    resolves is not mistaken for an unresolved one.
-    """
-    if not check_trajectory(disc, traj) or traj.steps < 2:
-        return np.zeros((0, disc.system.n))
-    start, end = end_velocities(disc, traj) if ends is None else ends
-    peak = np.maximum(np.abs(start).max(axis=0), np.abs(end).max(axis=0))
-    moving = peak > 1e-9 * peak.max(initial=0.0)
-    return np.where(moving, np.abs(start[1:] - end[:-1]) / np.where(moving, peak, 1.0), 0.0)
-
-
-def velocity_jumps(traj):
-    """How well the grid resolves the motion, per coordinate, shape (n,):
-    max_k |v_{k+1/2} - v_{k-1/2}| / max_k |v_{k+1/2}| over the step velocities
-    (`Trajectory.velocities`).
-
-    A motion resolved by the grid gives about omega h (2 sin(omega h / 2) for a sinusoid of
-    frequency omega). Values of order 1 say that the velocity changes by its own size
-    within a step (2: it reverses): the grid does not resolve the motion, as in the optima
-    that spin a light blade by pi per step and slip it sideways in one step
-    (docs/verification.md, "Known shortfalls"). Coordinates at rest (peak velocity below
-    1e-9 of the largest coordinate's) give 0. `velocity_changes` measures the jumps of a
-    stage rule's interpolant instead.
-
-    >>> traj = Trajectory([0, 1, 2, 3], [[0.0], [1.0], [0.0], [1.0]], [[0.0]] * 4, [[], [], []],
-    ...                   [[], [], []], 1.0, "+")
-    >>> velocity_jumps(traj)
-    array([2.])
-    """
-    checks.instance("traj", traj, Trajectory, "a Trajectory")
-    v = traj.velocities
-    if v.shape[0] < 2:
-        return np.zeros(v.shape[1])
-    peak = np.abs(v).max(axis=0)
-    moving = peak > 1e-9 * peak.max(initial=0.0)
-    return np.where(moving, np.abs(np.diff(v, axis=0)).max(axis=0) / np.where(moving, peak, 1.0), 0.0)
 
 
 def replay(problem, result):

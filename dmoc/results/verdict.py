@@ -14,7 +14,8 @@ from .._util import checks
 from ..errors import SolverError
 from ..optimize.solve import solve
 from ..optimize.verdict import PASSED, STATUSES, Verdict
-from .diagnostics import compared_momenta, end_velocities, end_velocities_of, replays, velocity_changes
+from .diagnostics import compared_momenta, replays
+from .knot_velocities import end_velocities, end_velocities_of, velocity_changes
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
 # millimetres or kilograms gets the verdict it gets in metres (docs/stages/optimize.md,

@@ -15,7 +15,7 @@ import pytest
 
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
-from dmoc.results.diagnostics import end_velocities
+from dmoc.results.knot_velocities import end_velocities
 from dmoc.results.verdict import judge
 
 
