@@ -25,11 +25,17 @@ def failed_result(kind, status, message, **stats):
 
 
 def guarded_chunk(kind, calls, timeout, budget):
+    """`in_turn`, each result stamped with this worker's address."""
+    results, seconds = in_turn(kind, calls, timeout, budget)
+    stamp(results)
+    return results, seconds
+
+
+def in_turn(kind, calls, timeout, budget):
     """(results, seconds) of each (load, solve) of `calls` in turn (`guarded`), up to and
     including the first that times out or that spends the `budget` (CPU seconds of the
-    chunk; None: no limit); each result stamped with this worker's address. The seconds
-    are this process's CPU time over the item, which other jobs on the machine do not
-    inflate as they do the wall time."""
+    chunk; None: no limit). The seconds are this process's CPU time over the item, which
+    other jobs on the machine do not inflate as they do the wall time."""
     results, seconds = [], []
     for load, solve in calls:
         tic = time.process_time()
@@ -38,7 +44,6 @@ def guarded_chunk(kind, calls, timeout, budget):
         results.append(result)
         if not finished or (budget is not None and sum(seconds) >= budget):
             break
-    stamp(results)
     return results, seconds
 
 

@@ -22,7 +22,7 @@ import cloudpickle
 import distributed
 
 from .._util.cache import BoundedCache
-from .item_guard import attempt, caught, guarded, guarded_chunk, stamp
+from .item_guard import attempt, caught, guarded, guarded_chunk, in_turn, stamp
 from .packing import PackedResults
 from ..optimize.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
@@ -113,17 +113,11 @@ def optimize_chunk(digest, items, options, switches, timeout, budget=None):
 
 def _solved_then_judged(calls, budget):
     """(results, seconds) of the (load, solve) `calls` of `optimize_chunk` without a
-    timeout: each item loaded and solved in its own guard (`attempt`), up to and
+    timeout: each item loaded and solved in its own guard (`in_turn`), up to and
     including the item that spends the `budget` (None: no limit), then the optima judged
     together (`_judged`); each result stamped with this worker's address. An item's
     seconds are the CPU seconds of its solve and an equal share of the verdicts'."""
-    solved, seconds = [], []
-    for load, solve in calls:
-        tic = time.process_time()
-        solved.append(attempt(OptimizationResult, load, solve))
-        seconds.append(time.process_time() - tic)
-        if budget is not None and sum(seconds) >= budget:
-            break
+    solved, seconds = in_turn(OptimizationResult, calls, None, budget)
     tic = time.process_time()
     results = _judged(solved)
     share = (time.process_time() - tic) / len(solved)

@@ -72,7 +72,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     stats = _statistics(st, times, most_violated(T, g / R))
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
-    status, message, success = _outcome(st, stats["iterations"], cost, stats, sigints, options)
+    status, message, success = _outcome(st, stats, cost, sigints, options)
     result = _result(problem, solver, sol, fixed, (cost, success, status, message, stats))
     if status == "interrupted" and throw:
         raise Interrupted(message + " The last iterate is in `.result`.", result)
@@ -90,9 +90,11 @@ def _statistics(st, times, worst):
             "max_violation": worst[0], "most_violated": worst[1]}
 
 
-def _outcome(st, iterations, cost, stats, sigints, options):
-    """(status, message, success) of a solve: IPOPT's, with what the status suggests;
-    "interrupted" when a Ctrl-C (`sigints`), not a violated constraint, ended it."""
+def _outcome(st, stats, cost, sigints, options):
+    """(status, message, success) of a solve from IPOPT's statistics `st` and the result's
+    `stats`: IPOPT's, with what the status suggests; "interrupted" when a Ctrl-C
+    (`sigints`), not a violated constraint, ended it."""
+    iterations = stats["iterations"]
     where = f"; most violated: {stats['most_violated']} (|violation| = {stats['max_violation']:.2e})"
     if st["return_status"] == "Invalid_Number_Detected":
         where = ("; an NLP function (dynamics, cost or their derivatives) returned NaN or Inf "
