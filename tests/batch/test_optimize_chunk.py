@@ -121,3 +121,26 @@ def test_a_chunk_ends_with_the_item_that_spends_its_budget(shipped, timeout):
         assert len(results) == len(seconds) == count
         assert_same(results[0], oracles[0])
 
+
+
+def test_each_item_is_charged_its_solve_and_an_equal_share_of_the_verdicts(shipped, monkeypatch):
+    """Without a timeout an item's seconds are its own solve's CPU seconds plus the
+    verdicts' CPU seconds over the items (docs/batch.md): the chunk's CPU time is charged
+    in full, none twice. The solves' seconds and the process clock read around the
+    verdicts are set here, so that the sums are known."""
+    digest, base = shipped
+    items, _ = items_and_oracles(base)
+    solves = [0.25 * (k + 1) for k in range(len(items))]
+    real_in_turn = tasks.in_turn
+
+    def in_turn(kind, calls, timeout, budget):
+        results, seconds = real_in_turn(kind, calls, timeout, budget)
+        assert len(seconds) == len(solves)
+        return results, list(solves)
+    clock = iter([40.0, 40.0 + 2.1])        # before and after the verdicts, read once each
+    monkeypatch.setattr(tasks, "in_turn", in_turn)
+    monkeypatch.setattr(tasks, "time", type("Clock", (), {"process_time": staticmethod(lambda: next(clock))}))
+    results, seconds = tasks.optimize_chunk(digest, items, OPTIONS, {}, None)
+    assert len(results) == len(items)
+    np.testing.assert_allclose(seconds, [s + 2.1 / len(items) for s in solves], rtol=1e-13)
+    assert sum(seconds) == pytest.approx(sum(solves) + 2.1, rel=1e-13)
