@@ -33,8 +33,13 @@ Last, dmoc's packed IPOPT call with its stacked input handed to CasADi as a NumP
 (`dmoc.optimize.ipopt.PackedSolver` since "The Python around IPOPT, third pass";
 the list of floats in between is no longer timed), alternating, at an optimum: the same
 bits, the time of each.
+With `--pieces`, the pieces of dmoc's re-solve outside IPOPT are timed where they run, in
+the loop above ("dmoc raw C" only; the caches as IPOPT and rockit leave them): each
+function `solve` calls before and after the packed IPOPT call, the call itself less
+IPOPT's own time, and `with_boundary`; medians per re-solve. Their wrappers (a clock read
+before and after each) run in every dmoc row, which then costs a few microseconds more.
 
-    /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife] [--rotate | --blocks]
+    /work/venv-peers/bin/python benchmarks/kkt_share.py [--repeat 40] [--problem disk|knife] [--rotate | --blocks] [--pieces]
 """
 
 import argparse
@@ -58,6 +63,66 @@ PROBLEMS = {"disk": ("rolling disk", "lobatto4", 11, 42), "knife": ("knife edge"
 REPORT = {"output_file": tempfile.mkstemp(prefix="kkt-share-", suffix=".txt")[1], "file_print_level": 8,
           "mumps_print_level": 2}
 FUNCTIONS = ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")
+
+
+class Pieces:
+    """Clocks around the pieces of dmoc's re-solve outside IPOPT (`--pieces`): each
+    function of `dmoc.optimize.solve` that `solve` calls around the packed IPOPT call,
+    the call itself (its IPOPT time subtracted when printed), the solver's statistics read
+    by `solve` (not those the benchmark reads after it), and `with_boundary`. `record` is
+    True while a re-solve to count runs, those of the loop over the goals while `active`;
+    `seconds` holds one {piece: s} per re-solve."""
+
+    SOLVE = ("start_point", "data_tolerances", "ipopt_solver", "_values_at_x", "most_violated",
+             "_statistics", "_outcome", "_result")
+
+    def __init__(self):
+        import importlib
+        solve = importlib.import_module("dmoc.optimize.solve")
+        ipopt = importlib.import_module("dmoc.optimize.ipopt")
+        problem = importlib.import_module("dmoc.optimize.problem")
+        self.record, self.active, self.seconds, self._now = False, True, [], {}
+        for name in self.SOLVE:
+            self._wrap(solve, name, name)
+        self._wrap(problem.OptimalControlProblem, "with_boundary", "with_boundary")
+        self._wrap(ipopt.PackedSolver, "__call__", "packed call")
+        self._wrap(ipopt.PackedSolver, "stats", "stats", caller="solve")
+
+    def _wrap(self, owner, name, label, caller=None):
+        inner = getattr(owner, name)
+
+        def timed(*args, **kwargs):
+            tic = time.perf_counter()
+            out = inner(*args, **kwargs)
+            if self.record and (caller is None or sys._getframe(1).f_code.co_name == caller):
+                self._now[label] = self._now.get(label, 0.0) + time.perf_counter() - tic
+            return out
+        setattr(owner, name, timed)
+
+    def around(self, step):
+        """step wrapped: its pieces' seconds appended to `seconds`, IPOPT's own time (the
+        figures' second entry) taken off the packed call."""
+        def counted(i):
+            if not self.active:
+                return step(i)
+            self._now, self.record = {}, True
+            try:
+                row = step(i)
+            finally:
+                self.record = False
+            self._now["packed call"] -= row[1]
+            self.seconds.append(self._now)
+            return row
+        return counted
+
+    def print(self):
+        print("\ndmoc raw C: the pieces outside IPOPT where they run (median us per re-solve)")
+        total = 0.0
+        for label in ("with_boundary",) + self.SOLVE[:3] + ("packed call", "stats") + self.SOLVE[3:]:
+            us = float(np.median([s.get(label, 0.0) for s in self.seconds])) * 1e6
+            total += us
+            print(f"  {label:<16}{us:>8.1f}")
+        print(f"  {'sum':<16}{total:>8.1f}")
 
 
 def figures(st, wall):
@@ -214,7 +279,10 @@ def main(argv=None):
                         help="each method re-solves the whole cycle of goals in a row, as a user's "
                              "loop does, the methods in turn, their order reversed cycle by cycle "
                              "(default: the methods in turn goal by goal)")
+    parser.add_argument("--pieces", action="store_true",
+                        help="also time the pieces of dmoc's re-solve outside IPOPT where they run")
     args = parser.parse_args(argv)
+    pieces = Pieces() if args.pieces else None
     name, rule, N, N_rockit = PROBLEMS[args.problem]
     targets = peers.goals(name, 5)
     print(f"{name}: dmoc {rule} N = {N}, rockit N = {N_rockit}; load average "
@@ -225,6 +293,8 @@ def main(argv=None):
                    name, rule, N, targets, {"fixed_variable_treatment": "make_parameter"}),
                "rockit function C": rockit_method(name, N_rockit, targets, 77),
                "rockit function C, MUMPS scaling 0": rockit_method(name, N_rockit, targets, 0)}
+    if pieces:
+        methods["dmoc raw C"] = pieces.around(methods["dmoc raw C"])
     order = list(range(1, len(targets))) + [0]
     rows = {m: [] for m in methods}
     names, turn = list(methods), 0
@@ -241,6 +311,8 @@ def main(argv=None):
                 rows[method].append(methods[method](i))
             turn += 1
     still = {m: [] for m in methods}          # a re-solve at the goal just solved: 0 iterations
+    if pieces:
+        pieces.active = False
     for _ in range(args.repeat):
         for method, step in methods.items():
             still[method].append(step(0))
@@ -254,6 +326,8 @@ def main(argv=None):
         print(f"{method:<54}{wall:>7.3f}{ipopt:>7.3f}{fun:>6.3f}{rest:>7.3f}{out:>6.3f}{it:>5.1f}"
               f"{rest / it:>8.3f}{np.median(z[:, 0]) * 1e3:>8.3f}{np.median(z[:, 1]) * 1e3:>11.3f}   {calls}"
               f" (0 it: {int(np.median(z[:, 3]))})")
+    if pieces:
+        pieces.print()
     print("\nthe KKT matrix and MUMPS's factors (IPOPT's journal, MUMPS's report):")
     for method, s in kkt(name, rule, N, N_rockit, targets).items():
         print(f"  {method:<7} variables {s['variables']}, rows {s['rows']}, KKT rows {s['variables'] + s['rows']}, "
