@@ -27,7 +27,10 @@ MUMPS's report at ``mumps_print_level`` 2). A fifth row re-solves dmoc with IPOP
 ``fixed_variable_treatment`` "make_parameter", which computes the bound multipliers of the
 fixed variables at every iteration (a gradient each; dmoc's default "make_parameter_nodual"
 leaves them to `dmoc.optimize.fixed_multipliers`, made when result.lam_x is read): the
-same iterates, dmoc's default before the fourth pass.
+same iterates, dmoc's default before the fourth pass. The last row is rockit's compiled
+re-solve followed by the reading of its return status (``resolve.stats()``): rockit's
+function returns IPOPT's last iterate without a word when IPOPT fails, so a loop that acts
+only on converged re-solves reads it; dmoc's re-solve reads it inside `solve`.
 Last, dmoc's packed IPOPT call with its stacked input handed to CasADi as a NumPy array
 (before "IPOPT's share of a re-solve") and through the packed Function's buffer
 (`dmoc.optimize.ipopt.PackedSolver` since "The Python around IPOPT, third pass";
@@ -73,8 +76,8 @@ class Pieces:
     True while a re-solve to count runs, those of the loop over the goals while `active`;
     `seconds` holds one {piece: s} per re-solve."""
 
-    SOLVE = ("start_point", "data_tolerances", "ipopt_solver", "_values_at_x", "most_violated",
-             "_statistics", "_outcome", "_result")
+    SOLVE = ("start_point", "data_tolerances", "ipopt_solver", "_values_at_x", "_statistics", "_outcome",
+             "_result")
 
     def __init__(self):
         import importlib
@@ -157,9 +160,11 @@ def dmoc_method(name, rule, N, targets, options):
     return step
 
 
-def rockit_method(name, N, targets, mumps_scaling):
+def rockit_method(name, N, targets, mumps_scaling, status=False):
     """step(goal index) -> figures of rockit's compiled function re-solve with IPOPT's
-    `mumps_scaling`."""
+    `mumps_scaling`; with `status`, the call followed by the reading of its return status
+    (``resolve.stats()``, within the timed call): the function returns IPOPT's last iterate
+    whether or not it converged, so a loop that must know has to read it."""
     peers.IPOPT["mumps_scaling"] = mumps_scaling
     ocp, goal = peers.rockit_ocp(name, N, jit=True)
     sol = peers.rockit_solve(ocp, goal, targets[0])
@@ -171,6 +176,8 @@ def rockit_method(name, N, targets, mumps_scaling):
         nonlocal x, lam_g
         tic = time.perf_counter()
         x, lam_g, _ = resolve(targets[i], x, lam_g)
+        if status and not resolve.stats()["success"]:
+            raise RuntimeError("rockit's re-solve failed")
         wall = time.perf_counter() - tic
         return figures(resolve.stats(), wall)
     return step
@@ -292,7 +299,8 @@ def main(argv=None):
                "dmoc raw C, fixed variables' multipliers by IPOPT": dmoc_method(
                    name, rule, N, targets, {"fixed_variable_treatment": "make_parameter"}),
                "rockit function C": rockit_method(name, N_rockit, targets, 77),
-               "rockit function C, MUMPS scaling 0": rockit_method(name, N_rockit, targets, 0)}
+               "rockit function C, MUMPS scaling 0": rockit_method(name, N_rockit, targets, 0),
+               "rockit function C, its status read": rockit_method(name, N_rockit, targets, 77, status=True)}
     if pieces:
         methods["dmoc raw C"] = pieces.around(methods["dmoc raw C"])
     order = list(range(1, len(targets))) + [0]

@@ -16,6 +16,7 @@ from ..errors import InputError
 from .linear_solver import JOURNAL_LEVEL, new_journal, remove_journal
 from .evaluation import nlp_functions
 from .fixed_multipliers import FixedMultipliers
+from .violation import largest_violation, on_bound
 
 # bound_relax_factor 0: IPOPT keeps the bounds as given while iterating (its default relaxes
 # them by 1e-8), so the optimum meets both the bounds and the rows. With a relaxation,
@@ -171,7 +172,8 @@ class PackedSolver:
     nlpsol : casadi.Function
         The IPOPT solver of `transcription`'s NLP.
     transcription : Transcription
-        Gives the sizes n_x, n_g and n_p of x, g and p.
+        Gives the sizes n_x, n_g and n_p of x, g and p, and the rows' scale g_scale (fixed
+        with the NLP: the terms' Functions, hence `structure`, hold it).
     fixed_multipliers : FixedMultipliers or None
         Given when IPOPT leaves the bound multipliers of fixed entries (lbx == ubx) zero
         (``fixed_variable_treatment`` "make_parameter_nodual"), to compute them after the
@@ -191,14 +193,26 @@ class PackedSolver:
         self.nlpsol, self.fixed_multipliers = nlpsol, fixed_multipliers
         self._inputs = Layout([("x0", n_x), ("p", n_p), ("lam_x0", n_x), ("lam_g0", n_g),
                                ("lbx", n_x), ("ubx", n_x), ("lbg", n_g), ("ubg", n_g)])
-        self._outputs = Layout([("x", n_x), ("f", 1), ("g", n_g), ("lam_x", n_x), ("lam_g", n_g)])
+        self._outputs = Layout([("x", n_x), ("f", 1), ("g", n_g), ("lam_x", n_x), ("lam_g", n_g),
+                                ("on_bound", 1), ("largest", 1), ("row", 1)])
         z = ca.MX.sym("z", self._inputs.size)
-        sol = nlpsol(**self._inputs.split(z))
+        inputs = self._inputs.split(z)
+        sol = nlpsol(**inputs)
+        sol["on_bound"] = on_bound(sol["x"], inputs["lbx"], inputs["ubx"])
+        if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
+            R = ca.DM(transcription.g_scale)
+            sol["largest"], sol["row"] = largest_violation(n_g)(sol["g"] / R, inputs["lbg"] / R, inputs["ubg"] / R)
+        else:
+            sol["largest"] = sol["row"] = ca.MX(0)
         self._function = Evaluator(ca.Function("ipopt_packed", [z], [self._outputs.join(sol)], ["z"], ["sol"]))
 
     def __call__(self, **inputs):
-        """{"x", "f", "g", "lam_x", "lam_g"}: 1-d arrays (f of shape (1,)) of the solve from
-        the `inputs` of nlpsol (x0, p, lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays)."""
+        """{"x", "f", "g", "lam_x", "lam_g", "on_bound", "largest", "row"}: 1-d arrays (the
+        last four of shape (1,)) of the solve from the `inputs` of nlpsol (x0, p, lam_x0,
+        lam_g0, lbx, ubx, lbg, ubg; 1-d arrays): nlpsol's outputs, the number of entries of
+        x with lbx < ubx on a bound (`violation.on_bound`), and the largest violation of
+        the unscaled rows at g and its first row (`violation.largest_violation`; 0 and 0
+        without rows)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
         return self._outputs.split(self._function(z)[0][:, 0])
 

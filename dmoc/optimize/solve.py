@@ -22,6 +22,7 @@ from .ipopt import data_tolerances, iteration_count, linear_algebra, start_optio
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
 from .optimization_result import OptimizationResult
+from .violation import described, most_violated
 from ..principle.trajectory import Trajectory
 
 
@@ -68,8 +69,8 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
                      lbx=lbx, ubx=ubx, lbg=T.scaled_g_bounds[0], ubg=T.scaled_g_bounds[1])
     times["solve_time"] = time.perf_counter() - tic
     st = solver.stats()
-    cost, g = _values_at_x(T, sol, (lbx, ubx), st["success"])
-    stats = _statistics(st, times, most_violated(T, g / R))
+    cost, worst = _values_at_x(T, sol, st["success"])
+    stats = _statistics(st, times, worst)
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
     status, message, success = _outcome(st, stats, cost, sigints, options)
@@ -125,19 +126,21 @@ def _result(problem, solver, sol, fixed, outcome):
     return OptimizationResult(traj, *outcome, x, lam_x, R * sol["lam_g"], T.structure, T.q_ref.copy())
 
 
-def _values_at_x(transcription, sol, bounds, converged):
-    """(f, g) of the scaled NLP at the x IPOPT returned in `sol`: IPOPT's own last f and g
-    when they were evaluated there, else evaluated anew. They are IPOPT's when it
-    converged and no entry of x with lbx < ubx (the scaled `bounds`) sits on a bound:
+def _values_at_x(transcription, sol, converged):
+    """(f, (largest violation, its row described)) of the NLP at the x IPOPT returned in
+    `sol` (`ipopt.PackedSolver`'s outputs): IPOPT's own last f, and the largest violation
+    at its last g that the packed call found, when they were evaluated at that x, else f
+    and g evaluated anew (`most_violated`). They are IPOPT's when it converged and no
+    entry of x with lbx < ubx sits on a bound (sol["on_bound"] is 0):
     honor_original_bounds (and CasADi's bound_consistency) move x onto its bounds after
     IPOPT's last f and g (h at T_min/N or T_max/N with a free final time), and an iterate
     of the interior-point method touches none of its bounds."""
-    lbx, ubx = bounds
-    x = sol["x"]
-    on_bound = (lbx < ubx) & ((x == lbx) | (x == ubx))
-    if converged and not on_bound.any():
-        return float(sol["f"][0]), sol["g"]
-    return transcription.separable.values(x, transcription.p)
+    T = transcription
+    if converged and not sol["on_bound"][0]:
+        worst = (float(sol["largest"][0]), described(T, int(sol["row"][0]))) if T.g_layout.size else (0.0, "none")
+        return float(sol["f"][0]), worst
+    cost, g = T.separable.values(sol["x"], T.p)
+    return cost, most_violated(T, g / T.g_scale)
 
 
 def _refused_option(options):
@@ -181,29 +184,6 @@ def _caller_level():
     while frame is not None and frame.f_globals.get("__name__", "").startswith("dmoc."):
         level, frame = level + 1, frame.f_back
     return level
-
-
-def most_violated(transcription, g):
-    """(largest bound violation, its description) over the constraint vector g of
-    `transcription`."""
-    if g.size == 0:
-        return 0.0, "none"
-    violation = np.maximum(transcription.lbg - g, g - transcription.ubg)
-    i = int(np.argmax(violation))         # the first NaN when there is one
-    if np.isnan(violation[i]):            # a NaN row counts as violated by inf
-        i = int(np.argmax(np.isnan(violation) | (violation == np.inf)))
-        violation[i] = np.inf
-    elif not violation[i] > 0.0:          # nothing violated: the first row, by 0
-        i, violation[i] = 0, 0.0
-    group, row, col = transcription.g_layout.locate(i)
-    if group == "dynamics":
-        name, row_in_block, _ = transcription.dynamics_rows.locate(row)     # blocks of one column
-        return float(violation[i]), f"dynamics at step {col} ({name} row {row_in_block})"
-    if group == "path":
-        return float(violation[i]), f"path constraint {row} at step {col}"
-    if group == "path_knots":
-        return float(violation[i]), f"path constraint {transcription.path_knot_rows[row]} at knot {col}"
-    return float(violation[i]), f"boundary condition '{group}' row {row}"
 
 
 def trajectory_from_x(problem, x):
