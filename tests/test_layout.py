@@ -1,7 +1,8 @@
 """The package's layout is its pipeline: one folder a stage, imports from a stage to an
 earlier one only (deferred imports inside functions included), no import cycle between
-modules, and at most 12 entries at the top of ``dmoc/`` (STYLE.md, "The architecture
-visible in the tree"). The imports are read from the source with `ast`, not by importing."""
+modules, at most 12 entries at the top of ``dmoc/`` and modules of at most 300 lines
+(STYLE.md, "The architecture visible in the tree"). The imports are read from the source
+with `ast`, not by importing."""
 
 import ast
 import pathlib
@@ -92,6 +93,13 @@ def test_no_import_cycle():
     for name in sorted(GRAPH):
         if name not in state:
             visit(name)
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_modules_have_at_most_300_lines(name):
+    """STYLE.md: modules of at most ~300 lines, split when one gets a second job."""
+    lines = len(MODULES[name].read_text().splitlines())
+    assert lines <= 300, f"{name} has {lines} lines; split it by job"
 
 
 def test_at_most_twelve_entries_at_the_top():

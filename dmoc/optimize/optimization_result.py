@@ -14,7 +14,8 @@ from .._util import checks
 from .._util.deferred import DeferredField, made
 from .._util.files import atomic_write, writable_file
 from ..errors import TrajectoryFileError
-from ..principle.trajectory import RESULT_PREFIX, Trajectory, read
+from ..principle.trajectory import Trajectory
+from ..principle.trajectory_file import RESULT_PREFIX, read
 from .verdict import Verdict
 
 

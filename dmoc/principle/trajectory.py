@@ -1,22 +1,19 @@
-"""Trajectory: the discrete solution both consumers return, time-major arrays with save/load
-to .npz that round-trips exactly.
+"""Trajectory: the discrete solution both consumers return, time-major arrays whose fields
+are checked (`trajectory_fields`), sampled between the knots (`dense`) and saved to .npz
+files that round-trip exactly (`trajectory_file`); and the checks of a trajectory against a
+discretization, its sizes and its discrete constraint omega_d (28) per step.
 """
 
-import zipfile
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._util import checks
-from .._util.files import atomic_write, readable_file, writable_file
-from ..errors import InputError, InputTypeError, TrajectoryFileError
+from ..errors import InputError
 from ..discrete import Discretization
-from . import dense
+from . import dense, trajectory_fields
 from .formulations import FORMULATIONS
-
-# max |t_k - t_0 - k h| allowed, relative to |t_0| + N h: rounding of t_0 + k h, of
-# np.linspace and of cumulative sums of h stay far below it; a grid of another h does not.
-TIME_GRID_RTOL = 1e-10
+from .trajectory_file import TRAJECTORY_FILE, read, write
 
 
 @dataclass(eq=False)
@@ -78,13 +75,13 @@ class Trajectory:
         self.q = checks.array("q", q, q.shape, allow_nan=True)
         N1, n = q.shape
         self.h = checks.positive_float("h", self.h)
-        self.t = _time_grid(self.t, N1, self.h)
+        self.t = trajectory_fields.time_grid(self.t, N1, self.h)
         self.p = checks.array("p", self.p, (N1, n), allow_nan=True)
-        self.lam, self.u, self.s = (_per_step(name, value, N1 - 1) for name, value in
-                                    (("lam", self.lam), ("u", self.u), ("s", self.s)))
+        self.lam, self.u, self.s = (trajectory_fields.per_step(name, value, N1 - 1) for name, value
+                                    in (("lam", self.lam), ("u", self.u), ("s", self.s)))
         self.variant = checks.choice("variant", self.variant, tuple(FORMULATIONS))
-        self.control_nodes = _control_nodes(self.control_nodes, self.u.shape[1])
-        self.stage_nodes = _stage_nodes(self.stage_nodes, n, self.s.shape[1])
+        self.control_nodes = trajectory_fields.control_nodes(self.control_nodes, self.u.shape[1])
+        self.stage_nodes = trajectory_fields.stage_nodes(self.stage_nodes, n, self.s.shape[1])
         self.mu = (np.zeros(self.lam.shape[1]) if self.mu is None else
                    checks.array("mu", self.mu, (np.size(self.mu),), allow_nan=True))
 
@@ -117,8 +114,8 @@ class Trajectory:
         arrays of the right shapes, h > 0, a formulation's name, a rule's nodes): the
         simulator's runs and the optimizer's optima.
         """
-        t, q, p, lam, u, h, mu, s = _assembled(t, q, p, lam, u, h, mu, s, final)
-        nodes = _nodes(control_nodes, stage_nodes)
+        t, q, p, lam, u, h, mu, s = trajectory_fields.assembled(t, q, p, lam, u, h, mu, s, final)
+        nodes = trajectory_fields.node_tuples(control_nodes, stage_nodes)
         return cls.unchecked(t, q, p, lam, u, h, variant, mu, s, *nodes)
 
     @classmethod
@@ -129,8 +126,8 @@ class Trajectory:
         list of R Trajectories, the same fields as `assembled` of each run, whose arrays
         are its rows of one copy per field (C-contiguous views: a trajectory kept alone
         keeps the arrays of all R alive)."""
-        t, q, p, lam, u, h, mu, s = _assembled(t, q, p, lam, u, h, mu, s, final)
-        nodes = _nodes(control_nodes, stage_nodes)
+        t, q, p, lam, u, h, mu, s = trajectory_fields.assembled(t, q, p, lam, u, h, mu, s, final)
+        nodes = trajectory_fields.node_tuples(control_nodes, stage_nodes)
         return [cls.unchecked(t[i], q[i], p[i], lam[i], u[i], h, variant, mu[i], s[i], *nodes)
                 for i in range(q.shape[0])]
 
@@ -222,10 +219,7 @@ class Trajectory:
         """Write every field to an uncompressed .npz file at exactly `path` (exact round
         trip). The write is atomic: a temporary file renamed over `path`, so a failure
         half-way leaves a previous file at `path` intact."""
-        path = writable_file("path", checks.file_path("path", path))
-        arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
-        with atomic_write(path) as file:
-            np.savez(file, **arrays)
+        write(self, path)
 
     @classmethod
     def load(cls, path):
@@ -245,128 +239,6 @@ class Trajectory:
     def __repr__(self):
         return (f"Trajectory(steps={self.steps}, n={self.q.shape[1]}, m={self.lam.shape[1]}, "
                 f"n_u={self.u.shape[1]}, h={self.h}, variant={self.variant!r})")
-
-
-_REQUIRED = {"t", "q", "p", "lam", "u", "h", "variant"}
-RESULT_PREFIX = "result_"       # the fields `OptimizationResult.save` adds to a trajectory file
-_FIELDS = {f.name for f in fields(Trajectory)}
-
-
-TRAJECTORY_FILE = "a valid dmoc trajectory file (one written by Trajectory.save)"
-
-
-def read(cls, path, kind):
-    """The `cls` (Trajectory) in the .npz file at `path`; a file that is not one raises
-    TrajectoryFileError saying it is not `kind` (what the caller expected) and why."""
-    path = readable_file("path", checks.file_path("path", path))
-    with open(path, "rb") as file:
-        head = file.read(4)
-    if head != b"PK\x03\x04":         # every .npz file is a zip archive
-        _invalid(path, kind, "it is empty" if not head else
-                 "it is an .npy file (one array), not an .npz archive" if head == b"\x93NUM"
-                 else "it is not an .npz (zip) archive")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            names = set(data.files)
-            values = {name: data[name] for name in names & _FIELDS}
-    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as err:
-        _invalid(path, kind, f"it is truncated or corrupted ({type(err).__name__}: {err})")
-    missing = _REQUIRED - names
-    unknown = {k for k in names - _FIELDS if not k.startswith(RESULT_PREFIX)}
-    if missing or unknown:
-        _invalid(path, kind, f"it lacks the fields {sorted(missing)}" if missing else
-                 f"it holds fields a Trajectory does not have: {sorted(unknown)}")
-    for name in ("h", "variant"):
-        if values[name].shape != ():
-            _invalid(path, kind, f"`{name}` must be a single value; got shape {values[name].shape}")
-    values["h"] = values["h"].item()
-    values["variant"] = str(values["variant"])
-    try:
-        return cls(**values)
-    except (InputError, InputTypeError) as err:
-        _invalid(path, kind, f"its fields do not form a trajectory: {err}")
-
-
-def _invalid(path, kind, reason):
-    raise TrajectoryFileError(f"{str(path)!r} is not {kind}: {reason}.")
-
-
-def _assembled(t, q, p, lam, u, h, mu, s, final):
-    """(t, q, p, lam, u, h, mu, s) of `Trajectory.assembled`: each array copied as a float
-    array (of the last knot only when `final`), `mu` None as zeros, `h` a float; arrays of
-    one run, or of runs along their leading axes (`assembled_runs`), then all copied into
-    one buffer (numpy backs a large one with huge pages: far fewer new pages to fault in
-    than one array per field)."""
-    if final:
-        t, q, p = t[..., -1:], q[..., -1:, :], p[..., -1:, :]
-        lam, u, s = lam[..., :0, :], u[..., :0, :], s[..., :0, :]
-    if mu is None:
-        mu = np.zeros(lam.shape[:-2] + lam.shape[-1:])
-    arrays = (t, q, p, lam, u, s, mu)
-    if q.ndim == 2:
-        copies = [np.array(a, dtype=float, order="C") for a in arrays]
-    else:
-        buffer, copies = np.empty(sum(np.size(a) for a in arrays)), []
-        for a in arrays:
-            copies.append(buffer[:np.size(a)].reshape(np.shape(a)))
-            buffer = buffer[np.size(a):]
-            np.copyto(copies[-1], a)
-    t, q, p, lam, u, s, mu = copies
-    return t, q, p, lam, u, float(h), mu, s
-
-
-def _nodes(control_nodes, stage_nodes):
-    """The rules' nodes as tuples of floats, as `Trajectory.assembled` keeps them."""
-    return tuple(tuple(float(c) for c in np.ravel(nodes)) for nodes in (control_nodes, stage_nodes))
-
-
-def _time_grid(t, N1, h):
-    """The knot times, shape (N+1,): finite and equal to t_0 + k h within TIME_GRID_RTOL."""
-    t = checks.array("t", t, (N1,))
-    k = np.arange(N1)
-    off = np.abs(t - (t[0] + k * h))
-    if off.max() > TIME_GRID_RTOL * (abs(t[0]) + (N1 - 1) * h):
-        j = int(np.argmax(off))
-        raise InputError(f"`t` must be the grid t_0 + k h with h = {h!r}; t[{j}] = {float(t[j])!r} "
-                         f"is {off[j]:.3g} off (a grid of another step, or `h` not "
-                         f"(t[-1] - t[0])/N?).")
-    return t
-
-
-def _control_nodes(nodes, columns):
-    """`nodes` as a tuple of distinct step times in [0, 1] that divides the u columns."""
-    nodes = checks.real_array("control_nodes", nodes, "a sequence of step times in [0, 1]")
-    nodes = tuple(float(c) for c in np.ravel(nodes))
-    if not nodes or not all(0.0 <= c <= 1.0 for c in nodes) or len(set(nodes)) < len(nodes):
-        raise InputError(f"`control_nodes` must be distinct step times in [0, 1]; got {nodes}.")
-    if columns % len(nodes):
-        raise InputError(f"`u` must have a multiple of len(control_nodes) = {len(nodes)} "
-                         f"columns; got {columns}.")
-    return nodes
-
-
-def _stage_nodes(nodes, n, columns):
-    """`nodes` as a tuple of increasing step times in (0, 1), the last ``len(nodes) * n``
-    of the `columns` of s."""
-    nodes = tuple(float(c) for c in np.ravel(checks.real_array(
-        "stage_nodes", nodes, "a sequence of step times in (0, 1)")))
-    if not all(0.0 < c < 1.0 for c in nodes) or any(b <= a for a, b in zip(nodes, nodes[1:])):
-        raise InputError(f"`stage_nodes` must increase within (0, 1); got {nodes}.")
-    if len(nodes) * n > columns:
-        raise InputError(f"`s` must hold the {len(nodes)} stage configurations of "
-                         f"`stage_nodes` ({len(nodes) * n} columns); it has {columns}.")
-    return nodes
-
-
-def _per_step(name, value, N):
-    """A per-step array of shape (N, k); empty input (or None) means k = 0."""
-    data = checks.real_array(name, np.zeros((N, 0)) if value is None else value,
-                              f"an array of real numbers of shape ({N}, k)")
-    if data.size == 0:
-        data = data.reshape(N, 0) if N else np.zeros((0, data.shape[-1] if data.ndim == 2 else 0))
-    if data.ndim != 2 or data.shape[0] != N:
-        raise InputError(f"`{name}` must have shape ({N}, k), one row per step; got {data.shape}.")
-    return checks.array(name, data, data.shape, allow_nan=True)
 
 
 def check_trajectory(disc, traj):

@@ -15,7 +15,7 @@ import numpy as np
 
 from .preparation import memory_needed, prepare_runs
 from .simulation import conclude, conclude_group
-from .stepper import LOCKSTEP, chunk_length
+from .chunks import LOCKSTEP, chunk_length
 
 # the most bytes of arrays (`memory_needed`) one group of runs in lockstep holds at once
 # beyond their results: about 140 knife-edge runs of 1000 steps

@@ -7,11 +7,13 @@ Each step solves every residual row but "right" for y = (dq, nu, ds): the increm
 the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
 (-p1 or -q1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
-Newton iterations (pure SX, optionally compiled to C); a step it does not converge is
-redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's horizons of
-1, 2, 4, ..., CHUNK steps are one C library cached on disk (`dmoc._util.compiled`).
-Runs in lockstep (`dmoc.simulate.lockstep`) evaluate the same horizons mapped over
-several runs (`horizons_of`), and a run that leaves them goes on with `resume`.
+Newton iterations (pure SX, optionally compiled to C; each update through the Schur
+complement of the multipliers, `dmoc.simulate.schur_complement`); a step it does not
+converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
+horizons of 1, 2, 4, ..., CHUNK steps (`dmoc.simulate.chunks`) are one C library cached on
+disk (`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulate.lockstep`) evaluate the
+same horizons mapped over up to LOCKSTEP runs (`horizons_of`), and a run that leaves them
+goes on with `resume`.
 """
 
 import time
@@ -23,14 +25,11 @@ import numpy as np
 from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
+from .chunks import CHUNK, chunk_length, chunk_sizes
+from .schur_complement import newton_update
 
 FAST_ITERATIONS = 3
-MINOR_UNKNOWNS = 6  # blocks up to this size are inverted by cofactors: fewer operations than QR
 NATIVE_AFTER_SECONDS = 0.5
-CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most
-                  # log2(CHUNK) + 1 horizons are ever built per stepper
-LOCKSTEP = 16     # runs per call in lockstep (`horizons_of`): CasADi's map builds in
-                  # ~0.1 ms up to a few dozen runs, in tens of ms for hundreds
 
 
 class DiracStepper:
@@ -63,7 +62,7 @@ class DiracStepper:
         self.equations = self._equations()
         self.fast = self._fast_step(eliminate=native is not False)
         self.robust = self._robust_step(max_iter)
-        horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in _chunk_sizes()]
+        horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in chunk_sizes()]
         self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
         self._use(horizons)
         self.native, self.vm_seconds = False, 0.0
@@ -89,7 +88,7 @@ class DiracStepper:
         """Evaluate the chunks with `horizons` (of 1, 2, 4, ..., CHUNK steps) from now on:
         each through a buffer of its own, and, for runs in lockstep, through buffers of its
         map over 1, 2, 4, ..., LOCKSTEP runs, made when first used (`horizons_of`)."""
-        self._horizons = dict(zip(_chunk_sizes(), horizons))
+        self._horizons = dict(zip(chunk_sizes(), horizons))
         self._chunks = {c: f.buffer() for c, f in self._horizons.items()}
         self._mapped = {}
 
@@ -174,9 +173,9 @@ class DiracStepper:
         state, u, h, params, y = self._symbols(ca.SX)
         ys = ca.SX.sym("y", y.numel())
         g = self.equations(ys, params)[0]
-        newton_update = ca.Function("newton_update", [ys, params], [self._newton_update(g, ys)])
+        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, self.unknowns)])
         for _ in range(FAST_ITERATIONS):
-            delta = newton_update(y, params)
+            delta = newton(y, params)
             y = y - delta
         update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
         # eliminated: sin(q_k) once, not per iteration; dense, because the horizons write
@@ -185,28 +184,6 @@ class DiracStepper:
         outputs = list(self._wrap(state, params, y, update))
         outputs = [ca.densify(o) for o in (ca.cse(outputs) if eliminate else outputs)]
         return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
-
-    def _newton_update(self, g, y):
-        """J^{-1} g, J = dg/dy, in few operations: the equations are (left, stage) rows and
-        constraint rows, the unknowns positions x = (dq, ds) and multipliers nu, and J =
-        [H G; C 0] (omega_d does not involve nu), so nu follows from the m x m Schur
-        complement C H^{-1} G, H^{-1} and its inverse by cofactors when they are small;
-        QR otherwise. A singular H (a degenerate Lagrangian) gives a non-finite step, which
-        the line-search Newton redoes."""
-        J, lay = ca.jacobian(g, y), self.unknowns
-        x = [i for name in ("dq", "ds") for i in range(lay.slice(name).start, lay.slice(name).stop)]
-        nu, k = list(range(lay.slice("nu").start, lay.slice("nu").stop)), len(x)
-        if k > MINOR_UNKNOWNS or len(nu) > MINOR_UNKNOWNS or J[k:, nu].nnz():
-            return ca.solve(J, g)
-        if not nu:
-            return ca.mtimes(ca.inv_minor(J), g)
-        H_inv = ca.inv_minor(J[:k, x])
-        G, C, r_x, r_nu = J[:k, nu], J[k:, x], g[:k], g[k:]
-        d_nu = ca.mtimes(ca.inv_minor(ca.mtimes([C, H_inv, G])), ca.mtimes([C, H_inv, r_x]) - r_nu)
-        delta = ca.SX.zeros(y.numel())
-        delta[x] = ca.mtimes(H_inv, r_x - ca.mtimes(G, d_nu))
-        delta[nu] = d_nu
-        return delta
 
     def _robust_step(self, max_iter):
         state, u, h, params, guess = self._symbols(ca.MX)
@@ -306,14 +283,3 @@ class DiracStepper:
         done[0] = k + 1
         done[1] += 1
         return None
-
-
-def chunk_length(remaining):
-    """Steps of the next compiled call with `remaining` steps to go: the largest power of
-    two up to `remaining` and CHUNK."""
-    return min(CHUNK, 1 << (remaining.bit_length() - 1))
-
-
-def _chunk_sizes():
-    """The horizon lengths `run` uses: 1, 2, 4, ..., CHUNK."""
-    return [1 << i for i in range(CHUNK.bit_length())]
