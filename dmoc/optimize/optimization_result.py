@@ -6,16 +6,14 @@ it warm-starts a solve as the result itself does.
 """
 
 import json
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._util import checks
 from .._util.deferred import DeferredField, made
-from .._util.files import atomic_write, writable_file
 from ..errors import TrajectoryFileError
 from ..principle.trajectory import Trajectory
-from ..principle.trajectory_file import RESULT_PREFIX, read
+from ..principle.trajectory_file import RESULT_PREFIX, read, write
 from .verdict import Verdict
 
 
@@ -95,16 +93,13 @@ class OptimizationResult:
         """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
         fields (so `Trajectory.load` reads it too), x, the multipliers, cost, status,
         message, structure, stats and the verdict (as JSON)."""
-        traj = {f.name: np.asarray(getattr(self.trajectory, f.name)) for f in fields(Trajectory)}
         extra = {RESULT_PREFIX + k: np.asarray(getattr(self, k))
                  for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure",
                            "q_ref") if getattr(self, k) is not None}
         extra[RESULT_PREFIX + "stats"] = json.dumps(self.stats, default=str)
         if self.verdict is not None:
             extra[RESULT_PREFIX + "verdict"] = json.dumps(self.verdict.as_dict())
-        path = writable_file("path", checks.file_path("path", path))
-        with atomic_write(path) as file:
-            np.savez(file, **traj, **extra)
+        write(self.trajectory, path, extra)
 
     @classmethod
     def load(cls, path):

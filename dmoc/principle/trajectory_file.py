@@ -19,13 +19,14 @@ RESULT_PREFIX = "result_"       # the fields `OptimizationResult.save` adds to a
 TRAJECTORY_FILE = "a valid dmoc trajectory file (one written by Trajectory.save)"
 
 
-def write(traj, path):
+def write(traj, path, extra=None):
     """Write every field of `traj` to an uncompressed .npz file at exactly `path`, atomically
-    (`Trajectory.save`)."""
+    (`Trajectory.save`), with the arrays of `extra` ({name: array_like}, names starting
+    with RESULT_PREFIX: `OptimizationResult.save`) beside them."""
     path = writable_file("path", checks.file_path("path", path))
     arrays = {f.name: np.asarray(getattr(traj, f.name)) for f in fields(traj)}
     with atomic_write(path) as file:
-        np.savez(file, **arrays)
+        np.savez(file, **arrays, **(extra or {}))
 
 
 def read(cls, path, kind):
