@@ -64,7 +64,9 @@ def step_times(traj, t):
         raise InputError(f"`t` must lie in the horizon [t_0, t_N] = [{t0!r}, {tN!r}]; t[{j}] = "
                          f"{float(t[j])!r} is outside (the solution is not extrapolated).")
     t = np.clip(t, t0, tN)
-    k = np.clip(np.floor((t - t0) / traj.h).astype(int), 0, traj.steps - 1)
+    # the last knot at or before t (the stored t_k, exactly: floor((t_k - t_0)/h) can round
+    # to k - 1)
+    k = np.clip(np.searchsorted(traj.t, t, side="right") - 1, 0, traj.steps - 1)
     return t, k, (t - traj.t[k]) / traj.h
 
 

@@ -4,14 +4,21 @@ Oracles, none from the controller itself: the cold solve of the same problem sta
 from the default guess (each warm-started step must reach its optimum), the same start
 given by its velocity (the first plan must be the optimum of `optimize` from (q, v)), and
 the simulator (`dmoc.simulate` of the applied controls, from the measured state, must land
-on the plan's q_1, p_1: both solve the same step residual).
+on the plan's q_1, p_1: both solve the same step residual). What the controller hands
+IPOPT and records is checked against values written here: the columns of the warm
+start (the last optimum's, moved by the steps since it), IPOPT's own max_iter for a
+stopped solve's iterations, the momentum M v of a measured velocity, the wall clock
+around a step.
 """
+
+import time
 
 import numpy as np
 import pytest
 
 import dmoc
 from dmoc._util.deferred import Pending
+from dmoc.optimize import mpc
 from dmoc.optimize.mpc import shifted
 from dmoc.optimize.solve import solve
 
@@ -164,3 +171,92 @@ def test_on_failure_shift_raises_when_the_first_solve_fails():
         controller.step(np.zeros(3), p=np.zeros(3))
     with pytest.raises(dmoc.InputError, match=r"`on_failure` must be one of 'raise', 'shift'; got 'apply'"):
         dmoc.MPC(parking(), on_failure="apply")
+
+
+def _solves_recorded(monkeypatch, stopped=()):
+    """The guesses the controller hands to IPOPT, one per step, in a list that fills as it
+    steps; the solves numbered in `stopped` (from 0) run with max_iter = 1."""
+    guesses = []
+
+    def recorded(problem, **keywords):
+        if len(guesses) in stopped:
+            keywords = {**keywords, "options": {"max_iter": 1}}
+        guesses.append(keywords["guess"])
+        return solve(problem, **keywords)
+    monkeypatch.setattr(mpc, "solve", recorded)
+    return guesses
+
+
+def test_each_warm_start_is_the_last_optimum_moved_by_the_steps_since_it(monkeypatch):
+    """The guesses handed to IPOPT, read block by block: step 1's is the step-0 optimum with
+    column k of q, u and the dynamics multipliers taken from column k + 1 (the last
+    repeated); after step 1's solve stopped (on_failure="shift"), step 2's from k + 2. The
+    columns are written out here, not taken from `shifted`."""
+    guesses = _solves_recorded(monkeypatch, stopped={1})
+    controller = dmoc.MPC(parking(steps=6), on_failure="shift")
+    controller.step(np.zeros(3), p=[0.1, 0.0, 0.1])
+    optimum, plan = controller.plan, controller.plan.trajectory
+    controller.step(plan.q[1], p=plan.p[1])
+    controller.step(plan.q[2], p=plan.p[2])
+    assert guesses[0] is None and [r.success for r in controller.log] == [True, False, True]
+    lay, g_lay = controller.problem.x_layout, controller.problem.g_layout
+    for by, guess in ((1, guesses[1]), (2, guesses[2])):
+        for layout, vector, name in ((lay, "x", "q"), (lay, "x", "u"), (g_lay, "lam_g", "dynamics")):
+            old, new = (layout.unpack(getattr(v, vector), name) for v in (optimum, guess))
+            columns = [min(k + by, old.shape[1] - 1) for k in range(old.shape[1])]
+            np.testing.assert_array_equal(new, old[:, columns])
+
+
+def test_after_a_stopped_solve_the_next_optimum_is_applied_and_each_solve_recorded(monkeypatch):
+    """on_failure="shift": step 1's solve stops at max_iter = 1 (the plan's step 1 is
+    applied), step 2's converges and its own first controls are applied, those of the cold
+    optimum from the same state; the log holds each solve's own success, IPOPT status and
+    iteration count (1, IPOPT's max_iter, for the stopped one). The cold optimum is
+    IPOPT's alone (`solve`, as the controller's): 0.6 s from a moving start is too short a
+    horizon for `optimize`'s verdict."""
+    _solves_recorded(monkeypatch, stopped={1})
+    problem = parking(steps=6)
+    controller = dmoc.MPC(problem, on_failure="shift")
+    controller.step(np.zeros(3), p=[0.1, 0.0, 0.1])
+    plan = controller.plan.trajectory
+    np.testing.assert_array_equal(controller.step(plan.q[1], p=plan.p[1]), plan.u[1])
+    u = controller.step(plan.q[2], p=plan.p[2])
+    cold = solve(problem.with_boundary(q_start=plan.q[2], p_start=plan.p[2]))     # no verdict
+    np.testing.assert_allclose(u, cold.trajectory.u[0], rtol=0, atol=1e-6)
+    log = controller.log
+    assert [(r.success, r.status, r.plan_age) for r in log] == [
+        (True, "Solve_Succeeded", 0), (False, "Maximum_Iterations_Exceeded", 1),
+        (True, "Solve_Succeeded", 0)]
+    assert log[1].iterations == 1 < log[0].iterations
+
+
+def test_a_measured_velocity_enters_as_its_momentum():
+    """A knife edge with m = 2, J = 0.5, so dL/dv = diag(m, m, J) v (written here) is not v:
+    a step from (q, v) records and imposes p_start = M v, and applies the first controls
+    of the optimum of the same problem started from the velocity v."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=2.0, inertia=0.5), 0.1)
+    problem = dmoc.OptimalControlProblem(disc, 6, q_start=[0, 0, 0], q_goal=[0, 0.3, 0])
+    q, v = np.array([0.0, 0.0, 0.1]), np.array([0.2 * np.cos(0.1), 0.2 * np.sin(0.1), 0.3])
+    controller = dmoc.MPC(problem)
+    u = controller.step(q, v=v)
+    p = np.array([2.0, 2.0, 0.5]) * v
+    np.testing.assert_allclose(controller.log[0].p, p, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(controller.problem.p_start, p, rtol=1e-15, atol=0)
+    from_v = dmoc.optimize(problem.with_boundary(q_start=q, v_start=v))
+    np.testing.assert_allclose(u, from_v.trajectory.u[0], rtol=0, atol=1e-6)
+
+
+def test_the_step_time_counts_the_work_around_the_solve(monkeypatch):
+    """With 50 ms spent in the step outside IPOPT (a pause before the solve), the recorded
+    step time is at least the solve time plus 50 ms, and at most the wall time of the
+    call measured here."""
+    def paused(problem, **keywords):
+        time.sleep(0.05)
+        return solve(problem, **keywords)
+    monkeypatch.setattr(mpc, "solve", paused)
+    controller = dmoc.MPC(parking(steps=6))
+    tic = time.perf_counter()
+    controller.step(np.zeros(3), p=np.zeros(3))
+    wall = time.perf_counter() - tic
+    record = controller.log[0]
+    assert record.solve_time > 0 and record.solve_time + 0.05 <= record.step_time <= wall

@@ -3,7 +3,8 @@
 Oracles written here: waypoints on a line and on a parabola in time (the curve, its
 velocity and the momenta p = M q' in closed form, M = diag(m, m, J) of the knife edge,
 which the piecewise cubic reproduces exactly); the optimum from the default guess (the
-same problem must reach the same cost from the waypoint guess).
+same problem must reach the same cost from the waypoint guess); a free final time's
+range T_min/N ... T_max/N for the guess's step.
 """
 
 import numpy as np
@@ -77,3 +78,16 @@ def test_bad_waypoints_are_refused():
     with pytest.raises(dmoc.InputTypeError, match="`target` must be an OptimalControlProblem or a "
                                                   "Discretization"):
         from_waypoints("problem", [[0, 0, 0], [1, 1, 1]])
+
+
+def test_a_free_final_time_gives_a_grid_within_its_range():
+    """disc.h = 0.1 over 10 steps is 1 s, outside the free final time's [2, 3] s: the
+    guess's grid is 10 steps of T_min/N = 0.2 (the nearest step in range), the line from
+    A to A + 2 B in 2 s with the momenta M B."""
+    problem = dmoc.OptimalControlProblem(disc(), 10, q_start=A, q_goal=A + 2 * B, v_start=[None] * 3,
+                                         v_goal=[None] * 3, duration=(2.0, 3.0))
+    guess = from_waypoints(problem, [A, A + 2 * B])
+    assert guess.h == 0.2
+    np.testing.assert_allclose(guess.t, 0.2 * np.arange(11), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(guess.q, A + np.outer(guess.t, B), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(guess.p, np.tile(M * B, (11, 1)), rtol=0, atol=1e-14)

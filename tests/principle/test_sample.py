@@ -10,9 +10,12 @@ trapezoid rules apart. The discrete momenta p_k carry a constraint impulse along
 size O(h) (they are fixed up to A(q_k)^T lam by the discrete principle), so p is compared
 on the allowed directions ker A(q) = span{(cos theta, sin theta, 0), (0, 0, 1)}; p_0 is the
 given momentum, without that impulse, so on the first d steps, whose stencils hold p_0, p
-is only O(h^2) (d the interpolant's degree).
+is only O(h^2) (d the interpolant's degree). A second oracle, two formulations that must
+agree: the discrete Legendre transform of lobatto3, whose stages hold one more block,
+runs the Lagrangian trajectory, so both dense solutions must be the same.
 """
 
+import casadi as ca
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -115,3 +118,23 @@ def test_stage_nodes_are_checked(nodes):
     with pytest.raises(dmoc.InputError, match=r"`s` must hold the 2 stage configurations"):
         dmoc.Trajectory([0, 1], [[0.0], [1.0]], [[0.0]] * 2, [[]], [[0.0]], 1.0, "+",
                         s=[[0.5]], stage_nodes=(0.3, 0.6))
+
+
+
+def test_sample_of_the_legendre_transform_is_the_lagrangian_runs():
+    """`discrete_legendre` of lobatto3 keeps the extremizing Q ahead of the rule's stage
+    configuration in s (stages (Q, sigma)). From the same (q_0, p_0) it runs the Lagrangian
+    trajectory (tests/discrete/test_hamiltonian.py; here L = |v|^2/2 + cos q_1 cos q_2, no
+    constraints, as lobatto3's interior multipliers have no Legendre transform), so its dense
+    solution at t_k + 0.3 h must be the Lagrangian run's, and its q at the stage node
+    t_k + h/2 the stored sigma."""
+    system = dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v) + ca.cos(q[0]) * ca.cos(q[1]), 2)
+    disc, steps = dmoc.discretize(system, 0.2, "lobatto3"), 8
+    a, b = (dmoc.simulate(d, q0=[0.3, 0.1], p0=[0.2, -0.4], steps=steps, jit=False).trajectory
+            for d in (disc, dmoc.discrete_legendre(disc)))
+    assert b.s.shape == (steps, 4) and np.abs(b.s[:, :2] - b.s[:, 2:]).max() > 1e-2
+    times = b.t[:-1] + 0.3 * b.h
+    for name in ("q", "v", "p"):
+        np.testing.assert_allclose(getattr(b.sample(times), name), getattr(a.sample(times), name),
+                                   rtol=0, atol=1e-10)
+    np.testing.assert_allclose(b.sample(b.t[:-1] + 0.5 * b.h).q, b.s[:, 2:], rtol=0, atol=1e-14)

@@ -92,3 +92,18 @@ def test_saved_trajectory_still_loads(traj, tmp_path):
     traj.save(tmp_path / "run.npz")
     back = dmoc.Trajectory.load(tmp_path / "run.npz")
     np.testing.assert_array_equal(back.u, traj.u)
+
+
+@pytest.mark.parametrize("t0, h, steps", [(0.0, 0.7, 10), (0.7, 0.1, 10), (0.0, 0.1, 100)])
+def test_a_knot_belongs_to_the_step_that_starts_there_on_every_grid(t0, h, steps):
+    """Grids t_k = t_0 + k h on which (t_k - t_0)/h rounds below k at some knots (k = 3 for
+    h = 0.7; k = 1, 2, 7 from t_0 = 0.7; k = 43 of 100 steps of 0.1): at every knot t_k,
+    k < N, `control` gives u_k = k, the held control of the step that starts there, and
+    `sample` the velocity of that step's chord (q_{k+1} - q_k)/h = (2k + 1)/h for
+    q_k = k^2; at t_N the last step's."""
+    k = np.arange(steps + 1.0)
+    q = (k ** 2)[:, None]
+    traj = dmoc.Trajectory(t0 + h * k, q, q, np.zeros((steps, 0)), k[:-1, None], h, "+")
+    np.testing.assert_array_equal(traj.control(traj.t)[:, 0], np.append(k[:-1], steps - 1))
+    np.testing.assert_allclose(traj.sample(traj.t).v[:, 0], np.append(2 * k[:-1] + 1, 2 * steps - 1) / h,
+                               rtol=1e-12, atol=0)
