@@ -22,7 +22,7 @@ from .ipopt import data_tolerances, iteration_count, linear_algebra, start_optio
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
 from .optimization_result import OptimizationResult
-from .violation import described, most_violated
+from .violation import most_violated, worst
 from ..principle.trajectory import Trajectory
 
 
@@ -137,8 +137,7 @@ def _values_at_x(transcription, sol, converged):
     of the interior-point method touches none of its bounds."""
     T = transcription
     if converged and not sol["on_bound"][0]:
-        worst = (float(sol["largest"][0]), described(T, int(sol["row"][0]))) if T.g_layout.size else (0.0, "none")
-        return float(sol["f"][0]), worst
+        return float(sol["f"][0]), worst(T, sol["largest"][0], sol["row"][0])
     cost, g = T.separable.values(sol["x"], T.p)
     return cost, most_violated(T, g / T.g_scale)
 

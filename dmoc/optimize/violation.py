@@ -39,10 +39,18 @@ def most_violated(transcription, g):
     """(largest bound violation, its description) over the constraint vector g (unscaled)
     of `transcription` (`largest_violation`; "none" without rows)."""
     if g.size == 0:
-        return 0.0, "none"
+        return worst(transcription, 0.0, 0)
     largest = _EVALUATORS.get(g.size, lambda: Evaluator(largest_violation(g.size)))
     value, row = largest(g, transcription.lbg, transcription.ubg)
-    return float(value[0, 0]), described(transcription, int(row[0, 0]))
+    return worst(transcription, value[0, 0], row[0, 0])
+
+
+def worst(transcription, largest, row):
+    """(largest violation, its row `row` described): `largest_violation`'s outputs for
+    the stats of a solve; (0.0, "none") when `transcription` has no rows."""
+    if not transcription.g_layout.size:
+        return 0.0, "none"
+    return float(largest), described(transcription, int(row))
 
 
 def described(transcription, row):
