@@ -13,9 +13,17 @@ from ..mechanics.given import check_allowed_velocity, check_configuration
 from ..errors import InputError
 from .read_only import frozen
 
+_INF = float("inf")
+
 
 def boundary_vector(name, value, n):
-    """Boundary data of shape (n,) with None entries as NaN (free); never infinite."""
+    """Boundary data of shape (n,) with None entries as NaN (free); never infinite. A list
+    or tuple of n finite floats (NumPy's too) and None, a re-solve's new goal, is taken at
+    once, checked in Python: a NumPy call on data this short costs more than the check
+    (docs/performance.md, "The re-solve, ninth pass")."""
+    if type(value) in (list, tuple) and len(value) == n and all(
+            x is None or (isinstance(x, float) and -_INF < x < _INF) for x in value):
+        return np.array([np.nan if x is None else x for x in value])
     if value is None:
         raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
     if np.ndim(value) == 0:
@@ -91,11 +99,12 @@ def fully_given(q, v):
     return bool(np.isfinite(q).all() and np.isfinite(v).all())
 
 
-def imposes_velocity_rows(q, v):
-    """Whether A(q) v = 0 is imposed at an end with data q, v (NaN free): unless both are
-    given (then checked once, `check_allowed_velocity`) or v is given and zero (then the
-    rows vanish for every q; imposing them would make the KKT matrix singular)."""
-    return not (fully_given(q, v) or (np.isfinite(v).all() and not v.any()))
+def imposes_velocity_rows(complete, v):
+    """Whether A(q) v = 0 is imposed at an end with velocity data v (NaN free), whose q and
+    v are `complete` (`fully_given`): unless they are (then checked once,
+    `check_allowed_velocity`) or v is given and zero (then the rows vanish for every q;
+    imposing them would make the KKT matrix singular)."""
+    return not (complete or (np.isfinite(v).all() and not v.any()))
 
 
 def start_momentum(p_start, v_start, n):
@@ -132,23 +141,21 @@ def set_boundary(problem, given):
     if "q_start" in given or "q_goal" in given:
         check_holonomic_boundary(sys, problem._q_start, problem._q_goal)
     ends = [end for end, names in _END_DATA.items() if not given.keys().isdisjoint(names)]
+    rows = dict(getattr(problem, "_velocity_rows", {}))      # a copy's own
     for end in ends:
         q, v = getattr(problem, "_q_" + end), getattr(problem, "_v_" + end)
-        if given.keys() & {"q_" + end, "v_" + end} and fully_given(q, v):
+        complete = fully_given(q, v)
+        if complete and given.keys() & {"q_" + end, "v_" + end}:
             check_allowed_velocity("v_" + end, sys, q, v)
+        # a start given by its momentum has no velocity rows
+        rows[end] = imposes_velocity_rows(complete, v) and (end == "goal" or problem._p_start is None)
     lower, upper = problem._state_bounds
     for name in (k for k in ("q_start", "q_goal") if k in given):
         data = getattr(problem, "_" + name)
-        outside = np.isfinite(data) & ((data < lower) | (data > upper))
+        outside = (data < lower) | (data > upper)          # a free entry (NaN) is neither
         if outside.any():
             raise InputError(f"`{name}` must lie within `state_bounds`; entries "
                              f"{np.flatnonzero(outside).tolist()} do not.")
-    rows = dict(getattr(problem, "_velocity_rows", {}))      # a copy's own
-    if "start" in ends:
-        rows["start"] = (problem._p_start is None
-                         and imposes_velocity_rows(problem._q_start, problem._v_start))
-    if "goal" in ends:
-        rows["goal"] = imposes_velocity_rows(problem._q_goal, problem._v_goal)
     problem._velocity_rows = rows
 
 

@@ -133,24 +133,27 @@ def test_the_row_sums_of_one_stacked_x_and_p_are_the_former_ones(jit):
     assert ipopt.data_tolerances(far.transcription, far.transcription.lbx.clip(-1e7, 1e7))
 
 
-@pytest.mark.parametrize("name", ["rolling disk lobatto4", "parking"])
-def test_warm_re_solves_without_mumps_scaling_take_the_same_iterations(name):
-    """A warm start runs IPOPT with ``mumps_scaling`` 0 (`ipopt.WARM_START_OPTIONS`); the
-    oracle is the same chain of re-solves with MUMPS's own default (77) given in
-    `options`: the same iterations, optima within 1e-12, and a first solve unchanged (the
-    cold options keep MUMPS's scaling: the same bits as with 77 given)."""
+@pytest.mark.parametrize("name", ["rolling disk lobatto4", "parking", "free final time"])
+def test_warm_re_solves_with_the_warm_options_take_the_same_iterations(name):
+    """A warm start runs IPOPT with ``mumps_scaling`` 0 and ``fast_step_computation``
+    "yes" (`ipopt.WARM_START_OPTIONS`); the oracle is the same chain of re-solves with
+    IPOPT's own defaults (77 and "no") given in `options`: the same iterations, optima
+    within 1e-12, and a first solve unchanged (the cold options keep IPOPT's defaults:
+    the same bits as with them given)."""
+    defaults = {"mumps_scaling": 77, "fast_step_computation": "no"}
     assert ipopt.start_options(True)["mumps_scaling"] == 0
-    assert "mumps_scaling" not in ipopt.start_options(False)
+    assert ipopt.start_options(True)["fast_step_computation"] == "yes"
+    assert not defaults.keys() & ipopt.start_options(False).keys()
     problem = _problems()[name]
-    cold, scaled = solve(problem), solve(problem, options={"mumps_scaling": 77})
-    np.testing.assert_array_equal(cold.x, scaled.x)
-    for step in (0.02, 0.05, -0.03):
+    cold, plain = solve(problem), solve(problem, options=defaults)
+    np.testing.assert_array_equal(cold.x, plain.x)
+    for step in (0.02, 0.05, -0.03, 0.3):
         goal = [None if np.isnan(g) else g + step for g in problem.q_goal]
         moved = problem.with_boundary(q_goal=goal)
         cold = solve(moved, guess=cold)
-        scaled = solve(moved, guess=scaled, options={"mumps_scaling": 77})
-        assert cold.stats["warm_start"] and cold.stats["iterations"] == scaled.stats["iterations"]
-        np.testing.assert_allclose(cold.x, scaled.x, rtol=0.0, atol=1e-12 * max(1.0, np.abs(scaled.x).max()))
+        plain = solve(moved, guess=plain, options=defaults)
+        assert cold.stats["warm_start"] and cold.stats["iterations"] == plain.stats["iterations"]
+        np.testing.assert_allclose(cold.x, plain.x, rtol=0.0, atol=1e-12 * max(1.0, np.abs(plain.x).max()))
 
 
 @pytest.mark.parametrize("name", ["rolling disk lobatto4", "free final time"])
