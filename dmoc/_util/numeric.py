@@ -36,6 +36,8 @@ class Evaluator:
         self._inputs = [function.nnz_in(i) for i in range(function.n_in())]
         self._outputs = [_scatter(function.sparsity_out(i)) for i in range(function.n_out())]
         self._local = threading.local()         # a buffer per thread: calls may overlap
+        self._vector = (function.n_in() == 1 and function.n_out() == 1     # `vector` applies
+                        and function.sparsity_out(0).is_dense())
 
     def __call__(self, *args):
         """The outputs at `args`, one per input, each the input's entries in column-major
@@ -52,17 +54,25 @@ class Evaluator:
         nonzeros = [np.empty(len(rows)) for _, rows, _ in self._outputs]
         for i, values in enumerate(nonzeros):
             buffer.set_res(i, memoryview(values))
-        try:
-            run()
-        except SystemError as err:
-            # a KeyboardInterrupt raised inside the Function (by CasADi's check of Python's
-            # signals in IPOPT's callbacks: IPOPT stops and returns its last iterate) is
-            # left set when the call returns, which Python reports as a SystemError caused
-            # by it; the outputs are written, and they are returned, the interrupt swallowed
-            # as CasADi's ordinary call swallows it (`dmoc.optimize.interrupt`)
-            if not isinstance(err.__cause__, KeyboardInterrupt):
-                raise
+        _run(run)
         return [_dense(values, *output) for values, output in zip(nonzeros, self._outputs)]
+
+    def vector(self, z):
+        """The output's entries, a new 1-d array, of a Function of one input and one dense
+        output at `z`, a C-contiguous 1-d float array of the input's entries: the call without
+        the conversions of `__call__` (a NumPy call costs 10-20 us in a re-solve, where
+        IPOPT has left the caches cold; docs/performance.md, "The re-solve, ninth pass")."""
+        if not (self._vector and z.dtype == np.float64 and z.size == self._inputs[0]
+                and z.flags.c_contiguous):
+            raise InputError(f"`vector` evaluates {self.function.name()!r} on a C-contiguous "
+                             f"float array of {self._inputs[0]} entries when it has one input "
+                             f"and one dense output; got {z.size} entries of {z.dtype}.")
+        buffer, run = self._buffer()
+        out = np.empty(len(self._outputs[0][1]))
+        buffer.set_arg(0, memoryview(z))
+        buffer.set_res(0, memoryview(out))
+        _run(run)
+        return out
 
     def stats(self):
         """The Function's statistics (``casadi.Function.stats``) of its last call, read
@@ -75,6 +85,20 @@ class Evaluator:
         if not hasattr(self._local, "buffer"):
             self._local.buffer = self.function.buffer()
         return self._local.buffer
+
+
+def _run(run):
+    """Evaluate a buffer's Function (`run`, the buffer's own call). A KeyboardInterrupt
+    raised inside the Function (by CasADi's check of Python's signals in IPOPT's callbacks:
+    IPOPT stops and returns its last iterate) is left set when the call returns, which
+    Python reports as a SystemError caused by it; the outputs are written, and they are
+    kept, the interrupt swallowed as CasADi's ordinary call swallows it
+    (`dmoc.optimize.interrupt`)."""
+    try:
+        run()
+    except SystemError as err:
+        if not isinstance(err.__cause__, KeyboardInterrupt):
+            raise
 
 
 def _scatter(sparsity):

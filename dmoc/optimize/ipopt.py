@@ -80,7 +80,7 @@ def data_tolerances(transcription, x0, jit=False):
     numbers)."""
     T = transcription
     largest = _ROW_SUMS.get((T.structure, jit), lambda: Evaluator(_largest_row_sum(T, jit)))
-    floor = _EPS * float(largest(np.concatenate([x0, T.p]))[0][0, 0])
+    floor = _EPS * float(largest.vector(np.concatenate([x0, T.p]))[0])
     if not floor > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:       # also when NaN
         return {}
     floor = float(2.0 ** np.ceil(np.log2(floor)))
@@ -222,7 +222,7 @@ class PackedSolver:
         the unscaled rows at g and its first row (`violation.largest_violation`; 0 and 0
         without rows)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
-        return self._outputs.split(self._function(z)[0][:, 0])
+        return self._outputs.split(self._function.vector(z))
 
     def stats(self):
         """IPOPT's statistics of the last solve: the packed Function's, which are
@@ -251,11 +251,16 @@ def iteration_count(st):
     return count if isinstance(count, int) and count >= 0 else 0
 
 
+# the wall times of the five Functions IPOPT calls (`evaluation.nlp_functions`), in the
+# order of IPOPT's statistics (sorted), so that their sum has the bits of summing them there
+_EVALUATION_TIMES = tuple(sorted("t_wall_nlp_" + name for name in ("f", "g", "grad_f", "jac_g", "hess_l")))
+
+
 def linear_algebra(st):
     """What IPOPT's KKT solves cost and needed: seconds outside function evaluations, and
     the iterations whose KKT matrix had the wrong inertia, so that IPOPT added delta_w I to
     the Hessian block (its largest delta_w)."""
     delta = st.get("iterations", {}).get("regularization_size", [])
-    evaluations = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
+    evaluations = sum(st.get(key, 0.0) for key in _EVALUATION_TIMES)
     return {"function_time": evaluations, "regularized_iterations": sum(d > 0 for d in delta),
             "max_regularization": max(delta, default=0.0)}

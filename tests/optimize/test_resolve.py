@@ -178,3 +178,17 @@ def test_free_time_warm_start_keeps_the_step():
     assert problem.x_layout.unpack(x0, "h")[0, 0] == first.trajectory.h
     again = dmoc.optimize(problem, guess=first.trajectory)
     assert again.trajectory.h == pytest.approx(first.trajectory.h, rel=1e-8)
+
+
+def test_the_function_time_is_the_sum_of_every_nlp_functions_wall_time():
+    """stats["function_time"] sums the five Functions' wall times by name
+    (`ipopt.linear_algebra`); the oracle is every ``t_wall_nlp_*`` entry of the solver's
+    own statistics, summed in their order: the same bits, and no NLP Function left out."""
+    from dmoc.optimize import ipopt
+    problem = dmoc.problems.knife_edge_parking(12)
+    result = dmoc.optimize(problem, check=False)
+    solver = ipopt.solver(problem.transcription, ipopt.start_options(False), expand=False,
+                          reuse=True, report=False)[0]
+    st = solver.stats()
+    assert st["n_call_nlp_hess_l"] > 0
+    assert result.stats["function_time"] == sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))

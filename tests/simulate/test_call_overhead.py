@@ -94,6 +94,30 @@ def test_the_evaluator_equals_casadis_call_with_structural_zeros_and_shapes():
         Evaluator(sparse)
 
 
+def test_the_evaluators_vector_call_equals_casadis_call_and_refuses_other_arrays():
+    """`Evaluator.vector` (one input, one dense output, no conversions; the packed IPOPT
+    call and the data's row sums use it): CasADi's own call gives the same bits, every
+    entry (signed zeros, a subnormal, inf, NaN), on successive calls into new arrays; an
+    array it would misread, a Function of two inputs and a sparse output are refused
+    before the call."""
+    x = ca.SX.sym("x", 5)
+    f = ca.Function("f", [x], [ca.vertcat(x[0] * x[1], ca.sin(x[2]), 0, x[4] - x[3], x[2] / x[0])])
+    for z in (np.array([0.0, -0.0, 5e-324, 1e308, -np.inf]), np.array([np.nan, 2.0, 0.5, 1.0, 3.0])):
+        got = Evaluator(f).vector(z)
+        assert got.tobytes() == np.array(f(z)).ravel().tobytes()
+    evaluator = Evaluator(f)
+    first, second = evaluator.vector(np.arange(5.0)), evaluator.vector(np.arange(5.0) + 1)
+    assert first is not second and first[0] == 0.0 and second[0] == 2.0
+    for bad in (np.arange(4.0), np.arange(5), np.arange(10.0)[::2]):
+        with pytest.raises(ValueError, match="`vector` evaluates 'f' on a C-contiguous float array of 5"):
+            evaluator.vector(bad)
+    two = ca.Function("g", [x, ca.SX.sym("y")], [x[0]])
+    sparse = ca.Function("h", [x], [ca.vertcat(x[0], ca.SX(1, 1))])
+    for function in (two, sparse):
+        with pytest.raises(ValueError, match="when it has one input and one dense output"):
+            Evaluator(function).vector(np.zeros(5))
+
+
 def _executable(path):
     path.write_text("#!/bin/sh\nexit 0\n")
     path.chmod(0o755)
