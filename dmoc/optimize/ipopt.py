@@ -168,12 +168,14 @@ def _nlpsol_options(options, report):
 class PackedSolver:
     """An IPOPT nlpsol called on NumPy vectors through one stacked input and one stacked
     output, read and written in place through the packed Function's buffer
-    (`dmoc._util.numeric.Evaluator`, one buffer per thread): no conversion to or from
-    ``casadi.DM`` at all, the same floats in and out. Called as an ordinary CasADi Function
-    on a list of floats, as before, the call spent 263-323 us outside IPOPT's own time
-    on the rolling disk (1839 entries in, 1009 out), through the buffer 13-19 us
+    (`dmoc._util.numeric.Evaluator.vector`, one buffer per thread): no conversion to or
+    from ``casadi.DM`` at all, the same floats in and out. Called as an ordinary CasADi
+    Function on a list of floats, as before, the call spent 263-323 us outside IPOPT's own
+    time on the rolling disk (1839 entries in, 1009 out), through the buffer 13-19 us
     (docs/performance.md, "The Python around IPOPT, third pass"). The stacked form is
-    kept: the solver is called through one input and one output.
+    kept: the solver is called through one input and one output, which also carries what
+    the result needs of x and the multipliers, so that `solve` forms no vector of them
+    (docs/performance.md, "The re-solve, ninth pass").
 
     Parameters
     ----------
@@ -202,25 +204,34 @@ class PackedSolver:
         self._inputs = Layout([("x0", n_x), ("p", n_p), ("lam_x0", n_x), ("lam_g0", n_g),
                                ("lbx", n_x), ("ubx", n_x), ("lbg", n_g), ("ubg", n_g)])
         self._outputs = Layout([("x", n_x), ("f", 1), ("g", n_g), ("lam_x", n_x), ("lam_g", n_g),
-                                ("on_bound", 1), ("largest", 1), ("row", 1)])
+                                ("on_bound", 1), ("largest", 1), ("row", 1), ("result_x", n_x),
+                                ("result_lam_x", n_x), ("result_lam_g", n_g), ("x_norm1", 1)])
         z = ca.MX.sym("z", self._inputs.size)
         inputs = self._inputs.split(z)
         sol = nlpsol(**inputs)
         sol["on_bound"] = on_bound(sol["x"], inputs["lbx"], inputs["ubx"])
+        # the result's vectors unscaled: the products and quotients NumPy formed of the
+        # outputs before, the same bits; and the 1-norm of x, finite when x is
+        D, R = ca.DM(transcription.x_scale), ca.DM(transcription.g_scale)
+        sol["result_x"], sol["result_lam_x"], sol["result_lam_g"] = D * sol["x"], sol["lam_x"] / D, R * sol["lam_g"]
+        sol["x_norm1"] = ca.sum1(ca.fabs(sol["result_x"]))
         if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
-            R = ca.DM(transcription.g_scale)
             sol["largest"], sol["row"] = largest_violation(n_g)(sol["g"] / R, inputs["lbg"] / R, inputs["ubg"] / R)
         else:
             sol["largest"] = sol["row"] = ca.MX(0)
         self._function = Evaluator(ca.Function("ipopt_packed", [z], [self._outputs.join(sol)], ["z"], ["sol"]))
 
     def __call__(self, **inputs):
-        """{"x", "f", "g", "lam_x", "lam_g", "on_bound", "largest", "row"}: 1-d arrays (the
-        last four of shape (1,)) of the solve from the `inputs` of nlpsol (x0, p, lam_x0,
-        lam_g0, lbx, ubx, lbg, ubg; 1-d arrays): nlpsol's outputs, the number of entries of
-        x with lbx < ubx on a bound (`violation.on_bound`), and the largest violation of
-        the unscaled rows at g and its first row (`violation.largest_violation`; 0 and 0
-        without rows)."""
+        """{"x", "f", "g", "lam_x", "lam_g", "on_bound", "largest", "row", "result_x",
+        "result_lam_x", "result_lam_g", "x_norm1"}: 1-d arrays (on_bound, largest, row
+        and x_norm1 of shape (1,)) of the solve from the `inputs` of nlpsol (x0, p,
+        lam_x0, lam_g0, lbx, ubx, lbg, ubg; 1-d arrays, the scaled NLP's): nlpsol's
+        outputs, the number of entries of x with lbx < ubx on a bound
+        (`violation.on_bound`), the largest violation of the unscaled rows at g and its
+        first row (`violation.largest_violation`; 0 and 0 without rows), the result's x,
+        lam_x and lam_g in the system's units (``x_scale * x``, ``lam_x / x_scale``,
+        ``g_scale * lam_g``), and the 1-norm of result_x: inf or NaN when an entry is
+        (or the sum overflows)."""
         z = np.concatenate([inputs[name] for name in self._inputs.blocks])
         return self._outputs.split(self._function.vector(z))
 

@@ -5,6 +5,7 @@ violated constraint group (dynamics at step k, boundary, path). `dmoc.optimize` 
 solve followed by the verdict of `dmoc.results.verdict`.
 """
 
+import math
 import sys
 import time
 import warnings
@@ -111,19 +112,19 @@ def _outcome(st, stats, cost, sigints, options):
 
 
 def _result(problem, solver, sol, fixed, outcome):
-    """The OptimizationResult of the packed call's output `sol` (scaled) of `solver` on
-    `problem`, whose fixed entries are `fixed`, with `outcome` (cost, success, status,
-    message, stats): x, lam_x and lam_g unscaled; the trajectory made on first access when
-    x is finite (`OptimizationResult.trajectory`; the copy keeps it from writes into
-    result.x), and lam_x completed on first access (`fixed_multipliers.deferred`)."""
+    """The OptimizationResult of the packed call's output `sol` of `solver` on `problem`,
+    whose fixed entries are `fixed`, with `outcome` (cost, success, status, message,
+    stats): x, lam_x and lam_g unscaled, as the packed call forms them; the trajectory made
+    on first access when x is finite (its 1-norm is; `OptimizationResult.trajectory`; the
+    copy keeps it from writes into result.x), and lam_x completed on first access
+    (`fixed_multipliers.deferred`)."""
     T = problem.transcription
-    D, R = T.x_scale, T.g_scale
-    x = D * sol["x"]
-    traj = Pending(trajectory_from_x, problem, x.copy()) if np.isfinite(x).all() else \
+    x, lam_x = sol["result_x"], sol["result_lam_x"]
+    traj = Pending(trajectory_from_x, problem, x.copy()) if math.isfinite(sol["x_norm1"][0]) else \
         trajectory_from_x(problem, x)
-    lam_x = sol["lam_x"] / D if solver.fixed_multipliers is None else deferred_lam_x(
-        solver.fixed_multipliers, sol["lam_x"] / D, fixed, (sol["x"], T.p, sol["lam_g"], D))
-    return OptimizationResult(traj, *outcome, x, lam_x, R * sol["lam_g"], T.structure, T.q_ref.copy())
+    if solver.fixed_multipliers is not None:
+        lam_x = deferred_lam_x(solver.fixed_multipliers, lam_x, fixed, (sol["x"], T.p, sol["lam_g"], T.x_scale))
+    return OptimizationResult(traj, *outcome, x, lam_x, sol["result_lam_g"], T.structure, T.q_ref.copy())
 
 
 def _values_at_x(transcription, sol, converged):

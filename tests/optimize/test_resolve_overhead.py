@@ -25,6 +25,7 @@ from dmoc._util.numeric import Evaluator
 from dmoc.optimize import ipopt
 from dmoc.optimize.evaluation import nlp_functions
 from dmoc.optimize.optimization_result import OptimizationResult
+from dmoc.optimize.guess import initial_guess as ipopt_start_vector
 from dmoc.optimize.solve import solve, trajectory_from_x
 
 FIELDS = ("t", "q", "p", "lam", "u", "h", "variant", "mu", "s", "control_nodes", "stage_nodes")
@@ -182,6 +183,31 @@ def test_the_packed_call_through_its_buffer_gives_the_solvers_own_outputs(name):
     violation = np.maximum(T.lbg - g, g - T.ubg)
     row = int(np.argmax(violation)) if violation.max() > 0 else 0
     assert (ours["largest"][0], ours["row"][0]) == (max(violation.max(), 0.0), row)
+    # and the result's vectors in the system's units, as NumPy forms them, the same bits
+    for key, value in (("result_x", D * x), ("result_lam_x", theirs["lam_x"] / D),
+                       ("result_lam_g", R * theirs["lam_g"])):
+        np.testing.assert_array_equal(ours[key].view(np.int64), value.view(np.int64), err_msg=key)
+    assert ours["x_norm1"][0] == sum(abs(v) for v in (D * x).tolist())     # in order, from 0
+
+
+def test_a_returned_x_that_is_not_finite_is_seen_and_its_trajectory_made_at_once():
+    """IPOPT stopped by a NaN in its start point returns it in x: the packed call's
+    1-norm of x is not finite, and the result's trajectory is made at once by the checking
+    constructor (`trajectory_from_x`), not deferred; the oracle is NumPy's isfinite of the
+    returned x."""
+    from dmoc.optimize.solve import _result
+    problem = dmoc.problems.knife_edge_parking(6)
+    T = problem.transcription
+    packed = ipopt.solver(T, ipopt.start_options(False), expand=False, reuse=True, report=False)[0]
+    D, R = T.x_scale, T.g_scale
+    x0 = ipopt_start_vector(problem) / D
+    x0[np.flatnonzero(T.lbx < T.ubx)[3]] = np.nan
+    sol = packed(x0=x0, p=T.p, lam_x0=np.zeros_like(x0), lam_g0=np.zeros(T.lbg.size), lbx=T.lbx / D,
+                 ubx=T.ubx / D, lbg=T.lbg * R, ubg=T.ubg * R)
+    assert not np.isfinite(sol["result_x"]).all() and not np.isfinite(sol["x_norm1"][0])
+    result = _result(problem, packed, sol, np.flatnonzero(T.lbx == T.ubx), (np.nan, False, "s", "m", {}))
+    assert not isinstance(vars(result)["trajectory"], Pending)
+    np.testing.assert_array_equal(result.x, sol["result_x"])
 
 
 def test_a_solve_in_another_thread_reports_its_own_stats():
