@@ -10,16 +10,17 @@ options) and "IPOPT" with ``options={"mumps_scaling": 77, "fast_step_computation
 (IPOPT's defaults, given explicitly), each from its own last converged result, with
 ``throw=False``; the arm that goes first turns re-solve by re-solve. The data change by
 `FRACTIONS` (1 %, 10 %, 50 %) of the motion: the goal's given entries (or the parameters,
-by their scale) each move by that much with a random sign, clipped into a range that keeps
-the problem feasible. `--repeat` chains per problem (seeds 0, 1, ...). The "mpc" row is the
-closed loop of examples/mpc_knife_edge.py (horizon 30, plant 10 % heavier, kick at step
-10): two `dmoc.MPC` controllers, one per option set, fed the same measured states (the
-plant driven by dmoc's controls), `--steps` steps; its figures are over the warm steps
-(step 0 is a cold solve with IPOPT's defaults in both). Per row: the re-solves, iterations
-summed per arm and the number of re-solves where they differ, failures per arm; where both
-converged, the largest relative difference of x (max |x_dmoc - x_IPOPT| / max |x_IPOPT|)
-and of the cost, and the median ratio of IPOPT's time (``stats["ipopt_time"]``),
-dmoc / IPOPT.
+by their scale) each move by that much with a random sign, the other way where a range that
+keeps the problem feasible would be left, and clipped into it. `--repeat` chains per
+problem (seeds 0, 1, ...). The "mpc" row is the closed loop of examples/mpc_knife_edge.py
+(horizon 30, plant 10 % heavier, kick at step 10): two `dmoc.MPC` controllers, one per
+option set, fed the same measured states (the plant driven by dmoc's controls), `--steps`
+steps; its figures are over the warm steps (step 0 is a cold solve with IPOPT's defaults
+in both). Per row: the re-solves ("n"),
+iterations summed per arm and the number of re-solves where they differ, failures per arm;
+where both converged, the largest relative difference of x (max |x_dmoc - x_IPOPT| /
+max |x_IPOPT|) and of the cost, and the median ratio of IPOPT's time
+(``stats["ipopt_time"]``), dmoc / IPOPT. The default run takes about 20 s, `--quick` 2 s.
 
     python benchmarks/warm_options.py [--repeat 1] [--steps 40] [--problems NAME ...] [--quick]
 """
@@ -45,40 +46,50 @@ FRACTIONS = (0.01, 0.1, 0.5, 0.01, 0.5, 0.1, 0.5, 0.01, 0.1, 0.5)
 QUICK = {"problems": ("disk-lobatto4", "knife-bounds", "lc", "mpc"), "fractions": FRACTIONS[:4], "steps": 12}
 
 
+def moved(value, step, low, high):
+    """value + step, with each entry that would leave [low, high] moved by -step instead,
+    then clipped into it."""
+    ahead = value + step
+    return np.clip(np.where((ahead < low) | (ahead > high), value - step, ahead), low, high)
+
+
 def goal_change(directions, low=-np.inf, high=np.inf):
-    """change(problem, fraction, rng): `problem` with its goal q moved by fraction *
-    directions @ s, s of random signs (directions shape (n, k)), clipped into [low, high];
-    free entries stay free."""
+    """change(problem, fraction, rng): `problem` with its goal q `moved` by fraction *
+    directions @ s, s of random signs (directions shape (n, k)); free entries stay free."""
     def change(problem, fraction, rng):
-        signs = rng.choice((-1.0, 1.0), np.shape(directions)[1])
-        goal = np.clip(problem.q_goal + fraction * np.asarray(directions) @ signs, low, high)
+        step = fraction * np.asarray(directions) @ rng.choice((-1.0, 1.0), np.shape(directions)[1])
+        goal = moved(problem.q_goal, step, low, high)
         return problem.with_boundary(q_goal=[None if np.isnan(g) else float(g) for g in goal])
     return change
 
 
 def motion(problem):
-    """Directions for `goal_change`: each entry of the goal alone, by the size of the motion
-    |q_goal - q_start| (free entries left out)."""
+    """Directions for `goal_change`, shape (n, n): each entry of the goal alone, by the size
+    of the motion |q_goal - q_start| (its given entries)."""
     return np.eye(problem.disc.system.n) * np.linalg.norm(np.nan_to_num(problem.q_goal - problem.q_start))
 
 
 def parameter_change(scale, low, high):
-    """change(problem, fraction, rng): `problem` with each parameter entry moved by fraction
-    * its `scale` with a random sign, clipped into [low, high] (dicts by name)."""
+    """change(problem, fraction, rng): `problem` with each parameter entry `moved` by
+    fraction * its `scale` with a random sign (dicts by name)."""
     def change(problem, fraction, rng):
         return problem.with_parameters(**{
-            name: np.clip(value + fraction * scale[name] * rng.choice((-1.0, 1.0), value.shape),
-                          low[name], high[name]) for name, value in problem.parameter_values.items()})
+            name: moved(value, fraction * scale[name] * rng.choice((-1.0, 1.0), value.shape),
+                        low[name], high[name]) for name, value in problem.parameter_values.items()})
     return change
 
 
 def knife_bounds():
-    """Knife-edge parking, N = 50, |u| at most 0.7 of the unbounded optimum's largest."""
+    """Knife-edge parking, N = 50, |u| at most 0.7 of the unbounded optimum's largest; the
+    goal kept in a box where some bounds are active at every optimum (4 to 46 at its
+    corners) and the problem feasible (y = 1.5 is not, and a warm re-solve at (0.2, 1.2,
+    0.3) reports it infeasible)."""
     free = P.knife_edge_parking(50)
     bound = 0.7 * np.abs(solve(free).trajectory.u).max()
     problem = dmoc.OptimalControlProblem(free.disc, 50, q_start=[0, 0, 0], q_goal=[0, 1, 0],
                                          control_bounds=([-bound] * 2, [bound] * 2))
-    return f"knife midpoint N=50, |u| <= {bound:.3g}", problem, None, goal_change(motion(problem))
+    return (f"knife midpoint N=50, |u| <= {bound:.3g}", problem, None,
+            goal_change(motion(problem), low=[-0.2, 0.8, -0.3], high=[0.2, 1.1, 0.3]))
 
 
 def knife_free_time():
@@ -139,12 +150,17 @@ def car():
             goal_change(np.diag([40.0, 3.5, 0.0, 0.0])))
 
 
-def parking(name, problem):
-    """A problem of `dmoc.problems` whose goal moves by the fraction of the motion."""
-    return lambda: (name, problem(), None, goal_change(motion(problem())))
+def parking(name, make):
+    """A builder of the problem `make()` of `dmoc.problems`, its goal moved by the fraction of
+    the motion."""
+    def build():
+        problem = make()
+        return name, problem, None, goal_change(motion(problem))
+    return build
 
 
-PROBLEMS = {"disk-lobatto4": parking("disk lobatto4 N=11", lambda: P.rolling_disk_steering(11, rule="lobatto4")),
+PROBLEMS = {"disk-lobatto4": parking("disk lobatto4 N=11",
+                                     lambda: P.rolling_disk_steering(11, rule="lobatto4")),
             "disk-midpoint": parking("disk midpoint N=100", lambda: P.rolling_disk_steering(100)),
             "knife": parking("knife lobatto3 N=28", lambda: P.knife_edge_parking(28, rule="lobatto3")),
             "car": car, "knife-bounds": knife_bounds, "knife-free-time": knife_free_time,
@@ -183,7 +199,8 @@ def mpc(steps):
     from mpc_knife_edge import KICK, KICK_STEP
     problem = P.knife_edge_parking(30, duration=3.0)
     plant = dmoc.discretize(dmoc.systems.knife_edge(mass=1.1, inertia=1.0), problem.disc.h)
-    controllers = {arm: dmoc.MPC(problem, options=options, on_failure="shift") for arm, options in ARMS.items()}
+    controllers = {arm: dmoc.MPC(problem, options=options, on_failure="shift")
+                   for arm, options in ARMS.items()}
     q, p, pairs = np.zeros(3), np.zeros(3), []
     for k in range(steps):
         u = {arm: controllers[arm].step(q, p=p) for arm in list(ARMS)[k % 2:] + list(ARMS)[:k % 2]}
@@ -207,15 +224,16 @@ def row(label, pairs):
     it = [sum(pair[i]["iterations"] for pair in pairs) for i in (0, 1)]
     differ = sum(a["iterations"] != b["iterations"] for a, b in pairs)
     fails = [sum(not pair[i]["success"] for pair in pairs) for i in (0, 1)]
-    return (f"{label:<38}{len(pairs):>5}{it[0]:>8}{it[1]:>7}{differ:>7}{fails[0]:>7}{fails[1]:>6}"
-            f"{dx:>10.1e}{dJ:>10.1e}{ratio:>9.3f}")
+    return (f"{label:<38}{len(pairs):>4}{it[0]:>10}{it[1]:>9}{differ:>8}{fails[0]:>12}{fails[1]:>11}"
+            f"{dx:>10.1e}{dJ:>10.1e}{ratio:>14.3f}")
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=1, help="chains per problem (default 1)")
     parser.add_argument("--steps", type=int, default=40, help="MPC closed-loop steps (default 40)")
-    parser.add_argument("--problems", nargs="+", choices=[*PROBLEMS, "mpc"], default=[*PROBLEMS, "mpc"])
+    parser.add_argument("--problems", nargs="+", choices=[*PROBLEMS, "mpc"], default=[*PROBLEMS, "mpc"],
+                        metavar="NAME", help=f"of {', '.join([*PROBLEMS, 'mpc'])} (default all)")
     parser.add_argument("--quick", action="store_true",
                         help=f"{', '.join(QUICK['problems'])}; {len(QUICK['fractions'])} re-solves, "
                              f"{QUICK['steps']} MPC steps")
@@ -224,10 +242,11 @@ def main(argv=None):
                                else (args.problems, FRACTIONS, args.steps))
     print(f"warm options: dmoc {WARM_START_OPTIONS} against IPOPT {ARMS['IPOPT']}; "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
-    print(f"\n{'problem':<38}{'n':>5}{'it IPOPT':>8}{'dmoc':>7}{'differ':>7}{'fails':>7}{'dmoc':>6}"
-          f"{'max dx':>10}{'max dJ/J':>10}{'t d/I':>9}")
+    print(f"\n{'problem':<38}{'n':>4}{'it IPOPT':>10}{'it dmoc':>9}{'differ':>8}{'fail IPOPT':>12}"
+          f"{'fail dmoc':>11}{'max dx':>10}{'max dJ/J':>10}{'t dmoc/IPOPT':>14}")
     for name in names:
-        print(row(*(mpc(steps) if name == "mpc" else chains(PROBLEMS[name], args.repeat, fractions))), flush=True)
+        pairs = mpc(steps) if name == "mpc" else chains(PROBLEMS[name], args.repeat, fractions)
+        print(row(*pairs), flush=True)
     print(f"\nload average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
 
 
