@@ -111,12 +111,14 @@ def sphere():
 
 def lc_circuit():
     """examples/lc_circuit.py's steering, N = 100: the charge's goal (split between the
-    capacitors) moves by the fraction of the charge."""
+    capacitors) moves by the fraction of the charge, kept in [0.25, 2] (at 0 the optimum is
+    0 and relative differences say nothing)."""
     C1, C2 = 0.5, 1.5
     split = np.array([[1.0], [C1 / (C1 + C2)], [C2 / (C1 + C2)]])
     disc = dmoc.discretize(dmoc.systems.lc_circuit(0.8, (C1, C2)), 3.0 / 100)
     problem = dmoc.OptimalControlProblem(disc, 100, q_start=[0, 0, 0], q_goal=split[:, 0])
-    return "LC circuit (degenerate) midpoint N=100", problem, None, goal_change(split)
+    return ("LC circuit (degenerate) midpoint N=100", problem, None,
+            goal_change(split, low=0.25 * split[:, 0], high=2.0 * split[:, 0]))
 
 
 def knife_parameters():
