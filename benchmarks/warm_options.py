@@ -81,9 +81,9 @@ def parameter_change(scale, low, high):
 
 def knife_bounds():
     """Knife-edge parking, N = 50, |u| at most 0.7 of the unbounded optimum's largest; the
-    goal kept in a box where some bounds are active at every optimum (4 to 46 at its
-    corners) and the problem feasible (y = 1.5 is not, and a warm re-solve at (0.2, 1.2,
-    0.3) reports it infeasible)."""
+    goal kept in a box where some bounds are active at every optimum (4 to 38 at its
+    corners) and the problem feasible (y = 1.5 is not; at (0.2, 1.2, 0.3), solved cold, a
+    warm re-solve stopped at Infeasible_Problem_Detected in both arms)."""
     free = P.knife_edge_parking(50)
     bound = 0.7 * np.abs(solve(free).trajectory.u).max()
     problem = dmoc.OptimalControlProblem(free.disc, 50, q_start=[0, 0, 0], q_goal=[0, 1, 0],
