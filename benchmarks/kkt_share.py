@@ -6,8 +6,9 @@ N = 11, rockit 42 intervals; `--problem knife` for knife-edge parking, dmoc loba
 N = 28, rockit 62): dmoc's raw re-solve compiled to C (``solve(problem.with_boundary(...),
 guess=previous, jit=True)``) and rockit's function re-solve compiled to C (``to_function``
 of goal, start x and multipliers, CasADi ``jit``, gcc -O2), each also with the other's
-warm-start MUMPS option (dmoc re-solves with ``mumps_scaling`` 0, rockit with IPOPT's
-default 77), called in turn goal by goal over `peers_resolve.py`'s cycle of goals,
+way of solving the KKT systems (dmoc's warm re-solves take IPOPT's ``fast_step_computation``
+"yes", no residual of the KKT solves, since the ninth pass; rockit IPOPT's default "no"),
+called in turn goal by goal over `peers_resolve.py`'s cycle of goals,
 `--repeat` times (with `--rotate`, the method called first turns goal by goal: in the
 fixed order dmoc's first row follows rockit's and pays the caches they leave; turning
 keeps the cyclic order, so that row still follows rockit's last; with `--blocks`, each
@@ -160,14 +161,20 @@ def dmoc_method(name, rule, N, targets, options):
     return step
 
 
-def rockit_method(name, N, targets, mumps_scaling, status=False):
-    """step(goal index) -> figures of rockit's compiled function re-solve with IPOPT's
-    `mumps_scaling`; with `status`, the call followed by the reading of its return status
-    (``resolve.stats()``, within the timed call): the function returns IPOPT's last iterate
-    whether or not it converged, so a loop that must know has to read it."""
-    peers.IPOPT["mumps_scaling"] = mumps_scaling
-    ocp, goal = peers.rockit_ocp(name, N, jit=True)
-    sol = peers.rockit_solve(ocp, goal, targets[0])
+def rockit_method(name, N, targets, options, status=False):
+    """step(goal index) -> figures of rockit's compiled function re-solve with the IPOPT
+    `options` over `peers_resolve.IPOPT`; with `status`, the call followed by the reading of
+    its return status (``resolve.stats()``, within the timed call): the function returns
+    IPOPT's last iterate whether or not it converged, so a loop that must know has to read
+    it."""
+    shared = dict(peers.IPOPT)
+    peers.IPOPT.update(options)
+    try:
+        ocp, goal = peers.rockit_ocp(name, N, jit=True)
+        sol = peers.rockit_solve(ocp, goal, targets[0])
+    finally:
+        peers.IPOPT.clear()
+        peers.IPOPT.update(shared)
     opti = ocp._method.opti
     resolve = ocp.to_function("resolve", [goal, opti.x, opti.lam_g], [opti.x, opti.lam_g, opti.f])
     x, lam_g = sol.sol.sol.value(opti.x), sol.sol.sol.value(opti.lam_g)
@@ -295,12 +302,14 @@ def main(argv=None):
     print(f"{name}: dmoc {rule} N = {N}, rockit N = {N_rockit}; load average "
           f"{'%.2f %.2f %.2f' % os.getloadavg()}")
     methods = {"dmoc raw C": dmoc_method(name, rule, N, targets, {}),
-               "dmoc raw C, MUMPS scaling 77": dmoc_method(name, rule, N, targets, {"mumps_scaling": 77}),
+               "dmoc raw C, KKT residuals (no fast steps)": dmoc_method(
+                   name, rule, N, targets, {"fast_step_computation": "no"}),
                "dmoc raw C, fixed variables' multipliers by IPOPT": dmoc_method(
                    name, rule, N, targets, {"fixed_variable_treatment": "make_parameter"}),
-               "rockit function C": rockit_method(name, N_rockit, targets, 77),
-               "rockit function C, MUMPS scaling 0": rockit_method(name, N_rockit, targets, 0),
-               "rockit function C, its status read": rockit_method(name, N_rockit, targets, 77, status=True)}
+               "rockit function C": rockit_method(name, N_rockit, targets, {}),
+               "rockit function C, fast steps": rockit_method(
+                   name, N_rockit, targets, {"fast_step_computation": "yes"}),
+               "rockit function C, its status read": rockit_method(name, N_rockit, targets, {}, status=True)}
     if pieces:
         methods["dmoc raw C"] = pieces.around(methods["dmoc raw C"])
     order = list(range(1, len(targets))) + [0]

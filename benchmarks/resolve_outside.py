@@ -13,7 +13,8 @@ over `--calls` alternating calls, and of the re-solves also the median time outs
 IPOPT (the call's time less ``stats["solve_time"]``). Every pair is checked to give the
 same bits (x, multipliers, cost, iterations and, once made, the trajectory). Last, IPOPT's
 time in two chains of warm re-solves, with MUMPS's scaling of the KKT matrices (before)
-and without (after, `dmoc.optimize.ipopt.WARM_START_OPTIONS`): the same iterations.
+and without (after; dmoc's warm option from the third to the eighth pass): the same
+iterations.
 
     python benchmarks/resolve_outside.py [--calls 1000]
     perf record -D 4000 -F 1500 --call-graph dwarf,32768 python benchmarks/resolve_outside.py --loop 1500
@@ -194,7 +195,7 @@ def case(name, make, goal, q_goal, calls):
 def warm_chains(problem, goal, q_goal, previous):
     """Two chains of raw re-solves over the goals, the first with MUMPS's scaling of the
     KKT matrices as before (``mumps_scaling`` 77, MUMPS's default), the second without (0,
-    `WARM_START_OPTIONS`): each returns IPOPT's time (``stats["solve_time"]``); the same
+    dmoc's warm option from the third to the eighth pass): each returns IPOPT's time (``stats["solve_time"]``); the same
     iterations are asserted, and the optima agree to 1e-12 (not bit for bit: the pivots'
     scaling differs)."""
     state = {"i": 0, "previous": [previous, previous]}
@@ -202,7 +203,7 @@ def warm_chains(problem, goal, q_goal, previous):
     def chain(k):
         def run():
             moved = problem.with_boundary(q_goal=q_goal(goal + OFFSETS[state["i"] % len(OFFSETS)]))
-            options = {"mumps_scaling": 77} if k == 0 else {}
+            options = {"mumps_scaling": 77 if k == 0 else 0}
             result = solve(moved, guess=state["previous"][k], jit=True, options=options)
             state["previous"][k] = result
             if k == 1:

@@ -2,9 +2,9 @@
 chains of warm re-solves with changed data and on the knife-edge MPC, in one process.
 
 A warm re-solve runs IPOPT with `dmoc.optimize.ipopt.WARM_START_OPTIONS`: besides
-warm_start_init_point "yes", mumps_scaling 0 (no scaling of the KKT matrix by MUMPS) and
-fast_step_computation "yes" (each KKT solution taken as MUMPS returns it, its residual not
-computed). Each problem is solved cold once; from that optimum two chains of warm re-solves
+warm_start_init_point "yes", fast_step_computation "yes" (each KKT solution taken as MUMPS
+returns it, its residual not computed); `--arm` adds options to dmoc's arm (e.g.
+'{"mumps_scaling": 0}', the warm option from the third to the eighth pass). Each problem is solved cold once; from that optimum two chains of warm re-solves
 run in lockstep over the same changed data: "dmoc" with ``options=None`` (the warm
 options) and "IPOPT" with ``options={"mumps_scaling": 77, "fast_step_computation": "no"}``
 (IPOPT's defaults, given explicitly), each from its own last converged result, with
@@ -22,10 +22,11 @@ where both converged, the largest relative difference of x (max |x_dmoc - x_IPOP
 max |x_IPOPT|) and of the cost, and the median ratio of IPOPT's time
 (``stats["ipopt_time"]``), dmoc / IPOPT. The default run takes about 20 s, `--quick` 2 s.
 
-    python benchmarks/warm_options.py [--repeat 1] [--steps 40] [--problems NAME ...] [--quick]
+    python benchmarks/warm_options.py [--repeat 1] [--steps 40] [--problems NAME ...] [--arm JSON] [--quick]
 """
 
 import argparse
+import json
 import os
 import sys
 
@@ -236,13 +237,16 @@ def main(argv=None):
     parser.add_argument("--steps", type=int, default=40, help="MPC closed-loop steps (default 40)")
     parser.add_argument("--problems", nargs="+", choices=[*PROBLEMS, "mpc"], default=[*PROBLEMS, "mpc"],
                         metavar="NAME", help=f"of {', '.join([*PROBLEMS, 'mpc'])} (default all)")
+    parser.add_argument("--arm", type=json.loads, default=None, metavar="JSON",
+                        help="IPOPT options added to dmoc's arm, e.g. '{\"mumps_scaling\": 0}'")
     parser.add_argument("--quick", action="store_true",
                         help=f"{', '.join(QUICK['problems'])}; {len(QUICK['fractions'])} re-solves, "
                              f"{QUICK['steps']} MPC steps")
     args = parser.parse_args(argv)
+    ARMS["dmoc"] = args.arm
     names, fractions, steps = ((QUICK["problems"], QUICK["fractions"], QUICK["steps"]) if args.quick
                                else (args.problems, FRACTIONS, args.steps))
-    print(f"warm options: dmoc {WARM_START_OPTIONS} against IPOPT {ARMS['IPOPT']}; "
+    print(f"warm options: dmoc {WARM_START_OPTIONS} (with {args.arm}) against IPOPT {ARMS['IPOPT']}; "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
     print(f"\n{'problem':<38}{'n':>4}{'it IPOPT':>10}{'it dmoc':>9}{'differ':>8}{'fail IPOPT':>12}"
           f"{'fail dmoc':>11}{'max dx':>10}{'max dJ/J':>10}{'t dmoc/IPOPT':>14}")

@@ -40,20 +40,17 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0,
                          "fixed_variable_treatment": "make_parameter_nodual"}
 # per start (`start_options`): warm_start_init_point as above; and for a warm start
-# mumps_scaling 0, no scaling of the KKT matrix by MUMPS (its default 77 computes one at
-# every factorization): a re-solve next to an optimum of the same, already scaled NLP
-# (`scaling`) factorizes its KKT matrices accurately without it, with the same iterations
-# on the benchmarks' re-solves and MPC steps, about 2-3 % less of IPOPT's time
-# (docs/performance.md, "Re-solves against rockit, third pass"); and fast_step_computation
-# "yes": IPOPT takes the solution of each KKT system as MUMPS returns it, without
-# computing its residual (nor refining it): about 9 % less of IPOPT's time, the same
-# iterations on the re-solves and MPC steps of 24 of 26 problems (bounds active,
-# holonomic, degenerate, far from the origin among them), x within 6e-13 relative on most,
-# 2e-10 at worst (the LC circuit at N = 100, where a cold start moves it more); on the lane
-# change, whose iterations move with a change of its start in the 14th digit, other
-# iterations, in both directions (docs/performance.md, "The re-solve, ninth pass"). A
-# first solve keeps both defaults.
-WARM_START_OPTIONS = {"warm_start_init_point": "yes", "mumps_scaling": 0, "fast_step_computation": "yes"}
+# fast_step_computation "yes": IPOPT takes the solution of each KKT system as MUMPS returns
+# it, without computing its residual (nor refining it). On warm re-solves and MPC steps of
+# 10 problems (benchmarks/warm_options.py; bounds active, free final time, holonomic,
+# degenerate, parameters among them) the same iterations as IPOPT's default, x within
+# 7e-14 relative, 7-13 % less of IPOPT's time; the lane change, whose iterations move with
+# a change of its start in the 14th digit, took other iterations, in both directions
+# (docs/performance.md, "The re-solve, ninth pass"). MUMPS keeps its scaling of the KKT
+# matrices (mumps_scaling 77): without it (0, the warm option from the third to the eighth
+# pass) the LC circuit's re-solves at N = 100 took 24 iterations instead of 17 and ended
+# 5e-10 from a cold solve's optimum. A first solve keeps IPOPT's default.
+WARM_START_OPTIONS = {"warm_start_init_point": "yes", "fast_step_computation": "yes"}
 COLD_START_OPTIONS = {"warm_start_init_point": "no"}
 
 
