@@ -136,17 +136,28 @@ class Transcription(ReadOnly):
         h, of block q the state bounds, infinite elsewhere) with the given boundary data
         fixed; the path constraints checked at the given ends. The open bounds are formed
         again only when q_ref changes (its bits): a `with_bounds` that keeps q_ref (new
-        goals for a given start) copies them and writes the data."""
-        q_ref = reference(problem.q_start, problem.q_goal)
-        if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
-            q = self._x_layout.slice("q")
-            self._open_bounds = tuple(frozen(np.concatenate([
-                bound[:q.start], np.tile(problem.state_bounds[side] - q_ref, problem.steps + 1),
-                bound[q.stop:]])) for side, bound in enumerate(self._open_bounds))
-        self._q_ref = frozen(q_ref)
-        p_start = np.zeros(0) if problem.p_start is None else problem.p_start
-        self._p = frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
-                                         p_start]))
+        goals for a given start) copies them and writes the data. q_ref and p themselves are
+        kept while the problem's data they are formed of are the same objects (read-only
+        arrays, the final time, the parameters): a re-solve for a new goal from a given start
+        forms neither again (each NumPy call on them cost 10-20 us in the loop,
+        docs/performance.md, "The re-solve, ninth pass")."""
+        start, goal = problem.q_start, problem.q_goal
+        formed = vars(self).get("_q_ref_of")        # (q_start, q_goal, whether q_ref reads q_goal)
+        if formed is None or start is not formed[0] or (formed[2] and goal is not formed[1]):
+            q_ref = frozen(reference(start, goal))
+            if "_q_ref" not in vars(self) or q_ref.tobytes() != self._q_ref.tobytes():
+                q = self._x_layout.slice("q")
+                self._open_bounds = tuple(frozen(np.concatenate([
+                    bound[:q.start], np.tile(problem.state_bounds[side] - q_ref, problem.steps + 1),
+                    bound[q.stop:]])) for side, bound in enumerate(self._open_bounds))
+            self._q_ref, self._q_ref_of = q_ref, (start, goal, not np.isfinite(start).all())
+        q_ref = self._q_ref
+        sources = (problem.final_time, q_ref, problem.parameters, problem.p_start)
+        if any(a is not b for a, b in zip(sources, vars(self).get("_p_of", (None,) * 4))):
+            p_start = np.zeros(0) if problem.p_start is None else problem.p_start
+            self._p = frozen(np.concatenate([problem.final_time.p_values, q_ref, problem.parameters.vector(),
+                                             p_start]))
+            self._p_of = sources
         lbx, ubx = (bound.copy() for bound in self._open_bounds)
         # the given data, fixed at `_data_entries`
         data = np.concatenate([problem.q_start - q_ref, problem.q_goal - q_ref, _start_velocity(problem),
