@@ -5,6 +5,8 @@ its momentum instead of its velocity; `set_boundary` sets them, checked, on an
 OptimalControlProblem (built, or copied by `with_boundary`).
 """
 
+import math
+
 import numpy as np
 
 from .._util import checks
@@ -96,7 +98,7 @@ def _pivot_columns(matrix, count):
 def fully_given(q, v):
     """True when the boundary configuration q and velocity v, shapes (n,), have no free
     (NaN) entries."""
-    return bool(np.isfinite(q).all() and np.isfinite(v).all())
+    return not (_has_free(q) or _has_free(v))
 
 
 def imposes_velocity_rows(complete, v):
@@ -104,7 +106,14 @@ def imposes_velocity_rows(complete, v):
     v are `complete` (`fully_given`): unless they are (then checked once,
     `check_allowed_velocity`) or v is given and zero (then the rows vanish for every q;
     imposing them would make the KKT matrix singular)."""
-    return not (complete or (np.isfinite(v).all() and not v.any()))
+    return not (complete or not (_has_free(v) or any(v.tolist())))
+
+
+def _has_free(data):
+    """Whether the boundary data `data`, shape (n,), have a free (NaN) entry; read as
+    Python floats: NumPy's reductions of arrays this short cost 10-20 us each in a
+    re-solve (docs/performance.md, "The re-solve, ninth pass")."""
+    return any(map(math.isnan, data.tolist()))
 
 
 def start_momentum(p_start, v_start, n):
@@ -149,13 +158,13 @@ def set_boundary(problem, given):
             check_allowed_velocity("v_" + end, sys, q, v)
         # a start given by its momentum has no velocity rows
         rows[end] = imposes_velocity_rows(complete, v) and (end == "goal" or problem._p_start is None)
-    lower, upper = problem._state_bounds
+    lower, upper = (bound.tolist() for bound in problem._state_bounds)
     for name in (k for k in ("q_start", "q_goal") if k in given):
-        data = getattr(problem, "_" + name)
-        outside = (data < lower) | (data > upper)          # a free entry (NaN) is neither
-        if outside.any():
-            raise InputError(f"`{name}` must lie within `state_bounds`; entries "
-                             f"{np.flatnonzero(outside).tolist()} do not.")
+        data = getattr(problem, "_" + name).tolist()
+        outside = [i for i, (x, low, high) in enumerate(zip(data, lower, upper))
+                   if x < low or x > high]              # a free entry (NaN) is neither
+        if outside:
+            raise InputError(f"`{name}` must lie within `state_bounds`; entries {outside} do not.")
     problem._velocity_rows = rows
 
 

@@ -210,7 +210,8 @@ class PackedSolver:
         # the result's vectors unscaled: the products and quotients NumPy formed of the
         # outputs before, the same bits; and the 1-norm of x, finite when x is
         D, R = ca.DM(transcription.x_scale), ca.DM(transcription.g_scale)
-        sol["result_x"], sol["result_lam_x"], sol["result_lam_g"] = D * sol["x"], sol["lam_x"] / D, R * sol["lam_g"]
+        sol["result_x"], sol["result_lam_x"] = D * sol["x"], sol["lam_x"] / D
+        sol["result_lam_g"] = R * sol["lam_g"]
         sol["x_norm1"] = ca.sum1(ca.fabs(sol["result_x"]))
         if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
             sol["largest"], sol["row"] = largest_violation(n_g)(sol["g"] / R, inputs["lbg"] / R, inputs["ubg"] / R)

@@ -123,7 +123,8 @@ def _result(problem, solver, sol, fixed, outcome):
     traj = Pending(trajectory_from_x, problem, x.copy()) if math.isfinite(sol["x_norm1"][0]) else \
         trajectory_from_x(problem, x)
     if solver.fixed_multipliers is not None:
-        lam_x = deferred_lam_x(solver.fixed_multipliers, lam_x, fixed, (sol["x"], T.p, sol["lam_g"], T.x_scale))
+        scaled = (sol["x"], T.p, sol["lam_g"], T.x_scale)
+        lam_x = deferred_lam_x(solver.fixed_multipliers, lam_x, fixed, scaled)
     return OptimizationResult(traj, *outcome, x, lam_x, sol["result_lam_g"], T.structure, T.q_ref.copy())
 
 
