@@ -55,8 +55,10 @@ def _same(a, b):
     for name in ("x", "lam_x", "lam_g", "cost"):
         np.testing.assert_array_equal(_bits(getattr(a, name)), _bits(getattr(b, name)), err_msg=name)
     assert a.status == b.status and a.message == b.message
-    assert {k: v for k, v in a.stats.items() if not k.endswith("_time")} == \
-        {k: v for k, v in b.stats.items() if not k.endswith("_time")}
+    # every stat but times and whether the solver came from the cache, which depends on
+    # the tests run before (a solver of the same structure and options left there)
+    assert {k: v for k, v in a.stats.items() if not k.endswith("_time") and k != "solver_reused"} == \
+        {k: v for k, v in b.stats.items() if not k.endswith("_time") and k != "solver_reused"}
 
 
 @pytest.mark.parametrize("mode", MODES)
