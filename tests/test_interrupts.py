@@ -211,3 +211,29 @@ def test_cli_interrupted_before_any_step_writes_nothing_and_exits_130(tmp_path):
                                 "--out", "o"], "^started", tmp_path)
     assert code == 130 and "Traceback" not in err and "interrupted" in err
     assert not (tmp_path / "o").exists()    # nothing, not even the folder
+
+
+@pytest.mark.parametrize("installed", ["custom", "default", "ignored"])
+def test_a_solve_leaves_the_sigint_handler_it_found(installed):
+    """`interrupt.watch` installs its own handler only for the IPOPT call: after a solve
+    (and after one that raised), SIGINT's handler is the one in place before, the very
+    object, whether a Python callable, Python's default or SIG_IGN."""
+    from dmoc.optimize import interrupt
+    from dmoc.optimize.solve import solve
+    import dmoc.problems
+
+    def custom(signum, frame):
+        raise KeyboardInterrupt
+
+    handler = {"custom": custom, "default": signal.default_int_handler, "ignored": signal.SIG_IGN}[installed]
+    before = signal.signal(signal.SIGINT, handler)
+    try:
+        solve(dmoc.problems.knife_edge_parking(6))
+        assert signal.getsignal(signal.SIGINT) is handler
+        with pytest.raises(RuntimeError):
+            with interrupt.watch() as seen:
+                assert seen == [] and (signal.getsignal(signal.SIGINT) is handler) == (installed == "ignored")
+                raise RuntimeError("inside the block")
+        assert signal.getsignal(signal.SIGINT) is handler
+    finally:
+        signal.signal(signal.SIGINT, before)
