@@ -35,7 +35,6 @@ import dmoc.problems  # noqa: E402
 from dmoc._util.conversions import column  # noqa: E402
 from dmoc._util.deferred import Pending  # noqa: E402
 from dmoc.optimize import ipopt, solve as solve_module, transcription as transcription_module  # noqa: E402
-from dmoc.optimize.boundary import imposes_velocity_rows  # noqa: E402
 from dmoc.optimize.evaluation import nlp_functions  # noqa: E402
 from dmoc.optimize.guess import start_point  # noqa: E402
 from dmoc.optimize.solve import solve, trajectory_from_x  # noqa: E402
@@ -81,10 +80,16 @@ def former_reference(q_start, q_goal):
     return np.where(np.isfinite(q_start), q_start, np.nan_to_num(q_goal, nan=0.0))
 
 
+def former_imposes_velocity_rows(q, v):
+    """`boundary.imposes_velocity_rows(q, v)` before the ninth pass (which takes whether q
+    and v are fully given instead of q)."""
+    return not ((np.isfinite(q).all() and np.isfinite(v).all()) or (np.isfinite(v).all() and not v.any()))
+
+
 def former_velocity_rows(problem):
     """`problem.velocity_rows` before: found at every read (twice per `with_boundary`)."""
-    return {"start": problem.p_start is None and imposes_velocity_rows(problem.q_start, problem.v_start),
-            "goal": imposes_velocity_rows(problem.q_goal, problem.v_goal)}
+    return {"start": problem.p_start is None and former_imposes_velocity_rows(problem.q_start, problem.v_start),
+            "goal": former_imposes_velocity_rows(problem.q_goal, problem.v_goal)}
 
 
 def alternate(pair, calls, check=True):

@@ -85,6 +85,46 @@ def test_the_statement_exposes_the_data_the_transcription_reads():
     assert ocp.velocity_rows == {"start": False, "goal": False}      # given zero velocities
 
 
+# (q, v) at an end -> whether A(q) v = 0 is imposed there, by the rule of
+# docs/stages/optimize.md written out: not when q and v are fully given (checked once), nor
+# when v is given and zero (the rows vanish for every q); else imposed. On the knife edge
+# A(q) v = v_x sin(theta) - v_y cos(theta): at theta = 0, (1, 0, 0) is allowed.
+VELOCITY_ROWS = [
+    ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], False),         # both fully given, v nonzero
+    ([0.0, 1.0, 0.0], [0.0, 0.0, 0.0], False),         # both fully given, v zero
+    ([0.0, 1.0, 0.0], [None, 0.0, 0.0], True),         # q given, v partly free
+    ([0.0, None, 0.0], [1.0, 0.0, 0.0], True),         # q partly free, v given nonzero
+    ([0.0, None, 0.0], [0.0, -0.0, 0.0], False),       # q partly free, v given zero (a signed one)
+    ([0.0, None, 0.0], [0.0, 0.0, 0.3], True),         # only the turning rate nonzero
+    ([0.0, None, 0.0], [None, 0.0, 0.0], True),        # both partly free
+    ([None, None, None], [None, None, None], True),    # nothing given
+]
+
+
+@pytest.mark.parametrize("q, v, imposed", VELOCITY_ROWS)
+def test_the_velocity_rows_follow_the_rule_at_each_end(q, v, imposed):
+    """`velocity_rows` and the NLP's rows (m = 1 per end imposed), the start given by its
+    velocity or by its momentum (then never, whatever the goal's), for a new problem and for `with_boundary`
+    from a problem whose ends had the other answer."""
+    disc = dmoc.discretize(knife_edge(mass=1.0, inertia=1.0), 0.2)
+
+    def ocp(**data):
+        return dmoc.OptimalControlProblem(disc, N, **data)
+    rows = [{"start": s, "goal": g} for s, g in ((imposed, False), (False, imposed), (False, False),
+                                                 (False, imposed))]
+    made = [ocp(q_start=q, v_start=v, q_goal=GOAL), ocp(q_start=START, q_goal=q, v_goal=v),
+            ocp(q_start=q, q_goal=GOAL, p_start=[1.0, 0.0, 0.0]),
+            ocp(q_start=START, p_start=[1.0, 0.0, 0.0], q_goal=q, v_goal=v)]
+    other = [None, 0.0, 0.0] if not imposed else [0.0, 0.0, 0.0]
+    before = ocp(q_start=[0.0, None, 0.0], v_start=other, q_goal=[0.0, None, 0.0], v_goal=other)
+    moved = [before.with_boundary(q_start=q, v_start=v), before.with_boundary(q_goal=q, v_goal=v)]
+    kept = [{"start": imposed, "goal": not imposed}, {"start": not imposed, "goal": imposed}]
+    for stated, expected in zip(made + moved, rows + kept):      # the other end keeps its rows
+        assert stated.velocity_rows == expected, (q, v)
+        for end in ("start", "goal"):
+            assert stated.g_layout.numel(end + "_velocity") == int(expected[end]), (end, q, v)
+
+
 def test_copies_share_the_nlp_and_carry_their_own_bounds():
     ocp = problem(parameters={"r": 1.0}, running_cost=lambda q, v, u, w: w["r"] * ca.sumsqr(u))
     moved = ocp.with_boundary(q_goal=[0.2, 1.0, 0.0])

@@ -118,6 +118,25 @@ def test_the_evaluators_vector_call_equals_casadis_call_and_refuses_other_arrays
             Evaluator(function).vector(np.zeros(5))
 
 
+def test_only_an_interrupt_left_set_by_the_call_is_swallowed():
+    """`_run`, the Evaluator's call of its buffer: a SystemError caused by a
+    KeyboardInterrupt (what CasADi's check of Python's signals leaves set inside IPOPT's
+    callbacks; the outputs are written) is swallowed; any other SystemError, and any other
+    exception, reaches the caller as raised (the oracle: the errors raised here)."""
+    from dmoc._util.numeric import _run
+
+    def raising(error, cause):
+        def run():
+            raise error from cause
+        return run
+    assert _run(raising(SystemError("left set"), KeyboardInterrupt())) is None
+    for error, cause in ((SystemError("no cause"), None), (SystemError("other"), ValueError("v")),
+                         (RuntimeError("casadi"), KeyboardInterrupt())):
+        with pytest.raises(type(error)) as info:
+            _run(raising(error, cause))
+        assert info.value is error
+
+
 def _executable(path):
     path.write_text("#!/bin/sh\nexit 0\n")
     path.chmod(0o755)
