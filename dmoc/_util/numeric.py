@@ -62,11 +62,11 @@ class Evaluator:
         output at `z`, a C-contiguous 1-d float array of the input's entries: the call without
         the conversions of `__call__` (a NumPy call costs 10-20 us in a re-solve, where
         IPOPT has left the caches cold; docs/performance.md, "The re-solve, ninth pass")."""
-        if not (self._vector and z.dtype == np.float64 and z.size == self._inputs[0]
-                and z.flags.c_contiguous):
+        if not (self._vector and type(z) is np.ndarray and z.dtype == np.float64 and z.ndim == 1
+                and z.size == self._inputs[0] and z.flags.c_contiguous):
             raise InputError(f"`vector` evaluates {self.function.name()!r} on a C-contiguous "
-                             f"float array of {self._inputs[0]} entries when it has one input "
-                             f"and one dense output; got {z.size} entries of {z.dtype}.")
+                             f"1-d float array of {self._inputs[0]} entries when it has one input "
+                             f"and one dense output; got {np.shape(z)} of {np.asarray(z).dtype}.")
         buffer, run = self._buffer()
         out = np.empty(len(self._outputs[0][1]))
         buffer.set_arg(0, memoryview(z))

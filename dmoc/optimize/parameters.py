@@ -29,7 +29,8 @@ class ProblemParameters:
     layout : Layout
         The blocks of the stacked vector w, one per name (a scalar is a block of size 1).
     values : dict of str -> ndarray
-        The current values, shape (k,) each.
+        The current values, shape (k,) each, read-only: a problem's p is formed of them once
+        (`with_values` gives new ones).
 
     Examples
     --------
@@ -67,7 +68,7 @@ class ProblemParameters:
                              f"`parameters=` to OptimalControlProblem to make data re-solvable.")
         checks.no_unknown_keys("parameters", values, self.values)
         new = ProblemParameters.__new__(ProblemParameters)
-        new.layout, new.values = self.layout, {k: v.copy() for k, v in self.values.items()}
+        new.layout, new.values = self.layout, dict(self.values)      # read-only: shared
         for name, value in values.items():
             new.values[name] = _value(f"parameters[{name!r}]", value, self.values[name].size)
         return new
@@ -84,6 +85,8 @@ def _value(name, value, size=None):
         raise InputError(f"`{name}` must be {expected}; got shape {np.shape(value)}.")
     if not np.isfinite(out).all():
         raise InputError(f"`{name}` must be finite; got {out.tolist()}.")
+    out = np.array(out, dtype=float)        # a copy of the caller's, made read-only
+    out.flags.writeable = False
     return out
 
 

@@ -141,6 +141,21 @@ def test_parameter_values_are_copies():
     assert problem.p[problem.p_layout.slice("w")][0] == 4.0
 
 
+def test_the_stored_values_cannot_be_changed_in_place():
+    """A problem's p is formed of its parameter values once and kept by `with_boundary`:
+    the stored values are read-only, so no write can leave p behind them (a caller's own
+    array given as a value stays writeable: it was copied)."""
+    given = np.array([4.0])
+    problem = dmoc.OptimalControlProblem(disc(), 5, q_start=START, q_goal=GOAL, parameters={"r": given},
+                                         running_cost=lambda q, v, u, w: w["r"] * ca.sumsqr(u))
+    given[0] = 7.0
+    for stored in (problem.parameters, problem.with_parameters(r=5.0).parameters):
+        with pytest.raises(ValueError, match="read-only"):
+            stored.values["r"][0] = 99.0
+    moved = problem.with_boundary(q_goal=[0.1, 1.0, 0.0])
+    assert moved.p[moved.p_layout.slice("w")][0] == problem.parameter_values["r"][0] == 4.0
+
+
 def test_a_cost_with_a_default_for_w_is_accepted_without_parameters():
     problem = dmoc.OptimalControlProblem(disc(), 5, q_start=START, q_goal=GOAL,
                                          running_cost=lambda q, v, u, w=None: ca.sumsqr(u))

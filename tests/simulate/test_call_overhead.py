@@ -108,8 +108,8 @@ def test_the_evaluators_vector_call_equals_casadis_call_and_refuses_other_arrays
     evaluator = Evaluator(f)
     first, second = evaluator.vector(np.arange(5.0)), evaluator.vector(np.arange(5.0) + 1)
     assert first is not second and first[0] == 0.0 and second[0] == 2.0
-    for bad in (np.arange(4.0), np.arange(5), np.arange(10.0)[::2]):
-        with pytest.raises(ValueError, match="`vector` evaluates 'f' on a C-contiguous float array of 5"):
+    for bad in (np.arange(4.0), np.arange(5), np.arange(10.0)[::2], np.zeros((5, 1)), [0.0] * 5):
+        with pytest.raises(ValueError, match="`vector` evaluates 'f' on a C-contiguous 1-d float array of 5"):
             evaluator.vector(bad)
     two = ca.Function("g", [x, ca.SX.sym("y")], [x[0]])
     sparse = ca.Function("h", [x], [ca.vertcat(x[0], ca.SX(1, 1))])
