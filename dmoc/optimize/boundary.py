@@ -28,7 +28,7 @@ def boundary_vector(name, value, n):
         return np.array([np.nan if x is None else x for x in value])
     if value is None:
         raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")
-    if np.ndim(value) == 0:
+    if type(value) not in (list, tuple) and np.ndim(value) == 0:      # a list is no scalar
         raise InputError(f"`{name}` must have shape ({n},) for this system; got ().")
     out = checks.array_with_none(name, value, n, np.nan)     # floats of shape (n,), no NaN
     if np.isinf(out).any():

@@ -23,6 +23,8 @@ from tests._helpers import problem
     (10 ** 400, dmoc.InputError, "entry 1 is too large for a float"),
     (np.inf, dmoc.InputError, r"must be finite; entry \(1,\) is inf"),
     (-np.inf, dmoc.InputError, r"must be finite; entry \(1,\) is -inf"),
+    (np.array([0.2]), dmoc.InputTypeError, r"entry 1 is array\(\[0.2\]\)"),     # not NumPy's ragged-array error
+    ([0.2, 0.3], dmoc.InputTypeError, r"entry 1 is \[0.2, 0.3\]"),
 ])
 def test_only_none_is_free_in_boundary_data(disc, name, entry, error, words):
     data = {"q_start": [0.0, 0.0, 0.0], "q_goal": [0.0, 1.0, 0.0]}
