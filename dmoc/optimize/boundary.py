@@ -15,8 +15,6 @@ from ..mechanics.given import check_allowed_velocity, check_configuration
 from ..errors import InputError
 from .read_only import frozen
 
-_INF = float("inf")
-
 
 def boundary_vector(name, value, n):
     """Boundary data of shape (n,) with None entries as NaN (free); never infinite. A list
@@ -24,7 +22,7 @@ def boundary_vector(name, value, n):
     once, checked in Python: a NumPy call on data this short costs more than the check
     (docs/performance.md, "The re-solve, ninth pass")."""
     if type(value) in (list, tuple) and len(value) == n and all(
-            x is None or (isinstance(x, float) and -_INF < x < _INF) for x in value):
+            x is None or (isinstance(x, float) and math.isfinite(x)) for x in value):
         return np.array([np.nan if x is None else x for x in value])
     if value is None:
         raise InputError(f"`{name}` is required: an array of shape ({n},), None entries free.")

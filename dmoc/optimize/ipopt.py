@@ -179,8 +179,8 @@ class PackedSolver:
     nlpsol : casadi.Function
         The IPOPT solver of `transcription`'s NLP.
     transcription : Transcription
-        Gives the sizes n_x, n_g and n_p of x, g and p, and the rows' scale g_scale (fixed
-        with the NLP: the terms' Functions, hence `structure`, hold it).
+        Gives the sizes n_x, n_g and n_p of x, g and p, and the scales x_scale and g_scale
+        (fixed with the NLP: the terms' Functions, hence `structure`, hold them).
     fixed_multipliers : FixedMultipliers or None
         Given when IPOPT leaves the bound multipliers of fixed entries (lbx == ubx) zero
         (``fixed_variable_treatment`` "make_parameter_nodual"), to compute them after the
