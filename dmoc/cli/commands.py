@@ -2,7 +2,7 @@
 run the simulator or the optimizer with ``throw=False``, print a summary and write the
 output files, all of a run's files together (`dmoc._util.files.staged_run`). Returns the
 exit code: 0 on success, 1 when the solver failed or its optimum failed the verdict
-(`dmoc.results.verdict`), 130 when a Ctrl-C stopped it (what was computed is still written).
+(`dmoc.drivers.verdict`), 130 when a Ctrl-C stopped it (what was computed is still written).
 """
 
 import contextlib
@@ -15,9 +15,9 @@ import numpy as np
 from ..results import diagnostics
 from ..discrete import discretize
 from ..principle import step_residual
-from ..optimize.problem import OptimalControlProblem
-from ..results.optimum import optimize
-from ..simulate.simulation import simulate
+from ..optimal_control.statement.problem import OptimalControlProblem
+from ..drivers.optimum import optimize
+from ..simulation.time_stepping import simulate
 from .._util.files import staged_run
 from . import arguments, output, registry
 from .arguments import UsageError

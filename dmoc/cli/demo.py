@@ -8,14 +8,14 @@ each optimum), all of them together
 import numpy as np
 
 from ..results import diagnostics
-from ..optimize import problems
+from ..optimal_control.statement import examples as problems
 from ..mechanics import systems
 from .._util.files import staged_run, write_text
 from ..discrete import discretize
-from ..results.optimum import optimize
+from ..drivers.optimum import optimize
 from ..results._canvas import figure, save_png
 from ..results.plotting import plot_controls, plot_energy_balance, plot_energy_error, plot_path
-from ..simulate.simulation import simulate
+from ..simulation.time_stepping import simulate
 from . import arguments
 from .arguments import UsageError
 from .registry import BUILT_IN

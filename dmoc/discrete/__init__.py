@@ -4,7 +4,7 @@ both rule families implement one interface, `Rule`; the order a rule keeps on a 
 Lagrangian (`degenerate`)."""
 
 from .discretization import Discretization
-from .discretize import discretize
+from .construction import discretize
 from .hamiltonian import (HAMILTONIAN_RULES, HamiltonianDiscretization, HamiltonianMidpoint, HamiltonianRule,
                           SymplecticEuler)
 from .legendre_transform import LegendreRule, discrete_legendre

@@ -70,7 +70,7 @@ def test_equal_systems_share_the_residual_and_different_ones_do_not():
 
 
 def test_simulating_at_another_step_reuses_the_compiled_step():
-    simulate_module = importlib.import_module("dmoc.simulate.preparation")
+    simulate_module = importlib.import_module("dmoc.simulation.preparation")
     system = dmoc.systems.rolling_disk(mass=1.7)
     before = len(simulate_module._STEPPERS)
     runs = [dmoc.simulate(dmoc.discretize(system, h), q0=[0, 0, 0, 0], v0=[1, 0, 1, 0.5],

@@ -1,4 +1,4 @@
-"""Error estimates and accuracy targets (`dmoc.results.accuracy`, issue 23).
+"""Error estimates and accuracy targets (`dmoc.drivers.accuracy`, issue 23).
 
 Oracles, none taken from dmoc:
 - the cost J* = 8.72240586430 of knife-edge parking (issue 23: two independent high-order
@@ -16,8 +16,8 @@ from scipy.integrate import solve_ivp
 
 import dmoc
 import dmoc.problems
-from dmoc.results.accuracy import optimize_to_accuracy
-from dmoc.results.error_estimate import estimate_error
+from dmoc.drivers.accuracy import optimize_to_accuracy
+from dmoc.drivers.error_estimate import estimate_error
 
 J_STAR = 8.72240586430
 QUIET = {"print_level": 0, "sb": "yes"}

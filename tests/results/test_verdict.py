@@ -1,4 +1,4 @@
-"""The verdict on every optimum (`dmoc.results.verdict`): each status produced for real, and
+"""The verdict on every optimum (`dmoc.drivers.verdict`): each status produced for real, and
 success kept where the optimum is sound.
 
 Oracles, none taken from the verdict's code:
@@ -20,7 +20,7 @@ import pytest
 
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
-from dmoc.results.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE
+from dmoc.drivers.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE
 
 KNIFE_EDGE_J = 8.72240586430
 ROLLING_DISK_J = 1.02891883211
