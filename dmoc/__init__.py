@@ -13,7 +13,7 @@ from ._util.cache import clear_caches
 from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
                        Trapezoid, discrete_legendre, discretize)
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
-                     MissingFileError, SolverError, TrajectoryFileError)
+                     MissingFileError, SolverError, Status, TrajectoryFileError)
 from .mechanics import HamiltonianSystem, MechanicalSystem, systems
 from .optimal_control import OptimalControlProblem, OptimizationResult, Verdict, from_waypoints
 from .optimal_control.statement import examples as problems
@@ -67,6 +67,7 @@ __all__ = [
     "SolverError",
     "CompiledCodeError",
     "Interrupted",
+    "Status",
 ]
 
 

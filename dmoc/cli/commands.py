@@ -14,6 +14,7 @@ import numpy as np
 
 from ..results import diagnostics
 from ..discrete import discretize
+from ..errors import Status
 from ..principle import step_residual
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..drivers.optimum import optimize
@@ -84,7 +85,7 @@ def _report(summary, success, status, message, files):
         print(f"{key:{width}s}  {shown}")
     for path in files:
         print(f"wrote {path}")
-    if status == INTERRUPTED:
+    if status == Status.INTERRUPTED:
         done = "wrote what was computed, without plots" if files else "nothing written (no --out)"
         log(f"{message.partition(';')[0].rstrip('.')}; {done}")
         return 130
@@ -93,7 +94,6 @@ def _report(summary, success, status, message, files):
     return 0 if success else 1
 
 
-INTERRUPTED = "interrupted"     # the status of a run stopped by Ctrl-C
 
 
 def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
@@ -101,7 +101,7 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
     stays whole); an interrupted run's without plots and GIF, so that it ends at once."""
     if out is None:
         return []
-    finished = summary["status"] != INTERRUPTED
+    finished = summary["status"] != Status.INTERRUPTED
     try:
         with staged_run(out, output.run_files(prefix)) as stage:
             written = output.write_all(stage, prefix, disc, traj, summary, spec,
@@ -274,7 +274,7 @@ def _figures(problem, result):
     holds NaN (nothing can be replayed from it) or one of a Ctrl-C (the user wants to
     stop, not to wait for a replay) only what IPOPT reported."""
     traj = result.trajectory
-    if (result.status == INTERRUPTED
+    if (result.status == Status.INTERRUPTED
             or not (np.isfinite(traj.q).all() and np.isfinite(traj.p).all())):
         return {"cost": result.cost, "iterations": result.stats["iterations"],
                 "build_time": result.stats["build_time"], "solve_time": result.stats["solve_time"],

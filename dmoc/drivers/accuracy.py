@@ -10,7 +10,7 @@ import time
 from dataclasses import replace
 
 from .._util import checks
-from ..errors import InputError, SolverError
+from ..errors import InputError, SolverError, Status
 from ..optimal_control import OptimalControlProblem
 from .error_estimate import ErrorEstimate, estimate_error, richardson_estimate, with_estimate
 from .verdict import judged_solve
@@ -78,7 +78,7 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     while True:
         result = judged_solve(level, guess=guess if previous is None else previous.trajectory,
                               **{**keywords, "throw": False})
-        coarse = result.status == "under_resolved"      # what more steps cure: refine
+        coarse = result.status == Status.UNDER_RESOLVED      # what more steps cure: refine
         estimate = None if previous is None or not result.success else \
             richardson_estimate(level, result, previous, time.perf_counter())
         levels.append(_level_record(level, result, estimate, time.perf_counter() - tic))
@@ -140,7 +140,7 @@ def _finished(result, levels, estimate, accuracy, keywords, max_steps=None):
                f"{figure} on {levels[-1]['steps']} steps and the next level "
                f"would need more than `max_steps` = {max_steps}; raise `max_steps` or use a "
                f"rule of higher order (lobatto3, lobatto4).")
-    result = replace(result, success=False, status="accuracy_not_reached", message=message,
+    result = replace(result, success=False, status=Status.ACCURACY_NOT_REACHED, message=message,
                      stats=stats)
     if keywords.get("throw", True):
         raise SolverError(message + " The last level's optimum is in `.result`.", result)

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from .._util import checks, deferred
-from ..errors import InputError, Interrupted, SolverError
+from ..errors import InputError, Interrupted, SolverError, Status
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..optimal_control.solver.solving import solve        # the raw IPOPT solve of one problem
 
@@ -173,7 +173,7 @@ class MPC:
         result = solve(self.problem, guess=guess, options=self._options, throw=False, **self._switches)
         if result.success:
             self.plan, self._age = result, 0
-        elif result.status != "interrupted" and self.on_failure == "shift" and self.plan is not None \
+        elif result.status != Status.INTERRUPTED and self.on_failure == "shift" and self.plan is not None \
                 and self._age + 1 < self.problem.steps:
             self._age += 1
         else:
@@ -193,7 +193,7 @@ class MPC:
         """The error of a failed step: Interrupted for a Ctrl-C, else SolverError saying
         why no control is returned."""
         step = len(self.log) - 1
-        if result.status == "interrupted":
+        if result.status == Status.INTERRUPTED:
             return Interrupted(f"MPC step {step}: {result.message}", result)
         why = ("on_failure='raise'" if self.on_failure == "raise" else
                "no plan to follow: the first solve failed" if self.plan is None else

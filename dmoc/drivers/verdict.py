@@ -11,9 +11,9 @@ import dataclasses
 import numpy as np
 
 from .._util import checks
-from ..errors import SolverError
+from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
-from ..optimal_control.solver.verdict_record import PASSED, STATUSES, Verdict
+from ..optimal_control.solver.verdict_record import STATUSES, Verdict
 from ..results.diagnostics import compared_momenta, replays
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 
@@ -97,7 +97,7 @@ def _verdict(problem, traj, simulated, ends, knot_values):
     path, path_step, path_row = _path_violation(knot_values)
     failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
               jump > JUMP_LIMIT)
-    status = next((s for s, f in zip(STATUSES, failed) if f), PASSED)
+    status = next((s for s, f in zip(STATUSES, failed) if f), Status.PASSED)
     return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
                    problem.disc.system.names[i], path, path_step, path_row)
 
@@ -132,7 +132,7 @@ def verdict_message(verdict, result):
     jump = (f"the velocity of {verdict.jump_coordinate} changes by {verdict.velocity_jump:.2f} "
             f"of its peak at knot {verdict.jump_step} (t = {traj.t[verdict.jump_step]:.4g})")
     found = {
-        "not_replayable":
+        Status.NOT_REPLAYABLE:
             f"it does not solve the step equations as `simulate` does: the replay from its "
             f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
             f"configurations' span ({verdict.replay_q * _q_scale(traj):.3g} in "
@@ -142,12 +142,12 @@ def verdict_message(verdict, result):
             f"those. Bound the angles to their physical range (`state_bounds`), price "
             f"every control in comparable units (`running_cost`), bound the per-step "
             f"change of the fast coordinates, or start from a sound optimum (`guess=`)",
-        "path_violated":
+        Status.PATH_VIOLATED:
             f"path constraint row {verdict.path_row} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
             f"of the row's size (limit {PATH_TOLERANCE:g}): the NLP imposes the constraints "
             f"at its own points, not at every knot. Use more steps or keep a margin in g",
-        "under_resolved":
+        Status.UNDER_RESOLVED:
             f"the grid does not resolve the motion: {jump} (limit {JUMP_LIMIT:g}). Use more "
             f"steps, or bound the per-step change of that coordinate"}[verdict.status]
     return (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), "

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import Interrupted, SolverError
+from ..errors import Interrupted, SolverError, Status
 from ..principle.trajectory import Trajectory
 from .preparation import prepare
 
@@ -23,7 +23,7 @@ class SimulationResult:
     trajectory : Trajectory
         All steps that converged (all of them when `success`).
     success : bool
-    status : str
+    status : dmoc.Status
         ``"converged"``, ``"newton_failed"``, ``"non_finite"`` (a step produced NaN/Inf)
         or ``"interrupted"`` (Ctrl-C; ``throw=False``).
     message : str
@@ -198,7 +198,7 @@ def _interrupted(traj, stats, throw):
     steps."""
     k = stats["completed_steps"]
     result = SimulationResult(
-        traj, False, "interrupted",
+        traj, False, Status.INTERRUPTED,
         f"interrupted (KeyboardInterrupt) after {k} of {stats['steps']} steps (t = "
         f"{k * traj.h:.6g}); the {k} completed steps are in `.result.trajectory`.", stats)
     if throw:
@@ -210,11 +210,11 @@ def _finish(traj, stats, failed_rnorm, tol, throw):
     """Report success, or the failed step with the trajectory before it."""
     k, steps = stats["completed_steps"], stats["steps"]
     if k == steps:
-        return SimulationResult(traj, True, "converged",
+        return SimulationResult(traj, True, Status.CONVERGED,
                                 f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)
     where = f"at step {k} (t = {k * traj.h:.6g})"
     if np.isnan(failed_rnorm):
-        status, what = "non_finite", (
+        status, what = Status.NON_FINITE, (
             f"step {k} turned NaN or Inf (t = {k * traj.h:.6g}): the residual, the next state or "
             f"the multipliers are not finite; check the force and the controls of step {k}.")
     else:
@@ -223,7 +223,7 @@ def _finish(traj, stats, failed_rnorm, tol, throw):
                 f"that evaluating the residual reaches; use tol >= {ROUNDOFF_FLOOR / 1e3:.1e} "
                 f"(default 1e-12)"
                 if 1e3 * tol < ROUNDOFF_FLOOR else "try a smaller step h or check the controls")
-        status, what = "newton_failed", (
+        status, what = Status.NEWTON_FAILED, (
             f"Newton did not converge {where}: residual max-norm {failed_rnorm:.3e} > 1000 tol "
             f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; {hint}.")
     result = SimulationResult(

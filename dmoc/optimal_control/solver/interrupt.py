@@ -11,6 +11,8 @@ import _signal       # the C module under `signal`, without its wrappers' enum c
 import signal
 import threading
 
+from ...errors import Status
+
 __all__ = ["watch", "verdict"]
 
 
@@ -54,5 +56,5 @@ def verdict(seen, iterations, cost):
     there was none: status ``"interrupted"``, the message saying so and where IPOPT stood."""
     if not seen:
         return None
-    return "interrupted", (f"IPOPT: interrupted (KeyboardInterrupt) after {iterations} "
+    return Status.INTERRUPTED, (f"IPOPT: interrupted (KeyboardInterrupt) after {iterations} "
                            f"iterations, cost {cost:.10g} at the last iterate.")

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._util.deferred import DeferredField, made
-from ...errors import TrajectoryFileError
+from ...errors import TrajectoryFileError, status_of
 from ...principle.trajectory import Trajectory
 from ...principle.trajectory_file import RESULT_PREFIX, read, write
 from .verdict_record import Verdict
@@ -32,11 +32,11 @@ class OptimizationResult:
     cost : float
     success : bool
         IPOPT converged and, for `dmoc.optimize` with ``check=True``, the verdict passed.
-    status : str
-        IPOPT's return status, e.g. ``"Solve_Succeeded"``, ``"interrupted"`` when a
-        Ctrl-C (SIGINT) stopped IPOPT, or the status of a failed verdict
-        (``"not_replayable"``, ``"path_violated"``, ``"under_resolved"``);
-        ``stats["return_status"]`` keeps IPOPT's own.
+    status : dmoc.Status or str
+        IPOPT's return status, a plain str (e.g. ``"Solve_Succeeded"``), or a `Status`:
+        ``"interrupted"`` when a Ctrl-C (SIGINT) stopped IPOPT, the status of a failed
+        verdict (``"not_replayable"``, ``"path_violated"``, ``"under_resolved"``) or
+        ``"accuracy_not_reached"``; ``stats["return_status"]`` keeps IPOPT's own.
     message : str
     stats : dict
         ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
@@ -125,7 +125,7 @@ class OptimizationResult:
                    len(_RESULT_FIELDS) else "."))
         verdict = extra.get("verdict")      # files of unjudged results have none
         return cls(traj, float(extra["cost"]), bool(extra["success"]),
-                   str(extra["status"]), str(extra["message"]), json.loads(str(extra["stats"])),
+                   status_of(str(extra["status"])), str(extra["message"]), json.loads(str(extra["stats"])),
                    extra.get("x"), extra.get("lam_x"), extra.get("lam_g"), str(extra["structure"]),
                    extra.get("q_ref"),        # files from before q_ref have none
                    None if verdict is None else Verdict.from_dict(json.loads(str(verdict))))

@@ -1,14 +1,15 @@
 """The record of a verdict on an optimum (consumer 2, solver half): the figures that
 `dmoc.optimize` measures on what IPOPT returns, held by `OptimizationResult.verdict` and
-written with it. The checks themselves are made in the results stage
+written with it. The checks themselves are made by the drivers
 (`dmoc.drivers.verdict`), which may run `simulate`.
 """
 
 from dataclasses import asdict, dataclass
 
+from ...errors import Status, status_of
+
 # The statuses of a verdict, worst first: a result takes the first check that fails.
-STATUSES = ("not_replayable", "path_violated", "under_resolved")
-PASSED = "passed"
+STATUSES = (Status.NOT_REPLAYABLE, Status.PATH_VIOLATED, Status.UNDER_RESOLVED)
 
 
 @dataclass(frozen=True)
@@ -17,7 +18,7 @@ class Verdict:
 
     Attributes
     ----------
-    status : str
+    status : dmoc.Status
         ``"passed"``, or the worst check that failed, in the order of `STATUSES`:
         ``"not_replayable"`` (`simulate` from the optimum's initial state with its controls
         departs from it), ``"path_violated"`` (a path constraint fails at a knot q_k),
@@ -64,13 +65,13 @@ class Verdict:
     @property
     def passed(self):
         """True when every check holds."""
-        return self.status == PASSED
+        return self.status == Status.PASSED
 
     def as_dict(self):
-        """The fields as a dict of plain values (JSON-safe but for inf)."""
-        return asdict(self)
+        """The fields as a dict of plain values (JSON-safe but for inf; the status a str)."""
+        return dict(asdict(self), status=str(self.status))
 
     @classmethod
     def from_dict(cls, values):
-        """The Verdict of `as_dict`."""
-        return cls(**values)
+        """The Verdict of `as_dict` (its status a `Status` again)."""
+        return cls(**dict(values, status=status_of(values["status"])))
