@@ -65,7 +65,7 @@ print("RESULT", json.dumps({{"how": how, "status": res.status, "success": res.su
 OPTIMIZE = '''
 import json
 import dmoc
-from dmoc.optimal_control.statement import examples as problems
+from dmoc import problems
 problem = problems.knife_edge_parking(6000)
 try:
     res = dmoc.optimize(problem, throw={throw}, options={{"print_level": 5}})

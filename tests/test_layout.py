@@ -108,11 +108,3 @@ def test_at_most_thirteen_entries_at_the_top():
     """Nine stages (the drivers the ninth, issue 39), errors, _util, __init__ and __main__."""
     entries = sorted(p.name for p in ROOT.iterdir() if p.name != "__pycache__")
     assert len(entries) <= 13, entries
-
-
-@pytest.mark.parametrize("module", ["systems", "problems", "diagnostics", "plotting", "animation",
-                                    "dirac", "formulations"])
-def test_public_module_names(module):
-    """The stage modules keep their public names: ``from dmoc.systems import knife_edge``."""
-    import importlib
-    assert importlib.import_module(f"dmoc.{module}") is getattr(dmoc, module)

@@ -11,7 +11,7 @@ import numpy as np
 from ..._util import checks
 from ..given import constraint_violation_tolerance
 from ..system import MechanicalSystem
-from .knife_edge import _check_velocity, _times
+from .knife_edge_model import _check_velocity, _times
 from ...errors import InputError
 
 

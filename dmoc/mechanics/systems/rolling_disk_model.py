@@ -9,7 +9,7 @@ import numpy as np
 
 from ..._util import checks
 from ..system import MechanicalSystem
-from .knife_edge import _check_velocity, _sinc, _times
+from .knife_edge_model import _check_velocity, _sinc, _times
 
 
 def rolling_disk(mass=1.0, radius=1.0, roll_inertia=None, steer_inertia=None):

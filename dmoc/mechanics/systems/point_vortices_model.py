@@ -8,7 +8,7 @@ import numpy as np
 
 from ..._util import checks
 from ..system import MechanicalSystem
-from .knife_edge import _sinc, _times
+from .knife_edge_model import _sinc, _times
 from ...errors import InputError
 
 
