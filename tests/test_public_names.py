@@ -1,7 +1,7 @@
-"""Every name docs/api.rst documents resolves by attribute (getattr from ``dmoc`` after a
-bare ``import dmoc``) and by import (`pydoc.locate`, the module part imported), to the same
-object (equal, for a bound classmethod); and no function or class sits at the dotted path of a module (issue 39: the
-function `dmoc.optimize` once hid the package of that name)."""
+"""Every name docs/api.rst documents resolves by attribute (getattr from ``dmoc`` after a bare
+``import dmoc``) and by import (`pydoc.locate`, the module part imported), to the same
+object (equal, for a bound classmethod); and no function or class sits at the dotted path of
+a module (issue 39: the function `dmoc.optimize` once hid the package of that name)."""
 
 import importlib
 import json

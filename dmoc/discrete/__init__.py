@@ -1,7 +1,7 @@
 """Discretization stage: quadrature rules and the discrete data L_d, omega_d (28), f_d^-/+;
 for Hamiltonian systems the discrete Hamiltonians H_d+- and the discrete Legendre transform;
 both rule families implement one interface, `Rule`; the order a rule keeps on a degenerate
-Lagrangian (`degenerate`)."""
+Lagrangian (`degenerate`); `discretize` (module `construction`) builds the one a system takes."""
 
 from .discretization import Discretization
 from .construction import discretize

@@ -1,8 +1,8 @@
-"""The results stage's accuracy target (issue 23): `optimize_to_accuracy` refines the grid,
+"""The accuracy target, a driver (issue 23): `optimize_to_accuracy` refines the grid,
 N_{k+1} = N_k (2 e_k / accuracy)^(1/p), each level warm-started from the last, until the
 Richardson estimate e_k of the discretization error of the cost and of the re-simulated
 final state (`dmoc.drivers.error_estimate`, whose `estimate_error` and `ErrorEstimate`
-are also importable from here) is below a target (docs/stages/optimize.md, "Accuracy
+are also importable from here) is below a target (docs/stages/drivers.md, "Accuracy
 targets and error estimates")."""
 
 import math

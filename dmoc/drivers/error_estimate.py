@@ -1,9 +1,9 @@
-"""The results stage's error estimate (issue 23): `estimate_error`, the discretization error
+"""The error estimate, a driver (issue 23): `estimate_error`, the discretization error
 of a DMOC optimum's cost and of its re-simulated final state by Richardson extrapolation
 with the order p of the discretization, J_N - J ~ (J_N - J_M) / (1 - (N / M)^p) from a
 solve on a coarser grid and q_N - q(T) ~ (q_N - q_2N) / (1 - 2^-p) from a replay on a
 finer one, as an `ErrorEstimate` that `with_estimate` records in a result
-(docs/stages/optimize.md, "Accuracy targets and error estimates")."""
+(docs/stages/drivers.md, "Accuracy targets and error estimates")."""
 
 import time
 from dataclasses import asdict, dataclass, replace

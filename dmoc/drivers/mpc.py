@@ -1,4 +1,4 @@
-"""Model predictive control on the DMOC NLP (consumer 2, the optimizer in a closed loop): a
+"""Model predictive control on the DMOC NLP (a driver: the optimizer in a closed loop): a
 receding-horizon controller re-solves one problem structure from each measured state, its
 start given by a momentum (`OptimalControlProblem(p_start=...)`), with IPOPT's kept solver
 warm-started from the previous optimum shifted by one step, primal and dual, and applies

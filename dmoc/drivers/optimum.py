@@ -1,4 +1,4 @@
-"""The public `optimize` (results stage): IPOPT's solve judged by the verdict
+"""The public `optimize` (a driver): IPOPT's solve judged by the verdict
 (`verdict.judged_solve`), with the optimum's discretization error estimated
 (`error_estimate`) or the grid refined to an accuracy target (`accuracy`) on request."""
 
@@ -113,7 +113,7 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     next to the first build).
 
     A converged NLP can fail to replay: the step equations have other roots when a step
-    is large, and IPOPT may converge to one of those (docs/stages/optimize.md,
+    is large, and IPOPT may converge to one of those (docs/stages/drivers.md,
     "Verdicts"). A failed verdict raises with `throw` as an IPOPT failure does, so that
     no caller uses such an optimum unawares; ``err.result`` keeps it for a look or as a
     guess.

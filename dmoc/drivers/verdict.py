@@ -1,9 +1,10 @@
-"""A verdict on every optimum (results stage): `judged_solve` is IPOPT's solve
-(`dmoc.optimal_control.solve`) followed by `judge` (what the public `dmoc.optimize` runs), which checks what IPOPT returned against the
-step equations (37)/(41) as `simulate` solves them, the grid's resolution of the motion
-and the path constraints at every knot q_k, and turns a converged NLP that fails them into
-``success=False`` with a status naming the cause. It lives here because the replay needs
-both consumers of the step residual, which never import each other.
+"""A verdict on every optimum (a driver): `judged_solve` is IPOPT's solve
+(`dmoc.optimal_control.solve`) followed by `judge` (what the public `dmoc.optimize` runs),
+which checks what IPOPT returned against the step equations (37)/(41) as `simulate` solves
+them, the grid's resolution of the motion and the path constraints at every knot q_k, and
+turns a converged NLP that fails them into ``success=False`` with a status naming the cause.
+It is a driver because the replay needs both consumers of the step residual, which never
+import each other.
 """
 
 import dataclasses
@@ -18,14 +19,14 @@ from ..results.diagnostics import compared_momenta, replays
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
-# millimetres or kilograms gets the verdict it gets in metres (docs/stages/optimize.md,
+# millimetres or kilograms gets the verdict it gets in metres (docs/stages/drivers.md,
 # "Verdicts"). A replay on the root IPOPT converged to stays at the solvers' tolerances
 # (1e-16 .. 1e-13 of the scale on the built-in problems); one on a spurious root by O(1).
 REPLAY_TOLERANCE = 1e-6
 # A motion of frequency omega changes its step velocity by 2 sin(omega h / 2) of its peak
 # per step: more than its own peak (omega h > pi / 3, fewer than 6 steps a period) is not
 # resolved; 2 is a reversal every step (aliasing). The built-in problems measure 0.10 to
-# 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/optimize.md).
+# 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/drivers.md).
 JUMP_LIMIT = 1.0
 # Below this size an optimum's q or p gives no scale (it does not move from the origin).
 NO_SCALE = 1e-12
@@ -152,7 +153,7 @@ def verdict_message(verdict, result):
             f"steps, or bound the per-step change of that coordinate"}[verdict.status]
     return (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), "
             f"but the optimum fails its verdict ({verdict.status}): {found}; "
-            f"docs/stages/optimize.md, \"Verdicts\".")
+            f"docs/stages/drivers.md, \"Verdicts\".")
 
 
 def _replay_departure(problem, traj, simulated):

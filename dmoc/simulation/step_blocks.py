@@ -1,8 +1,8 @@
-"""The chunks the simulator evaluates a horizon in: each compiled call of the stepper's
-`mapaccum` (`dmoc.simulation.stepper`) takes the largest power of two of the steps left, at
-most CHUNK (`chunk_length`), so a stepper builds only the horizons of 1, 2, 4, ..., CHUNK
-steps (`chunk_sizes`); runs in lockstep (`dmoc.simulation.lockstep`) share a call in blocks
-of at most LOCKSTEP runs.
+"""The blocks of steps the simulator evaluates a horizon in (its chunks): each compiled call of
+the stepper's `mapaccum` (`dmoc.simulation.stepper`) takes the largest power of two of the
+steps left, at most CHUNK (`chunk_length`), so a stepper builds only the horizons of 1, 2,
+4, ..., CHUNK steps (`chunk_sizes`); runs in lockstep (`dmoc.simulation.lockstep`) share a
+call in blocks of at most LOCKSTEP runs.
 """
 
 CHUNK = 1024      # steps per compiled call; shorter calls use powers of two, so at most

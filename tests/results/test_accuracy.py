@@ -140,7 +140,7 @@ def test_results_of_other_grids_are_refused():
 
 def test_the_car_lane_change_converges_to_its_j_star():
     """From the straight drive, lobatto4 on 20 steps is within 1e-6 of J* = 0.1558127846220
-    (lobatto4 N = 640 and lobatto3 N = 1280 agree to 1e-11, docs/stages/optimize.md), the
+    (lobatto4 N = 640 and lobatto3 N = 1280 agree to 1e-11, docs/stages/drivers.md), the
     optimum replays, and the straight drive is the simulated unforced motion."""
     problem = dmoc.problems.car_lane_change(20, rule="lobatto4")
     guess = dmoc.problems.uniform_motion_guess(problem)

@@ -68,8 +68,9 @@ class Verdict:
         return self.status == Status.PASSED
 
     def as_dict(self):
-        """The fields as a dict of plain values (JSON-safe but for inf; the status a str)."""
-        return dict(asdict(self), status=str(self.status))
+        """The fields as a dict of plain values (JSON-safe but for inf; the status a `Status`,
+        which `json.dumps` writes as its string)."""
+        return asdict(self)
 
     @classmethod
     def from_dict(cls, values):
