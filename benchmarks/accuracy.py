@@ -37,7 +37,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
-from dmoc.drivers.accuracy import estimate_error  # noqa: E402
+from dmoc.drivers.error_estimate import estimate_error  # noqa: E402
 
 ACCURACY = 1e-6
 QUIET = {"print_level": 0, "sb": "yes"}

@@ -20,7 +20,8 @@ from .optimal_control.statement import examples as problems
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
 from .results import animation, diagnostics, plotting
 from .simulation import SimulationResult, simulate
-from .drivers import MPC, optimize
+from .drivers.mpc import MPC
+from .drivers.optimum import optimize
 from ._util.public_modules import publish
 
 publish(__name__, {"systems": systems, "problems": problems, "diagnostics": diagnostics,

@@ -1,9 +1,8 @@
 """The accuracy target, a driver (issue 23): `optimize_to_accuracy` refines the grid,
 N_{k+1} = N_k (2 e_k / accuracy)^(1/p), each level warm-started from the last, until the
 Richardson estimate e_k of the discretization error of the cost and of the re-simulated
-final state (`dmoc.drivers.error_estimate`, whose `estimate_error` and `ErrorEstimate`
-are also importable from here) is below a target (docs/stages/drivers.md, "Accuracy
-targets and error estimates")."""
+final state (`dmoc.drivers.error_estimate`) is below a target (docs/stages/drivers.md,
+"Accuracy targets and error estimates")."""
 
 import math
 import time
@@ -13,7 +12,7 @@ from .._util import checks
 from ..errors import InputError, SolverError, Status
 from ..optimal_control import OptimalControlProblem
 from .error_estimate import ErrorEstimate, estimate_error, richardson_estimate, with_estimate
-from .verdict import judged_solve
+from .error_estimate import richardson_estimate, with_estimate
 
 # Targets below this are refused: the estimate is a difference of costs that IPOPT (tol
 # 1e-10 on the scaled NLP) and round-off know to about 1e-10 relative.
@@ -147,7 +146,4 @@ def _finished(result, levels, estimate, accuracy, keywords, max_steps=None):
     return result
 
 
-# estimate_error, ErrorEstimate and with_estimate live in `error_estimate`; they stay
-# importable from here, their documented path before the split.
-__all__ = ["optimize_to_accuracy", "SMALLEST_ACCURACY", "GROWTH", "estimate_error", "ErrorEstimate",
-           "with_estimate"]
+__all__ = ["optimize_to_accuracy", "SMALLEST_ACCURACY", "GROWTH"]
