@@ -11,8 +11,8 @@ from dataclasses import replace
 from .._util import checks
 from ..errors import InputError, SolverError, Status
 from ..optimal_control import OptimalControlProblem
-from .error_estimate import ErrorEstimate, estimate_error, richardson_estimate, with_estimate
 from .error_estimate import richardson_estimate, with_estimate
+from .verdict import judged_solve
 
 # Targets below this are refused: the estimate is a difference of costs that IPOPT (tol
 # 1e-10 on the scaled NLP) and round-off know to about 1e-10 relative.
