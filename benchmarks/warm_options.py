@@ -1,26 +1,26 @@
-"""Benchmark: dmoc's warm-start IPOPT options against IPOPT's own defaults for them, on
-chains of warm re-solves with changed data and on the knife-edge MPC, in one process.
+"""Benchmark: dmoc's warm-start IPOPT options (`WARM_START_OPTIONS`) against the warm
+options before issue 40 (`TODAY`: warm_start_init_point and fast_step_computation alone, no
+barrier start), on chains of warm re-solves with changed data and on MPC closed loops, in
+one process.
 
-A warm re-solve runs IPOPT with `dmoc.optimal_control.solver.ipopt.WARM_START_OPTIONS`: besides
-warm_start_init_point "yes", fast_step_computation "yes" (each KKT solution taken as MUMPS
-returns it, its residual not computed); `--arm` adds options to dmoc's arm (e.g.
-'{"mumps_scaling": 0}', the warm option from the third to the eighth pass). Each problem is solved cold once; from that optimum two chains of warm re-solves
-run in lockstep over the same changed data: "dmoc" with ``options=None`` (the warm
-options) and "IPOPT" with ``options={"mumps_scaling": 77, "fast_step_computation": "no"}``
-(IPOPT's defaults, given explicitly), each from its own last converged result, with
-``throw=False``; the arm that goes first turns re-solve by re-solve. The data change by
+Each problem is solved cold once; from that optimum two chains of warm re-solves run in
+lockstep over the same changed data: "dmoc" with ``options=None`` (`WARM_START_OPTIONS`)
+and "before" with ``options=TODAY`` plus IPOPT's own defaults of the barrier start (mu_init
+0.1, the warm_start_* pushes 1e-3), each from its own last converged result, with
+``throw=False``; the arm that goes first turns re-solve by re-solve. The first re-solve of
+each chain is of the unchanged problem (its own optimum); the data then change by
 `FRACTIONS` (1 %, 10 %, 50 %) of the motion: the goal's given entries (or the parameters,
 by their scale) each move by that much with a random sign, the other way where a range that
-keeps the problem feasible would be left, and clipped into it. `--repeat` chains per
-problem (seeds 0, 1, ...). The "mpc" row is the closed loop of examples/mpc_knife_edge.py
-(horizon 30, plant 10 % heavier, kick at step 10): two `dmoc.MPC` controllers, one per
-option set, fed the same measured states (the plant driven by dmoc's controls), `--steps`
-steps; its figures are over the warm steps (step 0 is a cold solve with IPOPT's defaults
-in both). Per row: the re-solves ("n"),
-iterations summed per arm and the number of re-solves where they differ, failures per arm;
-where both converged, the largest relative difference of x (max |x_dmoc - x_IPOPT| /
-max |x_IPOPT|) and of the cost, and the median ratio of IPOPT's time
-(``stats["ipopt_time"]``), dmoc / IPOPT. The default run takes about 20 s, `--quick` 2 s.
+keeps the problem feasible would be left, and clipped into it. `--arm` adds options to
+dmoc's arm. `--repeat` chains per problem (seeds 0, 1, ...). The "mpc" rows are the closed
+loop of examples/mpc_knife_edge.py (horizon 30, plant 10 % heavier, kick at step 10),
+without and with control bounds (|u| <= 0.7 of the unbounded plan's largest: active
+through the loop): two `dmoc.MPC` controllers, one per option set, fed the same measured
+states (the plant driven by dmoc's controls), `--steps` steps; figures over the warm steps.
+Per row: the re-solves ("n"), iterations of the re-solve from the own optimum ("own"), the
+median and largest over the 1 % and 10 % changes ("near"; for MPC over all steps) per arm,
+failures per arm; where both converged, the largest relative difference of x and of the
+cost, and the median ratio of IPOPT's time (``stats["ipopt_time"]``), dmoc / before.
 
     python benchmarks/warm_options.py [--repeat 1] [--steps 40] [--problems NAME ...] [--arm JSON] [--quick]
 """
@@ -42,9 +42,15 @@ from dmoc.optimal_control.solver.ipopt import WARM_START_OPTIONS  # noqa: E402
 from dmoc.optimal_control.solver.solving import solve  # noqa: E402
 
 EXAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples")
-ARMS = {"IPOPT": {"mumps_scaling": 77, "fast_step_computation": "no"}, "dmoc": None}
-FRACTIONS = (0.01, 0.1, 0.5, 0.01, 0.5, 0.1, 0.5, 0.01, 0.1, 0.5)
-QUICK = {"problems": ("disk-lobatto4", "knife-bounds", "lc", "mpc"), "fractions": FRACTIONS[:4], "steps": 12}
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# the warm options before issue 40, with IPOPT's defaults of the barrier start given
+TODAY = {"warm_start_init_point": "yes", "fast_step_computation": "yes", "mu_init": 0.1,
+         "warm_start_bound_push": 1e-3, "warm_start_bound_frac": 1e-3,
+         "warm_start_slack_bound_push": 1e-3, "warm_start_slack_bound_frac": 1e-3,
+         "warm_start_mult_bound_push": 1e-3}
+ARMS = {"before": TODAY, "dmoc": None}
+FRACTIONS = (0.0, 0.01, 0.1, 0.5, 0.01, 0.5, 0.1, 0.5, 0.01, 0.1, 0.5)
+QUICK = {"problems": ("disk-bounds", "knife-bounds", "lc", "mpc-bounds"), "fractions": FRACTIONS[:4], "steps": 12}
 
 
 def moved(value, step, low, high):
@@ -153,6 +159,26 @@ def car():
             goal_change(np.diag([40.0, 3.5, 0.0, 0.0])))
 
 
+def truck():
+    """tests/optimize/hard_problems.py's truck backing a trailer into a bay, midpoint N = 30
+    (free final time, bounds, rate, speed, jack-knife, discs, road edge active); the goal's
+    x moves by the fraction of 2 m, kept in [-1, 1] m."""
+    sys.path.insert(0, ROOT)
+    from tests.optimize.hard_problems import truck_bay
+    problem = truck_bay(30)
+    return ("truck+trailer into a bay midpoint N=30", problem, None,
+            goal_change(np.diag([2.0, 0, 0, 0, 0]), low=[-1, -1, -4, -1, -4], high=[1, 2, 4, 1, 4]))
+
+
+def disk_bounds():
+    """tests/optimize/hard_problems.py's rolling disk with |u_i| <= 1 (bang-bang arcs) and a
+    free final time, midpoint N = 40; the goal moved by the fraction of the motion."""
+    sys.path.insert(0, ROOT)
+    from tests.optimize.hard_problems import bounded_disk
+    problem = bounded_disk(40)
+    return "disk |u| <= 1, T free midpoint N=40", problem, None, goal_change(motion(problem))
+
+
 def parking(name, make):
     """A builder of the problem `make()` of `dmoc.problems`, its goal moved by the fraction of
     the motion."""
@@ -168,7 +194,7 @@ PROBLEMS = {"disk-lobatto4": parking("disk lobatto4 N=11",
             "knife": parking("knife lobatto3 N=28", lambda: P.knife_edge_parking(28, rule="lobatto3")),
             "car": car, "knife-bounds": knife_bounds, "knife-free-time": knife_free_time,
             "sphere": sphere, "lc": lc_circuit, "knife-parameters": knife_parameters,
-            "lane-change": lane_change}
+            "lane-change": lane_change, "truck": truck, "disk-bounds": disk_bounds}
 
 
 def outcome(result):
@@ -178,11 +204,12 @@ def outcome(result):
 
 
 def chains(build, repeat, fractions):
-    """[(outcome IPOPT, outcome dmoc)] of `repeat` lockstep chains of warm re-solves over
-    the changes of `build`'s problem by `fractions`, all from one cold solve."""
+    """(label, [(fraction, outcome before, outcome dmoc)]) of `repeat` lockstep chains of
+    warm re-solves over the changes of `build`'s problem by `fractions`, all from one cold
+    solve."""
     label, problem, guess, change = build()
     cold = solve(problem, guess=guess, throw=False)
-    pairs, turn = [], 0
+    triples, turn = [], 0
     for seed in range(repeat):
         rng, data, previous = np.random.default_rng(seed), problem, dict.fromkeys(ARMS, cold)
         for fraction in fractions:
@@ -190,55 +217,64 @@ def chains(build, repeat, fractions):
             for arm in list(ARMS)[turn % 2:] + list(ARMS)[:turn % 2]:
                 results[arm] = solve(data, guess=previous[arm], options=ARMS[arm], throw=False)
                 previous[arm] = results[arm] if results[arm].success else previous[arm]
-            pairs.append(tuple(outcome(results[arm]) for arm in ARMS))
+            triples.append((fraction, *(outcome(results[arm]) for arm in ARMS)))
             turn += 1
-    return label, pairs
+    return label, triples
 
 
-def mpc(steps):
-    """("mpc ...", [(outcome IPOPT, outcome dmoc)]) of the warm steps of two `dmoc.MPC`
-    controllers of examples/mpc_knife_edge.py's closed loop, fed the same states."""
+def mpc(steps, bounded):
+    """("mpc ...", [(None, outcome before, outcome dmoc)]) of the warm steps of two
+    `dmoc.MPC` controllers of examples/mpc_knife_edge.py's closed loop, fed the same
+    states; `bounded`: |u| at most 0.7 of the unbounded plan's largest."""
     sys.path.insert(0, EXAMPLES)
     from mpc_knife_edge import KICK, KICK_STEP
     problem = P.knife_edge_parking(30, duration=3.0)
+    if bounded:
+        bound = 0.7 * np.abs(solve(problem).trajectory.u).max()
+        problem = dmoc.OptimalControlProblem(problem.disc, 30, q_start=[0, 0, 0], q_goal=[0, 1, 0],
+                                             control_bounds=([-bound] * 2, [bound] * 2))
     plant = dmoc.discretize(dmoc.systems.knife_edge(mass=1.1, inertia=1.0), problem.disc.h)
     controllers = {arm: dmoc.MPC(problem, options=options, on_failure="shift")
                    for arm, options in ARMS.items()}
-    q, p, pairs = np.zeros(3), np.zeros(3), []
+    q, p, triples = np.zeros(3), np.zeros(3), []
     for k in range(steps):
         u = {arm: controllers[arm].step(q, p=p) for arm in list(ARMS)[k % 2:] + list(ARMS)[:k % 2]}
         if k > 0:
-            pairs.append(tuple(outcome(c.plan) if c.log[-1].success else
-                               {"success": False, "iterations": c.log[-1].iterations}
-                               for c in controllers.values()))
+            triples.append((None, *(outcome(c.plan) if c.log[-1].success else
+                                    {"success": False, "iterations": c.log[-1].iterations}
+                                    for c in controllers.values())))
         if k == KICK_STEP:
             p = p + KICK * np.array([np.cos(q[2]), np.sin(q[2]), 1.0])
         run = dmoc.simulate(plant, q0=q, p0=p, steps=1, controls=u["dmoc"][None], jit=False)
         q, p = run.trajectory.q[-1], run.trajectory.p[-1]
-    return f"mpc knife N=30, {steps} steps (warm)", pairs
+    return f"mpc knife N=30{', |u| bounded' if bounded else ''}, {steps} steps", triples
 
 
-def row(label, pairs):
-    """One line of the table from [(outcome IPOPT, outcome dmoc)]."""
+def row(label, triples):
+    """One line of the table from [(fraction, outcome before, outcome dmoc)]."""
+    pairs = [t[1:] for t in triples]
     both = [(a, b) for a, b in pairs if a["success"] and b["success"]]
     dx = max((np.abs(b["x"] - a["x"]).max() / np.abs(a["x"]).max() for a, b in both), default=np.nan)
     dJ = max((abs(b["cost"] - a["cost"]) / abs(a["cost"]) for a, b in both), default=np.nan)
     ratio = np.median([b["seconds"] / a["seconds"] for a, b in both]) if both else np.nan
-    it = [sum(pair[i]["iterations"] for pair in pairs) for i in (0, 1)]
-    differ = sum(a["iterations"] != b["iterations"] for a, b in pairs)
+    own = [[t[i]["iterations"] for t in triples if t[0] == 0.0] for i in (1, 2)]
+    near = [[t[i]["iterations"] for t in triples if t[0] is None or 0.0 < t[0] <= 0.1] for i in (1, 2)]
     fails = [sum(not pair[i]["success"] for pair in pairs) for i in (0, 1)]
-    return (f"{label:<38}{len(pairs):>4}{it[0]:>10}{it[1]:>9}{differ:>8}{fails[0]:>12}{fails[1]:>11}"
-            f"{dx:>10.1e}{dJ:>10.1e}{ratio:>14.3f}")
+    cells = "".join(f"{max(o, default=0) if o else '-':>6}{np.median(n):>8.0f}{max(n):>6}"
+                    for o, n in zip(own, near))
+    return (f"{label:<40}{len(pairs):>4}{cells}{fails[0]:>6}{fails[1]:>6}"
+            f"{dx:>10.1e}{dJ:>10.1e}{ratio:>10.3f}")
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=1, help="chains per problem (default 1)")
     parser.add_argument("--steps", type=int, default=40, help="MPC closed-loop steps (default 40)")
-    parser.add_argument("--problems", nargs="+", choices=[*PROBLEMS, "mpc"], default=[*PROBLEMS, "mpc"],
-                        metavar="NAME", help=f"of {', '.join([*PROBLEMS, 'mpc'])} (default all)")
+    every = [*PROBLEMS, "mpc", "mpc-bounds"]
+    parser.add_argument("--problems", nargs="+", choices=every, default=every,
+                        metavar="NAME", help=f"of {', '.join(every)} (default all)")
     parser.add_argument("--arm", type=json.loads, default=None, metavar="JSON",
-                        help="IPOPT options added to dmoc's arm, e.g. '{\"mumps_scaling\": 0}'")
+                        help="IPOPT options added to dmoc's arm, e.g. '{\"mu_init\": 1e-5}'")
     parser.add_argument("--quick", action="store_true",
                         help=f"{', '.join(QUICK['problems'])}; {len(QUICK['fractions'])} re-solves, "
                              f"{QUICK['steps']} MPC steps")
@@ -246,13 +282,15 @@ def main(argv=None):
     ARMS["dmoc"] = args.arm
     names, fractions, steps = ((QUICK["problems"], QUICK["fractions"], QUICK["steps"]) if args.quick
                                else (args.problems, FRACTIONS, args.steps))
-    print(f"warm options: dmoc {WARM_START_OPTIONS} (with {args.arm}) against IPOPT {ARMS['IPOPT']}; "
+    print(f"warm options: dmoc {WARM_START_OPTIONS} (with {args.arm}) against before {TODAY}; "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
-    print(f"\n{'problem':<38}{'n':>4}{'it IPOPT':>10}{'it dmoc':>9}{'differ':>8}{'fail IPOPT':>12}"
-          f"{'fail dmoc':>11}{'max dx':>10}{'max dJ/J':>10}{'t dmoc/IPOPT':>14}")
+    print(f"\n{'':<44}{'-- before (iterations) --':>20}{'--- dmoc (iterations) ---':>20}")
+    print(f"{'problem':<40}{'n':>4}{'own':>6}{'near md':>8}{'max':>6}{'own':>6}{'near md':>8}{'max':>6}"
+          f"{'fail':>6}{'fail':>6}{'max dx':>10}{'max dJ/J':>10}{'t ratio':>10}")
     for name in names:
-        pairs = mpc(steps) if name == "mpc" else chains(PROBLEMS[name], args.repeat, fractions)
-        print(row(*pairs), flush=True)
+        triples = (mpc(steps, name == "mpc-bounds") if name.startswith("mpc")
+                   else chains(PROBLEMS[name], args.repeat, fractions))
+        print(row(*triples), flush=True)
     print(f"\nload average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
 
 

@@ -12,7 +12,7 @@ from .._util import checks
 from ..errors import InputError, SolverError, Status
 from ..optimal_control import OptimalControlProblem
 from .error_estimate import richardson_estimate, with_estimate
-from .verdict import judged_solve
+from .high_order import started_solve
 
 # Targets below this are refused: the estimate is a difference of costs that IPOPT (tol
 # 1e-10 on the scaled NLP) and round-off know to about 1e-10 relative.
@@ -65,7 +65,9 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     -----
     Level 2 has 2N steps; then the error C N^-p measured at N_k predicts the N at which
     it is half the target, N_{k+1} = N_k (2 e_k / accuracy)^(1/p), at most ``GROWTH``
-    N_k, and each level's estimate compares its cost with the level before. Every level
+    N_k, and each level's estimate compares its cost with the level before. The first
+    level of a stage rule from the default guess starts from the midpoint rule's optimum
+    (`dmoc.drivers.high_order`). Every level
     is judged (`dmoc.drivers.verdict`); one the verdict finds under-resolved is refined
     to 2N like the first, any other failure ends the loop. The rule stays the problem's:
     a higher order reaches small targets on far fewer steps (docs/performance.md).
@@ -75,8 +77,8 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     max_steps = checks.positive_int("max_steps", max_steps)
     levels, level, previous, tic = [], problem, None, time.perf_counter()
     while True:
-        result = judged_solve(level, guess=guess if previous is None else previous.trajectory,
-                              **{**keywords, "throw": False})
+        result = started_solve(level, guess=guess if previous is None else previous.trajectory,
+                               **{**keywords, "throw": False})
         coarse = result.status == Status.UNDER_RESOLVED      # what more steps cure: refine
         estimate = None if previous is None or not result.success else \
             richardson_estimate(level, result, previous, time.perf_counter())

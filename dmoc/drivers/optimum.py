@@ -5,7 +5,7 @@
 from .._util import checks
 from .accuracy import optimize_to_accuracy
 from .error_estimate import estimate_error, with_estimate
-from .verdict import judged_solve
+from .high_order import started_solve
 
 
 def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
@@ -125,7 +125,7 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     if accuracy is not None:
         return optimize_to_accuracy(problem, accuracy, guess=guess, max_steps=max_steps,
                                     **keywords)
-    result = judged_solve(problem, guess=guess, **keywords)
+    result = started_solve(problem, guess=guess, **keywords)
     if not (estimate and result.success):
         return result
     return with_estimate(result, estimate_error(problem, result, **keywords))

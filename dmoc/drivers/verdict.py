@@ -142,7 +142,8 @@ def verdict_message(verdict, result):
             f"equations have other roots where a step is large, and IPOPT found one of "
             f"those. Bound the angles to their physical range (`state_bounds`), price "
             f"every control in comparable units (`running_cost`), bound the per-step "
-            f"change of the fast coordinates, or start from a sound optimum (`guess=`)",
+            f"change of the fast coordinates, or start from a sound optimum (`guess=`)"
+            + _stage_rule_advice(traj),
         Status.PATH_VIOLATED:
             f"path constraint row {verdict.path_row} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
@@ -154,6 +155,16 @@ def verdict_message(verdict, result):
     return (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), "
             f"but the optimum fails its verdict ({verdict.status}): {found}; "
             f"docs/stages/drivers.md, \"Verdicts\".")
+
+
+def _stage_rule_advice(traj):
+    """The remedy of a stage rule's optimum on another root (`dmoc.drivers.high_order`):
+    the midpoint rule's optimum on twice the steps as its guess; "" for the midpoint and
+    trapezoid rules."""
+    if not len(traj.stage_nodes):
+        return ""
+    return (f"; for this stage rule, the midpoint rule's optimum on twice the steps: "
+            f"`guess=dmoc.optimize(problem.with_rule(\"midpoint\").with_steps({2 * traj.steps}))`")
 
 
 def _replay_departure(problem, traj, simulated):

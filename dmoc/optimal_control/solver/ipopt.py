@@ -50,7 +50,17 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
 # matrices (mumps_scaling 77): without it (0, the warm option from the third to the eighth
 # pass) the LC circuit's re-solves at N = 100 took 24 iterations instead of 17 and ended
 # 5e-10 from a cold solve's optimum. A first solve keeps IPOPT's default.
-WARM_START_OPTIONS = {"warm_start_init_point": "yes", "fast_step_computation": "yes"}
+# The barrier starts at mu_init 1e-6 and the warm start moves x, the slacks and the bound
+# multipliers off their bounds by at most 1e-8 (IPOPT's defaults 0.1 and 1e-3): with those
+# defaults IPOPT first leaves the active bounds and rows of the optimum it starts from, and
+# a re-solve of a bounded problem from its own optimum took as long as a cold solve (the
+# truck backing a trailer into a bay, tests/optimize/hard_problems.py: 69 and 165
+# iterations; the lane change example 181 and 258); with these 1-4 (issue 40,
+# benchmarks/warm_options.py, docs/performance.md "Warm starts with active bounds").
+WARM_START_OPTIONS = {"warm_start_init_point": "yes", "fast_step_computation": "yes",
+                      "mu_init": 1e-6, "warm_start_bound_push": 1e-8, "warm_start_bound_frac": 1e-8,
+                      "warm_start_slack_bound_push": 1e-8, "warm_start_slack_bound_frac": 1e-8,
+                      "warm_start_mult_bound_push": 1e-8}
 COLD_START_OPTIONS = {"warm_start_init_point": "no"}
 
 

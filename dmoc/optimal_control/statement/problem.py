@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ...discrete import Discretization
+from ...discrete import Discretization, discretize
 from ...principle.formulations import as_formulation
 from ...principle.residual import step_residual
 from .boundary import set_boundary
@@ -130,6 +130,7 @@ class OptimalControlProblem(ReadOnly):
         self._formulation = as_formulation(variant, disc)
         self._residual = step_residual(disc, self._formulation)
         self._momentum_treatment = momentum_treatment(momenta, self._residual)
+        self._stated = {"momenta": momenta, "path_constraints": path_constraints}   # for `with_rule`
         n = sys.n
         self._final_time = as_final_time(duration, N, disc.h)
         self._parameters = w = ProblemParameters(parameters)
@@ -220,6 +221,26 @@ class OptimalControlProblem(ReadOnly):
         new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
         if not self.free_time:
             new._final_time = FixedFinalTime(new._disc.h)
+        new._transcription = Transcription(new)
+        return new
+
+    def with_rule(self, rule):
+        """This problem discretized by another `rule` (a name or value of
+        `dmoc.discretize`), same N, step and everything else: another NLP (`structure`),
+        so an optimum of this problem guesses the copy through its trajectory.
+        `dmoc.drivers.high_order` starts a stage rule from the midpoint rule's optimum.
+
+        >>> import dmoc.problems
+        >>> dmoc.problems.knife_edge_parking(20, rule="lobatto3").with_rule("midpoint").disc.rule.name
+        'midpoint'
+        """
+        new = self._copy()
+        new._disc = discretize(self._disc.system, self._disc.h, rule)
+        new._formulation = as_formulation(self.variant, new._disc)
+        new._residual = step_residual(new._disc, new._formulation)
+        new._momentum_treatment = momentum_treatment(self._stated["momenta"], new._residual)
+        path = self._stated["path_constraints"]
+        new._path = None if path is None else path_function(path, new._disc, self._parameters)
         new._transcription = Transcription(new)
         return new
 
