@@ -13,7 +13,9 @@ same root."""
 import dataclasses
 import time
 
+from .._util import checks
 from ..errors import Interrupted, SolverError, Status
+from ..optimal_control import OptimalControlProblem
 from ..optimal_control.solver.solving import solve
 from .verdict import judged_solve
 
@@ -50,6 +52,7 @@ def started_solve(problem, *, guess=None, throw=True, options=None, **keywords):
     `options`): that start's record in ``stats["start"]`` (None otherwise), its iterations
     not counted in ``stats["iterations"]``; a failed start falls back to the default guess
     and `options`. `dmoc.optimize` documents the keywords."""
+    checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     if not starts_robustly(problem, guess):
         return judged_solve(problem, guess=guess, throw=throw, options=options, **keywords)
     same = {k: keywords[k] for k in ("reuse_solver", "expand", "jit") if k in keywords}
