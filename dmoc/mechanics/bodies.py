@@ -6,7 +6,7 @@ drawn by the results stage on the path plot and in every frame of an animation.
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, InputTypeError
 
 
 class Body:
@@ -40,12 +40,12 @@ class Body:
         if not isinstance(name, str) or not name or "\n" in name:
             raise InputError(f"`name` of a Body must be a non-empty line of text; got {name!r}.")
         if not callable(outline):
-            raise InputError(f"`outline` of Body {name!r} must be a callable q -> points "
+            raise InputTypeError(f"`outline` of Body {name!r} must be a callable q -> points "
                              f"(k, 2); got {type(outline).__name__}.")
         if not isinstance(closed, (bool, np.bool_)):
-            raise InputError(f"`closed` of Body {name!r} must be True or False; got {closed!r}.")
+            raise InputTypeError(f"`closed` of Body {name!r} must be True or False; got {closed!r}.")
         if color is not None and not isinstance(color, str):
-            raise InputError(f"`color` of Body {name!r} must be a matplotlib colour name or "
+            raise InputTypeError(f"`color` of Body {name!r} must be a matplotlib colour name or "
                              f"None; got {color!r}.")
         self.name, self.outline, self.closed, self.color = name, outline, bool(closed), color
 

@@ -6,7 +6,7 @@ to another (the path plot draws them at a few poses, an animation at every frame
 import numpy as np
 
 from .._util import checks
-from ..errors import InputError
+from ..errors import InputTypeError
 from ..mechanics.bodies import Body
 
 
@@ -15,7 +15,7 @@ def body_values(bodies):
     if bodies is None:
         return ()
     if isinstance(bodies, Body) or not isinstance(bodies, (list, tuple)):
-        raise InputError(f"`bodies` must be a list or tuple of dmoc.Body (e.g. "
+        raise InputTypeError(f"`bodies` must be a list or tuple of dmoc.Body (e.g. "
                          f"system.bodies); got {type(bodies).__name__}.")
     for i, body in enumerate(bodies):
         checks.instance(f"bodies[{i}]", body, Body, "a dmoc.Body")

@@ -39,9 +39,9 @@ def test_bad_control_names_are_named(names, match):
 def test_a_body_checks_its_arguments_and_its_outline():
     with pytest.raises(dmoc.InputError, match=r"`name` of a Body must be a non-empty line"):
         dmoc.Body("", lambda q: q[None, :2])
-    with pytest.raises(dmoc.InputError, match=r"`outline` of Body 'box' must be a callable"):
+    with pytest.raises(dmoc.InputTypeError, match=r"`outline` of Body 'box' must be a callable"):
         dmoc.Body("box", [[0, 0], [1, 1]])
-    with pytest.raises(dmoc.InputError, match=r"`closed` of Body 'box' must be True or False"):
+    with pytest.raises(dmoc.InputTypeError, match=r"`closed` of Body 'box' must be True or False"):
         dmoc.Body("box", lambda q: q[None, :2], closed="yes")
     wrong = dmoc.Body("box", lambda q: q[:2])
     with pytest.raises(dmoc.InputError, match=r"Body 'box' must return points of shape "

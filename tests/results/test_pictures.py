@@ -183,7 +183,7 @@ def test_bodies_or_a_shape_not_both(parking, tmp_path):
     with pytest.raises(dmoc.InputError, match=r"give `bodies` or `shape`, not both"):
         dmoc.animation.animate(traj, tmp_path / "a.gif", bodies=problem.disc.system.bodies,
                                shape="blade", heading=2)
-    with pytest.raises(dmoc.InputError, match=r"`bodies` must be a list or tuple of dmoc.Body"):
+    with pytest.raises(dmoc.InputTypeError, match=r"`bodies` must be a list or tuple of dmoc.Body"):
         plotting.plot_path(traj, bodies=problem.disc.system.bodies[0])
     with pytest.raises(dmoc.InputError, match=r"`heading` must be a column of q for shape 'coin'"):
         dmoc.animation.animate(traj, tmp_path / "a.gif", shape="coin")
