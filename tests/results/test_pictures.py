@@ -9,6 +9,8 @@ a 1 m by 1 m parking (ratio 1), a +-1.5 ramp under +-15 bounds, the pixels of a 
 colour no other artist uses.
 """
 
+import pathlib
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -187,3 +189,17 @@ def test_bodies_or_a_shape_not_both(parking, tmp_path):
         plotting.plot_path(traj, bodies=problem.disc.system.bodies[0])
     with pytest.raises(dmoc.InputError, match=r"`heading` must be a column of q for shape 'coin'"):
         dmoc.animation.animate(traj, tmp_path / "a.gif", shape="coin")
+
+
+def test_the_command_line_gif_draws_the_car_and_the_parked_car(tmp_path):
+    """`dmoc optimize lane_change_problem.py:lane_change --animate`: every frame shows the
+    car's body (its edge in C1, orange) and the grey disc its path constraints keep out."""
+    from dmoc.cli import main
+
+    example = pathlib.Path(__file__).parents[2] / "examples" / "lane_change_problem.py"
+    assert main(["optimize", f"{example}:lane_change", "--param", "steps=30", "--out",
+                 str(tmp_path), "--animate", "--no-plots"]) == 0
+    for image in frames_of(tmp_path / "lane_change.gif"):
+        orange = (np.abs(image - [255, 127, 14]) <= 30).all(axis=-1)
+        grey = (np.abs(image - 191) <= 2).all(axis=-1)
+        assert orange.sum() > 20 and grey.sum() > 200
