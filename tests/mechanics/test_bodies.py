@@ -10,8 +10,8 @@ import pytest
 import dmoc
 from dmoc.mechanics.bodies import rectangle, segment
 from dmoc.mechanics.systems import car, knife_edge
-from dmoc.mechanics.systems.car import OVERHANG, WIDTH
-from dmoc.mechanics.systems.knife_edge import BLADE
+from dmoc.mechanics.systems.car_model import OVERHANG, WIDTH
+from dmoc.mechanics.systems.knife_edge_model import BLADE
 
 
 def free(n, **kwargs):
