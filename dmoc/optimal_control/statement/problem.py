@@ -11,12 +11,10 @@ import numpy as np
 
 from ..._util import checks
 from ...discrete import Discretization, discretize
-from ...principle.formulations import as_formulation
-from ...principle.residual import step_residual
 from .boundary import set_boundary
 from .final_time import FixedFinalTime, as_final_time
-from ..nlp.momenta import momentum_treatment
-from .parameters import ProblemParameters, cost_function, path_function
+from .parameters import ProblemParameters, cost_function
+from .rule_parts import rule_parts
 from .read_only import ReadOnly, Transcribed, frozen
 from ..nlp.transcription import Transcription
 
@@ -125,22 +123,18 @@ class OptimalControlProblem(ReadOnly):
                  state_bounds=None, path_constraints=None, duration=None, variant="+",
                  momenta="substituted", parameters=None):
         checks.instance("disc", disc, Discretization, "a Discretization")
-        self._disc, sys = disc, disc.system
-        self._steps = N = checks.positive_int("steps", steps)
-        self._formulation = as_formulation(variant, disc)
-        self._residual = step_residual(disc, self._formulation)
-        self._momentum_treatment = momentum_treatment(momenta, self._residual)
-        self._stated = {"momenta": momenta, "path_constraints": path_constraints}   # for `with_rule`
-        n = sys.n
-        self._final_time = as_final_time(duration, N, disc.h)
+        sys, self._steps = disc.system, checks.positive_int("steps", steps)
+        self._final_time = as_final_time(duration, self._steps, disc.h)
         self._parameters = w = ProblemParameters(parameters)
+        self._stated = (momenta, path_constraints)      # `with_rule` makes the rule's parts anew
+        self._disc, (self._formulation, self._residual, self._momentum_treatment, self._path) = \
+            disc, rule_parts(disc, variant, momenta, path_constraints, w)
         default = (lambda q, v, u, w: ca.sumsqr(u)) if w.given else (lambda q, v, u: ca.sumsqr(u))
         self._running = cost_function("running_cost", running_cost or default, sys, ("q", "v", "u"), w)
         self._terminal = None if terminal_cost is None else cost_function(
             "terminal_cost", terminal_cost, sys, ("q", "v"), w)
-        self._path = None if path_constraints is None else path_function(path_constraints, disc, w)
         self._control_bounds = checks.bound_pair("control_bounds", control_bounds, sys.n_u)
-        self._state_bounds = checks.bound_pair("state_bounds", state_bounds, n)
+        self._state_bounds = checks.bound_pair("state_bounds", state_bounds, sys.n)
         for bound in (*self._control_bounds, *self._state_bounds):
             frozen(bound)
         set_boundary(self, {"q_start": q_start, "q_goal": q_goal, "v_start": v_start,
@@ -225,22 +219,11 @@ class OptimalControlProblem(ReadOnly):
         return new
 
     def with_rule(self, rule):
-        """This problem discretized by another `rule` (a name or value of
-        `dmoc.discretize`), same N, step and everything else: another NLP (`structure`),
-        so an optimum of this problem guesses the copy through its trajectory.
-        `dmoc.drivers.high_order` starts a stage rule from the midpoint rule's optimum.
-
-        >>> import dmoc.problems
-        >>> dmoc.problems.knife_edge_parking(20, rule="lobatto3").with_rule("midpoint").disc.rule.name
-        'midpoint'
-        """
+        """This problem with another `rule` of `dmoc.discretize`: a new NLP (`structure`)."""
         new = self._copy()
         new._disc = discretize(self._disc.system, self._disc.h, rule)
-        new._formulation = as_formulation(self.variant, new._disc)
-        new._residual = step_residual(new._disc, new._formulation)
-        new._momentum_treatment = momentum_treatment(self._stated["momenta"], new._residual)
-        path = self._stated["path_constraints"]
-        new._path = None if path is None else path_function(path, new._disc, self._parameters)
+        new._formulation, new._residual, new._momentum_treatment, new._path = rule_parts(
+            new._disc, self.variant, *self._stated, self._parameters)
         new._transcription = Transcription(new)
         return new
 
