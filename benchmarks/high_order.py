@@ -68,9 +68,12 @@ def main(argv=None):
                 before = timed(lambda: judged_solve(make(steps, rule), throw=False))
                 now = timed(lambda: dmoc.optimize(make(steps, rule), throw=False))
                 print(f"{name:<7}{rule:<9}{steps:>4} | {cells(*before)} | {cells(*now)}", flush=True)
-        J = [dmoc.optimize(make(N, "midpoint"), throw=False).cost for N in (max(args.steps), 2 * max(args.steps))]
-        print(f"{name:<7}midpoint J_N {J[0]:.9f}, J_2N {J[1]:.9f} (N = {max(args.steps)}): "
-              f"Richardson limit {J[1] + (J[1] - J[0]) / 3:.9f}", flush=True)
+        N = max(args.steps)
+        mid = [dmoc.optimize(make(steps, "midpoint"), throw=False) for steps in (N, 2 * N)]
+        J = [result.cost for result in mid]
+        limit = f"{J[1] + (J[1] - J[0]) / 3:.9f}" if all(r.success for r in mid) else "-"
+        print(f"{name:<7}midpoint J_N {J[0]:.9f} ({mid[0].status}), J_2N {J[1]:.9f} ({mid[1].status}) "
+              f"(N = {N}): Richardson limit {limit}", flush=True)
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
 
 

@@ -49,8 +49,9 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     OptimizationResult
         The last level's, with ``stats["levels"]`` (one dict per level: ``steps``,
         ``rule``, ``cost``, ``status``, ``iterations``, ``estimate`` (its
-        `ErrorEstimate.largest`; None on the first level) and ``time``, wall seconds of
-        the level's problem, solve and estimate) and ``stats["error_estimate"]`` (the last
+        `ErrorEstimate.largest`; None on the first level), ``time``, wall seconds of
+        the level's problem, solve and estimate, and ``start``, the record of the
+        midpoint start of a stage rule's first level or None, `dmoc.drivers.high_order`) and ``stats["error_estimate"]`` (the last
         `ErrorEstimate` as a dict of plain numbers and lists, so `OptimizationResult.save`
         keeps it).
 
@@ -114,7 +115,8 @@ def _next_steps(steps, estimate, accuracy):
 def _level_record(problem, result, estimate, seconds):
     return {"steps": problem.steps, "rule": problem.disc.rule.name, "cost": result.cost,
             "status": result.status, "iterations": result.stats["iterations"],
-            "estimate": None if estimate is None else estimate.largest, "time": seconds}
+            "estimate": None if estimate is None else estimate.largest, "time": seconds,
+            "start": result.stats.get("start")}
 
 
 def _finished(result, levels, estimate, accuracy, keywords, max_steps=None):

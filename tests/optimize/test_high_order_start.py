@@ -85,3 +85,10 @@ def test_not_replayable_message_names_the_remedy():
     assert 'guess=dmoc.optimize(problem.with_rule("midpoint").with_steps(20))' in message
     midpoint = dmoc.optimize(P.knife_edge_parking(10), throw=False)
     assert "with_rule" not in verdict_message(failed, midpoint)
+
+
+def test_accuracy_target_starts_its_first_level_so():
+    result = dmoc.optimize(bounded_disk(10, "lobatto3"), accuracy=1e-3)
+    levels = result.stats["levels"]
+    assert levels[0]["start"]["rule"] == "midpoint"
+    assert all(level["start"] is None for level in levels[1:])
