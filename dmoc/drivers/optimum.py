@@ -25,7 +25,9 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         (resampled), IPOPT then estimating the multipliers by least squares there. By
         default the configurations interpolate linearly between the boundary data, bent
         by a small sine bump so the guess avoids points where the constraint Jacobian is
-        singular (e.g. the knife edge sliding straight sideways).
+        singular (e.g. the knife edge sliding straight sideways). A stage rule (lobatto3,
+        lobatto4) starts instead from the midpoint rule's optimum on the same grid, solved
+        from that default guess (`dmoc.drivers.high_order`; ``stats["start"]``).
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``).
         Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
