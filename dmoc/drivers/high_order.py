@@ -1,7 +1,8 @@
 """The default start of a high-order rule (a driver, issue 40): a stage rule (lobatto3,
 lobatto4) from the default guess is first solved with the midpoint rule on the same grid,
 and its solve starts from that optimum, resampled (`dmoc.optimal_control.solver.guess`),
-instead of from the default guess (docs/stages/drivers.md, "High-order rules").
+instead of from the default guess (docs/stages/drivers.md, "High-order rules from the
+default guess").
 
 From the default guess the stage rule's NLP can converge to an optimum whose steps sit on
 another root of the step equations (37)/(41) at large h, with stage values far from the
