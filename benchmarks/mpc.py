@@ -47,7 +47,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
-from checkouts import add_checkouts, imported_dmoc  # noqa: E402
+from resolve import add_checkouts, imported_dmoc  # noqa: E402
 
 
 SWITCHES = {"default": {}, "mx": {"expand": False}, "jit": {"jit": True}}
