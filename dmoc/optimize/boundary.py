@@ -20,7 +20,7 @@ def boundary_vector(name, value, n):
     """Boundary data of shape (n,) with None entries as NaN (free); never infinite. A list
     or tuple of n finite floats (NumPy's too) and None, a re-solve's new goal, is taken at
     once, checked in Python: a NumPy call on data this short costs more than the check
-    (docs/performance.md, "The re-solve, ninth pass")."""
+    (benchmarks/peers.py resolve)."""
     if type(value) in (list, tuple) and len(value) == n and all(
             x is None or (isinstance(x, float) and math.isfinite(x)) for x in value):
         return np.array([np.nan if x is None else x for x in value])
@@ -109,8 +109,8 @@ def imposes_velocity_rows(complete, v):
 
 def _has_free(data):
     """Whether the boundary data `data`, shape (n,), have a free (NaN) entry; read as
-    Python floats: NumPy's reductions of arrays this short cost 10-20 us each in a
-    re-solve (docs/performance.md, "The re-solve, ninth pass")."""
+    Python floats: NumPy's reductions of arrays this short cost more in a re-solve
+    (benchmarks/peers.py resolve)."""
     return any(map(math.isnan, data.tolist()))
 
 

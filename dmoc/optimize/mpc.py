@@ -82,8 +82,7 @@ class MPC:
         MX graph (``expand=False, jit=False``). `expand` is True by default, unlike
         `optimize`'s: a controller builds its solver once and solves on it at every step,
         so the expansion's cost (a few ms at step 0) buys a cheaper evaluation at every
-        warm step (about a fifth of a warm step at horizon 30, docs/performance.md, "MPC:
-        per-step times"). With `jit`, `expand` has no effect.
+        warm step (benchmarks/mpc.py --mx). With `jit`, `expand` has no effect.
     on_failure : {"raise", "shift"}
         What a step does when IPOPT does not converge. "raise" (default): raise
         SolverError (the failed solve in `.result`); no control is returned. "shift":
