@@ -20,7 +20,7 @@ SHARED = {"collocation": "dmoc_vs_collocation", "knife_runs": "batch_worker"}
 # each script's smallest run: a few seconds on a warm compile cache
 SMALLEST = {
     "accuracy": ["--smallest"],
-    "batch": ["--count", "4", "--steps", "20", "--only", "optimize"],
+    "batch": ["--count", "4", "--steps", "20", "--sim-steps", "20"],
     "batch_optimize_worker": ["--rounds", "1", "--count", "4", "--chunk", "2"],
     "batch_worker": ["--rounds", "1", "--runs", "8"],
     "dmoc_vs_collocation": ["--smallest"],
