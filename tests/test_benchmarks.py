@@ -39,9 +39,11 @@ SMALLEST = {
 def benchmarks_path(monkeypatch):
     """benchmarks/ first on sys.path, as when a script runs: they import their siblings.
     Afterwards the scripts leave no trace: their modules (top-level names such as `batch`
-    or `resolve`) are dropped and the environment they set at import (OMP_NUM_THREADS) is
-    restored."""
+    or `resolve`) are dropped, the environment they set at import (OMP_NUM_THREADS) is
+    restored, and no bytecode is left in benchmarks/ (nor by the children they start)."""
     monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
     environ = dict(os.environ)
     yield
     for name, module in list(sys.modules.items()):
