@@ -4,7 +4,7 @@ rolling-disk steering and the car lane change (dmoc.problems).
 
 For each problem and rule (lobatto3, lobatto4) a scan finds the least N whose optimum has a
 true relative cost error |J_N - J*| / J* <= 1e-6 (J* from the issue; the car's from two
-high-order solves, docs/performance.md), and the least N whose re-simulated final state is
+high-order solves), and the least N whose re-simulated final state is
 also within 1e-6 (true final state: the continuous Lagrange-d'Alembert equations driven by
 the optimum's controls, integrated by scipy's DOP853 step by step; its final
 configuration relative to each coordinate's excursion as in `ErrorEstimate.final_state`):
