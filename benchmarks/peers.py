@@ -136,7 +136,7 @@ def dmoc_resolve(name, rule, N, repeat, count):
     """(this process) {run: [median seconds per re-solve, iterations, IPOPT s, function s]},
     the NLP size and the costs of dmoc's re-solves of `name` at N with `rule`."""
     import dmoc
-    from dmoc.optimize.solve import solve      # dmoc.optimize is the judged function
+    from dmoc.optimal_control import solve      # dmoc.optimize is the judged function
     targets = goals(name, count)
     problem = dmoc_problem(name, N, rule, targets[0])
     calls = {"judged": dmoc.optimize, "unjudged": lambda p, **k: dmoc.optimize(p, check=False, **k),
@@ -163,7 +163,7 @@ def dmoc_resolve(name, rule, N, repeat, count):
 
 def dmoc_cost(name, rule):
     """N -> the raw solve's optimal cost at N steps with `rule`, at the original goal."""
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control import solve
 
     def cost_at(N):
         return solve(dmoc_problem(name, N, rule, GOAL[name]), options={"print_level": 0}).cost
@@ -288,7 +288,7 @@ def dmoc_first(name, rule, N, judged):
     `rule` built and solved from its default guess after `dmoc.clear_caches`, judged
     (``dmoc.optimize``) or raw (the unjudged solve)."""
     import dmoc
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control import solve
 
     def first():
         dmoc.clear_caches()

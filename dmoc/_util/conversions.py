@@ -3,7 +3,7 @@ momenta): the same numbers, bit for bit, in less time than CasADi's own conversi
 NumPy arrays (into a DM and out of one; benchmarks/peers.py resolve). The IPOPT call and
 the data's
 tolerances of every solve convert nothing: they go through their Functions' buffers
-(`dmoc._util.numeric.Evaluator`, `dmoc.optimize.ipopt.PackedSolver`).
+(`dmoc._util.numeric.Evaluator`, `dmoc.optimal_control.solver.ipopt.PackedSolver`).
 """
 
 import casadi as ca
