@@ -11,7 +11,7 @@ import numpy as np
 
 from .._util import checks
 from .._util.numeric import Evaluator
-from ..errors import InputError
+from ..errors import InputError, InputTypeError
 from ..mechanics.given import constraint_violation_tolerance, numeric
 
 MEASUREMENT = ("project", "refuse")
@@ -55,19 +55,22 @@ class MeasurementPolicy:
     ----------
     problem : OptimalControlProblem
     policy : {"project", "refuse"}
-        "project": q onto the box of `state_bounds` and g(q) = 0, v onto ker A(q), each
-        the closest point in the metric of the mass matrix M = d2L/dv2 (the identity
-        where M is singular or the system Hamiltonian). "refuse": InputError naming every
-        violated bound or constraint with its value.
+        "project": q put on g(q) = 0 and clipped to the box of `state_bounds`, v
+        projected onto ker A(q), each move the shortest in the metric of the mass matrix
+        M = d2L/dv2 (the identity where M is singular or the system Hamiltonian).
+        "refuse": InputError naming every violated bound or constraint with its value.
 
     Notes
     -----
-    The configuration solves min (q - q_m)^T M (q - q_m) / 2 subject to lower <= q <=
-    upper and g(q) = 0: the entries outside the box are clipped to it and held, and the
-    others iterate q = q_m - W^-1 J^T (J W^-1 J^T)^-1 (g(q_k) + J (q_m - q_k)), J =
-    dg/dq(q_k) on the free entries (the closest point to q_m on g linearized at q_k, whose
-    fixed point is the exact closest point); entries that then leave the box are clipped
-    and held too, and the iteration restarts. The velocity is v = v_m - M^-1 A^T (A M^-1
+    Without holonomic constraints q is clipped to the box (the closest point in any
+    diagonal metric; the entries measured inside it stay as measured). With them, q is
+    the closest point to q_m on g = 0, min (q - q_m)^T M (q - q_m) / 2, found by the
+    iteration q = q_m - W^-1 J^T (J W^-1 J^T)^-1 (g(q_k) + J (q_m - q_k)), J = dg/dq(q_k)
+    (the closest point to q_m on g linearized at q_k, whose fixed point is the exact
+    closest point); the entries it leaves outside the box are clipped and held, and the
+    iteration runs again on the others (W = M and J restricted to them), until none is
+    outside: the closest point within the box when the bounds it holds are the ones
+    active there, as they are for noise-sized moves. The velocity is v = v_m - M^-1 A^T (A M^-1
     A^T)^-1 A v_m with A = A(q), the M-orthogonal projection onto ker A: the velocity
     after the constraint impulse A^T lam that removes A v_m, which is what the start rows
     p_0 = p_start make of the momentum M v_m anyway (its component along A(q_0)^T is
@@ -168,8 +171,7 @@ class MeasurementPolicy:
         """The closest q to q_m in the mass-matrix metric within the box and on g(q) = 0
         (Notes of the class)."""
         W = self._metric(q_m, np.zeros_like(q_m))
-        q = np.clip(q_m, self.lower, self.upper)
-        held = q != q_m
+        q, held = q_m, np.zeros(len(q_m), dtype=bool)
         for _ in range(self.system.n + 1):
             if self.system.n_holonomic:
                 q = self._onto_holonomic(step, q_m, q, ~held, W)
@@ -197,6 +199,8 @@ class MeasurementPolicy:
             q[free] = moved
             if change <= 1e-14 * max(1.0, float(np.abs(q).max())):
                 return q
+        if not self._configuration_violations(q).get("holonomic"):     # round-off stalls it
+            return q
         raise InputError(f"MPC step {step}: the measured q = {q_m.tolist()} cannot be put on "
                          f"g(q) = 0 with the entries `state_bounds` leaves free (the "
                          f"closest-point iteration fails from there).")
@@ -212,5 +216,5 @@ def _measured(step, name, value, n):
     the entry that is wrong (shape, NaN or infinite)."""
     try:
         return checks.array(name, value, (n,))
-    except InputError as err:
+    except (InputError, InputTypeError) as err:
         raise type(err)(f"MPC step {step}: {err}") from None

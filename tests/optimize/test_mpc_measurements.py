@@ -89,7 +89,8 @@ def sphere_problem():
 def test_a_holonomic_plant_measured_off_the_sphere_reaches_the_goal():
     """Noise puts every measured q off |q| = 1 and v off the tangent plane; the starts
     used are on the sphere and tangent to it (to round-off), and a plant 20 % heavier
-    ends within 2 mm of the goal."""
+    settles at the goal to the sensor's accuracy: its last 10 states within 5 mm (2.5
+    standard deviations of the noise on q) of it."""
     problem = sphere_problem()
     plant = dmoc.discretize(dmoc.systems.spherical_pendulum(mass=1.2, gravity=0.0), 0.1)
     rng = np.random.default_rng(0)
@@ -104,7 +105,7 @@ def test_a_holonomic_plant_measured_off_the_sphere_reaches_the_goal():
     for r in log:
         assert abs(np.linalg.norm(r.q) - 1) <= 1e-14 and abs(r.q @ r.p) <= 1e-14
     s, c = np.sin(0.5), np.cos(0.5)
-    assert np.abs(states[-10:] - [0, s, -c]).max() <= 2e-3
+    assert np.abs(states[-10:] - [0, s, -c]).max() <= 5e-3
 
 
 def particle(m1, m2, **constraint):
@@ -132,19 +133,21 @@ def test_a_velocity_is_projected_in_the_metric_of_the_mass_matrix():
 
 
 def test_a_configuration_is_projected_onto_g_and_the_box_in_the_mass_metric():
-    """q0 + q1 = 1 with m1 = 1, m2 = 3: from (0.7, 0.5) the closest point in the metric M
-    is q_m - lam (1/m1, 1/m2), lam = 0.2 / (1/m1 + 1/m2) = 0.15: (0.55, 0.45). With q0 <=
-    0.75 held, (0.9, 0.5) becomes (0.75, 0.25), not the unbounded (0.75 - ..., ...)."""
+    """q0 + q1 = 1 with m1 = 1, m2 = 3, q0 <= 0.75: from (0.7, 0.5) the closest point in
+    the metric M is q_m - lam (1/m1, 1/m2), lam = 0.2 / (1/m1 + 1/m2) = 0.15: (0.55,
+    0.45). From (0.9, 0.5), outside the box, it is (0.6, 0.4) (lam = 0.3), inside it: the
+    measured q0 is not clipped first. From (1.2, 0), min (q0 - 1.2)^2 + 3 (1 - q0)^2 on the
+    line is at q0 = 1.05, outside; with the bound active, (0.75, 0.25)."""
     problem = particle(1.0, 3.0, holonomic=lambda q: q[0] + q[1] - 1)
     controller = dmoc.MPC(problem)
-    controller.step([0.7, 0.5], p=[0.0, 0.0])
-    record = controller.log[0]
-    np.testing.assert_allclose(record.q, [0.55, 0.45], rtol=0, atol=1e-15)
-    assert record.corrected == ("holonomic",)
-    assert record.q_correction == pytest.approx(np.hypot(0.15, 0.05), rel=1e-12)
-    controller.step([0.9, 0.5], p=[0.0, 0.0])
-    np.testing.assert_allclose(controller.log[1].q, [0.75, 0.25], rtol=0, atol=1e-15)
-    assert controller.log[1].corrected == ("state_bounds", "holonomic")
+    for measured, closest, corrected in (([0.7, 0.5], [0.55, 0.45], ("holonomic",)),
+                                         ([0.9, 0.5], [0.6, 0.4], ("state_bounds", "holonomic")),
+                                         ([1.2, 0.0], [0.75, 0.25], ("state_bounds", "holonomic"))):
+        controller.step(measured, p=[0.0, 0.0])
+        record = controller.log[-1]
+        np.testing.assert_allclose(record.q, closest, rtol=0, atol=1e-15)
+        assert record.corrected == corrected
+        assert record.q_correction == pytest.approx(np.linalg.norm(np.subtract(closest, measured)), rel=1e-12)
 
 
 def test_a_point_off_the_sphere_moves_radially_unless_a_bound_holds_an_entry():
@@ -217,3 +220,19 @@ def test_ctrl_c_propagates_with_on_failure_shift(monkeypatch):
     with pytest.raises(dmoc.Interrupted, match="MPC step 1: IPOPT: interrupted"):
         controller.step([0.0, 0.0, 0.0], p=[0.0, 0.0, 0.0])
     assert [r.plan_age for r in controller.log] == [0, None]
+
+
+def test_a_configuration_the_box_leaves_no_room_for_names_the_step():
+    """q0 + q1 = 1 in the box [0.8, 0.9] x [0.15, 0.2]: from (2, 0) the closest point on
+    the line, (1.5, -0.5), leaves the box in both entries; both held at (0.9, 0.15), g =
+    0.05 and no entry is free to move: refused, naming the step (the documented limit of
+    holding the bounds the unbounded projection crosses, far from the box)."""
+    system = dmoc.MechanicalSystem(lambda q, v: (v[0] ** 2 + v[1] ** 2) / 2, 2, n_u=2,
+                                   force=lambda q, v, u: u, holonomic=lambda q: q[0] + q[1] - 1)
+    problem = dmoc.OptimalControlProblem(dmoc.discretize(system, 0.25), 4, q_start=[0.85, 0.15],
+                                         q_goal=[0.8, None], state_bounds=([0.8, 0.15], [0.9, 0.2]))
+    controller = dmoc.MPC(problem)
+    with pytest.raises(dmoc.InputError, match=r"MPC step 0: the measured q = \[2.0, 0.0\] cannot be put on "
+                                              r"g\(q\) = 0 with the entries `state_bounds` leaves free"):
+        controller.step([2.0, 0.0], p=[0.0, 0.0])
+    assert controller.log == []
