@@ -236,3 +236,21 @@ def test_a_configuration_the_box_leaves_no_room_for_names_the_step():
                                               r"g\(q\) = 0 with the entries `state_bounds` leaves free"):
         controller.step([2.0, 0.0], p=[0.0, 0.0])
     assert controller.log == []
+
+
+def test_a_hamiltonian_sphere_takes_p_and_refuses_v():
+    """H = |p|^2 / 2 on |q| = 1 (no Lagrangian, the identity metric): q off the sphere
+    goes to q / |q| with the measured p kept; a measured v is refused, naming `p`."""
+    system = dmoc.HamiltonianSystem(lambda q, p: ca.dot(p, p) / 2, 3, holonomic=lambda q: ca.dot(q, q) - 1,
+                                    force=lambda q, p, u: ca.vertcat(u[0], u[1], 0), n_u=2)
+    problem = dmoc.OptimalControlProblem(dmoc.discretize(system, 0.1), 5, q_start=[0, 0, -1],
+                                         q_goal=[0.1, 0.1, None])
+    controller = dmoc.MPC(problem)
+    with pytest.raises(dmoc.InputError, match=r"MPC step 0: give the measured momentum `p` for a HamiltonianSystem"):
+        controller.step([0.0, 0.0, -1.0], v=[0.0, 0.0, 0.0])
+    q = np.array([0.03, 0.04, -1.01])
+    controller.step(q, p=[0.01, 0.0, 0.0])
+    record = controller.log[0]
+    np.testing.assert_allclose(record.q, q / np.linalg.norm(q), rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(record.p, [0.01, 0.0, 0.0])
+    assert record.corrected == ("holonomic",) and record.v_measured is None and record.v_correction == 0
