@@ -159,8 +159,11 @@ class MeasurementPolicy:
         definite (a degenerate Lagrangian) or the system Hamiltonian."""
         if self._mass is not None:
             M = self._mass(q, v)[0]
-            if np.all(np.isfinite(M)) and np.all(np.linalg.eigvalsh((M + M.T) / 2) > 0):
+            try:
+                np.linalg.cholesky(M)               # raises unless positive definite
                 return M
+            except np.linalg.LinAlgError:
+                pass
         return np.eye(self.system.n)
 
     def _holonomic_jacobian(self, q):
@@ -207,8 +210,8 @@ class MeasurementPolicy:
 
     def _velocity(self, q, v_m, A):
         """The M-orthogonal projection of v_m onto ker A, shape (n,)."""
-        W_inv = np.linalg.inv(self._metric(q, v_m))
-        return v_m - W_inv @ A.T @ np.linalg.solve(A @ W_inv @ A.T, A @ v_m)
+        W_inv_AT = np.linalg.solve(self._metric(q, v_m), A.T)
+        return v_m - W_inv_AT @ np.linalg.solve(A @ W_inv_AT, A @ v_m)
 
 
 def _measured(step, name, value, n):
