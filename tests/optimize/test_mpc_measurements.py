@@ -15,8 +15,8 @@ import pytest
 
 import dmoc
 from dmoc._util.deferred import replace
-from dmoc.optimize import mpc
-from dmoc.optimize.solve import solve
+from dmoc.drivers import mpc
+from dmoc.optimal_control import solve
 
 LOWER, UPPER = np.array([-1.0, -0.05, -1.0]), np.array([1.0, 1.0, 1.0])
 GOAL = np.array([0.0, 1.0, 0.0])          # on the upper bound of y
