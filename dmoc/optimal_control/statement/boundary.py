@@ -159,10 +159,12 @@ def set_boundary(problem, given):
     lower, upper = (bound.tolist() for bound in problem._state_bounds)
     for name in (k for k in ("q_start", "q_goal") if k in given):
         data = getattr(problem, "_" + name).tolist()
-        outside = [i for i, (x, low, high) in enumerate(zip(data, lower, upper))
+        outside = [f"{name}[{i}] ({sys.names[i]}) = {x:.6g} {'<' if x < low else '>'} "
+                   f"{low if x < low else high:.6g}"
+                   for i, (x, low, high) in enumerate(zip(data, lower, upper))
                    if x < low or x > high]              # a free entry (NaN) is neither
         if outside:
-            raise InputError(f"`{name}` must lie within `state_bounds`; entries {outside} do not.")
+            raise InputError(f"`{name}` must lie within `state_bounds`; {', '.join(outside)}.")
     problem._velocity_rows = rows
 
 
