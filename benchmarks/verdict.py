@@ -9,6 +9,18 @@ milliseconds of the optimize call (best of `--repeat` fresh processes for "first
 `--repeat` calls for the others) and the ratios judged / raw.
 
     python benchmarks/verdict.py [--repeat 3] [--steps 100 1000] [--rules midpoint lobatto3 lobatto4]
+
+With ``--hard``, instead: stage rules (lobatto3, lobatto4) from the default guess on hard
+problems, the solve before issue 40 (IPOPT from the default guess, judged: `judged_solve`)
+against `dmoc.optimize`'s default path (the midpoint rule's optimum on the same grid first,
+`dmoc.drivers.high_order`): the truck backing a trailer into a bay and the rolling disk
+with |u| <= 1 and a free final time (tests/optimize/hard_problems.py), the lane change
+past a parked car (examples/lane_change_problem.py). Per problem, rule and N: the verdict's
+status, iterations (the start's + the stage rule's), wall seconds, final time, cost and
+the replay's departure, before and now; per problem the midpoint rule's cost at N and 2N
+(N the largest of `--steps`) and their Richardson limit J_2N + (J_2N - J_N) / 3.
+
+    python benchmarks/verdict.py --hard truck lane disk --steps 30 60
 """
 
 import argparse
@@ -21,8 +33,11 @@ import time
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
+from dmoc.drivers.verdict import judged_solve  # noqa: E402
 
 CASES = {"knife edge": dmoc.problems.knife_edge_parking,
          "rolling disk": dmoc.problems.rolling_disk_steering}
@@ -46,13 +61,63 @@ def one_process(name, rule, N, repeat):
     return f"{first} {again} {raw}"
 
 
+def hard_problems():
+    """{name: make(steps, rule)} of the `--hard` problems."""
+    sys.path[:0] = [ROOT, os.path.join(ROOT, "examples")]
+    from tests.optimize.hard_problems import bounded_disk, truck_bay
+    from lane_change_problem import lane_change
+    return {"truck": truck_bay, "lane": lambda steps, rule: lane_change(steps).with_rule(rule),
+            "disk": bounded_disk}
+
+
+def _timed(call):
+    tic = time.perf_counter()
+    result = call()
+    return result, time.perf_counter() - tic
+
+
+def _cells(result, seconds):
+    start = result.stats.get("start") or {}
+    iterations = f"{start['iterations']}+" if start else ""
+    replay = result.verdict.replay_q if result.verdict is not None else float("nan")
+    return (f"{str(result.status):>16}{iterations + str(result.stats['iterations']):>9}{seconds:>7.1f}"
+            f"{result.trajectory.t[-1]:>8.3f}{result.cost:>14.9f}{replay:>9.1e}")
+
+
+def hard(names, steps):
+    """The `--hard` table of the problems `names` at each N of `steps`."""
+    makes = hard_problems()
+    print(f"{'problem':<7}{'rule':<9}{'N':>4} | {'before: status':>16}{'it':>9}{'s':>7}{'T':>8}{'J':>14}"
+          f"{'replay':>9} | {'now: status':>16}{'it':>9}{'s':>7}{'T':>8}{'J':>14}{'replay':>9}")
+    for name in names:
+        make = makes[name]
+        for N in steps:
+            for rule in ("lobatto3", "lobatto4"):
+                before = _timed(lambda: judged_solve(make(N, rule), throw=False))
+                now = _timed(lambda: dmoc.optimize(make(N, rule), throw=False))
+                print(f"{name:<7}{rule:<9}{N:>4} | {_cells(*before)} | {_cells(*now)}", flush=True)
+        N = max(steps)
+        mid = [dmoc.optimize(make(n, "midpoint"), throw=False) for n in (N, 2 * N)]
+        J = [result.cost for result in mid]
+        limit = f"{J[1] + (J[1] - J[0]) / 3:.9f}" if all(r.success for r in mid) else "-"
+        print(f"{name:<7}midpoint J_N {J[0]:.9f} ({mid[0].status}), J_2N {J[1]:.9f} ({mid[1].status}) "
+              f"(N = {N}): Richardson limit {limit}", flush=True)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--steps", type=int, nargs="+", default=STEPS, help="N (default 100 1000)")
     parser.add_argument("--rules", nargs="+", default=RULES, choices=RULES)
     parser.add_argument("--child", nargs=3)
+    parser.add_argument("--hard", nargs="+", choices=["truck", "lane", "disk"], metavar="NAME",
+                        help="stage rules from the default guess on truck, lane, disk, before and now")
     args = parser.parse_args(argv)
+    if args.hard:
+        print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
+        hard(args.hard, args.steps)
+        print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
+        return
     if args.child:
         name, rule, N = args.child
         print(one_process(name, rule, int(N), args.repeat))

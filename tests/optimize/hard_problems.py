@@ -1,4 +1,4 @@
-"""Hard problems of issue 40, kept as test fixtures (and read by benchmarks/high_order.py):
+"""Hard problems of issue 40, kept as test fixtures (and read by benchmarks/verdict.py --hard and warm_options.py):
 a truck backing a trailer into a bay between two parked trailers (SI units, free final
 time, bounds, a steering-rate row, a speed row, a jack-knife row, discs and a road edge),
 and the rolling disk to a goal with control bounds and a free final time."""
