@@ -137,7 +137,8 @@ def test_a_path_row_is_measured_against_max_1_and_its_largest_value(unit):
     assert result.status == "path_violated"
     assert result.verdict.path_violation == pytest.approx(expected, rel=1e-6)
     assert result.verdict.path_violation > 100 * PATH_TOLERANCE
-    assert g[result.verdict.path_step - 1, row] == g.max()
+    # the motion is symmetric: two knots tie to rounding, as in the test above
+    assert g[result.verdict.path_step - 1, row] > g.max() - 1e-9 * np.abs(g).max()
 
 
 def test_an_equality_written_as_a_pair_of_rows_passes():
