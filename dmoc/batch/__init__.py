@@ -23,9 +23,9 @@ from ..optimize.problem import OptimalControlProblem
 from ..optimize.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..simulate.simulation import SimulationResult
-from . import scheduling, sharing, shipping, tasks
+from . import scheduling, shipping, tasks
 from .cluster import Cluster
-from .errors import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
+from .failures import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
 from .tasks import pack_problem, unpack_problem
 
 __all__ = ["optimize_many", "simulate_many", "Cluster", "pack_problem", "unpack_problem",
@@ -35,6 +35,8 @@ KEEP = ("trajectory", "final")     # what simulate_many returns of each run's tr
 
 SIMULATE_KEYS = ("q0", "v0", "p0", "steps", "controls", "variant", "tol", "max_iter", "jit")
 _SIMULATE_KEYS = frozenset(SIMULATE_KEYS)
+REQUIRED_KEYS = ("q0", "steps")     # the keyword arguments `simulate` has no default for
+_REQUIRED = frozenset(REQUIRED_KEYS)
 
 CONNECT_TIMEOUT = 5.0
 
@@ -47,7 +49,7 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
     Each worker gets each problem structure once and keeps its solver; a problem that
     ``with_boundary`` / ``with_parameters`` of one already shipped rebuilds (the same
     NLP, bounds and p) travels as its boundary data and parameter values only. Items go
-    in chunks of about 0.5 s of measured work (`dmoc.batch.chunks`).
+    in chunks of about 0.5 s of measured work (`dmoc.batch.chunk_sizes`).
 
     Parameters
     ----------
@@ -160,6 +162,10 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     for i, run in enumerate(runs):
         if not _SIMULATE_KEYS.issuperset(run):      # the message of `no_unknown_keys`
             checks.no_unknown_keys(f"runs[{i}]", run, SIMULATE_KEYS)
+        if not _REQUIRED.issubset(run):
+            missing = " and ".join(f"`{k}`" for k in REQUIRED_KEYS if k not in run)
+            raise InputError(f"`runs[{i}]` must give {' and '.join(f'`{k}`' for k in REQUIRED_KEYS)} "
+                             f"of `simulate`; it lacks {missing}.")
     if isinstance(disc, Discretization):
         disc = [disc] * len(runs)
     discs = _sequence("disc", disc, Discretization, "Discretization")
@@ -169,9 +175,8 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     timeout = _seconds("timeout", timeout)
     keep = checks.choice("keep", keep, KEEP)
     shipments, items = shipping.run_items(discs, runs)
-    with sharing.Exchange() as share:
-        return _run(tasks.simulate_chunk, (timeout, keep, share), shipments, items,
-                    SimulationResult, client, "simulate", progress, batch_timeout, connect_timeout)
+    return _run(tasks.simulate_chunk, (timeout, keep), shipments, items, SimulationResult,
+                client, "simulate", progress, batch_timeout, connect_timeout)
 
 
 def _run(task, arguments, shipments, items, kind, client, label, progress, batch_timeout,

@@ -3,7 +3,7 @@ trajectory field concatenated over the chunk's runs into one array (t, q, p over
 knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
 chunk rather than seven per run; the client gets each run's Trajectory back as views of
 those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
-On the client's machine the arrays go through shared memory (`dmoc.batch.sharing`).
+Dask's serialization sends the arrays as out-of-band frames (pickle protocol 5), uncopied.
 """
 
 import dataclasses
@@ -11,42 +11,25 @@ import dataclasses
 import numpy as np
 
 from ..principle.trajectory import Trajectory
-from . import shared_file, sharing
 
 KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
 STEP_FIELDS = ("lam", "u", "s")          # N rows per run
 
 
 class PackedResults(list):
-    """A list of SimulationResults that pickles as a few arrays (`pack`), written to a
-    slot of the client's shared memory when `share` (`sharing.Exchange`) allows it;
-    unpickled, it is a plain list of equal results (`unpack`), in the same order."""
-
-    def __init__(self, results, share=None):
-        super().__init__(results)
-        self.share = share
+    """A list of SimulationResults that pickles as a few arrays (`pack`); unpickled, it is
+    a plain list of equal results (`unpack`), in the same order."""
 
     def __reduce__(self):
-        file = shared_file.SharedFile(self.share)
-        try:
-            heads, arrays = pack(self, file.allocate)
-        except BaseException:      # the slot taken must not stay locked
-            file.release()
-            raise
-        if arrays is not None and file.seal():
-            return unpack_shared, (heads, file.path, file.layout)
-        return unpack, (heads, arrays)
+        return unpack, pack(self)
 
 
-def pack(results, allocate=None):
+def pack(results):
     """(heads, arrays) of the SimulationResults `results`.
 
     Parameters
     ----------
     results : list of SimulationResult
-    allocate : callable, optional
-        ``allocate({name: (shape, dtype)})`` gives the arrays to fill
-        (`shared_file.SharedFile.allocate`), or None for new ones (the default).
 
     Returns
     -------
@@ -68,9 +51,7 @@ def pack(results, allocate=None):
     shapes = {name: ((sum(len(a) for a in parts), *parts[0].shape[1:]), np.result_type(*parts))
               for name, parts in columns.items()}
     shapes["mu"] = ((len(packed), *columns["mu"][0].shape), shapes["mu"][1])
-    arrays = allocate(shapes) if allocate is not None else None
-    if arrays is None:
-        arrays = {name: np.empty(shape, dtype) for name, (shape, dtype) in shapes.items()}
+    arrays = {name: np.empty(shape, dtype) for name, (shape, dtype) in shapes.items()}
     for name in (*KNOT_FIELDS, *STEP_FIELDS):
         np.concatenate(columns[name], out=arrays[name])
     np.stack(columns["mu"], out=arrays["mu"])
@@ -100,11 +81,6 @@ def unpack(heads, arrays):
             knot, step, run = knot + steps + 1, step + steps, run + 1
         results.append(result)
     return results
-
-
-def unpack_shared(heads, path, layout):
-    """`unpack` of arrays that a `shared_file.SharedFile` put in the slot `path` (copied out)."""
-    return unpack(heads, sharing.read(path, layout))
 
 
 def _widths(traj):

@@ -18,10 +18,11 @@ import uuid
 from collections import deque
 
 import distributed
+from distributed.client import FutureCancelledError, FuturesCancelledError
 
-from .chunks import ChunkSizes
+from .chunk_sizes import ChunkSizes
 from .cluster import client_of, close
-from .errors import BatchInterrupted
+from .failures import BatchInterrupted
 from .item_guard import failed_result
 from .progress import ProgressBar
 from .tasks import Shipment
@@ -35,6 +36,9 @@ TICK = 0.5
 
 CHUNKS_PER_THREAD = 2
 
+LOST = ("the connection to the scheduler was lost (it stopped, or the network failed) "
+        "before this item's result arrived")
+
 # Seconds a worker restarted to stop an abandoned item gets to shut down before it is
 # removed from the scheduler.
 RESTART_TIMEOUT = 10
@@ -46,7 +50,11 @@ def run(task, arguments, shipments, items, kind, client, *, label, progress, bat
     each, the bytes of data, ``bytes(data)``, made as its chunk is submitted:
     `shipping.item`) after shipping `shipments` ({digest: bytes}); the results of `kind`
     in input order (`Batch.collect`)."""
-    client, owned = client_of(client, connect_timeout)
+    try:
+        client, owned = client_of(client, connect_timeout)
+    except KeyboardInterrupt:
+        raise BatchInterrupted([failed_result(kind, "interrupted", "Ctrl-C while the cluster "
+                                              "(`client`) was starting") for _ in items]) from None
     names = []
     try:
         ship(client, shipments, names)
@@ -73,6 +81,8 @@ def ship(client, shipments, names):
 def unship(client, names):
     """Unregister the Shipments `names` (the workers drop their bytes), unless the
     scheduler is gone: then nothing holds them any more."""
+    if client.status != "running":
+        return
     for name in names:
         try:
             client.unregister_worker_plugin(name)
@@ -105,8 +115,11 @@ class Batch:
                 self._fill(max(threads, 1))
                 try:
                     distributed.wait(list(self.flying), timeout=TICK, return_when="FIRST_COMPLETED")
-                except TimeoutError:
+                except (TimeoutError, FuturesCancelledError):
                     pass
+                if self._lost():
+                    self._abandon("scheduler_lost", LOST, cancel=False)
+                    break
                 bar.advance(sum(self._land(f) for f in [f for f in self.flying if f.done()]))
                 now = time.monotonic()
                 if deadline is not None and now >= deadline:
@@ -123,10 +136,15 @@ class Batch:
             raise BatchInterrupted(self.results) from None
         return self.results
 
+    def _lost(self):
+        """Whether the client lost its scheduler: Dask then cancels every future of the
+        client (the batch cancels its own only in `_abandon`, which forgets them)."""
+        return self.client.status != "running" or any(f.cancelled() for f in self.flying)
+
     def _threads(self):
         """The cluster's worker threads, asked of the scheduler at most once per TICK."""
         now = time.monotonic()
-        if now - self.asked >= TICK:
+        if now - self.asked >= TICK and self.client.status == "running":
             self.threads, self.asked = sum(self.client.nthreads().values()), now
         return self.threads
 
@@ -168,6 +186,8 @@ class Batch:
         chunk = self.flying.pop(future)
         try:
             results, seconds = future.result()
+        except FutureCancelledError:     # the connection to the scheduler was lost meanwhile
+            results, seconds = [failed_result(self.kind, "scheduler_lost", LOST) for _ in chunk], []
         except distributed.KilledWorker as err:
             results, seconds = [failed_result(self.kind, "worker_lost", f"KilledWorker: {err}")], []
             if len(chunk) > 1:
@@ -187,12 +207,14 @@ class Batch:
             restart(self.client, {results[-1].stats["worker"]})
         return len(results)
 
-    def _abandon(self, status, message):
-        """Give each unfinished item a failed result of `status` and cancel the chunks in
-        flight (a chunk a worker is already running runs on to its end there)."""
+    def _abandon(self, status, message, cancel=True):
+        """Give each unfinished item a failed result of `status` and, with `cancel`, cancel
+        the chunks in flight (a chunk a worker is already running runs on to its end
+        there)."""
         for i in [*self.queued, *(i for chunk in self.flying.values() for i in chunk)]:
             self.results[i] = failed_result(self.kind, status, message)
-        self.client.cancel(list(self.flying))
+        if cancel:
+            self.client.cancel(list(self.flying))
         self.queued.clear()
         self.flying.clear()
 

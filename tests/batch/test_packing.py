@@ -3,7 +3,6 @@ arrives as the results the serial runs give (the oracle: `dmoc.simulate` in this
 process), field by field and bit for bit: mixed step counts and variants, Newton failures
 with their partial trajectories, items that raised (no trajectory), final knots only."""
 
-import os
 import pickle
 
 import numpy as np
@@ -116,34 +115,6 @@ def test_simulate_many_with_mixed_steps_and_failures_in_its_chunks_equals_serial
     assert sum(r.status == "exception" for r in results) == 5
 
 
-@pytest.mark.parametrize("keep", ["trajectory", "final"])
-def test_trajectories_through_shared_memory_equal_serial_and_free_their_slots(
-        client, keep, monkeypatch):
-    """With every chunk large enough (MIN_BYTES = 0) the workers of this machine write the
-    arrays into the slots of the client's pool: the results are the serial ones bit for
-    bit, in arrays the client owns (writable, no run sees another's change), and every
-    slot is free after the batch."""
-    from dmoc.batch import sharing
-    if not hasattr(os, "memfd_create"):
-        pytest.skip("no memfd here: every chunk goes through Dask")
-    monkeypatch.setattr(sharing, "MIN_BYTES", 0)
-    chunks = []
-    read = sharing.read
-    monkeypatch.setattr(sharing, "read",
-                        lambda path, layout: chunks.append(path) or read(path, layout))
-    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
-    runs = _runs(150)
-    results = batch.simulate_many(disc, runs, keep=keep, client=client, progress=False)
-    for got, run in zip(results, runs):
-        _assert_same(got, disc, run, keep)
-    assert len(chunks) >= 2 and {path[0] for path in chunks} == {os.getpid()}
-    shared = [r.trajectory for r in results if r.trajectory is not None]
-    shared[0].q[...] = 7.0                       # writable, and no other run sees it
-    assert not any((t.q == 7.0).all() for t in shared[1:])
-    states = {os.pread(slot.fd, sharing.STATE, sharing.TOKEN) for slot in sharing._POOL}
-    assert states == {sharing.FREE}
-
-
 def _pendulum():
     """L = v^2/2 + cos q, f = 0.4 v^2 + u: a kick u = 20 needs the line-search Newton, a
     kick u = 300 leaves the midpoint step without a real solution."""
@@ -235,7 +206,7 @@ def test_runs_a_budget_left_unrun_are_queued_again_and_run_once(client, keep, mo
     """Before a cost is measured the client sends chunks with a budget (`ChunkSizes.budget`,
     TARGET): with a budget smaller than any run, the first chunks return one result each,
     the client queues their other runs again, and every run gets its serial result."""
-    from dmoc.batch import chunks
+    from dmoc.batch import chunk_sizes as chunks
     monkeypatch.setattr(chunks, "TARGET", 1e-9)
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
     runs = _runs(30)

@@ -16,7 +16,7 @@ distributed = pytest.importorskip("distributed")
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.batch import shipping  # noqa: E402
-from dmoc.batch.chunks import ChunkSizes  # noqa: E402
+from dmoc.batch.chunk_sizes import ChunkSizes  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 
 
