@@ -67,8 +67,9 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
         Where to run: by default the scheduler of Dask's configuration
         (``DASK_SCHEDULER_ADDRESS``), else a LocalCluster of ``os.cpu_count()``
         single-threaded worker processes, started for this call and closed after it; a
-        `Cluster` or a Client (left open), or a scheduler address such as
-        ``"tcp://10.0.0.1:8786"`` (connected for this call).
+        `Cluster` or an open Client (left open), or a scheduler address such as
+        ``"tcp://10.0.0.1:8786"`` (connected for this call). Whoever can connect to the
+        scheduler can run code as its workers' user: docs/batch.md, "Security".
     progress : bool
         Draw a bar of completed solves, the time elapsed and the ETA on stderr.
     timeout : float, optional
@@ -89,16 +90,20 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
         ``success=False`` and IPOPT's status. An item that produced no solve has
         ``trajectory=None``, ``cost=nan``, the reason in ``message`` and one of the
         statuses ``"exception"``, ``"undeserializable"``, ``"worker_lost"``,
-        ``"timeout"`` (docs/batch.md). ``stats["worker"]`` is the address of the worker
+        ``"timeout"``, ``"scheduler_lost"`` (the client lost its scheduler before the
+        item's result arrived; docs/batch.md, "Failure semantics"). ``stats["worker"]`` is the address of the worker
         that produced the result.
 
     Raises
     ------
     BatchInterrupted
-        On Ctrl-C while waiting; its ``.results`` holds the results that had arrived and
-        ``"interrupted"`` ones for the others.
+        On Ctrl-C while waiting (or while the default cluster starts); its ``.results``
+        holds the results that had arrived and ``"interrupted"`` ones for the others.
     SchedulerUnreachable, WorkersFailedToStart
         When the batch cannot start at all.
+    InputError
+        When `client` names no scheduler (an address Dask cannot parse, a ``tls://``
+        address without certificates) or is a closed Client.
     """
     problems = _sequence("problems", problems, OptimalControlProblem, "OptimalControlProblem")
     if guesses is None:

@@ -22,7 +22,7 @@ WORKER_ENVIRONMENT = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_
 # Seconds a LocalCluster whose start Ctrl-C cut short gets to close.
 CLOSE_TIMEOUT = 5
 
-# Dask's configuration for dmoc's LocalCluster (docs/performance.md, "Batches that scale"):
+# Dask's configuration for dmoc's LocalCluster (measured with benchmarks/batch.py):
 LOCAL_CONFIG = {
     # Dask's nannies start their workers with MALLOC_TRIM_THRESHOLD_=65536, which hands
     # freed memory back to the system at once and turns glibc's adaptive thresholds off: a
