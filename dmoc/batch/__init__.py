@@ -23,7 +23,7 @@ from ..optimize.problem import OptimalControlProblem
 from ..optimize.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..simulate.simulation import SimulationResult
-from . import scheduling, shipping, tasks
+from . import scheduling, shared_memory, shipping, tasks
 from .cluster import Cluster
 from .failures import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
 from .tasks import pack_problem, unpack_problem
@@ -180,8 +180,9 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     timeout = _seconds("timeout", timeout)
     keep = checks.choice("keep", keep, KEEP)
     shipments, items = shipping.run_items(discs, runs)
-    return _run(tasks.simulate_chunk, (timeout, keep), shipments, items, SimulationResult,
-                client, "simulate", progress, batch_timeout, connect_timeout)
+    with shared_memory.Exchange() as share:
+        return _run(tasks.simulate_chunk, (timeout, keep, share), shipments, items,
+                    SimulationResult, client, "simulate", progress, batch_timeout, connect_timeout)
 
 
 def _run(task, arguments, shipments, items, kind, client, label, progress, batch_timeout,

@@ -3,7 +3,8 @@ trajectory field concatenated over the chunk's runs into one array (t, q, p over
 knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
 chunk rather than seven per run; the client gets each run's Trajectory back as views of
 those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
-Dask's serialization sends the arrays as out-of-band frames (pickle protocol 5), uncopied.
+Dask's serialization sends the arrays as out-of-band frames (pickle protocol 5); to a
+client on the worker's machine they go through shared memory (`dmoc.batch.shared_memory`).
 """
 
 import dataclasses
@@ -11,25 +12,42 @@ import dataclasses
 import numpy as np
 
 from ..principle.trajectory import Trajectory
+from . import shared_memory
 
 KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
 STEP_FIELDS = ("lam", "u", "s")          # N rows per run
 
 
 class PackedResults(list):
-    """A list of SimulationResults that pickles as a few arrays (`pack`); unpickled, it is
-    a plain list of equal results (`unpack`), in the same order."""
+    """A list of SimulationResults that pickles as a few arrays (`pack`), written to a
+    slot of the client's shared memory when `share` (`shared_memory.Exchange`) allows it;
+    unpickled, it is a plain list of equal results (`unpack`), in the same order."""
+
+    def __init__(self, results, share=None):
+        super().__init__(results)
+        self.share = share
 
     def __reduce__(self):
-        return unpack, pack(self)
+        file = shared_memory.SharedFile(self.share)
+        try:
+            heads, arrays = pack(self, file.allocate)
+        except BaseException:      # the slot taken must not stay locked
+            file.release()
+            raise
+        if arrays is not None and file.seal():
+            return unpack_shared, (heads, file.path, file.layout)
+        return unpack, (heads, arrays)
 
 
-def pack(results):
+def pack(results, allocate=None):
     """(heads, arrays) of the SimulationResults `results`.
 
     Parameters
     ----------
     results : list of SimulationResult
+    allocate : callable, optional
+        ``allocate({name: (shape, dtype)})`` gives the arrays to fill
+        (`shared_memory.SharedFile.allocate`), or None for new ones (the default).
 
     Returns
     -------
@@ -51,7 +69,9 @@ def pack(results):
     shapes = {name: ((sum(len(a) for a in parts), *parts[0].shape[1:]), np.result_type(*parts))
               for name, parts in columns.items()}
     shapes["mu"] = ((len(packed), *columns["mu"][0].shape), shapes["mu"][1])
-    arrays = {name: np.empty(shape, dtype) for name, (shape, dtype) in shapes.items()}
+    arrays = allocate(shapes) if allocate is not None else None
+    if arrays is None:
+        arrays = {name: np.empty(shape, dtype) for name, (shape, dtype) in shapes.items()}
     for name in (*KNOT_FIELDS, *STEP_FIELDS):
         np.concatenate(columns[name], out=arrays[name])
     np.stack(columns["mu"], out=arrays["mu"])
@@ -81,6 +101,11 @@ def unpack(heads, arrays):
             knot, step, run = knot + steps + 1, step + steps, run + 1
         results.append(result)
     return results
+
+
+def unpack_shared(heads, path, layout):
+    """`unpack` of arrays that a `shared_memory.SharedFile` put in the slot `path` (copied out)."""
+    return unpack(heads, shared_memory.read(path, layout))
 
 
 def _widths(traj):

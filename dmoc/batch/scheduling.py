@@ -7,9 +7,10 @@ At most `CHUNKS_PER_THREAD` chunks per worker thread are in flight, so that the 
 chunk's size uses the costs measured so far; until a cost is measured, the chunks carry a
 CPU budget after which their workers return them with the items run so far
 (`ChunkSizes.budget`), so no worker waits for the client to size its work and a chunk of
-slow items ends within its budget. The client waits in ticks of
-`TICK` seconds, so that the batch's deadline, a cluster left without workers and Ctrl-C
-are noticed while nothing arrives.
+slow items ends within its budget. The client waits in ticks of `TICK` seconds, so that
+the batch's deadline, a cluster left without workers and Ctrl-C are noticed while nothing
+arrives; a lost scheduler (Dask cancels the client's futures) ends the wait at once, with
+the results that arrived.
 """
 
 import sys
@@ -110,15 +111,14 @@ class Batch:
         deadline = None if batch_timeout is None else time.monotonic() + batch_timeout
         workerless = None
         try:
-            while self.queued or self.flying:
+            while (self.queued or self.flying) and not self._scheduler_lost():
                 threads = self._threads()
                 self._fill(max(threads, 1))
                 try:
                     distributed.wait(list(self.flying), timeout=TICK, return_when="FIRST_COMPLETED")
                 except (TimeoutError, FuturesCancelledError):
                     pass
-                if self._lost():
-                    self._abandon("scheduler_lost", LOST, cancel=False)
+                if self._scheduler_lost():
                     break
                 bar.advance(sum(self._land(f) for f in [f for f in self.flying if f.done()]))
                 now = time.monotonic()
@@ -136,16 +136,23 @@ class Batch:
             raise BatchInterrupted(self.results) from None
         return self.results
 
-    def _lost(self):
-        """Whether the client lost its scheduler: Dask then cancels every future of the
-        client (the batch cancels its own only in `_abandon`, which forgets them)."""
-        return self.client.status != "running" or any(f.cancelled() for f in self.flying)
+    def _scheduler_lost(self):
+        """Whether the client lost its scheduler (Dask then cancels every future of the
+        client; the batch cancels its own only in `_abandon`, which forgets them); if so,
+        every unfinished item gets a "scheduler_lost" result."""
+        if self.client.status == "running" and not any(f.cancelled() for f in self.flying):
+            return False
+        self._abandon("scheduler_lost", LOST, cancel=False)
+        return True
 
     def _threads(self):
         """The cluster's worker threads, asked of the scheduler at most once per TICK."""
         now = time.monotonic()
-        if now - self.asked >= TICK and self.client.status == "running":
-            self.threads, self.asked = sum(self.client.nthreads().values()), now
+        if now - self.asked >= TICK:
+            try:
+                self.threads, self.asked = sum(self.client.nthreads().values()), now
+            except OSError:         # the connection is lost: `_scheduler_lost` tells the batch
+                pass
         return self.threads
 
     def _fill(self, threads):

@@ -145,11 +145,12 @@ def _judged(solved):
     return results
 
 
-def simulate_chunk(digest, items, timeout, keep="trajectory", budget=None):
+def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget=None):
     """For each item, ``shipping.pickled(run)``: ``simulate(disc, **run, throw=False)`` on
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
     ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
-    trajectories travel as a few arrays, `dmoc.batch.packing`).
+    trajectories travel as a few arrays, through shared memory when `share`, the client's
+    `shared_memory.Exchange`, reaches this worker).
 
     Without a `timeout`, the runs that can step together do so in lockstep
     (`dmoc.simulate.lockstep`: the same results as one by one, for less CPU); each item's
@@ -173,7 +174,7 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", budget=None):
         results, seconds = guarded_chunk(SimulationResult, calls, timeout, budget)
         if keep == "final":
             _cut_to_final_knots(results)
-    return PackedResults(results), seconds
+    return PackedResults(results, share), seconds
 
 
 def _in_budget(calls, final, budget):

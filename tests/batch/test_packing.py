@@ -3,6 +3,7 @@ arrives as the results the serial runs give (the oracle: `dmoc.simulate` in this
 process), field by field and bit for bit: mixed step counts and variants, Newton failures
 with their partial trajectories, items that raised (no trajectory), final knots only."""
 
+import os
 import pickle
 
 import numpy as np
@@ -113,6 +114,34 @@ def test_simulate_many_with_mixed_steps_and_failures_in_its_chunks_equals_serial
         _assert_same(got, disc, run, keep)
     assert sum(r.status == "newton_failed" for r in results) == 8
     assert sum(r.status == "exception" for r in results) == 5
+
+
+@pytest.mark.parametrize("keep", ["trajectory", "final"])
+def test_trajectories_through_shared_memory_equal_serial_and_free_their_slots(
+        client, keep, monkeypatch):
+    """With every chunk large enough (MIN_BYTES = 0) the workers of this machine write the
+    arrays into the slots of the client's pool: the results are the serial ones bit for
+    bit, in arrays the client owns (writable, no run sees another's change), and every
+    slot is free after the batch."""
+    from dmoc.batch import shared_memory
+    if not hasattr(os, "memfd_create"):
+        pytest.skip("no memfd here: every chunk goes through Dask")
+    monkeypatch.setattr(shared_memory, "MIN_BYTES", 0)
+    chunks = []
+    read = shared_memory.read
+    monkeypatch.setattr(shared_memory, "read",
+                        lambda path, layout: chunks.append(path) or read(path, layout))
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    runs = _runs(150)
+    results = batch.simulate_many(disc, runs, keep=keep, client=client, progress=False)
+    for got, run in zip(results, runs):
+        _assert_same(got, disc, run, keep)
+    assert len(chunks) >= 2 and {path[0] for path in chunks} == {os.getpid()}
+    shared = [r.trajectory for r in results if r.trajectory is not None]
+    shared[0].q[...] = 7.0                       # writable, and no other run sees it
+    assert not any((t.q == 7.0).all() for t in shared[1:])
+    states = {os.pread(slot.fd, shared_memory.STATE, shared_memory.TOKEN) for slot in shared_memory._POOL}
+    assert states == {shared_memory.FREE}
 
 
 def _pendulum():
