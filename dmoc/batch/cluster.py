@@ -210,6 +210,6 @@ def _drop_half_started(clusters):
     for cluster in clusters:
         try:
             cluster.close(timeout=CLOSE_TIMEOUT)
-        except BaseException:       # noqa: BLE001 - a half-made cluster may refuse; it is dropped
+        except BaseException:       # a half-made cluster may refuse to close: forgotten all the same
             pass
         SpecCluster._instances.discard(cluster)
