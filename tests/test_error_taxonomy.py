@@ -25,8 +25,8 @@ import pytest
 import dmoc
 from dmoc import animation, batch, diagnostics, plotting
 from dmoc.discrete.quadrature_rules import QuadratureRule
-from dmoc.results.accuracy import optimize_to_accuracy
-from dmoc.results.error_estimate import estimate_error
+from dmoc.drivers.accuracy import optimize_to_accuracy
+from dmoc.drivers.error_estimate import estimate_error
 from dmoc.systems import knife_edge
 
 Q0, V0 = [0.0, 0.0, 0.3], [np.cos(0.3), np.sin(0.3), 1.0]
@@ -321,6 +321,13 @@ API_ROWS = [
     ("plot_controls: bounds of shape (3,) for n_u = 2",
      lambda c: plotting.plot_controls(c.traj, bounds=([0, 0, 0], [1, 1, 1])), ValueError,
      r"`bounds` must be a pair \(lower, upper\) of arrays of shape \(2,\)"),
+    ("plot_path: bodies=one Body, not a tuple", lambda c: plotting.plot_path(
+        c.traj, bodies=dmoc.Body("a", lambda q: q[None, :2])), TypeError, "`bodies` must be a list or tuple"),
+    ("Body: outline a list of points", lambda c: dmoc.Body("box", [[0, 0]]), TypeError,
+     "`outline` of Body 'box' must be a callable"),
+    ("MechanicalSystem: one control name for n_u = 2", lambda c: dmoc.MechanicalSystem(
+        lambda q, v: v[0] ** 2, 1, n_u=2, control_names=("f",)), ValueError,
+     "`control_names` must be 2 strings"),
     ("Trajectory.sample past the horizon", lambda c: c.traj.sample(c.traj.t[-1] + 1), ValueError,
      r"`t` must lie in the horizon \[t_0, t_N\] = \[0.0, 0.4\]; .* \(the solution is not extrapolated\)"),
     ("OptimalControlProblem: v_start and p_start both given",

@@ -21,6 +21,7 @@ from collections import deque
 import distributed
 from distributed.client import FutureCancelledError, FuturesCancelledError
 
+from ..errors import Status
 from .chunk_sizes import ChunkSizes
 from .cluster import client_of, close
 from .failures import BatchInterrupted
@@ -54,7 +55,7 @@ def run(task, arguments, shipments, items, kind, client, *, label, progress, bat
     try:
         client, owned = client_of(client, connect_timeout)
     except KeyboardInterrupt:
-        raise BatchInterrupted([failed_result(kind, "interrupted", "Ctrl-C while the cluster "
+        raise BatchInterrupted([failed_result(kind, Status.INTERRUPTED, "Ctrl-C while the cluster "
                                               "(`client`) was starting") for _ in items]) from None
     names = []
     try:
@@ -123,16 +124,16 @@ class Batch:
                 bar.advance(sum(self._land(f) for f in [f for f in self.flying if f.done()]))
                 now = time.monotonic()
                 if deadline is not None and now >= deadline:
-                    self._abandon("timeout", f"the batch ran longer than `batch_timeout`="
+                    self._abandon(Status.TIMEOUT, f"the batch ran longer than `batch_timeout`="
                                   f"{batch_timeout:g} s before this item finished")
                 workerless = None if threads else (workerless or now)
                 if workerless is not None and now - workerless >= connect_timeout:
-                    self._abandon("worker_lost", f"the scheduler had no worker for "
+                    self._abandon(Status.WORKER_LOST, f"the scheduler had no worker for "
                                   f"{connect_timeout:g} s (`connect_timeout`)")
         except KeyboardInterrupt:
             for future in [f for f in self.flying if f.status == "finished"]:
                 self._land(future)
-            self._abandon("interrupted", "Ctrl-C (KeyboardInterrupt) before this item finished")
+            self._abandon(Status.INTERRUPTED, "Ctrl-C (KeyboardInterrupt) before this item finished")
             raise BatchInterrupted(self.results) from None
         return self.results
 
@@ -142,7 +143,7 @@ class Batch:
         every unfinished item gets a "scheduler_lost" result."""
         if self.client.status == "running" and not any(f.cancelled() for f in self.flying):
             return False
-        self._abandon("scheduler_lost", LOST, cancel=False)
+        self._abandon(Status.SCHEDULER_LOST, LOST, cancel=False)
         return True
 
     def _threads(self):
@@ -194,15 +195,15 @@ class Batch:
         try:
             results, seconds = future.result()
         except FutureCancelledError:     # the connection to the scheduler was lost meanwhile
-            results, seconds = [failed_result(self.kind, "scheduler_lost", LOST) for _ in chunk], []
+            results, seconds = [failed_result(self.kind, Status.SCHEDULER_LOST, LOST) for _ in chunk], []
         except distributed.KilledWorker as err:
-            results, seconds = [failed_result(self.kind, "worker_lost", f"KilledWorker: {err}")], []
+            results, seconds = [failed_result(self.kind, Status.WORKER_LOST, f"KilledWorker: {err}")], []
             if len(chunk) > 1:
                 self.alone.update(chunk)
                 results = []
         except Exception as err:  # raised outside dmoc's task: the items' own results
             results, seconds = [failed_result(
-                self.kind, "exception", "the task failed outside dmoc's call (e.g. it could "
+                self.kind, Status.EXCEPTION, "the task failed outside dmoc's call (e.g. it could "
                 f"not be deserialized): {type(err).__name__}: {err}") for _ in chunk], []
         future.release()
         for i, result in zip(chunk, results):
@@ -210,7 +211,7 @@ class Batch:
         self.alone.difference_update(chunk[:len(results)])
         self.queued.extendleft(reversed(chunk[len(results):]))
         self.sizes.measured(seconds)
-        if results and results[-1].status == "timeout":
+        if results and results[-1].status == Status.TIMEOUT:
             restart(self.client, {results[-1].stats["worker"]})
         return len(results)
 

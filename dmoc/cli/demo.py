@@ -8,14 +8,15 @@ each optimum), all of them together
 import numpy as np
 
 from ..results import diagnostics
-from ..optimize import problems
+from ..optimal_control.statement import examples as problems
 from ..mechanics import systems
 from .._util.files import staged_run, write_text
 from ..discrete import discretize
-from ..results.optimum import optimize
+from ..errors import Status
+from ..drivers.optimum import optimize
 from ..results._canvas import figure, save_png
 from ..results.plotting import plot_controls, plot_energy_balance, plot_energy_error, plot_path
-from ..simulate.simulation import simulate
+from ..simulation.time_stepping import simulate
 from . import arguments
 from .arguments import UsageError
 from .registry import BUILT_IN
@@ -77,7 +78,7 @@ def optimization_demo(out, steps, lines):
         for variant, suffix in (("+", "plus"), ("-", "minus")):
             problem = make(steps, variant=variant)
             result = optimize(problem, throw=False)
-            if result.status == "interrupted":     # Ctrl-C stops the whole demo
+            if result.status == Status.INTERRUPTED:     # Ctrl-C stops the whole demo
                 raise KeyboardInterrupt(result.message)
             ok &= result.success
             title = f"{name} (variant {variant}, N = {steps})"
@@ -93,12 +94,12 @@ def optimization_demo(out, steps, lines):
 
 
 def _optimum_figure(name, problem, traj, spec):
-    """The path with goal and headings (left), each control and the energy balance (right)."""
+    """The path with goal, headings and the system's bodies (left), each control and the energy balance (right)."""
     system = problem.disc.system
     fig, grid = _grid_figure(10.0, 5.6, system.n_u + 1, 2)
     path = fig.add_subplot(grid[:, 0])
     plot_path(traj, heading=spec.heading, goal=problem.q_goal, labels=system.names[:2],
-              units=system.units, title=f"{name}: path", ax=path)
+              units=system.units, bodies=system.bodies, title=f"{name}: path", ax=path)
     right = [fig.add_subplot(grid[0, 1])]
     right += [fig.add_subplot(grid[i, 1], sharex=right[0]) for i in range(1, system.n_u + 1)]
     for ax in right[:-1]:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..mechanics import systems
 from ..mechanics.system import MechanicalSystem
-from ..optimize.problem import OptimalControlProblem
+from ..optimal_control.statement.problem import OptimalControlProblem
 from .arguments import UsageError
 
 
@@ -34,7 +34,7 @@ class SystemSpec:
     control_names : tuple of str
         Names of the controls (CSV columns, plot legends).
     shape : {"blade", "coin", "point"}
-        How `dmoc.animation.animate` draws it.
+        How `dmoc.animation.animate` draws a system that declares no `bodies`.
     heading, roll : int or None
         Columns of q holding the heading and the rolling angle.
     """
@@ -54,9 +54,9 @@ class SystemSpec:
         return {name: p.default for name, p in inspect.signature(self.factory).parameters.items()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
 
-    def control_labels(self, n_u):
-        """`control_names`, or u0, u1, ... for the `n_u` controls of a system from a file."""
-        return self.control_names or tuple(f"u{i}" for i in range(n_u))
+    def control_labels(self, system):
+        """`control_names`, or those `system` declares (u0, u1, ... when it declares none)."""
+        return self.control_names or system.control_names
 
     def takes_any_parameter(self):
         """True when the factory takes ``**kwargs``: then any --param name is passed on."""
