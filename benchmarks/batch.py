@@ -1,5 +1,5 @@
 """Benchmark: `dmoc.batch` on a running 2-worker cluster against the serial loop a user
-would otherwise write, both timed in the same round (docs/performance.md, "Batches: `batch.py`").
+would otherwise write, both timed in the same round (docs/performance.md, `batch.py`).
 
 - **optimize**: `count` knife-edge parking problems at N = `--steps`, built as a user
   builds them, each its own object: ``[OptimalControlProblem(discretize(knife_edge(), h),

@@ -2,7 +2,7 @@
 `simulate_many` (`dmoc.batch.packing`) reach a client on the worker's machine through
 shared memory that both reuse from batch to batch, instead of Dask's TCP frames, which
 leave `simulate_many` short of its target speed-up (`benchmarks/batch.py`; the figure is
-in docs/performance.md, "Batches: `batch.py`").
+in docs/performance.md, `batch.py`).
 
 The client owns the memory: a pool of `Slot`s, anonymous shared-memory files (memfd) that
 only its process holds, kept up to `KEPT_BYTES` and gone with the process. For a batch it
