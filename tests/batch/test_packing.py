@@ -22,12 +22,14 @@ FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
 
 def _runs(count):
     """Runs of 3 to 40 steps, both variants, some controlled; every 17th fails Newton's
-    tolerance (a partial trajectory), every 29th has a `q0` of the wrong size (raises)."""
+    tolerance (a partial trajectory), every 29th has a `q0` of the wrong size (raises).
+    All in CasADi's virtual machine (`jit=False`): with the default, a loaded machine
+    compiles the step in one process and not in the other (`stats["native"]` differs)."""
     runs = []
     for i in range(count):
         steps = 3 + (7 * i) % 38
         run = {"q0": [0, 0, 0.01 * i], "v0": [np.cos(0.01 * i), np.sin(0.01 * i), 1.0],
-               "steps": steps, "variant": "+-"[i % 2]}
+               "steps": steps, "variant": "+-"[i % 2], "jit": False}
         if i % 3 == 0:
             run["controls"] = np.full((steps, 2), 0.1 * (i % 5))
         if i % 17 == 16:
