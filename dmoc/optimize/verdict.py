@@ -4,7 +4,7 @@ written with it. The checks themselves are made in the results stage
 (`dmoc.results.verdict`), which may run `simulate`.
 """
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 # The statuses of a verdict, worst first: a result takes the first check that fails.
 STATUSES = ("not_replayable", "path_violated", "under_resolved")
@@ -74,3 +74,31 @@ class Verdict:
     def from_dict(cls, values):
         """The Verdict of `as_dict`."""
         return cls(**values)
+
+    @classmethod
+    def checked(cls, values):
+        """The Verdict of the dict `values` read from a file: its keys exactly the fields
+        (`discretization_error` may be left out), each value of the field's type; else
+        ValueError saying which ("must ..." follows the caller's name of the dict)."""
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(values) - set(names))
+        missing = sorted(set(names) - set(values) - {"discretization_error"})
+        if unknown or missing:
+            raise ValueError(f"must have the keys {names}; " + (
+                f"got the unknown keys {unknown}" if unknown else f"it lacks {missing}"))
+        for name, value in values.items():
+            if not (isinstance(value, _TYPES[name]) and not isinstance(value, bool)
+                    or value is None and name == "discretization_error"):
+                raise ValueError(f"must have {name!r} {_DESCRIBED[_TYPES[name]]}; got {value!r}")
+        if values["status"] not in (PASSED, *STATUSES):
+            raise ValueError(f"must have 'status' one of {[PASSED, *STATUSES]}; got "
+                             f"{values['status']!r}")
+        return cls(**values)
+
+
+# the type of each field's value in a file (an int is a number too)
+_TYPES = {"status": str, "replay_q": (int, float), "replay_p": (int, float), "replay_step": int,
+          "velocity_jump": (int, float), "jump_step": int, "jump_coordinate": str,
+          "path_violation": (int, float), "path_step": int, "path_row": int,
+          "discretization_error": (int, float)}
+_DESCRIBED = {str: "a string", int: "an integer", (int, float): "a number"}

@@ -234,7 +234,7 @@ class Trajectory:
         TrajectoryFileError
             If the file is empty, truncated, corrupted or not written by `save`.
         """
-        return read(cls, path, TRAJECTORY_FILE)
+        return read(cls, path, TRAJECTORY_FILE)[0]
 
     def __repr__(self):
         return (f"Trajectory(steps={self.steps}, n={self.q.shape[1]}, m={self.lam.shape[1]}, "
