@@ -103,7 +103,7 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
         return []
     finished = summary["status"] != INTERRUPTED
     try:
-        with staged_run(out, output.run_files(prefix)) as stage:
+        with staged_run(out, prefix, output.run_files(prefix)) as stage:
             written = output.write_all(stage, prefix, disc, traj, summary, spec,
                                        names=disc.system.names,
                                        control_names=spec.control_labels(disc.system.n_u), goal=goal,
