@@ -69,6 +69,17 @@ def positive_float(name, value):
     return value
 
 
+def step_size(name, value):
+    """Return the step `value` as float if it is finite and at least the smallest normal
+    float (below it 1/h, and every momentum (q_1 - q_0)/h, overflows to inf)."""
+    value = positive_float(name, value)
+    tiny = float(np.finfo(float).tiny)
+    if value < tiny:
+        raise InputError(f"`{name}` must be at least {tiny!r} (the smallest normal float: "
+                         f"1/{name} overflows below it); got {value!r}.")
+    return value
+
+
 def nonnegative_float(name, value):
     """Return `value` as float if it is a finite real number >= 0."""
     value = _real(name, value)
