@@ -108,7 +108,8 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
                                        names=disc.system.names,
                                        control_names=spec.control_labels(disc.system.n_u), goal=goal,
                                        gif=args.animate and finished,
-                                       plots=finished and not args.no_plots, problem=problem)
+                                       plots=finished and not args.no_plots, problem=problem,
+                                       progress=log)
     except OSError as err:  # disk full, file-size limit, folder removed
         raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
                          f"nothing there was changed (an earlier run's files are as they "
