@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._util.deferred import DeferredField, made
-from ..errors import TrajectoryFileError
+from ..errors import InputError, TrajectoryFileError
 from ..principle.trajectory import Trajectory
 from ..principle.trajectory_file import RESULT_PREFIX, read, scalar, write
 from .verdict import Verdict
@@ -175,7 +175,7 @@ def _verdict(path, values):
     """The Verdict of the dict `values`, whose keys and value types are Verdict's."""
     try:
         return Verdict.checked(values)
-    except ValueError as err:
+    except InputError as err:
         raise TrajectoryFileError(f"{str(path)!r} is not {RESULT_FILE}: `{RESULT_PREFIX}verdict` "
                                   f"{err}.") from None
 

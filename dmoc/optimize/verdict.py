@@ -6,6 +6,8 @@ written with it. The checks themselves are made in the results stage
 
 from dataclasses import asdict, dataclass, fields
 
+from ..errors import InputError
+
 # The statuses of a verdict, worst first: a result takes the first check that fails.
 STATUSES = ("not_replayable", "path_violated", "under_resolved")
 PASSED = "passed"
@@ -79,19 +81,19 @@ class Verdict:
     def checked(cls, values):
         """The Verdict of the dict `values` read from a file: its keys exactly the fields
         (`discretization_error` may be left out), each value of the field's type; else
-        ValueError saying which ("must ..." follows the caller's name of the dict)."""
+        InputError saying which ("must ..." follows the caller's name of the dict)."""
         names = [f.name for f in fields(cls)]
         unknown = sorted(set(values) - set(names))
         missing = sorted(set(names) - set(values) - {"discretization_error"})
         if unknown or missing:
-            raise ValueError(f"must have the keys {names}; " + (
+            raise InputError(f"must have the keys {names}; " + (
                 f"got the unknown keys {unknown}" if unknown else f"it lacks {missing}"))
         for name, value in values.items():
             if not (isinstance(value, _TYPES[name]) and not isinstance(value, bool)
                     or value is None and name == "discretization_error"):
-                raise ValueError(f"must have {name!r} {_DESCRIBED[_TYPES[name]]}; got {value!r}")
+                raise InputError(f"must have {name!r} {_DESCRIBED[_TYPES[name]]}; got {value!r}")
         if values["status"] not in (PASSED, *STATUSES):
-            raise ValueError(f"must have 'status' one of {[PASSED, *STATUSES]}; got "
+            raise InputError(f"must have 'status' one of {[PASSED, *STATUSES]}; got "
                              f"{values['status']!r}")
         return cls(**values)
 
