@@ -1,4 +1,4 @@
-"""Benchmark: an accuracy target (`dmoc.results.accuracy.optimize_to_accuracy`, relative
+"""Benchmark: an accuracy target (`dmoc.drivers.accuracy.optimize_to_accuracy`, relative
 1e-6) against the least N a user who knew the answer would pick, on knife-edge parking,
 rolling-disk steering and the car lane change (dmoc.problems).
 
@@ -37,7 +37,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
-from dmoc.results.accuracy import estimate_error  # noqa: E402
+from dmoc.drivers.error_estimate import estimate_error  # noqa: E402
 
 ACCURACY = 1e-6
 QUIET = {"print_level": 0, "sb": "yes"}

@@ -16,7 +16,7 @@ would otherwise write, timed in the same run (docs/performance.md, "Batches that
   same runs with ``throw=False`` as one chunk pickled and unpickled as it travels
   (`dmoc.batch.packing`), which tells the cost of packing from the parallel speed-up;
   "in one process, lockstep": the same with the runs in lockstep, as a worker's task
-  steps them (`dmoc.simulate.lockstep`); "... through shared memory": the same in chunks
+  steps them (`dmoc.simulation.lockstep`); "... through shared memory": the same in chunks
   of 125 runs through `dmoc.batch.sharing`, written and read back in this process, as a
   worker on the client's machine sends them.
 - **overhead**: an empty problem (N = 3, start = goal at rest: a few IPOPT iterations on 31 variables), serial
@@ -55,7 +55,7 @@ from dmoc import batch  # noqa: E402
 from dmoc.batch import sharing  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
-from dmoc.simulate.lockstep import simulate_runs  # noqa: E402
+from dmoc.simulation.lockstep import simulate_runs  # noqa: E402
 from knife_runs import knife_edge_runs  # noqa: E402
 
 WORKERS = 2

@@ -27,7 +27,7 @@ import psutil  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
-from dmoc.simulate.lockstep import simulate_runs  # noqa: E402
+from dmoc.simulation.lockstep import simulate_runs  # noqa: E402
 
 from batch_stream import knife_edge_batches  # noqa: E402
 

@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc.batch import item_guard, shipping, tasks  # noqa: E402
-from dmoc.optimize.optimization_result import OptimizationResult  # noqa: E402
+from dmoc.optimal_control.solver.optimization_result import OptimizationResult  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from dmoc.optimize import DEFAULT_IPOPT_OPTIONS
+from dmoc.optimal_control import DEFAULT_IPOPT_OPTIONS
 
 IPOPT_OPTIONS = dict(DEFAULT_IPOPT_OPTIONS)
 """The IPOPT options every method of the benchmark gets (dmoc's DEFAULT_IPOPT_OPTIONS)."""

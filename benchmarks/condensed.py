@@ -11,7 +11,7 @@ the constraint rows of the higher Legendre moments (it keeps the end node's mult
 the zeroth moment). Their derivatives are CasADi's (the implicit function theorem through
 the rootfinder), so the full NLP is also run with CasADi's derivatives of the same f and g
 ("full, AD") besides dmoc's own path ("full, dmoc": the derivatives assembled from the
-terms, `dmoc.optimize.separable`, through `dmoc.optimize.ipopt.solver`). Evaluations:
+terms, `dmoc.optimal_control.nlp.separable`, through `dmoc.optimal_control.solver.ipopt.solver`). Evaluations:
 CasADi's virtual machine (VM), expanded to SX (not possible through a rootfinder), and C
 (the five Functions compiled by dmoc's `Library`, as ``jit=True``; dmoc's own path with
 ``jit=True``).
@@ -21,7 +21,7 @@ lobatto3 N = 31, knife edge lobatto3 N = 28 and lobatto4 N = 14), in one process
 variant in turn per round: a cold solve at the original goal (dmoc's default guess, zero
 multipliers) and warm re-solves at `--goals` goals near it and at the original goal, in a
 cycle (from the previous optimum, primal and dual, clipped into the new bounds, as
-`dmoc.optimize.guess.start_point`), with dmoc's IPOPT options for each start
+`dmoc.optimal_control.solver.guess.start_point`), with dmoc's IPOPT options for each start
 (`DEFAULT_IPOPT_OPTIONS`, `start_options`); medians over the rounds. Before timing, every
 variant's optimum is checked against dmoc's (q and u, at the original goal and at every
 re-solve goal). Columns: "fun" the nlpsol's t_wall_nlp_*
@@ -45,8 +45,8 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 from dmoc._util.compiled import Library  # noqa: E402
-from dmoc.optimize.guess import start_point  # noqa: E402
-from dmoc.optimize.ipopt import (DEFAULT_IPOPT_OPTIONS, PackedSolver, data_tolerances,  # noqa: E402
+from dmoc.optimal_control.solver.guess import start_point  # noqa: E402
+from dmoc.optimal_control.solver.ipopt import (DEFAULT_IPOPT_OPTIONS, PackedSolver, data_tolerances,  # noqa: E402
                                  iteration_count, solver as dmoc_solver, start_options)
 from dmoc.principle.explicit import single_output, solved_rows  # noqa: E402
 

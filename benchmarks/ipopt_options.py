@@ -25,7 +25,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 import peers_resolve as peers  # noqa: E402
-from dmoc.optimize.solve import solve  # noqa: E402
+from dmoc.optimal_control.solver.solving import solve  # noqa: E402
 
 PROBLEMS = {"disk": ("rolling disk", "lobatto4", 11), "knife": ("knife edge", "lobatto3", 28)}
 SETS = {"mumps_mem_percent 100": {"mumps_mem_percent": 100},

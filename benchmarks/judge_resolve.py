@@ -1,4 +1,4 @@
-"""Benchmark: the verdict alone (`dmoc.results.verdict.judge`) on the re-solves of
+"""Benchmark: the verdict alone (`dmoc.drivers.verdict.judge`) on the re-solves of
 `peers_resolve.py`, per dmoc checkout (issue 25; docs/performance.md, "The verdict of a
 re-solve").
 
@@ -32,7 +32,7 @@ CASES = (("rolling disk", "lobatto3", 31), ("rolling disk", "lobatto4", 11),
 def judge_times(name, rule, N, repeat):
     """(this process) Median ms of `judge` over the optima of the goals' cycle."""
     import dmoc
-    from dmoc.results.verdict import judge
+    from dmoc.drivers.verdict import judge
     targets = goals(name, 5)
     problem = dmoc_problem(name, N, rule, targets[0])
     previous = dmoc.optimize(problem, check=False, options={"print_level": 0})

@@ -27,14 +27,14 @@ INFOG(29), and operations of one factorization's node eliminations, RINFO(3), fr
 MUMPS's report at ``mumps_print_level`` 2). A fifth row re-solves dmoc with IPOPT's
 ``fixed_variable_treatment`` "make_parameter", which computes the bound multipliers of the
 fixed variables at every iteration (a gradient each; dmoc's default "make_parameter_nodual"
-leaves them to `dmoc.optimize.fixed_multipliers`, made when result.lam_x is read): the
+leaves them to `dmoc.optimal_control.solver.fixed_multipliers`, made when result.lam_x is read): the
 same iterates, dmoc's default before the fourth pass. The last row is rockit's compiled
 re-solve followed by the reading of its return status (``resolve.stats()``): rockit's
 function returns IPOPT's last iterate without a word when IPOPT fails, so a loop that acts
 only on converged re-solves reads it; dmoc's re-solve reads it inside `solve`.
 Last, dmoc's packed IPOPT call with its stacked input handed to CasADi as a NumPy array
 (before "IPOPT's share of a re-solve") and through the packed Function's buffer
-(`dmoc.optimize.ipopt.PackedSolver` since "The Python around IPOPT, third pass";
+(`dmoc.optimal_control.solver.ipopt.PackedSolver` since "The Python around IPOPT, third pass";
 the list of floats in between is no longer timed), alternating, at an optimum: the same
 bits, the time of each.
 With `--pieces`, the pieces of dmoc's re-solve outside IPOPT are timed where they run, in
@@ -71,7 +71,7 @@ FUNCTIONS = ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")
 
 class Pieces:
     """Clocks around the pieces of dmoc's re-solve outside IPOPT (`--pieces`): each
-    function of `dmoc.optimize.solve` that `solve` calls around the packed IPOPT call,
+    function of `dmoc.optimal_control.solve` that `solve` calls around the packed IPOPT call,
     the call itself (its IPOPT time subtracted when printed), the solver's statistics read
     by `solve` (not those the benchmark reads after it), and `with_boundary`. `record` is
     True while a re-solve to count runs, those of the loop over the goals while `active`;
@@ -82,9 +82,9 @@ class Pieces:
 
     def __init__(self):
         import importlib
-        solve = importlib.import_module("dmoc.optimize.solve")
-        ipopt = importlib.import_module("dmoc.optimize.ipopt")
-        problem = importlib.import_module("dmoc.optimize.problem")
+        solve = importlib.import_module("dmoc.optimal_control.solver.solving")
+        ipopt = importlib.import_module("dmoc.optimal_control.solver.ipopt")
+        problem = importlib.import_module("dmoc.optimal_control.statement.problem")
         self.record, self.active, self.seconds, self._now = False, True, [], {}
         for name in self.SOLVE:
             self._wrap(solve, name, name)
@@ -140,10 +140,10 @@ def figures(st, wall):
 
 def dmoc_method(name, rule, N, targets, options):
     """step(goal index) -> figures of dmoc's raw compiled re-solve with the IPOPT `options`,
-    from the stats of the solver it keeps (which carry t_wall_total: `dmoc.optimize.ipopt`
+    from the stats of the solver it keeps (which carry t_wall_total: `dmoc.optimal_control.solver.ipopt`
     has CasADi record it)."""
-    from dmoc.optimize import ipopt
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control.solver import ipopt
+    from dmoc.optimal_control.solver.solving import solve
     problem = peers.dmoc_problem(name, N, rule, targets[0])
     previous = solve(problem, jit=True, options=options)
     T = problem.transcription
@@ -230,7 +230,7 @@ def kkt(name, rule, N, N_rockit, targets):
     (dmoc's warm, rockit's cold: the structure of the KKT matrix is the same), with IPOPT's
     journal and MUMPS's report (evaluated by CasADi's virtual machine: the same
     matrices)."""
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control.solver.solving import solve
     out = {}
     problem = peers.dmoc_problem(name, N, rule, targets[0])
     previous = solve(problem)
@@ -252,14 +252,14 @@ def kkt(name, rule, N, N_rockit, targets):
 
 def packed_input(name, rule, N, targets, calls):
     """(median us of the packed IPOPT call with its input as a NumPy array (before) and
-    through the packed Function's buffer (`dmoc.optimize.ipopt.PackedSolver`, now), the
+    through the packed Function's buffer (`dmoc.optimal_control.solver.ipopt.PackedSolver`, now), the
     number of entries): `calls`
     alternating calls at the optimum of the second goal, from its own x and multipliers
     (0 iterations: the call's conversions stand out); the outputs of the two have the same
     bits (asserted)."""
     from dmoc._util.conversions import vector
-    from dmoc.optimize import ipopt
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control.solver import ipopt
+    from dmoc.optimal_control.solver.solving import solve
     problem = peers.moved(peers.dmoc_problem(name, N, rule, targets[0]), name, targets[1])
     T, D, R = problem.transcription, problem.transcription.x_scale, problem.transcription.g_scale
     optimum = solve(problem, jit=True, guess=solve(problem, jit=True))

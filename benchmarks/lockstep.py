@@ -1,4 +1,4 @@
-"""Benchmark: runs in lockstep (`dmoc.simulate.lockstep.simulate_runs`) against the serial
+"""Benchmark: runs in lockstep (`dmoc.simulation.lockstep.simulate_runs`) against the serial
 loop ``[dmoc.simulate(disc, **run, throw=False) for run in runs]``, interleaved in one
 process (docs/performance.md, "Sixth: runs in lockstep").
 
@@ -26,9 +26,9 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc.simulate.lockstep import groups, run_lockstep, simulate_lockstep, simulate_runs  # noqa: E402
-from dmoc.simulate.preparation import prepare_runs  # noqa: E402
-from dmoc.simulate.simulation import conclude  # noqa: E402
+from dmoc.simulation.lockstep import groups, run_lockstep, simulate_lockstep, simulate_runs  # noqa: E402
+from dmoc.simulation.preparation import prepare_runs  # noqa: E402
+from dmoc.simulation.time_stepping import conclude  # noqa: E402
 from knife_runs import knife_edge_runs  # noqa: E402
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")

@@ -1,6 +1,6 @@
 """Benchmark: knife-edge parking (0, 0, theta0) -> (0, 1, theta0) in 4 s, N = 100, from
 headings theta0 = 0 and 0.3, with mass and yaw inertia of different orders, DMOC (the NLP
-scaled by the inertia, `dmoc.optimize.scaling`) against the mapped trapezoidal and
+scaled by the inertia, `dmoc.optimal_control.nlp.scaling`) against the mapped trapezoidal and
 Hermite-Simpson collocations of benchmarks/collocation.py with the same IPOPT options. Each
 row: IPOPT iterations, status, the optimal cost (the problem has many local optima at these
 ratios, so the methods may end in different ones), seconds, and for DMOC the largest

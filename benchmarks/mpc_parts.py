@@ -32,19 +32,19 @@ import numpy as np  # noqa: E402
 from checkouts import add_checkouts  # noqa: E402
 
 # (label, module, attribute path): what MPC.step calls, in the order it calls them
-PARTS = (("with_boundary", "dmoc.optimize.problem", "OptimalControlProblem.with_boundary"),
-         ("  Transcription.with_bounds", "dmoc.optimize.transcription", "Transcription.with_bounds"),
-         ("shifted", "dmoc.optimize.mpc", "shifted"),
-         ("solve", "dmoc.optimize.mpc", "solve"),
-         ("  start_point", "dmoc.optimize.solve", "start_point"),
-         ("  data_tolerances", "dmoc.optimize.solve", "data_tolerances"),
-         ("  solver lookup", "dmoc.optimize.solve", "ipopt_solver"),
-         ("  IPOPT call", "dmoc.optimize.ipopt", "PackedSolver.__call__"),
-         ("  IPOPT stats", "dmoc.optimize.ipopt", "PackedSolver.stats"),
-         ("  f, g at x", "dmoc.optimize.solve", "_values_at_x"),
-         ("  most_violated", "dmoc.optimize.solve", "most_violated"),
-         ("  trajectory_from_x", "dmoc.optimize.solve", "trajectory_from_x"),
-         ("    momenta", "dmoc.optimize.transcription", "Transcription.momenta"))
+PARTS = (("with_boundary", "dmoc.optimal_control.statement.problem", "OptimalControlProblem.with_boundary"),
+         ("  Transcription.with_bounds", "dmoc.optimal_control.nlp.transcription", "Transcription.with_bounds"),
+         ("shifted", "dmoc.drivers.mpc", "shifted"),
+         ("solve", "dmoc.drivers.mpc", "solve"),
+         ("  start_point", "dmoc.optimal_control.solver.solving", "start_point"),
+         ("  data_tolerances", "dmoc.optimal_control.solver.solving", "data_tolerances"),
+         ("  solver lookup", "dmoc.optimal_control.solver.solving", "ipopt_solver"),
+         ("  IPOPT call", "dmoc.optimal_control.solver.ipopt", "PackedSolver.__call__"),
+         ("  IPOPT stats", "dmoc.optimal_control.solver.ipopt", "PackedSolver.stats"),
+         ("  f, g at x", "dmoc.optimal_control.solver.solving", "_values_at_x"),
+         ("  most_violated", "dmoc.optimal_control.solver.solving", "most_violated"),
+         ("  trajectory_from_x", "dmoc.optimal_control.solver.solving", "trajectory_from_x"),
+         ("    momenta", "dmoc.optimal_control.nlp.transcription", "Transcription.momenta"))
 
 
 def wrap(spent, label, module, path):
@@ -72,7 +72,7 @@ def wrap(spent, label, module, path):
 def closed_loop(horizon, steps):
     """{part: mean CPU seconds per warm step} of one closed loop in this process."""
     import dmoc
-    import dmoc.optimize.solve  # noqa: F401 (the module, for `wrap`)
+    import dmoc.optimal_control.solver.solving  # noqa: F401 (the module, for `wrap`)
     from dmoc.problems import knife_edge_parking
 
     spent = collections.defaultdict(float)

@@ -1,7 +1,7 @@
 """Benchmark: the five Functions IPOPT calls in a DMOC solve (nlp_f, nlp_g, nlp_grad_f,
 nlp_jac_g, nlp_hess_l), per call, in CasADi's virtual machine on the MX graph of mapped
 terms ("VM", the default), expanded to flat SX Functions ("SX", ``expand=True``) and
-compiled to C ("C", ``jit=True``; `dmoc.optimize.evaluation`), at the problems
+compiled to C ("C", ``jit=True``; `dmoc.optimal_control.nlp.evaluation`), at the problems
 and N of the rockit comparison (`peers_resolve.py`: the least N reaching 1e-6 of J*), with
 the sizes IPOPT's KKT matrix is made of (nonzeros of jac_g and of the Hessian's upper
 triangle), the time to expand the five Functions, to compile the library and to load it
@@ -31,8 +31,8 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc.optimize import evaluation  # noqa: E402
-from dmoc.optimize.solve import solve  # noqa: E402
+from dmoc.optimal_control.nlp import evaluation  # noqa: E402
+from dmoc.optimal_control.solver.solving import solve  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from peers_resolve import GOAL, dmoc_problem  # noqa: E402

@@ -8,7 +8,7 @@ lobatto4 14, rockit 62) builds its problem and solves it from its default start,
 process would: dmoc with every cache emptied first (`dmoc.clear_caches`: the step
 residual, the NLP's terms and derivatives and the IPOPT solver are built anew),
 ``dmoc.optimize(problem)`` with its defaults (the verdict included: "judged") and the raw
-``dmoc.optimize.solve`` ("raw"); rockit's `peers_resolve.rockit_ocp` (multiple shooting,
+``dmoc.optimal_control.solve`` ("raw"); rockit's `peers_resolve.rockit_ocp` (multiple shooting,
 one RK4 step per interval, piecewise-linear controls, its NLP expanded to SX) and
 ``ocp.solve()``. No method compiles to C. The methods run in turn, the one that goes first
 turning round by round; per method the median and least wall time over `--repeat`
@@ -42,9 +42,9 @@ PROBLEMS = {"disk": ("rolling disk",), "knife": ("knife edge",), "both": ("rolli
 def dmoc_first(name, rule, N, judged):
     """first() -> (seconds, iterations, cost): dmoc's problem `name` at N steps with
     `rule` built and solved from its default guess after `dmoc.clear_caches`, judged
-    (``dmoc.optimize``) or raw (``dmoc.optimize.solve``)."""
+    (``dmoc.optimize``) or raw (``dmoc.optimal_control.solve``)."""
     import dmoc
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control.solver.solving import solve
 
     def first():
         dmoc.clear_caches()

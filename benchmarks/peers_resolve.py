@@ -10,7 +10,7 @@ previous optimum (primal and dual), `--repeat` times: median wall time per re-so
 IPOPT's iterations, its wall time and the part in NLP function evaluations, NLP size.
 dmoc is timed from the new goal: ``problem.with_boundary(q_goal=g)`` then
 ``dmoc.optimize(new, guess=previous)`` ("judged"), the same with ``check=False``
-("unjudged"), the raw ``dmoc.optimize.solve`` ("raw"), or the raw solve with the NLP's
+("unjudged"), the raw ``dmoc.optimal_control.solve`` ("raw"), or the raw solve with the NLP's
 Functions expanded to SX (``expand=True``, "raw SX") or compiled to C (``jit=True``, "raw
 C"), built when the original goal is solved, before the timing. rockit (not a dependency
 of dmoc: run this script with the python of an environment that has rockit-meco and dmoc)
@@ -127,7 +127,7 @@ def dmoc_resolve(name, rule, N, repeat, count):
     """(this process) {run: [median seconds per re-solve, iterations, IPOPT s, function s]},
     the NLP size and the costs of dmoc's re-solves of `name` at N with `rule`."""
     import dmoc
-    from dmoc.optimize.solve import solve      # dmoc.optimize is the judged function
+    from dmoc.optimal_control.solver.solving import solve      # dmoc.optimize is the judged function
     targets = goals(name, count)
     problem = dmoc_problem(name, N, rule, targets[0])
     calls = {"judged": dmoc.optimize, "unjudged": lambda p, **k: dmoc.optimize(p, check=False, **k),
@@ -154,7 +154,7 @@ def dmoc_resolve(name, rule, N, repeat, count):
 
 def dmoc_cost(name, rule):
     """N -> the raw solve's optimal cost at N steps with `rule`, at the original goal."""
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control.solver.solving import solve
 
     def cost_at(N):
         return solve(dmoc_problem(name, N, rule, GOAL[name]), options={"print_level": 0}).cost

@@ -34,8 +34,8 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
-from dmoc.optimize import interrupt, ipopt  # noqa: E402
-from dmoc.optimize.solve import solve  # noqa: E402
+from dmoc.optimal_control.solver import interrupt, ipopt  # noqa: E402
+from dmoc.optimal_control.solver.solving import solve  # noqa: E402
 from resolve_outside import CASES, OFFSETS, warm_resolves  # noqa: E402
 
 BEFORE = {"fixed_variable_treatment": "make_parameter"}
@@ -123,7 +123,7 @@ def loop_pieces(count):
     """{piece: median seconds per re-solve} of `count` warm raw re-solves of the disk (after
     30 uncounted), each piece of `solve` timed where `solve` calls it; "outside" is the
     re-solve's wall time less IPOPT's."""
-    module = importlib.import_module("dmoc.optimize.solve")
+    module = importlib.import_module("dmoc.optimal_control.solver.solving")
     spent = {}
 
     def timed(label, function):

@@ -34,10 +34,11 @@ import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
 from dmoc._util.conversions import column  # noqa: E402
 from dmoc._util.deferred import Pending  # noqa: E402
-from dmoc.optimize import ipopt, solve as solve_module, transcription as transcription_module  # noqa: E402
-from dmoc.optimize.evaluation import nlp_functions  # noqa: E402
-from dmoc.optimize.guess import start_point  # noqa: E402
-from dmoc.optimize.solve import solve, trajectory_from_x  # noqa: E402
+from dmoc.optimal_control.solver import ipopt, solving as solve_module  # noqa: E402
+from dmoc.optimal_control.nlp import transcription as transcription_module
+from dmoc.optimal_control.nlp.evaluation import nlp_functions  # noqa: E402
+from dmoc.optimal_control.solver.guess import start_point  # noqa: E402
+from dmoc.optimal_control.solver.solving import solve, trajectory_from_x  # noqa: E402
 
 OFFSETS = np.array([[0.05, 0.0, 0.0], [0.0, 0.05, 0.05], [-0.05, 0.05, 0.0],
                     [0.05, -0.05, -0.05], [0.0, 0.1, 0.1], [0.0, 0.0, 0.0]])

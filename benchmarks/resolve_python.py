@@ -35,12 +35,13 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
-from dmoc.optimize import ipopt, momenta as momenta_module  # noqa: E402
-from dmoc.optimize.guess import start_point  # noqa: E402
-from dmoc.optimize import solve as solve_module  # noqa: E402
-from dmoc.optimize.solve import solve, trajectory_from_x  # noqa: E402
+from dmoc.optimal_control.solver import ipopt  # noqa: E402
+from dmoc.optimal_control.nlp import momenta as momenta_module
+from dmoc.optimal_control.solver.guess import start_point  # noqa: E402
+from dmoc.optimal_control.solver import solving as solve_module  # noqa: E402
+from dmoc.optimal_control.solver.solving import solve, trajectory_from_x  # noqa: E402
 from dmoc.principle.trajectory import Trajectory  # noqa: E402
-from dmoc.optimize.terms import broadcast  # noqa: E402
+from dmoc.optimal_control.nlp.terms import broadcast  # noqa: E402
 
 CASES = {
     "rolling disk, lobatto4, N = 11": (
@@ -83,7 +84,7 @@ def new_row_sums(T, x0, jit):
 def old_momenta(problem):
     """`Transcription.momenta` before: p1's windows gathered one by one, CasADi's own
     conversions."""
-    from dmoc.optimize.terms import _StepSlots, _indices
+    from dmoc.optimal_control.nlp.terms import _StepSlots, _indices
     T, N = problem.transcription, problem.steps
     X, P, G = (_indices(lay) for lay in (T.x_layout, T.p_layout, T.g_layout))
     slots = _StepSlots(problem, X, P, G, (T.x_scale, T.g_scale), (T.x_layout.size, T.p_layout.size))

@@ -1,5 +1,5 @@
 """Benchmark: the NLP scaling and default guess that follow the units (each coordinate's
-length in the motion, `dmoc.optimize.scaling.lengths`) and the path constraints at the
+length in the motion, `dmoc.optimal_control.nlp.scaling.lengths`) and the path constraints at the
 knots, against an earlier checkout, in one run. Each case is solved by both checkouts in
 child processes, alternating, twice; a row gives IPOPT's iterations, status and cost for
 each, and the ratio of their solve times (IPOPT's `solve_time`, the smaller of the two

@@ -1,7 +1,7 @@
 """Benchmark: dmoc's warm-start IPOPT options against IPOPT's own defaults for them, on
 chains of warm re-solves with changed data and on the knife-edge MPC, in one process.
 
-A warm re-solve runs IPOPT with `dmoc.optimize.ipopt.WARM_START_OPTIONS`: besides
+A warm re-solve runs IPOPT with `dmoc.optimal_control.solver.ipopt.WARM_START_OPTIONS`: besides
 warm_start_init_point "yes", fast_step_computation "yes" (each KKT solution taken as MUMPS
 returns it, its residual not computed); `--arm` adds options to dmoc's arm (e.g.
 '{"mumps_scaling": 0}', the warm option from the third to the eighth pass). Each problem is solved cold once; from that optimum two chains of warm re-solves
@@ -38,8 +38,8 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems as P  # noqa: E402
-from dmoc.optimize.ipopt import WARM_START_OPTIONS  # noqa: E402
-from dmoc.optimize.solve import solve  # noqa: E402
+from dmoc.optimal_control.solver.ipopt import WARM_START_OPTIONS  # noqa: E402
+from dmoc.optimal_control.solver.solving import solve  # noqa: E402
 
 EXAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples")
 ARMS = {"IPOPT": {"mumps_scaling": 77, "fast_step_computation": "no"}, "dmoc": None}

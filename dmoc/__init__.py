@@ -1,33 +1,33 @@
 """dmoc: discrete Dirac mechanics for simulation and optimal control of constrained systems.
 
 The package reads as its pipeline, one folder a stage: `mechanics` (the system) →
-`discrete` (the discretization) → `principle` (the one step residual) → `simulate` and
-`optimize` (its two consumers) → `results`; `batch` and `cli` use the public API. This
-module re-exports the public names; ``dmoc.systems``, ``dmoc.problems``,
-``dmoc.diagnostics``, ``dmoc.plotting``, ``dmoc.animation``, ``dmoc.dirac`` and
-``dmoc.formulations`` are the stage modules of those names.
+`discrete` (the discretization) → `principle` (the one step residual) → `simulation` and
+`optimal_control` (its two consumers) → `results` (diagnostics, plots) → `drivers` (the
+judged `optimize`, its accuracy, the MPC); `batch` and `cli` use the public API. This module
+re-exports the public names; ``dmoc.systems``, ``dmoc.problems``, ``dmoc.diagnostics``,
+``dmoc.plotting``, ``dmoc.animation``, ``dmoc.dirac`` and ``dmoc.formulations`` are the
+stage modules of those names; ``dmoc.batch`` is imported on first use.
 """
-
-import importlib
-import sys
 
 from ._util.cache import clear_caches
 from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
                        Trapezoid, discrete_legendre, discretize)
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
-                     MissingFileError, SolverError, TrajectoryFileError)
+                     MissingFileError, SolverError, Status, TrajectoryFileError)
 from .mechanics import HamiltonianSystem, MechanicalSystem, systems
-from .optimize import (MPC, OptimalControlProblem, OptimizationResult, Verdict, from_waypoints,
-                       problems)
+from .optimal_control import OptimalControlProblem, OptimizationResult, Verdict, from_waypoints
+from .optimal_control.statement import examples as problems
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
-from .results import animation, diagnostics, optimize, plotting
-from .simulate import SimulationResult, simulate
+from .results import animation, diagnostics, plotting
+from .simulation import SimulationResult, simulate
+from .drivers.mpc import MPC
+from .drivers.optimum import optimize
+from ._util.public_modules import publish
 
-# The public module names of the stages' modules: ``from dmoc.systems import knife_edge``
-# works as ``dmoc.systems.knife_edge`` does.
-for _module in (systems, problems, diagnostics, plotting, animation, dirac, formulations):
-    sys.modules[f"{__name__}.{_module.__name__.rsplit('.', 1)[1]}"] = _module
-del _module
+publish(__name__, {"systems": systems, "problems": problems, "diagnostics": diagnostics,
+                   "plotting": plotting, "animation": animation, "dirac": dirac,
+                   "formulations": formulations})
+del publish
 
 __all__ = [
     "MechanicalSystem",
@@ -68,11 +68,13 @@ __all__ = [
     "SolverError",
     "CompiledCodeError",
     "Interrupted",
+    "Status",
 ]
 
 
 def __getattr__(name):
     """`dmoc.batch` is imported on first use, so that ``import dmoc`` never imports dask."""
     if name == "batch":
-        return importlib.import_module(".batch", __name__)
+        import dmoc.batch
+        return dmoc.batch
     raise AttributeError(f"module 'dmoc' has no attribute {name!r}")

@@ -1,4 +1,5 @@
-"""Exceptions raised by dmoc (the taxonomy of docs/errors.md).
+"""Exceptions raised by dmoc (the taxonomy of docs/errors.md) and the vocabulary of the
+outcomes a result reports (`Status`).
 
 Every error dmoc raises on its own account is a `DmocError`. A bad argument is an
 `InputError` (a wrong value: shape, range, NaN, an unknown choice) or an `InputTypeError`
@@ -14,7 +15,12 @@ then in `.result`.
 Warnings (the computation goes on) are `DmocWarning`s, a UserWarning: `OrderReductionWarning`
 when a rule keeps a lower order on a degenerate Lagrangian, `ParasiticModeWarning` when its
 step equations have a growing alternating mode.
+The ``status`` of a result is a `Status` member (a str: it equals its value) for an outcome
+dmoc names; an optimization that dmoc does not judge otherwise keeps IPOPT's own return
+status, a plain str such as ``"Solve_Succeeded"``.
 """
+
+import enum
 
 
 class DmocError(Exception):
@@ -104,3 +110,72 @@ class ParasiticModeWarning(DmocWarning):
     (parasitic) mode that grows along the motion (the trapezoid on a nonlinear flow): once
     excited it swamps the solution over long runs. The message names the rule, the growth
     measured and the rule to use instead (docs/degenerate.md, "The alternating mode")."""
+
+
+class Status(str, enum.Enum):
+    """The outcomes dmoc names in a result's ``status``, one vocabulary for the simulator, the
+    optimizer's verdict and accuracy loop, and the batches.
+
+    Each member is a str equal to its value (``Status.PASSED == "passed"``), so code that
+    compares with the strings, `json.dumps` and the files written before the enumeration
+    keep working; ``status.message`` says what the status means (one table, `MESSAGES`).
+    IPOPT's own return statuses (``"Solve_Succeeded"``, ``"Maximum_Iterations_Exceeded"``,
+    ...) are IPOPT's and stay plain strings; `status_of` reads either.
+    """
+
+    CONVERGED = "converged"
+    NEWTON_FAILED = "newton_failed"
+    NON_FINITE = "non_finite"
+    INTERRUPTED = "interrupted"
+    PASSED = "passed"
+    NOT_REPLAYABLE = "not_replayable"
+    PATH_VIOLATED = "path_violated"
+    UNDER_RESOLVED = "under_resolved"
+    ACCURACY_NOT_REACHED = "accuracy_not_reached"
+    TIMEOUT = "timeout"
+    WORKER_LOST = "worker_lost"
+    EXCEPTION = "exception"
+    UNDESERIALIZABLE = "undeserializable"
+
+    __str__ = str.__str__
+    __format__ = str.__format__
+
+    @property
+    def message(self):
+        """What the status says about the result (str)."""
+        return MESSAGES[self]
+
+
+MESSAGES = {
+    Status.CONVERGED: "every step's Newton iteration converged",
+    Status.NEWTON_FAILED: "a step's Newton iteration did not converge",
+    Status.NON_FINITE: "a step produced NaN or Inf",
+    Status.INTERRUPTED: "stopped by Ctrl-C (SIGINT)",
+    Status.PASSED: "the optimum passed the verdict's checks",
+    Status.NOT_REPLAYABLE: "simulating the optimum's controls from its initial state departs from it",
+    Status.PATH_VIOLATED: "a path constraint fails at a knot",
+    Status.UNDER_RESOLVED: "a step velocity changes by a large part of its peak within one step",
+    Status.ACCURACY_NOT_REACHED: "the largest number of steps allowed did not reach the accuracy asked for",
+    Status.TIMEOUT: "the item or the batch ran past its time limit",
+    Status.WORKER_LOST: "the worker running the item was lost, or no worker came",
+    Status.EXCEPTION: "the item's solve raised an exception",
+    Status.UNDESERIALIZABLE: "the item's arguments could not be unpickled on the worker",
+}
+
+
+def status_of(text):
+    """The `Status` of value `text`, or `text` itself (a str) when it names none: IPOPT's
+    return statuses, or a status a newer dmoc wrote.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    Status or str
+    """
+    try:
+        return Status(text)
+    except ValueError:
+        return str(text)

@@ -25,8 +25,8 @@ import pytest
 import dmoc
 from dmoc import animation, batch, diagnostics, plotting
 from dmoc.discrete.quadrature_rules import QuadratureRule
-from dmoc.results.accuracy import optimize_to_accuracy
-from dmoc.results.error_estimate import estimate_error
+from dmoc.drivers.accuracy import optimize_to_accuracy
+from dmoc.drivers.error_estimate import estimate_error
 from dmoc.systems import knife_edge
 
 Q0, V0 = [0.0, 0.0, 0.3], [np.cos(0.3), np.sin(0.3), 1.0]

@@ -17,7 +17,7 @@ import pytest
 
 import dmoc
 from dmoc._util import compiled
-from dmoc.simulate import stepper
+from dmoc.simulation import stepper
 
 ROOT = pathlib.Path(__file__).parents[1]
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="sends SIGINT to a child process")
@@ -26,7 +26,7 @@ pytestmark = pytest.mark.skipif(os.name != "posix", reason="sends SIGINT to a ch
 # "started" and, with `hold`, waits inside the next one for the signal.
 HOOK = '''
 import sys, time
-from dmoc.simulate import stepper
+from dmoc.simulation import stepper
 calls = []
 original = stepper.DiracStepper._chunk
 def chunk(self, *args):
@@ -65,7 +65,7 @@ print("RESULT", json.dumps({{"how": how, "status": res.status, "success": res.su
 OPTIMIZE = '''
 import json
 import dmoc
-from dmoc.optimize import problems
+from dmoc import problems
 problem = problems.knife_edge_parking(6000)
 try:
     res = dmoc.optimize(problem, throw={throw}, options={{"print_level": 5}})
@@ -218,8 +218,8 @@ def test_a_solve_leaves_the_sigint_handler_it_found(installed):
     """`interrupt.watch` installs its own handler only for the IPOPT call: after a solve
     (and after one that raised), SIGINT's handler is the one in place before, the very
     object, whether a Python callable, Python's default or SIG_IGN."""
-    from dmoc.optimize import interrupt
-    from dmoc.optimize.solve import solve
+    from dmoc.optimal_control.solver import interrupt
+    from dmoc.optimal_control import solve
     import dmoc.problems
 
     def custom(signum, frame):

@@ -1,6 +1,6 @@
 """CasADi Functions compiled to C once and kept on disk, keyed by what they compute and how
-they are compiled: the simulator's step horizons (`dmoc.simulate.stepper`) and, with
-``jit=True``, the optimizer's NLP Functions (`dmoc.optimize.evaluation`). A library's key is the
+they are compiled: the simulator's step horizons (`dmoc.simulation.stepper`) and, with
+``jit=True``, the optimizer's NLP Functions (`dmoc.optimal_control.nlp.evaluation`). A library's key is the
 SHA-256 of the serialized Functions, the CasADi version, the machine, the compiler (its
 resolved path and its ``--version`` output) and its flags, so every process and every later
 session loads the same code with `casadi.external` instead of compiling again; where no C

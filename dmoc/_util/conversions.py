@@ -3,7 +3,7 @@ momenta): the same numbers, bit for bit, in less time than CasADi's own conversi
 NumPy arrays (on the machine of docs/performance.md, for 1300 entries: 72 against 139 us
 into a DM, about 2/3 of ``DM.full()`` out of one). The IPOPT call and the data's
 tolerances of every solve convert nothing: they go through their Functions' buffers
-(`dmoc._util.numeric.Evaluator`, `dmoc.optimize.ipopt.PackedSolver`).
+(`dmoc._util.numeric.Evaluator`, `dmoc.optimal_control.solver.ipopt.PackedSolver`).
 """
 
 import casadi as ca

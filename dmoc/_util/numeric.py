@@ -145,7 +145,7 @@ def _run(run):
     IPOPT stops and returns its last iterate) is left set when the call returns, which
     Python reports as a SystemError caused by it; the outputs are written, and they are
     kept, the interrupt swallowed as CasADi's ordinary call swallows it
-    (`dmoc.optimize.interrupt`)."""
+    (`dmoc.optimal_control.solver.interrupt`)."""
     try:
         run()
     except SystemError as err:

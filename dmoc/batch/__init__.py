@@ -19,10 +19,10 @@ except ImportError:  # pragma: no cover - depends on the installation
 from .._util import checks
 from ..discrete import Discretization
 from ..errors import InputError, InputTypeError
-from ..optimize.problem import OptimalControlProblem
-from ..optimize.optimization_result import OptimizationResult
+from ..optimal_control.statement.problem import OptimalControlProblem
+from ..optimal_control.solver.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
-from ..simulate.simulation import SimulationResult
+from ..simulation.time_stepping import SimulationResult
 from . import scheduling, sharing, shipping, tasks
 from .cluster import Cluster
 from .errors import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
@@ -123,7 +123,7 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     Each worker gets each Discretization once (its compiled step is built or loaded once
     per worker process) and each run as its keyword arguments, in chunks as in
     `optimize_many`; the runs of a chunk that share a stepper, h and their number of
-    steps step in lockstep (`dmoc.simulate.lockstep`: the results of `simulate` bit for
+    steps step in lockstep (`dmoc.simulation.lockstep`: the results of `simulate` bit for
     bit, for less CPU per run), unless `timeout` is set (then each runs alone).
 
     Parameters

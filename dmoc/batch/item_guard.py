@@ -13,8 +13,8 @@ import traceback
 
 import distributed
 
-from ..optimize.optimization_result import OptimizationResult
-from ..simulate.simulation import SimulationResult
+from ..optimal_control.solver.optimization_result import OptimizationResult
+from ..simulation.time_stepping import SimulationResult
 
 
 def failed_result(kind, status, message, **stats):

@@ -24,13 +24,13 @@ import distributed
 from .._util.cache import BoundedCache
 from .item_guard import attempt, caught, guarded, guarded_chunk, in_turn, stamp
 from .packing import PackedResults
-from ..optimize.optimization_result import OptimizationResult
+from ..optimal_control.solver.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
-from ..optimize.solve import solve as ipopt_solve
-from ..results.verdict import judge, judged, verdicts
-from ..simulate.lockstep import simulate_lockstep
-from ..simulate.preparation import Run, prepare_runs
-from ..simulate.simulation import SimulationResult, simulate
+from ..optimal_control.solver.solving import solve as ipopt_solve
+from ..drivers.verdict import judge, judged, verdicts
+from ..simulation.lockstep import simulate_lockstep
+from ..simulation.preparation import Run, prepare_runs
+from ..simulation.time_stepping import SimulationResult, simulate
 
 # digest -> [the Shipments registered with it, their bytes] in this worker process, while
 # a batch runs (not a BoundedCache: `clear_caches` must not empty it)
@@ -87,7 +87,7 @@ def optimize_chunk(digest, items, options, switches, timeout, budget=None):
     the chunk; None: no limit), which the client sets while it knows no item's cost.
 
     Without a `timeout`, IPOPT solves the items one by one and the optima it converged
-    to are judged together (`_judged`: `dmoc.results.verdict.verdicts`, the same verdicts
+    to are judged together (`_judged`: `dmoc.drivers.verdict.verdicts`, the same verdicts
     as one by one, for less CPU); each item's seconds are its solve's CPU seconds and its
     share of the verdicts'. With a `timeout`, each item is solved and judged alone, in a
     thread the task can abandon."""
@@ -128,7 +128,7 @@ def _solved_then_judged(calls, budget):
 def _judged(solved):
     """The results of `solved`, each a (problem, IPOPT's result) or the result of an item
     that produced no solve: the converged optima judged together
-    (`dmoc.results.verdict.verdicts`, then `judged`, ``throw=False``), the others as they
+    (`dmoc.drivers.verdict.verdicts`, then `judged`, ``throw=False``), the others as they
     are, as `optimize` returns each. Should the verdicts raise, each optimum is judged
     alone, so that an error stays its item's ("exception")."""
     results = [s if isinstance(s, OptimizationResult) else s[1] for s in solved]
@@ -153,7 +153,7 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget
     `sharing.Exchange`, reaches this worker).
 
     Without a `timeout`, the runs that can step together do so in lockstep
-    (`dmoc.simulate.lockstep`: the same results as one by one, for less CPU); each item's
+    (`dmoc.simulation.lockstep`: the same results as one by one, for less CPU); each item's
     seconds are then the chunk's CPU seconds over its items. With a `timeout`, each item
     runs alone, in a thread the task can abandon. With a `budget`, the chunk ends once it
     has spent that many CPU seconds, as in `optimize_chunk` (in lockstep, groups of 1, 2,

@@ -2,7 +2,7 @@
 run the simulator or the optimizer with ``throw=False``, print a summary and write the
 output files, all of a run's files together (`dmoc._util.files.staged_run`). Returns the
 exit code: 0 on success, 1 when the solver failed or its optimum failed the verdict
-(`dmoc.results.verdict`), 130 when a Ctrl-C stopped it (what was computed is still written).
+(`dmoc.drivers.verdict`), 130 when a Ctrl-C stopped it (what was computed is still written).
 """
 
 import contextlib
@@ -14,10 +14,11 @@ import numpy as np
 
 from ..results import diagnostics
 from ..discrete import discretize
+from ..errors import Status
 from ..principle import step_residual
-from ..optimize.problem import OptimalControlProblem
-from ..results.optimum import optimize
-from ..simulate.simulation import simulate
+from ..optimal_control.statement.problem import OptimalControlProblem
+from ..drivers.optimum import optimize
+from ..simulation.time_stepping import simulate
 from .._util.files import staged_run
 from . import arguments, output, registry
 from .arguments import UsageError
@@ -84,7 +85,7 @@ def _report(summary, success, status, message, files):
         print(f"{key:{width}s}  {shown}")
     for path in files:
         print(f"wrote {path}")
-    if status == INTERRUPTED:
+    if status == Status.INTERRUPTED:
         done = "wrote what was computed, without plots" if files else "nothing written (no --out)"
         log(f"{message.partition(';')[0].rstrip('.')}; {done}")
         return 130
@@ -93,7 +94,6 @@ def _report(summary, success, status, message, files):
     return 0 if success else 1
 
 
-INTERRUPTED = "interrupted"     # the status of a run stopped by Ctrl-C
 
 
 def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
@@ -101,7 +101,7 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
     stays whole); an interrupted run's without plots and GIF, so that it ends at once."""
     if out is None:
         return []
-    finished = summary["status"] != INTERRUPTED
+    finished = summary["status"] != Status.INTERRUPTED
     try:
         with staged_run(out, prefix, output.run_files(prefix)) as stage:
             written = output.write_all(stage, prefix, disc, traj, summary, spec,
@@ -275,7 +275,7 @@ def _figures(problem, result):
     holds NaN (nothing can be replayed from it) or one of a Ctrl-C (the user wants to
     stop, not to wait for a replay) only what IPOPT reported."""
     traj = result.trajectory
-    if (result.status == INTERRUPTED
+    if (result.status == Status.INTERRUPTED
             or not (np.isfinite(traj.q).all() and np.isfinite(traj.p).all())):
         return {"cost": result.cost, "iterations": result.stats["iterations"],
                 "build_time": result.stats["build_time"], "solve_time": result.stats["solve_time"],

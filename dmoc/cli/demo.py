@@ -8,14 +8,15 @@ each optimum), all of them together
 import numpy as np
 
 from ..results import diagnostics
-from ..optimize import problems
+from ..optimal_control.statement import examples as problems
 from ..mechanics import systems
 from .._util.files import staged_run, write_text
 from ..discrete import discretize
-from ..results.optimum import optimize
+from ..errors import Status
+from ..drivers.optimum import optimize
 from ..results._canvas import figure, save_png
 from ..results.plotting import plot_controls, plot_energy_balance, plot_energy_error, plot_path
-from ..simulate.simulation import simulate
+from ..simulation.time_stepping import simulate
 from . import arguments
 from .arguments import UsageError
 from .registry import BUILT_IN
@@ -77,7 +78,7 @@ def optimization_demo(out, steps, lines):
         for variant, suffix in (("+", "plus"), ("-", "minus")):
             problem = make(steps, variant=variant)
             result = optimize(problem, throw=False)
-            if result.status == "interrupted":     # Ctrl-C stops the whole demo
+            if result.status == Status.INTERRUPTED:     # Ctrl-C stops the whole demo
                 raise KeyboardInterrupt(result.message)
             ok &= result.success
             title = f"{name} (variant {variant}, N = {steps})"

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..mechanics import systems
 from ..mechanics.system import MechanicalSystem
-from ..optimize.problem import OptimalControlProblem
+from ..optimal_control.statement.problem import OptimalControlProblem
 from .arguments import UsageError
 
 

@@ -1,10 +1,10 @@
 """Discretization stage: quadrature rules and the discrete data L_d, omega_d (28), f_d^-/+;
 for Hamiltonian systems the discrete Hamiltonians H_d+- and the discrete Legendre transform;
 both rule families implement one interface, `Rule`; the order a rule keeps on a degenerate
-Lagrangian (`degenerate`)."""
+Lagrangian (`degenerate`); `discretize` (module `construction`) builds the one a system takes."""
 
 from .discretization import Discretization
-from .discretize import discretize
+from .construction import discretize
 from .hamiltonian import (HAMILTONIAN_RULES, HamiltonianDiscretization, HamiltonianMidpoint, HamiltonianRule,
                           SymplecticEuler)
 from .legendre_transform import LegendreRule, discrete_legendre

@@ -131,7 +131,7 @@ class Discretization:
         callable or a Function; `running_integrand`) by the quadrature of the rule's
         interpolant (`Rule.interpolant`; the chord's midpoint for a HamiltonianRule), u the
         control interpolated at each quadrature point, w the problem's parameters
-        (`dmoc.optimize.parameters`; empty when the cost takes none)."""
+        (`dmoc.optimal_control.statement.parameters`; empty when the cost takes none)."""
         running_cost = running_integrand(self.system, running_cost)
         x = step_symbols(self.system.n, self.n_stages, self.n_controls)
         q0, q1, s, u, h = x["q0"], x["q1"], x["s"], x["u"], x["h"]

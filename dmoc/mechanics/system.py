@@ -104,7 +104,7 @@ class MechanicalSystem:
     def inertia(self, q):
         """diag d2L/dv2 (q, 0), shape (n, 1), an SX expression in the symbols q (n, 1): the
         inertia of each coordinate at q (zero in degenerate directions), for the scaling of
-        the optimizer's NLP (`dmoc.optimize.scaling`)."""
+        the optimizer's NLP (`dmoc.optimal_control.nlp.scaling`)."""
         return _hessian_diagonal(self.lagrangian, q, self.n)
 
     def __repr__(self):
@@ -174,7 +174,7 @@ class HamiltonianSystem:
     def inertia(self, q):
         """1 / diag d2H/dp2 (q, 0), shape (n, 1), an SX expression in the symbols q (n, 1):
         the inertia of each coordinate at q (infinite where H does not depend on that
-        momentum), for the scaling of the optimizer's NLP (`dmoc.optimize.scaling`)."""
+        momentum), for the scaling of the optimizer's NLP (`dmoc.optimal_control.nlp.scaling`)."""
         return 1 / _hessian_diagonal(self.hamiltonian, q, self.n)
 
     def __repr__(self):

@@ -12,11 +12,11 @@ from .._util.numeric import per_step
 from ..discrete import Discretization
 from ..errors import InputError
 from ..principle.formulations import as_formulation
-from ..optimize.problem import OptimalControlProblem
+from ..optimal_control.statement.problem import OptimalControlProblem
 from ..principle.residual import step_residual
-from ..simulate.lockstep import simulate_lockstep
-from ..simulate.preparation import prepare_runs
-from ..simulate.simulation import simulate
+from ..simulation.lockstep import simulate_lockstep
+from ..simulation.preparation import prepare_runs
+from ..simulation.time_stepping import simulate
 from ..principle.trajectory import Trajectory, check_trajectory, constraint_violation  # noqa: F401 (re-exported)
 from .knot_velocities import end_velocities, velocity_changes, velocity_jumps  # noqa: F401 (re-exported)
 

@@ -2,7 +2,7 @@
 step's interpolant at its two ends (the rule's polynomial through q_k, the stage
 configurations and q_{k+1}), their jumps at the knots relative to each coordinate's peak,
 and the jumps of the step velocities; the verdict on an optimum reads them
-(`dmoc.results.verdict`), for one trajectory or many in one call.
+(`dmoc.drivers.verdict`), for one trajectory or many in one call.
 """
 
 import casadi as ca

@@ -21,7 +21,7 @@ from .._util import checks
 from .._util.files import make_folder
 from ..discrete import Discretization
 from ..errors import InputError
-from ..optimize.problem import OptimalControlProblem
+from ..optimal_control.statement.problem import OptimalControlProblem
 from ..principle.trajectory import Trajectory
 
 __all__ = ["plot_path", "plot_states", "plot_controls", "plot_constraint_violation",

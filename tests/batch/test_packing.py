@@ -15,7 +15,7 @@ import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.batch import item_guard, tasks  # noqa: E402
 from dmoc.batch.packing import PackedResults  # noqa: E402
-from dmoc.simulate.simulation import SimulationResult  # noqa: E402
+from dmoc.simulation.time_stepping import SimulationResult  # noqa: E402
 
 FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
 
@@ -163,7 +163,7 @@ def _kicked_runs(count, steps=30):
 
 
 def _raise(*args, **kwargs):
-    from dmoc.simulate import lockstep
+    from dmoc.simulation import lockstep
     lockstep.raised += 1
     raise RuntimeError("lockstep broke")
 
@@ -171,7 +171,7 @@ def _raise(*args, **kwargs):
 def _break_lockstep(broken):
     """In a worker: make `run_lockstep` raise (counting in `lockstep.raised`), or restore
     it; returns how often it raised."""
-    from dmoc.simulate import lockstep
+    from dmoc.simulation import lockstep
     if broken:
         lockstep.saved, lockstep.run_lockstep, lockstep.raised = lockstep.run_lockstep, _raise, 0
         return 0

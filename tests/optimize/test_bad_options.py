@@ -11,7 +11,7 @@ import pytest
 
 import dmoc
 from dmoc._util import checks
-from dmoc.optimize.solve import SWITCHES
+from dmoc.optimal_control.solver.solving import SWITCHES
 
 
 def problem(disc, **changes):

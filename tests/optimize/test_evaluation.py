@@ -1,5 +1,5 @@
 """The NLP expanded to SX (``expand=True``) or compiled to C (``jit=True``,
-`dmoc.optimize.evaluation`) is the same NLP: IPOPT takes the same iterations to the same
+`dmoc.optimal_control.nlp.evaluation`) is the same NLP: IPOPT takes the same iterations to the same
 optimum, bit for bit, as with CasADi's virtual machine on the MX graph, first solves and
 warm re-solves alike, on both problems of the rockit comparison and with both stage rules,
 and an MPC's closed loop (`dmoc.MPC(..., expand=, jit=)`) step by step;
@@ -21,9 +21,9 @@ import dmoc
 import dmoc.problems
 from dmoc._util import compiled
 from dmoc.errors import InputError, InputTypeError
-from dmoc.optimize import evaluation
-from dmoc.optimize.ipopt import solver, start_options
-from dmoc.optimize.solve import solve
+from dmoc.optimal_control.nlp import evaluation
+from dmoc.optimal_control.solver.ipopt import solver, start_options
+from dmoc.optimal_control import solve
 
 needs_compiler = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
 
@@ -133,7 +133,7 @@ def test_the_mpc_refuses_a_switch_that_is_not_a_bool():
 CHILD = """
 import dmoc.problems
 from dmoc._util.compiled import Library
-from dmoc.optimize.solve import solve
+from dmoc.optimal_control import solve
 problem = dmoc.problems.knife_edge_parking(8, rule="lobatto3")
 functions = problem.transcription.separable.functions().values()
 cached = Library(functions, "dmoc_nlp").cached()

@@ -14,8 +14,8 @@ import pytest
 
 import dmoc
 import dmoc.problems
-from dmoc.optimize import ipopt
-from dmoc.optimize.guess import start_point
+from dmoc.optimal_control.solver import ipopt
+from dmoc.optimal_control.solver.guess import start_point
 from dmoc.systems import knife_edge
 
 FAR = np.array([3.0e5, -2.0e5, 0.0])        # map coordinates: metres from a distant origin

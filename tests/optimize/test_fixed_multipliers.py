@@ -1,6 +1,6 @@
 """The bound multipliers of the fixed entries of x (the given boundary data), which IPOPT
 leaves zero under dmoc's ``fixed_variable_treatment`` "make_parameter_nodual" and
-`dmoc.optimize.fixed_multipliers.FixedMultipliers` computes after the solve, are the bits
+`dmoc.optimal_control.solver.fixed_multipliers.FixedMultipliers` computes after the solve, are the bits
 IPOPT's own "make_parameter" gives (docs/performance.md, "The re-solve, fourth pass").
 
 Oracles: IPOPT itself, the same solves with ``fixed_variable_treatment`` "make_parameter"
@@ -19,9 +19,9 @@ import dmoc
 import dmoc.problems
 from dmoc._util.compiled import compiler
 from dmoc._util.deferred import Pending
-from dmoc.optimize import ipopt
-from dmoc.optimize.mpc import shifted
-from dmoc.optimize.solve import solve
+from dmoc.optimal_control.solver import ipopt
+from dmoc.drivers.mpc import shifted
+from dmoc.optimal_control import solve
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
 from lane_change_problem import lane_change  # noqa: E402
@@ -88,7 +88,7 @@ def test_the_fixed_entries_multipliers_are_ipopts_own_bit_for_bit(name, mode):
 
 def test_a_stopped_solve_and_a_shifted_warm_start_keep_ipopts_bits():
     """At the last iterate of a solve stopped by max_iter, and through an MPC shift of the
-    optimum (`dmoc.optimize.mpc.shifted`) used as the next guess."""
+    optimum (`dmoc.drivers.mpc.shifted`) used as the next guess."""
     problem = dmoc.problems.knife_edge_parking(20)
     stopped = solve(problem, options={"max_iter": 3}, throw=False)
     _same(stopped, solve(problem, options={"max_iter": 3, **IPOPT_OWN}, throw=False))

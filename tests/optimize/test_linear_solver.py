@@ -17,7 +17,7 @@ import pytest
 
 import dmoc
 import dmoc.problems
-from dmoc.optimize.linear_solver import linear_solver_report
+from dmoc.optimal_control.solver.linear_solver import linear_solver_report
 
 REPORT = {"linear_solver_report": True}
 
@@ -119,7 +119,7 @@ def test_report_is_given_exactly_when_asked_for(report_first, monkeypatch):
 def test_the_journal_of_an_evicted_solver_goes_with_it(monkeypatch):
     """A cache of one solver: the second structure's solver evicts the first, and the
     first's journal goes with it."""
-    from dmoc.optimize import ipopt
+    from dmoc.optimal_control.solver import ipopt
     monkeypatch.setattr(ipopt, "_SOLVERS", type(ipopt._SOLVERS)(1, "solvers"))
     pattern = os.path.join(tempfile.gettempdir(), "dmoc-ipopt-*.txt")
     before = set(glob.glob(pattern))

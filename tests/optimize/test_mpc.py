@@ -18,9 +18,9 @@ import pytest
 
 import dmoc
 from dmoc._util.deferred import Pending
-from dmoc.optimize import mpc
-from dmoc.optimize.mpc import shifted
-from dmoc.optimize.solve import solve
+from dmoc.drivers import mpc
+from dmoc.drivers.mpc import shifted
+from dmoc.optimal_control import solve
 
 
 def parking(rule="midpoint", steps=12):

@@ -18,9 +18,9 @@ import pytest
 
 import dmoc
 from dmoc.errors import InputError
-from dmoc.optimize.final_time import FixedFinalTime, FreeFinalTime
-from dmoc.optimize.momenta import CarriedMomenta, SubstitutedMomenta
-from dmoc.optimize.transcription import Transcription
+from dmoc.optimal_control.statement.final_time import FixedFinalTime, FreeFinalTime
+from dmoc.optimal_control.nlp.momenta import CarriedMomenta, SubstitutedMomenta
+from dmoc.optimal_control.nlp.transcription import Transcription
 from dmoc.problems import knife_edge_parking
 from dmoc.systems import knife_edge
 

@@ -12,8 +12,8 @@ import pytest
 
 import dmoc
 import dmoc.problems
-from dmoc.optimize import initial_guess
-from dmoc.optimize.guess import start_point
+from dmoc.optimal_control import initial_guess
+from dmoc.optimal_control.solver.guess import start_point
 
 
 GOAL, NEIGHBOUR = (0.0, 1.0, 0.0), (0.1, 1.1, 0.1)
@@ -184,7 +184,7 @@ def test_the_function_time_is_the_sum_of_every_nlp_functions_wall_time():
     """stats["function_time"] sums the five Functions' wall times by name
     (`ipopt.linear_algebra`); the oracle is every ``t_wall_nlp_*`` entry of the solver's
     own statistics, summed in their order: the same bits, and no NLP Function left out."""
-    from dmoc.optimize import ipopt
+    from dmoc.optimal_control.solver import ipopt
     problem = dmoc.problems.knife_edge_parking(12)
     result = dmoc.optimize(problem, check=False)
     solver = ipopt.solver(problem.transcription, ipopt.start_options(False), expand=False,

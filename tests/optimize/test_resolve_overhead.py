@@ -22,11 +22,11 @@ from dmoc._util.compiled import compiler
 from dmoc._util.conversions import column
 from dmoc._util.deferred import Pending
 from dmoc._util.numeric import Evaluator
-from dmoc.optimize import ipopt
-from dmoc.optimize.evaluation import nlp_functions
-from dmoc.optimize.optimization_result import OptimizationResult
-from dmoc.optimize.guess import initial_guess as ipopt_start_vector
-from dmoc.optimize.solve import solve, trajectory_from_x
+from dmoc.optimal_control.solver import ipopt
+from dmoc.optimal_control.nlp.evaluation import nlp_functions
+from dmoc.optimal_control.solver.optimization_result import OptimizationResult
+from dmoc.optimal_control.solver.guess import initial_guess as ipopt_start_vector
+from dmoc.optimal_control.solver.solving import solve, trajectory_from_x
 
 FIELDS = ("t", "q", "p", "lam", "u", "h", "variant", "mu", "s", "control_nodes", "stage_nodes")
 
@@ -195,7 +195,7 @@ def test_a_returned_x_that_is_not_finite_is_seen_and_its_trajectory_made_at_once
     1-norm of x is not finite, and the result's trajectory is made at once by the checking
     constructor (`trajectory_from_x`), not deferred; the oracle is NumPy's isfinite of the
     returned x."""
-    from dmoc.optimize.solve import _result
+    from dmoc.optimal_control.solver.solving import _result
     problem = dmoc.problems.knife_edge_parking(6)
     T = problem.transcription
     packed = ipopt.solver(T, ipopt.start_options(False), expand=False, reuse=True, report=False)[0]

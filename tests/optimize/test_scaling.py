@@ -24,9 +24,9 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.optimize import transcription as transcription_module
+from dmoc.optimal_control.nlp import transcription as transcription_module
 from dmoc import diagnostics
-from dmoc.optimize.scaling import inertia, power_of_two
+from dmoc.optimal_control.nlp.scaling import inertia, power_of_two
 from dmoc.systems import knife_edge, rolling_disk
 
 MASS, YAW = 1024.0, 2.0        # powers of 2: the factors are these, not rounded ones

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.optimize.gather_scatter import INDICES_PER_OPERATION
-from dmoc.optimize.gather_scatter import window as separable_window
-from dmoc.optimize.separable import SeparableNLP, Term, function_key, local_derivatives
+from dmoc.optimal_control.nlp.gather_scatter import INDICES_PER_OPERATION
+from dmoc.optimal_control.nlp.gather_scatter import window as separable_window
+from dmoc.optimal_control.nlp.separable import SeparableNLP, Term, function_key, local_derivatives
 from dmoc.systems import knife_edge, lc_circuit, rolling_disk, spherical_pendulum
 
 N = 4                                   # steps of every DMOC case

@@ -1,5 +1,5 @@
 """What the raw IPOPT solve reads back from a solve is what IPOPT computed: the packed call
-(one stacked input and output vector, `dmoc.optimize.ipopt.PackedSolver`) returns exactly
+(one stacked input and output vector, `dmoc.optimal_control.solver.ipopt.PackedSolver`) returns exactly
 the outputs and statistics of calling the nlpsol itself, and the cost and most violated
 row that `solve` takes from IPOPT's own last f and g are those of the NLP evaluated anew
 at the returned x.
@@ -16,10 +16,10 @@ import pytest
 
 import dmoc
 import dmoc.problems
-from dmoc.optimize import ipopt
-from dmoc.optimize.guess import start_point
-from dmoc.optimize.mpc import shifted
-from dmoc.optimize.solve import most_violated, solve, trajectory_from_x
+from dmoc.optimal_control.solver import ipopt
+from dmoc.optimal_control.solver.guess import start_point
+from dmoc.drivers.mpc import shifted
+from dmoc.optimal_control.solver.solving import most_violated, solve, trajectory_from_x
 from dmoc.principle.trajectory import Trajectory
 
 

@@ -41,7 +41,7 @@ def test_rejected_option_is_named_on_the_first_line(disc, options, name, capfd):
 
 def test_invalid_option_at_solve_time_reports_this_solve(disc, capfd, monkeypatch):
     """An HSL solver that IPOPT lacks, past dmoc's own check (which refuses it before)."""
-    monkeypatch.setattr(sys.modules["dmoc.optimize.solve"], "check_linear_solver", lambda o: None)
+    monkeypatch.setattr(sys.modules["dmoc.optimal_control.solver.solving"], "check_linear_solver", lambda o: None)
     dmoc.optimize(problem(disc), options={"max_iter": 3}, throw=False)
     result = dmoc.optimize(problem(disc), options={"linear_solver": "ma57"}, throw=False)
     capfd.readouterr()

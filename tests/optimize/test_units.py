@@ -1,6 +1,6 @@
 """The NLP scaling and the default guess follow the units: a problem stated in metres,
 millimetres or kilometres, kilograms or grams is solved in the same iterations to the
-same optimum (`dmoc.optimize.scaling.lengths`).
+same optimum (`dmoc.optimal_control.nlp.scaling.lengths`).
 
 Oracles, none taken from the code under test:
 - the same problem in SI, its optimum converted to the other units by hand (x, y and the
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.optimize import initial_guess
-from dmoc.optimize.scaling import lengths
+from dmoc.optimal_control import initial_guess
+from dmoc.optimal_control.nlp.scaling import lengths
 from dmoc.systems import car, knife_edge
 
 STEPS, T = 100, 4.0

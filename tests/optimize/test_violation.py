@@ -1,4 +1,4 @@
-"""`dmoc.optimize.violation.largest_violation`, the CasADi Function that the packed IPOPT
+"""`dmoc.optimal_control.solver.violation.largest_violation`, the CasADi Function that the packed IPOPT
 call evaluates at IPOPT's last g and `most_violated` at any g, against its definition
 written out row by row in Python: the largest of max(lbg - g, g - ubg) over the rows, a
 row whose difference is NaN (g NaN, or g and its bound infinite alike) violated by inf,
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from dmoc._util.numeric import Evaluator
-from dmoc.optimize.violation import largest_violation
+from dmoc.optimal_control.solver.violation import largest_violation
 
 
 def defined(g, lbg, ubg):

@@ -2,7 +2,6 @@
 no consumer branches on the variant string, the residual and the compiled step are shared by
 every step size and by equal systems, and the caches stay bounded."""
 
-import importlib
 import pathlib
 import re
 
@@ -13,6 +12,8 @@ import pytest
 import dmoc
 from dmoc.formulations import FORMULATIONS, LagrangianMinus, LagrangianPlus, as_formulation
 from dmoc._util.layout import Layout
+from dmoc.principle import residual
+from dmoc.simulation import preparation
 
 PACKAGE = pathlib.Path(dmoc.__file__).parent
 COMPARISON = re.compile(r"""variant\s*[!=]=|[!=]=\s*["'][+-]["']|["'][+-]["']\s*[!=]=""")
@@ -70,22 +71,20 @@ def test_equal_systems_share_the_residual_and_different_ones_do_not():
 
 
 def test_simulating_at_another_step_reuses_the_compiled_step():
-    simulate_module = importlib.import_module("dmoc.simulate.preparation")
     system = dmoc.systems.rolling_disk(mass=1.7)
-    before = len(simulate_module._STEPPERS)
+    before = len(preparation._STEPPERS)
     runs = [dmoc.simulate(dmoc.discretize(system, h), q0=[0, 0, 0, 0], v0=[1, 0, 1, 0.5],
                           steps=20).trajectory for h in (0.1, 0.05)]
-    assert len(simulate_module._STEPPERS) in (before + 1, simulate_module._STEPPERS.maxsize)
+    assert len(preparation._STEPPERS) in (before + 1, preparation._STEPPERS.maxsize)
     # the second run really used its own h: it covers half the distance in the same steps
     assert runs[1].t[-1] == pytest.approx(runs[0].t[-1] / 2)
     np.testing.assert_allclose(runs[1].q[-1, 3], 0.5 * 1.0, rtol=1e-12)   # phi = phi' t
 
 
 def test_caches_are_bounded():
-    principle = importlib.import_module("dmoc.principle.residual")
-    for mass in np.linspace(1.0, 2.0, principle._RESIDUALS.maxsize + 3):
+    for mass in np.linspace(1.0, 2.0, residual._RESIDUALS.maxsize + 3):
         dmoc.step_residual(dmoc.discretize(dmoc.systems.knife_edge(mass=float(mass)), 0.1))
-    assert len(principle._RESIDUALS) == principle._RESIDUALS.maxsize
+    assert len(residual._RESIDUALS) == residual._RESIDUALS.maxsize
 
 
 def test_layout_blocks_round_trip():

@@ -1,4 +1,4 @@
-"""Error estimates and accuracy targets (`dmoc.results.accuracy`, issue 23).
+"""Error estimates and accuracy targets (`dmoc.drivers.accuracy`, issue 23).
 
 Oracles, none taken from dmoc:
 - the cost J* = 8.72240586430 of knife-edge parking (issue 23: two independent high-order
@@ -16,8 +16,8 @@ from scipy.integrate import solve_ivp
 
 import dmoc
 import dmoc.problems
-from dmoc.results.accuracy import optimize_to_accuracy
-from dmoc.results.error_estimate import estimate_error
+from dmoc.drivers.accuracy import optimize_to_accuracy
+from dmoc.drivers.error_estimate import estimate_error
 
 J_STAR = 8.72240586430
 QUIET = {"print_level": 0, "sb": "yes"}
@@ -140,7 +140,7 @@ def test_results_of_other_grids_are_refused():
 
 def test_the_car_lane_change_converges_to_its_j_star():
     """From the straight drive, lobatto4 on 20 steps is within 1e-6 of J* = 0.1558127846220
-    (lobatto4 N = 640 and lobatto3 N = 1280 agree to 1e-11, docs/stages/optimize.md), the
+    (lobatto4 N = 640 and lobatto3 N = 1280 agree to 1e-11, docs/stages/drivers.md), the
     optimum replays, and the straight drive is the simulated unforced motion."""
     problem = dmoc.problems.car_lane_change(20, rule="lobatto4")
     guess = dmoc.problems.uniform_motion_guess(problem)

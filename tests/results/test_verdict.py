@@ -1,4 +1,4 @@
-"""The verdict on every optimum (`dmoc.results.verdict`): each status produced for real, and
+"""The verdict on every optimum (`dmoc.drivers.verdict`): each status produced for real, and
 success kept where the optimum is sound.
 
 Oracles, none taken from the verdict's code:
@@ -20,7 +20,7 @@ import pytest
 
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
-from dmoc.results.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE
+from dmoc.drivers.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE
 
 KNIFE_EDGE_J = 8.72240586430
 ROLLING_DISK_J = 1.02891883211
@@ -142,7 +142,7 @@ def test_the_verdict_is_saved_and_loaded_with_the_result(car, tmp_path):
 
 def test_the_remedy_of_the_docs_gives_the_car_a_replayable_optimum():
     """Angles bounded to their physical range and the steering torque priced (docs/stages/
-    optimize.md, "Verdicts"): the optimum replays and costs what carrying the car costs."""
+    drivers.md, "Verdicts"): the optimum replays and costs what carrying the car costs."""
     problem = car_problem(state_bounds=([None, None, -0.5, -0.5], [None, None, 0.5, 0.5]),
                           running_cost=lambda q, v, u: u[0] ** 2 + (1e3 * u[1]) ** 2)
     result = dmoc.optimize(problem)

@@ -16,7 +16,7 @@ import pytest
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
 from dmoc.results.knot_velocities import end_velocities
-from dmoc.results.verdict import judge
+from dmoc.drivers.verdict import judge
 
 
 def end_velocities_built_per_call(disc, traj):

@@ -1,4 +1,4 @@
-"""The verdicts of many optima at once (`dmoc.results.verdict.verdicts`, what a batch's chunk
+"""The verdicts of many optima at once (`dmoc.drivers.verdict.verdicts`, what a batch's chunk
 judges its optima with): each Verdict bit for bit the one of judging the optimum alone,
 whatever else is in the group.
 
@@ -22,7 +22,7 @@ import pytest
 import dmoc
 from dmoc.diagnostics import velocity_jumps
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
-from dmoc.results.verdict import REPLAY_TOLERANCE, judge, verdicts
+from dmoc.drivers.verdict import REPLAY_TOLERANCE, judge, verdicts
 
 
 def rate_limited(limit, steps=50):

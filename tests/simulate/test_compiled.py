@@ -13,7 +13,7 @@ import pytest
 
 import dmoc
 from dmoc._util import compiled
-from dmoc.simulate import stepper as stepper_module
+from dmoc.simulation import stepper as stepper_module
 from dmoc.systems import knife_edge
 
 

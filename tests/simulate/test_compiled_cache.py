@@ -27,7 +27,7 @@ import pytest
 import dmoc
 from dmoc.errors import CompiledCodeError
 from dmoc._util import cache_folder, compiled
-from dmoc.simulate import stepper
+from dmoc.simulation import stepper
 
 pytestmark = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
 
@@ -38,7 +38,7 @@ STEPS = 40
 CHILD = """
 import json, os, warnings
 import dmoc
-from dmoc.simulate import stepper
+from dmoc.simulation import stepper
 stepper.NATIVE_AFTER_SECONDS = 0.0          # jit=None: go native at the first chunk
 disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
 {drop}

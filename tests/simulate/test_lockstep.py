@@ -1,4 +1,4 @@
-"""Runs in lockstep (dmoc.simulate.lockstep) give what `simulate` gives for each run alone
+"""Runs in lockstep (dmoc.simulation.lockstep) give what `simulate` gives for each run alone
 (the oracle: the existing single-run path, called run by run), field by field and bit for
 bit, with the same status, message and stats but the wall time: runs that the fast path
 converges throughout, runs whose steps the line-search Newton redoes (a kick), runs that
@@ -14,9 +14,9 @@ import pytest
 import dmoc
 from dmoc._util import compiled
 from dmoc.errors import InputError
-from dmoc.simulate import lockstep
-from dmoc.simulate.lockstep import simulate_lockstep, simulate_runs
-from dmoc.simulate.preparation import memory_needed, prepare, prepare_runs
+from dmoc.simulation import lockstep
+from dmoc.simulation.lockstep import simulate_lockstep, simulate_runs
+from dmoc.simulation.preparation import memory_needed, prepare, prepare_runs
 
 FIELDS = ("t", "q", "p", "lam", "u", "mu", "s")
 JITS = [False, None, pytest.param(True, marks=pytest.mark.skipif(
@@ -250,7 +250,7 @@ def test_runs_checked_together_get_what_each_alone_gets(monkeypatch):
     error that `prepare` raises for it alone with every array checked by `checks.array`
     (the oracle: `_plain_rows` switched off), type and message, or the same start, bits
     and stepper."""
-    from dmoc.simulate import preparation
+    from dmoc.simulation import preparation
     disc = dmoc.discretize(dmoc.systems.rolling_disk(), 0.05)
     good_v0 = [1.0, 0.0, 1.0, 0.5]
     q0s = [[0, 0, 0, 0], (0.1, 0.2, 0.3, 0.0), [1, 2.5, 3, np.float64(0.0)],
@@ -393,7 +393,7 @@ def test_arrays_of_other_dtypes_are_checked_as_checks_array_checks_them(monkeypa
     objects, complex, ints, float32) among good runs: `prepare_runs` gives each run the
     error or start that `prepare` gives it alone with every array checked by
     `checks.array` (the oracle: `_plain_rows` switched off)."""
-    from dmoc.simulate import preparation
+    from dmoc.simulation import preparation
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
     arrays = [np.array([True, False, True]), np.array(["0", "1", "0"]),
               np.array([0.0, 1, 0], dtype=object), np.array([0, 1j, 0]),

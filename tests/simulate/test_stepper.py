@@ -8,7 +8,7 @@ from scipy.optimize import brentq
 
 import dmoc
 from dmoc.diagnostics import residual_norms
-from dmoc.simulate.stepper import CHUNK
+from dmoc.simulation.stepper import CHUNK
 
 H, DRAG = 0.1, 0.4
 

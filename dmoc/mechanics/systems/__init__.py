@@ -8,13 +8,13 @@ the differential drive, in SI units, have no closed form: the tests integrate th
 Lagrange-d'Alembert equations with DOP853.
 """
 
-from .car import car
-from .differential_drive import differential_drive
-from .knife_edge import knife_edge, knife_edge_solution
-from .lc_circuit import lc_circuit, lc_circuit_solution
-from .point_vortices import point_vortices, point_vortices_solution
-from .rolling_disk import rolling_disk, rolling_disk_solution
-from .spherical_pendulum import spherical_pendulum
+from .car_model import car
+from .differential_drive_model import differential_drive
+from .knife_edge_model import knife_edge, knife_edge_solution
+from .lc_circuit_model import lc_circuit, lc_circuit_solution
+from .point_vortices_model import point_vortices, point_vortices_solution
+from .rolling_disk_model import rolling_disk, rolling_disk_solution
+from .spherical_pendulum_model import spherical_pendulum
 
 __all__ = ["car", "differential_drive", "knife_edge", "knife_edge_solution", "lc_circuit", "lc_circuit_solution",
            "point_vortices", "point_vortices_solution", "rolling_disk", "rolling_disk_solution",

@@ -45,7 +45,7 @@ class Formulation:
     momentum_rows : tuple of str
         The residual's row blocks in units of momentum (the rest are in units of
         configuration or velocity): the optimizer divides them by the inertia
-        (`dmoc.optimize.scaling`).
+        (`dmoc.optimal_control.nlp.scaling`).
     """
 
     name = None

@@ -1,0 +1,225 @@
+"""Model predictive control on the DMOC NLP (a driver: the optimizer in a closed loop): a
+receding-horizon controller re-solves one problem structure from each measured state, its
+start given by a momentum (`OptimalControlProblem(p_start=...)`), with IPOPT's kept solver
+warm-started from the previous optimum shifted by one step, primal and dual, and applies
+the first step's controls; a failed solve raises, or (``on_failure="shift"``) the last
+optimum's plan is followed one more step.
+"""
+
+import dataclasses
+import time
+
+import numpy as np
+
+from .._util import checks, deferred
+from ..errors import InputError, Interrupted, SolverError, Status
+from ..optimal_control.statement.problem import OptimalControlProblem
+from ..optimal_control.solver.solving import solve        # the raw IPOPT solve of one problem
+
+ON_FAILURE = ("raise", "shift")
+
+
+@dataclasses.dataclass(frozen=True)
+class MPCStep:
+    """The record of one controller step (`MPC.log`).
+
+    Attributes
+    ----------
+    q, p : ndarray, shape (n,)
+        The measured start.
+    u : ndarray, shape (len(control_nodes) * n_u,), or None
+        The controls applied over the step, at the rule's control nodes; None when the
+        step raised.
+    success : bool
+        Whether this step's solve succeeded.
+    status : str
+        IPOPT's return status.
+    iterations : int
+    solve_time : float
+        Seconds in IPOPT.
+    step_time : float
+        Wall seconds of the whole `MPC.step` (boundary data, warm start, solve).
+    warm_start : bool
+        Whether IPOPT started from the shifted previous optimum's x and multipliers.
+    plan_age : int or None
+        Which optimum `u` comes from: 0 this step's, k > 0 (after failed solves, with
+        ``on_failure="shift"``) the plan of k steps before, at its step k; None when the
+        step raised.
+    """
+
+    q: np.ndarray
+    p: np.ndarray
+    u: np.ndarray
+    success: bool
+    status: str
+    iterations: int
+    solve_time: float
+    step_time: float
+    warm_start: bool
+    plan_age: int = 0
+
+
+class MPC:
+    """A receding-horizon controller: at each measured state (q, v) or (q, p), the optimum
+    of `problem` from there over its N steps; the first step's controls are applied.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+        The horizon (N steps of h), goal, costs and bounds; its start data are replaced by
+        each measurement (as a start momentum: the problem is restated once with
+        ``with_boundary(p_start=...)``, so every step solves the same NLP structure).
+    guess : Trajectory or OptimizationResult, optional
+        The first solve's guess (`optimize`); later solves start from the previous
+        optimum shifted by one step.
+    options : dict, optional
+        IPOPT options (`optimize`).
+    expand, jit : bool
+        How IPOPT evaluates the NLP in every solve, as `optimize`'s switches of the same
+        names (docs/stages/optimize.md, "Compiled re-solves"): flat SX Functions, or C
+        compiled once per structure (or loaded from the compiled-code cache) when the
+        first step builds the solver; either way the same iterations and bits as the
+        MX graph (``expand=False, jit=False``). `expand` is True by default, unlike
+        `optimize`'s: a controller builds its solver once and solves on it at every step,
+        so the expansion's cost (a few ms at step 0) buys a cheaper evaluation at every
+        warm step (about a fifth of a warm step at horizon 30, docs/performance.md, "MPC:
+        per-step times"). With `jit`, `expand` has no effect.
+    on_failure : {"raise", "shift"}
+        What a step does when IPOPT does not converge. "raise" (default): raise
+        SolverError (the failed solve in `.result`); no control is returned. "shift":
+        return the controls of the last optimum's plan at the step that follows it (the
+        plan moved on by one step per failed solve, which the model can follow from the
+        plan's own states), and raise SolverError only when no plan is left: the first
+        solve failed, or N solves in a row. Either way the step is recorded in `log`.
+        A Ctrl-C during a solve raises Interrupted.
+
+    Attributes
+    ----------
+    on_failure : str
+        The `on_failure` policy.
+    problem : OptimalControlProblem
+        The problem of the last step (its start the last measurement).
+    plan : OptimizationResult or None
+        The last optimum over the horizon (of the last step whose solve succeeded).
+    log : list of MPCStep
+        One record per step.
+
+    Notes
+    -----
+    The warm start is the previous optimum moved one step on: every block of x, of its
+    bound multipliers and of the constraint multipliers indexed by step (q_k, p_k, lam_k,
+    s_k, u_k and the dynamics and path rows of step k) takes the value of step k + 1, the
+    last step's repeated; the boundary blocks keep theirs. IPOPT starts from it with
+    ``warm_start_init_point`` (x clipped into the new bounds: q_0 is the measurement).
+    After k failed solves in a row (``on_failure="shift"``) it is the last optimum moved
+    k + 1 steps on.
+
+    Examples
+    --------
+    >>> import dmoc
+    >>> controller = MPC(dmoc.problems.knife_edge_parking(20))
+    >>> u = controller.step([0.0, 0.0, 0.0], v=[0.0, 0.0, 0.0])
+    >>> u.shape, controller.log[-1].success
+    ((2,), True)
+    """
+
+    def __init__(self, problem, *, guess=None, options=None, on_failure="raise", expand=True,
+                 jit=False):
+        checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+        self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
+        self._switches = {"expand": checks.boolean("expand", expand), "jit": checks.boolean("jit", jit)}
+        if not np.isfinite(problem.q_start).all():
+            raise InputError("`problem` must have a fully given `q_start`: the controller's "
+                             "measurements replace it, and the NLP keeps its structure.")
+        n = problem.disc.system.n
+        start = problem.p_start if problem.p_start is not None else np.zeros(n)
+        self.problem = problem.with_boundary(p_start=start)
+        self.plan, self.log, self._age = None, [], 0
+        self._guess, self._options = guess, options
+
+    def step(self, q, *, v=None, p=None):
+        """Solve from the measured state and return the controls of the first step.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+        v, p : array_like, shape (n,)
+            The measured velocity (then p = dL/dv(q, v)) or momentum: exactly one.
+
+        Returns
+        -------
+        ndarray, shape (len(control_nodes) * n_u,)
+            The first step's controls at the rule's control nodes (node by node), to apply
+            over one step h (``simulate(..., controls=u[None])``); after a failed solve with
+            ``on_failure="shift"``, those of the last optimum's plan at the step that follows.
+
+        Raises
+        ------
+        SolverError
+            IPOPT did not converge and `on_failure` is "raise", or no plan is left to
+            follow; its `.result` holds the last iterate.
+        Interrupted
+            A Ctrl-C stopped IPOPT.
+        """
+        tic = time.perf_counter()
+        system = self.problem.disc.system
+        q = checks.array("q", q, (system.n,))
+        if (v is None) == (p is None):
+            raise InputError("give the measured state as `v` or as `p`, exactly one.")
+        p = (np.array(system.momentum(q, checks.array("v", v, (system.n,)))).ravel() if p is None
+             else checks.array("p", p, (system.n,)))
+        self.problem = self.problem.with_boundary(q_start=q, p_start=p)
+        guess = self._guess if self.plan is None else shifted(self.plan, self.problem, self._age + 1)
+        result = solve(self.problem, guess=guess, options=self._options, throw=False, **self._switches)
+        if result.success:
+            self.plan, self._age = result, 0
+        elif result.status != Status.INTERRUPTED and self.on_failure == "shift" and self.plan is not None \
+                and self._age + 1 < self.problem.steps:
+            self._age += 1
+        else:
+            self._record(q, p, None, result, tic, None)
+            raise self._failure(result)
+        # read from x: the plan's Trajectory is made only when a caller asks for it
+        u = self.problem.transcription.x_layout.unpack(self.plan.x, "u")[:, self._age].copy()
+        self._record(q, p, u, result, tic, self._age)
+        return u
+
+    def _record(self, q, p, u, result, tic, age):
+        self.log.append(MPCStep(q, p, u, result.success, result.status, result.stats["iterations"],
+                                result.stats["solve_time"], time.perf_counter() - tic,
+                                result.stats["warm_start"], age))
+
+    def _failure(self, result):
+        """The error of a failed step: Interrupted for a Ctrl-C, else SolverError saying
+        why no control is returned."""
+        step = len(self.log) - 1
+        if result.status == Status.INTERRUPTED:
+            return Interrupted(f"MPC step {step}: {result.message}", result)
+        why = ("on_failure='raise'" if self.on_failure == "raise" else
+               "no plan to follow: the first solve failed" if self.plan is None else
+               f"the last optimum's plan is used up ({self._age + 1} failed solves in a row)")
+        return SolverError(f"MPC step {step}: {result.message} No control is applied ({why}); "
+                           f"the last iterate is in `.result`.", result)
+
+
+def shifted(result, problem, steps=1):
+    """`result` (an optimum of `problem`'s structure) moved `steps` steps on (0 < steps < N):
+    the blocks of x, lam_x and lam_g indexed by step take the values of `steps` steps
+    later, the last repeated."""
+    T, N = problem.transcription, problem.steps
+    # its trajectory, unread, stays unmade (a warm start reads x and the multipliers)
+    return deferred.replace(result, x=_shifted(result.x, T.x_layout, N, steps),
+                            lam_x=_shifted(result.lam_x, T.x_layout, N, steps),
+                            lam_g=_shifted(result.lam_g, T.g_layout, N, steps))
+
+
+def _shifted(vector, layout, steps, by):
+    """`vector` with each block of N or N + 1 columns (one per step or knot; N > 1) moved
+    `by` columns to the left, its last column repeated."""
+    out = np.array(vector, dtype=float)
+    for offset, rows, cols in layout.blocks.values():
+        if cols > 1 and cols in (steps, steps + 1):
+            block = out[offset:offset + rows * cols].reshape(cols, rows)     # column-major
+            block[:-by] = block[by:].copy()
+            block[-by:] = block[-1]
+    return out

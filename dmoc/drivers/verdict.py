@@ -1,0 +1,238 @@
+"""A verdict on every optimum (a driver): `judged_solve` is IPOPT's solve
+(`dmoc.optimal_control.solve`) followed by `judge` (what the public `dmoc.optimize` runs),
+which checks what IPOPT returned against the step equations (37)/(41) as `simulate` solves
+them, the grid's resolution of the motion and the path constraints at every knot q_k, and
+turns a converged NLP that fails them into ``success=False`` with a status naming the cause.
+It is a driver because the replay needs both consumers of the step residual, which never
+import each other.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from .._util import checks
+from ..errors import SolverError, Status
+from ..optimal_control.solver.solving import solve
+from ..optimal_control.solver.verdict_record import STATUSES, Verdict
+from ..results.diagnostics import compared_momenta, replays
+from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
+
+# Thresholds of the checks, relative to the optimum's own scale so that a problem in
+# millimetres or kilograms gets the verdict it gets in metres (docs/stages/drivers.md,
+# "Verdicts"). A replay on the root IPOPT converged to stays at the solvers' tolerances
+# (1e-16 .. 1e-13 of the scale on the built-in problems); one on a spurious root by O(1).
+REPLAY_TOLERANCE = 1e-6
+# A motion of frequency omega changes its step velocity by 2 sin(omega h / 2) of its peak
+# per step: more than its own peak (omega h > pi / 3, fewer than 6 steps a period) is not
+# resolved; 2 is a reversal every step (aliasing). The built-in problems measure 0.10 to
+# 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/drivers.md).
+JUMP_LIMIT = 1.0
+# Below this size an optimum's q or p gives no scale (it does not move from the origin).
+NO_SCALE = 1e-12
+# A knot violates a path constraint when g_k exceeds this part of the row's scale.
+PATH_TOLERANCE = 1e-6
+# A coordinate whose excursion is below this part of its NLP scale (the motion's length
+# l_i, or the rest length where nothing moves: `dmoc.optimal_control.nlp.scaling.lengths`) is at rest
+# within IPOPT's tolerance; its velocity "jumps" are noise (a hold at the start: 7e-8 rad).
+REST_TOLERANCE = 1e-6
+
+
+def judge(problem, result):
+    """The Verdict on an optimum of `problem`: replay, velocity jumps, path at the knots.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+    result : OptimizationResult
+        An optimum of `problem` (finite q and p).
+
+    Returns
+    -------
+    Verdict
+        Its status is the worst failed check (`dmoc.optimal_control.solver.verdict_record.STATUSES`), or
+        ``"passed"``.
+
+    Notes
+    -----
+    The replay solves the step equations (37) (variant "+") or (41) (variant "-") step by
+    step with Newton's method from (q_0, p_0) and the optimal controls (`dmoc.simulate`),
+    which follows the root that continues the previous step; the optimum satisfies the
+    same equations as NLP rows, at whatever root IPOPT reached. Their agreement to
+    `REPLAY_TOLERANCE` says that IPOPT's root is the simulator's. The velocity jumps are
+    those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
+    path constraints are evaluated at every knot (`knot_path_values`). The one-optimum
+    case of `verdicts`.
+    """
+    return verdicts([(problem, result)])[0]
+
+
+def verdicts(pairs):
+    """`judge` of each (problem, result) of `pairs`, a list of Verdicts, the same bit for
+    bit as one by one, what the optima share done once: their replays in lockstep
+    (`dmoc.diagnostics.replays`), the interpolants' end velocities of all of them in one
+    call per rule (`end_velocities_of`), their path constraints at the knots in one call
+    per path Function (`_knot_path_values_of`). An error of any optimum (one `simulate`
+    refuses to replay) is raised for all: judge them one by one to tell whose it is."""
+    trajs = [result.trajectory for _, result in pairs]
+    replayed = replays([(problem, traj) for (problem, _), traj in zip(pairs, trajs)])
+    ends = end_velocities_of([(problem.disc, traj) for (problem, _), traj in zip(pairs, trajs)])
+    constrained = [i for i, (problem, _) in enumerate(pairs) if problem.path_constraints is not None]
+    knot_values = dict(zip(constrained, _knot_path_values_of(
+        [(pairs[i][0], trajs[i], ends[i]) for i in constrained])))
+    return [_verdict(problem, traj, simulated, ends[i], knot_values.get(i))
+            for i, ((problem, _), traj, simulated) in enumerate(zip(pairs, trajs, replayed))]
+
+
+def _verdict(problem, traj, simulated, ends, knot_values):
+    """The Verdict on the optimum `traj` of `problem` from its replay `simulated`, its
+    interpolant's end velocities `ends` and its path values at the knots (None without
+    path constraints)."""
+    replay_q, replay_p, replay_step = _replay_departure(problem, traj, simulated)
+    changes = velocity_changes(problem.disc, traj, ends=ends)
+    T = problem.transcription
+    resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
+    changes[:, resting] = 0.0
+    k, i = np.unravel_index(np.argmax(changes), changes.shape) if changes.size else (-1, 0)
+    jump = float(changes[k, i]) if changes.size else 0.0
+    path, path_step, path_row = _path_violation(knot_values)
+    failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
+              jump > JUMP_LIMIT)
+    status = next((s for s, f in zip(STATUSES, failed) if f), Status.PASSED)
+    return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
+                   problem.disc.system.names[i], path, path_step, path_row)
+
+
+def judged_solve(problem, *, check=True, throw=True, **keywords):
+    """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`: the
+    result with its `verdict`, ``success=False`` and the verdict's status when a check
+    fails (SolverError with `throw`). `dmoc.optimize` documents the keywords."""
+    check = checks.boolean("check", check)
+    result = solve(problem, throw=throw, **keywords)
+    if not (check and result.success):
+        return result
+    return judged(result, judge(problem, result), throw=throw)
+
+
+def judged(result, verdict, *, throw=True):
+    """The converged `result` with its `verdict`: as it is when the verdict passed, else
+    with ``success=False``, the verdict's status and its message (`verdict_message`),
+    raised as a SolverError with `throw`."""
+    if verdict.passed:
+        return dataclasses.replace(result, verdict=verdict)
+    result = dataclasses.replace(result, success=False, status=verdict.status, verdict=verdict,
+                                 message=verdict_message(verdict, result))
+    if throw:
+        raise SolverError(result.message + " The optimum is in `.result`.", result)
+    return result
+
+
+def verdict_message(verdict, result):
+    """What a failed verdict found (figures, step, coordinate) and what to do."""
+    traj = result.trajectory
+    jump = (f"the velocity of {verdict.jump_coordinate} changes by {verdict.velocity_jump:.2f} "
+            f"of its peak at knot {verdict.jump_step} (t = {traj.t[verdict.jump_step]:.4g})")
+    found = {
+        Status.NOT_REPLAYABLE:
+            f"it does not solve the step equations as `simulate` does: the replay from its "
+            f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
+            f"configurations' span ({verdict.replay_q * _q_scale(traj):.3g} in "
+            f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
+            f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
+            f"equations have other roots where a step is large, and IPOPT found one of "
+            f"those. Bound the angles to their physical range (`state_bounds`), price "
+            f"every control in comparable units (`running_cost`), bound the per-step "
+            f"change of the fast coordinates, or start from a sound optimum (`guess=`)",
+        Status.PATH_VIOLATED:
+            f"path constraint row {verdict.path_row} is violated at knot {verdict.path_step} "
+            f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
+            f"of the row's size (limit {PATH_TOLERANCE:g}): the NLP imposes the constraints "
+            f"at its own points, not at every knot. Use more steps or keep a margin in g",
+        Status.UNDER_RESOLVED:
+            f"the grid does not resolve the motion: {jump} (limit {JUMP_LIMIT:g}). Use more "
+            f"steps, or bound the per-step change of that coordinate"}[verdict.status]
+    return (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), "
+            f"but the optimum fails its verdict ({verdict.status}): {found}; "
+            f"docs/stages/drivers.md, \"Verdicts\".")
+
+
+def _replay_departure(problem, traj, simulated):
+    """(max |q - q_opt| / span of q, max |p - p_opt| / max |p_opt|, first step beyond
+    REPLAY_TOLERANCE or -1) of the optimum `traj` and its replay `simulated` (`replay`)."""
+    if simulated.steps < traj.steps:
+        return np.inf, np.inf, simulated.steps + 1
+    last = compared_momenta(problem, traj)
+    dq = np.abs(simulated.q - traj.q).max(axis=1) / _q_scale(traj)
+    dp = np.abs(simulated.p[:last] - traj.p[:last]).max(axis=1) / _scale(np.abs(traj.p).max())
+    beyond = np.flatnonzero((dq[:last] > REPLAY_TOLERANCE) | (dp > REPLAY_TOLERANCE))
+    return float(dq.max()), float(dp.max()), int(beyond[0]) if beyond.size else -1
+
+
+def _q_scale(traj):
+    """The unit of a departure in q: the span of the optimum's configurations (the largest
+    max_k q - min_k q), or their size where they do not move."""
+    return _scale(np.ptp(traj.q, axis=0).max(), np.abs(traj.q).max())
+
+
+def _scale(*sizes):
+    """The first of `sizes` above NO_SCALE, as the unit of a relative departure; 1 (the
+    system's units) for an optimum that neither moves nor leaves the origin: there the
+    data give no scale."""
+    return next((float(size) for size in sizes if size > NO_SCALE), 1.0)
+
+
+def knot_path_values(problem, traj):
+    """The path constraints g evaluated at every knot, shape (N + 1, rows): at (q_k, v_k,
+    u(t_k)) with v_k the mean of the interpolants' velocities at q_k from both sides (one
+    side at the ends; `dmoc.diagnostics.end_velocities`), through
+    ``problem.path_constraints`` on a straight step centred at q_k with velocity v_k.
+    The one-optimum case of `_knot_path_values_of`."""
+    return _knot_path_values_of([(problem, traj, end_velocities(problem.disc, traj))])[0]
+
+
+def _knot_path_values_of(triples):
+    """`knot_path_values` of each (problem, traj, its `end_velocities`) of `triples`: those
+    of one path Function in one call of it mapped over all their knots, their columns
+    one optimum after another (a serial map: each optimum's values bit for bit those of
+    a call of its own)."""
+    found, values = {}, [None] * len(triples)
+    for i, (problem, _, _) in enumerate(triples):
+        found.setdefault(id(problem.path_constraints), []).append(i)
+    for members in found.values():
+        path = triples[members[0]][0].path_constraints
+        columns = [_knot_arguments(*triples[i]) for i in members]
+        g = path.map(sum(c[0].shape[1] for c in columns))(
+            *(np.hstack(parts) for parts in zip(*columns)))[path.index_out("g")]
+        knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
+        for i, block in zip(members, np.split(np.array(g).T, knots)):
+            values[i] = block
+    return values
+
+
+def _knot_arguments(problem, traj, ends):
+    """The arguments (q0, q1, s, u, h, w) of ``problem.path_constraints`` at the N + 1
+    knots of `traj` (`knot_path_values`), one column per knot, from its interpolant's
+    end velocities `ends`."""
+    N, h = traj.steps, traj.h
+    start, end = ends
+    v = np.vstack([start[:1], (end[:-1] + start[1:]) / 2, end[-1:]])
+    q0, q1 = traj.q - v * h / 2, traj.q + v * h / 2
+    chords = np.empty((2 * (N + 1), traj.q.shape[1]))
+    chords[0::2], chords[1::2] = q0, q1
+    s = problem.disc.rule.stage_guess(chords, np.repeat(traj.p, 2, axis=0))[0::2]
+    u = np.tile(traj.control(traj.t), len(traj.control_nodes))
+    w = np.repeat(np.reshape(problem.parameters.vector(), (-1, 1)), N + 1, axis=1)
+    return (q0.T, q1.T, np.reshape(s, (N + 1, -1)).T, u.T, np.full((1, N + 1), h), w)
+
+
+def _path_violation(g):
+    """(largest g_k relative to its row's scale max_k |g_k|, knot, row) of the path values
+    at the knots `g` (`knot_path_values`); (0, -1, -1) without path constraints (None) or
+    violations."""
+    if g is None:
+        return 0.0, -1, -1
+    relative = g / np.maximum(np.abs(g).max(axis=0), np.finfo(float).tiny)
+    k, row = np.unravel_index(np.argmax(relative), relative.shape)
+    if relative[k, row] <= 0:
+        return 0.0, -1, -1
+    return float(relative[k, row]), int(k), int(row)

@@ -1,0 +1,204 @@
+"""The terms of the DMOC NLP (consumer 2 of the step residual): which rows and costs of an
+OptimalControlProblem are evaluated at which steps, on which entries of x and p, as the
+terms of a partially separable NLP (`dmoc.optimal_control.nlp.separable`). The step residual of
+(37)/(41) (or (39)/(43)) is mapped over the steps as the problem's momentum treatment says
+(`dmoc.optimal_control.nlp.momenta`); the boundary rows, the terminal cost and the path constraints
+(at the steps' midpoints and at every knot) are terms of their own.
+"""
+
+import hashlib
+
+import casadi as ca
+import numpy as np
+
+from ..._util.cache import BoundedCache
+from .separable import SeparableNLP, Term, function_key
+
+_FUNCTIONS = BoundedCache(128, "term_functions")   # term Functions by (`_functions_key`, term name): not per N
+
+
+def transcribe(problem, layouts, scales):
+    """The NLP of `problem` and its momenta.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+        The statement: its residual, costs, path constraints, final time and momenta.
+    layouts : tuple of Layout
+        (x_layout, p_layout, g_layout) of `Transcription`.
+    scales : tuple of ndarray
+        (x_scale, g_scale) of `dmoc.optimal_control.nlp.scaling.nlp_scales`.
+
+    Returns
+    -------
+    nlp : SeparableNLP
+    momenta : callable
+        ``momenta(x, p) -> P``, x and p numpy vectors, P of shape (n, N+1): p_0 ... p_N
+        (`momenta_function` of the problem's momentum treatment).
+    """
+    X, P, G = (_indices(lay) for lay in layouts)
+    step = _StepSlots(problem, X, P, G, scales, (layouts[0].size, layouts[1].size))
+    terms = problem.momentum_treatment.dynamics_terms(step, G["dynamics"]) + [step.start(), step.goal()]
+    path, N = problem.path_constraints, problem.steps
+    at = (("path", (0, N), "g", G["path"]),                     # the midpoints, then the rows
+          ("path_knots", (0, N), "g0", G["path_knots"][:, :N]),  # of q alone at q_0 ... q_{N-1}
+          ("path_end", (N - 1, N), "g1", G["path_knots"][:, N:]))    # and at q_N
+    for name, steps, output, rows in at:
+        if rows.size:
+            terms.append(step.term(name, step.at(*steps),
+                                   lambda s, output=output: (0, path(**inputs_of(path, s))[output]), rows))
+    nlp = SeparableNLP(*(lay.size for lay in layouts), terms)
+    return nlp, problem.momentum_treatment.momenta_function(step)
+
+
+class _StepSlots:
+    """The windows of x and p that the step terms read, by slot name. A slot of source
+    "q" holds configurations q - q_ref (x is centered on the boundary data, see
+    `Transcription.q_ref`); the term adds q_ref back. `sizes` are those of x and p."""
+
+    def __init__(self, problem, X, P, G, scales, sizes):
+        self.problem, self.X, self.P, self.G, self.N = problem, X, P, G, problem.steps
+        self.n_x, self.n_p = sizes
+        self.scales = scales
+        self.h = problem.final_time.slot(X, P)
+        self.q_ref, self.w = P["q_ref"], ("p", P["w"])
+        self.key = _functions_key(problem, G)
+
+    @property
+    def cost(self):
+        """C_d(q0, q1, s, u, h, w) of the running cost (built only when a term is)."""
+        return self.problem.disc.discrete_cost(self.problem.running_cost)
+
+    def at(self, first, stop, suffix=""):
+        """Slots q0, q1, lam, s, u (steps first ... stop - 1), names + suffix, and h, w."""
+        X = self.X
+        slots = {"q0": ("q", X["q"][:, first:stop]), "q1": ("q", X["q"][:, first + 1:stop + 1]),
+                 "lam": ("x", X["lam"][:, first:stop]), "s": ("x", X["s"][:, first:stop]),
+                 "u": ("x", X["u"][:, first:stop])}
+        return {**{k + suffix: v for k, v in slots.items()}, "h": self.h, "w": self.w}
+
+    def term(self, name, slots, body, g_index):
+        """`_term` with q_ref added to the slots of source "q" and the problem's scales, its
+        Function built once per `_functions_key` and scales (the index arrays are this
+        problem's)."""
+        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name),
+                     self.scales)
+
+    def step_cost(self, s):
+        """C_d of the step in the symbols `s`."""
+        return self.cost(**inputs_of(self.cost, s))["C_d"]
+
+    def start(self):
+        """Start momentum rows (and A(q_0) v_start = 0 where that end is partly free); with
+        a given start momentum (block "p_start" of p) the formulation's row with p_start in
+        place of dL/dv(q_0, v_start): p_0 - p_start (+ A(q_0)^T mu for the (-) form)."""
+        problem, X, G = self.problem, self.X, self.G
+        condition = problem.formulation.momentum_conditions(problem.disc.system)[0]
+        slots = {"q": ("q", X["q"][:, :1]), "p": ("x", X["p"][:, :1]),
+                 "v": ("x", X["v_start"]), "mu": ("x", X["mu"])}
+        if problem.p_start is not None:
+            slots["p_start"] = ("p", self.P["p_start"])
+
+            def body(s):        # (p_0 - dL/dv + impulse) - (p_start - dL/dv)
+                return 0, (condition(s["q"], s["p"], s["v"], s["mu"])
+                           - condition(s["q"], s["p_start"], s["v"], ca.DM.zeros(s["mu"].shape)))
+        else:
+            def body(s):
+                return 0, self._boundary_rows(condition, s, "start", "mu")
+        return self.term("start", slots, body, np.vstack([G["start"], G["start_velocity"]]))
+
+    def goal(self):
+        """Goal momentum rows at p_N, the velocity rows and the terminal cost."""
+        problem, X, G, N = self.problem, self.X, self.G, self.N
+        condition = problem.formulation.momentum_conditions(problem.disc.system)[1]
+        momenta, terminal = problem.momentum_treatment, problem.terminal_cost
+        slots = {"q": ("q", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"]), "w": self.w,
+                 **momenta.goal_slots(self)}
+
+        def body(s):
+            s = {**s, "p": momenta.goal_momentum(s)}
+            cost = 0 if terminal is None else terminal(s["q"], s["v"], s["w"])
+            return cost, self._boundary_rows(condition, s, "goal", "nu")
+        return self.term("goal", slots, body, np.vstack([G["goal"], G["goal_velocity"]]))
+
+    def _boundary_rows(self, condition, s, end, impulse):
+        rows = [condition(s["q"], s["p"], s["v"], s[impulse])]
+        if self.G[end + "_velocity"].size:
+            rows.append(ca.mtimes(self.problem.disc.system.constraint_matrix(s["q"]), s["v"]))
+        return ca.vertcat(*rows)
+
+
+def _term(name, slots, body, g_index, key, scales):
+    """A Term from named slots {name: (source, index array (size, M), or (size, 1) shared
+    by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`,
+    the slots' aliasing and their scales. Source "x" or "p": entries of x or p; "q":
+    entries of x holding q - q_ref, the body given q (slot "q_ref" from p). Slots that
+    read the same entries (q1 of the previous step and q0 of this one) are one input of
+    the Term, so that each instance reads an entry of x once (`dmoc.separable.Term`).
+    `scales` = (x_scale, g_scale) of `dmoc.scaling`: the Term reads x / x_scale and fills
+    g_scale * g (each constant over the instances)."""
+    M = g_index.shape[1]
+    x_scale, g_scale = scales
+    scale = {k: x_scale[index[:, 0]] if src != "p" and index.shape[1] else np.ones(index.shape[0])
+             for k, (src, index) in slots.items()}
+    row_scale = g_scale[g_index[:, 0]] if M else np.ones(g_index.shape[0])
+    wide = {k: (src, broadcast(index, M)) for k, (src, index) in slots.items()}
+    owner = {}                          # slot -> the first slot reading the same entries
+    for k, (src, index) in wide.items():
+        same = [o for o in owner if owner[o] == o and wide[o][0] == src
+                and np.array_equal(wide[o][1], index)] if M else []
+        owner[k] = same[0] if same else k
+    parts = {"x": [k for k, (s, _) in slots.items() if s in ("x", "q") and owner[k] == k],
+             "p": [k for k, (s, _) in slots.items() if s == "p" and owner[k] == k]}
+
+    def build():
+        symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items() if owner[k] == k}
+        values = {k: _scaled(symbols[owner[k]], scale[k]) for k in slots}
+        f, g = body({k: values[k] + values["q_ref"] if src == "q" else values[k]
+                     for k, (src, _) in slots.items()})
+        g = _scaled(ca.SX(g), row_scale)
+        z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
+        function = ca.Function(name, [z, w], [ca.SX(f), ca.SX(g)], ["z", "w"], ["f", "g"])
+        return function, function_key(function)
+    index = {src: np.vstack([wide[k][1] for k in parts[src]] or [np.zeros((0, M), int)])
+             for src in ("x", "p")}
+    aliases = tuple(sorted((k, o) for k, o in owner.items() if k != o))
+    scaling = repr((row_scale.tolist(), sorted((k, v.tolist()) for k, v in scale.items())))
+    function, key_of_function = _FUNCTIONS.get((key, aliases, scaling), build)
+    return Term(function, index["x"], index["p"], g_index, key_of_function)
+
+
+def _functions_key(problem, G):
+    """What the term Functions of `problem` depend on: the residual (system, rule,
+    formulation), how the momenta enter, where h lives, the velocity rows (G: the row
+    indices by block) and the user's cost and path Functions (by value)."""
+    user = (problem.running_cost, problem.terminal_cost, problem.path_constraints)
+    digest = hashlib.sha256("\0".join("" if f is None else f.serialize() for f in user).encode())
+    return (problem.residual.key, problem.momentum_treatment.name, problem.final_time.free,
+            G["start_velocity"].size, G["goal_velocity"].size, problem.p_start is not None,
+            digest.hexdigest())
+
+
+def _indices(layout):
+    """{block: its flat indices as a (rows, cols) int array}."""
+    every = np.arange(layout.size)
+    return {name: layout.unpack(every, name) for name in layout.blocks}
+
+
+def broadcast(index, M):
+    """An index array (rows, 1) shared by M instances as (rows, M); others as they are."""
+    return np.broadcast_to(index, (index.shape[0], M)) if index.shape[1] == 1 else index
+
+
+def _scaled(symbol, scale):
+    """symbol * scale (entrywise), symbol itself where every factor is 1."""
+    return symbol if (scale == 1).all() else symbol * ca.DM(scale)
+
+
+def _stack(symbols):
+    return ca.vertcat(*symbols) if symbols else ca.SX(0, 1)
+
+
+def inputs_of(function, symbols):
+    """The entries of `symbols` that `function` takes, by its input names."""
+    return {k: symbols[k] for k in function.name_in()}

@@ -1,0 +1,107 @@
+"""The record of a verdict on an optimum (consumer 2, solver half): the figures that
+`dmoc.optimize` measures on what IPOPT returns, held by `OptimizationResult.verdict` and
+written with it. The checks themselves are made by the drivers
+(`dmoc.drivers.verdict`), which may run `simulate`.
+"""
+
+from dataclasses import asdict, dataclass, fields
+
+
+from ...errors import InputError, Status, status_of
+
+# The statuses of a verdict, worst first: a result takes the first check that fails.
+STATUSES = (Status.NOT_REPLAYABLE, Status.PATH_VIOLATED, Status.UNDER_RESOLVED)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What an optimum was found to be, beyond IPOPT's convergence.
+
+    Attributes
+    ----------
+    status : dmoc.Status
+        ``"passed"``, or the worst check that failed, in the order of `STATUSES`:
+        ``"not_replayable"`` (`simulate` from the optimum's initial state with its controls
+        departs from it), ``"path_violated"`` (a path constraint fails at a knot q_k),
+        ``"under_resolved"`` (a step velocity changes by a large part of its peak within
+        one step).
+    replay_q, replay_p : float
+        max_k |q_k - q_opt,k| over the span of the optimum's configurations (the largest
+        max_k q - min_k q over the coordinates) and max_k |p_k - p_opt,k| over max |p_opt|:
+        the replay's relative departures (inf when `simulate` fails before step N). An
+        optimum that does not move measures q by its size, and one at the origin (or at
+        rest, for p) in the system's units.
+    replay_step : int
+        The first step k whose replayed q_k or p_k departs beyond the threshold; -1 if none.
+    velocity_jump : float
+        The largest |v_{k+1/2} - v_{k-1/2}| / max_j |v_{j+1/2}| over knots and coordinates
+        (`dmoc.diagnostics.velocity_changes`).
+    jump_step : int
+        The knot k where it is found.
+    jump_coordinate : str
+        The coordinate's name.
+    path_violation : float
+        The largest path-constraint value g at the knots relative to the row's scale
+        (max(1, max_k |g_k|) of that row); 0 without path constraints.
+    path_step, path_row : int
+        The knot k and the row of `path_constraints` where it is found; -1 if none.
+    discretization_error : float or None
+        The estimated distance of the optimum from the continuous one. This is where the
+        estimate of ``dmoc.drivers.error_estimate.estimate_error`` joins the verdict; None:
+        not estimated.
+    """
+
+    status: str
+    replay_q: float
+    replay_p: float
+    replay_step: int
+    velocity_jump: float
+    jump_step: int
+    jump_coordinate: str
+    path_violation: float
+    path_step: int
+    path_row: int
+    discretization_error: float = None
+
+    @property
+    def passed(self):
+        """True when every check holds."""
+        return self.status == Status.PASSED
+
+    def as_dict(self):
+        """The fields as a dict of plain values (JSON-safe but for inf; the status a `Status`,
+        which `json.dumps` writes as its string)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, values):
+        """The Verdict of `as_dict` (its status a `Status` again)."""
+        return cls(**dict(values, status=status_of(values["status"])))
+
+    @classmethod
+    def checked(cls, values):
+        """The Verdict of the dict `values` read from a file: its keys exactly the fields
+        (`discretization_error` may be left out), each value of the field's type; else
+        InputError saying which ("must ..." follows the caller's name of the dict)."""
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(values) - set(names))
+        missing = sorted(set(names) - set(values) - {"discretization_error"})
+        if unknown or missing:
+            raise InputError(f"must have the keys {names}; " + (
+                f"got the unknown keys {unknown}" if unknown else f"it lacks {missing}"))
+        for name, value in values.items():
+            if not (isinstance(value, _TYPES[name]) and not isinstance(value, bool)
+                    or value is None and name == "discretization_error"):
+                raise InputError(f"must have {name!r} {_DESCRIBED[_TYPES[name]]}; got {value!r}")
+        known = [status.value for status in (Status.PASSED, *STATUSES)]
+        if values["status"] not in known:
+            raise InputError(f"must have 'status' one of {known}; got {values['status']!r}")
+        return cls.from_dict(values)
+
+
+# the type of each field's value in a file (an int is a number too)
+_TYPES = {"status": str, "replay_q": (int, float), "replay_p": (int, float), "replay_step": int,
+          "velocity_jump": (int, float), "jump_step": int, "jump_coordinate": str,
+          "path_violation": (int, float), "path_step": int, "path_row": int,
+          "discretization_error": (int, float)}
+_DESCRIBED = {str: "a string", int: "an integer", (int, float): "a number"}

@@ -1,0 +1,74 @@
+"""How far a point of the DMOC NLP is from feasible (consumer 2, its solver half): the
+largest violation of the rows' bounds and the first row that has it, as one CasADi
+Function, which the packed IPOPT call evaluates at IPOPT's last iterate
+(`dmoc.optimal_control.solver.ipopt.PackedSolver`) and `most_violated` at any g; and that row named by
+its group (dynamics at step k, boundary, path).
+"""
+
+import casadi as ca
+
+from ..._util.cache import BoundedCache
+from ..._util.numeric import Evaluator
+
+_EVALUATORS = BoundedCache(16, "violations")     # keyed by the number of rows: `most_violated`
+
+
+def largest_violation(n_g):
+    """Function ``(g, lbg, ubg) -> (largest, row)`` over n_g rows (n_g >= 1): the largest
+    of max(lbg_i - g_i, g_i - ubg_i) over the rows, a row where either difference is NaN
+    (g NaN, or g and its bound infinite alike) counting as violated by inf, and the first
+    row that has it; (0, 0) when no row is violated. ``row`` is a float holding an
+    integer."""
+    g, lbg, ubg = (ca.MX.sym(name, n_g) for name in ("g", "lbg", "ubg"))
+    below, above = lbg - g, g - ubg
+    violation = ca.if_else(_is_nan(below) + _is_nan(above), ca.inf, ca.fmax(below, above))
+    worst = ca.mmax(violation)
+    violated = worst > 0
+    return ca.Function("largest_violation", [g, lbg, ubg],
+                       [ca.if_else(violated, worst, 0), ca.if_else(violated, ca.find(violation == worst), 0)],
+                       ["g", "lbg", "ubg"], ["largest", "row"])
+
+
+def _is_nan(v):
+    """MX: 1 where v is NaN, else 0 (``v != v`` would be simplified to 0 symbolically;
+    NaN <= inf is false, every other value's true)."""
+    return ca.logic_not(v <= ca.inf)
+
+
+def most_violated(transcription, g):
+    """(largest bound violation, its description) over the constraint vector g (unscaled)
+    of `transcription` (`largest_violation`; "none" without rows)."""
+    if g.size == 0:
+        return worst(transcription, 0.0, 0)
+    largest = _EVALUATORS.get(g.size, lambda: Evaluator(largest_violation(g.size)))
+    value, row = largest(g, transcription.lbg, transcription.ubg)
+    return worst(transcription, value[0, 0], row[0, 0])
+
+
+def worst(transcription, largest, row):
+    """(largest violation, its row `row` described): `largest_violation`'s outputs for
+    the stats of a solve; (0.0, "none") when `transcription` has no rows."""
+    if not transcription.g_layout.size:
+        return 0.0, "none"
+    return float(largest), described(transcription, int(row))
+
+
+def described(transcription, row):
+    """The row `row` of the constraint vector of `transcription` by its group: "dynamics
+    at step k (block row r)", "path constraint i at step k", "path constraint i at knot k"
+    or "boundary condition 'group' row r"."""
+    group, block_row, col = transcription.g_layout.locate(row)
+    if group == "dynamics":
+        name, row_in_block, _ = transcription.dynamics_rows.locate(block_row)     # blocks of one column
+        return f"dynamics at step {col} ({name} row {row_in_block})"
+    if group == "path":
+        return f"path constraint {block_row} at step {col}"
+    if group == "path_knots":
+        return f"path constraint {transcription.path_knot_rows[block_row]} at knot {col}"
+    return f"boundary condition '{group}' row {block_row}"
+
+
+def on_bound(x, lbx, ubx):
+    """MX: the number of entries of x with lbx < ubx that sit on one of their bounds."""
+    return ca.sum1((lbx < ubx) * ((x == lbx) + (x == ubx)))
+

@@ -1,0 +1,217 @@
+"""The user's data of a DMOC problem that are solver inputs, not part of the NLP: named
+parameters w (cost weights, obstacle positions, reference paths) that the running cost,
+the terminal cost and the path constraints read, and the Functions built from those user
+callables. Problems that differ only in the values of w share one NLP and one solver.
+"""
+
+import inspect
+
+import casadi as ca
+import numpy as np
+
+from ..._util import checks
+from ..._util.symbolic import checked_function
+from ...errors import InputError, InputTypeError
+from ..._util.layout import Layout, step_symbols
+from ..solver.ipopt import DEFAULT_IPOPT_OPTIONS
+
+
+class ProblemParameters:
+    """Named parameters, each a scalar or a 1-d array of reals.
+
+    Parameters
+    ----------
+    values : dict of str -> float or array_like of shape (k,), or None
+        None (or an empty dict): no parameters, and the user callables take no `w`.
+
+    Attributes
+    ----------
+    layout : Layout
+        The blocks of the stacked vector w, one per name (a scalar is a block of size 1).
+    values : dict of str -> ndarray
+        The current values, shape (k,) each, read-only: a problem's p is formed of them once
+        (`with_values` gives new ones).
+
+    Examples
+    --------
+    >>> w = ProblemParameters({"weight": 2.0, "centre": [0.0, 1.0]})
+    >>> w.vector().tolist(), w.with_values(weight=3.0).vector().tolist()
+    ([2.0, 0.0, 1.0], [3.0, 0.0, 1.0])
+    """
+
+    def __init__(self, values):
+        if values is None:
+            values = {}
+        if not isinstance(values, dict):
+            raise InputTypeError(f"`parameters` must be a dict of name -> value or None; got "
+                                 f"{type(values).__name__}.")
+        self.values = {}
+        for name, value in values.items():
+            if not isinstance(name, str) or not name.isidentifier():
+                raise InputError(f"`parameters` names must be identifiers (str); got {name!r}.")
+            self.values[name] = _value(f"parameters[{name!r}]", value)
+        self.layout = Layout([(name, v.size) for name, v in self.values.items()])
+
+    @property
+    def given(self):
+        """True when there are parameters (then the user callables take `w`)."""
+        return bool(self.values)
+
+    def vector(self):
+        """The stacked values, shape (layout.size,)."""
+        return np.concatenate([v for v in self.values.values()] or [np.zeros(0)])
+
+    def with_values(self, **values):
+        """These parameters with some values replaced (same names and sizes)."""
+        if values and not self.given:
+            raise InputError(f"this problem has no parameters (got {sorted(values)}); give "
+                             f"`parameters=` to OptimalControlProblem to make data re-solvable.")
+        checks.no_unknown_keys("parameters", values, self.values)
+        new = ProblemParameters.__new__(ProblemParameters)
+        new.layout, new.values = self.layout, dict(self.values)      # read-only: shared
+        for name, value in values.items():
+            new.values[name] = _value(f"parameters[{name!r}]", value, self.values[name].size)
+        return new
+
+    def symbols(self, w):
+        """{name: block of the column symbol w} for the user callables."""
+        return {name: w[self.layout.slice(name)] for name in self.layout.blocks}
+
+
+def _value(name, value, size=None):
+    out = np.atleast_1d(checks.real_array(name, value, "a real number or a 1-d array of them"))
+    if out.ndim != 1 or out.size == 0 or (size is not None and out.size != size):
+        expected = f"shape ({size},)" if size is not None else "a scalar or shape (k,), k >= 1"
+        raise InputError(f"`{name}` must be {expected}; got shape {np.shape(value)}.")
+    if not np.isfinite(out).all():
+        raise InputError(f"`{name}` must be finite; got {out.tolist()}.")
+    out = np.array(out, dtype=float)        # a copy of the caller's, made read-only
+    out.flags.writeable = False
+    return out
+
+
+def cost_function(name, cost, system, args, parameters):
+    """A user cost of (q, v[, u][, w]) checked on symbols, as the scalar Function
+    ``(args..., w) -> cost``: w (the stacked parameters) is passed to `cost` as a dict
+    {name: symbol} only when the problem has parameters."""
+    _check_arity(name, cost, args, parameters)
+    sizes = {"q": system.n, "v": system.n, "u": system.n_u}
+    symbols = [ca.SX.sym(a, sizes[a]) for a in args] + [ca.SX.sym("w", parameters.layout.size)]
+    return checked_function(name, _with_w(cost, parameters), symbols, (*args, "w"), (1, 1))
+
+
+def path_function(path, disc, parameters):
+    """The path constraints of one step, path(q, v, u[, w]) flattened to a column, as the
+    Function ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)``: "g" in the middle of the
+    step (on the rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0"
+    and "g1" the rows that read the configuration alone (not v, not u) at the step's knots
+    q0 and q1, "knot_rows" their indices in g (a constant; `knot_rows`)."""
+    sys = disc.system
+    _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
+    symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
+                                            ("w", parameters.layout.size))]
+    at_state = checked_function("path_constraints", _with_w(path, parameters), symbols,
+                                ("q", "v", "u", "w"), None)
+    g = at_state(*symbols)
+    _refuse_comparisons(g)
+    of_q = [i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(*symbols[1:3]))]
+    x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
+    w, still = symbols[-1], (ca.SX.zeros(sys.n), ca.SX.zeros(sys.n_u))
+    q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
+    values = [at_state(q, v, disc.rule.control_at(x["u"], 0.5), w),
+              *(at_state(knot, *still, w)[of_q] for knot in (x["q0"], x["q1"]))]
+    names = ["q0", "q1", "s", "u", "h"]
+    rows = ca.SX(ca.DM(np.array(of_q, dtype=float).reshape(-1, 1)))
+    return ca.Function("path_constraints", [x[k] for k in names] + [w], values + [rows],
+                       names + ["w"], ["g", "g0", "g1", "knot_rows"])
+
+
+def knot_rows(path):
+    """The indices in g of the rows of `path_function`'s g0 and g1, a tuple of int."""
+    out = path(*[ca.DM.zeros(path.sparsity_in(i)) for i in range(path.n_in())])
+    return tuple(int(i) for i in np.array(out[path.index_out("knot_rows")]).ravel())
+
+
+def refuse_violated_ends(path, problem, made):
+    """InputError when a given end, q_start or q_goal, violates a row of the path
+    constraints that is imposed at the knots (`path_function`'s g0, g1: the rows that read
+    the configuration alone): such a problem has no solution. Rows that read a free entry
+    of that end are not checked. `made` is a dict that keeps the check of each end per
+    set of free entries (`_end_rows`: it depends on `path` and that set alone), shared by
+    the problems of one NLP (`Transcription.with_bounds`), so that new boundary data are
+    checked without building it again (0.6 ms per ``with_boundary``, docs/performance.md)."""
+    for end, output in (("q_start", "g0"), ("q_goal", "g1")):
+        given = getattr(problem, end)
+        key = (end, np.isfinite(given).tobytes())
+        if key not in made:
+            made[key] = _end_rows(path, problem, output, given)
+        rows, at_end = made[key]
+        if not rows:
+            continue
+        values = np.array(at_end(np.nan_to_num(given), problem.parameters.vector())).ravel()
+        worst = int(np.argmax(values))
+        if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
+            raise InputError(
+                f"`{end}` must satisfy `path_constraints` g <= 0, which hold at every knot q_0 "
+                f"... q_N, the ends included; got g[{knot_rows(path)[rows[worst]]}] = "
+                f"{values[worst]:.6g} there. "
+                f"Move `{end}` or the constraint.")
+
+
+def _end_rows(path, problem, output, given):
+    """(the rows of `path`'s `output`, g0 or g1, that read no free (NaN) entry of the end
+    configuration `given`, the Function (q, w) -> those rows at that end, or None without
+    rows)."""
+    x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
+    w = ca.SX.sym("w", problem.parameters.layout.size)
+    q = x["q0" if output == "g0" else "q1"]
+    g = path(**{k: x[k] for k in ("q0", "q1", "s", "u", "h")}, w=w)[output]
+    free = q[np.flatnonzero(~np.isfinite(given)).tolist()]
+    rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], free)]
+    return rows, ca.Function("at_end", [q, w], [g[rows]]) if rows else None
+
+
+# CasADi's comparisons and logical operations: an entry that is one is a 0/1 value
+_TRUTH_VALUES = (ca.OP_LT, ca.OP_LE, ca.OP_EQ, ca.OP_NE, ca.OP_NOT, ca.OP_AND, ca.OP_OR)
+
+
+def _refuse_comparisons(g):
+    """InputError when an entry of the path constraints' expression `g` is a comparison
+    (q[0] < 0.5): it is the 0/1 truth value, which `g <= 0` would impose as "false"."""
+    for i in range(g.nnz()):
+        entry = g.nz[i]
+        if any(entry.is_op(op) for op in _TRUTH_VALUES):
+            raise InputError(
+                f"`path_constraints` must return expressions g imposed as g <= 0, not "
+                f"comparisons; entry {i} is {entry} (a 0/1 truth value). Write q[0] < 0.5 "
+                f"as `q[0] - 0.5` and a >= b as `b - a`.")
+
+
+def _check_arity(name, fun, args, parameters):
+    """InputTypeError when `fun` visibly takes the wrong number of arguments for whether
+    the problem has parameters (its signature says so; callables without one pass)."""
+    try:
+        signature = inspect.signature(fun)
+    except (TypeError, ValueError):
+        return
+    if any(p.kind == inspect.Parameter.VAR_POSITIONAL for p in signature.parameters.values()):
+        return
+    positional = [p for p in signature.parameters.values() if p.kind in (
+        inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    required = sum(p.default is inspect.Parameter.empty for p in positional)
+    expected = len(args) + parameters.given
+    if not required <= expected <= len(positional):
+        given = "with `parameters`" if parameters.given else "without `parameters`"
+        listed = ", ".join((*args, "w") if parameters.given else args)
+        raise InputTypeError(f"`{name}` must take ({listed}) {given}; it takes {len(positional)} "
+                             f"positional arguments.")
+
+
+def _with_w(fun, parameters):
+    """`fun` called with the parameters' dict as its last argument, or without it when
+    there are none."""
+    if not callable(fun):
+        return fun                      # checked_function names it
+    if not parameters.given:
+        return lambda *args: fun(*args[:-1])
+    return lambda *args: fun(*args[:-1], parameters.symbols(args[-1]))

@@ -1,0 +1,296 @@
+"""Consumer 2 of the step residual, its statement: OptimalControlProblem holds the user's
+DMOC problem (Ober-Bloebaum, Junge & Marsden 2011), the discretization, the boundary data
+(set and checked by `boundary`), the costs, bounds and parameters, with the step residual of
+(37)/(41) that is imposed at every step, the final time and the momentum treatment chosen
+once as values. Its `transcription` (`dmoc.optimal_control.nlp.transcription`) is the NLP built
+from it, once.
+"""
+
+import casadi as ca
+import numpy as np
+
+from ..._util import checks
+from ...discrete import Discretization
+from ...principle.formulations import as_formulation
+from ...principle.residual import step_residual
+from .boundary import set_boundary
+from .final_time import FixedFinalTime, as_final_time
+from ..nlp.momenta import momentum_treatment
+from .parameters import ProblemParameters, cost_function, path_function
+from .read_only import ReadOnly, Transcribed, frozen
+from ..nlp.transcription import Transcription
+
+
+class OptimalControlProblem(ReadOnly):
+    """A DMOC problem: minimize sum_k C_d(q_k, q_{k+1}, u_k) + terminal cost subject to the
+    step residual of (37)/(41) at every step and the boundary data.
+
+    Parameters
+    ----------
+    disc : Discretization
+        Its step h fixes the duration steps * h, unless `duration` frees it.
+    steps : int
+        Number of steps N.
+    q_start, q_goal : array_like, shape (n,)
+        Boundary configurations; entries None leave that component free.
+    v_start, v_goal : array_like, shape (n,), optional
+        Boundary velocities (default: at rest); entries None are free. They must lie in
+        Delta_Q = ker A(q) when fully given; otherwise A(q) v = 0 is imposed (except for
+        a given zero velocity, which lies in every Delta_Q).
+    p_start : array_like, shape (n,), optional
+        A start momentum instead of `v_start` (exclusive), as a receding-horizon
+        controller measures it: the start rows become p_0 = p_start (+ form; p_0 =
+        p_start - A(q_0)^T mu for the (-) form) in place of p_0 = dL/dv(q_0, v_start), and
+        no velocity rows are imposed at the start. Fully given; a value of the NLP's
+        parameter vector, so `with_boundary` changes it without a new NLP.
+    running_cost : callable, optional
+        ``running_cost(q, v, u)`` (scalar CasADi expression); default |u|^2. Discretized by
+        the rule of `disc` at its quadrature points, u interpolated from the step's
+        control values (midpoint: h C(q_{k+1/2}, (q_{k+1} - q_k)/h, u_k)). With
+        `parameters`, it, `terminal_cost` and `path_constraints` take one more argument,
+        ``w``: a dict of the parameters' symbols by name.
+    terminal_cost : callable, optional
+        ``terminal_cost(q, v)`` at (q_N, v_N).
+    control_bounds, state_bounds : pair of array_like, optional
+        (lower, upper), shapes (n_u,) and (n,); None entries are unbounded.
+    path_constraints : callable, optional
+        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint (on the
+        rule's interpolant, u interpolated there), its rows of q alone at every knot q_0
+        ... q_N too; a given end that violates one is refused (docs/stages/optimize.md,
+        "Path constraints").
+    duration : pair of float, optional
+        (T_min, T_max): free final time, h = T/N becomes a decision variable.
+    variant : {"+", "-"} or Formulation
+        The form of the step equations and of the momentum boundary rows
+        (`dmoc.formulations`).
+    momenta : {"substituted", "variables"}
+        "substituted" (default): only p_0 is a variable; p_{k+1} = D2 L_d + f_d^+ (- A^T lam
+        for (-)) follows from step k's explicit "right" rows, which then hold by
+        construction, and the other rows are imposed (a smaller NLP: n fewer variables
+        and rows per step). "variables": every p_k a variable and all rows imposed. A
+        formulation whose p_{k+1} is not explicit (the Hamiltonian (+) form (39), explicit
+        in q_{k+1}) or depends on p_k (the (-) form (43), unless the Hamiltonian makes it
+        free of p_k) carries the momenta as variables (`dmoc.principle.explicit.substitutable`).
+    parameters : dict of str -> float or array_like of shape (k,), optional
+        Named data the costs and path constraints read through ``w`` (weights, obstacle
+        positions): entries of p, so `with_parameters` changes them without a new NLP.
+
+    Attributes
+    ----------
+    disc, steps, formulation, residual : Discretization, int, Formulation, StepResidual
+        The discretization, N, the form of the step rows and the residual they impose.
+    q_start, q_goal, v_start, v_goal : ndarray, shape (n,)
+        The boundary data, NaN where free (read-only arrays; `with_boundary` changes them);
+        `v_start` is all NaN when `p_start` is given.
+    p_start : ndarray, shape (n,), or None
+        The start momentum, when given instead of `v_start`.
+    control_bounds, state_bounds : tuple of ndarray
+        (lower, upper), shapes (n_u,) and (n,), infinite where unbounded.
+    running_cost, terminal_cost, path_constraints : casadi.Function or None
+        The user's callables checked on symbols: ``(q, v, u, w) -> cost``,
+        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)`` at the
+        step's midpoint and (its rows of q alone, knot_rows) at its two knots.
+    parameters : ProblemParameters
+        Their `parameter_values` are entries of p (`with_parameters` changes them).
+    final_time : FixedFinalTime or FreeFinalTime
+        Where h lives (p or x) and its range (`dmoc.optimal_control.statement.final_time`); `free_time`
+        and `duration` read it.
+    momentum_treatment : CarriedMomenta or SubstitutedMomenta
+        How p_0 ... p_N enter the NLP (`dmoc.optimal_control.nlp.momenta`): the `momenta` choice, or
+        carried where the formulation does not allow substitution.
+    velocity_rows : dict
+        {"start": bool, "goal": bool}: where A(q) v = 0 is imposed.
+    transcription : Transcription
+        The NLP of this problem: layouts, scales, terms, bounds and p. Its attributes
+        ``nlp, separable, x_layout, p_layout, g_layout, dynamics_rows, x_scale, g_scale,
+        lbx, ubx, lbg, ubg, p, q_ref, structure`` and methods ``momenta(x)``,
+        ``configurations(x)`` are also the problem's (``problem.nlp is
+        problem.transcription.nlp``). `structure` is a key of the NLP by value: see
+        `with_boundary` and `dmoc.optimize`.
+
+    Every attribute is read-only: assigning one raises AttributeError naming the way to
+    change it (`with_boundary`, `with_parameters`, or a new problem), so that the
+    statement and its NLP never disagree.
+    """
+
+    _CHANGE = {**{k: f"use `problem.with_boundary({k}=...)`, which keeps the NLP"
+                  for k in ("q_start", "q_goal", "v_start", "v_goal", "p_start")},
+               **{k: "use `problem.with_parameters(name=value)`, which keeps the NLP"
+                  for k in ("parameters", "parameter_values")}}
+    _CHANGE_ANY = ("build a new OptimalControlProblem (its data and its NLP, "
+                   "`problem.transcription`, are built together)")
+
+    def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None, p_start=None,
+                 running_cost=None, terminal_cost=None, control_bounds=None,
+                 state_bounds=None, path_constraints=None, duration=None, variant="+",
+                 momenta="substituted", parameters=None):
+        checks.instance("disc", disc, Discretization, "a Discretization")
+        self._disc, sys = disc, disc.system
+        self._steps = N = checks.positive_int("steps", steps)
+        self._formulation = as_formulation(variant, disc)
+        self._residual = step_residual(disc, self._formulation)
+        self._momentum_treatment = momentum_treatment(momenta, self._residual)
+        n = sys.n
+        self._final_time = as_final_time(duration, N, disc.h)
+        self._parameters = w = ProblemParameters(parameters)
+        default = (lambda q, v, u, w: ca.sumsqr(u)) if w.given else (lambda q, v, u: ca.sumsqr(u))
+        self._running = cost_function("running_cost", running_cost or default, sys, ("q", "v", "u"), w)
+        self._terminal = None if terminal_cost is None else cost_function(
+            "terminal_cost", terminal_cost, sys, ("q", "v"), w)
+        self._path = None if path_constraints is None else path_function(path_constraints, disc, w)
+        self._control_bounds = checks.bound_pair("control_bounds", control_bounds, sys.n_u)
+        self._state_bounds = checks.bound_pair("state_bounds", state_bounds, n)
+        for bound in (*self._control_bounds, *self._state_bounds):
+            frozen(bound)
+        set_boundary(self, {"q_start": q_start, "q_goal": q_goal, "v_start": v_start,
+                            "p_start": p_start, "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
+        self._transcription = Transcription(self)
+
+    def _copy(self):
+        """A shallow copy, its attributes this problem's until set anew (as `copy.copy`
+        makes it, without its protocol's calls: a re-solve's `with_boundary` pays it)."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
+    def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None, p_start=None):
+        """This problem with new boundary data; arguments left None keep this problem's
+        (a given `p_start` replaces the start velocity, a given `v_start` the start
+        momentum).
+
+        The boundary data enter the NLP only through the bounds lbx = ubx (and p_start
+        through p), so the copy shares this problem's NLP (and `structure`, hence its
+        compiled solver and a warm start from this problem's optimum) unless an end changes
+        between fully given and partly free with a nonzero or free velocity (then the
+        velocity rows A(q) v = 0 appear or vanish), or the start changes between a velocity
+        and a momentum: then the NLP is rebuilt.
+
+        Examples
+        --------
+        >>> import dmoc, dmoc.problems
+        >>> problem = dmoc.problems.knife_edge_parking(20)
+        >>> moved = problem.with_boundary(q_goal=[0.2, 1.0, 0.0])
+        >>> moved.q_goal.tolist(), moved.structure == problem.structure
+        ([0.2, 1.0, 0.0], True)
+        """
+        new = self._copy()
+        given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal,
+                 "p_start": p_start}
+        set_boundary(new, {k: v for k, v in given.items() if v is not None})
+        same_nlp = (new._velocity_rows == self._velocity_rows
+                    and (new.p_start is None) == (self.p_start is None))
+        new._transcription = self._transcription.with_bounds(new) if same_nlp else Transcription(new)
+        return new
+
+    def with_parameters(self, **values):
+        """This problem with new values of some of its `parameters` (same names and sizes):
+        the same NLP and `structure`, so `optimize` reuses the solver, and the optimum of
+        this problem warm-starts the copy.
+
+        Examples
+        --------
+        >>> import casadi as ca, dmoc
+        >>> disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+        >>> problem = dmoc.OptimalControlProblem(
+        ...     disc, 20, q_start=[0, 0, 0], q_goal=[0, 1, 0], parameters={"r": 1.0},
+        ...     running_cost=lambda q, v, u, w: u[0] ** 2 + w["r"] * u[1] ** 2)
+        >>> heavier = problem.with_parameters(r=10.0)
+        >>> heavier.parameter_values["r"].tolist(), heavier.structure == problem.structure
+        ([10.0], True)
+        """
+        new = self._copy()
+        new._parameters = self._parameters.with_values(**values)
+        new._transcription = self._transcription.with_bounds(new)
+        return new
+
+    def with_steps(self, steps):
+        """This problem on N = `steps` steps over the same time: h = N_old h_old / N (a
+        free final time keeps its range (T_min, T_max)). The step residual, costs and
+        path constraints take h as an input and are shared; the NLP is new (another
+        `structure`), so an optimum of this problem guesses the copy through its
+        trajectory, resampled. `dmoc.drivers.accuracy` refines grids with it.
+
+        >>> import dmoc.problems
+        >>> finer = dmoc.problems.knife_edge_parking(20).with_steps(40)
+        >>> finer.steps, finer.disc.h
+        (40, 0.1)
+        """
+        new = self._copy()
+        new._steps = checks.positive_int("steps", steps)
+        new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
+        if not self.free_time:
+            new._final_time = FixedFinalTime(new._disc.h)
+        new._transcription = Transcription(new)
+        return new
+
+    disc = property(lambda self: self._disc, doc="The Discretization (system, rule, step h).")
+    steps = property(lambda self: self._steps, doc="The number of steps N.")
+    formulation = property(lambda self: self._formulation, doc="The Formulation of the step rows.")
+    residual = property(lambda self: self._residual, doc="The StepResidual imposed at every step.")
+    momentum_treatment = property(lambda self: self._momentum_treatment,
+                                  doc="CarriedMomenta or SubstitutedMomenta (`dmoc.optimal_control.nlp.momenta`).")
+    final_time = property(lambda self: self._final_time,
+                          doc="FixedFinalTime or FreeFinalTime (`dmoc.optimal_control.statement.final_time`).")
+    q_start = property(lambda self: self._q_start, doc="Start configuration, shape (n,), NaN free.")
+    q_goal = property(lambda self: self._q_goal, doc="Goal configuration, shape (n,), NaN free.")
+    v_start = property(lambda self: self._v_start, doc="Start velocity, shape (n,), NaN free.")
+    p_start = property(lambda self: self._p_start, doc="Start momentum, shape (n,), or None.")
+    v_goal = property(lambda self: self._v_goal, doc="Goal velocity, shape (n,), NaN free.")
+    control_bounds = property(lambda self: self._control_bounds, doc="(lower, upper), shapes (n_u,).")
+    state_bounds = property(lambda self: self._state_bounds, doc="(lower, upper), shapes (n,).")
+    parameters = property(lambda self: self._parameters, doc="The ProblemParameters.")
+    running_cost = property(lambda self: self._running, doc="Function (q, v, u, w) -> cost.")
+    terminal_cost = property(lambda self: self._terminal, doc="Function (q, v, w) -> cost, or None.")
+    path_constraints = property(lambda self: self._path,
+                                doc="Function (q0, q1, s, u, h, w) -> g (g <= 0), or None.")
+    transcription = property(lambda self: self._transcription, doc="The problem's Transcription.")
+
+    nlp = Transcribed()
+    separable = Transcribed()
+    x_layout = Transcribed()
+    p_layout = Transcribed()
+    g_layout = Transcribed()
+    dynamics_rows = Transcribed()
+    x_scale = Transcribed()
+    g_scale = Transcribed()
+    lbx = Transcribed()
+    ubx = Transcribed()
+    lbg = Transcribed()
+    ubg = Transcribed()
+    p = Transcribed()
+    q_ref = Transcribed()
+    structure = Transcribed()
+    momenta = Transcribed()
+    configurations = Transcribed()
+
+    @property
+    def parameter_values(self):
+        """{name: value, shape (k,)} of the problem's `parameters`."""
+        return {k: v.copy() for k, v in self._parameters.values.items()}
+
+    @property
+    def velocity_rows(self):
+        """{"start": bool, "goal": bool}: whether A(q) v = 0 is imposed at that end
+        (`dmoc.optimal_control.statement.boundary.imposes_velocity_rows`), found when the boundary data are
+        set."""
+        return dict(self._velocity_rows)
+
+    @property
+    def variant(self):
+        """The formulation's name, ``"+"`` or ``"-"``."""
+        return self._formulation.name
+
+    @property
+    def free_time(self):
+        """True when the final time is a decision variable (`final_time.free`)."""
+        return self._final_time.free
+
+    @property
+    def duration(self):
+        """(T_min, T_max) of a free final time, else None."""
+        return self._final_time.duration
+
+    def __repr__(self):
+        T = self._transcription
+        return (f"OptimalControlProblem(steps={self.steps}, variant={self.variant!r}, "
+                f"free_time={self.free_time}, x: {T.x_layout.size}, g: {T.g_layout.size})")

@@ -1,0 +1,48 @@
+"""The Newton update of one step of the simulator (`dmoc.simulation.stepper`): J^{-1} g of
+the step equations, through the Schur complement of their multipliers (the constraint rows,
+omega_d (28) or the stage rule's moments, do not involve them); by QR when the blocks are
+large.
+"""
+
+import casadi as ca
+
+MINOR_UNKNOWNS = 6  # blocks up to this size are inverted by cofactors: fewer operations than QR
+
+
+def newton_update(g, y, unknowns):
+    """J^{-1} g, J = dg/dy, in few operations: the equations are (left, stage) rows and
+    constraint rows, the unknowns positions x = (dq, ds) and multipliers nu, and J =
+    [H G; C 0] (omega_d does not involve nu), so nu follows from the m x m Schur
+    complement C H^{-1} G, H^{-1} and its inverse by cofactors when they are small;
+    QR otherwise. A singular H (a degenerate Lagrangian) gives a non-finite step, which
+    the line-search Newton redoes.
+
+    Parameters
+    ----------
+    g : casadi.SX, shape (unknowns.size, 1)
+        The step equations: the "left" and "stage" rows, then the "constraint" rows
+        (`dmoc.principle.explicit.SOLVED_ROWS`).
+    y : casadi.SX, shape (unknowns.size, 1)
+        The unknowns' symbols.
+    unknowns : Layout
+        The blocks of `y`: dq, nu and ds (`DiracStepper.unknowns`).
+
+    Returns
+    -------
+    casadi.SX, shape (unknowns.size, 1)
+    """
+    J = ca.jacobian(g, y)
+    x = [i for name in ("dq", "ds") for i in range(unknowns.slice(name).start,
+                                                   unknowns.slice(name).stop)]
+    nu, k = list(range(unknowns.slice("nu").start, unknowns.slice("nu").stop)), len(x)
+    if k > MINOR_UNKNOWNS or len(nu) > MINOR_UNKNOWNS or J[k:, nu].nnz():
+        return ca.solve(J, g)
+    if not nu:
+        return ca.mtimes(ca.inv_minor(J), g)
+    H_inv = ca.inv_minor(J[:k, x])
+    G, C, r_x, r_nu = J[:k, nu], J[k:, x], g[:k], g[k:]
+    d_nu = ca.mtimes(ca.inv_minor(ca.mtimes([C, H_inv, G])), ca.mtimes([C, H_inv, r_x]) - r_nu)
+    delta = ca.SX.zeros(y.numel())
+    delta[x] = ca.mtimes(H_inv, r_x - ca.mtimes(G, d_nu))
+    delta[nu] = d_nu
+    return delta

@@ -1,0 +1,285 @@
+"""The compiled step of the Dirac integrator: one step of the shared StepResidual solved by
+Newton's method, over a horizon with `mapaccum`. Used by `simulate`; it owns no mechanics:
+the residual says which rows to solve, the formulation how the carried momentum and the
+multiplier it solves for enter the step (`Formulation.step_momentum`).
+
+Each step solves every residual row but "right" for y = (dq, nu, ds): the increment of
+the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
+q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
+(-p1 or -q1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
+Newton iterations (pure SX, optionally compiled to C; each update through the Schur
+complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
+converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
+horizons of 1, 2, 4, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on
+disk (`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate the
+same horizons mapped over up to LOCKSTEP runs (`horizons_of`), and a run that leaves them
+goes on with `resume`.
+"""
+
+import time
+import warnings
+
+import casadi as ca
+import numpy as np
+
+from .._util import compiled
+from ..principle.explicit import explicit_end
+from .._util.layout import Layout
+from .step_blocks import CHUNK, chunk_length, chunk_sizes
+from .schur_complement import newton_update
+
+FAST_ITERATIONS = 3
+NATIVE_AFTER_SECONDS = 0.5
+
+
+class DiracStepper:
+    """Step map (q_k, p_k', u_k, h) -> (q_{k+1}, p_{k+1}', ...) of a StepResidual.
+
+    Blocks (``state``, carried from step to step): q (q_k), p (p_k', the momentum carried
+    in), and the Newton warm start dq (the previous increment), nu, ds. Blocks of the
+    per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
+    solved rows), update (relative size of the last Newton update), scale (1 + max abs of
+    p_k and p_{k+1}, what rnorm is measured against) and nonfinite (how many entries of
+    the rows, the next state and the outputs are NaN or infinite). The step h is an
+    input, so one stepper serves every h.
+
+    `native` picks how the fast path's horizons run: True, as the compiled C `library`
+    (`dmoc._util.compiled.Library`, compiled at once unless cached on disk); False, in
+    CasADi's virtual machine; None, compiled if the library is cached, else as soon as this
+    stepper has spent NATIVE_AFTER_SECONDS in the virtual machine (about what compiling
+    costs, so a run never costs more than about twice the better choice; also mid-run;
+    without a C compiler it stays in the virtual machine). `native` says how the horizons
+    run now; both ways compute the same thing, so switching changes no result.
+    """
+
+    def __init__(self, residual, tol, max_iter, native=False):
+        self.residual, self.tol = residual, tol
+        n, m, ns = residual.n, residual.n_lam, residual.n_stages
+        self.unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
+        self.state = Layout([("q", n), ("p", n), *((k, self.unknowns.numel(k)) for k in self.unknowns.blocks)])
+        self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1),
+                           ("scale", 1), ("nonfinite", 1)])
+        self.equations = self._equations()
+        self.fast = self._fast_step(eliminate=native is not False)
+        self.robust = self._robust_step(max_iter)
+        horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in chunk_sizes()]
+        self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
+        self._use(horizons)
+        self.native, self.vm_seconds = False, 0.0
+        self._auto = native is None and self.library.key is not None
+        if native or (self._auto and self.library.cached()):
+            self._go_native()
+
+    def _go_native(self):
+        """Evaluate the horizons from now on with the compiled library. When compiling fails,
+        `native=True` raises; the automatic choice warns and keeps the virtual machine."""
+        try:
+            library = self.library.load()
+        except RuntimeError as err:
+            if not self._auto:
+                raise
+            warnings.warn(f"{err}\nSimulating in CasADi's virtual machine instead.", RuntimeWarning)
+            self._auto = False
+            return
+        self._use(library.values())
+        self.native = True
+
+    def _use(self, horizons):
+        """Evaluate the chunks with `horizons` (of 1, 2, 4, ..., CHUNK steps) from now on:
+        each through a buffer of its own, and, for runs in lockstep, through buffers of its
+        map over 1, 2, 4, ..., LOCKSTEP runs, made when first used (`horizons_of`)."""
+        self._horizons = dict(zip(chunk_sizes(), horizons))
+        self._chunks = {c: f.buffer() for c, f in self._horizons.items()}
+        self._mapped = {}
+
+    def horizons_of(self, steps, runs):
+        """(buffer, evaluate) of the horizon of `steps` steps mapped over `runs` runs
+        (a power of two up to LOCKSTEP): CasADi's serial map, which calls the one horizon
+        (compiled or in the virtual machine) for each run in turn, on columns that hold
+        the runs one after another: inputs state (runs, state.size), u (runs, steps,
+        n_controls), h (runs * steps,), outputs next (runs, steps, state.size) and out
+        (runs, steps, out.size), C-contiguous."""
+        key = (steps, runs)
+        if key not in self._mapped:
+            mapped = self._horizons[steps].map(f"horizon_{steps}_x{runs}", "serial", runs, [], [])
+            self._mapped[key] = mapped.buffer()
+        return self._mapped[key]
+
+    def native_if_due(self):
+        """With `native` None, go native once the virtual machine has had its
+        NATIVE_AFTER_SECONDS (before the next chunk)."""
+        if self._auto and not self.native and self.vm_seconds >= NATIVE_AFTER_SECONDS:
+            self._go_native()
+
+    def _equations(self):
+        """G(y, params) -> (g, p0, q1, p1) with params = (q0, p0', u, h): the equations, the
+        momentum p_k they use and the next state.
+
+        The residual's "right" rows give one end variable explicitly (the formulation's
+        `explicit`: p1 for the Lagrangian forms and (43), q1 for (39)); the unknown dq is the
+        increment of the other one from its value at the start of the step. Increments are
+        substituted symbolically so that the velocities inside the residual are exact
+        combinations of dq/h and ds/h (CasADi simplifies (q0 + dq) - q0): no cancellation
+        when |q| is large, no rounding of q1 carried into p1, and the previous step's
+        increments are a warm start.
+        """
+        R, n = self.residual, self.residual.n
+        y, q0, pc0 = ca.SX.sym("y", self.unknowns.size), ca.SX.sym("q0", n), ca.SX.sym("p0", n)
+        u, h = ca.SX.sym("u", R.n_controls), ca.SX.sym("h")
+        Y = self.unknowns.split(y)
+        p0, lam = R.formulation.step_momentum(R.system, q0, pc0, Y["nu"])
+        explicit = R.formulation.explicit
+        implicit, start = ("q1", q0) if explicit == "p1" else ("p1", p0)
+        ends = {implicit: start + Y["dq"]}
+        out = explicit_end(R)(q0=q0, p0=p0, lam=lam, s=self._stages(q0, Y["ds"]), u=u, h=h, **ends)
+        ends[explicit] = out[explicit]
+        return ca.Function("step_equations", [y, ca.vertcat(q0, pc0, u, h)],
+                           [out["rows"], p0, ends["q1"], ends["p1"]],
+                           ["y", "params"], ["g", "p0", "q1", "p1"])
+
+    def _stages(self, q0, ds):
+        """The stage values s = (q0, ..., q0) + ds."""
+        return ca.repmat(q0, ds.numel() // q0.numel(), 1) + ds
+
+    def _wrap(self, state, params, sol, update):
+        """Next state and outputs from a solution y = (dq, nu, ds) of the step equations,
+        with what `accepted` needs computed in the step itself (in C when compiled): the
+        scale of the momenta and the count of non-finite entries (CasADi's max-norm skips
+        NaN, so rnorm alone cannot tell)."""
+        g, p0, q1, p1 = self.equations(sol, params)
+        Y = self.unknowns.split(sol)
+        q0 = self.state.split(state)["q"]
+        following = self.state.join({"q": q1, "p": p1, **Y})
+        out = {"p0": p0, "nu": Y["nu"], "s": self._stages(q0, Y["ds"]), "rnorm": ca.norm_inf(g),
+               "update": update, "scale": 1 + ca.fmax(ca.norm_inf(p0), ca.norm_inf(p1))}
+        every = ca.vertcat(g, following, *out.values())
+        out["nonfinite"] = ca.sum1(1 - (ca.fabs(every) < ca.inf))
+        return following, self.out.join(out)
+
+    def _symbols(self, kind):
+        """(state, u, h, params, warm start) symbols of kind SX or MX."""
+        state = kind.sym("state", self.state.size)
+        u, h = kind.sym("u", self.residual.n_controls), kind.sym("h")
+        X = self.state.split(state)
+        guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
+        return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
+
+    def _fast_step(self, eliminate):
+        """The fast path's Function; with `eliminate`, after common-subexpression
+        elimination (``ca.cse``), which the compiled library is generated from. A stepper
+        that never compiles (native=False) skips it: on the rolling disk with lobatto4 it
+        costs 0.12 s to build (three times the rest of the stepper) and saves 3 % of the
+        virtual machine's time over 2e4 steps (docs/performance.md)."""
+        state, u, h, params, y = self._symbols(ca.SX)
+        ys = ca.SX.sym("y", y.numel())
+        g = self.equations(ys, params)[0]
+        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, self.unknowns)])
+        for _ in range(FAST_ITERATIONS):
+            delta = newton(y, params)
+            y = y - delta
+        update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
+        # eliminated: sin(q_k) once, not per iteration; dense, because the horizons write
+        # through buffers that receive the nonzeros only (a structural zero would shift the
+        # columns)
+        outputs = list(self._wrap(state, params, y, update))
+        outputs = [ca.densify(o) for o in (ca.cse(outputs) if eliminate else outputs)]
+        return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
+
+    def _robust_step(self, max_iter):
+        state, u, h, params, guess = self._symbols(ca.MX)
+        y, p = ca.SX.sym("y", guess.numel()), ca.SX.sym("p", params.numel())
+        G = ca.Function("G", [y, p], [self.equations(y, p)[0]])
+        newton = ca.rootfinder("newton_step", "newton", G, {
+            "abstol": self.tol, "abstolStep": 1e-3 * self.tol, "max_iter": max_iter,
+            "error_on_fail": False})
+        sol = newton(guess, params)
+        return ca.Function("dirac_step_robust", [state, u, h],
+                           list(self._wrap(state, params, sol, ca.MX(0))),
+                           ["state", "u", "h"], ["next", "out"])
+
+    def accepted(self, out):
+        """Which steps count as converged, from their outputs (rows of `out`): every entry of
+        the step finite, the residual below 1000 tol relative to the size of the momenta
+        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last Newton update small."""
+        at = {name: self.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
+        return ((out[:, at["nonfinite"]] == 0) & (out[:, at["update"]] <= 1e-6)
+                & (out[:, at["rnorm"]] <= 1e3 * self.tol * out[:, at["scale"]]))
+
+    def _chunk(self, state, controls, steps, acc, out):
+        """len(steps) fast steps from `state` as one mapaccum call, evaluated through
+        CasADi's buffer interface straight into the rows of the time-major arrays `acc`
+        and `out` (C-contiguous, so the rows of a chunk are one block of memory)."""
+        c = len(steps)
+        buffer, evaluate = self._chunks[c]
+        for i, a in enumerate((state, controls, steps)):
+            buffer.set_arg(i, memoryview(np.ascontiguousarray(a, dtype=float)))
+        buffer.set_res(0, memoryview(acc))
+        buffer.set_res(1, memoryview(out))
+        evaluate()
+
+    def run(self, start, controls, h):
+        """Steps from state `start` under `controls` (N, n_controls), stopping at the first step
+        that neither Newton path converges, or at a KeyboardInterrupt (Ctrl-C).
+
+        Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
+        the failed step (NaN when it turned non-finite) or None, number of steps redone by
+        the robust path, whether a KeyboardInterrupt stopped the run). An interrupt arrives
+        between chunks or inside CasADi's evaluation of one; the k steps counted so far are
+        accepted ones, so the chunk it cut short is dropped and the rest kept.
+        """
+        N = controls.shape[0]
+        acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
+        acc[0] = start
+        return self.resume(acc, out, controls, h, 0, redo=False)
+
+    def resume(self, acc, out, controls, h, k, redo):
+        """`run` from step `k` of arrays whose rows up to k (states) and k - 1 (outputs)
+        are done, redoing step k with the line-search Newton first when `redo` (the fast
+        path did not converge it): how a run that leaves the lockstep goes on
+        (`dmoc.simulation.lockstep`) as `run` would have gone on at that step."""
+        done = [k, 0]           # steps accepted, steps redone: what an interrupt keeps
+        try:
+            rnorm = self._redo(acc, out, controls, h, done) if redo else None
+            if rnorm is None:
+                rnorm = self._steps(acc, out, controls, h, done)
+        except KeyboardInterrupt:
+            k, redone = done
+            return acc[:k + 1], out[:k], None, redone, True
+        k, redone = done
+        return acc[:k + 1], out[:k], rnorm, redone, False
+
+    def _steps(self, acc, out, controls, h, done):
+        """Fill `acc` and `out` chunk by chunk, counting in `done` = [steps accepted, steps
+        redone]; return the rnorm of a failed step (NaN when non-finite), or None."""
+        N = controls.shape[0]
+        steps = np.full(min(N, CHUNK), float(h))
+        while done[0] < N:
+            k = done[0]
+            c = chunk_length(N - k)
+            self.native_if_due()
+            tic = time.perf_counter()
+            self._chunk(acc[k], controls[k:k + c], steps[:c], acc[k + 1:k + 1 + c], out[k:k + c])
+            if not self.native:
+                self.vm_seconds += time.perf_counter() - tic
+            ok = self.accepted(out[k:k + c])
+            j = int(np.argmin(ok)) if not ok.all() else c
+            done[0] = k + j
+            if j < c:
+                rnorm = self._redo(acc, out, controls, h, done)
+                if rnorm is not None:
+                    return rnorm
+        return None
+
+    def _redo(self, acc, out, controls, h, done):
+        """Redo step k = done[0], which the fast path did not converge, with the line-search
+        Newton; None when it converges (then counted in `done`), else its rnorm (NaN when
+        non-finite)."""
+        k = done[0]
+        acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
+        if not self.accepted(out1)[0]:
+            finite = out1[0, self.out.slice("nonfinite").start] == 0
+            return float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
+        acc[k + 1], out[k] = acc1[0], out1[0]
+        done[0] = k + 1
+        done[1] += 1
+        return None

@@ -1,0 +1,234 @@
+"""Consumer 1 of the step residual: the Dirac integrator. Each step solves the residual R
+of (37) (variant "+") or (41) (variant "-") by Newton's method (`dmoc.simulation.stepper`),
+the horizon evaluated in compiled chunks (`mapaccum`); results keep every converged step.
+A run is checked and started by `dmoc.simulation.preparation` and concluded here.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import Interrupted, SolverError, Status
+from ..principle.trajectory import Trajectory
+from .preparation import prepare
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of `simulate`.
+
+    Attributes
+    ----------
+    trajectory : Trajectory
+        All steps that converged (all of them when `success`).
+    success : bool
+    status : dmoc.Status
+        ``"converged"``, ``"newton_failed"``, ``"non_finite"`` (a step produced NaN/Inf)
+        or ``"interrupted"`` (Ctrl-C; ``throw=False``).
+    message : str
+    stats : dict
+        ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
+        Newton redid), ``max_residual`` (max-norm of R over the completed steps, checked
+        at every step on both paths), ``native`` (True when the fast path ended the run as
+        compiled C), ``wall_time`` in seconds (building or loading the compiled step included).
+    """
+
+    trajectory: Trajectory
+    success: bool
+    status: str
+    message: str
+    stats: dict = field(default_factory=dict)
+
+
+def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
+             throw=True, tol=1e-12, max_iter=50, jit=None):
+    """Simulate the implicit discrete Lagrange-d'Alembert equations (37) or (41).
+
+    Parameters
+    ----------
+    disc : Discretization
+    q0 : array_like, shape (n,)
+        Initial configuration.
+    v0, p0 : array_like, shape (n,)
+        Initial velocity (then p_0 = dL/dv(q0, v0)) or initial momentum: exactly one.
+        `v0` must lie in Delta_Q(q0) = ker A(q0).
+    steps : int
+        Number of steps N; refused (InputError) when the run's arrays (`memory_needed`)
+        would exceed the machine's memory.
+    controls : array_like, shape (N, disc.n_controls) or (N, n_u), optional
+        The controls of each step at the rule's control nodes, node by node (for the
+        midpoint and trapezoid rules one control u_k held on [t_k, t_{k+1}]); a shape
+        (N, n_u) array is held over each step for any rule. Zeros by default. A
+        Trajectory's ``u`` has this form, so ``controls=traj.u`` replays it.
+    variant : {"+", "-"} or Formulation
+        The form of the equations (`dmoc.formulations`).
+    throw : bool
+        Raise SolverError on a Newton failure and `dmoc.Interrupted` on Ctrl-C (default);
+        else return the result with success=False and status ``"newton_failed"``,
+        ``"non_finite"`` or ``"interrupted"``. Either way the result keeps every step
+        completed before (see Notes).
+    tol : float
+        Newton's target for the residual max-norm; a step whose residual stays above
+        1000 tol counts as failed. Below ``ROUNDOFF_FLOOR / 1000`` (2.2e-17) round-off
+        alone keeps the residual above that, and the failure message says so.
+    max_iter : int
+        Iterations of the line-search Newton that redoes a step the fast path (three
+        unrolled Newton iterations) did not converge.
+    jit : bool or None
+        Run the fast path as C code, compiled once per step Function with the system's C
+        compiler and cached on disk across calls and processes (`dmoc._util.compiled`;
+        compiled once, then loaded), several times faster per step than CasADi's virtual
+        machine, with the same results. None (default): C when it is cached, else once
+        this process has spent 0.5 s (about the cost of compiling) in the virtual machine
+        on this step Function, mid-run if need be; without a C compiler, always the
+        virtual machine. True: C now (an error without a compiler); False: never, with a
+        lighter step Function (no common-subexpression elimination: cheaper to build, as
+        fast in the virtual machine), whose results equal the compiled ones to round-off
+        rather than bit for bit (None and True compute the same bits in either form).
+
+    Returns
+    -------
+    SimulationResult
+
+    Notes
+    -----
+    Variant "+": given (q_k, p_k, u_k), Newton solves R = 0 for (q_{k+1}, lam_k), and
+    p_{k+1} follows from the "right" rows (see `dmoc.simulation.stepper`).
+    Variant "-": p_k of (41) is fixed only up to A(q_k)^T mu by the previous step, so each
+    step solves R for (q_{k+1}, mu) with p_k = p_k' - A(q_k)^T mu, p_k' the momentum
+    carried in; mu is the previous step's multiplier (lam_{k-1}), and at k = 0 it is the
+    initial impulse ``trajectory.mu``. Nothing fixes the impulse at q_N, so a (-) run ends
+    with lam_{N-1} = 0 and p_N = D2 L_d + f_d^+ (the next step would apply it).
+
+    A KeyboardInterrupt (Ctrl-C, SIGINT) while the steps run stops the run after the steps
+    accepted so far: the chunk of steps being evaluated when it arrived is dropped (its
+    steps are not checked yet), every earlier step is kept. With ``throw=True`` it raises
+    `dmoc.Interrupted`, a KeyboardInterrupt whose ``.result`` is that SimulationResult;
+    with ``throw=False`` the result is returned, status ``"interrupted"``, success False,
+    ``stats["completed_steps"]`` the steps kept. An interrupt before the first chunk
+    (while the step is built or compiled) is a plain KeyboardInterrupt.
+
+    Examples
+    --------
+    >>> import dmoc
+    >>> disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    >>> res = dmoc.simulate(disc, q0=[0, 0, 0], v0=[1, 0, 1], steps=10)
+    >>> res.trajectory.q.shape, res.success
+    ((11, 3), True)
+    """
+    run = prepare(disc, q0=q0, v0=v0, p0=p0, steps=steps, controls=controls, variant=variant,
+                  throw=throw, tol=tol, max_iter=max_iter, jit=jit)
+    return conclude(run, run.stepper.run(run.start, run.controls, disc.h))
+
+
+def conclude(run, stepped, *, final=False):
+    """The SimulationResult of `run` from what its stepper returned (`DiracStepper.run`):
+    the trajectory of the steps kept (of its last knot only when `final`, as
+    `Trajectory.assembled` cuts it), the stats, and the verdict (raised with `throw`)."""
+    acc, out, failed_rnorm, redone, interrupted = stepped
+    wall = time.perf_counter() - run.tic
+    stepper, k = run.stepper, out.shape[0]
+    traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out, final)
+    rnorm = out[:, stepper.out.slice("rnorm")]
+    stats = _stats(run, k, redone, float(rnorm.max()) if k else 0.0, wall)
+    if interrupted:
+        return _interrupted(traj, stats, run.throw)
+    return _finish(traj, stats, failed_rnorm, run.tol, run.throw)
+
+
+def conclude_group(runs, controls, acc, out, stepped, *, final=False):
+    """`conclude` of each of `runs`, R runs stepped in lockstep (`run_lockstep`) under
+    `controls` (R, N, n_controls) into `acc` (R, N+1, state.size) and `out` (R, N,
+    out.size), of which each of `stepped` (what `DiracStepper.run` returns) holds views:
+    the runs that completed every step concluded together, their trajectories rows of one
+    array per field (`Trajectory.assembled_runs`), the others one by one. The same
+    results as `conclude` of each run, but that a trajectory's arrays are views."""
+    N = acc.shape[1] - 1
+    results, whole = [None] * len(runs), []
+    for i, (_, o, _, _, cut) in enumerate(stepped):
+        if o.shape[0] == N and not cut:
+            whole.append(i)
+        else:                                               # failed or interrupted
+            results[i] = conclude(runs[i], stepped[i], final=final)
+    if whole:
+        now = time.perf_counter()
+        rows = slice(None) if len(whole) == len(runs) else whole
+        first = runs[whole[0]]
+        trajectories = _assemble(first.stepper, first.formulation, first.disc, controls[rows],
+                                 acc[rows], out[rows], final)
+        largest = out[rows, :, first.stepper.out.slice("rnorm")].max(axis=(1, 2))
+        for i, traj, rnorm in zip(whole, trajectories, largest):
+            stats = _stats(runs[i], N, stepped[i][3], float(rnorm), now - runs[i].tic)
+            results[i] = _finish(traj, stats, None, runs[i].tol, runs[i].throw)
+    return results
+
+
+def _stats(run, k, redone, max_residual, wall):
+    """The stats of `run` after `k` completed steps, `redone` of them by the line-search
+    Newton, `wall` seconds after its `tic`."""
+    return {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
+            "max_residual": max_residual, "native": run.stepper.native, "wall_time": wall}
+
+
+# the smallest residual relative to the momenta that a converged step can be asked for:
+# 100 units of round-off (evaluating R sums and multiplies O(n) terms of size |p|)
+ROUNDOFF_FLOOR = 100 * np.finfo(float).eps
+
+
+def _assemble(stepper, formulation, disc, controls, acc, out, final):
+    """Trajectory from the horizon's states (the start first) and per-step outputs
+    (time-major arrays), its fields copied as ``Trajectory(...)`` copies them, without its
+    checks (`Trajectory.assembled`, of the last knot only when `final`; mu None, a (-)
+    run that failed at its first step, is no impulse); of runs in lockstep along a leading
+    axis of `controls`, `acc` and `out`, the list of their Trajectories
+    (`Trajectory.assembled_runs`)."""
+    h = disc.h
+    state, per_step = stepper.state.split(acc), stepper.out.split(out)
+    p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
+                                               stepper.residual.m)
+    t = np.broadcast_to(h * np.arange(acc.shape[-2]), acc.shape[:-1])
+    assembled = Trajectory.assembled if acc.ndim == 2 else Trajectory.assembled_runs
+    return assembled(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
+                     disc.rule.control_nodes, disc.rule.stage_nodes, final)
+
+
+def _interrupted(traj, stats, throw):
+    """The result of a run stopped by Ctrl-C after ``stats["completed_steps"]`` accepted
+    steps."""
+    k = stats["completed_steps"]
+    result = SimulationResult(
+        traj, False, Status.INTERRUPTED,
+        f"interrupted (KeyboardInterrupt) after {k} of {stats['steps']} steps (t = "
+        f"{k * traj.h:.6g}); the {k} completed steps are in `.result.trajectory`.", stats)
+    if throw:
+        raise Interrupted(result.message, result)
+    return result
+
+
+def _finish(traj, stats, failed_rnorm, tol, throw):
+    """Report success, or the failed step with the trajectory before it."""
+    k, steps = stats["completed_steps"], stats["steps"]
+    if k == steps:
+        return SimulationResult(traj, True, Status.CONVERGED,
+                                f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)
+    where = f"at step {k} (t = {k * traj.h:.6g})"
+    if np.isnan(failed_rnorm):
+        status, what = Status.NON_FINITE, (
+            f"step {k} turned NaN or Inf (t = {k * traj.h:.6g}): the residual, the next state or "
+            f"the multipliers are not finite; check the force and the controls of step {k}.")
+    else:
+        hint = (f"`tol` = {tol:.1e} is below the round-off floor: 1000 tol is less than the "
+                f"{ROUNDOFF_FLOOR:.1e} (100 units of round-off, relative to the momenta) "
+                f"that evaluating the residual reaches; use tol >= {ROUNDOFF_FLOOR / 1e3:.1e} "
+                f"(default 1e-12)"
+                if 1e3 * tol < ROUNDOFF_FLOOR else "try a smaller step h or check the controls")
+        status, what = Status.NEWTON_FAILED, (
+            f"Newton did not converge {where}: residual max-norm {failed_rnorm:.3e} > 1000 tol "
+            f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; {hint}.")
+    result = SimulationResult(
+        traj, False, status, what + f" The trajectory up to step {k} is in `.result.trajectory`.",
+        stats)
+    if throw:
+        raise SolverError(result.message, result)
+    return result
