@@ -14,7 +14,8 @@ KeyboardInterrupt of a run stopped by Ctrl-C (SIGINT), carrying what was compute
 then in `.result`.
 Warnings (the computation goes on) are `DmocWarning`s, a UserWarning: `OrderReductionWarning`
 when a rule keeps a lower order on a degenerate Lagrangian, `ParasiticModeWarning` when its
-step equations have a growing alternating mode.
+step equations have a growing alternating mode. A spelling dmoc still takes but will drop
+gives a `DmocDeprecationWarning`, a DeprecationWarning.
 The ``status`` of a result is a `Status` member (a str: it equals its value) for an outcome
 dmoc names; an optimization that dmoc does not judge otherwise keeps IPOPT's own return
 status, a plain str such as ``"Solve_Succeeded"``.
@@ -110,6 +111,13 @@ class ParasiticModeWarning(DmocWarning):
     (parasitic) mode that grows along the motion (the trapezoid on a nonlinear flow): once
     excited it swamps the solution over long runs. The message names the rule, the growth
     measured and the rule to use instead (docs/degenerate.md, "The alternating mode")."""
+
+
+class DmocDeprecationWarning(DeprecationWarning):
+    """A spelling of dmoc's own that still works but will go (an entry of `options` that is
+    a keyword of `optimize`): the message names what to write instead (docs/errors.md,
+    "Warnings"). A class of its own, so that a test suite can make dmoc's deprecations
+    errors without those of the libraries below it."""
 
 
 class Status(str, enum.Enum):

@@ -281,5 +281,5 @@ def test_packed_problem_leaves_its_assembled_derivatives_behind():
     result = dmoc.optimize(problem)
     packed = dmoc.batch.pack_problem(problem)
     assert len(packed) <= fresh + 1000
-    again = dmoc.optimize(dmoc.batch.unpack_problem(packed), options={"reuse_solver": False})
+    again = dmoc.optimize(dmoc.batch.unpack_problem(packed), reuse_solver=False)
     assert abs(again.cost - result.cost) <= 1e-12 * result.cost

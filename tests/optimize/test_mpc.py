@@ -11,6 +11,7 @@ stopped solve's iterations, the momentum M v of a measured velocity, the wall cl
 around a step.
 """
 
+import dataclasses
 import time
 
 import numpy as np
@@ -230,6 +231,27 @@ def test_after_a_stopped_solve_the_next_optimum_is_applied_and_each_solve_record
     assert log[1].iterations == 1 < log[0].iterations
 
 
+def test_a_ctrl_c_is_raised_under_on_failure_shift_not_followed_by_the_old_plan(monkeypatch):
+    """on_failure="shift" follows the last plan after a failed solve, never after a Ctrl-C:
+    step 1's solve reports what `solve` reports for a SIGINT inside IPOPT (status
+    "interrupted", tests/test_interrupts.py), and the step raises dmoc.Interrupted with
+    that result, records no control and keeps the plan of step 0."""
+    def interrupted(problem, **keywords):
+        result = solve(problem, **{**keywords, "options": {"max_iter": 1}})
+        return dataclasses.replace(result, success=False, status="interrupted",
+                                   message="IPOPT: interrupted (KeyboardInterrupt) after 1 iterations.")
+    controller = dmoc.MPC(parking(steps=6), on_failure="shift")
+    controller.step(np.zeros(3), p=[0.1, 0.0, 0.1])
+    plan = controller.plan
+    monkeypatch.setattr(mpc, "solve", interrupted)
+    with pytest.raises(dmoc.Interrupted, match="MPC step 1: IPOPT: interrupted") as info:
+        controller.step(plan.trajectory.q[1], p=plan.trajectory.p[1])
+    assert info.value.result.status == "interrupted"
+    assert [(r.status, r.u is None, r.plan_age) for r in controller.log] == [
+        ("Solve_Succeeded", False, 0), ("interrupted", True, None)]
+    assert controller.plan is plan
+
+
 def test_a_measured_velocity_enters_as_its_momentum():
     """A knife edge with m = 2, J = 0.5, so dL/dv = diag(m, m, J) v (written here) is not v:
     a step from (q, v) records and imposes p_start = M v, and applies the first controls
@@ -260,3 +282,27 @@ def test_the_step_time_counts_the_work_around_the_solve(monkeypatch):
     wall = time.perf_counter() - tic
     record = controller.log[0]
     assert record.solve_time > 0 and record.solve_time + 0.05 <= record.step_time <= wall
+
+
+def test_a_free_time_step_records_its_h_and_a_plant_at_that_h_follows_the_plan():
+    """With a free final time each solve chooses h = T / N: the record's h is the plan's
+    (its t_1 - t_0), two steps choose different ones, and a plant equal to the model
+    re-discretized at the record's h (`disc.with_step`) lands on the plan's q_1, p_1; at
+    the discretization's own h it does not."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    problem = dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0],
+                                         duration=(1.0, 4.0),
+                                         running_cost=lambda q, v, u: 1.0 + u[0] ** 2 + u[1] ** 2)
+    controller = dmoc.MPC(problem)
+    q, p, steps = np.zeros(3), np.zeros(3), []
+    for k in range(2):
+        u = controller.step(q, p=p)
+        plan, h = controller.plan.trajectory, controller.log[-1].h
+        assert h == pytest.approx(plan.t[1] - plan.t[0], rel=1e-12) and h != disc.h
+        run = dmoc.simulate(disc.with_step(h), q0=q, p0=p, steps=1, controls=u[None], jit=False)
+        np.testing.assert_allclose(run.trajectory.q[-1], plan.q[1], rtol=0, atol=1e-9)
+        at_own_h = dmoc.simulate(disc, q0=q, p0=p, steps=1, controls=u[None], jit=False)
+        assert np.abs(at_own_h.trajectory.q[-1] - plan.q[1]).max() > 1e-4
+        q, p = run.trajectory.q[-1], run.trajectory.p[-1]
+        steps.append(h)
+    assert steps[0] != steps[1]

@@ -72,7 +72,7 @@ def test_absurd_step_fails_naming_the_violation(capfd):
 
 def test_expand_option_must_be_boolean():
     with pytest.raises(TypeError, match="expand"):
-        dmoc.optimize(knife_edge_parking(10), options={"expand": "no"})
+        dmoc.optimize(knife_edge_parking(10), expand="no")
 
 
 def test_iteration_limit_keeps_the_last_iterate(disc, tmp_path):

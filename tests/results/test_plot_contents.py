@@ -11,12 +11,14 @@ vanishes as h -> 0 (slope within 0.35 over three step sizes): 2 for the midpoint
 for Lobatto3 (stage impulses at its middle node).
 """
 
+import casadi as ca
 import numpy as np
 import pytest
 from PIL import Image
 
 import dmoc
 from dmoc import plotting
+from dmoc.results._canvas import plane_limits
 from dmoc.results.diagnostic_plots import control_work
 from dmoc.systems import knife_edge, lc_circuit, point_vortices
 
@@ -180,6 +182,22 @@ def test_bad_units_are_named():
         plotting.plot_states(traj, units={"q": ("m", "m")})
 
 
+@pytest.mark.parametrize("line_break", ["\n", "\r"])
+@pytest.mark.parametrize("key", ["t", "q", "u"])
+def test_a_unit_with_a_line_break_is_refused(key, line_break):
+    """A unit is one line of text: a line break would split an axis label, a CSV header
+    or the animation's clock. Each key, each of the two breaks, named in the error."""
+    unit = "m" + line_break + "s"
+    units = {"t": unit, "q": ("m", unit), "u": (unit,)}[key]
+    def make(units):
+        return dmoc.MechanicalSystem(lambda q, v: (v[0] ** 2 + v[1] ** 2) / 2, 2, n_u=1,
+                                     force=lambda q, v, u: ca.vertcat(u[0], 0), units=units)
+    assert make({"t": "s", "q": ("m", "m s"), "u": ("N",)}).units["q"] == ("m", "m s")
+    with pytest.raises(dmoc.InputError, match=rf"is invalid:\n  - `units\['{key}'\]` must be "
+                                              rf"[^\n]*one.line[^\n]*$"):
+        make({key: units})
+
+
 def test_bad_obstacles_and_bounds_are_named(bounded):
     _, traj = bounded
     with pytest.raises(dmoc.InputError, match=r"`obstacles` must be discs .* got shape \(2,\)"):
@@ -198,9 +216,10 @@ def test_gif_labels_are_not_clipped(extent):
     from dmoc.results import animation
 
     xs, ys = np.linspace(0, extent[0], 5) - 1000.0, np.linspace(0, extent[1], 5) * -1e4
-    limits = animation._limits(xs, ys, None, (0, 1), 0.1)
-    fig, ax = animation._canvas(limits)
-    animation._frame_axes(ax, None, (0, 1), limits, ["x [m]", "y [m]"], "a title")
+    xlim, ylim, to_scale = plane_limits(np.column_stack([xs, ys]))
+    fig, ax = animation._canvas(animation._widened((xlim, ylim)) if to_scale else (xlim, ylim),
+                                to_scale)
+    animation._frame_axes(ax, None, ["x [m]", "y [m]"], "a title")
     animation._fit(fig, ax)
     drawn = ax.get_tightbbox(fig.canvas.get_renderer())
     assert drawn.x0 >= -0.5 and drawn.y0 >= -0.5 and drawn.y1 <= fig.bbox.y1 + 0.5

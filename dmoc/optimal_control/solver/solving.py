@@ -15,7 +15,7 @@ import numpy as np
 from ..._util import checks
 from ..._util.deferred import Pending
 from ..statement.problem import OptimalControlProblem
-from ...errors import InputError, Interrupted, SolverError, Status
+from ...errors import DmocDeprecationWarning, InputError, Interrupted, SolverError, Status
 from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
@@ -156,7 +156,7 @@ _REFUSED_OPTION = ("; IPOPT refused an option value of `options` when the solve 
 def _switches(options, given):
     """(the IPOPT options, {switch: bool}): the `SWITCHES` keywords of `optimize` as
     `given`, an entry of `options` of that name taken out instead with a
-    DeprecationWarning (InputError when the keyword says otherwise)."""
+    DmocDeprecationWarning (InputError when the keyword says otherwise)."""
     options, switches = dict(options), {}
     for name, default in SWITCHES.items():
         value = given[name]
@@ -164,7 +164,7 @@ def _switches(options, given):
             entry = options.pop(name)
             warnings.warn(f"`options['{name}']` is deprecated: pass `{name}={entry!r}` to "
                           f"`optimize` instead; `options` holds IPOPT's options only.",
-                          DeprecationWarning, stacklevel=_caller_level())
+                          DmocDeprecationWarning, stacklevel=_caller_level())
             if value != default and entry != value:
                 raise InputError(f"`{name}` is given twice with different values: `{name}="
                                  f"{value!r}` and `options['{name}']` = {entry!r}; pass the "
@@ -187,7 +187,7 @@ def trajectory_from_x(problem, x):
     """The Trajectory held in an NLP vector x of `problem`. When x and its momenta are
     finite (an optimum, any iterate short of an overflow), every check of
     ``Trajectory(...)`` holds by construction, so its fields are made as that constructor
-    makes them, without the checks (`Trajectory.assembled`, about 0.1 ms less per solve);
+    makes them, without the checks (`Trajectory.assembled`);
     otherwise the checking constructor refuses or keeps them as before."""
     T, N = problem.transcription, problem.steps
     lay, rule = T.x_layout, problem.disc.rule
