@@ -102,14 +102,10 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
               gif=False, plots=True, problem=None, progress=None):
     """Write every output file of one run into `out` (the trajectory, table and summary,
     and, for a finite trajectory, the plots if `plots` and the GIF if `gif`); return the
-<<<<<<< HEAD
-    paths written. Given the `problem` an optimum solves, its bounds are drawn; `progress`
-    (a function of a message) hears how far a long table is written."""
-=======
     paths written. Given the `problem` an optimum solves, its bounds are drawn, and what its
     path constraints keep out of the plane; the GIF draws the system's bodies (a stock
-    `spec.shape` when it declares none, or when its coordinates name no plane)."""
->>>>>>> main
+    `spec.shape` when it declares none, or when its coordinates name no plane); `progress`
+    (a function of a message) hears how far a long table is written."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
