@@ -142,6 +142,7 @@ class Status(str, enum.Enum):
     ACCURACY_NOT_REACHED = "accuracy_not_reached"
     TIMEOUT = "timeout"
     WORKER_LOST = "worker_lost"
+    SCHEDULER_LOST = "scheduler_lost"
     EXCEPTION = "exception"
     UNDESERIALIZABLE = "undeserializable"
 
@@ -166,6 +167,7 @@ MESSAGES = {
     Status.ACCURACY_NOT_REACHED: "the largest number of steps allowed did not reach the accuracy asked for",
     Status.TIMEOUT: "the item or the batch ran past its time limit",
     Status.WORKER_LOST: "the worker running the item was lost, or no worker came",
+    Status.SCHEDULER_LOST: "the client lost the batch's scheduler before the item's result arrived",
     Status.EXCEPTION: "the item's solve raised an exception",
     Status.UNDESERIALIZABLE: "the item's arguments could not be unpickled on the worker",
 }

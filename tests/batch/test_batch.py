@@ -251,6 +251,11 @@ def test_simulate_many_rejects_bad_arguments():
         batch.simulate_many(disc, [run, 3])
     with pytest.raises(ValueError, match="`keep` must be one of 'trajectory', 'final'; got 'last'"):
         batch.simulate_many(disc, [run], keep="last")
+    for given, lacks in (({}, "`q0` and `steps`"), ({"q0": [0, 0, 0]}, "`steps`")):
+        with pytest.raises(ValueError, match=f"`runs\\[1\\]` must give `q0` and `steps` of "
+                                             f"`simulate`; it lacks {lacks}") as raised:
+            batch.simulate_many(disc, [run, given])
+        assert "_given" not in str(raised.value)
 
 
 def test_motion_primitives_example(client, tmp_path, capsys):
