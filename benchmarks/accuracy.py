@@ -4,7 +4,7 @@ rolling-disk steering and the car lane change (dmoc.problems).
 
 For each problem and rule (lobatto3, lobatto4) a scan finds the least N whose optimum has a
 true relative cost error |J_N - J*| / J* <= 1e-6 (J* from the issue; the car's from two
-high-order solves, docs/performance.md), and the least N whose re-simulated final state is
+high-order solves), and the least N whose re-simulated final state is
 also within 1e-6 (true final state: the continuous Lagrange-d'Alembert equations driven by
 the optimum's controls, integrated by scipy's DOP853 step by step; its final
 configuration relative to each coordinate's excursion as in `ErrorEstimate.final_state`):
@@ -18,6 +18,7 @@ The car starts from `uniform_motion_guess` in every run.
 
     python benchmarks/accuracy.py
     python benchmarks/accuracy.py --estimates     # estimate_error against the solve
+    python benchmarks/accuracy.py --smallest      # the knife edge's target with lobatto4, in this process
 """
 
 import argparse
@@ -176,17 +177,22 @@ def main(argv=None):
     parser.add_argument("--start", type=int, default=10, help="N of the target's first level")
     parser.add_argument("--estimates", action="store_true",
                         help="time estimate_error against the solve instead, at N*_J,q")
+    parser.add_argument("--smallest", action="store_true",
+                        help="the knife edge's target with lobatto4 once, in this process (a smoke run)")
     parser.add_argument("--one", nargs=4, metavar=("PROBLEM", "RULE", "MODE", "N"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one:
         name, rule, mode, N = args.one
         print(json.dumps(one_run(name, rule, mode, int(N))))
         return
-    if args.estimates:
-        return estimate_table(args.repeat)
     print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, CasADi {ca.__version__}; accuracy {ACCURACY:g}, "
-          f"target from N = {args.start}, best of {args.repeat} fresh processes")
+          f"target from N = {args.start}, best of {args.repeat} fresh processes; "
+          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    if args.smallest:
+        return smallest(args.start)
+    if args.estimates:
+        return estimate_table(args.repeat)
     print("| problem | rule | N*_J | N*_J,q | at N*_J (s) | at N*_J,q (s) | "
           "target: levels | target (s) | ratio to N*_J | to N*_J,q | "
           "true cost err | est. | true state err | est. |")
@@ -204,6 +210,16 @@ def main(argv=None):
                   + f" | {' → '.join(map(str, target['steps']))} | {target['time']:.3f} | {ratios} | "
                   f"{cost_error:.1e} | {target['cost_estimate']:.1e} | {state_error:.1e} | "
                   f"{target['state_estimate']:.1e} |", flush=True)
+
+
+def smallest(start):
+    """(this process) the knife edge's target with lobatto4 from `start` steps, and its
+    true errors."""
+    run = one_run("knife edge", "lobatto4", "target", start)
+    cost_error, state_error = true_errors("knife edge", "lobatto4", run["steps"][-1])
+    print(f"knife edge, lobatto4: levels {' → '.join(map(str, run['steps']))}, {run['time']:.3f} s; "
+          f"cost error {cost_error:.1e} (estimate {run['cost_estimate']:.1e}), final state "
+          f"{state_error:.1e} (estimate {run['state_estimate']:.1e})")
 
 
 def estimate_table(repeat):

@@ -1,5 +1,5 @@
 """Benchmark: `dmoc.batch` on a 2-worker cluster against the serial in-process loop a user
-would otherwise write, timed in the same run (docs/performance.md, "Batches that scale").
+would otherwise write, timed in the same run (docs/performance.md, `batch.py`).
 
 - **optimize**: `count` knife-edge parking problems (goals (0, y, 0.1), y from 0.2 to 2.0,
   each ``base.with_boundary(q_goal=...)``) at each N of `--steps`: the serial loop of

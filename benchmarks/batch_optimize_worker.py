@@ -1,5 +1,5 @@
 """Benchmark: the CPU an `optimize_many` batch spends per item on its workers, in this process
-(docs/performance.md, "Sixteenth"): `--count` knife-edge parking problems at N = `--steps`
+(docs/performance.md, `batch_optimize_worker.py`): `--count` knife-edge parking problems at N = `--steps`
 (goals (0, y, 0.1), y from 0.2 to 2.0, as benchmarks/batch.py), in chunks of `--chunk`
 items (about what a worker gets: 0.5 s of solves), each chunk as a worker's task runs it,
 the items unpickled and rebuilt with ``with_boundary`` on the kept solver:

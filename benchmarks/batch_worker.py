@@ -1,5 +1,5 @@
 """Benchmark: the CPU a `simulate_many` batch spends per run outside Dask, in this process
-(docs/performance.md, "Fourteenth"): 1000 knife-edge runs of 1000 steps (h = 0.01,
+(docs/performance.md, `batch_worker.py`): 1000 knife-edge runs of 1000 steps (h = 0.01,
 compiled step, v0 = (c, 0, 1)) in chunks of 125, each chunk as a worker's task runs it
 without a budget (`dmoc.batch.tasks._in_lockstep`: each run unpickled, the runs checked,
 stepped in lockstep and concluded), then packed into a slot of shared memory as a worker

@@ -13,6 +13,7 @@ method defines them). Every method runs with and without ``expand`` (MX graph vs
 
     python benchmarks/dmoc_vs_collocation.py            # N in 25 ... 1600
     python benchmarks/dmoc_vs_collocation.py --quick    # N in 25, 50, 100
+    python benchmarks/dmoc_vs_collocation.py --smallest # N = 25 once, reference at N = 200: a smoke run
 """
 
 import argparse
@@ -31,7 +32,6 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import dmoc  # noqa: E402
-from solver_cache import forget_solvers, optimize as optimize_dmoc  # noqa: E402
 import collocation  # noqa: E402
 from collocation import IPOPT_OPTIONS  # noqa: E402
 
@@ -104,8 +104,8 @@ def solve_dmoc(case, steps, expand):
     ocp = dmoc.OptimalControlProblem(disc, steps, q_start=list(case.q_start),
                                      q_goal=list(case.q_goal), variant="+")
     construct_time = time.perf_counter() - tic
-    res = optimize_dmoc(ocp, options=IPOPT_OPTIONS, expand=expand)
-    forget_solvers()                      # every repeat builds its solver, as the baselines do
+    res = dmoc.optimize(ocp, options=IPOPT_OPTIONS, expand=expand, throw=False)
+    dmoc.clear_caches("solvers", "row_sums")    # every repeat builds its solver, as the baselines do
     u = res.trajectory.u
     return Run("dmoc", expand, steps, construct_time, res.stats["build_time"],
                res.stats["solve_time"], res.stats["iterations"], res.cost, res.success,
@@ -260,10 +260,14 @@ def load():
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="N in {25, 50, 100} only")
+    parser.add_argument("--smallest", action="store_true",
+                        help="N = 25 once, the reference at N = 200 (a smoke run, no figure)")
     parser.add_argument("--repeat", type=int, default=3,
                         help="solves per configuration; timings are the minimum (default 3)")
     args = parser.parse_args(argv)
-    steps_list = QUICK_STEPS if args.quick else FULL_STEPS
+    steps_list = (25,) if args.smallest else QUICK_STEPS if args.quick else FULL_STEPS
+    reference_steps = 200 if args.smallest else REFERENCE_STEPS
+    args.repeat = 1 if args.smallest else args.repeat
     print(machine())
     print(f"{load()} at start")
     print(f"IPOPT options (all methods): {IPOPT_OPTIONS}; exact Hessian; MUMPS.")
@@ -272,11 +276,11 @@ def main(argv=None):
     tic = time.perf_counter()
     for case in CASES:
         warm_up(case)
-        J_ref, J_rich = reference_cost(case.reduced, REFERENCE_STEPS)
+        J_ref, J_rich = reference_cost(case.reduced, reference_steps)
         runs = run_case(case, steps_list, args.repeat)
         print(f"=== Problem {case.label}: T = {case.reduced.duration:g}, minimize int |u|^2 dt ===")
-        print(f"J_ref = {J_ref:.14f} (Hermite-Simpson, N = {REFERENCE_STEPS}, IPOPT tol 1e-13); "
-              f"Richardson with N = {REFERENCE_STEPS // 2}: {J_rich:.14f}, "
+        print(f"J_ref = {J_ref:.14f} (Hermite-Simpson, N = {reference_steps}, IPOPT tol 1e-13); "
+              f"Richardson with N = {reference_steps // 2}: {J_rich:.14f}, "
               f"|difference| = {abs(J_ref - J_rich):.1e}\n")
         print(results_table(runs, J_ref))
         print("Build time split (seconds; (system) = dmoc's system, built before the clock "

@@ -1,6 +1,5 @@
-"""The knife-edge runs that the simulate benchmarks time (`batch.py`, `batch_stream.py`,
-`batch_threads.py`, `batch_worker.py`, `lockstep.py`): shared code of those scripts, no
-Dask needed."""
+"""The knife-edge runs that the simulate benchmarks time (`batch.py`, `batch_worker.py`):
+shared code of those scripts, no Dask needed."""
 
 import numpy as np
 

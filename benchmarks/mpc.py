@@ -16,8 +16,8 @@ table (wall and CPU time of `MPC.step`, IPOPT's wall share, iterations, ratios t
 checkouts see the same load) the first step (alone, with the NLP's build, and without
 the creation of the IPOPT solver it includes), the median warm step, and their ratios.
 
-"default" rows run `dmoc.MPC(problem)` as each checkout defines it (since issue 25's third
-pass the NLP expanded to flat SX Functions; before, the MX graph). With `--mx` every
+"default" rows run `dmoc.MPC(problem)` as each checkout defines it (the NLP expanded to
+flat SX Functions; on checkouts from before issue 25, the MX graph). With `--mx` every
 checkout whose `dmoc.MPC` takes `expand` also runs ``dmoc.MPC(problem, expand=False)``
 ("mx" rows, the MX graph in CasADi's virtual machine). With `--jit` every checkout whose
 `dmoc.MPC` takes `jit` also runs the loop with
@@ -47,7 +47,7 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
-from checkouts import add_checkouts, imported_dmoc  # noqa: E402
+from resolve import add_checkouts, imported_dmoc  # noqa: E402
 
 
 SWITCHES = {"default": {}, "mx": {"expand": False}, "jit": {"jit": True}}

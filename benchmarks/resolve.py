@@ -12,6 +12,7 @@ construction + optimize (best of `--repeat`, each repeat in a fresh process so t
 "re-solve" (iterations).
 
     python benchmarks/resolve.py
+    python benchmarks/resolve.py --smallest      # the knife edge at N = 20, one process
     python benchmarks/resolve.py --checkouts /work/main /path/to/branch   # interleaved
 """
 
@@ -21,6 +22,7 @@ import pathlib
 import platform
 import subprocess
 import sys
+import tempfile
 import time
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
@@ -31,7 +33,6 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
-from checkouts import add_checkouts  # noqa: E402
 
 CASES = {
     "knife edge": lambda N, goal: dmoc.problems.knife_edge_parking(N, goal=goal),
@@ -43,6 +44,22 @@ GOALS = {"knife edge": ((0.0, 1.0, 0.0), (0.1, 1.1, 0.1)),
          "rolling disk": ((1.0, 1.0, None, np.pi / 2), (1.1, 0.9, None, np.pi / 2 + 0.1))}
 STEPS = (100, 400, 1000)
 RUNS = ("first", "re-solve", "warm", "primal")
+
+
+def imported_dmoc(checkout):
+    """The path of the dmoc package a child process imports with PYTHONPATH = `checkout`,
+    run outside the checkouts (`python -m` would put the working folder first)."""
+    return subprocess.run([sys.executable, "-c", "import dmoc; print(dmoc.__file__)"],
+                          env={**os.environ, "PYTHONPATH": checkout}, cwd=tempfile.gettempdir(),
+                          capture_output=True, text=True, check=True).stdout.strip()
+
+
+def add_checkouts(parser):
+    """`parser`'s option ``--checkouts DIR ...``: the dmoc checkouts a benchmark compares,
+    each on PYTHONPATH in turn in a child process (default: the checkout holding this
+    folder); `mpc.py` takes it too."""
+    parser.add_argument("--checkouts", nargs="+", default=[str(pathlib.Path(__file__).resolve().parents[1])],
+                        help="dmoc checkouts to compare, each on PYTHONPATH in turn (default: this one)")
 
 
 def timed(make, guess=None):
@@ -75,15 +92,19 @@ def main(argv=None):
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=3, help="fresh processes per case (default 3)")
+    parser.add_argument("--steps", type=int, nargs="+", default=STEPS, help="N (default 100 400 1000)")
+    parser.add_argument("--smallest", action="store_true", help="the knife edge at N = 20, one process")
     add_checkouts(parser)
     args = parser.parse_args(argv)
+    cases, steps = (("knife edge",), (20,)) if args.smallest else (CASES, args.steps)
+    args.repeat = 1 if args.smallest else args.repeat
     print(f"python {platform.python_version()}, casadi {ca.__version__}; load average "
           f"{'%.2f %.2f %.2f' % os.getloadavg()}; checkouts {', '.join(args.checkouts)}")
     head = (f"{'checkout':<20}{'case':<14}{'N':>6}" + "".join(f"{r + ' s':>12}{'it':>4}" for r in RUNS)
             + f"{'re/first':>10}{'warm/first':>11}{'warm it/re it':>15}")
     print(head + "\n" + "-" * len(head))
-    for name in CASES:
-        for N in STEPS:
+    for name in cases:
+        for N in steps:
             rows = {c: [] for c in args.checkouts}
             for _ in range(args.repeat):
                 for checkout in args.checkouts:         # interleaved: all see the same load

@@ -12,7 +12,7 @@ cost u^T u + 10 v^T v, the file's limits). Midpoint rule, h = 0.01, from q = 0.1
 under zero torques (a small swing about the hanging rest, for any number of steps). Then the log-log slope of each cost against n over the chains.
 
     python benchmarks/robots.py                         # chains of 2-12 joints, compiled
-    python benchmarks/robots.py --joints 2 --steps 20 --no-compile     # the smallest run
+    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
 """
 
 import argparse
@@ -118,7 +118,11 @@ def main(argv=None):
     parser.add_argument("--dmoc", action="store_true", help="also a rest-to-rest DMOC")
     parser.add_argument("--shipped", action="store_true",
                         help="also the shipped double_pendulum and arm6")
+    parser.add_argument("--smallest", action="store_true",
+                        help="the smallest run: --joints 2 --steps 20 --no-compile")
     args = parser.parse_args(argv)
+    if args.smallest:
+        args.joints, args.steps, args.compile = [2], 20, False
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:

@@ -24,6 +24,7 @@ the Dirac step is second order and keeps omega_d = 0; RK4 is fourth order on the
 on the DAE it drifts off the constraint.
 
     python benchmarks/step_cost.py
+    python benchmarks/step_cost.py --smallest     # 10^3 steps once, a smoke run
 """
 
 import argparse
@@ -176,7 +177,7 @@ def one_run(name, steps):
     print(f"{wall:.4f} {peak:.1f} {res.stats.get('native', False)} {res.stats['max_residual']:.2e}")
 
 
-def table(repeat, name):
+def table(repeat, name, horizons=(10**4, 10**5)):
     case = CASES[name]
     funs = methods(case)
     for fun in reversed(funs.values()):          # build, compile (jit=True before the default
@@ -185,7 +186,7 @@ def table(repeat, name):
     head = (f"{'steps':>7}  {'method':<10}{'eval us/step':>14}{'total us/step':>15}"
             f"{'eval ratio':>12}{'total ratio':>13}{'max residual':>14}{'native':>8}{'|q(T)-q_exact|':>16}")
     print(head + "\n" + "-" * len(head))
-    for steps in (10**4, 10**5):
+    for steps in horizons:
         q_exact = case.exact(steps * H)
         runs = {method: best(repeat, fun, steps) for method, fun in funs.items()}
         rk = runs["rk4-ode"]
@@ -202,12 +203,17 @@ def main(argv=None):
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs per case; best is kept (default 5)")
+    parser.add_argument("--smallest", action="store_true",
+                        help="10^3 steps once, no fresh processes (a smoke run, no figure)")
     args = parser.parse_args(argv)
     print(f"dmoc from {os.path.dirname(dmoc.__file__)}; python {platform.python_version()}, "
           f"casadi {ca.__version__}, load average {'%.2f %.2f %.2f' % os.getloadavg()}; "
           f"h = {H}, zero controls")
     for name in CASES:
-        table(args.repeat, name)
+        table(1 if args.smallest else args.repeat, name, (10**3,) if args.smallest else (10**4, 10**5))
+    if args.smallest:
+        print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
+        return
     print("ratios: against rk4-ode (RK4 on the hand-reduced ODE) at the same number of steps.")
     print("\nfresh processes (default path: wall s, peak RSS MB, native, max residual):")
     for name in CASES:

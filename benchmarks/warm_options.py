@@ -4,7 +4,7 @@ chains of warm re-solves with changed data and on the knife-edge MPC, in one pro
 A warm re-solve runs IPOPT with `dmoc.optimal_control.solver.ipopt.WARM_START_OPTIONS`: besides
 warm_start_init_point "yes", fast_step_computation "yes" (each KKT solution taken as MUMPS
 returns it, its residual not computed); `--arm` adds options to dmoc's arm (e.g.
-'{"mumps_scaling": 0}', the warm option from the third to the eighth pass). Each problem is solved cold once; from that optimum two chains of warm re-solves
+'{"mumps_scaling": 0}', an earlier warm option). Each problem is solved cold once; from that optimum two chains of warm re-solves
 run in lockstep over the same changed data: "dmoc" with ``options=None`` (the warm
 options) and "IPOPT" with ``options={"mumps_scaling": 77, "fast_step_computation": "no"}``
 (IPOPT's defaults, given explicitly), each from its own last converged result, with

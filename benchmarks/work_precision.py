@@ -24,6 +24,7 @@ configuration path (collocation.guess_path, dmoc's default guess).
 
     python benchmarks/work_precision.py                # target 1e-6
     python benchmarks/work_precision.py --target 1e-8
+    python benchmarks/work_precision.py --smallest     # problem A, target 1e-2, reference N = 200: a smoke run
 """
 
 import argparse
@@ -39,7 +40,6 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 import collocation  # noqa: E402
 from collocation import IPOPT_OPTIONS  # noqa: E402
-from solver_cache import optimize as optimize_dmoc  # noqa: E402
 from dmoc_vs_collocation import (CASES, REFERENCE_STEPS, final_errors, load, machine,  # noqa: E402
                                  reference_cost, resimulate)
 
@@ -61,7 +61,7 @@ def solve_dmoc(case, steps, rule, expand, reuse=False):
     disc = dmoc.discretize(system, case.reduced.duration / steps, rule)
     ocp = dmoc.OptimalControlProblem(disc, steps, q_start=list(case.q_start),
                                      q_goal=list(case.q_goal))
-    res = optimize_dmoc(ocp, options=IPOPT_OPTIONS, expand=expand, reuse_solver=reuse)
+    res = dmoc.optimize(ocp, options=IPOPT_OPTIONS, expand=expand, reuse_solver=reuse, throw=False)
     seconds = time.perf_counter() - tic
     return seconds, res.cost, res.success, control_pieces(res.trajectory)
 
@@ -147,14 +147,19 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--target", type=float, default=1e-6, help="error target (default 1e-6)")
     parser.add_argument("--repeat", type=int, default=3, help="timed solves at the N found (best kept)")
+    parser.add_argument("--smallest", action="store_true",
+                        help="problem A, target 1e-2, once, the reference at N = 200 (a smoke run)")
     args = parser.parse_args(argv)
+    cases, reference_steps = (CASES[:1], 200) if args.smallest else (CASES, REFERENCE_STEPS)
+    if args.smallest:
+        args.target, args.repeat = 1e-2, 1
     print(machine())
     print(f"{load()} at start; target |J - J_ref| <= {args.target:g} and |dq(T)| <= {args.target:g}")
     tic = time.perf_counter()
-    for case in CASES:
+    for case in cases:
         solve_dmoc(case, 10, "lobatto3", False)           # load IPOPT, build residuals
         collocation.solve(case.reduced, 10, "hermite_simpson")
-        J_ref, _ = reference_cost(case.reduced, REFERENCE_STEPS)
+        J_ref, _ = reference_cost(case.reduced, reference_steps)
         print(f"\n=== Problem {case.label}: J_ref = {J_ref:.14f} ===")
         found = {name: first_reaching(case, ladder, solve, J_ref, args.target, args.repeat)
                  for name, (ladder, solve) in methods().items()}

@@ -13,8 +13,9 @@ Run::
     python examples/knife_edge_parking.py [--steps 100] [--out dmoc-output]
 
 It prints the solver summary and writes the trajectory (.npz), the plots (path with
-headings and goal, states, controls, constraint violation, energy balance) and an animation
-(.gif) into the output folder.
+headings, goal and the blade the system declares at a few poses, states, controls,
+constraint violation, energy balance) and an animation of the blade (.gif) into the output
+folder.
 """
 
 # The gallery's thumbnail is the path (the figures are shown in file-name order:
@@ -35,8 +36,9 @@ def main(steps=100, out="dmoc-output"):
     dmoc.plotting.save_trajectory_plots(
         traj, out, "knife_edge_parking", problem=problem,
         control_names=["force along the blade", "torque"], heading=2)
-    dmoc.animation.animate(traj, f"{out}/knife_edge_parking.gif", shape="blade", heading=2,
-                           goal=problem.q_goal, units=problem.disc.system.units, frames=40)
+    system = problem.disc.system        # its blade (`system.bodies`) is drawn at every frame
+    dmoc.animation.animate(traj, f"{out}/knife_edge_parking.gif", bodies=system.bodies,
+                           goal=problem.q_goal, units=system.units, frames=40)
     traj.save(f"{out}/knife_edge_parking.npz")
     return result
 

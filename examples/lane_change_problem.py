@@ -19,10 +19,17 @@ line solves it as it is stated here, and replays its optimum with the simulator:
     dmoc simulate examples/lane_change_problem.py:lane_change --controls out/lane_change.csv
 
 The replay takes the step h and the start (q_0, p_0) from the table the optimization
-wrote. Run as a script, this file does both through `dmoc.cli.main`::
+wrote. The plots and the GIF (``--animate``) draw the car's body and front wheel, which
+`dmoc.systems.car` declares (`dmoc.Body`), and the parked car that the path constraints
+keep out (its disc includes our car's half width, which the drawn body shows crossing it:
+the constraints hold the axles' midpoints outside). Run as a script, this file does both through `dmoc.cli.main`::
 
     python examples/lane_change_problem.py [--steps 60] [--out dmoc-output]
 """
+
+# The gallery's thumbnail is the path with the car drawn at a few poses (the figures are
+# shown in file-name order: constraint, controls, energy, path, states, then the GIF).
+# sphinx_gallery_thumbnail_number = 4
 
 import casadi as ca
 
@@ -67,7 +74,7 @@ def main(steps=60, out="dmoc-output"):
     here = lane_change.__code__.co_filename      # this file (the gallery sets no __file__)
     system = f"{here}:lane_change"
     solved = dmoc_command(["optimize", system, "--param", f"steps={steps}", "--heading", "theta",
-                           "--out", str(out)])
+                           "--out", str(out), "--animate"])
     replayed = dmoc_command(["simulate", system, "--param", f"steps={steps}", "--heading",
                              "theta", "--controls", f"{out}/lane_change.csv", "--no-plots"])
     return solved, replayed

@@ -13,7 +13,8 @@ Run::
     python examples/rolling_disk_steering.py [--steps 100] [--out dmoc-output]
 
 It prints the solver summary and the free final rolling angle, and writes the trajectory
-(.npz), the plots and an animation of the coin (.gif) into the output folder.
+(.npz), the plots and an animation of the disk seen from above, with a mark on its rim
+(.gif), into the output folder.
 """
 
 # The gallery's thumbnail is the path (the figures are shown in file-name order:
@@ -35,9 +36,9 @@ def main(steps=100, out="dmoc-output"):
     dmoc.plotting.save_trajectory_plots(
         traj, out, "rolling_disk_steering", problem=problem,
         control_names=["rolling torque", "steering torque"], heading=3)
-    dmoc.animation.animate(traj, f"{out}/rolling_disk_steering.gif", shape="coin", heading=3,
-                           roll=2, goal=problem.q_goal, size=0.25,
-                           units=problem.disc.system.units, frames=40)
+    system = problem.disc.system        # its disk and rim mark, true to size (R = 1 m)
+    dmoc.animation.animate(traj, f"{out}/rolling_disk_steering.gif", bodies=system.bodies,
+                           goal=problem.q_goal, units=system.units, frames=40)
     traj.save(f"{out}/rolling_disk_steering.npz")
     return result
 

@@ -62,6 +62,12 @@ def problem(ctx, steps=5, **changes):
     return dmoc.OptimalControlProblem(ctx.disc, steps, **{"q_start": START, "q_goal": GOAL, **changes})
 
 
+def _stepped(controller):
+    """`controller` after one step from rest at START."""
+    controller.step(START, p=START)
+    return controller
+
+
 def trajectory(**changes):
     """Trajectory(...) of 2 steps, n = 1, with some fields replaced."""
     kwargs = dict(t=[0.0, 0.5, 1.0], q=[[0.0], [1.0], [2.0]], p=[[0.0]] * 3, lam=[[], []],
@@ -321,6 +327,13 @@ API_ROWS = [
     ("plot_controls: bounds of shape (3,) for n_u = 2",
      lambda c: plotting.plot_controls(c.traj, bounds=([0, 0, 0], [1, 1, 1])), ValueError,
      r"`bounds` must be a pair \(lower, upper\) of arrays of shape \(2,\)"),
+    ("plot_path: bodies=one Body, not a tuple", lambda c: plotting.plot_path(
+        c.traj, bodies=dmoc.Body("a", lambda q: q[None, :2])), TypeError, "`bodies` must be a list or tuple"),
+    ("Body: outline a list of points", lambda c: dmoc.Body("box", [[0, 0]]), TypeError,
+     "`outline` of Body 'box' must be a callable"),
+    ("MechanicalSystem: one control name for n_u = 2", lambda c: dmoc.MechanicalSystem(
+        lambda q, v: v[0] ** 2, 1, n_u=2, control_names=("f",)), ValueError,
+     "`control_names` must be 2 strings"),
     ("Trajectory.sample past the horizon", lambda c: c.traj.sample(c.traj.t[-1] + 1), ValueError,
      r"`t` must lie in the horizon \[t_0, t_N\] = \[0.0, 0.4\]; .* \(the solution is not extrapolated\)"),
     ("OptimalControlProblem: v_start and p_start both given",
@@ -331,6 +344,14 @@ API_ROWS = [
      r"`times` must increase from 0 to the horizon N h = 1.0"),
     ("MPC.step(q) without v or p", lambda c: dmoc.MPC(problem(c)).step(START), ValueError,
      "give the measured state as `v` or as `p`, exactly one"),
+    ("MPC.step(q, p=p) with a NaN entry of q", lambda c: _stepped(dmoc.MPC(problem(c))).step(
+        [0.0, np.nan, 0.0], p=START), ValueError, r"MPC step 1: `q` must be finite; entry \(1,\) is nan"),
+    ("MPC(problem, measurement='refuse').step(q, v=v) with q above a bound",
+     lambda c: _stepped(dmoc.MPC(problem(c, state_bounds=([-1] * 3, [1] * 3)), measurement="refuse")).step(
+         [0.0, 1.002, 0.0], v=START), ValueError,
+     r"MPC step 1: .*q\[1\] \(y\) = 1.002 > its upper bound 1\b"),
+    ("MPC(problem, measurement='clip')", lambda c: dmoc.MPC(problem(c), measurement="clip"), ValueError,
+     "`measurement` must be one of 'project', 'refuse'; got 'clip'"),
     ("optimize_to_accuracy(problem, 0.0)", lambda c: optimize_to_accuracy(problem(c), 0.0), ValueError,
      "`accuracy` must be finite and positive"),
     ("optimize_to_accuracy(problem, 1.5)", lambda c: optimize_to_accuracy(problem(c), 1.5), ValueError,

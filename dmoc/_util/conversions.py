@@ -1,7 +1,7 @@
 """NumPy vectors to CasADi DM and back, for the calls that go through DM (the result's
 momenta): the same numbers, bit for bit, in less time than CasADi's own conversions of
-NumPy arrays (on the machine of docs/performance.md, for 1300 entries: 72 against 139 us
-into a DM, about 2/3 of ``DM.full()`` out of one). The IPOPT call and the data's
+NumPy arrays (into a DM and out of one; benchmarks/peers.py resolve). The IPOPT call and
+the data's
 tolerances of every solve convert nothing: they go through their Functions' buffers
 (`dmoc._util.numeric.Evaluator`, `dmoc.optimal_control.solver.ipopt.PackedSolver`).
 """

@@ -1,7 +1,7 @@
 """Numeric evaluation of a CasADi Function on float arrays through its buffer interface
 (`casadi.Function.buffer`): the arrays are read and written in place, with none of the
-conversions to and from ``casadi.DM`` of an ordinary call, about 8 us instead of 30 us per
-call for the small Functions of a system; the same evaluation, so the same bits.
+conversions to and from ``casadi.DM`` of an ordinary call, a fraction of its time for the
+small Functions of a system; the same evaluation, so the same bits.
 """
 
 import threading
@@ -60,8 +60,8 @@ class Evaluator:
     def vector(self, z):
         """The output's entries, a new 1-d array, of a Function of one input and one dense
         output at `z`, a C-contiguous 1-d float array of the input's entries: the call without
-        the conversions of `__call__` (a NumPy call costs 10-20 us in a re-solve, where
-        IPOPT has left the caches cold; docs/performance.md, "The re-solve, ninth pass")."""
+        the conversions of `__call__` (NumPy's calls on short arrays are a measurable part
+        of a warm re-solve, benchmarks/peers.py resolve)."""
         if not (self._vector and type(z) is np.ndarray and z.dtype == np.float64 and z.ndim == 1
                 and z.size == self._inputs[0] and z.flags.c_contiguous):
             raise InputError(f"`vector` evaluates {self.function.name()!r} on a C-contiguous "

@@ -16,7 +16,7 @@ from .errors import SchedulerUnreachable, WorkersFailedToStart
 # one BLAS/OpenMP thread per worker process: the workers, not BLAS threads, share the cores
 WORKER_ENVIRONMENT = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
-# Dask's configuration for dmoc's LocalCluster (docs/performance.md, "Batches that scale"):
+# Dask's configuration for dmoc's LocalCluster (benchmarks/batch.py):
 LOCAL_CONFIG = {
     # Dask's nannies start their workers with MALLOC_TRIM_THRESHOLD_=65536, which hands
     # freed memory back to the system at once and turns glibc's adaptive thresholds off: a

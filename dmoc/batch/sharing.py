@@ -1,8 +1,8 @@
 """How the packed trajectories of a chunk of `simulate_many` (`dmoc.batch.packing`) reach
 a client on the same machine as their worker: through shared memory that both reuse from
 batch to batch, instead of Dask's TCP frames, which cost about a quarter of a batch of 1000
-runs of 1000 steps (docs/performance.md, "Fourth round"), or new pages each time, which
-cost many times the copy of the data ("Ninth").
+runs of 1000 steps, or new pages each time, which cost many times the copy of the data
+(benchmarks/batch.py, benchmarks/batch_worker.py).
 
 The client owns the memory: a pool of `Slot`s, anonymous shared-memory files (memfd) that
 only its process holds, kept from batch to batch up to `KEPT_BYTES` and gone with the

@@ -80,7 +80,7 @@ def rebuilds(base, problem, bounds, values):
 
 
 # Types plain pickle writes as cloudpickle does (by value, or by reference to numpy, which
-# every worker imports), in about a third of its time (docs/performance.md, "Ninth"): the
+# every worker imports), in less time (benchmarks/batch.py): the
 # built-in scalars, and numpy's scalars of numbers (`_LEAVES`, looked up by exact type).
 _LEAVES = frozenset((bool, int, float, complex, str, bytes, type(None))) | frozenset(
     kind for kind in np.sctypeDict.values() if np.dtype(kind).kind in "biufc")

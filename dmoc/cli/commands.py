@@ -106,7 +106,7 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
         with staged_run(out, output.run_files(prefix)) as stage:
             written = output.write_all(stage, prefix, disc, traj, summary, spec,
                                        names=disc.system.names,
-                                       control_names=spec.control_labels(disc.system.n_u), goal=goal,
+                                       control_names=spec.control_labels(disc.system), goal=goal,
                                        gif=args.animate and finished,
                                        plots=finished and not args.no_plots, problem=problem)
     except OSError as err:  # disk full, file-size limit, folder removed
@@ -209,7 +209,7 @@ def _stated_problem(args, spec, system):
         "--free-time", args.free_time, ("TMIN", "TMAX"), of="a time range"))
     duration = args.duration or (4.0 if free_time is None else sum(free_time) / 2)
     disc = _discretization(system, args.rule, args.variant, duration / steps)
-    controls = spec.control_labels(system.n_u)
+    controls = spec.control_labels(system)
     with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--velocity",
                         "control_bounds": "--control-min/--control-max", "duration": "--free-time",
                         "state_bounds": "--state-min/--state-max"}):

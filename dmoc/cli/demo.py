@@ -94,12 +94,12 @@ def optimization_demo(out, steps, lines):
 
 
 def _optimum_figure(name, problem, traj, spec):
-    """The path with goal and headings (left), each control and the energy balance (right)."""
+    """The path with goal, headings and the system's bodies (left), each control and the energy balance (right)."""
     system = problem.disc.system
     fig, grid = _grid_figure(10.0, 5.6, system.n_u + 1, 2)
     path = fig.add_subplot(grid[:, 0])
     plot_path(traj, heading=spec.heading, goal=problem.q_goal, labels=system.names[:2],
-              units=system.units, title=f"{name}: path", ax=path)
+              units=system.units, bodies=system.bodies, title=f"{name}: path", ax=path)
     right = [fig.add_subplot(grid[0, 1])]
     right += [fig.add_subplot(grid[i, 1], sharex=right[0]) for i in range(1, system.n_u + 1)]
     for ax in right[:-1]:

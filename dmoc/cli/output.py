@@ -12,6 +12,7 @@ from ..errors import InputError
 from ..results import diagnostics
 from .._util.files import atomic_write, write_text
 from ..results.animation import animate
+from ..results.kept_out import kept_out_region
 from ..results.plotting import planes, save_trajectory_plots
 
 
@@ -83,7 +84,9 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
               gif=False, plots=True, problem=None):
     """Write every output file of one run into `out` (the trajectory, table and summary,
     and, for a finite trajectory, the plots if `plots` and the GIF if `gif`); return the
-    paths written. Given the `problem` an optimum solves, its bounds are drawn."""
+    paths written. Given the `problem` an optimum solves, its bounds are drawn, and what its
+    path constraints keep out of the plane; the GIF draws the system's bodies (a stock
+    `spec.shape` when it declares none, or when its coordinates name no plane)."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
@@ -100,8 +103,11 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
                                          heading=spec.heading, goal=goal)
     if gif and traj.q.shape[1] >= 2:
         x, y = (planes(names) or [(0, 1)])[0]
-        written.append(animate(traj, out / f"{name}.gif", shape=spec.shape, x=x, y=y,
+        bodies = disc.system.bodies if planes(names) else ()
+        written.append(animate(traj, out / f"{name}.gif", bodies=bodies or None,
+                               shape=None if bodies else spec.shape, x=x, y=y,
                                heading=spec.heading, roll=spec.roll, goal=goal,
+                               obstacles=problem and kept_out_region(problem, x, y),
                                labels=(names[x], names[y]), units=disc.system.units,
                                title=name))
     return written

@@ -3,9 +3,11 @@ boundary data, control names and how to draw them, and user files given as
 ``path/to/file.py:factory``, whose factory returns a system or a whole problem.
 """
 
+import contextlib
 import importlib.util
 import inspect
 import pathlib
+import sys
 import dataclasses
 from dataclasses import dataclass
 
@@ -34,7 +36,7 @@ class SystemSpec:
     control_names : tuple of str
         Names of the controls (CSV columns, plot legends).
     shape : {"blade", "coin", "point"}
-        How `dmoc.animation.animate` draws it.
+        How `dmoc.animation.animate` draws a system that declares no `bodies`.
     heading, roll : int or None
         Columns of q holding the heading and the rolling angle.
     """
@@ -54,9 +56,9 @@ class SystemSpec:
         return {name: p.default for name, p in inspect.signature(self.factory).parameters.items()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
 
-    def control_labels(self, n_u):
-        """`control_names`, or u0, u1, ... for the `n_u` controls of a system from a file."""
-        return self.control_names or tuple(f"u{i}" for i in range(n_u))
+    def control_labels(self, system):
+        """`control_names`, or those `system` declares (u0, u1, ... when it declares none)."""
+        return self.control_names or system.control_names
 
     def takes_any_parameter(self):
         """True when the factory takes ``**kwargs``: then any --param name is passed on."""
@@ -92,7 +94,8 @@ BUILT_IN = {
 def resolve(name):
     """The SystemSpec of a built-in name or of ``path/to/file.py:factory``: the file is
     imported, which runs its top-level code (a script's own code belongs under
-    ``if __name__ == "__main__":``)."""
+    ``if __name__ == "__main__":``), with its folder first on ``sys.path`` while it loads,
+    so that it imports a module beside it as ``python path/to/file.py`` would."""
     if name in BUILT_IN:
         return BUILT_IN[name]
     file, sep, attr = name.rpartition(":")
@@ -108,7 +111,8 @@ def resolve(name):
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     try:
-        spec.loader.exec_module(module)
+        with _beside(path):
+            spec.loader.exec_module(module)
     except SystemExit as done:
         raise UsageError("SYSTEM", f"importing {file} called sys.exit({done.code!r}); expected "
                          f"a file that defines {attr!r} (hint: put a script's own code under "
@@ -119,6 +123,18 @@ def resolve(name):
     if not callable(factory):
         raise UsageError("SYSTEM", f"{file} has no callable {attr!r}")
     return SystemSpec(factory, (inspect.getdoc(factory) or attr).splitlines()[0])
+
+
+@contextlib.contextmanager
+def _beside(path):
+    """`path`'s folder first on ``sys.path`` while the block runs; the list as it was
+    afterwards (the modules imported meanwhile stay in ``sys.modules``)."""
+    kept = list(sys.path)
+    sys.path.insert(0, str(path.resolve().parent))
+    try:
+        yield
+    finally:
+        sys.path[:] = kept
 
 
 def build(spec, params):

@@ -117,8 +117,8 @@ class QuadratureRule(Rule):
         linear rule's is exactly (q1 - q0)/h; the position keeps the form symmetric in the
         nodes ((q0 + q1)/2 for the midpoint, not q0 + (q1 - q0)/2), which keeps the
         rounding of a symmetric rule time-reversible, so that the rounding errors of a long
-        run do not add up to an energy drift (docs/performance.md, "Measured and not
-        adopted"). `s` holds the stage values, ``n_stage_blocks * n`` rows, stage by
+        run do not add up to an energy drift (q0 + (q1 - q0)/2 drifted 2e-10 relative over
+        1e5 steps of the inclined knife edge, against 1e-12). `s` holds the stage values, ``n_stage_blocks * n`` rows, stage by
         stage. `points` defaults to the rule's quadrature points.
         """
         nodes = self.node_values(q0, q1, s)

@@ -68,7 +68,7 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     N_k, and each level's estimate compares its cost with the level before. Every level
     is judged (`dmoc.drivers.verdict`); one the verdict finds under-resolved is refined
     to 2N like the first, any other failure ends the loop. The rule stays the problem's:
-    a higher order reaches small targets on far fewer steps (docs/performance.md).
+    a higher order reaches small targets on far fewer steps (benchmarks/accuracy.py).
     """
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     accuracy = _accuracy(accuracy)

@@ -92,7 +92,7 @@ def estimate_error(problem, result, *, reference=None, **keywords):
     step's interpolant, `Trajectory.control`) on 2N steps of the same rule and variant;
     its end q_2N and the optimum's q_N (at the goal) give q_N - q(T) ~ (q_N - q_2N) /
     (1 - 2^-p). The reference solve costs about a solve on M steps (`ErrorEstimate.time`;
-    docs/performance.md); the replay, a simulation of 2N steps.
+    benchmarks/accuracy.py --estimates); the replay, a simulation of 2N steps.
 
     Examples
     --------

@@ -1,9 +1,10 @@
 """Model predictive control on the DMOC NLP (a driver: the optimizer in a closed loop): a
-receding-horizon controller re-solves one problem structure from each measured state, its
-start given by a momentum (`OptimalControlProblem(p_start=...)`), with IPOPT's kept solver
-warm-started from the previous optimum shifted by one step, primal and dual, and applies
-the first step's controls; a failed solve raises, or (``on_failure="shift"``) the last
-optimum's plan is followed one more step.
+receding-horizon controller re-solves one problem structure from each measured state, made
+a start within the bounds and on the constraints by its measurement policy
+(`dmoc.drivers.measurement`) and given by a momentum (`OptimalControlProblem(p_start=...)`),
+with IPOPT's kept solver warm-started from the previous optimum shifted by one step, primal
+and dual, and applies the first step's controls; a failed solve raises, or
+(``on_failure="shift"``) the last optimum's plan is followed one more step.
 """
 
 import dataclasses
@@ -15,6 +16,7 @@ from .._util import checks, deferred
 from ..errors import InputError, Interrupted, SolverError, Status
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..optimal_control.solver.solving import solve        # the raw IPOPT solve of one problem
+from .measurement import MeasurementPolicy
 
 ON_FAILURE = ("raise", "shift")
 
@@ -26,7 +28,7 @@ class MPCStep:
     Attributes
     ----------
     q, p : ndarray, shape (n,)
-        The measured start.
+        The start the solve used: the measurement, or its projection (`corrected`).
     u : ndarray, shape (len(control_nodes) * n_u,), or None
         The controls applied over the step, at the rule's control nodes; None when the
         step raised.
@@ -45,6 +47,21 @@ class MPCStep:
         Which optimum `u` comes from: 0 this step's, k > 0 (after failed solves, with
         ``on_failure="shift"``) the plan of k steps before, at its step k; None when the
         step raised.
+    h : float or None
+        The step over which `u` is to be applied: the discretization's, or with a free
+        final time the step of the plan `u` comes from (the plant is simulated over it);
+        None when the step raised.
+    measurement : str
+        The controller's measurement policy ("project").
+    corrected : tuple of str
+        What the measurement violated and the policy corrected, among "state_bounds",
+        "holonomic" (g(q) = 0) and "velocity" (A(q) v = 0); empty when it was used as is.
+    q_measured : ndarray, shape (n,)
+    v_measured, p_measured : ndarray, shape (n,), or None
+        The measurement as given (of v and p, the one not given is None).
+    q_correction, v_correction : float
+        Euclidean norms of q - q_measured and of the velocity's correction (0 for a
+        measured p), in the coordinates' units.
     """
 
     q: np.ndarray
@@ -56,7 +73,15 @@ class MPCStep:
     solve_time: float
     step_time: float
     warm_start: bool
-    plan_age: int = 0
+    plan_age: int
+    h: float
+    measurement: str
+    corrected: tuple
+    q_measured: np.ndarray
+    v_measured: np.ndarray
+    p_measured: np.ndarray
+    q_correction: float
+    v_correction: float
 
 
 class MPC:
@@ -82,8 +107,7 @@ class MPC:
         MX graph (``expand=False, jit=False``). `expand` is True by default, unlike
         `optimize`'s: a controller builds its solver once and solves on it at every step,
         so the expansion's cost (a few ms at step 0) buys a cheaper evaluation at every
-        warm step (about a fifth of a warm step at horizon 30, docs/performance.md, "MPC:
-        per-step times"). With `jit`, `expand` has no effect.
+        warm step (benchmarks/mpc.py --mx). With `jit`, `expand` has no effect.
     on_failure : {"raise", "shift"}
         What a step does when IPOPT does not converge. "raise" (default): raise
         SolverError (the failed solve in `.result`); no control is returned. "shift":
@@ -92,11 +116,19 @@ class MPC:
         plan's own states), and raise SolverError only when no plan is left: the first
         solve failed, or N solves in a row. Either way the step is recorded in `log`.
         A Ctrl-C during a solve raises Interrupted.
+    measurement : {"project", "refuse"}
+        What a step does with a measured state outside `state_bounds` or off the
+        constraints (g(q) = 0, A(q) v = 0), as sensor noise makes it
+        (`dmoc.drivers.measurement.MeasurementPolicy`). "project" (default): the closest
+        start within the box and on the constraints, in the metric of the mass matrix
+        d2L/dv2 (q clipped to the box and put on g = 0, v projected onto ker A(q)); the
+        record says what was corrected and by how much. "refuse": InputError naming the
+        step and each violated bound or constraint with its value.
 
     Attributes
     ----------
-    on_failure : str
-        The `on_failure` policy.
+    on_failure, measurement : str
+        The `on_failure` and `measurement` policies.
     problem : OptimalControlProblem
         The problem of the last step (its start the last measurement).
     plan : OptimizationResult or None
@@ -123,10 +155,12 @@ class MPC:
     ((2,), True)
     """
 
-    def __init__(self, problem, *, guess=None, options=None, on_failure="raise", expand=True,
-                 jit=False):
+    def __init__(self, problem, *, guess=None, options=None, on_failure="raise",
+                 measurement="project", expand=True, jit=False):
         checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
         self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
+        self._measurement = MeasurementPolicy(problem, measurement)
+        self.measurement = self._measurement.policy
         self._switches = {"expand": checks.boolean("expand", expand), "jit": checks.boolean("jit", jit)}
         if not np.isfinite(problem.q_start).all():
             raise InputError("`problem` must have a fully given `q_start`: the controller's "
@@ -144,17 +178,24 @@ class MPC:
         ----------
         q : array_like, shape (n,)
         v, p : array_like, shape (n,)
-            The measured velocity (then p = dL/dv(q, v)) or momentum: exactly one.
+            The measured velocity (then p = dL/dv(q, v)) or momentum: exactly one. A
+            measurement outside `state_bounds` or off the constraints is projected or
+            refused by the `measurement` policy.
 
         Returns
         -------
         ndarray, shape (len(control_nodes) * n_u,)
             The first step's controls at the rule's control nodes (node by node), to apply
-            over one step h (``simulate(..., controls=u[None])``); after a failed solve with
+            over one step h (``simulate(..., controls=u[None])``; with a free final time h
+            is the plan's, `MPCStep.h`); after a failed solve with
             ``on_failure="shift"``, those of the last optimum's plan at the step that follows.
 
         Raises
         ------
+        InputError
+            A measurement of the wrong shape or with a NaN or infinite entry, neither or
+            both of v and p, or (``measurement="refuse"``) one outside the box or off the
+            constraints; the message names the step and the entry. Nothing is recorded.
         SolverError
             IPOPT did not converge and `on_failure` is "raise", or no plan is left to
             follow; its `.result` holds the last iterate.
@@ -162,13 +203,11 @@ class MPC:
             A Ctrl-C stopped IPOPT.
         """
         tic = time.perf_counter()
-        system = self.problem.disc.system
-        q = checks.array("q", q, (system.n,))
-        if (v is None) == (p is None):
-            raise InputError("give the measured state as `v` or as `p`, exactly one.")
-        p = (np.array(system.momentum(q, checks.array("v", v, (system.n,)))).ravel() if p is None
-             else checks.array("p", p, (system.n,)))
-        self.problem = self.problem.with_boundary(q_start=q, p_start=p)
+        start = self._measurement.start(len(self.log), q, v=v, p=p)
+        try:
+            self.problem = self.problem.with_boundary(q_start=start.q, p_start=start.p)
+        except InputError as err:       # e.g. a start in an obstacle (path constraints)
+            raise type(err)(f"MPC step {len(self.log)}: {err}") from None
         guess = self._guess if self.plan is None else shifted(self.plan, self.problem, self._age + 1)
         result = solve(self.problem, guess=guess, options=self._options, throw=False, **self._switches)
         if result.success:
@@ -177,17 +216,21 @@ class MPC:
                 and self._age + 1 < self.problem.steps:
             self._age += 1
         else:
-            self._record(q, p, None, result, tic, None)
+            self._record(start, None, result, tic, None)
             raise self._failure(result)
         # read from x: the plan's Trajectory is made only when a caller asks for it
         u = self.problem.transcription.x_layout.unpack(self.plan.x, "u")[:, self._age].copy()
-        self._record(q, p, u, result, tic, self._age)
+        self._record(start, u, result, tic, self._age)
         return u
 
-    def _record(self, q, p, u, result, tic, age):
-        self.log.append(MPCStep(q, p, u, result.success, result.status, result.stats["iterations"],
-                                result.stats["solve_time"], time.perf_counter() - tic,
-                                result.stats["warm_start"], age))
+    def _record(self, start, u, result, tic, age):
+        h = None if age is None else self.problem.final_time.step(
+            self.problem.transcription.x_layout, self.plan.x)
+        self.log.append(MPCStep(
+            start.q, start.p, u, result.success, result.status, result.stats["iterations"],
+            result.stats["solve_time"], time.perf_counter() - tic, result.stats["warm_start"],
+            age, h, self.measurement, start.corrected, start.q_measured, start.v_measured,
+            start.p_measured, start.q_correction, start.v_correction))
 
     def _failure(self, result):
         """The error of a failed step: Interrupted for a Ctrl-C, else SolverError saying

@@ -45,10 +45,10 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         True evaluates the NLP's five Functions (f, g and the derivatives assembled from
         the terms, ``problem.transcription.separable.functions()``) as flat SX Functions
         instead of the MX graph of mapped terms: the same operations, so the same optimum
-        and iterations, 1.05-5 times faster per evaluation (g and the Jacobian least),
-        for 12-25 ms more to build at N of 10-30 (growing with N;
-        `dmoc.optimal_control.nlp.evaluation`). For re-solves without a C compiler; `jit` is faster
-        still. Default False.
+        and iterations, faster per evaluation (g and the Jacobian least) and slower to
+        build, the more so as N grows (`dmoc.optimal_control.nlp.evaluation`;
+        benchmarks/peers.py resolve, "raw SX"). For re-solves without a C compiler; `jit`
+        is faster still. Default False.
     linear_solver_report : bool
         True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
         IPOPT's detailed journal (`dmoc.optimal_control.solver.linear_solver`); writing it adds 10-30 %
@@ -76,8 +76,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     estimate : bool
         True: estimate the optimum's discretization error
         (`dmoc.drivers.error_estimate.estimate_error`: a solve on N/2 steps started from the
-        optimum and a replay on 2N steps, about 0.3-0.6 of the solve once the replay's
-        step is built, docs/performance.md) into ``verdict.discretization_error`` and
+        optimum and a replay on 2N steps; its cost against the solve:
+        benchmarks/accuracy.py --estimates) into ``verdict.discretization_error`` and
         ``stats["error_estimate"]``. Default False.
     accuracy : float, optional
         A relative target in [1e-9, 1) for the estimated error of the cost and of the

@@ -4,7 +4,8 @@ the checks of given data (`given`), the built-in systems with their oracles (`sy
 robots from their URDF files (`robots`)."""
 
 from . import robots, systems
+from .bodies import Body
 from .robots import RobotSystem
 from .system import HamiltonianSystem, MechanicalSystem
 
-__all__ = ["MechanicalSystem", "HamiltonianSystem", "RobotSystem", "robots", "systems"]
+__all__ = ["MechanicalSystem", "HamiltonianSystem", "Body", "RobotSystem", "robots", "systems"]

@@ -114,7 +114,7 @@ def check_allowed_velocity(name, system, q, v):
     """Raise ValueError naming `name` unless A(q) v = 0 (`velocity_errors` of one pair). A
     zero v (signed zeros included) lies in every Delta_Q: A(q) is not evaluated, as its
     products with v would give |A(q) v| = 0, or NaN where A(q) is not finite, neither
-    above the tolerance (a re-solve's goal at rest, docs/performance.md)."""
+    above the tolerance (a re-solve's goal at rest, benchmarks/peers.py)."""
     if not np.any(v):
         return
     rows = (np.asarray(x, dtype=float).reshape(1, -1) for x in (q, v))

@@ -12,6 +12,8 @@ import numpy as np
 from .._util import checks
 from .._util.symbolic import user_function
 from ..errors import InputError
+from .bodies import system_bodies
+from .labels import control_names, coordinate_names
 from .units import system_units
 
 
@@ -44,6 +46,12 @@ class MechanicalSystem:
         Units for plots and animations: "t" (str, time), "q" (n str, the coordinates), "u"
         (n_u str, the controls); a missing key means no unit, e.g.
         ``{"t": "s", "q": ("m", "m", "rad"), "u": ("N", "N m")}``.
+    control_names : sequence of str, optional
+        Names of the n_u controls, for plots and the CSV table (rules of `names`); default
+        u0, u1, ...
+    bodies : sequence of Body, optional
+        What plots and animations draw of the system: outlines in the plane as functions
+        of q (`dmoc.Body`), each tried at q = 0 here (docs/stages/results.md).
 
     Attributes
     ----------
@@ -52,6 +60,10 @@ class MechanicalSystem:
         of u.
     n_holonomic : int
         k, the number of holonomic constraints (the last k of the m one-forms).
+    names, control_names : tuple of str
+        n and n_u names.
+    bodies : tuple of Body
+        The declared bodies, () when none.
     units : dict
         {"t": str, "q": tuple of n str, "u": tuple of n_u str}, "" where none was declared.
     lagrangian, constraint_matrix, force, momentum, energy : casadi.Function
@@ -86,9 +98,10 @@ class MechanicalSystem:
     """
 
     def __init__(self, lagrangian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
-                 names=None, units=None):
+                 names=None, units=None, control_names=None, bodies=None):
         q, v = _build_data(self, "MechanicalSystem", ("lagrangian", "L", lagrangian, "v"), n,
-                           constraints, holonomic, force, n_u, names, units)
+                           constraints, holonomic, force, n_u,
+                           (names, units, control_names, bodies))
         L = self.lagrangian(q, v)
         p = ca.gradient(L, v)
         self.momentum = ca.Function("momentum", [q, v], [p], ["q", "v"], ["p"])
@@ -127,13 +140,14 @@ class HamiltonianSystem:
     force : callable, optional
         ``force(q, p, u)``, shape (n,).
     n_u : int, optional
-    names : sequence of str, optional
+    names, control_names : sequence of str, optional
     units : mapping, optional
+    bodies : sequence of Body, optional
         As for `MechanicalSystem`.
 
     Attributes
     ----------
-    n, m, n_u, n_holonomic, names, units, key
+    n, m, n_u, n_holonomic, names, control_names, units, bodies, key
         As for `MechanicalSystem`.
     hamiltonian, constraint_matrix, nonholonomic_matrix, holonomic, force : casadi.Function
         ``H(q, p)``, ``A(q)`` (m, n), ``A_nh(q)``, ``g(q)``, ``f(q, p, u)``.
@@ -154,9 +168,10 @@ class HamiltonianSystem:
     """
 
     def __init__(self, hamiltonian, n, *, constraints=None, holonomic=None, force=None, n_u=0,
-                 names=None, units=None):
+                 names=None, units=None, control_names=None, bodies=None):
         q, p = _build_data(self, "HamiltonianSystem", ("hamiltonian", "H", hamiltonian, "p"), n,
-                           constraints, holonomic, force, n_u, names, units)
+                           constraints, holonomic, force, n_u,
+                           (names, units, control_names, bodies))
         v = ca.SX.sym("v", self.n)
         dH = ca.gradient(self.hamiltonian(q, p), p)
         self.velocity = ca.Function("velocity", [q, p], [dH], ["q", "p"], ["v"])
@@ -188,12 +203,14 @@ def _hessian_diagonal(function, q, n):
     return ca.substitute(ca.diag(ca.hessian(function(q, y), y)[0]), y, ca.SX.zeros(n))
 
 
-def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, names, units):
+def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, drawn):
     """Set the data every system class shares on `system` (n, n_u, the primary Function L
-    or H, the constraints, the force, names, units, m, n_holonomic), reporting every problem at
-    once; return the symbols (q, x), x the second argument (v or p) of L or H and f.
+    or H, the constraints, the force, names, units, control names, bodies, m, n_holonomic),
+    reporting every problem at once; return the symbols (q, x), x the second argument (v or
+    p) of L or H and f.
 
-    `primary` is (argument name, Function label, callable, name of x)."""
+    `primary` is (argument name, Function label, callable, name of x); `drawn` is (names,
+    units, control_names, bodies), what plots show."""
     system.n = checks.positive_int("n", n)
     system.n_u = checks.nonnegative_int("n_u", n_u)
     name, label, fun, second = primary
@@ -214,8 +231,11 @@ def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, na
     system.force = ca.Function("f", [q, x, u], [ca.SX.zeros(system.n)], args, ["f"]) \
         if force is None else user_function("force", force, (q, x, u), args, (system.n, 1),
                                             problems, label="f")
-    system.names = _coordinate_names(names, system.n, problems)
+    names, units, controls, bodies = drawn
+    system.names = coordinate_names(names, system.n, problems)
+    system.control_names = control_names(controls, system.n_u, problems)
     system.units = system_units(units, system.n, system.n_u, problems)
+    system.bodies = system_bodies(bodies, system.n, problems)
     if not problems:
         _check_rank(system.constraint_matrix, system.n, system.holonomic.numel_out(0), problems)
     if problems:
@@ -272,25 +292,3 @@ def _check_rank(constraint_matrix, n, n_holonomic, problems):
             "the rows of `constraints` and of dg/dq of `holonomic` must be linearly independent"
         problems.append(f"{rows}: A(q) has rank {max(ranks)} < m = {m} at random q; drop the "
                         f"redundant rows.")
-
-
-def _coordinate_names(names, n, problems):
-    if names is None:
-        return tuple(f"q{i}" for i in range(n))
-    if isinstance(names, str) or not hasattr(names, "__iter__"):
-        problems.append(f"`names` must be a sequence of {n} strings; got {names!r}.")
-        return tuple(f"q{i}" for i in range(n))
-    names = tuple(names)
-    if len(names) != n or not all(isinstance(s, str) for s in names):
-        problems.append(f"`names` must be {n} strings; got {names!r}.")
-        return names
-    repeated = sorted({s for s in names if names.count(s) > 1})
-    if repeated:
-        problems.append(f"`names` must be distinct (each names a column of the CSV table and "
-                        f"a plot axis); got {repeated} more than once in {names!r}.")
-    unsafe = [s for s in names if any(c in s for c in ",\r\n")]
-    if unsafe:
-        problems.append(f"`names` must not contain commas or line breaks (they are the CSV "
-                        f"table's column names, unquoted); got {unsafe}: write e.g. 'x_1' "
-                        f"for 'x,1'.")
-    return names

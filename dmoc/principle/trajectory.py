@@ -91,8 +91,8 @@ class Trajectory:
 
         For dmoc's consumers, which build every field with the shapes and types the
         checks of ``Trajectory(...)`` would give it (float arrays, `h` a float, `variant`
-        a formulation's name, the nodes tuples of floats): those checks cost about
-        50 us, as much as a short simulation's steps. The arrays are kept as given,
+        a formulation's name, the nodes tuples of floats): those checks cost as much
+        as a short simulation's steps. The arrays are kept as given,
         views included: nothing else may write to them. Construct a Trajectory of your
         own arrays with ``Trajectory(...)``, which checks and copies them.
         """

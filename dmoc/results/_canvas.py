@@ -81,11 +81,67 @@ def units_of(units, n, n_u):
     return declared
 
 
-def bound_lines(ax, lower, upper):
-    """The finite entries of a scalar bound pair as dashed horizontal lines, one legend entry."""
-    finite = [value for value in (lower, upper) if np.isfinite(value)]
-    for i, value in enumerate(finite):
+# A plane plot is drawn to scale (equal aspect) unless its box is more than ASPECT_LIMIT
+# times as long as it is wide: a 100 m lane change 3.5 m wide keeps its own scale across;
+# a straight run (no width) counts as 1/THINNEST of its length wide.
+ASPECT_LIMIT, THINNEST = 4.0, 50.0
+_PLANE_MARGIN = 0.06        # of the box's side, on each side
+
+
+def plane_limits(points):
+    """The limits of a plot of the plane holding `points`, and whether it is to scale.
+
+    Parameters
+    ----------
+    points : array_like, shape (k, 2)
+        Every point drawn (path, goal, bodies, obstacle extents), NaN rows ignored.
+
+    Returns
+    -------
+    (x0, x1), (y0, y1) : pair of float
+    to_scale : bool
+        True when the longer side of the points' box is at most ASPECT_LIMIT times the
+        shorter (equal aspect); the limits then add the same margin to both sides.
+    """
+    points = np.asarray(points, dtype=float)
+    points = points[np.isfinite(points).all(axis=1)]
+    lower, upper = points.min(axis=0), points.max(axis=0)
+    longer = max(np.max(upper - lower), 1e-9 * max(1.0, np.abs(points).max()))
+    size = np.maximum(upper - lower, longer / THINNEST)
+    to_scale = bool(size.min() * ASPECT_LIMIT >= longer)
+    pad = _PLANE_MARGIN * (np.full(2, size.max()) if to_scale else size)
+    middle = (lower + upper) / 2
+    low, high = middle - size / 2 - pad, middle + size / 2 + pad
+    return (low[0], high[0]), (low[1], high[1]), to_scale
+
+
+def not_to_scale_note(ax):
+    """A note in the corner of a plane plot whose axes have different scales."""
+    ax.text(0.99, 0.01, "not to scale", transform=ax.transAxes, ha="right", va="bottom",
+            fontsize="x-small", color="0.4")
+
+
+def data_limits_with_bounds(ax, data, lower, upper):
+    """Set the y limits of `ax` from `data` (with a margin) and draw the finite bounds
+    within reach of the data as dashed lines, one legend entry; a bound farther than one
+    span of the data from it (a +-15 kN bound over a +-1.5 kN ramp) is not drawn, which
+    would squeeze the data to a line, but named in a note. Returns the bounds drawn."""
+    data = np.asarray(data, dtype=float)
+    data = data[np.isfinite(data)]
+    low, high = (data.min(), data.max()) if data.size else (0.0, 0.0)
+    span = high - low or max(abs(low), abs(high), 1.0) * 0.1
+    finite = [b for b in (lower, upper) if np.isfinite(b)]
+    drawn = [b for b in finite if low - span <= b <= high + span]
+    for i, value in enumerate(drawn):
         ax.axhline(value, color="C3", ls="--", lw=0.9, label="_nolegend_" if i else "bound")
+    shown = [low, high, *drawn]
+    pad = 0.06 * (max(shown) - min(shown) or span)
+    ax.set_ylim(min(shown) - pad, max(shown) + pad)
+    far = [b for b in finite if b not in drawn]
+    if far:
+        ax.text(0.99, 0.97, "bound " + ", ".join(f"{b:.4g}" for b in far) + " off the axes",
+                transform=ax.transAxes, ha="right", va="top", fontsize="x-small", color="C3")
+    return drawn
 
 
 def save_png(fig, path):

@@ -1,23 +1,27 @@
 """Animations of computed trajectories as GIF files, the results stage of the pipeline:
-a knife edge or Chaplygin sleigh drawn as a blade, the vertical rolling disk as a coin with
-its heading and rolling mark, and a generic marker for any planar system. Drawn on a bare
-Figure on the Agg canvas (never pyplot), the still parts once and the moving ones per
-frame, and written by Pillow (both imported lazily).
+the bodies a system declares (`dmoc.Body`) at every frame, or one of three stock shapes
+(a blade, a coin with its rolling mark, a marker), over the obstacles and the goal. Drawn
+on a bare Figure on the Agg canvas (never pyplot), the still parts once and the moving ones
+per frame, and written by Pillow (both imported lazily).
 """
 
 import numpy as np
 
-from ._canvas import label, units_of
+from ._canvas import label, not_to_scale_note, plane_limits, units_of
+from ._drawn_bodies import DrawnBodies, body_points, body_values
+from ._obstacles import draw_obstacles, obstacle_extent, obstacle_values
 from .._util import checks
 from .._util.files import atomic_path
 from ..errors import InputError
+from ..mechanics.bodies import Body, segment
 from ..principle.trajectory import Trajectory
 
 SHAPES = ("blade", "coin", "point")
 
 
-def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goal=None,
-            size=None, frames=40, fps=12, labels=("x", "y"), units=None, title=None):
+def animate(traj, path, *, bodies=None, shape=None, x=0, y=1, heading=None, roll=None,
+            goal=None, obstacles=None, size=None, frames=40, fps=12, labels=("x", "y"),
+            units=None, title=None):
     """Write an animation of the planar motion of `traj` to the GIF file `path`.
 
     Parameters
@@ -25,10 +29,14 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     traj : Trajectory
     path : str or pathlib.Path
         The GIF file to write; its folder is created if missing.
-    shape : {"blade", "coin", "point"}
-        "blade": a segment along the heading (knife edge, sleigh); "coin": the rolling
-        disk seen obliquely from above, a mark on its rim turning with the rolling angle;
-        "point": a marker, with a heading arrow when `heading` is given.
+    bodies : sequence of Body, optional
+        The bodies drawn at every frame (``system.bodies``), their outlines in the plane
+        of columns x and y. Give `bodies` or `shape`, not both.
+    shape : {"blade", "coin", "point"}, optional
+        A stock body when the system declares none: "blade", a segment along the heading
+        (knife edge, sleigh); "coin", the rolling disk seen obliquely from above, a mark on
+        its rim turning with the rolling angle; "point" (the default without `bodies`), a
+        marker, with a heading arrow when `heading` is given.
     x, y : int
         Columns of q holding the position in the plane.
     heading : int, optional
@@ -37,8 +45,10 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
         Column of q holding the rolling angle ("coin" only).
     goal : array_like, shape (n,), optional
         Goal configuration drawn as a star; NaN entries are free.
+    obstacles : array_like, shape (K, 3), or callable, optional
+        Discs (x, y, radius) or a region g(x, y) > 0, drawn as by `plot_path`, whole.
     size : float, optional
-        Length of the drawn body; default a tenth of the path's extent (at least 0.1).
+        Length of a stock shape; default a tenth of the path's extent (at least 0.1).
     frames : int
         Number of frames, 40 by default (knots are subsampled evenly; at most traj.steps + 1).
     fps : int
@@ -57,15 +67,14 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
 
     Notes
     -----
-    The picture is sized to the motion's aspect (a wide motion gives a wide GIF, the
-    ratio kept within 1:2). The axes, path limits and goal are drawn once; each frame
-    redraws only the trail, the body and the clock over that background.
+    The limits hold the path, the goal, the bodies at every frame and the obstacles whole.
+    The picture is to scale, sized to the motion's aspect (the ratio kept within 1:2),
+    unless the motion is more than 4 times as long as it is wide (the rule of `plot_path`):
+    then it is 2:1 and says "not to scale". The axes, obstacles and goal are drawn once;
+    each frame redraws only the trail, the bodies and the clock over that background.
     """
     q = checks.instance("traj", traj, Trajectory, "a Trajectory").q
     path = checks.file_path("path", path)
-    shape = checks.choice("shape", shape, SHAPES)
-    if shape != "point" and heading is None:
-        raise InputError(f"`heading` must be a column of q for shape {shape!r}; got None.")
     x, y = checks.column("x", x, q.shape[1]), checks.column("y", y, q.shape[1])
     heading = None if heading is None else checks.column("heading", heading, q.shape[1])
     roll = None if roll is None else checks.column("roll", roll, q.shape[1])
@@ -75,16 +84,25 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     fps = checks.positive_float("fps", fps)
     labels = checks.strings("labels", labels, 2)
     units = units_of(units, q.shape[1], traj.u.shape[1] // len(traj.control_nodes))
-    path.parent.mkdir(parents=True, exist_ok=True)
+    obstacles, bodies = obstacle_values(obstacles), body_values(bodies)
+    if bodies and shape is not None:
+        raise InputError(f"give `bodies` or `shape`, not both; got shape={shape!r} and "
+                         f"{len(bodies)} bodies.")
     size = size or max(0.1, 0.1 * max(np.ptp(q[:, x]), np.ptp(q[:, y])))
-    limits = _limits(q[:, x], q[:, y], goal, (x, y), size)
-    fig, ax = _canvas(limits)
-    trail, = ax.plot([], [], "-", color="C0", lw=1, animated=True)
-    body = _Body(ax, shape, size)
-    _frame_axes(ax, goal, (x, y), limits, [label(s, units["q"][c]) for s, c in zip(labels, (x, y))],
-                title)
-    clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", animated=True)
+    bodies = bodies or _stock_bodies(checks.choice("shape", shape or "point", SHAPES),
+                                     x, y, heading, roll, size)
     knots = np.unique(np.linspace(0, traj.steps, frames).round().astype(int))
+    g = None if goal is None else goal[[x, y]]
+    shown = np.r_[q[:, [x, y]], body_points(bodies, q[knots]),
+                  g[None] if g is not None and np.isfinite(g).all() else np.empty((0, 2))]
+    box = np.array([shown.min(axis=0), shown.max(axis=0)])
+    xlim, ylim, to_scale = plane_limits(np.r_[box, obstacle_extent(obstacles, box)])
+    fig, ax = _canvas(_widened((xlim, ylim)) if to_scale else (xlim, ylim), to_scale)
+    draw_obstacles(ax, obstacles)
+    _frame_axes(ax, g, [label(s, units["q"][c]) for s, c in zip(labels, (x, y))], title)
+    trail, = ax.plot([], [], "-", color="C0", lw=1, animated=True, zorder=2)
+    drawn = DrawnBodies(ax, bodies, q[0], alpha=0.5, legend=False, animated=True, zorder=3)
+    clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", animated=True)
     _fit(fig, ax)
     fig.canvas.draw()
     background = fig.canvas.copy_from_bbox(fig.bbox)
@@ -92,13 +110,13 @@ def animate(traj, path, *, shape="point", x=0, y=1, heading=None, roll=None, goa
     for k in knots:                               # only the moving artists are drawn again
         fig.canvas.restore_region(background)
         trail.set_data(q[: k + 1, x], q[: k + 1, y])
-        body.move(q[k, x], q[k, y], None if heading is None else q[k, heading],
-                  0.0 if roll is None else q[k, roll])
+        drawn.move(q[k])
         clock.set_text(f"t = {traj.t[k]:.2f}" + (f" {units['t']}" if units["t"] else ""))
-        for artist in (trail, *body.artists, clock):
+        for artist in (trail, *drawn.artists, clock):
             ax.draw_artist(artist)
         images.append(np.array(fig.canvas.buffer_rgba())[..., :3])
     images = _palette_images(images)
+    path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as temporary:
         images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
                        duration=round(1000 / fps), loop=0)
@@ -110,36 +128,40 @@ _MARGINS = (0.75, 0.15, 0.55, 0.4)             # left, right, bottom, top, inche
 _DPI = 80
 
 
-def _limits(xs, ys, goal, columns, size):
-    """((x0, x1), (y0, y1)) around the path and goal, the shorter side widened so that
-    the ratio stays within 1:2 (a narrower picture leaves no room to read it)."""
-    points_x, points_y = list(xs), list(ys)
-    if goal is not None:
-        g = np.asarray(goal, dtype=float)[list(columns)]
-        if np.isfinite(g).all():
-            points_x.append(g[0])
-            points_y.append(g[1])
-    pad = 1.5 * size
-    (x0, x1), (y0, y1) = ((min(v) - pad, max(v) + pad) for v in (points_x, points_y))
+def _widened(limits):
+    """`limits` ((x0, x1), (y0, y1)) with the shorter side widened so that the ratio stays
+    within 1:2 (a narrower picture leaves no room to read it)."""
+    (x0, x1), (y0, y1) = limits
     width, height = x1 - x0, y1 - y0
     grow_x, grow_y = max(0.0, height / 2 - width) / 2, max(0.0, width / 2 - height) / 2
     return (x0 - grow_x, x1 + grow_x), (y0 - grow_y, y1 + grow_y)
 
 
-def _canvas(limits):
-    """A Figure on the Agg canvas whose plot area has the aspect of `limits`."""
+def _canvas(limits, to_scale=True):
+    """A Figure on the Agg canvas whose plot area has the aspect of `limits` when
+    `to_scale`, else 2:1 along the longer side; the Axes holds the limits, fixed."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     (x0, x1), (y0, y1) = limits
     aspect = (y1 - y0) / (x1 - x0)
+    if not to_scale:
+        aspect = 0.5 if aspect <= 1 else 2.0
     w, h = (_HEIGHT, _HEIGHT * aspect) if aspect <= 1 else (_HEIGHT / aspect, _HEIGHT)
     left, right, bottom, top = _MARGINS
     fig = Figure(figsize=(w + left + right, h + bottom + top), dpi=_DPI)
     FigureCanvasAgg(fig)
     fig.subplots_adjust(left=left / fig.get_figwidth(), right=1 - right / fig.get_figwidth(),
                         bottom=bottom / fig.get_figheight(), top=1 - top / fig.get_figheight())
-    return fig, fig.add_subplot()
+    ax = fig.add_subplot()
+    ax.set_autoscale_on(False)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    if to_scale:
+        ax.set_aspect("equal", adjustable="box")
+    else:
+        not_to_scale_note(ax)
+    return fig, ax
 
 
 def _fit(fig, ax):
@@ -167,59 +189,46 @@ def _palette_images(frames):
     return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
 
 
-def _frame_axes(ax, goal, columns, limits, labels, title):
-    """Fixed limits, equal aspect, the goal and the labels."""
-    if goal is not None:
-        g = np.asarray(goal, dtype=float)[list(columns)]
-        if np.isfinite(g).all():
-            ax.plot(*g, "*", ms=14, color="C1", label="goal")
-    ax.set_autoscale_on(False)
-    ax.set_xlim(*limits[0])
-    ax.set_ylim(*limits[1])
-    ax.set_aspect("equal", adjustable="box")
+def _frame_axes(ax, goal, labels, title):
+    """The goal ((x, y), drawn where both are given) and the labels."""
+    if goal is not None and np.isfinite(goal).all():
+        ax.plot(*goal, "*", ms=14, color="C1", label="goal", zorder=1)
     ax.set_xlabel(labels[0])
     ax.set_ylabel(labels[1])
     if title:
         ax.set_title(title)
 
 
-class _Body:
-    """The artists of one drawn body and how they follow a configuration."""
+def _stock_bodies(shape, x, y, heading, roll, size):
+    """The bodies of a stock `shape` ("blade", "coin", "point") of length `size`, reading
+    the position from columns x, y, the heading and the rolling angle from theirs."""
+    if shape != "point" and heading is None:
+        raise InputError(f"`heading` must be a column of q for shape {shape!r}; got None.")
+    r = size / 2
 
-    def __init__(self, ax, shape, size):
-        self.shape, self.size = shape, size
-        if shape == "blade":
-            self.outline, = ax.plot([], [], "-", color="k", lw=4, solid_capstyle="butt")
-            self.mark, = ax.plot([], [], "o", color="C3", ms=5)      # the leading end
-        elif shape == "coin":
-            self.outline, = ax.plot([], [], "-", color="goldenrod", lw=2)
-            self.mark, = ax.plot([], [], "o-", color="C3", ms=4, lw=1)   # spoke to rim mark
-        else:
-            self.outline, = ax.plot([], [], "o", color="C0", ms=8)
-            self.mark, = ax.plot([], [], "-", color="C3", lw=2)      # heading arrow shaft
-        self.artists = (self.outline, self.mark)
-        for artist in self.artists:
-            artist.set_animated(True)
+    def ahead(q):                                   # the unit vector along the heading
+        return np.array([np.cos(q[heading]), np.sin(q[heading])])
 
-    def move(self, x, y, heading, roll):
-        r = self.size / 2
-        if heading is None:
-            self.outline.set_data([x], [y])
-            return
-        e = np.array([np.cos(heading), np.sin(heading)])     # along the heading
-        n = np.array([-e[1], e[0]])                           # normal to it
-        c = np.array([x, y])
-        if self.shape == "blade":
-            ends = np.array([c - r * e, c + r * e])
-            self.outline.set_data(ends[:, 0], ends[:, 1])
-            self.mark.set_data([ends[1, 0]], [ends[1, 1]])
-        elif self.shape == "coin":
-            s = np.linspace(0, 2 * np.pi, 41)
-            rim = c + r * np.outer(np.cos(s), e) + 0.3 * r * np.outer(np.sin(s), n)
-            self.outline.set_data(rim[:, 0], rim[:, 1])
-            spot = c - r * np.sin(roll) * e + 0.3 * r * np.cos(roll) * n
-            self.mark.set_data([x, spot[0]], [y, spot[1]])
-        else:
-            self.outline.set_data([x], [y])
-            tip = c + r * e
-            self.mark.set_data([x, tip[0]], [y, tip[1]])
+    if shape == "blade":
+        return (Body("blade", lambda q: segment(q[[x, y]], q[heading], size), closed=False,
+                     color="k"),
+                Body("leading end", lambda q: (q[[x, y]] + r * ahead(q))[None], color="C3"))
+    if shape == "coin":
+        s = np.linspace(0, 2 * np.pi, 41)
+
+        def rim(q):                                 # seen obliquely: the normal squashed
+            e, n = ahead(q), np.array([-np.sin(q[heading]), np.cos(q[heading])])
+            return q[[x, y]] + r * np.outer(np.cos(s), e) + 0.3 * r * np.outer(np.sin(s), n)
+
+        def spoke(q):
+            e, n = ahead(q), np.array([-np.sin(q[heading]), np.cos(q[heading])])
+            angle = 0.0 if roll is None else q[roll]
+            return np.array([q[[x, y]], q[[x, y]] - r * np.sin(angle) * e + 0.3 * r * np.cos(angle) * n])
+
+        return (Body("coin", rim, color="goldenrod"),
+                Body("rim mark", spoke, closed=False, color="C3"))
+    point = (Body("position", lambda q: q[None, [x, y]], color="C0"),)
+    if heading is None:
+        return point
+    return point + (Body("heading", lambda q: np.array([q[[x, y]], q[[x, y]] + r * ahead(q)]),
+                         closed=False, color="C3"),)

@@ -112,8 +112,8 @@ def replay(problem, result):
     controls, by the problem's rule and variant and the optimum's step; it stops early
     (fewer steps) where Newton's method fails. It runs in CasADi's virtual machine
     (``jit=False``): preparing the compiled step (serializing its Functions for the cache
-    key) costs more than the N steps of an optimum (1.5 s against 0.1 s for the rolling disk
-    with lobatto4, docs/performance.md). The one-optimum case of `replays`."""
+    key) costs more than the N steps of an optimum (benchmarks/verdict.py). The
+    one-optimum case of `replays`."""
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     traj = checks.instance("result.trajectory", getattr(result, "trajectory", None), Trajectory,
                             "a Trajectory (give the OptimizationResult of `problem`)")

@@ -1,24 +1,24 @@
 """Paths in the plane, part of the results stage: the path (q[:, x], q[:, y]) of a
-Trajectory with heading marks, start, end, goal (a line where one coordinate is free) and
-obstacles (discs by centre and radius, or the region g(x, y) > 0 of a function on the
-plane, the sign of an `OptimalControlProblem`'s path constraints g <= 0, shaded on a grid),
-its labels with the system's units.
+Trajectory with heading marks, start, end, goal (a line where one coordinate is free), the
+system's bodies at a few poses, and obstacles (`_obstacles`: discs, or a region
+g(x, y) > 0), its labels with the system's units; the limits hold all of it, the obstacles
+whole, to scale unless the motion is long and thin (`_canvas.plane_limits`).
 """
 
 import numpy as np
 
-from ._canvas import finish, label, single_axes, units_of
+from ._canvas import finish, label, not_to_scale_note, plane_limits, single_axes, units_of
+from ._drawn_bodies import DrawnBodies, body_values
+from ._obstacles import draw_obstacles, obstacle_extent, obstacle_values
 from .._util import checks
-from ..errors import InputError
 from ..principle.trajectory import Trajectory
-
-_GRID = 160     # points per side of the grid a kept-out region is shaded on
 
 
 def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), units=None,
-              obstacles=None, marks=12, name="path", color="C0", title=None, ax=None):
+              obstacles=None, bodies=None, poses=5, marks=12, name="path", color="C0",
+              title=None, ax=None):
     """The path (q[:, x], q[:, y]) of a Trajectory in the plane, with heading marks, the
-    goal and obstacles.
+    goal, the system's bodies at a few poses and obstacles.
 
     Parameters
     ----------
@@ -37,7 +37,14 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), uni
         A system's `units` ({"t", "q", "u"}); those of columns x and y join the labels.
     obstacles : array_like, shape (K, 3), or callable, optional
         Discs (centre x, centre y, radius), or ``g(x, y)`` on arrays, the region g > 0
-        kept out (the sign of `OptimalControlProblem`'s path constraints g <= 0).
+        kept out (the sign of `OptimalControlProblem`'s path constraints g <= 0). The
+        limits hold every disc whole, and a region whole when it is bounded.
+    bodies : sequence of Body, optional
+        The bodies to draw (``system.bodies``), their outlines in the plane of columns x
+        and y; drawn at `poses` knots evenly spaced along the path, from faint (the
+        start) to solid (the end).
+    poses : int
+        Number of poses at which the bodies are drawn (at least the start and the end).
     marks : int
         Number of heading arrows along the path.
     name, color : str
@@ -49,6 +56,13 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), uni
     Returns
     -------
     matplotlib.figure.Figure
+
+    Notes
+    -----
+    The plot is to scale (equal aspect) unless the box of what it shows is more than
+    `dmoc.results._canvas.ASPECT_LIMIT` (4) times as long as it is wide; then each axis
+    has its own scale and the corner says "not to scale". The end marker lies over the
+    goal's star.
     """
     q = checks.instance("traj", traj, Trajectory, "a Trajectory").q
     x, y = checks.column("x", x, q.shape[1]), checks.column("y", y, q.shape[1])
@@ -57,25 +71,46 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), uni
     labels = checks.strings("labels", labels, 2)
     unit = units_of(units, q.shape[1], traj.u.shape[1] // len(traj.control_nodes))["q"]
     marks = checks.positive_int("marks", marks)
+    bodies, obstacles = body_values(bodies), obstacle_values(obstacles)
+    poses = checks.positive_int("poses", poses)
     fig, ax = single_axes(ax, height=5.2)
-    ax.plot(q[:, x], q[:, y], "-", lw=1.2, color=color, label=name)
+    ax.plot(q[:, x], q[:, y], "-", lw=1.2, color=color, label=name, zorder=2)
     shown = ax.get_legend_handles_labels()[1]
-    ax.plot(q[0, x], q[0, y], "o", color="C2", label="_nolegend_" if "start" in shown else "start")
-    ax.plot(q[-1, x], q[-1, y], "s", color="C3", mfc="none",
-            label="_nolegend_" if "end" in shown else "end")
+    ax.plot(q[0, x], q[0, y], "o", color="C2", label="_nolegend_" if "start" in shown else "start",
+            zorder=4)
+    ax.plot(q[-1, x], q[-1, y], "s", color="C3", mfc="none", ms=9, mew=1.6, zorder=4,
+            label="_nolegend_" if "end" in shown else "end")     # over the goal's star
     length = max(np.ptp(q[:, x]), np.ptp(q[:, y]), 1e-9) / 12      # of a heading arrow
     if heading is not None:
         k = _evenly_along(q[:, [x, y]], marks)
         _arrows(ax, q[k, x], q[k, y], q[k, heading], length, color, label="heading")
     if goal is not None:
         _goal(ax, goal, x, y, heading, 1.5 * length)
-    if obstacles is not None:
-        draw_obstacles(ax, obstacles)
+    for i, k in enumerate(_evenly_along(q[:, [x, y]], max(poses, 2)) if bodies else ()):
+        DrawnBodies(ax, bodies, q[k], alpha=0.1 + 0.3 * i / max(poses - 1, 1),
+                    legend=k == len(q) - 1)
+    _set_limits(ax, obstacles)
+    draw_obstacles(ax, obstacles)
     ax.set_xlabel(label(labels[0], unit[x]))
     ax.set_ylabel(label(labels[1], unit[y]))
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.margins(0.1)
     return finish(fig, ax, title)
+
+
+def _set_limits(ax, obstacles):
+    """Limits holding what `ax` shows and every obstacle whole (`plane_limits`), to scale
+    or with a note that they are not."""
+    box = ax.dataLim.get_points()
+    xlim, ylim, to_scale = plane_limits(np.r_[box, obstacle_extent(obstacles, box)])
+    ax.update_datalim(np.transpose([xlim, ylim]))  # autoscaled: the aspect may widen one side
+    ax.margins(0)
+    ax.autoscale_view()
+    if to_scale:
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.apply_aspect()           # the final limits, over which a region is shaded
+    else:
+        ax.set_aspect("auto")
+        if "not to scale" not in [t.get_text() for t in ax.texts]:
+            not_to_scale_note(ax)
 
 
 def _goal(ax, goal, x, y, heading, length):
@@ -83,7 +118,7 @@ def _goal(ax, goal, x, y, heading, length):
     across the plane where one of them is free."""
     gx, gy = np.isfinite(goal[[x, y]])
     if gx and gy:
-        ax.plot(goal[x], goal[y], "*", ms=14, color="C1", label="goal")
+        ax.plot(goal[x], goal[y], "*", ms=14, color="C1", label="goal", zorder=3)
         if heading is not None and np.isfinite(goal[heading]):
             _arrows(ax, goal[[x]], goal[[y]], goal[[heading]], length, "C1")
     elif gx or gy:
@@ -106,57 +141,3 @@ def _arrows(ax, x, y, angle, length, color, label=None):
     ax.quiver(x, y, u, v, color=color, angles="xy", scale_units="xy", scale=1, width=0.005,
               label=label)
     ax.update_datalim(np.column_stack([x + u, y + v]))
-
-
-def draw_obstacles(ax, obstacles):
-    """Draw `obstacles` into `ax`: an array (K, 3) of discs (x, y, radius) as patches, or a
-    callable g(x, y) as the shaded region g > 0 with its edge g = 0.
-
-    Parameters
-    ----------
-    ax : matplotlib.axes.Axes
-        Holding the path already (the region is shaded over its extent).
-    obstacles : array_like, shape (K, 3), or callable
-    """
-    if callable(obstacles):
-        _region(ax, obstacles)
-        return
-    discs = checks.real_array("obstacles", obstacles, "discs (x, y, radius), shape (K, 3), or "
-                              "a callable g(x, y)")
-    if discs.ndim == 1 and discs.size == 3:
-        discs = discs[None, :]
-    if discs.ndim != 2 or discs.shape[1] != 3:
-        raise InputError(f"`obstacles` must be discs (x, y, radius), shape (K, 3), or a "
-                         f"callable g(x, y); got shape {discs.shape}.")
-    if not np.all(discs[:, 2] > 0):
-        raise InputError(f"`obstacles` must have radii > 0 (the third column); got "
-                         f"{discs[:, 2].tolist()}.")
-    from matplotlib.patches import Circle
-
-    for i, (x, y, r) in enumerate(discs):
-        ax.add_patch(Circle((x, y), r, facecolor="0.75", edgecolor="0.35", lw=0.8, zorder=0,
-                            label="_nolegend_" if i else "obstacle"))
-    ax.update_datalim(np.r_[discs[:, :2] - discs[:, 2:], discs[:, :2] + discs[:, 2:]])
-
-
-def _region(ax, g):
-    """Shade {g(x, y) > 0} on a square grid around what `ax` holds, 1.5 times its extent
-    (the equal aspect may widen the shorter side by that much)."""
-    ax.autoscale_view()
-    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-    half = 0.75 * max(x1 - x0, y1 - y0)
-    side = np.linspace(-half, half, _GRID)
-    X, Y = np.meshgrid((x0 + x1) / 2 + side, (y0 + y1) / 2 + side)
-    try:
-        Z = np.broadcast_to(np.asarray(g(X, Y), dtype=float), X.shape)
-    except Exception as err:  # the user's function: say what broke, naming it
-        raise InputError(f"`obstacles` as a callable must map arrays x, y of shape {X.shape} "
-                         f"to g(x, y) of that shape; it raised {type(err).__name__}: {err}") from None
-    if not (Z > 0).any():
-        return
-    ax.contourf(X, Y, Z, levels=[0, np.inf], colors=["0.75"], zorder=0)
-    ax.contour(X, Y, Z, levels=[0], colors=["0.35"], linewidths=0.8, zorder=0)
-    from matplotlib.patches import Patch
-
-    ax.add_artist(ax.legend(handles=[Patch(facecolor="0.75", edgecolor="0.35", label="kept out")],
-                            loc="lower right", fontsize="small"))

@@ -76,7 +76,7 @@ def save_trajectory_plots(traj, out, name, *, disc=None, problem=None, names=Non
         constraints keep out (`kept_out_region`: the rows that read the plane's two
         coordinates alone).
     names, control_names : sequence of str, optional
-        Names of the coordinates and of the controls.
+        Names of the coordinates and of the controls; default the system's (`disc`'s).
     units : mapping, optional
         Units {"t", "q", "u"}; default the system's.
     heading : int, optional
@@ -85,6 +85,8 @@ def save_trajectory_plots(traj, out, name, *, disc=None, problem=None, names=Non
         Goal configuration drawn on the path; default the problem's.
     obstacles : array_like, shape (K, 3), or callable, optional
         Drawn on the path (see `plot_path`).
+
+    The path plot draws the system's `bodies` at a few poses on the first plane.
 
     Returns
     -------
@@ -103,6 +105,7 @@ def save_trajectory_plots(traj, out, name, *, disc=None, problem=None, names=Non
     checks.instance("disc", disc, (Discretization, type(None)), "a Discretization or None")
     system = disc.system if disc is not None else None
     names = names or (system.names if system else [f"q{i}" for i in range(traj.q.shape[1])])
+    control_names = control_names or (system.control_names if system else None)
     units = units if units is not None else system.units if system else None
     goal = problem.q_goal if goal is None and problem is not None else goal
     out = make_folder("out", out)
@@ -125,6 +128,7 @@ def _figures(traj, name, disc, problem, names, control_names, units, heading, go
         figures["path"] = plot_path(
             traj, x=x, y=y, heading=heading, goal=goal, labels=(names[x], names[y]),
             units=units, obstacles=obstacles if i == 0 else None, color=f"C{i}",
+            bodies=disc.system.bodies if i == 0 and disc is not None else None,
             name=f"{names[x]}, {names[y]}" if len(paths) > 1 else "path",
             title=f"{name}: path", ax=figures["path"].axes[0] if i else None)
     figures["states"] = plot_states(traj, names=names, units=units, title=f"{name}: states",

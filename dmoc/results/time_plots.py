@@ -1,11 +1,12 @@
 """States and controls against time, part of the results stage: one panel per coordinate
 and per control (controls of different units never share an axis), labelled with the
-system's units, with the finite bounds of a problem as dashed lines.
+system's units; the y limits from the data, the finite bounds of a problem within reach
+of the data as dashed lines (`data_limits_with_bounds`).
 """
 
 import numpy as np
 
-from ._canvas import bound_lines, figure, finish, label, units_of
+from ._canvas import data_limits_with_bounds, figure, finish, label, units_of
 from .._util import checks
 from ..errors import InputError
 from ..principle.trajectory import Trajectory
@@ -22,7 +23,9 @@ def plot_states(traj, *, names=None, units=None, bounds=None, title=None):
     units : mapping, optional
         A system's `units` ({"t", "q", "u"}), shown in the axis labels.
     bounds : pair of array_like, shape (n,), optional
-        (lower, upper), e.g. a problem's `state_bounds`; finite entries are dashed lines.
+        (lower, upper), e.g. a problem's `state_bounds`; finite entries within one span of
+        the data from it are dashed lines (the limits are the data's; a far bound is named
+        in a note).
     title : str, optional
 
     Returns
@@ -36,7 +39,7 @@ def plot_states(traj, *, names=None, units=None, bounds=None, title=None):
     fig, axs = figure(n, height=0.95 + 1.1 * n)
     for i, ax in enumerate(axs):
         ax.plot(traj.t, traj.q[:, i], color=f"C{i}")
-        bound_lines(ax, lower[i], upper[i])
+        data_limits_with_bounds(ax, traj.q[:, i], lower[i], upper[i])
         ax.set_ylabel(label(names[i], units["q"][i]))
     axs[-1].set_xlabel(label("t", units["t"]))
     return finish(fig, axs[0], title, legend=False)
@@ -55,7 +58,7 @@ def plot_controls(traj, *, names=None, units=None, bounds=None, title=None, axes
     units : mapping, optional
         A system's `units` ({"t", "q", "u"}), shown in the axis labels.
     bounds : pair of array_like, shape (n_u,), optional
-        (lower, upper), e.g. a problem's `control_bounds`; finite entries are dashed lines.
+        (lower, upper), e.g. a problem's `control_bounds`; drawn as for `plot_states`.
     title : str, optional
     axes : sequence of matplotlib.axes.Axes, optional
         n_u Axes of one Figure to draw into instead of a new Figure.
@@ -79,9 +82,11 @@ def plot_controls(traj, *, names=None, units=None, bounds=None, title=None, axes
     for i, (ax, name) in enumerate(zip(axs, names)):
         if traj.control_nodes == (0.5,):
             ax.stairs(traj.u[:, i], traj.t, baseline=None, color=f"C{i}")
+            data_limits_with_bounds(ax, traj.u[:, i], lower[i], upper[i])
         else:
-            ax.plot(t, traj.control(t)[:, i], color=f"C{i}")
-        bound_lines(ax, lower[i], upper[i])
+            u = traj.control(t)[:, i]
+            ax.plot(t, u, color=f"C{i}")
+            data_limits_with_bounds(ax, u, lower[i], upper[i])
         ax.set_ylabel(label(name, units["u"][i]))
         finish(fig, ax, None)
     axs[-1].set_xlabel(label("t", units["t"]))

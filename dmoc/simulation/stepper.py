@@ -167,9 +167,8 @@ class DiracStepper:
     def _fast_step(self, eliminate):
         """The fast path's Function; with `eliminate`, after common-subexpression
         elimination (``ca.cse``), which the compiled library is generated from. A stepper
-        that never compiles (native=False) skips it: on the rolling disk with lobatto4 it
-        costs 0.12 s to build (three times the rest of the stepper) and saves 3 % of the
-        virtual machine's time over 2e4 steps (docs/performance.md)."""
+        that never compiles (native=False) skips it: in the virtual machine it costs more
+        to build than it saves over a run (benchmarks/step_cost.py, "dirac-vm")."""
         state, u, h, params, y = self._symbols(ca.SX)
         ys = ca.SX.sym("y", y.numel())
         g = self.equations(ys, params)[0]

@@ -10,6 +10,7 @@ knife edge the exact time scaling of rest-to-rest optima, J(T) = J(T_0) (T_0/T)^
 
 import importlib.util
 import json
+import sys
 import pathlib
 
 import numpy as np
@@ -209,3 +210,28 @@ def test_the_replay_of_any_rule_and_variant(rule, variant, tmp_path, capsys):
 def test_the_example_script_solves_and_replays(example, tmp_path, capsys):
     assert example.main(steps=30, out=tmp_path) == (0, 0)
     assert dmoc.Trajectory.load(tmp_path / "lane_change.npz").steps == 30
+
+
+def test_a_problem_file_imports_a_module_beside_it(tmp_path, monkeypatch, capsys):
+    """`dmoc optimize dir/problem.py:factory` with dir/ off sys.path and off the working
+    folder: the file's `import` of dir/parking_goal_42.py finds it (the goal it holds is
+    the optimum's last q), and sys.path is as it was afterwards."""
+    folder = tmp_path / "dir"
+    folder.mkdir()
+    (folder / "parking_goal_42.py").write_text("GOAL = [0.2, 1.2, 0.0]\n")
+    (folder / "problem.py").write_text(
+        "import dmoc\nfrom parking_goal_42 import GOAL\n\n\n"
+        "def factory():\n"
+        "    disc = dmoc.discretize(dmoc.systems.knife_edge(), 4.0 / 24)\n"
+        "    return dmoc.OptimalControlProblem(disc, 24, q_start=[0, 0, 0], q_goal=GOAL)\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delitem(sys.modules, "parking_goal_42", raising=False)
+    before = list(sys.path)
+    try:
+        assert main(["optimize", "dir/problem.py:factory", "--out", str(tmp_path / "out"),
+                     "--no-plots"]) == 0
+    finally:
+        sys.modules.pop("parking_goal_42", None)
+    assert sys.path == before
+    traj = dmoc.Trajectory.load(tmp_path / "out" / "factory.npz")
+    np.testing.assert_allclose(traj.q[-1], [0.2, 1.2, 0.0], atol=1e-10)

@@ -1,6 +1,5 @@
-"""benchmarks/robots.py at its smallest size (a two-joint chain, 20 steps in the virtual
-machine): it still runs against today's code and prints its table. No figure is checked
-(no timing in tests)."""
+"""The chains benchmarks/robots.py measures (its smallest run is in
+tests/test_benchmarks.py): URDF text that dmoc reads as a robot of n joints."""
 
 import importlib.util
 import pathlib
@@ -11,16 +10,6 @@ pytest.importorskip("adam.casadi", reason="the robots extra (adam-robotics[casad
                     "installed: pip install -e '.[test]'")
 
 SCRIPT = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "robots.py"
-
-
-def test_smallest_run(capsys, monkeypatch):
-    monkeypatch.delenv("DMOC_CACHE_DIR", raising=False)    # main() sets its own: restored after
-    spec = importlib.util.spec_from_file_location("robots_benchmark", SCRIPT)
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    script.main(["--joints", "2", "--steps", "20", "--no-compile"])
-    out = capsys.readouterr().out
-    assert "load average" in out and "| chain-2 | 2 |" in out
 
 
 def test_the_generated_chain_is_a_urdf_of_n_joints(tmp_path):

@@ -70,8 +70,9 @@ def test_ocp_names_free_symbols_and_boundary_outside_bounds(disc):
 
 
 @pytest.mark.parametrize("change, words", [
-    ({"q_start": [0.0, 2.0, 0.0]}, "`q_start` must lie within `state_bounds`"),
-    ({"q_goal": [0.0, -2.0, 0.0]}, "`q_goal` must lie within `state_bounds`"),
+    ({"q_start": [0.0, 2.0, 0.0]}, r"`q_start` must lie within `state_bounds`; q_start\[1\] \(y\) = 2 > 1.5\."),
+    ({"q_goal": [0.0, -2.0, -3.0]}, r"`q_goal` must lie within `state_bounds`; q_goal\[1\] \(y\) = -2 < -1, "
+                                    r"q_goal\[2\] \(theta\) = -3 < -1\."),
     ({"v_goal": [0.0, 1.0, 0.0]}, "`v_goal` violates the velocity constraints"),
     ({"v_start": [1.0, 1.0, 0.0], "q_start": [0.0, 0.0, 0.0]}, "`v_start` violates the velocity constraints"),
     ({"v_start": [0.0, 0.0, 0.0], "p_start": [0.0, 0.0, 0.0]}, "not both"),

@@ -1,7 +1,7 @@
 """The bound multipliers of the fixed entries of x (the given boundary data), which IPOPT
 leaves zero under dmoc's ``fixed_variable_treatment`` "make_parameter_nodual" and
-`dmoc.optimal_control.solver.fixed_multipliers.FixedMultipliers` computes after the solve, are the bits
-IPOPT's own "make_parameter" gives (docs/performance.md, "The re-solve, fourth pass").
+`dmoc.optimal_control.solver.fixed_multipliers.FixedMultipliers` computes after the solve, are
+the bits IPOPT's own "make_parameter" gives (benchmarks/peers.py resolve times the re-solves).
 
 Oracles: IPOPT itself, the same solves with ``fixed_variable_treatment`` "make_parameter"
 given in `options` (IPOPT forms the multipliers in its ``TNLPAdapter``, not in dmoc), and

@@ -260,3 +260,27 @@ def test_the_step_time_counts_the_work_around_the_solve(monkeypatch):
     wall = time.perf_counter() - tic
     record = controller.log[0]
     assert record.solve_time > 0 and record.solve_time + 0.05 <= record.step_time <= wall
+
+
+def test_a_free_time_step_records_its_h_and_a_plant_at_that_h_follows_the_plan():
+    """With a free final time each solve chooses h = T / N: the record's h is the plan's
+    (its t_1 - t_0), two steps choose different ones, and a plant equal to the model
+    re-discretized at the record's h (`disc.with_step`) lands on the plan's q_1, p_1; at
+    the discretization's own h it does not."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    problem = dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 1, 0],
+                                         duration=(1.0, 4.0),
+                                         running_cost=lambda q, v, u: 1.0 + u[0] ** 2 + u[1] ** 2)
+    controller = dmoc.MPC(problem)
+    q, p, steps = np.zeros(3), np.zeros(3), []
+    for k in range(2):
+        u = controller.step(q, p=p)
+        plan, h = controller.plan.trajectory, controller.log[-1].h
+        assert h == pytest.approx(plan.t[1] - plan.t[0], rel=1e-12) and h != disc.h
+        run = dmoc.simulate(disc.with_step(h), q0=q, p0=p, steps=1, controls=u[None], jit=False)
+        np.testing.assert_allclose(run.trajectory.q[-1], plan.q[1], rtol=0, atol=1e-9)
+        at_own_h = dmoc.simulate(disc, q0=q, p0=p, steps=1, controls=u[None], jit=False)
+        assert np.abs(at_own_h.trajectory.q[-1] - plan.q[1]).max() > 1e-4
+        q, p = run.trajectory.q[-1], run.trajectory.p[-1]
+        steps.append(h)
+    assert steps[0] != steps[1]

@@ -1,5 +1,5 @@
 """What a raw re-solve leaves out or does once is the same as what it did before, bit for
-bit (issue 25, "Re-solves against rockit, third pass" in docs/performance.md): the result's
+bit (issue 25; benchmarks/peers.py resolve times the re-solves): the result's
 trajectory, made on first access, is the one `trajectory_from_x` makes of the returned x
 at once; the data's row sums of one stacked [x; p] (q_ref added to the configurations
 inside the Function) are those of the former [x; x_abs; p], x_abs formed in NumPy.

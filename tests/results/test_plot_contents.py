@@ -17,6 +17,7 @@ from PIL import Image
 
 import dmoc
 from dmoc import plotting
+from dmoc.results._canvas import plane_limits
 from dmoc.results.diagnostic_plots import control_work
 from dmoc.systems import knife_edge, lc_circuit, point_vortices
 
@@ -198,9 +199,10 @@ def test_gif_labels_are_not_clipped(extent):
     from dmoc.results import animation
 
     xs, ys = np.linspace(0, extent[0], 5) - 1000.0, np.linspace(0, extent[1], 5) * -1e4
-    limits = animation._limits(xs, ys, None, (0, 1), 0.1)
-    fig, ax = animation._canvas(limits)
-    animation._frame_axes(ax, None, (0, 1), limits, ["x [m]", "y [m]"], "a title")
+    xlim, ylim, to_scale = plane_limits(np.column_stack([xs, ys]))
+    fig, ax = animation._canvas(animation._widened((xlim, ylim)) if to_scale else (xlim, ylim),
+                                to_scale)
+    animation._frame_axes(ax, None, ["x [m]", "y [m]"], "a title")
     animation._fit(fig, ax)
     drawn = ax.get_tightbbox(fig.canvas.get_renderer())
     assert drawn.x0 >= -0.5 and drawn.y0 >= -0.5 and drawn.y1 <= fig.bbox.y1 + 0.5

@@ -1,5 +1,5 @@
-"""What `simulate` does on every call, made cheaper (docs/performance.md, "Batches that
-scale: per-call overhead"), computes the same bits: its trajectory is what the checking
+"""What `simulate` does on every call, made cheaper (benchmarks/batch.py, the simulate
+rows), computes the same bits: its trajectory is what the checking
 constructor ``Trajectory(...)`` makes of the same fields; the start momentum and the
 constraint checks through `Evaluator` equal CasADi's own calls; the compiler found once
 per process is found again when the compiler changes."""

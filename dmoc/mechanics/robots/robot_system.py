@@ -43,6 +43,8 @@ class RobotSystem(MechanicalSystem):
         The moving joints with their limits and damping, in the order of q.
     n, n_u : int
         Number of moving joints (both).
+    names, control_names : tuple of str
+        The joints' names and ``tau_<joint>``, the torques' (for plots and the CSV table).
     position_limits, effort_limits : tuple of ndarray, shapes (n,) and (n,)
         (lower, upper) joint positions and torques of the file, +-inf where it gives none:
         ready for `OptimalControlProblem`'s ``state_bounds`` and ``control_bounds``.
@@ -96,6 +98,7 @@ class RobotSystem(MechanicalSystem):
         super().__init__(lambda q, v: 0.5 * ca.bilin(M(q), v, v) - V(q), n,
                          force=lambda q, v, u: u - D * v, n_u=n,
                          names=tuple(j.name for j in self.joints),
+                         control_names=tuple(f"tau_{j.name}" for j in self.joints),
                          units={"t": "s", "q": tuple(j.units[0] for j in self.joints),
                                 "u": tuple(j.units[1] for j in self.joints)})
 

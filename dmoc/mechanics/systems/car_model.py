@@ -5,8 +5,10 @@ force and a steering torque.
 """
 
 import casadi as ca
+import numpy as np
 
 from ..._util import checks
+from ..bodies import Body, rectangle, segment
 from ..system import MechanicalSystem
 
 
@@ -34,8 +36,10 @@ def car(mass=1500.0, yaw_inertia=2500.0, steering_inertia=1.0, wheelbase=2.7, co
     -------
     MechanicalSystem
         q = (x, y, theta, delta), shape (4,): the rear-axle midpoint, the heading and the
-        steering angle; controls u = (F, tau), shape (2,). Its `units`: m, m, rad, rad;
-        N, N m; time in s.
+        steering angle; controls u = (F, tau), shape (2,), named "force" and
+        "steering_torque". Its `units`: m, m, rad, rad; N, N m; time in s. Its `bodies`:
+        the car's "body", a rectangle OVERHANG beyond both axles and WIDTH wide, and its
+        "front wheel", WHEEL long, turned by the steering angle.
 
     Notes
     -----
@@ -87,6 +91,19 @@ def car(mass=1500.0, yaw_inertia=2500.0, steering_inertia=1.0, wheelbase=2.7, co
     def force(q, v, u):
         return ca.vertcat(u[0] * ca.cos(q[2]), u[0] * ca.sin(q[2]), 0, u[1])
 
+    def body(q):
+        e = np.array([np.cos(q[2]), np.sin(q[2])])
+        return rectangle(q[:2] + l / 2 * e, q[2], l + 2 * OVERHANG, WIDTH)
+
+    def front_wheel(q):
+        return segment(q[:2] + l * np.array([np.cos(q[2]), np.sin(q[2])]), q[2] + q[3], WHEEL)
+
     return MechanicalSystem(lagrangian, 4, constraints=constraints, force=force, n_u=2,
                             names=("x", "y", "theta", "delta"),
-                            units={"t": "s", "q": ("m", "m", "rad", "rad"), "u": ("N", "N m")})
+                            control_names=("force", "steering_torque"),
+                            units={"t": "s", "q": ("m", "m", "rad", "rad"), "u": ("N", "N m")},
+                            bodies=(Body("body", body), Body("front wheel", front_wheel,
+                                                             closed=False, color="k")))
+
+
+OVERHANG, WIDTH, WHEEL = 0.9, 1.8, 0.65     # m: of the drawn car

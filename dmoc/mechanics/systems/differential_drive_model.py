@@ -5,8 +5,10 @@ torques as controls.
 """
 
 import casadi as ca
+import numpy as np
 
 from ..._util import checks
+from ..bodies import Body, rectangle, segment
 from ..system import MechanicalSystem
 
 
@@ -33,7 +35,9 @@ def differential_drive(mass=10.0, yaw_inertia=0.5, wheel_inertia=0.01, wheel_rad
     MechanicalSystem
         q = (x, y, theta, phi_l, phi_r), shape (5,): the axle's midpoint, the heading and
         the left and right wheel angles; controls u = (tau_l, tau_r), shape (2,), the
-        wheel torques. Its `units`: m, m, rad, rad, rad; N m, N m; time in s.
+        wheel torques, named "left_torque" and "right_torque". Its `units`: m, m, rad,
+        rad, rad; N m, N m; time in s. Its `bodies`: the "chassis", a square of side 2w
+        on the axle, and the "left wheel" and "right wheel", 2r long.
 
     Notes
     -----
@@ -73,7 +77,17 @@ def differential_drive(mass=10.0, yaw_inertia=0.5, wheel_inertia=0.01, wheel_rad
     def force(q, v, u):
         return ca.vertcat(0, 0, 0, u[0], u[1])
 
+    def wheel(side):
+        def outline(q):
+            n = np.array([-np.sin(q[2]), np.cos(q[2])])
+            return segment(q[:2] + side * w * n, q[2], 2 * r)
+        return outline
+
     return MechanicalSystem(lagrangian, 5, constraints=constraints, force=force, n_u=2,
                             names=("x", "y", "theta", "phi_l", "phi_r"),
+                            control_names=("left_torque", "right_torque"),
+                            bodies=(Body("chassis", lambda q: rectangle(q[:2], q[2], 2 * w, 2 * w)),
+                                    Body("left wheel", wheel(1), closed=False, color="k"),
+                                    Body("right wheel", wheel(-1), closed=False, color="k")),
                             units={"t": "s", "q": ("m", "m", "rad", "rad", "rad"),
                                    "u": ("N m", "N m")})

@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
+from ..bodies import Body
 from ..given import constraint_violation_tolerance
 from ..system import MechanicalSystem
 from ...errors import InputError, InputTypeError
@@ -32,8 +33,10 @@ def knife_edge(mass=1.0, inertia=1.0, incline=0.0, gravity=9.81):
     Returns
     -------
     MechanicalSystem
-        q = (x, y, theta), shape (3,); controls u = (u0, u1), shape (2,). Its `units`
-        (for plots): m, m, rad; N, N m; time in s.
+        q = (x, y, theta), shape (3,); controls u = (u0, u1), shape (2,), named "force"
+        and "torque". Its `units` (for plots): m, m, rad; N, N m; time in s. Its body
+        (`bodies`): the "blade", BLADE long, pointed at its leading end, centred on the
+        contact point (x, y).
 
     Notes
     -----
@@ -69,8 +72,20 @@ def knife_edge(mass=1.0, inertia=1.0, incline=0.0, gravity=9.81):
         return ca.vertcat(u[0] * ca.cos(q[2]), u[0] * ca.sin(q[2]), u[1])
 
     return MechanicalSystem(lagrangian, 3, constraints=constraints, force=force, n_u=2,
-                            names=("x", "y", "theta"),
-                            units={"t": "s", "q": ("m", "m", "rad"), "u": ("N", "N m")})
+                            names=("x", "y", "theta"), control_names=("force", "torque"),
+                            units={"t": "s", "q": ("m", "m", "rad"), "u": ("N", "N m")},
+                            bodies=(Body("blade", _blade, color="0.2"),))
+
+
+BLADE = 0.3     # m, the length of the drawn blade
+
+
+def _blade(q):
+    """The outline of the blade at q = (x, y, theta), shape (5, 2): a thin strip pointed
+    along the heading."""
+    e, n = np.array([np.cos(q[2]), np.sin(q[2])]), np.array([-np.sin(q[2]), np.cos(q[2])])
+    along, across = np.array([-0.5, 0.35, 0.5, 0.35, -0.5]), np.array([-1, -1, 0, 1, 1])
+    return q[:2] + BLADE * np.outer(along, e) + 0.03 * BLADE * np.outer(across, n)
 
 
 def knife_edge_solution(t, q0, v0, *, incline=0.0, gravity=9.81):

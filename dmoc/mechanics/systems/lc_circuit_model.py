@@ -30,7 +30,7 @@ def lc_circuit(inductance=1.0, capacitances=(1.0, 1.0)):
     MechanicalSystem
         q = (q_L, q_1, q_2), shape (3,): the charges through the inductor and the two
         capacitors; one control u, shape (1,): the voltage of a source in series with the
-        inductor. Its `units` (for plots): C; V; time in s.
+        inductor, named "voltage". Its `units` (for plots): C; V; time in s.
 
     Notes
     -----
@@ -76,7 +76,7 @@ def lc_circuit(inductance=1.0, capacitances=(1.0, 1.0)):
         return ca.vertcat(u[0], 0, 0)
 
     return MechanicalSystem(lagrangian, 3, constraints=constraints, force=force, n_u=1,
-                            names=("q_L", "q_1", "q_2"),
+                            names=("q_L", "q_1", "q_2"), control_names=("voltage",),
                             units={"t": "s", "q": ("C", "C", "C"), "u": ("V",)})
 
 

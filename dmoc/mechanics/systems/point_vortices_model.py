@@ -7,6 +7,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
+from ..bodies import Body
 from ..system import MechanicalSystem
 from .knife_edge_model import _sinc, _times
 from ...errors import InputError
@@ -24,7 +25,8 @@ def point_vortices(circulations):
     -------
     MechanicalSystem
         q = (x_1, y_1, x_2, y_2, ...), shape (2 K,); no constraints, no controls. Its
-        `units` (for plots): positions in m, time in s (circulations in m^2/s).
+        `units` (for plots): positions in m, time in s (circulations in m^2/s). Its
+        `bodies`: "vortex 1", "vortex 2", ..., points at (x_i, y_i).
 
     Notes
     -----
@@ -70,7 +72,10 @@ def point_vortices(circulations):
         return kinetic - H
 
     names = tuple(f"{axis}_{i + 1}" for i in range(K) for axis in ("x", "y"))
-    return MechanicalSystem(lagrangian, 2 * K, names=names, units={"t": "s", "q": ("m",) * (2 * K)})
+    bodies = tuple(Body(f"vortex {i + 1}", lambda q, i=i: q[None, 2 * i:2 * i + 2],
+                        color=f"C{i % 10}") for i in range(K))
+    return MechanicalSystem(lagrangian, 2 * K, names=names, units={"t": "s", "q": ("m",) * (2 * K)},
+                            bodies=bodies)
 
 
 def point_vortices_solution(t, q0, circulations):

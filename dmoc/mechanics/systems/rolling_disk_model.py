@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
+from ..bodies import Body, rectangle
 from ..system import MechanicalSystem
 from .knife_edge_model import _check_velocity, _sinc, _times
 
@@ -30,8 +31,10 @@ def rolling_disk(mass=1.0, radius=1.0, roll_inertia=None, steer_inertia=None):
     -------
     MechanicalSystem
         q = (x, y, theta, phi), shape (4,), with theta the rolling angle and phi the
-        heading; controls u = (u0, u1), shape (2,). Its `units` (for plots): m, m, rad,
-        rad; N m, N m; time in s.
+        heading; controls u = (u0, u1), shape (2,), named "roll_torque" and
+        "steer_torque". Its `units` (for plots): m, m, rad, rad; N m, N m; time in s. Its
+        `bodies`, seen from above: the "disk" (2R long, R/4 thick, along the heading) and
+        a "rim mark" on its rim, moving along it as the disk rolls.
 
     Notes
     -----
@@ -69,9 +72,18 @@ def rolling_disk(mass=1.0, radius=1.0, roll_inertia=None, steer_inertia=None):
     def force(q, v, u):
         return ca.vertcat(0, 0, u[0], u[1])
 
+    def disk(q):
+        return rectangle(q[:2], q[3], 2 * R, R / 4)
+
+    def rim_mark(q):
+        return q[None, :2] - R * np.sin(q[2]) * np.array([[np.cos(q[3]), np.sin(q[3])]])
+
     return MechanicalSystem(lagrangian, 4, constraints=constraints, force=force, n_u=2,
                             names=("x", "y", "theta", "phi"),
-                            units={"t": "s", "q": ("m", "m", "rad", "rad"), "u": ("N m", "N m")})
+                            control_names=("roll_torque", "steer_torque"),
+                            units={"t": "s", "q": ("m", "m", "rad", "rad"), "u": ("N m", "N m")},
+                            bodies=(Body("disk", disk, color="goldenrod"),
+                                    Body("rim mark", rim_mark, color="C3")))
 
 
 def rolling_disk_solution(t, q0, v0, *, radius=1.0):

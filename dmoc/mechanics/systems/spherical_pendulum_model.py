@@ -8,6 +8,7 @@ angular momentum are the invariants the discrete principles (46)/(47) keep
 import casadi as ca
 
 from ..._util import checks
+from ..bodies import Body
 from ..system import MechanicalSystem
 
 
@@ -27,8 +28,9 @@ def spherical_pendulum(mass=1.0, length=1.0, gravity=9.81):
     -------
     MechanicalSystem
         q = (x, y, z), shape (3,), the bob's position relative to the pivot; controls
-        u = (u0, u1), shape (2,), a horizontal force on the bob. Its `units` (for plots):
-        m; N; time in s.
+        u = (u0, u1), shape (2,), a horizontal force on the bob, named "force_x" and
+        "force_y". Its `units` (for plots): m; N; time in s. Its body: the "bob", a point
+        at (x, y) seen from above.
 
     Notes
     -----
@@ -65,4 +67,6 @@ def spherical_pendulum(mass=1.0, length=1.0, gravity=9.81):
 
     return MechanicalSystem(lagrangian, 3, holonomic=lambda q: ca.dot(q, q) - l ** 2,
                             force=force, n_u=2, names=("x", "y", "z"),
+                            control_names=("force_x", "force_y"),
+                            bodies=(Body("bob", lambda q: q[None, :2]),),
                             units={"t": "s", "q": ("m", "m", "m"), "u": ("N", "N")})

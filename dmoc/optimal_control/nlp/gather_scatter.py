@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 
 # One CasADi operation called from Python costs about what passing 300 indices to it does
-# (docs/performance.md, `build_split.py`): the exchange rate by which `window` chooses
+# (benchmarks/dmoc_vs_collocation.py, its build split): the rate by which `window` chooses
 # between slicing and one gather.
 INDICES_PER_OPERATION = 300
 

@@ -125,7 +125,7 @@ def nlp_scales(disc, formulation, layouts, dynamics_rows, q, motion):
     boundary rows of a Hamiltonian system), 1 / |a_r o l| on the constraint and velocity
     rows (`row_scale`); 1 on the path rows.
     Every factor is rounded to the nearest power of 2 (`power_of_two`). The objective is
-    not scaled (docs/performance.md): a cost stated in consistent units is the same in
+    not scaled: a cost stated in consistent units is the same in
     any units.
     """
     sys, (X, G) = disc.system, layouts

@@ -139,8 +139,8 @@ class Transcription(ReadOnly):
         goals for a given start) copies them and writes the data. q_ref and p themselves are
         kept while the problem's data they are formed of are the same objects (read-only
         arrays, the final time, the parameters): a re-solve for a new goal from a given start
-        forms neither again (each NumPy call on them cost 10-20 us in the loop,
-        docs/performance.md, "The re-solve, ninth pass")."""
+        forms neither again (NumPy's calls on them are a measurable part of the loop,
+        benchmarks/peers.py resolve)."""
         start, goal = problem.q_start, problem.q_goal
         formed = vars(self).get("_q_ref_of")        # (q_start, q_goal, whether q_ref reads q_goal)
         if formed is None or start is not formed[0] or (formed[2] and goal is not formed[1]):

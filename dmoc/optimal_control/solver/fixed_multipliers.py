@@ -2,7 +2,7 @@
 half): the given boundary data are entries of x with lbx == ubx, which IPOPT takes out of
 its problem (``fixed_variable_treatment``). Its "make_parameter" computes their
 multipliers from the stationarity of the Lagrangian at every iteration, one gradient of f
-each (twice the gradient calls of a re-solve, docs/performance.md); "make_parameter_nodual",
+each (twice the gradient calls of a re-solve, benchmarks/peers.py); "make_parameter_nodual",
 dmoc's default, leaves them zero, and `FixedMultipliers` computes them in the same
 operations as IPOPT's ``TNLPAdapter::ResortBoundMultipliers``, so that ``lam_x`` has the
 bits "make_parameter" gave. A result's ``lam_x`` is completed on first access

@@ -23,11 +23,10 @@ class watch:
     handles no signal) or when SIGINT is ignored or left to the system, the list stays
     empty and nothing is installed. The handlers are read and set through `_signal`, the
     C module whose functions `signal` wraps: the wrappers' conversions of handlers to
-    enums (a ValueError caught for every callable) took 15-20 us of the block's 22 us per
-    solve (docs/performance.md, "The re-solve, fourth pass"); only a handler that is no
-    callable would convert, and none is installed then. A class, not a generator: the
-    generator's context manager cost about 30 us more per re-solve (docs/performance.md,
-    "The re-solve, ninth pass")."""
+    enums (a ValueError caught for every callable) were most of the block's cost per
+    solve; only a handler that is no callable would convert, and none is installed then.
+    A class, not a generator, whose context manager costs more per re-solve
+    (benchmarks/peers.py resolve)."""
 
     __slots__ = ("seen", "_previous")
 

@@ -26,11 +26,11 @@ from .violation import largest_violation, on_bound
 # warm_start_init_point (not a default: `optimize` sets it per start) "yes" when the
 # multipliers of a previous optimum of the same structure are passed in, "no" otherwise,
 # so that IPOPT estimates them by least squares at the start point, which takes fewer
-# iterations than zero multipliers from a guess of another grid (docs/performance.md).
+# iterations than zero multipliers from a guess of another grid (tests/optimize/test_resolve.py).
 # mumps_permuting_scaling 0, mumps_pivot_order 0: MUMPS's analysis with AMD and without
 # the MC64 matching. The DMOC KKT matrices are banded, so AMD orders them well and MC64
 # and the automatic ordering cost more than the factorizations themselves, for the same
-# iterations (docs/performance.md).
+# iterations.
 # fixed_variable_treatment make_parameter_nodual: IPOPT takes the fixed entries of x (the
 # given boundary data) out of its problem, as with its default make_parameter, but does not
 # compute their bound multipliers at every iteration (a gradient of f each); they are
@@ -44,12 +44,12 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
 # it, without computing its residual (nor refining it). On warm re-solves and MPC steps of
 # 10 problems (benchmarks/warm_options.py; bounds active, free final time, holonomic,
 # degenerate, parameters among them) the same iterations as IPOPT's default, x within
-# 7e-14 relative, 7-13 % less of IPOPT's time; the lane change, whose iterations move with
-# a change of its start in the 14th digit, took other iterations, in both directions
-# (docs/performance.md, "The re-solve, ninth pass"). MUMPS keeps its scaling of the KKT
-# matrices (mumps_scaling 77): without it (0, the warm option from the third to the eighth
-# pass) the LC circuit's re-solves at N = 100 took 24 iterations instead of 17 and ended
-# 5e-10 from a cold solve's optimum. A first solve keeps IPOPT's default.
+# 7e-14 relative, in less of IPOPT's time; the lane change, whose iterations move with
+# a change of its start in the 14th digit, took other iterations, in both directions.
+# MUMPS keeps its scaling of the KKT matrices (mumps_scaling 77): without it
+# (warm_options.py --arm '{"mumps_scaling": 0}') the LC circuit's re-solves at N = 100
+# took 24 iterations instead of 17 and ended 5e-10 from a cold solve's optimum. A first
+# solve keeps IPOPT's default.
 WARM_START_OPTIONS = {"warm_start_init_point": "yes", "fast_step_computation": "yes"}
 COLD_START_OPTIONS = {"warm_start_init_point": "no"}
 
@@ -146,7 +146,7 @@ def _nlpsol_options(options, report):
     """(the IPOPT `options` over DEFAULT_IPOPT_OPTIONS, the nlpsol options they make,
     their key in the solver cache: the repr of the sorted nlpsol options). Kept per set of
     defaults, `options` and `report` (`_OPTION_SETS`): making them and their key took
-    about 50 us per solve (docs/performance.md, "The re-solve, fourth pass")."""
+    a measurable part of a warm re-solve (benchmarks/peers.py resolve)."""
     merged = {**DEFAULT_IPOPT_OPTIONS, **options}
     if report:
         merged["file_print_level"] = JOURNAL_LEVEL
@@ -156,7 +156,7 @@ def _nlpsol_options(options, report):
     # the form `expand` and `jit` ask for (`nlp_functions`), and expanding the unused MX
     # oracle besides cost 4-9 ms per build at N = 31-100. record_time: CasADi's wall time of
     # the nlpsol call itself (stats t_wall_total, `ipopt_time`), without the packed call's
-    # conversions, measured as rockit's re-solves are (docs/performance.md).
+    # conversions, measured as rockit's re-solves are (benchmarks/peers.py).
     opts = {"print_time": False, "error_on_fail": False, "no_nlp_grad": True,
             "calc_lam_p": False, "record_time": True, **{"ipopt." + k: v for k, v in merged.items()}}
     return merged, opts, repr(sorted(opts.items()))
@@ -166,13 +166,10 @@ class PackedSolver:
     """An IPOPT nlpsol called on NumPy vectors through one stacked input and one stacked
     output, read and written in place through the packed Function's buffer
     (`dmoc._util.numeric.Evaluator.vector`, one buffer per thread): no conversion to or
-    from ``casadi.DM`` at all, the same floats in and out. Called as an ordinary CasADi
-    Function on a list of floats, as before, the call spent 263-323 us outside IPOPT's own
-    time on the rolling disk (1839 entries in, 1009 out), through the buffer 13-19 us
-    (docs/performance.md, "The Python around IPOPT, third pass"). The stacked form is
-    kept: the solver is called through one input and one output, which also carries what
-    the result needs of x and the multipliers, so that `solve` forms no vector of them
-    (docs/performance.md, "The re-solve, ninth pass").
+    from ``casadi.DM`` at all, the same floats in and out, in a small part of the time
+    of an ordinary CasADi call on a list of floats (benchmarks/peers.py resolve). The one
+    input and one output also carry what the result needs of x and the multipliers, so
+    that `solve` forms no vector of them.
 
     Parameters
     ----------

@@ -27,8 +27,8 @@ class OptimizationResult:
         The optimal trajectory, or the last iterate when not `success`. A solve whose x is
         finite makes it from `x` on first access (the same fields, bit for bit, as when
         made at once) and keeps it: a re-solve whose caller reads only x, the
-        multipliers and the cost (a warm start) does not pay its momenta and arrays (0.1-0.2
-        ms at N = 11-28, docs/performance.md). A pickle or copy holds it made.
+        multipliers and the cost (a warm start) does not pay its momenta and arrays
+        (benchmarks/peers.py resolve). A pickle or copy holds it made.
     cost : float
     success : bool
         IPOPT converged and, for `dmoc.optimize` with ``check=True``, the verdict passed.

@@ -191,7 +191,7 @@ def trajectory_from_x(problem, x):
     """The Trajectory held in an NLP vector x of `problem`. When x and its momenta are
     finite (an optimum, any iterate short of an overflow), every check of
     ``Trajectory(...)`` holds by construction, so its fields are made as that constructor
-    makes them, without the checks (`Trajectory.assembled`, about 0.1 ms less per solve);
+    makes them, without the checks (`Trajectory.assembled`);
     otherwise the checking constructor refuses or keeps them as before."""
     T, N = problem.transcription, problem.steps
     lay, rule = T.x_layout, problem.disc.rule

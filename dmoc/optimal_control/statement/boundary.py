@@ -20,7 +20,7 @@ def boundary_vector(name, value, n):
     """Boundary data of shape (n,) with None entries as NaN (free); never infinite. A list
     or tuple of n finite floats (NumPy's too) and None, a re-solve's new goal, is taken at
     once, checked in Python: a NumPy call on data this short costs more than the check
-    (docs/performance.md, "The re-solve, ninth pass")."""
+    (benchmarks/peers.py resolve)."""
     if type(value) in (list, tuple) and len(value) == n and all(
             x is None or (isinstance(x, float) and math.isfinite(x)) for x in value):
         return np.array([np.nan if x is None else x for x in value])
@@ -109,8 +109,8 @@ def imposes_velocity_rows(complete, v):
 
 def _has_free(data):
     """Whether the boundary data `data`, shape (n,), have a free (NaN) entry; read as
-    Python floats: NumPy's reductions of arrays this short cost 10-20 us each in a
-    re-solve (docs/performance.md, "The re-solve, ninth pass")."""
+    Python floats: NumPy's reductions of arrays this short cost more in a re-solve
+    (benchmarks/peers.py resolve)."""
     return any(map(math.isnan, data.tolist()))
 
 
@@ -159,10 +159,12 @@ def set_boundary(problem, given):
     lower, upper = (bound.tolist() for bound in problem._state_bounds)
     for name in (k for k in ("q_start", "q_goal") if k in given):
         data = getattr(problem, "_" + name).tolist()
-        outside = [i for i, (x, low, high) in enumerate(zip(data, lower, upper))
+        outside = [f"{name}[{i}] ({sys.names[i]}) = {x:.6g} {'<' if x < low else '>'} "
+                   f"{low if x < low else high:.6g}"
+                   for i, (x, low, high) in enumerate(zip(data, lower, upper))
                    if x < low or x > high]              # a free entry (NaN) is neither
         if outside:
-            raise InputError(f"`{name}` must lie within `state_bounds`; entries {outside} do not.")
+            raise InputError(f"`{name}` must lie within `state_bounds`; {', '.join(outside)}.")
     problem._velocity_rows = rows
 
 

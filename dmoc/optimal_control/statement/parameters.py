@@ -139,7 +139,7 @@ def refuse_violated_ends(path, problem, made):
     of that end are not checked. `made` is a dict that keeps the check of each end per
     set of free entries (`_end_rows`: it depends on `path` and that set alone), shared by
     the problems of one NLP (`Transcription.with_bounds`), so that new boundary data are
-    checked without building it again (0.6 ms per ``with_boundary``, docs/performance.md)."""
+    checked without building it again at every ``with_boundary`` (benchmarks/peers.py)."""
     for end, output in (("q_start", "g0"), ("q_goal", "g1")):
         given = getattr(problem, end)
         key = (end, np.isfinite(given).tobytes())

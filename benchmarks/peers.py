@@ -1,45 +1,50 @@
-"""Benchmark: re-solving with new boundary data on a kept solver, dmoc against rockit's
-parametric re-solve, at equal accuracy (issue 25; docs/performance.md, "Re-solves against
-rockit").
+"""Benchmark: dmoc against rockit at equal accuracy, a first solve and a re-solve with new
+boundary data, on rolling-disk steering and knife-edge parking (J* of `J_STAR`).
 
-On rolling-disk steering and knife-edge parking (J* from the issue) a scan finds, for dmoc
-lobatto3 and lobatto4 and for rockit, the least N with |J_N - J*| / J* <= 1e-6 at the
-original goal (doubling, then bisection). At that N each method solves the original goal
-(its solver is built), then re-solves `--goals` goals near it in a cycle, each from the
-previous optimum (primal and dual), `--repeat` times: median wall time per re-solve,
-IPOPT's iterations, its wall time and the part in NLP function evaluations, NLP size.
-dmoc is timed from the new goal: ``problem.with_boundary(q_goal=g)`` then
-``dmoc.optimize(new, guess=previous)`` ("judged"), the same with ``check=False``
-("unjudged"), the raw ``dmoc.optimal_control.solve`` ("raw"), or the raw solve with the NLP's
-Functions expanded to SX (``expand=True``, "raw SX") or compiled to C (``jit=True``, "raw
-C"), built when the original goal is solved, before the timing. rockit (not a dependency
-of dmoc: run this script with the python of an environment that has rockit-meco and dmoc)
-solves the reduced ODEs of `rockit_ocp` by multiple shooting (one RK4 step per interval,
-piecewise-linear controls, the goal an ``ocp.parameter``, the NLP expanded), re-solved by
-"solve": ``ocp.set_value``, the previous optimum set as the start of rockit's Opti,
-``ocp.solve()`` (rockit's per-signal ``ocp.set_initial`` would re-transcribe the problem
-at every solve), and "function": ``ocp.to_function`` of goal, start x and multipliers,
-rockit's advice for repeated solves. With `--rockit-jit` also "function C": the same with
-the NLP's Functions compiled to C by CasADi (nlpsol ``jit``, gcc -O2 as dmoc's
-``jit=True``), the like-for-like peer of dmoc's "raw C" (rockit's "function" evaluates
-expanded SX in CasADi's virtual machine, like dmoc's "raw SX"); compiling takes 20-40 s
-per child process. IPOPT options as dmoc's defaults. "max dJ/J" is the largest relative
-difference of a dmoc re-solve's cost from rockit's at the same goal. "IPOPT ms" is
-CasADi's ``t_wall_total`` on both sides (dmoc's ``stats["ipopt_time"]``); for checkouts
-from before that stat, dmoc's ``stats["solve_time"]``, the wall time of its packed nlpsol
-call, which also holds the NumPy conversions of its inputs and outputs (about 0.1 ms):
-there the column "IPOPT/" overstates dmoc's share by that much.
+The environment: rockit is not a dependency of dmoc. Run this script with the python of a
+separate virtual environment holding dmoc and the peers, installed from PyPI::
 
-dmoc runs in a child process per checkout (``--checkouts A B``: PYTHONPATH set to each),
-interleaved with rockit's child, `--rounds` times; per method the round of least time is
-kept. Without rockit the script says so and exits.
+    python3 -m venv venv-peers && venv-peers/bin/pip install -e . rockit-meco drake
+    venv-peers/bin/python benchmarks/peers.py first|resolve
 
-    /work/venv-peers/bin/python benchmarks/peers_resolve.py [--repeat 5] [--rounds 3] [--checkouts DIR ...]
-        [--rockit-jit]
+Without rockit the script runs the dmoc side alone and says that the peer side is skipped.
+Drake is installed in that environment but not compared yet: no Drake transcription of
+these problems is written.
+
+Each method runs at the least N whose optimum is within 1e-6 of J* (`LEAST_N`, found by
+``--scan``: doubling, then bisection). rockit solves the reduced ODEs by multiple
+shooting (`rockit_ocp`: one RK4 step per interval, piecewise-linear controls, its NLP
+expanded to SX); IPOPT options as dmoc's defaults.
+
+- ``first``: each method builds its problem and solves it from its default start, as a
+  new process would: dmoc with every cache emptied first (`dmoc.clear_caches`),
+  ``dmoc.optimize`` ("judged", the verdict included) and the raw solve ("raw"); rockit's
+  ``ocp.solve()``. Nothing is compiled to C. The methods run in turn, the one that goes
+  first turning round by round; per method the median and least wall time over
+  `--repeat` rounds and the ratio of the medians to rockit's.
+- ``resolve``: each method solves the original goal (its solver is built), then re-solves
+  `--goals` goals near it in a cycle, each from the previous optimum (primal and dual),
+  `--repeat` times: median wall time per re-solve, IPOPT's iterations, its wall time
+  (CasADi's ``t_wall_total``, dmoc's ``stats["ipopt_time"]``) and the part in NLP function
+  evaluations. dmoc is timed from the new goal (``problem.with_boundary(q_goal=g)``):
+  ``dmoc.optimize`` ("judged"), with ``check=False`` ("unjudged"), the raw solve ("raw"),
+  with ``expand=True`` ("raw SX") and ``jit=True`` ("raw C"). rockit re-solves by
+  "solve" (``ocp.set_value``, the previous optimum set as the start of its Opti,
+  ``ocp.solve()``) and "function" (``ocp.to_function`` of goal, start x and multipliers,
+  rockit's advice for repeated solves); with `--rockit-jit` also "function C", compiled to
+  C by CasADi (gcc -O2, 20-40 s per child), the like-for-like peer of dmoc's "raw C".
+  Each method runs in a child process per checkout (``--checkouts``), interleaved,
+  `--rounds` times; the round of least time is kept.
+
+``--smallest`` runs the rolling disk with lobatto4 only, once, in this process.
+
+    venv-peers/bin/python benchmarks/peers.py first [--repeat 15] [--problem disk|knife|both]
+    venv-peers/bin/python benchmarks/peers.py resolve [--repeat 5] [--rounds 3] [--checkouts DIR ...] [--rockit-jit]
 """
 
 import argparse
 import importlib.metadata
+import importlib.util
 import inspect
 import json
 import os
@@ -71,6 +76,10 @@ DURATION = 4.0
 REDUCED_INERTIA = {"knife edge": (1.0, 1.0), "rolling disk": (1.5, 0.25)}
 DMOC_RULES = ("lobatto3", "lobatto4")
 DMOC_RUNS = ("judged", "unjudged", "raw", "raw SX", "raw C")
+# the least N within 1e-6 of J* (``--scan`` finds them again)
+LEAST_N = {"rolling disk": {"lobatto3": 31, "lobatto4": 11, "rockit": 42},
+           "knife edge": {"lobatto3": 28, "lobatto4": 14, "rockit": 62}}
+PROBLEMS = {"disk": ("rolling disk",), "knife": ("knife edge",), "both": ("rolling disk", "knife edge")}
 
 
 def goals(name, count):
@@ -127,7 +136,7 @@ def dmoc_resolve(name, rule, N, repeat, count):
     """(this process) {run: [median seconds per re-solve, iterations, IPOPT s, function s]},
     the NLP size and the costs of dmoc's re-solves of `name` at N with `rule`."""
     import dmoc
-    from dmoc.optimal_control.solver.solving import solve      # dmoc.optimize is the judged function
+    from dmoc.optimal_control import solve      # dmoc.optimize is the judged function
     targets = goals(name, count)
     problem = dmoc_problem(name, N, rule, targets[0])
     calls = {"judged": dmoc.optimize, "unjudged": lambda p, **k: dmoc.optimize(p, check=False, **k),
@@ -154,7 +163,7 @@ def dmoc_resolve(name, rule, N, repeat, count):
 
 def dmoc_cost(name, rule):
     """N -> the raw solve's optimal cost at N steps with `rule`, at the original goal."""
-    from dmoc.optimal_control.solver.solving import solve
+    from dmoc.optimal_control import solve
 
     def cost_at(N):
         return solve(dmoc_problem(name, N, rule, GOAL[name]), options={"print_level": 0}).cost
@@ -272,7 +281,63 @@ def function_step(ocp, goal, sol):
     return step
 
 
-# ---- the run --------------------------------------------------------------------------
+# ---- first solves ---------------------------------------------------------------------
+
+def dmoc_first(name, rule, N, judged):
+    """first() -> (seconds, iterations, cost): dmoc's problem `name` at N steps with
+    `rule` built and solved from its default guess after `dmoc.clear_caches`, judged
+    (``dmoc.optimize``) or raw (the unjudged solve)."""
+    import dmoc
+    from dmoc.optimal_control import solve
+
+    def first():
+        dmoc.clear_caches()
+        tic = time.perf_counter()
+        problem = dmoc_problem(name, N, rule, GOAL[name])
+        result = dmoc.optimize(problem) if judged else solve(problem)
+        seconds = time.perf_counter() - tic
+        if not result.success:
+            raise RuntimeError(f"dmoc {rule}: {result.message}")
+        return seconds, result.stats["iterations"], result.cost
+    return first
+
+
+def rockit_first(name, N):
+    """first() -> (seconds, iterations, cost): rockit's problem `name` on N intervals
+    built and solved (`rockit_ocp`, ``ocp.solve()``)."""
+    def first():
+        tic = time.perf_counter()
+        ocp, goal = rockit_ocp(name, N)
+        sol = rockit_solve(ocp, goal, GOAL[name])
+        seconds = time.perf_counter() - tic
+        return seconds, sol.stats["iter_count"], float(sol.value(ocp.objective))
+    return first
+
+
+def first_solves(names, rules, n_star, repeat, peers):
+    """Print the first solves of `names`, dmoc with `rules`, and rockit's when `peers`."""
+    for name in names:
+        methods = {f"dmoc {rule} {how}, N = {n_star[name, rule]}":
+                   dmoc_first(name, rule, n_star[name, rule], how == "judged")
+                   for rule in rules for how in ("judged", "raw")}
+        if peers:
+            methods[f"rockit, N = {n_star[name, 'rockit']}"] = rockit_first(name, n_star[name, "rockit"])
+        labels, rows = list(methods), {m: [] for m in methods}
+        for k in range(repeat):
+            for method in labels[k % len(labels):] + labels[:k % len(labels)]:
+                rows[method].append(methods[method]())
+        base = float(np.median([r[0] for r in rows[labels[-1]]])) if peers else np.nan
+        print(f"\n{name}, J* = {J_STAR[name]}: first solve, build included ({repeat} rounds)")
+        print(f"{'method':<34}{'median ms':>10}{'least ms':>10}{'it':>4}{'|J - J*| / J*':>15}{'/ rockit':>10}")
+        for method in labels:
+            seconds = np.array([r[0] for r in rows[method]])
+            _, iterations, cost = rows[method][-1]
+            error = abs(cost - J_STAR[name]) / J_STAR[name]
+            print(f"{method:<34}{np.median(seconds) * 1e3:>10.1f}{seconds.min() * 1e3:>10.1f}"
+                  f"{iterations:>4}{error:>15.2e}{np.median(seconds) / base:>10.3f}")
+
+
+# ---- re-solves --------------------------------------------------------------------------
 
 def child(checkout, *arguments):
     """The JSON that this script prints with `arguments` in a child process whose dmoc is
@@ -293,13 +358,14 @@ def one(argv):
         print(json.dumps(dmoc_resolve(name, method, N, repeat, count)))
 
 
-def scans():
-    """{(name, method): N*} for every problem and method."""
+def scans(peers):
+    """{(name, method): N*} for every problem and method (rockit's when `peers`)."""
     found = {}
     for name, j_star in J_STAR.items():
         for rule in DMOC_RULES:
             found[name, rule] = least_n(dmoc_cost(name, rule), j_star, 8)
-        found[name, "rockit"] = least_n(rockit_cost(name), j_star, 16)
+        if peers:
+            found[name, "rockit"] = least_n(rockit_cost(name), j_star, 16)
     return found
 
 
@@ -314,32 +380,57 @@ def least_loaded(outs):
     return best
 
 
-def table(name, n_star, measured, checkouts):
+def table(name, n_star, measured, checkouts, rules):
     """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT
-    and function seconds, the NLP size, the ratios to rockit's re-solves (solve, function,
-    and function C when measured) and of IPOPT's time to rockit's function re-solve, and
-    the largest cost difference from rockit's."""
-    rock = measured["rockit"]
-    runs = [run for run in ("solve", "function", "function C") if run in rock]
+    and function seconds, the NLP size; with rockit measured, the ratios to its re-solves
+    (solve, function, and function C when measured), of IPOPT's time to rockit's function
+    re-solve, and the largest cost difference from rockit's."""
+    rock = measured.get("rockit")
+    runs = [run for run in ("solve", "function", "function C") if rock and run in rock]
     head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'it':>5}"
-            f"{'IPOPT ms':>9}{'fun ms':>7}{'/solve':>7}{'/function':>10}"
-            + (f"{'/C':>6}" if "function C" in runs else "") + f"{'IPOPT/':>7}{'max dJ/J':>9}")
-    print(f"\n{name} (ratios: to rockit's {', '.join(runs)} re-solves; IPOPT's to rockit's "
-          f"function)\n{head}\n" + "-" * len(head))
+            f"{'IPOPT ms':>9}{'fun ms':>7}" + "".join(f"{'/' + run:>12}" for run in runs)
+            + (f"{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
+    print(f"\n{name}" + (f" (ratios: to rockit's {', '.join(runs)} re-solves; IPOPT's to rockit's "
+                         "function)" if rock else "") + f"\n{head}\n" + "-" * len(head))
     rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in runs]
     rows += [(rule, os.path.basename(c), n_star[name, rule], measured[rule, c], run)
-             for rule in DMOC_RULES for c in checkouts for run in DMOC_RUNS]
+             for rule in rules for c in checkouts for run in DMOC_RUNS]
     for method, checkout, N, out, run in rows:
         if run not in out:
             continue
         s, it, ipopt, fun = out[run]
-        gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
-        to_c = f"{s / rock['function C'][0]:>6.2f}" if "function C" in runs else ""
-        print(f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>11}"
-              f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}"
-              f"{s / rock['solve'][0]:>7.2f}{s / rock['function'][0]:>10.2f}{to_c}"
-              f"{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}")
+        line = (f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>11}"
+                f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}")
+        if rock:
+            gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
+            line += "".join(f"{s / rock[r][0]:>12.2f}" for r in runs)
+            line += f"{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}"
+        print(line)
 
+
+def resolves(names, rules, n_star, args, peers):
+    """Print the re-solves of `names`, dmoc with `rules` per checkout and rockit's when
+    `peers`: in child processes, `args.rounds` times interleaved; with `args.smallest` once
+    in this process."""
+    counts = str(args.repeat), str(args.goals)
+    for name in names:
+        rounds = []
+        for _ in range(args.rounds):            # interleaved: all see the same load
+            rounds.append({})
+            if peers:
+                rockit = "rockit-jit" if args.rockit_jit else "rockit"
+                rounds[-1]["rockit"] = child(args.checkouts[0], name, rockit,
+                                             str(n_star[name, "rockit"]), *counts)
+            for rule in rules:
+                for checkout in args.checkouts:
+                    rounds[-1][rule, checkout] = (
+                        dmoc_resolve(name, rule, n_star[name, rule], args.repeat, args.goals)
+                        if args.smallest else child(checkout, name, rule, str(n_star[name, rule]), *counts))
+        measured = {key: least_loaded([r[key] for r in rounds]) for key in rounds[0]}
+        table(name, n_star, measured, args.checkouts, rules)
+
+
+# ---- the run --------------------------------------------------------------------------
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
@@ -347,39 +438,42 @@ def main(argv=None):
         one(argv[1:])
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--repeat", type=int, default=5, help="cycles of re-solves (default 5)")
+    parser.add_argument("comparison", choices=("first", "resolve"))
+    parser.add_argument("--repeat", type=int, help="rounds of first solves (default 15), "
+                        "cycles of re-solves (default 5)")
+    parser.add_argument("--problem", choices=PROBLEMS, default="both")
     parser.add_argument("--rounds", type=int, default=3,
-                        help="child processes per method and checkout; the least time is kept")
-    parser.add_argument("--goals", type=int, default=5, help="goals near the original (<= 6)")
+                        help="re-solves: child processes per method and checkout; the least time is kept")
+    parser.add_argument("--goals", type=int, default=5, help="re-solves: goals near the original (<= 6)")
     parser.add_argument("--checkouts", nargs="+", default=[os.getcwd()],
-                        help="dmoc checkouts to time (default: the current directory)")
+                        help="re-solves: dmoc checkouts to time (default: the current directory)")
     parser.add_argument("--rockit-jit", action="store_true",
                         help="also rockit's function re-solve compiled to C (20-40 s per child)")
+    parser.add_argument("--scan", action="store_true", help="find the least N within 1e-6 again")
+    parser.add_argument("--smallest", action="store_true",
+                        help="the rolling disk with lobatto4 only, once, in this process")
     args = parser.parse_args(argv)
-    try:
-        import rockit  # noqa: F401
-    except ImportError:
-        print("rockit is not importable here: install it in a separate environment "
-              "(pip install rockit-meco) and run this script with that python; skipped.")
-        return
-    print(f"python {platform.python_version()}, casadi {ca.__version__}, rockit "
-          f"{importlib.metadata.version('rockit-meco')}; {os.cpu_count()} cores; load average "
-          f"{'%.2f %.2f %.2f' % os.getloadavg()}")
-    n_star = scans()
-    print("least N with |J_N - J*| / J* <= 1e-6:", {f"{k[0]}, {k[1]}": v for k, v in n_star.items()})
-    for name in J_STAR:
-        counts = str(args.repeat), str(args.goals)
-        rounds = []
-        for _ in range(args.rounds):            # interleaved: all see the same load
-            rockit = "rockit-jit" if args.rockit_jit else "rockit"
-            rounds.append({"rockit": child(args.checkouts[0], name, rockit,
-                                           str(n_star[name, "rockit"]), *counts)})
-            for rule in DMOC_RULES:
-                for checkout in args.checkouts:
-                    rounds[-1][rule, checkout] = child(checkout, name, rule,
-                                                       str(n_star[name, rule]), *counts)
-        measured = {key: least_loaded([r[key] for r in rounds]) for key in rounds[0]}
-        table(name, n_star, measured, args.checkouts)
+    peers = importlib.util.find_spec("rockit") is not None
+    if peers:
+        print(f"rockit {importlib.metadata.version('rockit-meco')}", end="; ")
+    else:
+        print("rockit is not importable here: the peer side is skipped (see the docstring "
+              "for its environment)", end="; ")
+    print(f"python {platform.python_version()}, casadi {ca.__version__}; {os.cpu_count()} cores; "
+          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    names, rules = PROBLEMS[args.problem], DMOC_RULES
+    if args.smallest:
+        names, rules, args.rounds, args.goals, args.repeat = ("rolling disk",), ("lobatto4",), 1, 1, 1
+    if args.scan:
+        n_star = scans(peers)
+        print("least N with |J_N - J*| / J* <= 1e-6:", {f"{k[0]}, {k[1]}": v for k, v in n_star.items()})
+    else:
+        n_star = {(name, method): N for name, row in LEAST_N.items() for method, N in row.items()}
+    if args.comparison == "first":
+        first_solves(names, rules, n_star, args.repeat or 15, peers)
+    else:
+        args.repeat = args.repeat or 5
+        resolves(names, rules, n_star, args, peers)
     print(f"\nload average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 
