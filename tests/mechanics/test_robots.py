@@ -253,6 +253,8 @@ def test_a_near_singular_inertia_is_named(tmp_path):
 @pytest.mark.parametrize("call, match", [
     (lambda: dmoc.RobotSystem(example_urdf("arm6"), ["elbow", "knee"]), r"`joints`.*'knee'"),
     (lambda: dmoc.RobotSystem(example_urdf("arm6"), ["elbow", "elbow"]), r"`joints` must be distinct"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), "elbow"), r"`joints` must be a sequence"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), [3]), r"`joints`.*\[3\] not among them"),
     (lambda: dmoc.RobotSystem(example_urdf("arm6"), friction=-1.0), r"`friction`"),
     (lambda: dmoc.RobotSystem(example_urdf("arm6"), friction=[0.1, 0.2]), r"`friction` must have shape \(6,\)"),
     (lambda: dmoc.RobotSystem(example_urdf("arm6"), gravity=float("nan")), r"`gravity`"),

@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ...errors import InputError
+from ...errors import InputError, InputTypeError
 from ..system import MechanicalSystem
 from .step_failure import step_failure_hint
 from .urdf_file import read_urdf
@@ -134,7 +134,10 @@ def _chosen_joints(movable, joints):
     if joints is None:
         return movable
     by_name = {j.name: j for j in movable}
-    chosen = checks.strings("joints", joints, len(joints) if hasattr(joints, "__len__") else 0)
+    if isinstance(joints, str) or not hasattr(joints, "__iter__"):
+        raise InputTypeError(f"`joints` must be a sequence of joint names; got "
+                             f"{type(joints).__name__}.")
+    chosen = tuple(joints)
     unknown = [s for s in chosen if s not in by_name]
     if unknown or not chosen or len(set(chosen)) < len(chosen):
         raise InputError(f"`joints` must be distinct names of movable joints of the file, "
