@@ -14,7 +14,8 @@ KeyboardInterrupt of a run stopped by Ctrl-C (SIGINT), carrying what was compute
 then in `.result`.
 Warnings (the computation goes on) are `DmocWarning`s, a UserWarning: `OrderReductionWarning`
 when a rule keeps a lower order on a degenerate Lagrangian, `ParasiticModeWarning` when its
-step equations have a growing alternating mode.
+step equations have a growing alternating mode. A spelling dmoc still takes but will drop
+gives a `DmocDeprecationWarning`, a DeprecationWarning.
 The ``status`` of a result is a `Status` member (a str: it equals its value) for an outcome
 dmoc names; an optimization that dmoc does not judge otherwise keeps IPOPT's own return
 status, a plain str such as ``"Solve_Succeeded"``.
@@ -112,6 +113,13 @@ class ParasiticModeWarning(DmocWarning):
     measured and the rule to use instead (docs/degenerate.md, "The alternating mode")."""
 
 
+class DmocDeprecationWarning(DeprecationWarning):
+    """A spelling of dmoc's own that still works but will go (an entry of `options` that is
+    a keyword of `optimize`): the message names what to write instead (docs/errors.md,
+    "Warnings"). A class of its own, so that a test suite can make dmoc's deprecations
+    errors without those of the libraries below it."""
+
+
 class Status(str, enum.Enum):
     """The outcomes dmoc names in a result's ``status``, one vocabulary for the simulator, the
     optimizer's verdict and accuracy loop, and the batches.
@@ -134,6 +142,7 @@ class Status(str, enum.Enum):
     ACCURACY_NOT_REACHED = "accuracy_not_reached"
     TIMEOUT = "timeout"
     WORKER_LOST = "worker_lost"
+    SCHEDULER_LOST = "scheduler_lost"
     EXCEPTION = "exception"
     UNDESERIALIZABLE = "undeserializable"
 
@@ -158,6 +167,7 @@ MESSAGES = {
     Status.ACCURACY_NOT_REACHED: "the largest number of steps allowed did not reach the accuracy asked for",
     Status.TIMEOUT: "the item or the batch ran past its time limit",
     Status.WORKER_LOST: "the worker running the item was lost, or no worker came",
+    Status.SCHEDULER_LOST: "the client lost the batch's scheduler before the item's result arrived",
     Status.EXCEPTION: "the item's solve raised an exception",
     Status.UNDESERIALIZABLE: "the item's arguments could not be unpickled on the worker",
 }

@@ -16,13 +16,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "benchmarks"
 MODULES = sorted(path.stem for path in BENCHMARKS.glob("*.py"))
 # code the scripts share, run through the scripts that import it
-SHARED = {"collocation": "dmoc_vs_collocation", "knife_runs": "batch_worker"}
+SHARED = {"collocation": "dmoc_vs_collocation"}
 # each script's smallest run: a few seconds on a warm compile cache
 SMALLEST = {
     "accuracy": ["--smallest"],
-    "batch": ["--count", "4", "--steps", "20", "--sim-steps", "20"],
-    "batch_optimize_worker": ["--rounds", "1", "--count", "4", "--chunk", "2"],
-    "batch_worker": ["--rounds", "1", "--runs", "8"],
+    "batch": ["--count", "8", "--sim-steps", "20", "--repeat", "1"],
     "dmoc_vs_collocation": ["--smallest"],
     "mpc": ["--horizon", "10", "--steps", "3", "--repeat", "1"],
     "peers": ["first", "--smallest"],
@@ -56,7 +54,7 @@ def benchmarks_path(monkeypatch):
 
 def test_every_script_is_run_here_and_named_in_the_docs():
     performance = (ROOT / "docs" / "performance.md").read_text()
-    assert len(MODULES) <= 16
+    assert len(MODULES) <= 15
     assert sorted([*SMALLEST, *SHARED]) == MODULES
     assert set(SHARED.values()) <= set(SMALLEST)
     for name in MODULES:

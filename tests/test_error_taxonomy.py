@@ -57,6 +57,13 @@ def simulate(ctx, **changes):
     return dmoc.simulate(ctx.disc, **{k: v for k, v in kwargs.items() if v is not None})
 
 
+def closed_client():
+    """A distributed.Client of an in-process cluster without workers, closed."""
+    import distributed
+    with distributed.Client(processes=False, n_workers=0, dashboard_address=":0") as client:
+        return client
+
+
 def problem(ctx, steps=5, **changes):
     """OptimalControlProblem on the knife edge with some arguments replaced."""
     return dmoc.OptimalControlProblem(ctx.disc, steps, **{"q_start": START, "q_goal": GOAL, **changes})
@@ -261,8 +268,15 @@ API_ROWS = [
     ("OptimizationResult.load: empty file", lambda c: dmoc.OptimizationResult.load(c.folder / "empty.npz"),
      ValueError, "not an optimization result file.*it is empty"),
     ('optimize: linear_solver "ma57" (not installed)',
-     lambda c: dmoc.optimize(problem(c), options={"linear_solver": "ma57"}), dmoc.SolverError,
-     "Invalid_Option .*IPOPT refused the option `linear_solver` = 'ma57'.*'mumps'"),
+     lambda c: dmoc.optimize(problem(c), options={"linear_solver": "ma57"}), ValueError,
+     "`options\\['linear_solver'\\]` = 'ma57' is not available in this IPOPT build, which "
+     "has 'mumps'"),
+    ("optimize: max_iter 2**32 + 3", lambda c: dmoc.optimize(problem(c), options={"max_iter": 2**32 + 3}),
+     ValueError, r"`options\['max_iter'\]` must be an integer from -2147483648 to 2147483647"),
+    ("optimize: max_iter 1e30", lambda c: dmoc.optimize(problem(c), options={"max_iter": 1e30}),
+     ValueError, r"`options\['max_iter'\]` must be an integer from"),
+    ("optimize: tol nan", lambda c: dmoc.optimize(problem(c), options={"tol": float("nan")}),
+     ValueError, r"`options\['tol'\]` must be finite; got nan"),
     ('save_trajectory_plots: name="sub/run"',
      lambda c: plotting.save_trajectory_plots(c.traj, c.folder, "sub/run"), ValueError,
      "`name` must be a file-name prefix without a path separator; got 'sub/run'"),
@@ -301,6 +315,19 @@ API_ROWS = [
      "`workers` starts a LocalCluster; it cannot go with an `address`"),
     ("batch.Cluster(workers=0)", lambda c: batch.Cluster(workers=0), ValueError,
      "`workers` must be a positive integer; got 0"),
+    ('optimize_many(client="", "inproc://x")',
+     lambda c: [batch.optimize_many([problem(c)], client=address) for address in ("inproc://x", "")],
+     ValueError, "`client` must be a scheduler address such as 'tcp://host:8786'"),
+    ('optimize_many(client="tls://...") without certificates',
+     lambda c: batch.optimize_many([problem(c)], client="tls://127.0.0.1:1", connect_timeout=1),
+     ValueError, "`client`='tls://127.0.0.1:1' needs TLS certificates"),
+    ("optimize_many(client=closed_client)",
+     lambda c: batch.optimize_many([problem(c)], client=closed_client()), ValueError,
+     "`client` is a distributed.Client that is closed"),
+    ("simulate_many(disc, runs=[{}])", lambda c: batch.simulate_many(c.disc, [{}], client=UNREACHABLE),
+     ValueError, r"`runs\[0\]` must give `q0` and `steps` of `simulate`; it lacks `q0` and `steps`"),
+    ('batch.Cluster(security="tls")', lambda c: batch.Cluster(security="tls"), TypeError,
+     "`security` must be a distributed.Security"),
     ("OptimalControlProblem: parameters=[1.0]", lambda c: problem(c, parameters=[1.0]), TypeError,
      "`parameters` must be a dict"),
     ('parameters={"2r": 1.0}',

@@ -15,7 +15,7 @@ from dmoc.errors import MESSAGES, Status, status_of
 # simulator's success status.
 STRINGS = ["converged", "newton_failed", "non_finite", "interrupted", "passed", "not_replayable",
            "path_violated", "under_resolved", "accuracy_not_reached", "timeout", "worker_lost",
-           "exception", "undeserializable"]
+           "exception", "undeserializable", "scheduler_lost"]
 
 
 @pytest.mark.parametrize("text", STRINGS)

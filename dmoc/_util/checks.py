@@ -69,6 +69,17 @@ def positive_float(name, value):
     return value
 
 
+def step_size(name, value):
+    """Return the step `value` as float if it is finite and at least the smallest normal
+    float (below it 1/h, and every momentum (q_1 - q_0)/h, overflows to inf)."""
+    value = positive_float(name, value)
+    tiny = float(np.finfo(float).tiny)
+    if value < tiny:
+        raise InputError(f"`{name}` must be at least {tiny!r} (the smallest normal float: "
+                         f"1/{name} overflows below it); got {value!r}.")
+    return value
+
+
 def nonnegative_float(name, value):
     """Return `value` as float if it is a finite real number >= 0."""
     value = _real(name, value)
@@ -225,6 +236,7 @@ IPOPT_INTEGER_OPTIONS = frozenset((
 
 # The entries of `options` that are dmoc's switches of `optimize` (its SWITCHES, in the
 # deprecated options spelling), not IPOPT's: the only entries that take a bool.
+IPOPT_INT_MIN, IPOPT_INT_MAX = -2**31, 2**31 - 1      # IPOPT's Index: a C int
 SWITCH_ENTRIES = ("reuse_solver", "expand", "linear_solver_report")
 
 
@@ -233,7 +245,8 @@ def ipopt_options(name, options):
     or a string (None is refused: it would be dropped, not set), an integer (or an
     integral float, returned as int) for IPOPT's integer options. A bool is refused except
     for `SWITCH_ENTRIES`: IPOPT reads True as the number 1, and its yes/no options take
-    the strings "yes" and "no"."""
+    the strings "yes" and "no". Numbers must be finite (IPOPT takes a NaN tolerance) and
+    integers fit IPOPT's 32-bit integers (2**32 + 3 iterations would wrap to 3)."""
     if not isinstance(options, dict):
         raise InputTypeError(f"`{name}` must be a dict of IPOPT options; got {type(options).__name__}.")
     checked = {}
@@ -257,10 +270,18 @@ def _ipopt_value(name, key, value):
         raise InputTypeError(
             f"`{name}['{key}']` must be {'an integer' if integer else 'a number or a string'}, "
             f"not a bool; got {value!r} (IPOPT would read it as {int(value)}).{hint}")
-    if integer and not isinstance(value, str):
+    if isinstance(value, str):
+        return value
+    if not np.isfinite(value):
+        raise InputError(f"`{name}['{key}']` must be finite; got {value!r} (IPOPT's 'no limit' "
+                         f"is a large number, e.g. 1e20).")
+    if integer:
         if not float(value).is_integer():
-            cut = f", which IPOPT would truncate to {int(value)}" if np.isfinite(value) else ""
             raise InputError(f"`{name}['{key}']` must be an integer (an IPOPT integer "
-                             f"option); got {value!r}{cut}.")
+                             f"option); got {value!r}, which IPOPT would truncate to {int(value)}.")
+        if not IPOPT_INT_MIN <= int(value) <= IPOPT_INT_MAX:
+            raise InputError(f"`{name}['{key}']` must be an integer from {IPOPT_INT_MIN} to "
+                             f"{IPOPT_INT_MAX} (IPOPT's 32-bit integers, which would wrap "
+                             f"it); got {value!r}.")
         return int(value)
     return value

@@ -7,8 +7,9 @@ session loads the same code with `casadi.external` instead of compiling again; w
 compiler exists, `compiler()` is None and callers keep CasADi's virtual machine, which
 computes the same thing (`Library`).
 
-The libraries live in a private folder and are loaded only when their bytes hash to their
-name and their Functions have the signatures of the ones asked for (`cache_folder`; the
+The libraries live in a private folder worked through a descriptor; a library is loaded
+from the very bytes that hashed to its name (a sealed anonymous file), and only when they
+do and its Functions have the signatures of the ones asked for (`cache_folder`; the
 threat model is in docs/stages/simulate.md). The compiler is ``$CC`` (default ``cc``, then
 ``gcc``); set ``CC`` to an empty string to disable compilation.
 """
@@ -17,14 +18,14 @@ import functools
 import hashlib
 import os
 import platform
+import secrets
 import shutil
 import subprocess
-import tempfile
 
 import casadi as ca
 
 from ..errors import CompiledCodeError
-from . import cache_folder
+from . import cache_folder, sealed_file
 
 FLAGS = ("-O2", "-fPIC", "-shared")
 
@@ -101,7 +102,8 @@ class Library:
         if self.key is None:
             return False
         try:
-            return cache_folder.verified(cache_folder.folder(), self.prefix) is not None
+            with cache_folder.opened() as where:
+                return cache_folder.verified(where, self.prefix) is not None
         except (CompiledCodeError, OSError):
             return False
 
@@ -112,16 +114,19 @@ class Library:
         if self.key is None:
             raise CompiledCodeError("no C compiler: nothing can be compiled (set CC to one).")
         try:
-            where = cache_folder.folder()
-            path = cache_folder.verified(where, self.prefix) or self._compile(where)
-            return self._external(path)
+            with cache_folder.opened() as where:
+                name, data = cache_folder.verified(where, self.prefix) or self._compile(where)
+                return self._external(where, name, data)
         except OSError as err:
             raise CompiledCodeError(f"the compiled-code cache failed: {err}.") from None
 
-    def _external(self, path):
-        """The Functions of library `path`, each checked to have the signature (inputs,
-        outputs and their sparsity) of the Function it stands for; a library that does not
-        is removed and `CompiledCodeError` raised."""
+    def _external(self, where, name, data):
+        """The Functions of library `name` in the `cache_folder.Folder` `where`, loaded from
+        its verified bytes `data` (`sealed_file`), each checked to have the signature
+        (inputs, outputs and their sparsity) of the Function it stands for; a library that
+        does not is removed and `CompiledCodeError` raised."""
+        path = (sealed_file.sealed_path(data) if sealed_file.available()
+                else os.path.join(where.path, name))
         loaded = {}
         for f in self.functions:
             try:
@@ -129,37 +134,75 @@ class Library:
             except RuntimeError as err:
                 g, reason = None, str(err).strip().splitlines()[-1]
             if g is None or not _same_signature(f, g):
-                cache_folder.discard(path)
+                cache_folder.discard(where, name)
                 raise CompiledCodeError(
-                    f"{path} does not hold the compiled {f.name()!r} asked for"
-                    + (f" ({reason})" if g is None else "") + "; it was removed and is "
-                    "compiled again on the next run.")
+                    f"{os.path.join(where.path, name)} does not hold the compiled {f.name()!r} "
+                    "asked for" + (f" ({reason})" if g is None else "") + "; it was removed "
+                    "and is compiled again on the next run.")
             loaded[f.name()] = g
         return loaded
 
     def _compile(self, where):
-        """Generate and compile the library in a private temporary folder inside `where`
-        (removed on every way out) and publish it (`cache_folder.publish`); its path.
-        Temporary folders abandoned by killed compiles are removed first, and the least
-        recently used libraries after, to keep the size bound (`cache_folder.max_bytes`)."""
+        """Generate and compile the library in a private temporary folder inside the
+        `cache_folder.Folder` `where` (removed on every way out), worked through its
+        descriptor (`_build`), and publish it (`cache_folder.publish`); (its name, its
+        bytes). Temporary folders abandoned by killed compiles are removed first, and the
+        least recently used libraries after, to keep the size bound
+        (`cache_folder.max_bytes`)."""
         bound = cache_folder.max_bytes()
         cache_folder.remove_stale(where)
-        work = tempfile.mkdtemp(prefix="tmp", dir=where)
+        work = "tmp" + secrets.token_hex(8)
+        os.mkdir(work, 0o700, dir_fd=where.fd)
         try:
-            generator = ca.CodeGenerator("library.c", {"with_header": False})
-            for function in self.functions:
-                generator.add(function)
-            source = generator.generate(work + os.sep)
-            target = os.path.join(work, "library.so")
-            done = subprocess.run([self.cc, *FLAGS, source, "-o", target, "-lm"],
-                                  capture_output=True, text=True, check=False)
-            if done.returncode:
-                raise CompiledCodeError(f"compiling the generated C with {self.cc} failed:\n{done.stderr}")
-            path = cache_folder.publish(target, where, self.prefix)
+            fd = os.open(work, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW, dir_fd=where.fd)
+            try:
+                self._build(fd, os.path.join(where.path, work))
+                name, data = cache_folder.publish(where, fd, "library.so", self.prefix)
+            finally:
+                os.close(fd)
         finally:
-            shutil.rmtree(work, ignore_errors=True)
-        cache_folder.evict(where, path, bound)
-        return path
+            shutil.rmtree(work, dir_fd=where.fd, ignore_errors=True)
+        cache_folder.evict(where, name, bound)
+        return name, data
+
+    def _build(self, work, path):
+        """Write the C source of the Functions into the folder open as `work` (at `path`)
+        and compile it there into ``library.so``; where there is /proc (Linux), both address
+        the folder as ``/proc/self/fd/N`` of the descriptor (the compiler is given it), so
+        no path swapped meanwhile redirects them. A source cut short or a compile failed on
+        a full disk is reported as such, not as the compiler's syntax error."""
+        folder = (f"/proc/self/fd/{work}" if sealed_file.available() else path) + os.sep
+        generator = ca.CodeGenerator("library.c", {"with_header": False})
+        for function in self.functions:
+            generator.add(function)
+        source = generator.generate(folder)
+        if generator.dump() not in _read_text(work, "library.c"):
+            raise CompiledCodeError(f"the generated C source was cut short while written to "
+                                    f"{path}{_disk_full(work)}.")
+        done = subprocess.run([self.cc, *FLAGS, source, "-o", folder + "library.so", "-lm"],
+                              capture_output=True, text=True, check=False, pass_fds=(work,))
+        if done.returncode:
+            raise CompiledCodeError(f"compiling the generated C with {self.cc} failed"
+                                    f"{_disk_full(work)}:\n{done.stderr}")
+
+
+def _read_text(folder, name):
+    """The text of file `name` in the folder open as `folder`."""
+    fd = os.open(name, os.O_RDONLY | os.O_NOFOLLOW, dir_fd=folder)
+    with os.fdopen(fd, encoding="utf-8", errors="replace") as file:
+        return file.read()
+
+
+def _disk_full(folder):
+    """", its disk is full (...)" when the disk of the folder open as `folder` has less
+    than 1 MiB free (a cut source or a failed compile is then no fault of the code), else
+    ""."""
+    info = os.fstatvfs(folder)
+    free = info.f_bavail * info.f_frsize
+    if free >= 1 << 20:
+        return ""
+    return (f": its disk is full ({free} bytes free); free some space or set DMOC_CACHE_DIR "
+            "to a folder on another disk")
 
 
 def _same_signature(f, g):

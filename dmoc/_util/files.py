@@ -3,7 +3,8 @@ summaries and figures): the data go to a temporary file in the target's folder, 
 flushed to disk and only then renamed over the target, so a write that fails half-way
 (disk full, an exception while encoding) leaves the previous file as it was. A run that
 writes a set of files (`staged_run`) writes them all into a temporary folder first and
-moves them into place together, so a failure leaves the complete previous set.
+makes them the folder's set in one atomic step (`file_set`), so a failure, or a kill at
+any instruction, leaves the complete previous set.
 
 Temporaries are hidden and named ``.NAME.PID.HEX.tmp`` (``.STEM.PID.HEX.tmp.SUFFIX`` for
 writers that need the suffix, ``.dmoc-run.PID.HEX.tmp/`` for a run's folder), PID the
@@ -25,6 +26,7 @@ import time
 import uuid
 
 from ..errors import InputError, MissingFileError
+from . import file_set
 
 STALE_SECONDS = 3600.0
 LIVE_STALE_SECONDS = 86400.0
@@ -134,54 +136,21 @@ def write_text(path, text):
 
 
 @contextlib.contextmanager
-def staged_run(folder, replaced=()):
+def staged_run(folder, name, replaced=()):
     """A temporary folder inside `folder` to write one run's files into; when the block
-    ends without an exception they are moved into `folder` together (`commit`), together
-    with removing the files named in `replaced` (an earlier run's files that this run does
-    not write again); otherwise the temporary folder is removed and `folder` is untouched."""
+    ends without an exception they become the set `name` of `folder` in one atomic step
+    (`file_set.replace`: the files of the set's earlier run, and the regular files named
+    in `replaced`, go); otherwise the temporary folder is removed and `folder` is
+    untouched."""
     folder = pathlib.Path(folder)
     remove_stale(folder)
     stage = folder / _temporary_name(RUN_PREFIX.lstrip("."))
     stage.mkdir()
     try:
         yield stage
-        commit(stage, folder, replaced)
+        file_set.replace(folder, name, stage, replaced)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
-
-
-def commit(stage, folder, replaced=()):
-    """Move every file of `stage` into `folder` and remove the files `replaced` there that
-    `stage` does not hold: all of it, or, when a rename fails, none (the files moved so far
-    are moved back and the earlier ones restored from hard links kept in `stage`)."""
-    new = sorted(p.name for p in stage.iterdir() if p.is_file())
-    old = [name for name in dict.fromkeys([*new, *replaced]) if (folder / name).is_file()]
-    keep = stage / ".previous"
-    keep.mkdir()
-    for name in old:
-        _link_or_copy(folder / name, keep / name)
-    done = []
-    try:
-        for name in new:
-            os.replace(stage / name, folder / name)
-            done.append(name)
-        for name in old:
-            if name not in new:
-                os.unlink(folder / name)
-    except BaseException:
-        for name in done:
-            os.replace(folder / name, stage / name)
-        for name in old:
-            os.replace(keep / name, folder / name)
-        raise
-
-
-def _link_or_copy(source, target):
-    """A hard link of `source` at `target` (a copy where the file system has none)."""
-    try:
-        os.link(source, target)
-    except OSError:
-        shutil.copy2(source, target)
 
 
 def remove_stale(folder):

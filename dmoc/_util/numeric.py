@@ -4,6 +4,7 @@ conversions to and from ``casadi.DM`` of an ordinary call, a fraction of its tim
 small Functions of a system; the same evaluation, so the same bits.
 """
 
+import functools
 import threading
 
 import numpy as np
@@ -85,6 +86,57 @@ class Evaluator:
         if not hasattr(self._local, "buffer"):
             self._local.buffer = self.function.buffer()
         return self._local.buffer
+
+
+CHUNK = 4096      # steps per call of `per_step`'s mapped Function
+
+
+def per_step(function, steps, *args):
+    """The outputs of `function` (column-vector outputs) evaluated at each of `steps`
+    steps: each of `args` an array whose first axis is the step (shape (steps, ...), its
+    rows the input's entries) or a float given to every step; a list of arrays (steps, r).
+    Long runs (steps >= CHUNK) go through one Function mapped over CHUNK steps, made once
+    and called on buffers chunk by chunk (the same evaluation, the same bits; 12 times
+    faster than mapping over all steps at 2e5 steps, which also builds a Function that
+    large), short ones through ``function.map(steps)``."""
+    if steps < CHUNK:
+        columns = [_rows(a, 0, steps).T if isinstance(a, np.ndarray) else a for a in args]
+        return [np.array(out).T for out in _as_list(function.map(steps)(*columns))]
+    mapped = _mapped(function)
+    rows = [mapped.function.size1_out(i) for i in range(function.n_out())]
+    outs = [np.empty((steps, r)) for r in rows]
+    for start in range(0, steps, CHUNK):
+        end = min(start + CHUNK, steps)
+        chunk = [_padded(a, start, end) for a in args]
+        for out, value in zip(outs, mapped(*chunk)):
+            out[start:end] = value.T[:end - start]
+    return outs
+
+
+def _as_list(value):
+    return value if isinstance(value, (list, tuple)) else [value]
+
+
+def _padded(arg, start, end):
+    """Rows `start:end` of `arg` as CHUNK columns (the last row repeated), or the float
+    `arg` for every column."""
+    if not isinstance(arg, np.ndarray):
+        return np.full(CHUNK, float(arg))
+    rows = _rows(arg, start, end)
+    if end - start < CHUNK:
+        rows = np.vstack([rows, np.repeat(rows[-1:], CHUNK - (end - start), axis=0)])
+    return rows.T
+
+
+def _rows(arg, start, end):
+    """Rows `start:end` of `arg`, each flattened (explicit widths: 0 columns allowed)."""
+    return arg[start:end].reshape(end - start, int(np.prod(arg.shape[1:])))
+
+
+@functools.lru_cache(maxsize=32)
+def _mapped(function):
+    """The Evaluator of `function` mapped over CHUNK steps."""
+    return Evaluator(function.map(CHUNK))
 
 
 def _run(run):

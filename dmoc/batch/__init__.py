@@ -23,9 +23,9 @@ from ..optimal_control.statement.problem import OptimalControlProblem
 from ..optimal_control.solver.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..simulation.time_stepping import SimulationResult
-from . import scheduling, sharing, shipping, tasks
+from . import scheduling, shared_memory, shipping, tasks
 from .cluster import Cluster
-from .errors import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
+from .failures import BatchInterrupted, SchedulerUnreachable, WorkersFailedToStart
 from .tasks import pack_problem, unpack_problem
 
 __all__ = ["optimize_many", "simulate_many", "Cluster", "pack_problem", "unpack_problem",
@@ -35,6 +35,8 @@ KEEP = ("trajectory", "final")     # what simulate_many returns of each run's tr
 
 SIMULATE_KEYS = ("q0", "v0", "p0", "steps", "controls", "variant", "tol", "max_iter", "jit")
 _SIMULATE_KEYS = frozenset(SIMULATE_KEYS)
+REQUIRED_KEYS = ("q0", "steps")     # the keyword arguments `simulate` has no default for
+_REQUIRED = frozenset(REQUIRED_KEYS)
 
 CONNECT_TIMEOUT = 5.0
 
@@ -47,7 +49,7 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
     Each worker gets each problem structure once and keeps its solver; a problem that
     ``with_boundary`` / ``with_parameters`` of one already shipped rebuilds (the same
     NLP, bounds and p) travels as its boundary data and parameter values only. Items go
-    in chunks of about 0.5 s of measured work (`dmoc.batch.chunks`).
+    in chunks of about 0.5 s of measured work (`dmoc.batch.chunk_sizes`).
 
     Parameters
     ----------
@@ -65,8 +67,9 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
         Where to run: by default the scheduler of Dask's configuration
         (``DASK_SCHEDULER_ADDRESS``), else a LocalCluster of ``os.cpu_count()``
         single-threaded worker processes, started for this call and closed after it; a
-        `Cluster` or a Client (left open), or a scheduler address such as
-        ``"tcp://10.0.0.1:8786"`` (connected for this call).
+        `Cluster` or an open Client (left open), or a scheduler address such as
+        ``"tcp://10.0.0.1:8786"`` (connected for this call). Whoever can connect to the
+        scheduler can run code as its workers' user: docs/batch.md, "Security".
     progress : bool
         Draw a bar of completed solves, the time elapsed and the ETA on stderr.
     timeout : float, optional
@@ -87,16 +90,20 @@ def optimize_many(problems, *, guesses=None, options=None, reuse_solver=True, ex
         ``success=False`` and IPOPT's status. An item that produced no solve has
         ``trajectory=None``, ``cost=nan``, the reason in ``message`` and one of the
         statuses ``"exception"``, ``"undeserializable"``, ``"worker_lost"``,
-        ``"timeout"`` (docs/batch.md). ``stats["worker"]`` is the address of the worker
+        ``"timeout"``, ``"scheduler_lost"`` (the client lost its scheduler before the
+        item's result arrived; docs/batch.md, "Failure semantics"). ``stats["worker"]`` is the address of the worker
         that produced the result.
 
     Raises
     ------
     BatchInterrupted
-        On Ctrl-C while waiting; its ``.results`` holds the results that had arrived and
-        ``"interrupted"`` ones for the others.
+        On Ctrl-C while waiting (or while the default cluster starts); its ``.results``
+        holds the results that had arrived and ``"interrupted"`` ones for the others.
     SchedulerUnreachable, WorkersFailedToStart
         When the batch cannot start at all.
+    InputError
+        When `client` names no scheduler (an address Dask cannot parse, a ``tls://``
+        address without certificates) or is a closed Client.
     """
     problems = _sequence("problems", problems, OptimalControlProblem, "OptimalControlProblem")
     if guesses is None:
@@ -160,6 +167,10 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     for i, run in enumerate(runs):
         if not _SIMULATE_KEYS.issuperset(run):      # the message of `no_unknown_keys`
             checks.no_unknown_keys(f"runs[{i}]", run, SIMULATE_KEYS)
+        if not _REQUIRED.issubset(run):
+            missing = " and ".join(f"`{k}`" for k in REQUIRED_KEYS if k not in run)
+            raise InputError(f"`runs[{i}]` must give {' and '.join(f'`{k}`' for k in REQUIRED_KEYS)} "
+                             f"of `simulate`; it lacks {missing}.")
     if isinstance(disc, Discretization):
         disc = [disc] * len(runs)
     discs = _sequence("disc", disc, Discretization, "Discretization")
@@ -169,7 +180,7 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     timeout = _seconds("timeout", timeout)
     keep = checks.choice("keep", keep, KEEP)
     shipments, items = shipping.run_items(discs, runs)
-    with sharing.Exchange() as share:
+    with shared_memory.Exchange() as share:
         return _run(tasks.simulate_chunk, (timeout, keep, share), shipments, items,
                     SimulationResult, client, "simulate", progress, batch_timeout, connect_timeout)
 

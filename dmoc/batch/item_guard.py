@@ -13,6 +13,7 @@ import traceback
 
 import distributed
 
+from ..errors import Status
 from ..optimal_control.solver.optimization_result import OptimizationResult
 from ..simulation.time_stepping import SimulationResult
 
@@ -67,7 +68,7 @@ def guarded(kind, load, solve, timeout):
     thread.join(timeout)
     if box:
         return box[0], True
-    return failed_result(kind, "timeout", f"the item ran longer than `timeout`={timeout:g} s "
+    return failed_result(kind, Status.TIMEOUT, f"the item ran longer than `timeout`={timeout:g} s "
                          "and was abandoned; its worker is restarted (if it has a nanny) "
                          "to stop it"), False
 
@@ -78,12 +79,12 @@ def attempt(kind, load, solve):
     try:
         loaded = load()
     except BaseException as err:  # an argument this worker cannot load is the item's result
-        return caught(kind, "undeserializable", "its arguments could not be unpickled on "
+        return caught(kind, Status.UNDESERIALIZABLE, "its arguments could not be unpickled on "
                        "the worker (is every class they use importable there?)", err)
     try:
         return solve(loaded)
     except BaseException as err:  # SystemExit too: one item must not end the worker
-        return caught(kind, "exception", "", err)
+        return caught(kind, Status.EXCEPTION, "", err)
 
 
 def caught(kind, status, context, err):

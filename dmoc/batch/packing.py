@@ -3,7 +3,8 @@ trajectory field concatenated over the chunk's runs into one array (t, q, p over
 knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
 chunk rather than seven per run; the client gets each run's Trajectory back as views of
 those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
-On the client's machine the arrays go through shared memory (`dmoc.batch.sharing`).
+Dask's serialization sends the arrays as out-of-band frames (pickle protocol 5); to a
+client on the worker's machine they go through shared memory (`dmoc.batch.shared_memory`).
 """
 
 import dataclasses
@@ -11,7 +12,7 @@ import dataclasses
 import numpy as np
 
 from ..principle.trajectory import Trajectory
-from . import shared_file, sharing
+from . import shared_memory
 
 KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
 STEP_FIELDS = ("lam", "u", "s")          # N rows per run
@@ -19,7 +20,7 @@ STEP_FIELDS = ("lam", "u", "s")          # N rows per run
 
 class PackedResults(list):
     """A list of SimulationResults that pickles as a few arrays (`pack`), written to a
-    slot of the client's shared memory when `share` (`sharing.Exchange`) allows it;
+    slot of the client's shared memory when `share` (`shared_memory.Exchange`) allows it;
     unpickled, it is a plain list of equal results (`unpack`), in the same order."""
 
     def __init__(self, results, share=None):
@@ -27,7 +28,7 @@ class PackedResults(list):
         self.share = share
 
     def __reduce__(self):
-        file = shared_file.SharedFile(self.share)
+        file = shared_memory.SharedFile(self.share)
         try:
             heads, arrays = pack(self, file.allocate)
         except BaseException:      # the slot taken must not stay locked
@@ -46,7 +47,7 @@ def pack(results, allocate=None):
     results : list of SimulationResult
     allocate : callable, optional
         ``allocate({name: (shape, dtype)})`` gives the arrays to fill
-        (`shared_file.SharedFile.allocate`), or None for new ones (the default).
+        (`shared_memory.SharedFile.allocate`), or None for new ones (the default).
 
     Returns
     -------
@@ -103,8 +104,8 @@ def unpack(heads, arrays):
 
 
 def unpack_shared(heads, path, layout):
-    """`unpack` of arrays that a `shared_file.SharedFile` put in the slot `path` (copied out)."""
-    return unpack(heads, sharing.read(path, layout))
+    """`unpack` of arrays that a `shared_memory.SharedFile` put in the slot `path` (copied out)."""
+    return unpack(heads, shared_memory.read(path, layout))
 
 
 def _widths(traj):

@@ -7,9 +7,10 @@ At most `CHUNKS_PER_THREAD` chunks per worker thread are in flight, so that the 
 chunk's size uses the costs measured so far; until a cost is measured, the chunks carry a
 CPU budget after which their workers return them with the items run so far
 (`ChunkSizes.budget`), so no worker waits for the client to size its work and a chunk of
-slow items ends within its budget. The client waits in ticks of
-`TICK` seconds, so that the batch's deadline, a cluster left without workers and Ctrl-C
-are noticed while nothing arrives.
+slow items ends within its budget. The client waits in ticks of `TICK` seconds, so that
+the batch's deadline, a cluster left without workers and Ctrl-C are noticed while nothing
+arrives; a lost scheduler (Dask cancels the client's futures) ends the wait at once, with
+the results that arrived.
 """
 
 import sys
@@ -18,10 +19,12 @@ import uuid
 from collections import deque
 
 import distributed
+from distributed.client import FutureCancelledError, FuturesCancelledError
 
-from .chunks import ChunkSizes
+from ..errors import Status
+from .chunk_sizes import ChunkSizes
 from .cluster import client_of, close
-from .errors import BatchInterrupted
+from .failures import BatchInterrupted
 from .item_guard import failed_result
 from .progress import ProgressBar
 from .tasks import Shipment
@@ -35,6 +38,9 @@ TICK = 0.5
 
 CHUNKS_PER_THREAD = 2
 
+LOST = ("the connection to the scheduler was lost (it stopped, or the network failed) "
+        "before this item's result arrived")
+
 # Seconds a worker restarted to stop an abandoned item gets to shut down before it is
 # removed from the scheduler.
 RESTART_TIMEOUT = 10
@@ -46,7 +52,11 @@ def run(task, arguments, shipments, items, kind, client, *, label, progress, bat
     each, the bytes of data, ``bytes(data)``, made as its chunk is submitted:
     `shipping.item`) after shipping `shipments` ({digest: bytes}); the results of `kind`
     in input order (`Batch.collect`)."""
-    client, owned = client_of(client, connect_timeout)
+    try:
+        client, owned = client_of(client, connect_timeout)
+    except KeyboardInterrupt:
+        raise BatchInterrupted([failed_result(kind, Status.INTERRUPTED, "Ctrl-C while the cluster "
+                                              "(`client`) was starting") for _ in items]) from None
     names = []
     try:
         ship(client, shipments, names)
@@ -73,6 +83,8 @@ def ship(client, shipments, names):
 def unship(client, names):
     """Unregister the Shipments `names` (the workers drop their bytes), unless the
     scheduler is gone: then nothing holds them any more."""
+    if client.status != "running":
+        return
     for name in names:
         try:
             client.unregister_worker_plugin(name)
@@ -100,34 +112,48 @@ class Batch:
         deadline = None if batch_timeout is None else time.monotonic() + batch_timeout
         workerless = None
         try:
-            while self.queued or self.flying:
+            while (self.queued or self.flying) and not self._scheduler_lost():
                 threads = self._threads()
                 self._fill(max(threads, 1))
                 try:
                     distributed.wait(list(self.flying), timeout=TICK, return_when="FIRST_COMPLETED")
-                except TimeoutError:
+                except (TimeoutError, FuturesCancelledError):
                     pass
+                if self._scheduler_lost():
+                    break
                 bar.advance(sum(self._land(f) for f in [f for f in self.flying if f.done()]))
                 now = time.monotonic()
                 if deadline is not None and now >= deadline:
-                    self._abandon("timeout", f"the batch ran longer than `batch_timeout`="
+                    self._abandon(Status.TIMEOUT, f"the batch ran longer than `batch_timeout`="
                                   f"{batch_timeout:g} s before this item finished")
                 workerless = None if threads else (workerless or now)
                 if workerless is not None and now - workerless >= connect_timeout:
-                    self._abandon("worker_lost", f"the scheduler had no worker for "
+                    self._abandon(Status.WORKER_LOST, f"the scheduler had no worker for "
                                   f"{connect_timeout:g} s (`connect_timeout`)")
         except KeyboardInterrupt:
             for future in [f for f in self.flying if f.status == "finished"]:
                 self._land(future)
-            self._abandon("interrupted", "Ctrl-C (KeyboardInterrupt) before this item finished")
+            self._abandon(Status.INTERRUPTED, "Ctrl-C (KeyboardInterrupt) before this item finished")
             raise BatchInterrupted(self.results) from None
         return self.results
+
+    def _scheduler_lost(self):
+        """Whether the client lost its scheduler (Dask then cancels every future of the
+        client; the batch cancels its own only in `_abandon`, which forgets them); if so,
+        every unfinished item gets a "scheduler_lost" result."""
+        if self.client.status == "running" and not any(f.cancelled() for f in self.flying):
+            return False
+        self._abandon(Status.SCHEDULER_LOST, LOST, cancel=False)
+        return True
 
     def _threads(self):
         """The cluster's worker threads, asked of the scheduler at most once per TICK."""
         now = time.monotonic()
         if now - self.asked >= TICK:
-            self.threads, self.asked = sum(self.client.nthreads().values()), now
+            try:
+                self.threads, self.asked = sum(self.client.nthreads().values()), now
+            except OSError:         # the connection is lost: `_scheduler_lost` tells the batch
+                pass
         return self.threads
 
     def _fill(self, threads):
@@ -168,14 +194,16 @@ class Batch:
         chunk = self.flying.pop(future)
         try:
             results, seconds = future.result()
+        except FutureCancelledError:     # the connection to the scheduler was lost meanwhile
+            results, seconds = [failed_result(self.kind, Status.SCHEDULER_LOST, LOST) for _ in chunk], []
         except distributed.KilledWorker as err:
-            results, seconds = [failed_result(self.kind, "worker_lost", f"KilledWorker: {err}")], []
+            results, seconds = [failed_result(self.kind, Status.WORKER_LOST, f"KilledWorker: {err}")], []
             if len(chunk) > 1:
                 self.alone.update(chunk)
                 results = []
         except Exception as err:  # raised outside dmoc's task: the items' own results
             results, seconds = [failed_result(
-                self.kind, "exception", "the task failed outside dmoc's call (e.g. it could "
+                self.kind, Status.EXCEPTION, "the task failed outside dmoc's call (e.g. it could "
                 f"not be deserialized): {type(err).__name__}: {err}") for _ in chunk], []
         future.release()
         for i, result in zip(chunk, results):
@@ -183,16 +211,18 @@ class Batch:
         self.alone.difference_update(chunk[:len(results)])
         self.queued.extendleft(reversed(chunk[len(results):]))
         self.sizes.measured(seconds)
-        if results and results[-1].status == "timeout":
+        if results and results[-1].status == Status.TIMEOUT:
             restart(self.client, {results[-1].stats["worker"]})
         return len(results)
 
-    def _abandon(self, status, message):
-        """Give each unfinished item a failed result of `status` and cancel the chunks in
-        flight (a chunk a worker is already running runs on to its end there)."""
+    def _abandon(self, status, message, cancel=True):
+        """Give each unfinished item a failed result of `status` and, with `cancel`, cancel
+        the chunks in flight (a chunk a worker is already running runs on to its end
+        there)."""
         for i in [*self.queued, *(i for chunk in self.flying.values() for i in chunk)]:
             self.results[i] = failed_result(self.kind, status, message)
-        self.client.cancel(list(self.flying))
+        if cancel:
+            self.client.cancel(list(self.flying))
         self.queued.clear()
         self.flying.clear()
 

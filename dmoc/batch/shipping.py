@@ -1,10 +1,12 @@
 """The client side of what a batch sends: each problem structure (or discretization) once,
 as the bytes of a `Shipment` named by their digest, and each item as its data only.
 
-A problem travels as its boundary data and parameter values when a problem already
-shipped rebuilds it by ``with_boundary(...).with_parameters(...)`` (the same NLP,
-`structure`, bounds and p; docs/batch.md): the problems of ``base.with_boundary(...)``
-and the problems built alike with other goals. Any other problem is shipped itself.
+Problems are grouped by their `structure`, the key by value of their NLP that
+`optimize`'s solver cache keys on, however they were built. A problem travels as its
+boundary data and parameter values when a problem already shipped of its structure
+rebuilds it by ``with_boundary(...).with_parameters(...)`` (the same NLP, bounds, p and
+step; docs/batch.md): the problems of ``base.with_boundary(...)`` and the problems built
+one by one alike with other goals. Any other problem is shipped itself.
 """
 
 import hashlib
@@ -45,15 +47,18 @@ def problem_items(problems, guesses):
 
 
 def run_items(discs, runs):
-    """(shipments {digest: bytes}, items [(digest, data)]): each distinct Discretization
-    (by identity) shipped once, each run as ``item(run)`` for `tasks.simulate_chunk`."""
+    """(shipments {digest: bytes}, items [(digest, data)]): one Discretization of each
+    value shipped once (discretizations of equal ``key``, the system's and the rule's,
+    and equal step h are one, however they were built), each run as ``item(run)`` for
+    `tasks.simulate_chunk`."""
     shipments, items, names = {}, [], {}
     for i, (disc, run) in enumerate(zip(discs, runs)):
-        if id(disc) not in names:
+        value = (type(disc), disc.key, disc.h)
+        if value not in names:
             data = pickled(f"disc[{i}]", disc)
-            names[id(disc)] = digest(data)
-            shipments[names[id(disc)]] = data
-        items.append((names[id(disc)], item(f"runs[{i}]", run)))
+            names[value] = digest(data)
+            shipments[names[value]] = data
+        items.append((names[value], item(f"runs[{i}]", run)))
     return shipments, items
 
 
@@ -80,8 +85,8 @@ def rebuilds(base, problem, bounds, values):
 
 
 # Types plain pickle writes as cloudpickle does (by value, or by reference to numpy, which
-# every worker imports), in less time (benchmarks/batch.py): the
-# built-in scalars, and numpy's scalars of numbers (`_LEAVES`, looked up by exact type).
+# every worker imports), in about a third of its time: the built-in scalars, and numpy's
+# scalars of numbers (`_LEAVES`, looked up by exact type).
 _LEAVES = frozenset((bool, int, float, complex, str, bytes, type(None))) | frozenset(
     kind for kind in np.sctypeDict.values() if np.dtype(kind).kind in "biufc")
 

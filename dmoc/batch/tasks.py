@@ -22,6 +22,7 @@ import cloudpickle
 import distributed
 
 from .._util.cache import BoundedCache
+from ..errors import Status
 from .item_guard import attempt, caught, guarded, guarded_chunk, in_turn, stamp
 from .packing import PackedResults
 from ..optimal_control.solver.optimization_result import OptimizationResult
@@ -150,7 +151,7 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
     ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
     trajectories travel as a few arrays, through shared memory when `share`, the client's
-    `sharing.Exchange`, reaches this worker).
+    `shared_memory.Exchange`, reaches this worker).
 
     Without a `timeout`, the runs that can step together do so in lockstep
     (`dmoc.simulation.lockstep`: the same results as one by one, for less CPU); each item's
@@ -226,7 +227,7 @@ def _lockstep(loaded, final):
     stepped = iter(simulate_lockstep([run for run in prepared if isinstance(run, Run)],
                                      final=final))
     return [next(stepped) if isinstance(run, Run) else
-            caught(SimulationResult, "exception", "", run) for run in prepared]
+            caught(SimulationResult, Status.EXCEPTION, "", run) for run in prepared]
 
 
 def _cut_to_final_knots(results):

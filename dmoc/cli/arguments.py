@@ -11,6 +11,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import InputError
+from .._util.npz_archive import read_npy, regular_file
 from . import output
 
 FREE = ("free", "none", "nan")
@@ -109,7 +110,8 @@ def load_controls(file, names, n_u):
                          f"saved trajectory, np.save('u.npy', dmoc.Trajectory.load({file!r}).u))")
     try:
         if path.suffix == ".npy":
-            return RecordedControls(_real_rows(np.load(path, allow_pickle=False), n_u))
+            with regular_file(path) as opened:
+                return RecordedControls(_real_rows(read_npy(opened), n_u))
         header, rows = _load_text(path)
         if header[:1] != ["t"]:
             return RecordedControls(_real_rows(rows, n_u))
@@ -117,7 +119,7 @@ def load_controls(file, names, n_u):
     except UnicodeDecodeError:
         raise UsageError("--controls", f"{file!r} is not a text file (not UTF-8) and not a .npy "
                          f"file; expected a .npy array or a .csv/.txt table") from None
-    except (ValueError, EOFError, OSError) as err:
+    except (ValueError, EOFError, OSError) as err:        # BadArchive is a ValueError
         raise UsageError("--controls", f"cannot read {file}: {err}") from None
     width = run["u"].shape[1]
     if width % n_u:

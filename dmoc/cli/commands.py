@@ -103,12 +103,13 @@ def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
         return []
     finished = summary["status"] != Status.INTERRUPTED
     try:
-        with staged_run(out, output.run_files(prefix)) as stage:
+        with staged_run(out, prefix, output.run_files(prefix)) as stage:
             written = output.write_all(stage, prefix, disc, traj, summary, spec,
                                        names=disc.system.names,
                                        control_names=spec.control_labels(disc.system), goal=goal,
                                        gif=args.animate and finished,
-                                       plots=finished and not args.no_plots, problem=problem)
+                                       plots=finished and not args.no_plots, problem=problem,
+                                       progress=log)
     except OSError as err:  # disk full, file-size limit, folder removed
         raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
                          f"nothing there was changed (an earlier run's files are as they "

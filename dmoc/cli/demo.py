@@ -118,7 +118,7 @@ def run_demo(args):
     out = arguments.output_folder("--out", args.out)
     lines = ["Dirac integrator, unforced motion against the closed-form solutions"]
     try:
-        with staged_run(out) as stage:
+        with staged_run(out, "demo") as stage:
             simulation_demo(stage, args.steps, lines)
             lines += ["", "DMOC: optimal control with the same step residual, replayed by "
                       "the simulator"]

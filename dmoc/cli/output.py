@@ -5,6 +5,7 @@ JSON summary, the plots and the GIF.
 
 import json
 import math
+import time
 
 import numpy as np
 
@@ -59,6 +60,23 @@ def run_table(header, table, names):
             "u": table[:-1, controls:]}
 
 
+BLOCK = 65536               # rows of the table formatted at once
+PROGRESS_SECONDS = 2.0      # between two messages of a long table's progress
+
+
+def write_table(file, header, table, progress, shown):
+    """Write the header line and the rows of `table` (17 significant digits: exact) to the
+    text `file`, block by block, telling `progress` (if given) every PROGRESS_SECONDS how
+    far it is (a table of 10**7 rows takes minutes; `shown` names it)."""
+    file.write(",".join(header) + "\n")
+    last = time.monotonic()
+    for start in range(0, len(table), BLOCK):
+        np.savetxt(file, table[start:start + BLOCK], delimiter=",", fmt="%.17g")
+        if progress is not None and time.monotonic() - last > PROGRESS_SECONDS:
+            last = time.monotonic()
+            progress(f"writing {shown}: {min(start + BLOCK, len(table))} of {len(table)} rows")
+
+
 def _json_value(value):
     """JSON-safe values: non-finite floats become null (strict JSON has no inf or NaN)."""
     if isinstance(value, (float, np.floating)):
@@ -81,18 +99,18 @@ def run_files(name):
 
 
 def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goal=None,
-              gif=False, plots=True, problem=None):
+              gif=False, plots=True, problem=None, progress=None):
     """Write every output file of one run into `out` (the trajectory, table and summary,
     and, for a finite trajectory, the plots if `plots` and the GIF if `gif`); return the
     paths written. Given the `problem` an optimum solves, its bounds are drawn, and what its
     path constraints keep out of the plane; the GIF draws the system's bodies (a stock
-    `spec.shape` when it declares none, or when its coordinates name no plane)."""
+    `spec.shape` when it declares none, or when its coordinates name no plane); `progress`
+    (a function of a message) hears how far a long table is written."""
     written = [out / f"{name}.npz", out / f"{name}.csv", out / f"{name}_summary.json"]
     traj.save(written[0])
     header, table = csv_columns(traj, names, control_names)
     with atomic_write(written[1], "w") as file:
-        np.savetxt(file, table, delimiter=",", header=",".join(header), comments="",
-                   fmt="%.17g")
+        write_table(file, header, table, progress, f"{name}.csv")
     write_text(written[2], json.dumps({k: _json_value(v) for k, v in summary.items()},
                                       indent=2) + "\n")
     if not np.isfinite(traj.q).all():

@@ -158,11 +158,16 @@ def build(spec, params):
 
 
 def _made(spec, params):
-    """What the factory of `spec` returns for `params`, its errors in one line."""
+    """What the factory of `spec` returns for `params`, its errors in one line: a ValueError
+    or TypeError blamed on ``--param`` when values were given (the call is shown, so a
+    factory's own error is not taken for the values'), on SYSTEM otherwise."""
     try:
         made = spec.factory(**params)
     except (ValueError, TypeError) as err:
-        raise UsageError("--param", str(err).rstrip(".")) from None
+        given = ", ".join(f"{k}={v!r}" for k, v in params.items())
+        call = f"{getattr(spec.factory, '__name__', 'the factory')}({given})"
+        raise UsageError("--param" if params else "SYSTEM",
+                         f"{call} raised {type(err).__name__}: {str(err).rstrip('.')}") from None
     except SystemExit as done:
         raise UsageError("SYSTEM", f"the factory called sys.exit({done.code!r}); expected it "
                          f"to return {_RETURNS}") from None

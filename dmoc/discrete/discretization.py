@@ -84,7 +84,7 @@ class Discretization:
     def __init__(self, system, h, rule="midpoint"):
         checks.instance("system", system, self.system_type, self.system_described)
         self.system = system
-        self.h = checks.positive_float("h", h)
+        self.h = checks.step_size("h", h)
         self.rule = rule = self._as_rule(rule)
         self.key = (system.key, rule)
         self.order = self._declared_order()
@@ -123,7 +123,7 @@ class Discretization:
         """The same discretization at the step `h` (sharing every Function: h is an input),
         e.g. to replay a free-time optimum."""
         other = copy.copy(self)
-        other.h = checks.positive_float("h", h)
+        other.h = checks.step_size("h", h)
         return other
 
     def discrete_cost(self, running_cost):

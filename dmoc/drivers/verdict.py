@@ -30,7 +30,11 @@ REPLAY_TOLERANCE = 1e-6
 JUMP_LIMIT = 1.0
 # Below this size an optimum's q or p gives no scale (it does not move from the origin).
 NO_SCALE = 1e-12
-# A knot violates a path constraint when g_k exceeds this part of the row's scale.
+# A knot violates a path constraint when g_k exceeds this part of the row's scale,
+# max(1, max_k |g_k|): the NLP imposes the path rows unscaled
+# (`dmoc.optimal_control.nlp.scaling`), so 1 in the row's own units is the size IPOPT holds
+# it to; a row whose values are larger is measured against them (the same figure in mm as
+# in m).
 PATH_TOLERANCE = 1e-6
 # A coordinate whose excursion is below this part of its NLP scale (the motion's length
 # l_i, or the rest length where nothing moves: `dmoc.optimal_control.nlp.scaling.lengths`) is at rest
@@ -146,8 +150,9 @@ def verdict_message(verdict, result):
         Status.PATH_VIOLATED:
             f"path constraint row {verdict.path_row} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
-            f"of the row's size (limit {PATH_TOLERANCE:g}): the NLP imposes the constraints "
-            f"at its own points, not at every knot. Use more steps or keep a margin in g",
+            f"of the row's scale max(1, max |g|) (limit {PATH_TOLERANCE:g}): the NLP imposes "
+            f"the constraints at its own points, not at every knot. Use more steps or keep a "
+            f"margin in g",
         Status.UNDER_RESOLVED:
             f"the grid does not resolve the motion: {jump} (limit {JUMP_LIMIT:g}). Use more "
             f"steps, or bound the per-step change of that coordinate"}[verdict.status]
@@ -226,12 +231,13 @@ def _knot_arguments(problem, traj, ends):
 
 
 def _path_violation(g):
-    """(largest g_k relative to its row's scale max_k |g_k|, knot, row) of the path values
-    at the knots `g` (`knot_path_values`); (0, -1, -1) without path constraints (None) or
-    violations."""
+    """(largest g_k relative to its row's scale max(1, max_k |g_k|), knot, row) of the path
+    values at the knots `g` (`knot_path_values`); (0, -1, -1) without path constraints
+    (None) or violations. The 1 keeps a row that is held at zero everywhere (an equality
+    written as the pair g, -g) from being measured against its own round-off."""
     if g is None:
         return 0.0, -1, -1
-    relative = g / np.maximum(np.abs(g).max(axis=0), np.finfo(float).tiny)
+    relative = g / np.maximum(np.abs(g).max(axis=0), 1.0)
     k, row = np.unravel_index(np.argmax(relative), relative.shape)
     if relative[k, row] <= 0:
         return 0.0, -1, -1

@@ -74,7 +74,8 @@ def controls(traj, k, c):
     """u at step times c of steps k, shape (K, n_u): the Lagrange interpolant of the step's
     values at `control_nodes` (`dmoc.discrete.rules.Rule.control_at`)."""
     basis, _ = lagrange_basis(traj.control_nodes, c)
-    values = traj.u[k].reshape(len(k), len(traj.control_nodes), -1)
+    nodes = len(traj.control_nodes)         # explicit sizes: K = 0 times is an empty sample
+    values = traj.u[k].reshape(len(k), nodes, traj.u.shape[1] // nodes)
     return np.einsum("tj,tju->tu", basis, values)
 
 
@@ -83,7 +84,8 @@ def configurations(traj, k, c):
     stage configurations Q_j (at `stage_nodes`, the last blocks of s) and q_{k+1}, and its
     derivative divided by h."""
     n, nodes = traj.q.shape[1], (0.0, *traj.stage_nodes, 1.0)
-    stages = traj.s[k, traj.s.shape[1] - len(traj.stage_nodes) * n:].reshape(len(k), -1, n)
+    stages = traj.s[k, traj.s.shape[1] - len(traj.stage_nodes) * n:].reshape(
+        len(k), len(traj.stage_nodes), n)
     values = np.concatenate([traj.q[k, None], stages, traj.q[k + 1, None]], axis=1)
     basis, slope = lagrange_basis(nodes, c)
     return (np.einsum("tj,tjn->tn", basis, values),

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._util import checks
+from .._util.numeric import per_step
 from ..errors import InputError
 from ..discrete import Discretization
 from . import dense, trajectory_fields
@@ -234,7 +235,7 @@ class Trajectory:
         TrajectoryFileError
             If the file is empty, truncated, corrupted or not written by `save`.
         """
-        return read(cls, path, TRAJECTORY_FILE)
+        return read(cls, path, TRAJECTORY_FILE)[0]
 
     def __repr__(self):
         return (f"Trajectory(steps={self.steps}, n={self.q.shape[1]}, m={self.lam.shape[1]}, "
@@ -257,6 +258,6 @@ def constraint_violation(disc, traj):
     """max_a |omega_d^a| of (28) (or of the stage rule's moment rows) for each step, shape (N,)."""
     if not check_trajectory(disc, traj) or disc.system.m == 0:
         return np.zeros(traj.steps)
-    omega = np.array(disc.discrete_constraint.map(traj.steps)(traj.q[:-1].T, traj.q[1:].T,
-                                                               traj.s.T, traj.h))
-    return np.abs(omega).max(axis=0)
+    (omega,) = per_step(disc.discrete_constraint, traj.steps, traj.q[:-1], traj.q[1:],
+                        traj.s, traj.h)
+    return np.abs(omega).max(axis=1)

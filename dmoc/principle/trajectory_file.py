@@ -2,16 +2,17 @@
 array of an uncompressed .npz archive, written atomically (`write`, behind
 `Trajectory.save`) and read back exactly, never unpickled, with a file that is not one
 refused by a TrajectoryFileError saying why (`read`, behind `Trajectory.load` and
-`OptimizationResult.load`).
+`OptimizationResult.load`): a file from elsewhere is read with bounds (`npz_archive`) and
+every field checked against its type and shape.
 """
 
-import zipfile
 from dataclasses import fields
 
 import numpy as np
 
 from .._util import checks
 from .._util.files import atomic_write, readable_file, writable_file
+from .._util.npz_archive import BadArchive, read_arrays, regular_file
 from ..errors import InputError, InputTypeError, TrajectoryFileError
 
 _REQUIRED = {"t", "q", "p", "lam", "u", "h", "variant"}
@@ -30,36 +31,50 @@ def write(traj, path, extra=None):
 
 
 def read(cls, path, kind):
-    """The `cls` (Trajectory) in the .npz file at `path`; a file that is not one raises
-    TrajectoryFileError saying it is not `kind` (what the caller expected) and why."""
+    """(the `cls` (Trajectory) in the .npz file at `path`, {name: array} of its fields
+    named RESULT_PREFIX + name); a file that is not one raises TrajectoryFileError saying
+    it is not `kind` (what the caller expected) and why: not a regular file, not an .npz
+    archive, members named twice, sizes beyond bounds (`npz_archive`), fields missing,
+    unknown or of the wrong type or shape."""
     path = readable_file("path", checks.file_path("path", path))
-    with open(path, "rb") as file:
-        head = file.read(4)
-    if head != b"PK\x03\x04":         # every .npz file is a zip archive
-        _invalid(path, kind, "it is empty" if not head else
-                 "it is an .npy file (one array), not an .npz archive" if head == b"\x93NUM"
-                 else "it is not an .npz (zip) archive")
-    known = {f.name for f in fields(cls)}
     try:
-        with np.load(path, allow_pickle=False) as data:
-            names = set(data.files)
-            values = {name: data[name] for name in names & known}
-    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as err:
-        _invalid(path, kind, f"it is truncated or corrupted ({type(err).__name__}: {err})")
-    missing = _REQUIRED - names
-    unknown = {k for k in names - known if not k.startswith(RESULT_PREFIX)}
+        with regular_file(path) as file:
+            head = file.read(4)
+            if head != b"PK\x03\x04":         # every .npz file is a zip archive
+                _invalid(path, kind, "it is empty" if not head else
+                         "it is an .npy file (one array), not an .npz archive" if head == b"\x93NUM"
+                         else "it is not an .npz (zip) archive")
+            file.seek(0)
+            arrays = read_arrays(file)
+    except BadArchive as err:
+        _invalid(path, kind, str(err))
+    known = {f.name for f in fields(cls)}
+    missing = _REQUIRED - set(arrays)
+    unknown = {k for k in set(arrays) - known if not k.startswith(RESULT_PREFIX)}
     if missing or unknown:
         _invalid(path, kind, f"it lacks the fields {sorted(missing)}" if missing else
                  f"it holds fields a Trajectory does not have: {sorted(unknown)}")
-    for name in ("h", "variant"):
-        if values[name].shape != ():
-            _invalid(path, kind, f"`{name}` must be a single value; got shape {values[name].shape}")
-    values["h"] = values["h"].item()
-    values["variant"] = str(values["variant"])
+    values = {name: arrays[name] for name in set(arrays) & known}
+    values["h"] = scalar(path, kind, "h", values["h"], "fiu").item()
+    values["variant"] = str(scalar(path, kind, "variant", values["variant"], "U"))
     try:
-        return cls(**values)
+        traj = cls(**values)
     except (InputError, InputTypeError) as err:
         _invalid(path, kind, f"its fields do not form a trajectory: {err}")
+    return traj, {k[len(RESULT_PREFIX):]: v for k, v in arrays.items() if k.startswith(RESULT_PREFIX)}
+
+
+def scalar(path, kind, name, value, kinds):
+    """The 0-d array `value` of field `name`, when its dtype's kind is one of `kinds`
+    ("U" text, "b" bool, "f", "i", "u" real numbers); else TrajectoryFileError naming it."""
+    if value.shape != ():
+        _invalid(path, kind, f"`{name}` must be a single value; got shape {value.shape}")
+    if value.dtype.kind not in kinds:
+        _invalid(path, kind, f"`{name}` must be {_KINDS[kinds]}; got dtype {value.dtype}")
+    return value
+
+
+_KINDS = {"fiu": "a real number", "U": "text", "b": "a bool (True or False)", "f": "a float"}
 
 
 def _invalid(path, kind, reason):

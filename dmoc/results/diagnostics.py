@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 
 from .._util import checks
+from .._util.numeric import per_step
 from ..discrete import Discretization
 from ..errors import InputError
 from ..principle.formulations import as_formulation
@@ -28,9 +29,9 @@ def energy(disc, traj):
     """
     if not check_trajectory(disc, traj):
         return np.zeros(0)
-    E = disc.step_energy.map(traj.steps)(traj.q[:-1].T, traj.p[:-1].T, traj.q[1:].T,
-                                         traj.p[1:].T, traj.s.T, traj.h)
-    return np.array(E).ravel()
+    (E,) = per_step(disc.step_energy, traj.steps, traj.q[:-1], traj.p[:-1], traj.q[1:],
+                    traj.p[1:], traj.s, traj.h)
+    return E.ravel()
 
 
 def energy_drift_rate(disc, traj):

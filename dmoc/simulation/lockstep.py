@@ -5,7 +5,7 @@ steps together, the horizon of that chunk evaluated for all of them in one call
 their steps accepted at once. A run whose step is not accepted leaves the lockstep at
 that step and goes on alone, as `simulate` would have gone on there
 (`DiracStepper.resume`): every result equals ``simulate``'s bit for bit, at a fraction of
-its cost per run in Python (benchmarks/batch_worker.py).
+its cost per run in Python (benchmarks/batch.py).
 """
 
 import threading

@@ -251,6 +251,11 @@ def test_simulate_many_rejects_bad_arguments():
         batch.simulate_many(disc, [run, 3])
     with pytest.raises(ValueError, match="`keep` must be one of 'trajectory', 'final'; got 'last'"):
         batch.simulate_many(disc, [run], keep="last")
+    for given, lacks in (({}, "`q0` and `steps`"), ({"q0": [0, 0, 0]}, "`steps`")):
+        with pytest.raises(ValueError, match=f"`runs\\[1\\]` must give `q0` and `steps` of "
+                                             f"`simulate`; it lacks {lacks}") as raised:
+            batch.simulate_many(disc, [run, given])
+        assert "_given" not in str(raised.value)
 
 
 def test_motion_primitives_example(client, tmp_path, capsys):
@@ -281,5 +286,5 @@ def test_packed_problem_leaves_its_assembled_derivatives_behind():
     result = dmoc.optimize(problem)
     packed = dmoc.batch.pack_problem(problem)
     assert len(packed) <= fresh + 1000
-    again = dmoc.optimize(dmoc.batch.unpack_problem(packed), options={"reuse_solver": False})
+    again = dmoc.optimize(dmoc.batch.unpack_problem(packed), reuse_solver=False)
     assert abs(again.cost - result.cost) <= 1e-12 * result.cost

@@ -201,7 +201,7 @@ def test_script_without_main_guard_gets_the_dmoc_error(tmp_path):
                           timeout=GUARD, check=False)
     assert done.returncode != 0 and "solved" not in done.stdout
     last = done.stderr.strip().splitlines()[-1]
-    assert last.startswith("dmoc.batch.errors.WorkersFailedToStart")
+    assert last.startswith("dmoc.batch.failures.WorkersFailedToStart")
     assert 'if __name__ == "__main__":' in last and str(path) in last
     assert "while a worker process re-imported the script" in done.stderr   # the workers' own
 
@@ -278,3 +278,46 @@ def test_scheduler_without_workers_gives_worker_lost_results():
                           client=client, progress=False, connect_timeout=1)
     assert [r.status for r in results] == ["worker_lost", "worker_lost"]
     assert "no worker for 1 s" in results[0].message and not results[0].success
+
+
+CTRL_C_AT_START = """
+import json, sys
+import dmoc
+from dmoc.batch import BatchInterrupted, cluster, optimize_many
+from dmoc.problems import knife_edge_parking
+
+checked = cluster.refuse_spawn_reimport
+
+
+def starting():
+    checked()
+    print("starting", file=sys.stderr, flush=True)
+
+
+if __name__ == "__main__":
+    cluster.refuse_spawn_reimport = starting
+    try:
+        optimize_many([knife_edge_parking(5)] * 2, progress=False)
+    except BatchInterrupted as interrupt:
+        print(json.dumps([[r.status, r.message] for r in interrupt.results]))
+"""
+
+
+def test_ctrl_c_while_the_default_cluster_starts_is_a_batch_interrupted(tmp_path):
+    """SIGINT while the LocalCluster of `client=None` starts: BatchInterrupted naming
+    `client`, every item "interrupted", and no error of Dask's exit hook (its
+    AssertionError on the half-started cluster)."""
+    path, env = _script(tmp_path, CTRL_C_AT_START)
+    process = subprocess.Popen([sys.executable, str(path)], env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE)
+    try:
+        _within(GUARD, _read_until, process.stderr, b"starting")
+        time.sleep(0.2)
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=GUARD)
+    finally:
+        process.kill()
+    assert process.returncode == 0, err.decode()[-2000:]
+    assert json.loads(out) == [["interrupted", "Ctrl-C while the cluster (`client`) was starting"]] * 2
+    # the half-started cluster is closed and forgotten: Dask's exit hook has nothing to fail on
+    assert b"AssertionError" not in err and b"atexit" not in err, err.decode()[-2000:]

@@ -22,12 +22,14 @@ FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
 
 def _runs(count):
     """Runs of 3 to 40 steps, both variants, some controlled; every 17th fails Newton's
-    tolerance (a partial trajectory), every 29th has a `q0` of the wrong size (raises)."""
+    tolerance (a partial trajectory), every 29th has a `q0` of the wrong size (raises).
+    All in CasADi's virtual machine (`jit=False`): with the default, a loaded machine
+    compiles the step in one process and not in the other (`stats["native"]` differs)."""
     runs = []
     for i in range(count):
         steps = 3 + (7 * i) % 38
         run = {"q0": [0, 0, 0.01 * i], "v0": [np.cos(0.01 * i), np.sin(0.01 * i), 1.0],
-               "steps": steps, "variant": "+-"[i % 2]}
+               "steps": steps, "variant": "+-"[i % 2], "jit": False}
         if i % 3 == 0:
             run["controls"] = np.full((steps, 2), 0.1 * (i % 5))
         if i % 17 == 16:
@@ -123,13 +125,13 @@ def test_trajectories_through_shared_memory_equal_serial_and_free_their_slots(
     arrays into the slots of the client's pool: the results are the serial ones bit for
     bit, in arrays the client owns (writable, no run sees another's change), and every
     slot is free after the batch."""
-    from dmoc.batch import sharing
+    from dmoc.batch import shared_memory
     if not hasattr(os, "memfd_create"):
         pytest.skip("no memfd here: every chunk goes through Dask")
-    monkeypatch.setattr(sharing, "MIN_BYTES", 0)
+    monkeypatch.setattr(shared_memory, "MIN_BYTES", 0)
     chunks = []
-    read = sharing.read
-    monkeypatch.setattr(sharing, "read",
+    read = shared_memory.read
+    monkeypatch.setattr(shared_memory, "read",
                         lambda path, layout: chunks.append(path) or read(path, layout))
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
     runs = _runs(150)
@@ -140,8 +142,8 @@ def test_trajectories_through_shared_memory_equal_serial_and_free_their_slots(
     shared = [r.trajectory for r in results if r.trajectory is not None]
     shared[0].q[...] = 7.0                       # writable, and no other run sees it
     assert not any((t.q == 7.0).all() for t in shared[1:])
-    states = {os.pread(slot.fd, sharing.STATE, sharing.TOKEN) for slot in sharing._POOL}
-    assert states == {sharing.FREE}
+    states = {os.pread(slot.fd, shared_memory.STATE, shared_memory.TOKEN) for slot in shared_memory._POOL}
+    assert states == {shared_memory.FREE}
 
 
 def _pendulum():
@@ -235,7 +237,7 @@ def test_runs_a_budget_left_unrun_are_queued_again_and_run_once(client, keep, mo
     """Before a cost is measured the client sends chunks with a budget (`ChunkSizes.budget`,
     TARGET): with a budget smaller than any run, the first chunks return one result each,
     the client queues their other runs again, and every run gets its serial result."""
-    from dmoc.batch import chunks
+    from dmoc.batch import chunk_sizes as chunks
     monkeypatch.setattr(chunks, "TARGET", 1e-9)
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
     runs = _runs(30)

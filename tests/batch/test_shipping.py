@@ -16,7 +16,7 @@ distributed = pytest.importorskip("distributed")
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.batch import shipping  # noqa: E402
-from dmoc.batch.chunks import ChunkSizes  # noqa: E402
+from dmoc.batch.chunk_sizes import ChunkSizes  # noqa: E402
 from dmoc.problems import knife_edge_parking  # noqa: E402
 
 
@@ -252,3 +252,29 @@ def test_the_chunks_of_one_fill_go_to_the_scheduler_in_one_message():
     assert len(set(keywords["key"])) == len(chunks)
     fill._fill(2)                                       # as many in flight as allowed
     assert len(Client.calls) == 1
+
+
+def test_problems_built_one_by_one_share_a_shipment_and_a_solver_per_worker_and_structure(client):
+    """Problems built as a user writes them, each with its own Discretization object: one
+    shipment per NLP `structure` (the oracle: the structures counted here), and each
+    worker builds the solver of a structure at most once; the costs are the serial ones."""
+    problems = [dmoc.OptimalControlProblem(dmoc.discretize(dmoc.systems.knife_edge(), 0.2), 20,
+                                           q_start=[0, 0, 0], q_goal=[0.0, y, 0.1])
+                for y in np.linspace(0.2, 2.0, 40)]
+    structures = {p.structure for p in problems}
+    shipments, items = shipping.problem_items(problems, [None] * len(problems))
+    assert len(shipments) == len(structures) < len(problems)
+    results = batch.optimize_many(problems, client=client, progress=False)
+    built = [(r.stats["worker"], r.structure) for r in results if not r.stats["solver_reused"]]
+    assert len(built) == len(set(built)) <= 2 * len(structures)
+    for problem, got in zip(problems, results):
+        assert got.success and abs(got.cost - dmoc.optimize(problem).cost) <= 1e-10
+
+
+def test_discretizations_built_one_by_one_are_shipped_once():
+    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 5} for c in (0.5, 1.0, 1.5)]
+    discs = [dmoc.discretize(dmoc.systems.knife_edge(), 0.05) for _ in runs]
+    other = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
+    shipments, items = shipping.run_items([*discs, other], [*runs, runs[0]])
+    assert len(shipments) == 2
+    assert items[0][0] == items[1][0] == items[2][0] != items[3][0]

@@ -62,6 +62,24 @@ def test_an_end_inside_the_disc_is_refused_naming_the_end(end, value):
         drive(12, **{end: value})
 
 
+@pytest.mark.parametrize("depth", [1e-3, 1e-6])
+def test_an_end_barely_inside_the_disc_is_refused(depth):
+    """A goal where rho^2 - |q - c|^2 = `depth` (computed here): far below the disc's size
+    but above IPOPT's constraint tolerance (1e-10), so no solution holds the row there."""
+    goal = [CENTRE[0] + np.sqrt(RHO ** 2 - depth), CENTRE[1], 0, None, None]
+    g = RHO ** 2 - np.sum((np.array(goal[:2]) - CENTRE) ** 2)
+    assert g == pytest.approx(depth, rel=1e-6)
+    with pytest.raises(dmoc.InputError, match=rf"`q_goal` must satisfy .*g\[0\] = {g:.6g} there"):
+        drive(12, q_goal=goal)
+
+
+def test_an_end_on_the_disc_within_round_off_is_accepted():
+    """A goal on the circle, rho^2 - |q - c|^2 of round-off size (below 1e-10): allowed."""
+    goal = [CENTRE[0] + RHO, CENTRE[1], 0, None, None]
+    assert abs(RHO ** 2 - np.sum((np.array(goal[:2]) - CENTRE) ** 2)) < 1e-15
+    assert drive(12, q_goal=goal).steps == 12
+
+
 def test_new_data_that_put_an_end_inside_the_disc_are_refused():
     """with_boundary (a goal inside) and with_parameters (the disc moved onto the goal)."""
     problem = drive(12, path_constraints=outside_disc, parameters={"c": CENTRE})

@@ -1,10 +1,11 @@
-"""The linear-solver report of `dmoc.optimize` (``options={"linear_solver_report": True}``,
+"""The linear-solver report of `dmoc.optimize` (``linear_solver_report=True``,
 `dmoc.linear_solver`): read from IPOPT's detailed journal, one solve at a time, without
 changing the solve.
 
 Oracles: journal lines in IPOPT's wording written here; the same solve without the report;
 IPOPT's per-iteration regularization in CasADi's own stats (each regularized iteration
-needs at least one more factorization).
+needs at least one more factorization). The journals are looked for in a temporary folder
+of the test's own, so that other test processes' journals do not count.
 """
 
 import glob
@@ -45,9 +46,9 @@ def test_report_counts_the_lines_of_one_solve(tmp_path):
 @pytest.mark.parametrize("make", [dmoc.problems.knife_edge_parking, dmoc.problems.rolling_disk_steering])
 def test_report_leaves_the_solve_unchanged_and_counts_each_solve(make):
     problem = make(50)
-    plain = dmoc.optimize(problem, options={"reuse_solver": False})
-    first = dmoc.optimize(problem, options=REPORT)
-    again = dmoc.optimize(problem, options=REPORT)          # the same solver: appended journal
+    plain = dmoc.optimize(problem, reuse_solver=False)
+    first = dmoc.optimize(problem, **REPORT)
+    again = dmoc.optimize(problem, **REPORT)          # the same solver: appended journal
     assert again.stats["solver_reused"] and again.stats["iterations"] == first.stats["iterations"]
     assert first.cost == plain.cost and first.stats["iterations"] == plain.stats["iterations"]
     report = first.stats["linear_solver"]
@@ -61,17 +62,18 @@ def test_report_leaves_the_solve_unchanged_and_counts_each_solve(make):
 def test_report_refuses_an_output_file_of_the_users(tmp_path):
     with pytest.raises(ValueError, match="output_file"):
         dmoc.optimize(dmoc.problems.knife_edge_parking(10),
-                      options={**REPORT, "output_file": str(tmp_path / "mine.txt")})
+                      options={"output_file": str(tmp_path / "mine.txt")}, **REPORT)
 
 
-def test_journal_file_is_removed_when_the_process_ends():
+def test_journal_file_is_removed_when_the_process_ends(tmp_path):
     script = ("import glob, os, tempfile, dmoc, dmoc.problems\n"
               "before = set(glob.glob(os.path.join(tempfile.gettempdir(), 'dmoc-ipopt-*.txt')))\n"
-              "dmoc.optimize(dmoc.problems.knife_edge_parking(10), options={'linear_solver_report': True}, check=False)\n"
+              "dmoc.optimize(dmoc.problems.knife_edge_parking(10), linear_solver_report=True, check=False)\n"
               "(path,) = set(glob.glob(os.path.join(tempfile.gettempdir(), 'dmoc-ipopt-*.txt'))) - before\n"
               "assert os.path.getsize(path) > 0\n"
               "print(path)\n")
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True,
+                         env={**os.environ, "TMPDIR": str(tmp_path)})
     path = out.stdout.strip().splitlines()[-1]
     assert path.endswith(".txt")
     assert not os.path.exists(path)
@@ -81,11 +83,11 @@ def test_a_fresh_solver_leaves_the_journal_of_the_cached_one():
     """A solver built with reuse_solver=False, or with expand=True, between two solves of
     the cached one has a journal of its own (tests from a review of the change)."""
     problem = dmoc.problems.knife_edge_parking(50)
-    first = dmoc.optimize(problem, options=REPORT)
+    first = dmoc.optimize(problem, **REPORT)
     far = problem.with_boundary(q_goal=[10, 10, -12.0])
     for other in ({"reuse_solver": False}, {"expand": True}):
-        dmoc.optimize(far, options={**REPORT, **other}, throw=False)
-        again = dmoc.optimize(problem, options=REPORT)
+        dmoc.optimize(far, **REPORT, **other, throw=False)
+        again = dmoc.optimize(problem, **REPORT)
         assert again.stats["solver_reused"]
         assert again.stats["linear_solver"] == first.stats["linear_solver"]
 
@@ -93,14 +95,14 @@ def test_a_fresh_solver_leaves_the_journal_of_the_cached_one():
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 def test_a_forked_child_leaves_the_parents_journal():
     problem = dmoc.problems.knife_edge_parking(20)
-    dmoc.optimize(problem, options=REPORT)
+    dmoc.optimize(problem, **REPORT)
     pid = os.fork()
     if pid == 0:                    # the child ends through the interpreter's exit handlers
         import atexit
         atexit._run_exitfuncs()
         os._exit(0)
     os.waitpid(pid, 0)
-    assert dmoc.optimize(problem, options=REPORT).stats["linear_solver"]["factorizations"] > 0
+    assert dmoc.optimize(problem, **REPORT).stats["linear_solver"]["factorizations"] > 0
 
 
 @pytest.mark.parametrize("report_first", [True, False])
@@ -110,29 +112,31 @@ def test_report_is_given_exactly_when_asked_for(report_first, monkeypatch):
     (second review of the change)."""
     dmoc.clear_caches("solvers")
     problem = dmoc.problems.knife_edge_parking(20)
-    plain = {"file_print_level": 6}
-    for options in ([REPORT, plain] if report_first else [plain, REPORT]):
-        stats = dmoc.optimize(problem, options=options).stats
-        assert ("linear_solver" in stats) == (options is REPORT)
+    reported, plain = REPORT, {"options": {"file_print_level": 6}}
+    for keywords in ([reported, plain] if report_first else [plain, reported]):
+        stats = dmoc.optimize(problem, **keywords).stats
+        assert ("linear_solver" in stats) == (keywords is reported)
 
 
-def test_the_journal_of_an_evicted_solver_goes_with_it(monkeypatch):
+def test_the_journal_of_an_evicted_solver_goes_with_it(monkeypatch, tmp_path):
     """A cache of one solver: the second structure's solver evicts the first, and the
     first's journal goes with it."""
     from dmoc.optimal_control.solver import ipopt
     monkeypatch.setattr(ipopt, "_SOLVERS", type(ipopt._SOLVERS)(1, "solvers"))
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     pattern = os.path.join(tempfile.gettempdir(), "dmoc-ipopt-*.txt")
     before = set(glob.glob(pattern))
-    dmoc.optimize(dmoc.problems.knife_edge_parking(10), options=REPORT, check=False)
+    dmoc.optimize(dmoc.problems.knife_edge_parking(10), **REPORT, check=False)
     (first,) = set(glob.glob(pattern)) - before
-    dmoc.optimize(dmoc.problems.knife_edge_parking(12), options=REPORT, check=False)
+    dmoc.optimize(dmoc.problems.knife_edge_parking(12), **REPORT, check=False)
     assert not os.path.exists(first) and len(set(glob.glob(pattern)) - before) == 1
 
 
-def test_the_journal_of_a_solver_not_kept_goes_with_it():
+def test_the_journal_of_a_solver_not_kept_goes_with_it(monkeypatch, tmp_path):
     """reuse_solver=False: the solver is dropped after the call, and its journal with it."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     pattern = os.path.join(tempfile.gettempdir(), "dmoc-ipopt-*.txt")
     before = set(glob.glob(pattern))
-    result = dmoc.optimize(dmoc.problems.knife_edge_parking(10), options={**REPORT, "reuse_solver": False}, check=False)
+    result = dmoc.optimize(dmoc.problems.knife_edge_parking(10), **REPORT, reuse_solver=False, check=False)
     assert result.stats["linear_solver"]["factorizations"] > 0
     assert set(glob.glob(pattern)) <= before

@@ -11,6 +11,7 @@ stopped solve's iterations, the momentum M v of a measured velocity, the wall cl
 around a step.
 """
 
+import dataclasses
 import time
 
 import numpy as np
@@ -228,6 +229,27 @@ def test_after_a_stopped_solve_the_next_optimum_is_applied_and_each_solve_record
         (True, "Solve_Succeeded", 0), (False, "Maximum_Iterations_Exceeded", 1),
         (True, "Solve_Succeeded", 0)]
     assert log[1].iterations == 1 < log[0].iterations
+
+
+def test_a_ctrl_c_is_raised_under_on_failure_shift_not_followed_by_the_old_plan(monkeypatch):
+    """on_failure="shift" follows the last plan after a failed solve, never after a Ctrl-C:
+    step 1's solve reports what `solve` reports for a SIGINT inside IPOPT (status
+    "interrupted", tests/test_interrupts.py), and the step raises dmoc.Interrupted with
+    that result, records no control and keeps the plan of step 0."""
+    def interrupted(problem, **keywords):
+        result = solve(problem, **{**keywords, "options": {"max_iter": 1}})
+        return dataclasses.replace(result, success=False, status="interrupted",
+                                   message="IPOPT: interrupted (KeyboardInterrupt) after 1 iterations.")
+    controller = dmoc.MPC(parking(steps=6), on_failure="shift")
+    controller.step(np.zeros(3), p=[0.1, 0.0, 0.1])
+    plan = controller.plan
+    monkeypatch.setattr(mpc, "solve", interrupted)
+    with pytest.raises(dmoc.Interrupted, match="MPC step 1: IPOPT: interrupted") as info:
+        controller.step(plan.trajectory.q[1], p=plan.trajectory.p[1])
+    assert info.value.result.status == "interrupted"
+    assert [(r.status, r.u is None, r.plan_age) for r in controller.log] == [
+        ("Solve_Succeeded", False, 0), ("interrupted", True, None)]
+    assert controller.plan is plan
 
 
 def test_a_measured_velocity_enters_as_its_momentum():

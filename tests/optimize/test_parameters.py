@@ -54,7 +54,7 @@ def test_new_weight_reuses_the_solver_and_matches_a_fresh_problem():
     assert again.stats["solver_reused"] and again.stats["build_time"] == 0.0
     baked = dmoc.OptimalControlProblem(disc(), N, q_start=START, q_goal=GOAL,
                                        running_cost=weighted(0.25))
-    reference = dmoc.optimize(baked, options={"reuse_solver": False})
+    reference = dmoc.optimize(baked, reuse_solver=False)
     assert_same_optimum(again, reference)
     assert abs(again.cost - first.cost) > 1e-3          # the weight did change the problem
     warm = dmoc.optimize(lighter, guess=first)

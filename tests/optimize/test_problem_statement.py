@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.errors import InputError
+from dmoc.errors import DmocDeprecationWarning, InputError
 from dmoc.optimal_control.statement.final_time import FixedFinalTime, FreeFinalTime
 from dmoc.optimal_control.nlp.momenta import CarriedMomenta, SubstitutedMomenta
 from dmoc.optimal_control.nlp.transcription import Transcription
@@ -189,9 +189,9 @@ def test_final_time_values_say_where_h_lives_and_its_range():
 def test_switch_keyword_and_deprecated_option_give_the_same_solve(name, value):
     ocp = knife_edge_parking(N)
     with warnings.catch_warnings():
-        warnings.simplefilter("error", DeprecationWarning)       # the keyword does not warn
+        warnings.simplefilter("error", DmocDeprecationWarning)       # the keyword does not warn
         new = dmoc.optimize(ocp, **{"reuse_solver": False, name: value}, check=False)
-    with pytest.warns(DeprecationWarning, match=rf"options\['{name}'\].*`{name}={value!r}`"):
+    with pytest.warns(DmocDeprecationWarning, match=rf"options\['{name}'\].*`{name}={value!r}`"):
         old = dmoc.optimize(ocp, options={name: value},
                             **({} if name == "reuse_solver" else {"reuse_solver": False}), check=False)
     assert new.success and old.success and not new.stats["solver_reused"]
@@ -206,11 +206,11 @@ def test_both_spellings_take_the_same_solver():
     ocp = knife_edge_parking(N)
     dmoc.clear_caches("solvers")
     dmoc.optimize(ocp, check=False)
-    with pytest.warns(DeprecationWarning, match="expand=True"):
+    with pytest.warns(DmocDeprecationWarning, match="expand=True"):
         expanded = dmoc.optimize(ocp, options={"expand": True}, check=False)
     again = dmoc.optimize(ocp, expand=True, check=False)
     assert not expanded.stats["solver_reused"] and again.stats["solver_reused"]
-    with pytest.warns(DeprecationWarning, match="reuse_solver=False"):
+    with pytest.warns(DmocDeprecationWarning, match="reuse_solver=False"):
         assert not dmoc.optimize(ocp, options={"reuse_solver": False}, check=False).stats["solver_reused"]
     assert not dmoc.optimize(ocp, reuse_solver=False, check=False).stats["solver_reused"]
     assert dmoc.optimize(ocp, check=False).stats["solver_reused"]
@@ -219,7 +219,7 @@ def test_both_spellings_take_the_same_solver():
 def test_linear_solver_report_keyword_and_deprecated_option():
     ocp = knife_edge_parking(N)
     new = dmoc.optimize(ocp, reuse_solver=False, linear_solver_report=True, check=False)
-    with pytest.warns(DeprecationWarning, match="linear_solver_report=True"):
+    with pytest.warns(DmocDeprecationWarning, match="linear_solver_report=True"):
         old = dmoc.optimize(ocp, reuse_solver=False, options={"linear_solver_report": True}, check=False)
     assert new.stats["linear_solver"] == old.stats["linear_solver"]
     assert new.stats["linear_solver"]["factorizations"] > 0
@@ -238,5 +238,5 @@ def test_switches_are_checked_and_not_given_twice():
     with pytest.raises(TypeError, match="`expand` must be True or False"):
         dmoc.optimize(ocp, expand="no")
     with pytest.raises(InputError, match="`reuse_solver` is given twice"), \
-            pytest.warns(DeprecationWarning):
+            pytest.warns(DmocDeprecationWarning):
         dmoc.optimize(ocp, reuse_solver=False, options={"reuse_solver": True})

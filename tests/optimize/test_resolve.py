@@ -132,11 +132,11 @@ def test_guess_from_another_grid_starts_from_least_squares_multipliers():
 
 
 def test_expanded_oracle_gives_the_same_optimum():
-    """options={"expand": True} (the deprecated spelling of expand=True) expands f, g and
+    """expand=True expands f, g and
     the assembled derivatives to SX: the same iterations and optimum as the MX graph
     (bit for bit: tests/optimize/test_evaluation.py)."""
     problem = dmoc.problems.rolling_disk_steering(30)
-    mx, sx = dmoc.optimize(problem), dmoc.optimize(problem, options={"expand": True})
+    mx, sx = dmoc.optimize(problem), dmoc.optimize(problem, expand=True)
     assert sx.stats["iterations"] == mx.stats["iterations"]
     assert abs(sx.cost - mx.cost) <= 1e-12 * mx.cost
     assert np.abs(sx.x - mx.x).max() <= 1e-10

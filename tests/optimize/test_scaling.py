@@ -98,6 +98,18 @@ def test_unit_inertia_leaves_the_nlp_unscaled():
     np.testing.assert_array_equal(problem.g_scale, 1.0)
 
 
+@pytest.mark.parametrize("motion, length", [(0.0, 1.0), (1e-12, 1.0), (1e-9, 1.0),
+                                            (1e-6, 2.0 ** -20), (1e-3, 2.0 ** -10)])
+def test_a_motion_of_round_off_size_sets_no_length(motion, length):
+    """Knife-edge parking (m = J = 1) by `motion` along x: below sqrt(machine epsilon),
+    1.5e-8, of the rest length 1 the ends are the same point up to round-off and the
+    lengths are the rest ones, l = 1 (unscaled, as goal = start); above it the motion's own,
+    l = |motion| for every coordinate (equal inertias; the heading turns over 1 rad), to
+    the nearest power of 2."""
+    problem = dmoc.problems.knife_edge_parking(20, goal=(motion, 0.0, 0.0))
+    np.testing.assert_array_equal(problem.x_layout.unpack(problem.x_scale, "q")[:, 0], length)
+
+
 def test_degenerate_directions_take_the_geometric_mean_of_the_others():
     """L = 2 v0^2 + v2^2 / 2 + q1 v1 (linear in v1): inertia (4, 0, 1) -> (4, 2, 1);
     H = p0^2 / 6 + p1^2 / 24: inertia (3, 12); point vortices (L linear in v): no inertia

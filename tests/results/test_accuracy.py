@@ -16,7 +16,8 @@ from scipy.integrate import solve_ivp
 
 import dmoc
 import dmoc.problems
-from dmoc.drivers.accuracy import optimize_to_accuracy
+from dmoc.drivers import error_estimate
+from dmoc.drivers.accuracy import GROWTH, optimize_to_accuracy
 from dmoc.drivers.error_estimate import estimate_error
 
 J_STAR = 8.72240586430
@@ -63,16 +64,30 @@ def test_the_estimate_is_within_a_factor_10_of_the_true_error(rule, steps):
                                                                          problem.disc.rule.order)
 
 
-def test_a_given_reference_is_used_as_it_is():
+def test_a_given_reference_is_used_as_it_is(monkeypatch):
     """The estimate from a reference solved by the caller equals the one estimate_error
-    solves itself (N // 2 steps), and costs no solve."""
+    solves itself (N // 2 steps), and costs no solve (one would raise here)."""
     problem = dmoc.problems.knife_edge_parking(20, rule="lobatto3")
     result = dmoc.optimize(problem, options=QUIET)
     reference = dmoc.optimize(problem.with_steps(10), options=QUIET)
-    given = estimate_error(problem, result, reference=reference)
     solved = estimate_error(problem, result, options=QUIET)
-    assert given.cost == pytest.approx(solved.cost, rel=1e-5)
-    assert given.time < solved.time
+
+    def no_solve(*args, **keywords):
+        raise AssertionError("a given reference was solved again")
+    monkeypatch.setattr(error_estimate, "judged_solve", no_solve)
+    given = estimate_error(problem, result, reference=reference)
+    assert given.cost == pytest.approx(solved.cost, rel=1e-5) and given.reference_steps == 10
+
+
+def test_a_failed_reference_solve_gives_an_infinite_estimate():
+    """A reference that IPOPT does not solve (max_iter = 0) says nothing about the error:
+    the cost's estimate is infinite, not the difference to a point that is no optimum;
+    the final state's, from the replay alone, stays finite."""
+    problem = dmoc.problems.knife_edge_parking(20, rule="lobatto3")
+    result = dmoc.optimize(problem, options=QUIET)
+    estimate = estimate_error(problem, result, options={**QUIET, "max_iter": 0})
+    assert estimate.cost == np.inf and estimate.largest == np.inf
+    assert np.isfinite(estimate.final_state)
 
 
 @pytest.mark.parametrize("rule, accuracy", [("midpoint", 1e-4), ("lobatto3", 1e-6), ("lobatto4", 1e-6)])
@@ -91,6 +106,67 @@ def test_the_target_is_met_by_the_true_error(rule, accuracy):
     end = knife_edge_end(traj, traj.control_nodes)
     assert np.max(np.abs(traj.q[-1] - end) / np.ptp(traj.q, axis=0)) <= accuracy
     assert result.stats["error_estimate"]["cost"] <= accuracy
+
+
+def parking(steps, rule, constant=0.0):
+    """Knife-edge parking (`dmoc.problems.knife_edge_parking`) with `constant` added to the
+    running cost |u|^2: the same optimum, its cost J* + 4 `constant` (duration 4 s, and
+    every rule integrates a constant exactly, so J_N - J is unchanged)."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 4.0 / steps, rule)
+    return dmoc.OptimalControlProblem(disc, steps, q_start=[0, 0, 0], q_goal=[0, 1, 0],
+                                      running_cost=lambda q, v, u: u[0] ** 2 + u[1] ** 2 + constant)
+
+
+def true_errors(result, constant=0.0):
+    """(relative cost error against J* + 4 `constant`, final configuration error relative
+    to each coordinate's excursion against DOP853), the figures `accuracy` bounds."""
+    traj = result.trajectory
+    end = knife_edge_end(traj, traj.control_nodes)
+    return (abs(result.cost / (J_STAR + 4 * constant) - 1),
+            float(np.max(np.abs(traj.q[-1] - end) / np.ptp(traj.q, axis=0))))
+
+
+def test_the_level_after_the_two_measuring_ones_aims_at_half_the_target():
+    """lobatto3 (p = 4) from 10 steps to 1e-6: level 3 has N_3 = ceil(N_2 (2 e_2 /
+    accuracy)^(1/p)) steps (the Notes' formula, written here), and there the true error
+    (the final state's against DOP853, larger than the cost's against J*) is about half the
+    target, so this level ends the loop. Aiming at the target itself would put the true
+    error at about the target, and the loop would need a fourth level."""
+    accuracy = 1e-6
+    result = optimize_to_accuracy(parking(10, "lobatto3"), accuracy, options=QUIET)
+    levels = result.stats["levels"]
+    assert [level["steps"] for level in levels][:2] == [10, 20] and len(levels) == 3
+    planned = int(np.ceil(20 * (2 * levels[1]["estimate"] / accuracy) ** (1 / 4)))
+    assert levels[2]["steps"] == planned
+    assert 0.4 * accuracy <= max(true_errors(result)) <= 0.6 * accuracy
+
+
+def test_the_loop_stops_on_the_final_states_error_where_the_costs_is_already_small():
+    """A constant 100 added to the running cost divides the relative cost error by about
+    50 and leaves the final state's: at 20 steps the cost is within 1e-7 of J* + 400 but
+    the final configuration is 7e-5 off (DOP853), so the loop must go on until the final
+    state's true error is below the target too."""
+    accuracy = 1e-6
+    result = optimize_to_accuracy(parking(10, "lobatto3", 100.0), accuracy, options=QUIET)
+    cost_error, state_error = true_errors(result, 100.0)
+    assert result.success and max(cost_error, state_error) <= accuracy
+    coarse = dmoc.optimize(parking(20, "lobatto3", 100.0), options=QUIET)
+    cost_error, state_error = true_errors(coarse, 100.0)
+    assert cost_error < 1e-7 < accuracy < 1e-5 < state_error          # the case of this test
+    assert result.stats["levels"][-1]["steps"] > 20
+
+
+def test_a_level_grows_n_at_most_growth_times():
+    """Midpoint (p = 2) from 20 steps to 1e-6: the estimate at 40 steps, 7e-3, predicts
+    N = 40 sqrt(2 e / accuracy) > 3000, but level 3 has GROWTH * 40 = 640 steps (a
+    pre-asymptotic estimate must not send the loop beyond what it needs); max_steps = 640
+    then stops the loop after it."""
+    result = optimize_to_accuracy(parking(20, "midpoint"), 1e-6, max_steps=640, throw=False,
+                                  options=QUIET)
+    levels = result.stats["levels"]
+    assert 40 * np.sqrt(2 * levels[1]["estimate"] / 1e-6) > 3000
+    assert [level["steps"] for level in levels] == [20, 40, GROWTH * 40]
+    assert result.status == "accuracy_not_reached"
 
 
 def test_too_few_steps_allowed_stop_the_loop():
@@ -119,6 +195,7 @@ def test_with_steps_is_the_problem_built_at_that_n():
     (-1e-6, dmoc.InputError, "`accuracy` must be finite and positive"),
     (np.nan, dmoc.InputError, "`accuracy` must be finite and positive"),
     (1.5, dmoc.InputError, r"`accuracy` must be a relative error in \[1e-09, 1\)"),
+    (1.0, dmoc.InputError, r"`accuracy` must be a relative error in \[1e-09, 1\)"),
     (1e-12, dmoc.InputError, r"`accuracy` must be a relative error in \[1e-09, 1\)"),
     ("1e-6", dmoc.InputTypeError, "`accuracy` must be a real number"),
 ])

@@ -11,6 +11,7 @@ vanishes as h -> 0 (slope within 0.35 over three step sizes): 2 for the midpoint
 for Lobatto3 (stage impulses at its middle node).
 """
 
+import casadi as ca
 import numpy as np
 import pytest
 from PIL import Image
@@ -179,6 +180,22 @@ def test_bad_units_are_named():
                          steps=3).trajectory
     with pytest.raises(dmoc.InputError, match=r"`units` is invalid for this trajectory"):
         plotting.plot_states(traj, units={"q": ("m", "m")})
+
+
+@pytest.mark.parametrize("line_break", ["\n", "\r"])
+@pytest.mark.parametrize("key", ["t", "q", "u"])
+def test_a_unit_with_a_line_break_is_refused(key, line_break):
+    """A unit is one line of text: a line break would split an axis label, a CSV header
+    or the animation's clock. Each key, each of the two breaks, named in the error."""
+    unit = "m" + line_break + "s"
+    units = {"t": unit, "q": ("m", unit), "u": (unit,)}[key]
+    def make(units):
+        return dmoc.MechanicalSystem(lambda q, v: (v[0] ** 2 + v[1] ** 2) / 2, 2, n_u=1,
+                                     force=lambda q, v, u: ca.vertcat(u[0], 0), units=units)
+    assert make({"t": "s", "q": ("m", "m s"), "u": ("N",)}).units["q"] == ("m", "m s")
+    with pytest.raises(dmoc.InputError, match=rf"is invalid:\n  - `units\['{key}'\]` must be "
+                                              rf"[^\n]*one.line[^\n]*$"):
+        make({key: units})
 
 
 def test_bad_obstacles_and_bounds_are_named(bounded):

@@ -14,13 +14,15 @@ Oracles, none taken from the verdict's code:
   rolling-disk J* = 1.02891883211 within the rule's discretization error.
 """
 
+import dataclasses
+
 import casadi as ca
 import numpy as np
 import pytest
 
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
-from dmoc.drivers.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE
+from dmoc.drivers.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE, judge
 
 KNIFE_EDGE_J = 8.72240586430
 ROLLING_DISK_J = 1.02891883211
@@ -104,6 +106,77 @@ def test_a_rate_limit_between_the_knots_is_a_path_violation():
     assert over[k - 1] > over.max() - 1e-9 * limit
     assert result.verdict.path_row == (0 if rate[k - 1] > 0 else 1)
     assert f"knot {result.verdict.path_step}" in result.message
+
+
+def rate_limited(unit):
+    """Knife-edge parking on 50 lobatto3 steps under the heading-rate limit of the test
+    above, its rows g = (v - limit, -v - limit) multiplied by `unit` (rad/s -> mrad/s:
+    1000), and the knots' g of its optimum from the interpolant written out here (inner
+    knots 1 .. N-1; the ends are at rest, |g| = unit * limit there, less than inside)."""
+    free = dmoc.optimize(knife_edge_parking(50, rule="lobatto3")).trajectory
+    limit = 0.5 * np.abs(np.diff(free.q[:, 2])).max() / free.h
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 4.0 / 50, "lobatto3")
+    problem = dmoc.OptimalControlProblem(
+        disc, 50, q_start=[0, 0, 0], q_goal=[0, 1, 0],
+        path_constraints=lambda q, v, u: unit * ca.vertcat(v[2] - limit, -v[2] - limit))
+    result = dmoc.optimize(problem, throw=False)
+    q, s, h = result.trajectory.q[:, 2], result.trajectory.s[:, 2], result.trajectory.h
+    rate = ((q[:-1] - 4 * s + 3 * q[1:])[:-1] + (-3 * q[:-1] + 4 * s - q[1:])[1:]) / (2 * h)
+    return result, unit * np.column_stack([rate - limit, -rate - limit])
+
+
+@pytest.mark.parametrize("unit", [1000.0, 0.1])
+def test_a_path_row_is_measured_against_max_1_and_its_largest_value(unit):
+    """The knots' overshoot of the rate limit (1e-3 of the row's largest |g|, about 1.07 in
+    rad/s) against the row's scale max(1, max_k |g_k|): in mrad/s (|g| up to 1070) the
+    figure it has in rad/s, relative; at a tenth of the unit (|g| up to 0.107) the
+    overshoot itself, 1e-4, still far above PATH_TOLERANCE."""
+    result, g = rate_limited(unit)
+    row = result.verdict.path_row
+    expected = g.max() / max(1.0, np.abs(g[:, row]).max())
+    assert result.status == "path_violated"
+    assert result.verdict.path_violation == pytest.approx(expected, rel=1e-6)
+    assert result.verdict.path_violation > 100 * PATH_TOLERANCE
+    assert g[result.verdict.path_step - 1, row] == g.max()
+
+
+def test_an_equality_written_as_a_pair_of_rows_passes():
+    """The heading held at 0 as g = (theta, -theta) <= 0 on a drive along x: IPOPT holds
+    both rows at every knot to round-off (|theta| < 1e-10, measured here); the verdict,
+    which measures each row against max(1, max_k |g_k|), passes it (measured against its
+    own round-off, the row was found violated by 1.0)."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 4.0 / 20)
+    problem = dmoc.OptimalControlProblem(disc, 20, q_start=[0, 0, 0], q_goal=[1, 0, 0],
+                                         path_constraints=lambda q, v, u: ca.vertcat(q[2], -q[2]))
+    result = dmoc.optimize(problem)
+    heading = np.abs(result.trajectory.q[:, 2]).max()
+    assert 0 < heading < 1e-10
+    assert result.success and result.verdict.passed
+    assert result.verdict.path_violation <= heading
+
+
+@pytest.mark.parametrize("field", ["q", "p"])
+@pytest.mark.parametrize("departure, status", [(1e-7, "passed"), (1e-5, "not_replayable")])
+def test_a_replay_departure_is_judged_at_1e_6_in_q_and_in_p_alone(field, departure, status):
+    """A sound optimum (replay at 1e-12) with y at knot 10 moved by `departure` of the span
+    of q, or p_y by `departure` of max |p|: no longer a solution of the step equations
+    there by that much. The replay, from (q_0, p_0) with the controls, departs from it by
+    that amount in that field alone; below the documented 1e-6 (docs/stages/optimize.md,
+    "Verdicts") it passes, above it is not replayable from step 10."""
+    problem = knife_edge_parking(20)
+    result = dmoc.optimize(problem)
+    traj = result.trajectory
+    q, p = traj.q.copy(), traj.p.copy()
+    if field == "q":
+        q[10, 1] += departure * np.ptp(traj.q, axis=0).max()
+    else:
+        p[10, 1] += departure * np.abs(traj.p).max()
+    moved = dmoc.Trajectory(traj.t, q, p, traj.lam, traj.u, traj.h, traj.variant)
+    verdict = judge(problem, dataclasses.replace(result, trajectory=moved))
+    figures = {"q": verdict.replay_q, "p": verdict.replay_p}
+    assert figures[field] == pytest.approx(departure, rel=1e-3)
+    assert figures["p" if field == "q" else "q"] < 1e-10
+    assert (verdict.status, verdict.replay_step) == (status, -1 if status == "passed" else 10)
 
 
 def test_a_goal_inside_a_keep_out_disc_is_refused():

@@ -144,13 +144,13 @@ def test_the_path_figures_of_a_group_read_each_optimums_own_parameters(optima):
     """The obstacle's g_k = 0.09 - |(x_k, y_k) - c|^2 at every knot (the midpoint rule's
     path Function reads its straight step's midpoint, the knot itself), each optimum with
     its own centre c: the group's path figures against that formula written out in NumPy
-    (largest g_k over max_k |g_k|, its knot; none when no g_k > 0)."""
+    (largest g_k over max(1, max_k |g_k|), its knot; none when no g_k > 0)."""
     pairs = [(p, r) for p, r in optima if "c" in p.parameter_values]
     assert len({tuple(p.parameter_values["c"]) for p, _ in pairs}) == 2
     for (problem, result), verdict in zip(pairs, verdicts(pairs)):
         q = result.trajectory.q
         g = 0.09 - np.sum((q[:, :2] - problem.parameter_values["c"]) ** 2, axis=1)
-        relative = g / np.abs(g).max()
+        relative = g / max(1.0, np.abs(g).max())
         k = int(np.argmax(relative))
         expected = (float(relative[k]), k, 0) if relative[k] > 0 else (0.0, -1, -1)
         assert verdict.path_violation == pytest.approx(expected[0], rel=1e-9, abs=1e-12)

@@ -160,3 +160,19 @@ def test_the_compiler_found_once_is_found_again_when_it_changes(tmp_path, monkey
     monkeypatch.setenv("PATH", str(tmp_path))     # another PATH: looked up on it
     os.symlink(two, tmp_path / "gcc")
     assert compiled.compiler() == str(two)
+
+
+def test_a_compiler_on_path_replaced_mid_process_is_looked_up_again(tmp_path, monkeypatch):
+    """CC unset, `cc` found on PATH: replaced (renamed over, as an upgrade does) by a link
+    to another compiler, the next call returns the new one's resolved path; one compiler
+    found once is not found for good."""
+    bin_folder, elsewhere = tmp_path / "bin", tmp_path / "elsewhere"
+    bin_folder.mkdir()
+    elsewhere.mkdir()
+    cc, other = _executable(bin_folder / "cc"), _executable(elsewhere / "clang")
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(bin_folder))
+    assert compiled.compiler() == str(cc)
+    (tmp_path / "new").symlink_to(other)
+    os.replace(tmp_path / "new", cc)
+    assert compiled.compiler() == str(other)

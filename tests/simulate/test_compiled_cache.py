@@ -213,6 +213,24 @@ def test_a_parent_folder_others_can_write_refuses_the_cache(tmp_path, good, vm_q
     check_vm_fallback(report, vm_q, f"the folder {parent} above")
 
 
+@pytest.mark.skipif(os.geteuid() != 0, reason="gives a folder to another account (chown)")
+def test_a_parent_folder_of_another_account_refuses_the_cache(tmp_path, monkeypatch):
+    """A folder above the cache that belongs to another account (not root), even one only
+    it can write (0755): that account could move the cache away and put its own, so no
+    library is compiled or loaded there; the same folder given back to this uid works."""
+    parent = tmp_path / "theirs"
+    parent.mkdir(mode=0o755)
+    os.chown(parent, NOBODY, NOBODY)
+    monkeypatch.setenv("DMOC_CACHE_DIR", str(parent / "cache"))
+    x = ca.SX.sym("x")
+    library = compiled.Library([ca.Function("f", [x], [2 * x])], "tiny")
+    with pytest.raises(CompiledCodeError, match=f"the folder {parent} above .* belongs to uid {NOBODY}"):
+        library.load()
+    assert not list(parent.rglob("*.so"))
+    os.chown(parent, os.geteuid(), os.getegid())
+    assert float(library.load()["f"](3.0)) == 6.0
+
+
 # --- damaged libraries -----------------------------------------------------------------------
 
 DAMAGE = {

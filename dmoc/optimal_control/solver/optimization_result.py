@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._util.deferred import DeferredField, made
-from ...errors import TrajectoryFileError, status_of
+from ...errors import InputError, TrajectoryFileError, status_of
 from ...principle.trajectory import Trajectory
-from ...principle.trajectory_file import RESULT_PREFIX, read, write
+from ...principle.trajectory_file import RESULT_PREFIX, read, scalar, write
 from .verdict_record import Verdict
 
 
@@ -114,23 +114,73 @@ class OptimizationResult:
             If the file is not a trajectory file (`Trajectory.load`), or is one without the
             result's fields (written by `Trajectory.save`, not `OptimizationResult.save`).
         """
-        traj = read(Trajectory, path, RESULT_FILE)      # checks the path, that it is an .npz
-        with np.load(path, allow_pickle=False) as data:
-            extra = {k[len(RESULT_PREFIX):]: data[k] for k in data.files if k.startswith(RESULT_PREFIX)}
+        traj, extra = read(Trajectory, path, RESULT_FILE)   # checks the path, that it is an .npz
         missing = sorted(_RESULT_FIELDS - set(extra))
-        if missing:
+        unknown = sorted(set(extra) - _RESULT_FIELDS - _OPTIONAL_FIELDS)
+        if missing or unknown:
             raise TrajectoryFileError(
-                f"{str(path)!r} is not {RESULT_FILE}: it lacks the fields {missing}"
-                + ("; it is a trajectory file (read it with Trajectory.load)." if len(missing) ==
-                   len(_RESULT_FIELDS) else "."))
-        verdict = extra.get("verdict")      # files of unjudged results have none
-        return cls(traj, float(extra["cost"]), bool(extra["success"]),
-                   status_of(str(extra["status"])), str(extra["message"]), json.loads(str(extra["stats"])),
-                   extra.get("x"), extra.get("lam_x"), extra.get("lam_g"), str(extra["structure"]),
-                   extra.get("q_ref"),        # files from before q_ref have none
-                   None if verdict is None else Verdict.from_dict(json.loads(str(verdict))))
+                f"{str(path)!r} is not {RESULT_FILE}: " + (
+                    f"it lacks the fields {missing}" + ("; it is a trajectory file (read it "
+                    "with Trajectory.load)." if len(missing) == len(_RESULT_FIELDS) else ".")
+                    if missing else f"it holds result fields a result does not have: {unknown}."))
+        return cls(traj, **_checked_fields(path, extra, traj.q.shape[1]))
+
+
+def _checked_fields(path, extra, n):
+    """The keyword arguments of OptimizationResult but the trajectory, from the result
+    fields `extra` of the file at `path` (a trajectory of n coordinates), each checked
+    against its type and shape; TrajectoryFileError naming the field otherwise."""
+    def text(name):
+        return str(scalar(path, RESULT_FILE, RESULT_PREFIX + name, extra[name], "U"))
+
+    def vector(name, size=None):
+        if name not in extra:           # x and the multipliers only when known
+            return None
+        value = extra[name]
+        if value.dtype.kind not in "fiu" or value.ndim != 1 or size not in (None, value.size):
+            shape = "(n,) = " + str((size,)) if size is not None else "(k,)"
+            raise TrajectoryFileError(
+                f"{str(path)!r} is not {RESULT_FILE}: `{RESULT_PREFIX}{name}` must be a real "
+                f"vector of shape {shape}; got dtype {value.dtype}, shape {value.shape}.")
+        return value.astype(float)
+
+    x = vector("x")
+    values = {"cost": float(scalar(path, RESULT_FILE, RESULT_PREFIX + "cost", extra["cost"], "fiu")),
+              "success": bool(scalar(path, RESULT_FILE, RESULT_PREFIX + "success", extra["success"], "b")),
+              "status": status_of(text("status")), "message": text("message"),
+              "stats": _json(path, "stats", text("stats"), dict),
+              "x": x, "lam_x": vector("lam_x", None if x is None else x.size),
+              "lam_g": vector("lam_g"), "structure": text("structure"),
+              "q_ref": vector("q_ref", n)}     # files from before q_ref have none
+    if "verdict" in extra:               # files of unjudged results have none
+        values["verdict"] = _verdict(path, _json(path, "verdict", text("verdict"), dict))
+    return values
+
+
+def _json(path, name, text, kind):
+    """The JSON value of field `name` (`text`), when it is a `kind`."""
+    try:
+        value = json.loads(text)
+    except (ValueError, RecursionError) as err:
+        value = err
+    if not isinstance(value, kind):
+        got = (f"{type(value).__name__}: {value}" if isinstance(value, Exception)
+               else f"a JSON {type(value).__name__}")
+        raise TrajectoryFileError(f"{str(path)!r} is not {RESULT_FILE}: `{RESULT_PREFIX}{name}` "
+                                  f"must be a JSON object; got {got}.")
+    return value
+
+
+def _verdict(path, values):
+    """The Verdict of the dict `values`, whose keys and value types are Verdict's."""
+    try:
+        return Verdict.checked(values)
+    except InputError as err:
+        raise TrajectoryFileError(f"{str(path)!r} is not {RESULT_FILE}: `{RESULT_PREFIX}verdict` "
+                                  f"{err}.") from None
 
 
 RESULT_FILE = "an optimization result file (one written by OptimizationResult.save)"
 # the fields every `OptimizationResult.save` writes (x and the multipliers only when known)
 _RESULT_FIELDS = {"cost", "success", "status", "message", "stats", "structure"}
+_OPTIONAL_FIELDS = {"x", "lam_x", "lam_g", "q_ref", "verdict"}

@@ -15,10 +15,11 @@ import numpy as np
 from ..._util import checks
 from ..._util.deferred import Pending
 from ..statement.problem import OptimalControlProblem
-from ...errors import InputError, Interrupted, SolverError, Status
+from ...errors import DmocDeprecationWarning, InputError, Interrupted, SolverError, Status
 from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
+from .linear_solver_choice import check_linear_solver
 from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
@@ -47,6 +48,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     checks.instance("guess", guess, (Trajectory, OptimizationResult, type(None)),
                     "a Trajectory, an OptimizationResult or None")
     options = None if options is None else checks.ipopt_options("options", options)
+    check_linear_solver(options or {})
     options, switches = _switches(options or {}, {"reuse_solver": reuse_solver, "expand": expand,
                                                   "linear_solver_report": linear_solver_report})
     T = problem.transcription
@@ -74,7 +76,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     stats = _statistics(st, times, worst)
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
-    status, message, success = _outcome(st, stats, cost, sigints, options)
+    status, message, success = _outcome(st, stats, cost, sigints)
     result = _result(problem, solver, sol, fixed, (cost, success, status, message, stats))
     if status == Status.INTERRUPTED and throw:
         raise Interrupted(message + " The last iterate is in `.result`.", result)
@@ -92,7 +94,7 @@ def _statistics(st, times, worst):
             "max_violation": worst[0], "most_violated": worst[1]}
 
 
-def _outcome(st, stats, cost, sigints, options):
+def _outcome(st, stats, cost, sigints):
     """(status, message, success) of a solve from IPOPT's statistics `st` and the result's
     `stats`: IPOPT's, with what the status suggests; "interrupted" when a Ctrl-C
     (`sigints`), not a violated constraint, ended it."""
@@ -103,7 +105,7 @@ def _outcome(st, stats, cost, sigints, options):
                  "at the start point or an iterate: check the data's scale (h, bounds) and "
                  "the system's functions there")
     elif st["return_status"] == "Invalid_Option":
-        where = _refused_option(options)
+        where = _REFUSED_OPTION
     stopped = interrupt.verdict(sigints, iterations, cost)
     if stopped:
         return stopped + (False,)
@@ -144,23 +146,17 @@ def _values_at_x(transcription, sol, converged):
     return cost, most_violated(T, g / T.g_scale)
 
 
-def _refused_option(options):
-    """The hint of an Invalid_Option status: IPOPT refused an option value when the solve
-    started (before any iterate, so no constraint is to blame)."""
-    solver = options.get("linear_solver")
-    if solver is not None and str(solver).lower() != "mumps":
-        return (f"; IPOPT refused the option `linear_solver` = {solver!r}: that linear solver "
-                f"is not available to this IPOPT, which has 'mumps' (the HSL solvers "
-                f"ma27, ma57, ma77, ma86, ma97 need the HSL library installed where IPOPT "
-                f"finds it); leave `linear_solver` unset for MUMPS")
-    return ("; IPOPT refused an option value of `options` when the solve started (see "
-            "IPOPT's output above for which); no iterate was computed")
+# the hint of an Invalid_Option status: IPOPT refused an option value when the solve started
+# (before any iterate, so no constraint is to blame; an unavailable linear solver is refused
+# before: `check_linear_solver`)
+_REFUSED_OPTION = ("; IPOPT refused an option value of `options` when the solve started (see "
+                   "IPOPT's output above for which); no iterate was computed")
 
 
 def _switches(options, given):
     """(the IPOPT options, {switch: bool}): the `SWITCHES` keywords of `optimize` as
     `given`, an entry of `options` of that name taken out instead with a
-    DeprecationWarning (InputError when the keyword says otherwise)."""
+    DmocDeprecationWarning (InputError when the keyword says otherwise)."""
     options, switches = dict(options), {}
     for name, default in SWITCHES.items():
         value = given[name]
@@ -168,7 +164,7 @@ def _switches(options, given):
             entry = options.pop(name)
             warnings.warn(f"`options['{name}']` is deprecated: pass `{name}={entry!r}` to "
                           f"`optimize` instead; `options` holds IPOPT's options only.",
-                          DeprecationWarning, stacklevel=_caller_level())
+                          DmocDeprecationWarning, stacklevel=_caller_level())
             if value != default and entry != value:
                 raise InputError(f"`{name}` is given twice with different values: `{name}="
                                  f"{value!r}` and `options['{name}']` = {entry!r}; pass the "

@@ -4,9 +4,10 @@ written with it. The checks themselves are made by the drivers
 (`dmoc.drivers.verdict`), which may run `simulate`.
 """
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
-from ...errors import Status, status_of
+
+from ...errors import InputError, Status, status_of
 
 # The statuses of a verdict, worst first: a result takes the first check that fails.
 STATUSES = (Status.NOT_REPLAYABLE, Status.PATH_VIOLATED, Status.UNDER_RESOLVED)
@@ -76,3 +77,31 @@ class Verdict:
     def from_dict(cls, values):
         """The Verdict of `as_dict` (its status a `Status` again)."""
         return cls(**dict(values, status=status_of(values["status"])))
+
+    @classmethod
+    def checked(cls, values):
+        """The Verdict of the dict `values` read from a file: its keys exactly the fields
+        (`discretization_error` may be left out), each value of the field's type; else
+        InputError saying which ("must ..." follows the caller's name of the dict)."""
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(values) - set(names))
+        missing = sorted(set(names) - set(values) - {"discretization_error"})
+        if unknown or missing:
+            raise InputError(f"must have the keys {names}; " + (
+                f"got the unknown keys {unknown}" if unknown else f"it lacks {missing}"))
+        for name, value in values.items():
+            if not (isinstance(value, _TYPES[name]) and not isinstance(value, bool)
+                    or value is None and name == "discretization_error"):
+                raise InputError(f"must have {name!r} {_DESCRIBED[_TYPES[name]]}; got {value!r}")
+        known = [status.value for status in (Status.PASSED, *STATUSES)]
+        if values["status"] not in known:
+            raise InputError(f"must have 'status' one of {known}; got {values['status']!r}")
+        return cls.from_dict(values)
+
+
+# the type of each field's value in a file (an int is a number too)
+_TYPES = {"status": str, "replay_q": (int, float), "replay_p": (int, float), "replay_step": int,
+          "velocity_jump": (int, float), "jump_step": int, "jump_coordinate": str,
+          "path_violation": (int, float), "path_step": int, "path_row": int,
+          "discretization_error": (int, float)}
+_DESCRIBED = {str: "a string", int: "an integer", (int, float): "a number"}

@@ -1,7 +1,7 @@
 """How many items one task of a batch carries: enough that a task takes about `TARGET`
-seconds of its worker's CPU, so that Dask's cost per task (scheduling, round trips,
-pickling, in the client, the scheduler and the worker; benchmarks/batch.py, the empty
-problem) is small next to the solves, and few enough that every
+seconds of its worker's CPU, so that Dask's cost per task (about 5 ms of CPU on the
+2-vCPU machine of benchmarks/batch.py: scheduling, round trips, pickling, in the client,
+the scheduler and the worker) is small next to the solves, and few enough that every
 worker thread still gets a couple of tasks before the batch ends."""
 
 import math
@@ -9,7 +9,7 @@ from collections import deque
 from statistics import median
 
 # CPU seconds of work one task aims at: half a second, so that the client's share of Dask's
-# cost per task stays a few per cent of a batch's CPU (benchmarks/batch.py).
+# cost per task stays a few per cent of a batch's CPU.
 TARGET = 0.5
 
 # The chunks each worker thread gets at least from the items still queued, so that the
@@ -17,8 +17,7 @@ TARGET = 0.5
 SHARES = 2
 
 # ... but no chunk carries less than FLOOR CPU seconds (unless fewer items are left): a
-# task costs Dask a few ms of CPU, which a chunk of 0.05 s keeps under a tenth
-# (benchmarks/batch.py, the empty problem).
+# task costs Dask about 5 ms of CPU, which a chunk of 0.05 s keeps under a tenth.
 FLOOR = 0.05
 
 # The most items of a chunk sized before a cost is measured: those its worker does not

@@ -3,7 +3,7 @@
 start, and Ctrl-C while the client waits. A failure of one item is never raised: it is
 that item's result."""
 
-from ..errors import DmocError
+from ..errors import DmocError, Status
 
 
 class SchedulerUnreachable(DmocError, OSError):
@@ -31,7 +31,7 @@ class BatchInterrupted(KeyboardInterrupt):
     """
 
     def __init__(self, results):
-        done = sum(r.status != "interrupted" for r in results)
+        done = sum(r.status != Status.INTERRUPTED for r in results)
         super().__init__(f"batch interrupted: {done} of {len(results)} results had arrived; "
                          "they are in `.results`, the others have status 'interrupted'.")
         self.results = results
