@@ -14,7 +14,7 @@ from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Loba
                        Trapezoid, discrete_legendre, discretize)
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
                      MissingFileError, SolverError, Status, TrajectoryFileError)
-from .mechanics import Body, HamiltonianSystem, MechanicalSystem, systems
+from .mechanics import Body, HamiltonianSystem, MechanicalSystem, RobotSystem, systems
 from .optimal_control import OptimalControlProblem, OptimizationResult, Verdict, from_waypoints
 from .optimal_control.statement import examples as problems
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
@@ -32,6 +32,7 @@ del publish
 __all__ = [
     "MechanicalSystem",
     "HamiltonianSystem",
+    "RobotSystem",
     "Body",
     "Discretization",
     "discretize",

@@ -25,6 +25,7 @@ SMALLEST = {
     "mpc": ["--horizon", "10", "--steps", "3", "--repeat", "1"],
     "peers": ["first", "--smallest"],
     "resolve": ["--smallest"],
+    "robots": ["--smallest"],
     "scaling": ["--steps", "50", "100", "--repeat", "1"],
     "step_cost": ["--smallest"],
     "verdict": ["--repeat", "1", "--steps", "100", "--rules", "midpoint"],

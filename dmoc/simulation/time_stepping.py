@@ -134,7 +134,9 @@ def conclude(run, stepped, *, final=False):
     stats = _stats(run, k, redone, float(rnorm.max()) if k else 0.0, wall)
     if interrupted:
         return _interrupted(traj, stats, run.throw)
-    return _finish(traj, stats, failed_rnorm, run.tol, run.throw)
+    explain = getattr(run.disc.system, "step_failure_hint", None)
+    hint = explain(traj.q[-1], traj.p[-1], run.disc.h) if explain and k < stats["steps"] else None
+    return _finish(traj, stats, failed_rnorm, run.tol, run.throw, hint)
 
 
 def conclude_group(runs, controls, acc, out, stepped, *, final=False):
@@ -206,8 +208,10 @@ def _interrupted(traj, stats, throw):
     return result
 
 
-def _finish(traj, stats, failed_rnorm, tol, throw):
-    """Report success, or the failed step with the trajectory before it."""
+def _finish(traj, stats, failed_rnorm, tol, throw, hint=None):
+    """Report success, or the failed step with the trajectory before it; `hint` is the
+    system's reading of the state before a failed step (`RobotSystem.step_failure_hint`),
+    None for systems without one."""
     k, steps = stats["completed_steps"], stats["steps"]
     if k == steps:
         return SimulationResult(traj, True, Status.CONVERGED,
@@ -216,13 +220,14 @@ def _finish(traj, stats, failed_rnorm, tol, throw):
     if np.isnan(failed_rnorm):
         status, what = Status.NON_FINITE, (
             f"step {k} turned NaN or Inf (t = {k * traj.h:.6g}): the residual, the next state or "
-            f"the multipliers are not finite; check the force and the controls of step {k}.")
+            f"the multipliers are not finite; "
+            + (f"{hint}." if hint else f"check the force and the controls of step {k}."))
     else:
         hint = (f"`tol` = {tol:.1e} is below the round-off floor: 1000 tol is less than the "
                 f"{ROUNDOFF_FLOOR:.1e} (100 units of round-off, relative to the momenta) "
                 f"that evaluating the residual reaches; use tol >= {ROUNDOFF_FLOOR / 1e3:.1e} "
                 f"(default 1e-12)"
-                if 1e3 * tol < ROUNDOFF_FLOOR else "try a smaller step h or check the controls")
+                if 1e3 * tol < ROUNDOFF_FLOOR else hint or "try a smaller step h or check the controls")
         status, what = Status.NEWTON_FAILED, (
             f"Newton did not converge {where}: residual max-norm {failed_rnorm:.3e} > 1000 tol "
             f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; {hint}.")

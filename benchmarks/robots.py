@@ -1,0 +1,157 @@
+"""Benchmark: what a robot from its URDF costs as the number of joints grows (issue 44).
+
+For serial chains of n revolute joints generated here as URDF text (n = 2, 4, 6, 8, 12:
+links of 0.3 m hanging along -z, masses 3 kg x 0.85^i, axes cycling z, y, y, x, y, z) and for the shipped
+models (`double_pendulum`, `arm6`): the build of `dmoc.RobotSystem` (adam's CRBA and
+centre of mass, the Lagrangian's Function; adam imported before), the SX size of L, the
+first `simulate` in CasADi's virtual machine (`jit=False`: the step's Function built), the
+virtual machine's step (a run of `--steps` steps), the first compiled run (`jit=True` with an
+empty cache folder: the step's C compiled), the compiled step, and with `--dmoc` a
+rest-to-rest DMOC end to end (problem built and `dmoc.optimize` judged, N = 20 over 1 s,
+cost u^T u + 10 v^T v, the file's limits). Midpoint rule, h = 0.01, from q = 0.1 at rest
+under zero torques (a small swing about the hanging rest, for any number of steps). Then the log-log slope of each cost against n over the chains.
+
+    python benchmarks/robots.py                         # chains of 2-12 joints, compiled
+    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
+"""
+
+import argparse
+import os
+import tempfile
+import time
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import casadi as ca  # noqa: E402
+import numpy as np  # noqa: E402
+
+import dmoc  # noqa: E402
+from dmoc.mechanics.robots import example_urdf  # noqa: E402
+
+AXES = ("0 0 1", "0 1 0", "0 1 0", "1 0 0", "0 1 0", "0 0 1")
+LINK, RADIUS = 0.3, 0.04
+H = 0.01
+
+
+def chain_urdf(n):
+    """URDF text of a serial chain of n revolute joints (solid cylinders along z)."""
+    parts = ['<?xml version="1.0"?>', f'<robot name="chain{n}">', '<link name="link0"/>']
+    for i in range(n):
+        m = 3.0 * 0.85 ** i
+        axial, across = m * RADIUS ** 2 / 2, m * (3 * RADIUS ** 2 + LINK ** 2) / 12
+        parts += [
+            f'<joint name="j{i + 1}" type="revolute"><parent link="link{i}"/>'
+            f'<child link="link{i + 1}"/><origin xyz="0 0 {-LINK if i else 0.0}" rpy="0 0 0"/>'
+            f'<axis xyz="{AXES[i % len(AXES)]}"/>'
+            f'<limit lower="-3.1416" upper="3.1416" velocity="3" effort="100"/>'
+            f'<dynamics damping="0.1"/></joint>',
+            f'<link name="link{i + 1}"><inertial><origin xyz="0 0 {-LINK / 2}" rpy="0 0 0"/>'
+            f'<mass value="{m}"/><inertia ixx="{across}" ixy="0" ixz="0" iyy="{across}" '
+            f'iyz="0" izz="{axial}"/></inertial></link>']
+    return "\n".join(parts + ["</robot>"])
+
+
+def seconds(call):
+    tic = time.perf_counter()
+    value = call()
+    return time.perf_counter() - tic, value
+
+
+def simulated(system, steps, jit):
+    """(wall seconds of the call, its result) of `steps` midpoint steps from q = 0.1."""
+    disc = dmoc.discretize(system, H)
+    return seconds(lambda: dmoc.simulate(disc, q0=np.full(system.n, 0.1), v0=np.zeros(system.n),
+                                         steps=steps, jit=jit))
+
+
+def rest_to_rest(system, steps=20):
+    """Seconds of a judged rest-to-rest DMOC over 1 s (problem built and solved), and its
+    verdict."""
+    q_start = np.full(system.n, 0.3)
+    q_goal = q_start + np.linspace(0.5, 0.2, system.n) * np.where(np.arange(system.n) % 2, -1, 1)
+
+    def solve():
+        problem = dmoc.OptimalControlProblem(
+            dmoc.discretize(system, 1.0 / steps), steps, q_start=q_start, q_goal=q_goal,
+            v_start=np.zeros(system.n), control_bounds=system.effort_limits,
+            state_bounds=system.position_limits,
+            running_cost=lambda q, v, u: ca.sumsqr(u) + 10 * ca.sumsqr(v))
+        return dmoc.optimize(problem, throw=False)
+
+    wall, result = seconds(solve)
+    return wall, result.verdict.status if result.verdict else result.status
+
+
+def measure(name, path, steps, compile_, dmoc_):
+    """One row: the costs of the model at `path`."""
+    build, system = seconds(lambda: dmoc.RobotSystem(path))
+    row = {"model": name, "n": system.n, "build": build,
+           "L nodes": system.lagrangian.n_instructions()}
+    row["first vm"], _ = simulated(system, 10, False)
+    wall, result = simulated(system, steps, False)
+    row["vm step"] = wall / steps
+    assert result.success, result.message
+    if compile_:
+        row["first compiled"], _ = simulated(system, 10, True)
+        wall, result = simulated(system, steps, True)
+        row["compiled step"] = wall / steps
+        assert result.success and result.stats["native"], result.message
+    if dmoc_:
+        row["dmoc"], row["verdict"] = rest_to_rest(system)
+    return row
+
+
+def slope(rows, key):
+    n = np.array([r["n"] for r in rows], float)
+    y = np.array([r[key] for r in rows], float)
+    return np.polyfit(np.log(n), np.log(y), 1)[0]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--joints", type=int, nargs="+", default=[2, 4, 6, 8, 12],
+                        help="chain sizes (default 2 4 6 8 12)")
+    parser.add_argument("--steps", type=int, default=2000, help="steps of a timed run")
+    parser.add_argument("--compile", action=argparse.BooleanOptionalAction, default=True,
+                        help="also the first compile and the compiled step (default on)")
+    parser.add_argument("--dmoc", action="store_true", help="also a rest-to-rest DMOC")
+    parser.add_argument("--shipped", action="store_true",
+                        help="also the shipped double_pendulum and arm6")
+    parser.add_argument("--smallest", action="store_true",
+                        help="the smallest run: --joints 2 --steps 20 --no-compile")
+    args = parser.parse_args(argv)
+    if args.smallest:
+        args.joints, args.steps, args.compile = [2], 20, False
+    import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
+
+    with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:
+        os.environ["DMOC_CACHE_DIR"] = os.path.join(folder, "cache")   # an empty cache
+        rows = []
+        for n in args.joints:
+            path = os.path.join(folder, f"chain{n}.urdf")
+            with open(path, "w") as file:
+                file.write(chain_urdf(n))
+            rows.append(measure(f"chain-{n}", path, args.steps, args.compile, args.dmoc))
+        shipped = [measure(name, example_urdf(name), args.steps, args.compile, args.dmoc)
+                   for name in (("double_pendulum", "arm6") if args.shipped else ())]
+    report(rows + shipped, rows, args)
+
+
+def report(rows, chains, args):
+    keys = [k for k in ("build", "first vm", "vm step", "first compiled", "compiled step", "dmoc")
+            if k in rows[0]]
+    print(f"load average {os.getloadavg()[0]:.2f}; h = {H}, {args.steps} steps a timed run")
+    print("| model | n | L nodes | " + " | ".join(keys) + (" | verdict |" if args.dmoc else " |"))
+    print("|---|---:|---:|" + "---:|" * len(keys) + ("---|" if args.dmoc else ""))
+    for r in rows:
+        cells = [f"{r[k] * 1e3:.3f} ms" if k.endswith("step") else f"{r[k]:.3f} s" for k in keys]
+        print(f"| {r['model']} | {r['n']} | {r['L nodes']} | " + " | ".join(cells)
+              + (f" | {r['verdict']} |" if args.dmoc else " |"))
+    if len(chains) >= 3:
+        print("log-log slopes over the chains: " + ", ".join(
+            f"{k} {slope(chains, k):.2f}" for k in ["L nodes", *keys]))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+"""The URDF files shipped with dmoc (package data of the mechanics stage): a double
+pendulum and a six-joint arm with the dimensions and masses of a UR5-class industrial arm,
+both written for dmoc.
+"""
+
+import pathlib
+
+from ..._util import checks
+
+# name -> what it is; the files are models/<name>.urdf beside this module
+EXAMPLE_MODELS = {
+    "double_pendulum": "two 1 kg, 1 m rods about parallel axes, hanging along -z",
+    "arm6": "six revolute joints, 21.3 kg with its base, a fixed tool; UR5-class lengths and masses",
+}
+
+
+def example_urdf(name):
+    """The path of a URDF file shipped with dmoc.
+
+    Parameters
+    ----------
+    name : str
+        One of ``EXAMPLE_MODELS``: "double_pendulum" or "arm6".
+
+    Returns
+    -------
+    pathlib.Path
+
+    Examples
+    --------
+    >>> example_urdf("arm6").name
+    'arm6.urdf'
+    """
+    checks.choice("name", name, tuple(EXAMPLE_MODELS))
+    return pathlib.Path(__file__).parent / "models" / f"{name}.urdf"

@@ -1,0 +1,181 @@
+"""A fixed-base robot from its URDF file as a MechanicalSystem, for the mechanics stage:
+L(q, v) = 1/2 v^T M(q) v - V(q) with the joint-space mass matrix M(q) of the composite
+rigid body algorithm and the potential V(q) = g sum_i m_i z_i(q) of the links' centres of
+mass, both built as CasADi expressions by adam [1]_ from the same file; the joint torques
+are the controls and viscous joint friction a force.
+"""
+
+import functools
+
+import casadi as ca
+import numpy as np
+
+from ..._util import checks
+from ...errors import InputError, InputTypeError
+from ..system import MechanicalSystem
+from .step_failure import step_failure_hint
+from .urdf_file import read_urdf
+
+EXTRA = "pip install 'dmoc[robots]'"
+
+
+class RobotSystem(MechanicalSystem):
+    """A fixed-base robot arm read from a URDF file, as a MechanicalSystem (n joints, n
+    torques).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The URDF file: `dmoc.mechanics.robots.example_urdf` gives the shipped ones.
+    joints : sequence of str, optional
+        The joints that move, in the order of q; the file's other movable joints are held at
+        0. Default: every movable joint, in the file's order.
+    friction : float or array_like of shape (n,), optional
+        Viscous joint friction coefficients d >= 0 (N m s/rad, N s/m); default the file's
+        ``<dynamics damping=...>`` (0 where absent).
+    gravity : float, optional
+        Gravitational acceleration g along -z of the base's frame (default 9.81 m/s^2).
+
+    Attributes
+    ----------
+    path : pathlib.Path
+    joints : tuple of dmoc.mechanics.robots.urdf_file.Joint
+        The moving joints with their limits and damping, in the order of q.
+    n, n_u : int
+        Number of moving joints (both).
+    names, control_names : tuple of str
+        The joints' names and ``tau_<joint>``, the torques' (for plots and the CSV table).
+    position_limits, effort_limits : tuple of ndarray, shapes (n,) and (n,)
+        (lower, upper) joint positions and torques of the file, +-inf where it gives none:
+        ready for `OptimalControlProblem`'s ``state_bounds`` and ``control_bounds``.
+    velocity_limits : ndarray, shape (n,)
+    friction : ndarray, shape (n,)
+    mass_matrix : casadi.Function
+        ``M(q)`` (n, n), symmetric positive definite.
+    potential : casadi.Function
+        ``V(q)``, the gravitational energy g sum_i m_i z_i(q) (the base's mass included, a
+        constant).
+
+    Notes
+    -----
+    With D = diag(friction) and the torques u as controls:
+
+        L(q, v) = 1/2 v^T M(q) v - V(q),      f(q, v, u) = u - D v,
+
+    so that the Lagrange-d'Alembert equations are M(q) v' + C(q, v) v + dV/dq = u - D v,
+    the rigid-body equations of motion (C(q, v) v the Coriolis and centrifugal terms).
+    M(q) comes from adam's composite rigid body algorithm with the base at the origin
+    (the joint block of its floating-base mass matrix) and V(q) from its centre of mass,
+    V = g m z_com; the tests check M, dV/dq and the bias terms against Pinocchio's.
+
+    References
+    ----------
+    .. [1] G. L'Erario et al., adam: Automatic Differentiation for rigid-body-dynamics
+       AlgorithMs, https://github.com/ami-iit/adam.
+
+    Examples
+    --------
+    >>> from dmoc.mechanics.robots import example_urdf
+    >>> arm = RobotSystem(example_urdf("double_pendulum"))
+    >>> (arm.n, arm.n_u, arm.names)
+    (2, 2, ('shoulder', 'elbow'))
+    """
+
+    def __init__(self, path, joints=None, *, friction=None, gravity=9.81):
+        self.path = checks.file_path("path", path)
+        movable, text = read_urdf(self.path)
+        self.joints = _chosen_joints(movable, joints)
+        n = len(self.joints)
+        g = checks.finite_float("gravity", gravity)
+        self.friction = _friction(friction, self.joints)
+        self.mass_matrix, self.potential = _rigid_body_functions(text, self.joints, g)
+        self.position_limits = (np.array([j.lower for j in self.joints]),
+                                np.array([j.upper for j in self.joints]))
+        self.effort_limits = (-np.array([j.effort for j in self.joints]),
+                              np.array([j.effort for j in self.joints]))
+        self.velocity_limits = np.array([j.velocity for j in self.joints])
+        M, V, D = self.mass_matrix, self.potential, ca.DM(self.friction)
+        super().__init__(lambda q, v: 0.5 * ca.bilin(M(q), v, v) - V(q), n,
+                         force=lambda q, v, u: u - D * v, n_u=n,
+                         names=tuple(j.name for j in self.joints),
+                         control_names=tuple(f"tau_{j.name}" for j in self.joints),
+                         units={"t": "s", "q": tuple(j.units[0] for j in self.joints),
+                                "u": tuple(j.units[1] for j in self.joints)})
+
+    @functools.cached_property
+    def stiffness(self):
+        """``K(q) = d^2V/dq^2`` (n, n), the stiffness of gravity, a casadi.Function built on
+        first use (by `step_failure_hint`)."""
+        q = ca.SX.sym("q", self.n)
+        return ca.Function("K", [q], [ca.hessian(self.potential(q), q)[0]], ["q"], ["K"])
+
+    def step_failure_hint(self, q, p, h):
+        """What a failed step at the state (q, p) with step h suggests: the joint
+        velocities, the fastest mode against h and the conditioning of M(q).
+
+        Parameters
+        ----------
+        q, p : array_like, shape (n,)
+            The last accepted configuration and momentum.
+        h : float
+
+        Returns
+        -------
+        str
+        """
+        return step_failure_hint(self, np.asarray(q, float), np.asarray(p, float), float(h))
+
+    def __repr__(self):
+        return f"RobotSystem({str(self.path)!r}, n={self.n}, names={self.names})"
+
+
+def _chosen_joints(movable, joints):
+    """The Joints named in `joints` (all of `movable` when None), in that order."""
+    if joints is None:
+        return movable
+    by_name = {j.name: j for j in movable}
+    if isinstance(joints, str) or not hasattr(joints, "__iter__"):
+        raise InputTypeError(f"`joints` must be a sequence of joint names; got "
+                             f"{type(joints).__name__}.")
+    chosen = tuple(joints)
+    unknown = [s for s in chosen if s not in by_name]
+    if unknown or not chosen or len(set(chosen)) < len(chosen):
+        raise InputError(f"`joints` must be distinct names of movable joints of the file, "
+                         f"among {list(by_name)}; got {list(chosen)}"
+                         + (f" ({unknown} not among them)." if unknown else "."))
+    return tuple(by_name[s] for s in chosen)
+
+
+def _friction(friction, joints):
+    """The friction coefficients, shape (n,): the file's damping when `friction` is None."""
+    n = len(joints)
+    if friction is None:
+        return np.array([j.damping for j in joints])
+    if np.ndim(friction) == 0:
+        return np.full(n, checks.nonnegative_float("friction", friction))
+    d = checks.vector("friction", friction, n)
+    if (d < 0).any():
+        raise InputError(f"`friction` must be >= 0 at every joint; got {d}.")
+    return d
+
+
+def _rigid_body_functions(text, joints, g):
+    """M(q) and V(q) as CasADi Functions of q (n,), built by adam from the URDF `text`."""
+    try:
+        from adam.casadi import KinDynComputations
+    except ImportError as err:
+        raise ModuleNotFoundError(f"RobotSystem reads URDF files with adam-robotics, which is "
+                                  f"not installed ({err}); install the extra: {EXTRA}.",
+                                  name="adam") from err
+    names = [j.name for j in joints]
+    try:
+        model = KinDynComputations(text, names)
+    except Exception as err:       # adam's errors on a model it cannot take, reported as ours
+        raise InputError(f"`path`: adam could not build the rigid-body model of the file with "
+                         f"the joints {names}: {type(err).__name__}: {err}") from err
+    q = ca.SX.sym("q", len(joints))
+    base = ca.SX.eye(4)
+    M = model.mass_matrix(base, q)[6:, 6:]
+    V = g * model.get_total_mass() * model.CoM_position(base, q)[2]
+    return (ca.Function("M", [q], [ca.SX(M)], ["q"], ["M"]),
+            ca.Function("V", [q], [ca.SX(V)], ["q"], ["V"]))

@@ -1,0 +1,66 @@
+"""Why a step of a robot's simulation may have failed, for the mechanics stage: from the
+last accepted state (q, p) and the step h, the joint velocities v = M(q)^-1 p, the fastest
+time scales of the motion against h, and the conditioning of the mass matrix M(q) of
+`RobotSystem` (L = 1/2 v^T M(q) v - V(q)).
+"""
+
+import numpy as np
+
+# h times a rate above which Newton's start from the previous step (an O(h |v|) guess of a
+# rotation) is no longer close: the step is too large for the motion it must resolve
+RATE_PER_STEP = 0.5
+# a mass matrix whose condition number exceeds this is called near-singular: a joint
+# with (almost) no inertia about its axis, whose velocity the torques can drive far up
+NEAR_SINGULAR = 1e8
+
+
+def step_failure_hint(system, q, p, h):
+    """A sentence for a SolverError: the joint velocities at the last accepted state, the
+    likely cause of a failed step and what to do.
+
+    Parameters
+    ----------
+    system : RobotSystem
+    q, p : ndarray, shape (n,)
+        The last accepted configuration and momentum.
+    h : float
+        The step.
+
+    Returns
+    -------
+    str
+
+    Notes
+    -----
+    The rates compared with 1/h are the largest joint speed |v_i| (rad/s: the rotation of a
+    step is h |v_i|) and the largest frequency omega of the linearized free motion about q,
+    omega^2 the largest |eigenvalue| of M(q)^-1 K(q) with K = d^2V/dq^2 the stiffness of
+    gravity, and the largest friction rate, eigenvalue of M(q)^-1 D.
+    """
+    M = np.array(system.mass_matrix(q))
+    v = np.linalg.solve(M, p)
+    inertia = np.linalg.eigvalsh(M)
+    condition = inertia[-1] / inertia[0] if inertia[0] > 0 else np.inf
+    K = np.array(system.stiffness(q))
+    omega = np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(M, K))).max())
+    damping = np.abs(np.linalg.eigvals(np.linalg.solve(M, np.diag(system.friction)))).max()
+    fastest = int(np.argmax(np.abs(v)))
+    speeds = ", ".join(f"{name} {x:.3g}" for name, x in zip(system.names, v))
+    state = (f"joint velocities at the last accepted step: {speeds} "
+             f"({system.units['q'][fastest]}/s); M(q) has condition number {condition:.2g} "
+             f"(eigenvalues {inertia[0]:.2g} to {inertia[-1]:.2g}), the fastest gravity mode "
+             f"omega = {omega:.3g} rad/s")
+    rate = max(abs(v[fastest]), omega, damping)
+    if condition > NEAR_SINGULAR:
+        cause = ("likely cause: near-singular inertia, a link with (almost) no inertia about "
+                 "a joint axis, whose joint speeds up without bound; give the links realistic "
+                 "inertias in the URDF (or lock that joint with `joints=`) and take a smaller h")
+    elif h * rate > RATE_PER_STEP:
+        cause = (f"likely cause: h = {h:.3g} is too large for the fastest motion (h times its "
+                 f"rate {rate:.3g}/s is {h * rate:.2g}); take h <= {RATE_PER_STEP / 2 / rate:.2g}, "
+                 f"or check the torques against `effort_limits` if they drive the motion")
+    else:
+        cause = ("neither a fast motion nor a near-singular M(q) explains it; check the "
+                 "controls against `effort_limits` and try a smaller h")
+    return f"{state}; {cause}"
+

@@ -1,0 +1,288 @@
+"""Robots from their URDF files (`dmoc.RobotSystem`) against Pinocchio, which reads the same
+files with its own parser and rigid-body algorithms: the mass matrix, the gravity torques,
+the bias terms C(q, v) v + G(q) and the friction of the system's Lagrangian and force equal
+Pinocchio's numeric ones to 1e-12 (relative) at random states; the simulated double
+pendulum and arm converge at the rule's order to DOP853 on Pinocchio's forward dynamics
+(`aba`); a rest-to-rest DMOC of the arm passes its verdict and its controls, integrated by
+DOP853 on Pinocchio's dynamics, reach the goal."""
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import dmoc
+from dmoc.mechanics.robots import EXAMPLE_MODELS, example_urdf
+
+pytest.importorskip("adam.casadi", reason="the robots extra (adam-robotics[casadi]) is not "
+                    "installed: pip install -e '.[test]'")
+pin = pytest.importorskip("pinocchio", reason="Pinocchio (pin), the tests' oracle, is not "
+                          "installed: pip install -e '.[test]'")
+
+GRAVITY = 9.81
+
+
+def pinocchio_model(path, locked=()):
+    """Pinocchio's model of the URDF at `path` with g = 9.81 along -z, the joints named in
+    `locked` held at 0."""
+    model = pin.buildModelFromUrdf(str(path))
+    model.gravity.linear[:] = [0.0, 0.0, -GRAVITY]
+    if locked:
+        model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked],
+                                      np.zeros(model.nq))
+        model.gravity.linear[:] = [0.0, 0.0, -GRAVITY]
+    return model, model.createData()
+
+
+def lagrangian_terms(system):
+    """(M(q), G(q), C(q, v) v + G(q), f(q, v, 0)) as Functions, each from the system's own L
+    and f by differentiation: M = d2L/dv2, G = -dL/dq at v = 0, and the bias of Lagrange's
+    equations d2L/dv dq v - dL/dq."""
+    q, v = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n)
+    L = system.lagrangian(q, v)
+    dL_dv, dL_dq = ca.gradient(L, v), ca.gradient(L, q)
+    bias = ca.jtimes(dL_dv, q, v) - dL_dq
+    G = -ca.substitute(dL_dq, v, ca.SX.zeros(system.n))
+    return (ca.Function("M", [q], [ca.hessian(L, v)[0]]), ca.Function("G", [q], [G]),
+            ca.Function("b", [q, v], [bias]),
+            ca.Function("f", [q, v], [system.force(q, v, ca.SX.zeros(system.n_u))]))
+
+
+def close(ours, theirs):
+    """Equal to 1e-12 relative to the size of Pinocchio's value (at least 1)."""
+    ours, theirs = np.asarray(ours, float).reshape(np.shape(theirs)), np.asarray(theirs)
+    return np.abs(ours - theirs).max() <= 1e-12 * max(1.0, np.abs(theirs).max())
+
+
+def symmetric(M):
+    return np.triu(M) + np.triu(M, 1).T
+
+
+@pytest.fixture(scope="module", params=sorted(EXAMPLE_MODELS))
+def robot(request):
+    path = example_urdf(request.param)
+    return dmoc.RobotSystem(path), pinocchio_model(path)
+
+
+def test_mass_matrix_gravity_bias_and_friction_equal_pinocchio(robot):
+    system, (model, data) = robot
+    M, G, bias, friction = lagrangian_terms(system)
+    rng = np.random.default_rng(7)
+    for _ in range(30):
+        q, v = rng.uniform(-np.pi, np.pi, system.n), rng.uniform(-3, 3, system.n)
+        assert close(M(q), symmetric(pin.crba(model, data, q)))
+        assert close(system.mass_matrix(q), symmetric(pin.crba(model, data, q)))
+        assert close(G(q), pin.computeGeneralizedGravity(model, data, q))
+        assert close(bias(q, v), pin.nonLinearEffects(model, data, q, v))
+        assert close(friction(q, v), -model.damping * v)
+
+
+def test_limits_and_names_are_the_files(robot):
+    system, (model, _) = robot
+    assert system.names == tuple(model.names[1:])
+    np.testing.assert_array_equal(system.position_limits[0], model.lowerPositionLimit)
+    np.testing.assert_array_equal(system.position_limits[1], model.upperPositionLimit)
+    np.testing.assert_array_equal(system.effort_limits[1], model.effortLimit)
+    np.testing.assert_array_equal(system.effort_limits[0], -model.effortLimit)
+    np.testing.assert_array_equal(system.velocity_limits, model.velocityLimit)
+    assert system.units["u"] == ("N m",) * system.n and system.units["q"] == ("rad",) * system.n
+
+
+def test_chosen_joints_move_and_the_others_are_held_at_zero():
+    """`joints=`: the arm with its shoulder lift and elbow only equals Pinocchio's model
+    reduced with the other four joints locked at 0, in the order asked for."""
+    path, chosen = example_urdf("arm6"), ["elbow", "shoulder_lift"]
+    system = dmoc.RobotSystem(path, chosen, friction=[0.3, 0.0])
+    model, data = pinocchio_model(path, locked=["shoulder_pan", "wrist_1", "wrist_2", "wrist_3"])
+    swap = [1, 0]                 # Pinocchio keeps the file's order: shoulder_lift, elbow
+    M, G, bias, friction = lagrangian_terms(system)
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        q, v = rng.uniform(-np.pi, np.pi, 2), rng.uniform(-3, 3, 2)
+        assert close(M(q), symmetric(pin.crba(model, data, q[swap]))[np.ix_(swap, swap)])
+        assert close(bias(q, v), pin.nonLinearEffects(model, data, q[swap], v[swap])[swap])
+        assert close(friction(q, v), -np.array([0.3, 0.0]) * v)
+
+
+def test_a_file_omitting_what_the_specification_defaults_equals_pinocchio(tmp_path):
+    """The URDF specification lets a joint omit its <origin> (identity) and <axis> (x) and
+    an <inertial> its <origin>; adam 0.5 fails on such files unless dmoc writes the
+    defaults out for it."""
+    text = example_urdf("double_pendulum").read_text()
+    text = text.replace('<origin xyz="0 0 0" rpy="0 0 0"/>', "", 1)            # shoulder
+    text = text.replace('<axis xyz="0 1 0"/>', "", 1)                           # shoulder
+    text = text.replace('<origin xyz="0 0 -0.5" rpy="0 0 0"/>', "", 1)         # upper rod
+    assert text.count("<origin") == 2 and text.count("<axis") == 1
+    path = tmp_path / "defaults.urdf"
+    path.write_text(text)
+    system, (model, data) = dmoc.RobotSystem(path), pinocchio_model(path)
+    M, _, bias, _ = lagrangian_terms(system)
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        q, v = rng.uniform(-np.pi, np.pi, 2), rng.uniform(-3, 3, 2)
+        assert close(M(q), symmetric(pin.crba(model, data, q)))
+        assert close(bias(q, v), pin.nonLinearEffects(model, data, q, v))
+
+
+# ---------------------------------------------------------------------------------------
+# Simulation against DOP853 on Pinocchio's forward dynamics
+
+def pinocchio_final_state(path, q0, v0, controls, h):
+    """(q, v) at the end of piecewise constant torques `controls` (N, n) held over steps
+    h, by DOP853 on q'' = aba(q, v, u - D v), D Pinocchio's damping from the file."""
+    model, data = pinocchio_model(path)
+    n, y = len(q0), np.concatenate([q0, v0])
+    for u in controls:
+        def rhs(t, y, u=u):
+            q, v = y[:n], y[n:]
+            return np.concatenate([v, pin.aba(model, data, q, v, u - model.damping * v)])
+        y = solve_ivp(rhs, (0, h), y, method="DOP853", rtol=1e-13, atol=1e-12).y[:, -1]
+    return y[:n], y[n:]
+
+
+def final_error(system, rule, q0, v0, u, T, steps):
+    disc = dmoc.discretize(system, T / steps, rule)
+    result = dmoc.simulate(disc, q0=q0, v0=v0, steps=steps, controls=np.tile(u, (steps, 1)))
+    return result.trajectory.q[-1]
+
+
+CONVERGENCE = {   # model: (q0, v0, constant torques u, T)
+    "double_pendulum": ([0.8, -0.5], [0.0, 1.0], [0.5, -0.2], 1.0),
+    "arm6": ([0.1, -0.6, 1.0, -0.4, 0.3, 0.0], [0.5, 0.0, -0.5, 0.3, 0.0, 1.0],
+             [2.0, 10.0, 5.0, 0.5, 0.1, 0.01], 0.5),
+}
+
+
+@pytest.mark.parametrize("rule, order, steps", [("midpoint", 2, [20, 40, 80]),
+                                                ("lobatto3", 4, [10, 20, 40])])
+@pytest.mark.parametrize("name", sorted(CONVERGENCE))
+def test_converges_to_dop853_on_pinocchio_at_the_rule_order(name, rule, order, steps):
+    path = example_urdf(name)
+    q0, v0, u, T = (np.array(x, float) for x in CONVERGENCE[name])
+    q_ref, _ = pinocchio_final_state(path, q0, v0, [u], T)
+    system = dmoc.RobotSystem(path)
+    errors = [np.abs(final_error(system, rule, q0, v0, u, T, N) - q_ref).max() for N in steps]
+    slope = -np.polyfit(np.log(steps), np.log(errors), 1)[0]
+    assert abs(slope - order) < 0.35, (errors, slope)
+    assert errors[-1] < 0.01 * np.abs(q_ref - q0).max(), errors      # within 1 % of the motion
+
+
+# ---------------------------------------------------------------------------------------
+# Optimal control
+
+def test_rest_to_rest_motion_of_the_arm_passes_and_follows_pinocchio():
+    """N = 20 steps over 1 s within the file's position and torque limits; cost u^T u +
+    10 v^T v (u^T u alone leaves the light last wrist nearly free and the grid does not
+    resolve its motion: verdict "under_resolved"). Each step of the optimum, from
+    (q_k, v_k = M(q_k)^-1 p_k) with its torque held, agrees with DOP853 on Pinocchio's
+    dynamics to the rule's local error O(h^3): measured 1.4e-3 rad at h = 0.05, against
+    the 1 % of the motion (5e-3 rad) asked; a wrong sign of gravity alone would put
+    g h^2 / 2 = 1.2e-2 rad into a step."""
+    arm, path = dmoc.RobotSystem(example_urdf("arm6")), example_urdf("arm6")
+    q_start = np.array([0.0, -0.5, 1.0, -0.5, 0.0, 0.0])
+    q_goal = np.array([0.5, -0.8, 1.2, -0.3, 0.3, 0.2])
+    N, h = 20, 0.05
+    problem = dmoc.OptimalControlProblem(
+        dmoc.discretize(arm, h), N, q_start=q_start, q_goal=q_goal, v_start=np.zeros(6),
+        control_bounds=arm.effort_limits, state_bounds=arm.position_limits,
+        running_cost=lambda q, v, u: ca.sumsqr(u) + 10 * ca.sumsqr(v))
+    result = dmoc.optimize(problem)
+    assert result.success and result.verdict.status == "passed"
+    traj = result.trajectory
+    assert (np.abs(traj.u) <= arm.effort_limits[1] + 1e-9).all()
+    np.testing.assert_allclose(traj.q[-1], q_goal, atol=1e-9)
+    defects = []
+    for k in range(N):
+        v = np.linalg.solve(symmetric(pin.crba(*pinocchio_model(path), traj.q[k])), traj.p[k])
+        q_next, _ = pinocchio_final_state(path, traj.q[k], v, [traj.u[k]], h)
+        defects.append(np.abs(q_next - traj.q[k + 1]).max())
+    assert max(defects) < 0.01 * np.abs(q_goal - q_start).max(), defects
+
+
+# ---------------------------------------------------------------------------------------
+# Failures explained, bad input
+
+def test_a_step_too_large_for_the_motion_is_explained():
+    pendulum = dmoc.RobotSystem(example_urdf("double_pendulum"))
+    with pytest.raises(dmoc.SolverError) as failure:
+        dmoc.simulate(dmoc.discretize(pendulum, 0.1), q0=[2.0, 1.0], v0=[20.0, -30.0], steps=200)
+    message = str(failure.value)
+    assert "joint velocities at the last accepted step: shoulder" in message
+    assert "h = 0.1 is too large for the fastest motion" in message
+    assert failure.value.result.status == "newton_failed"
+
+
+NEAR_SINGULAR_URDF = """<?xml version="1.0"?>
+<robot name="weightless_forearm">
+  <link name="base"/>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" velocity="10" effort="10"/>
+  </joint>
+  <link name="upper">
+    <inertial><origin xyz="0 0 -0.5"/><mass value="1"/>
+      <inertia ixx="0.08" ixy="0" ixz="0" iyy="0.08" iyz="0" izz="0.001"/></inertial>
+  </link>
+  <joint name="elbow" type="revolute">
+    <parent link="upper"/><child link="lower"/><origin xyz="0 0 -1"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" velocity="10" effort="10"/>
+  </joint>
+  <link name="lower">
+    <inertial><origin xyz="0 0 -0.0001"/><mass value="0.1"/>
+      <inertia ixx="1e-10" ixy="0" ixz="0" iyy="1e-10" iyz="0" izz="1e-10"/></inertial>
+  </link>
+</robot>
+"""
+
+
+def test_a_near_singular_inertia_is_named(tmp_path):
+    """A forearm whose mass sits 0.1 mm from the elbow's axis with (almost) no inertia
+    about it: M(q) has condition number 5e8, and a torque on the elbow spins it up at
+    1e9 rad/s^2."""
+    path = tmp_path / "weightless_forearm.urdf"
+    path.write_text(NEAR_SINGULAR_URDF)
+    system = dmoc.RobotSystem(path)
+    controls = np.tile([0.0, 1.0], (50, 1))
+    result = dmoc.simulate(dmoc.discretize(system, 0.01), q0=[0.3, 0.0], v0=[0.0, 0.0],
+                           steps=50, controls=controls, throw=False)
+    assert result.status == "newton_failed"
+    assert "M(q) has condition number 5e+08" in result.message
+    assert "likely cause: near-singular inertia" in result.message
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), ["elbow", "knee"]), r"`joints`.*'knee'"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), ["elbow", "elbow"]), r"`joints` must be distinct"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), "elbow"), r"`joints` must be a sequence"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), [3]), r"`joints`.*\[3\] not among them"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), friction=-1.0), r"`friction`"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), friction=[0.1, 0.2]), r"`friction` must have shape \(6,\)"),
+    (lambda: dmoc.RobotSystem(example_urdf("arm6"), gravity=float("nan")), r"`gravity`"),
+    (lambda: dmoc.RobotSystem("no/such/robot.urdf"), r"`path` must be an existing file"),
+    (lambda: example_urdf("panda"), r"`name` must be one of 'double_pendulum', 'arm6'"),
+])
+def test_bad_arguments_name_the_argument(call, match):
+    with pytest.raises(dmoc.DmocError, match=match):
+        call()
+
+
+@pytest.mark.parametrize("text, match", [
+    ("<robot name='r'><link name='a'/></robot>", "has none"),
+    ("<model/>", "root element <robot>"),
+    ("<robot", "does not parse"),
+    ("<robot name='r'><joint name='base' type='floating'/></robot>", "type 'floating'"),
+    ("<robot name='r'><joint name='j' type='revolute'><limit lower='1' upper='-1'/></joint></robot>",
+     "lower < upper"),
+])
+def test_files_dmoc_cannot_take_are_refused_with_the_reason(tmp_path, text, match):
+    path = tmp_path / "robot.urdf"
+    path.write_text(text)
+    with pytest.raises(dmoc.InputError, match=match):
+        dmoc.RobotSystem(path)
+
+
+def test_without_adam_the_message_names_the_extra(monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "adam.casadi", None)
+    with pytest.raises(ModuleNotFoundError, match=r"dmoc\[robots\]"):
+        dmoc.RobotSystem(example_urdf("double_pendulum"))
