@@ -159,18 +159,20 @@ class Batch:
     def _fill(self, threads):
         """Submit chunks of queued items while fewer than CHUNKS_PER_THREAD per worker
         thread are in flight: consecutive items of one shipment, as many as
-        `ChunkSizes.next` says, with its `budget`, all in one message to the scheduler
+        `ChunkSizes.next` says for the queue before the first of them (so the chunks of
+        the first call, one or two per worker thread, are equal and the workers' first
+        rounds end together), with its `budget`, all in one message to the scheduler
         (`distributed.Client.map`: the client batches the messages it sends within 10 ms
         of each other, so chunks submitted one by one reach the second worker 10 ms after
         the first). An item whose chunk lost its workers goes alone, and while such items
         are left only one task is in flight, so that a worker's death fails that task
         alone. `threads`: the cluster's worker threads."""
         limit = 1 if self.alone else CHUNKS_PER_THREAD * threads
-        chunks = []
+        chunks, share = [], self.sizes.next(len(self.queued), threads)
         while self.queued and len(self.flying) + len(chunks) < limit:
             first = self.queued.popleft()
             digest, chunk = self.items[first][0], [first]
-            size = 1 if first in self.alone else self.sizes.next(len(self.queued) + 1, threads)
+            size = 1 if first in self.alone else share
             while (len(chunk) < size and self.queued and self.queued[0] not in self.alone
                    and self.items[self.queued[0]][0] == digest):
                 chunk.append(self.queued.popleft())
