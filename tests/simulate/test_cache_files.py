@@ -112,3 +112,17 @@ def test_a_compile_on_a_full_disk_says_the_disk_is_full(full_disk, monkeypatch, 
     assert "syntax" not in str(info.value).split("\n")[0]
     filler.unlink()
     assert np.isfinite(np.array(big.load()["f"](np.ones(40)))).all()
+
+
+def test_a_link_met_on_the_walk_is_refused_even_to_a_folder_of_this_uid(tmp_path, monkeypatch):
+    """A link that appears on the path after it was resolved (another account swapping it)
+    is refused, not followed, even when it leads to a private folder of this uid: the
+    folder the caller checked must be the one it uses. Simulated by a path whose resolution
+    is skipped (the race's window)."""
+    from dmoc._util import private_folder as folders
+    mine = tmp_path / "mine"
+    mine.mkdir(mode=0o700)
+    (tmp_path / "swapped").symlink_to(mine)
+    monkeypatch.setattr(folders.os.path, "realpath", lambda path: str(path))
+    with pytest.raises(CompiledCodeError, match="is a link"):
+        folders.private_folder(tmp_path / "swapped")
