@@ -13,7 +13,7 @@ from ._obstacles import draw_obstacles, obstacle_extent, obstacle_values
 from .._util import checks
 from .._util.files import atomic_path
 from ..errors import InputError
-from ..mechanics.bodies import Body, segment
+from ..mechanics.bodies import Body, heading_axes, segment
 from ..principle.trajectory import Trajectory
 
 SHAPES = ("blade", "coin", "point")
@@ -208,7 +208,7 @@ def _stock_bodies(shape, x, y, heading, roll, size):
     r = size / 2
 
     def ahead(q):                                   # the unit vector along the heading
-        return np.array([np.cos(q[heading]), np.sin(q[heading])])
+        return heading_axes(q[heading])[0]
 
     if shape == "blade":
         return (Body("blade", lambda q: segment(q[[x, y]], q[heading], size), closed=False,
@@ -218,11 +218,11 @@ def _stock_bodies(shape, x, y, heading, roll, size):
         s = np.linspace(0, 2 * np.pi, 41)
 
         def rim(q):                                 # seen obliquely: the normal squashed
-            e, n = ahead(q), np.array([-np.sin(q[heading]), np.cos(q[heading])])
+            e, n = heading_axes(q[heading])
             return q[[x, y]] + r * np.outer(np.cos(s), e) + 0.3 * r * np.outer(np.sin(s), n)
 
         def spoke(q):
-            e, n = ahead(q), np.array([-np.sin(q[heading]), np.cos(q[heading])])
+            e, n = heading_axes(q[heading])
             angle = 0.0 if roll is None else q[roll]
             return np.array([q[[x, y]], q[[x, y]] - r * np.sin(angle) * e + 0.3 * r * np.cos(angle) * n])
 
