@@ -76,18 +76,25 @@ class Body:
         return f"Body({self.name!r}, closed={self.closed})"
 
 
+def heading_axes(heading):
+    """The unit vectors along the direction at angle `heading` and across it (turned a
+    quarter turn counter-clockwise), each of shape (2,)."""
+    return (np.array([np.cos(heading), np.sin(heading)]),
+            np.array([-np.sin(heading), np.cos(heading)]))
+
+
 def rectangle(centre, heading, length, width):
     """The corners of a rectangle in the plane, shape (4, 2): centred at `centre` (2,), its
     `length` along the direction at angle `heading` and its `width` across it."""
-    e = np.array([np.cos(heading), np.sin(heading)]) * length / 2
-    n = np.array([-np.sin(heading), np.cos(heading)]) * width / 2
+    e, n = heading_axes(heading)
+    e, n = e * length / 2, n * width / 2
     return np.asarray(centre, dtype=float) + np.array([-e - n, e - n, e + n, -e + n])
 
 
 def segment(centre, heading, length):
     """The two ends of a segment in the plane, shape (2, 2): centred at `centre` (2,), of
     `length` along the direction at angle `heading`."""
-    e = np.array([np.cos(heading), np.sin(heading)]) * length / 2
+    e = heading_axes(heading)[0] * length / 2
     return np.asarray(centre, dtype=float) + np.array([-e, e])
 
 

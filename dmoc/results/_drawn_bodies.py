@@ -28,15 +28,16 @@ def body_color(body, i):
 
 
 class DrawnBodies:
-    """The artists of `bodies` at one configuration; `move` places them at another.
+    """The artists of `bodies` at one configuration's outlines; `move` places them at
+    another's (each outline evaluated once by `outlines`, never again here).
 
     Parameters
     ----------
     ax : matplotlib.axes.Axes
     bodies : tuple of Body
-    q : ndarray, shape (n,)
-        The first configuration (its outlines decide each body's artist: a single point is
-        a marker, a closed outline a polygon, an open one a line).
+    points : list of ndarray, shape (k, 2)
+        The outline of each body at the first configuration (one entry of `outlines`): a
+        single point is a marker, a closed outline a polygon, an open one a line.
     alpha : float
         Opacity of the polygons' fill (edges, lines and markers are opaque).
     legend : bool
@@ -50,13 +51,13 @@ class DrawnBodies:
         One per body, with gid "body <name>".
     """
 
-    def __init__(self, ax, bodies, q, *, alpha=0.35, legend=True, animated=False, zorder=1.5):
+    def __init__(self, ax, bodies, points, *, alpha=0.35, legend=True, animated=False, zorder=1.5):
         from matplotlib.colors import to_rgba
         from matplotlib.patches import Polygon
 
         self.bodies, self.artists = bodies, []
-        for i, body in enumerate(bodies):
-            points, color = body.points(q), body_color(body, i)
+        for i, (body, points) in enumerate(zip(bodies, points)):
+            color = body_color(body, i)
             label = body.name if legend else "_nolegend_"
             if len(points) == 1:
                 artist, = ax.plot(*points.T, "o", color=color, ms=6, label=label, zorder=zorder)
@@ -71,17 +72,16 @@ class DrawnBodies:
             artist.set_animated(animated)
             self.artists.append(artist)
 
-    def move(self, q):
-        """Place every body at the configuration `q` (shape (n,))."""
-        for body, artist in zip(self.bodies, self.artists):
-            points = body.points(q)
+    def move(self, points):
+        """Place every body at its outline `points` (one entry of `outlines`)."""
+        for artist, points in zip(self.artists, points):
             if hasattr(artist, "set_xy"):
                 artist.set_xy(points)
             else:
                 artist.set_data(*points.T)
 
 
-def body_points(bodies, q):
-    """Every outline point of `bodies` at the configurations `q` (shape (K, n)), shape (k, 2)."""
-    rows = [body.points(qk) for qk in np.atleast_2d(q) for body in bodies]
-    return np.concatenate(rows) if rows else np.empty((0, 2))
+def outlines(bodies, q):
+    """The outlines of `bodies` at the configurations `q` (shape (K, n)): K lists of one
+    array of shape (k, 2) per body, for `DrawnBodies` and the plots' limits alike."""
+    return [[body.points(qk) for body in bodies] for qk in np.atleast_2d(q)]

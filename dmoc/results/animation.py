@@ -8,12 +8,12 @@ per frame, and written by Pillow (both imported lazily).
 import numpy as np
 
 from ._canvas import label, not_to_scale_note, plane_limits, units_of
-from ._drawn_bodies import DrawnBodies, body_points, body_values
+from ._drawn_bodies import DrawnBodies, body_values, outlines
 from ._obstacles import draw_obstacles, obstacle_extent, obstacle_values
 from .._util import checks
 from .._util.files import atomic_path
 from ..errors import InputError
-from ..mechanics.bodies import Body, segment
+from ..mechanics.bodies import Body, heading_axes, segment
 from ..principle.trajectory import Trajectory
 
 SHAPES = ("blade", "coin", "point")
@@ -93,24 +93,25 @@ def animate(traj, path, *, bodies=None, shape=None, x=0, y=1, heading=None, roll
                                      x, y, heading, roll, size)
     knots = np.unique(np.linspace(0, traj.steps, frames).round().astype(int))
     g = None if goal is None else goal[[x, y]]
-    shown = np.r_[q[:, [x, y]], body_points(bodies, q[knots]),
-                  g[None] if g is not None and np.isfinite(g).all() else np.empty((0, 2))]
+    drawn_at = outlines(bodies, q[knots])         # each frame's outlines, evaluated once
+    shown = np.concatenate([q[:, [x, y]], *[p for frame in drawn_at for p in frame],
+                            g[None] if g is not None and np.isfinite(g).all() else np.empty((0, 2))])
     box = np.array([shown.min(axis=0), shown.max(axis=0)])
     xlim, ylim, to_scale = plane_limits(np.r_[box, obstacle_extent(obstacles, box)])
     fig, ax = _canvas(_widened((xlim, ylim)) if to_scale else (xlim, ylim), to_scale)
     draw_obstacles(ax, obstacles)
     _frame_axes(ax, g, [label(s, units["q"][c]) for s, c in zip(labels, (x, y))], title)
     trail, = ax.plot([], [], "-", color="C0", lw=1, animated=True, zorder=2)
-    drawn = DrawnBodies(ax, bodies, q[0], alpha=0.5, legend=False, animated=True, zorder=3)
+    drawn = DrawnBodies(ax, bodies, drawn_at[0], alpha=0.5, legend=False, animated=True, zorder=3)
     clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", animated=True)
     _fit(fig, ax)
     fig.canvas.draw()
     background = fig.canvas.copy_from_bbox(fig.bbox)
     images = []
-    for k in knots:                               # only the moving artists are drawn again
+    for k, points in zip(knots, drawn_at):        # only the moving artists are drawn again
         fig.canvas.restore_region(background)
         trail.set_data(q[: k + 1, x], q[: k + 1, y])
-        drawn.move(q[k])
+        drawn.move(points)
         clock.set_text(f"t = {traj.t[k]:.2f}" + (f" {units['t']}" if units["t"] else ""))
         for artist in (trail, *drawn.artists, clock):
             ax.draw_artist(artist)
@@ -207,7 +208,7 @@ def _stock_bodies(shape, x, y, heading, roll, size):
     r = size / 2
 
     def ahead(q):                                   # the unit vector along the heading
-        return np.array([np.cos(q[heading]), np.sin(q[heading])])
+        return heading_axes(q[heading])[0]
 
     if shape == "blade":
         return (Body("blade", lambda q: segment(q[[x, y]], q[heading], size), closed=False,
@@ -217,11 +218,11 @@ def _stock_bodies(shape, x, y, heading, roll, size):
         s = np.linspace(0, 2 * np.pi, 41)
 
         def rim(q):                                 # seen obliquely: the normal squashed
-            e, n = ahead(q), np.array([-np.sin(q[heading]), np.cos(q[heading])])
+            e, n = heading_axes(q[heading])
             return q[[x, y]] + r * np.outer(np.cos(s), e) + 0.3 * r * np.outer(np.sin(s), n)
 
         def spoke(q):
-            e, n = ahead(q), np.array([-np.sin(q[heading]), np.cos(q[heading])])
+            e, n = heading_axes(q[heading])
             angle = 0.0 if roll is None else q[roll]
             return np.array([q[[x, y]], q[[x, y]] - r * np.sin(angle) * e + 0.3 * r * np.cos(angle) * n])
 

@@ -8,7 +8,7 @@ whole, to scale unless the motion is long and thin (`_canvas.plane_limits`).
 import numpy as np
 
 from ._canvas import finish, label, not_to_scale_note, plane_limits, single_axes, units_of
-from ._drawn_bodies import DrawnBodies, body_values
+from ._drawn_bodies import DrawnBodies, body_values, outlines
 from ._obstacles import draw_obstacles, obstacle_extent, obstacle_values
 from .._util import checks
 from ..principle.trajectory import Trajectory
@@ -87,8 +87,8 @@ def plot_path(traj, *, x=0, y=1, heading=None, goal=None, labels=("x", "y"), uni
     if goal is not None:
         _goal(ax, goal, x, y, heading, 1.5 * length)
     for i, k in enumerate(_evenly_along(q[:, [x, y]], max(poses, 2)) if bodies else ()):
-        DrawnBodies(ax, bodies, q[k], alpha=0.1 + 0.3 * i / max(poses - 1, 1),
-                    legend=k == len(q) - 1)
+        DrawnBodies(ax, bodies, outlines(bodies, q[k])[0],
+                    alpha=0.1 + 0.3 * i / max(poses - 1, 1), legend=k == len(q) - 1)
     _set_limits(ax, obstacles)
     draw_obstacles(ax, obstacles)
     ax.set_xlabel(label(labels[0], unit[x]))

@@ -5,10 +5,9 @@ force and a steering torque.
 """
 
 import casadi as ca
-import numpy as np
 
 from ..._util import checks
-from ..bodies import Body, rectangle, segment
+from ..bodies import Body, heading_axes, rectangle, segment
 from ..system import MechanicalSystem
 
 
@@ -92,11 +91,11 @@ def car(mass=1500.0, yaw_inertia=2500.0, steering_inertia=1.0, wheelbase=2.7, co
         return ca.vertcat(u[0] * ca.cos(q[2]), u[0] * ca.sin(q[2]), 0, u[1])
 
     def body(q):
-        e = np.array([np.cos(q[2]), np.sin(q[2])])
+        e = heading_axes(q[2])[0]
         return rectangle(q[:2] + l / 2 * e, q[2], l + 2 * OVERHANG, WIDTH)
 
     def front_wheel(q):
-        return segment(q[:2] + l * np.array([np.cos(q[2]), np.sin(q[2])]), q[2] + q[3], WHEEL)
+        return segment(q[:2] + l * heading_axes(q[2])[0], q[2] + q[3], WHEEL)
 
     return MechanicalSystem(lagrangian, 4, constraints=constraints, force=force, n_u=2,
                             names=("x", "y", "theta", "delta"),

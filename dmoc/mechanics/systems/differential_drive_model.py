@@ -5,10 +5,9 @@ torques as controls.
 """
 
 import casadi as ca
-import numpy as np
 
 from ..._util import checks
-from ..bodies import Body, rectangle, segment
+from ..bodies import Body, heading_axes, rectangle, segment
 from ..system import MechanicalSystem
 
 
@@ -79,7 +78,7 @@ def differential_drive(mass=10.0, yaw_inertia=0.5, wheel_inertia=0.01, wheel_rad
 
     def wheel(side):
         def outline(q):
-            n = np.array([-np.sin(q[2]), np.cos(q[2])])
+            n = heading_axes(q[2])[1]
             return segment(q[:2] + side * w * n, q[2], 2 * r)
         return outline
 

@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ..bodies import Body
+from ..bodies import Body, heading_axes
 from ..given import constraint_violation_tolerance
 from ..system import MechanicalSystem
 from ...errors import InputError, InputTypeError
@@ -83,7 +83,7 @@ BLADE = 0.3     # m, the length of the drawn blade
 def _blade(q):
     """The outline of the blade at q = (x, y, theta), shape (5, 2): a thin strip pointed
     along the heading."""
-    e, n = np.array([np.cos(q[2]), np.sin(q[2])]), np.array([-np.sin(q[2]), np.cos(q[2])])
+    e, n = heading_axes(q[2])
     along, across = np.array([-0.5, 0.35, 0.5, 0.35, -0.5]), np.array([-1, -1, 0, 1, 1])
     return q[:2] + BLADE * np.outer(along, e) + 0.03 * BLADE * np.outer(across, n)
 
