@@ -12,7 +12,7 @@ import numpy as np
 from .._util import checks
 from .._util.numeric import Evaluator
 from ..errors import InputError, InputTypeError
-from ..mechanics.given import constraint_violation_tolerance, numeric
+from ..mechanics.given import constraint_violation_tolerance, holonomic_residual, numeric
 from ..optimal_control.statement.boundary import outside_bounds
 
 MEASUREMENT = ("project", "refuse")
@@ -138,10 +138,9 @@ class MeasurementPolicy:
         if outside:
             found["state_bounds"] = outside
         if self.system.n_holonomic:
-            g = numeric(self.system, "holonomic")(q)[0].ravel()
-            J = self._holonomic_jacobian(q)
-            worst = int(np.argmax(np.abs(g)))
-            if abs(g[worst]) > constraint_violation_tolerance(np.abs(q).max() * np.abs(J).max()):
+            g, off = holonomic_residual(self.system, q)
+            if off:
+                worst = int(np.argmax(np.abs(g)))
                 found["holonomic"] = [f"g(q)[{worst}] = {g[worst]:.3e} (allowed: 0)"]
         return found
 
