@@ -12,7 +12,8 @@ import numpy as np
 from .._util import checks
 from .._util.numeric import Evaluator
 from ..errors import InputError, InputTypeError
-from ..mechanics.given import constraint_violation_tolerance, numeric
+from ..mechanics.given import constraint_violation_tolerance, holonomic_residual, numeric
+from ..optimal_control.statement.boundary import outside_bounds
 
 MEASUREMENT = ("project", "refuse")
 _NEWTON_STEPS = 30      # closest-point iterations on g(q) = 0; noise needs 2-4
@@ -131,17 +132,15 @@ class MeasurementPolicy:
         """{"state_bounds": [...], "holonomic": [...]}: each violation of the measured q
         in words, with its value and bound; no key without one."""
         names, found = self.system.names, {}
-        outside = [f"q[{i}] ({names[i]}) = {x:.6g} {'<' if x < low else '>'} its "
-                   f"{'lower' if x < low else 'upper'} bound {low if x < low else high:.6g}"
-                   for i, (x, low, high) in enumerate(zip(q, self.lower, self.upper))
-                   if x < low or x > high]
+        outside = [f"q[{i}] ({names[i]}) = {x:.6g} {'<' if below else '>'} its "
+                   f"{'lower' if below else 'upper'} bound {bound:.6g}"
+                   for i, x, below, bound in outside_bounds(q, self.lower, self.upper)]
         if outside:
             found["state_bounds"] = outside
         if self.system.n_holonomic:
-            g = numeric(self.system, "holonomic")(q)[0].ravel()
-            J = self._holonomic_jacobian(q)
-            worst = int(np.argmax(np.abs(g)))
-            if abs(g[worst]) > constraint_violation_tolerance(np.abs(q).max() * np.abs(J).max()):
+            g, off = holonomic_residual(self.system, q)
+            if off:
+                worst = int(np.argmax(np.abs(g)))
                 found["holonomic"] = [f"g(q)[{worst}] = {g[worst]:.3e} (allowed: 0)"]
         return found
 

@@ -132,15 +132,24 @@ def _violation(name, system, size):
         f"{hidden}).")
 
 
+def holonomic_residual(system, q):
+    """(g(q), shape (k,); whether max abs(g(q)) exceeds 1e-9 of the change of g that a
+    relative rounding of q makes, abs(q) times abs(dg/dq), at least 1) for a system with
+    holonomic constraints (k > 0)."""
+    g = numeric(system, "holonomic")(q)[0].ravel()
+    jacobian = numeric(system, "constraint_matrix")(q)[0][system.m - system.n_holonomic:]
+    scale = float(np.max(np.abs(q))) * float(np.max(np.abs(jacobian)))
+    return g, float(np.max(np.abs(g))) > constraint_violation_tolerance(scale)
+
+
 def check_configuration(name, system, q):
     """Raise ValueError naming `name` unless g(q) = 0 within 1e-9 of the change of g that a
     relative rounding of q makes (abs(q) times abs(dg/dq), at least 1)."""
     if system.n_holonomic == 0:
         return
-    violation = float(np.max(np.abs(numeric(system, "holonomic")(q)[0])))
-    jacobian = numeric(system, "constraint_matrix")(q)[0][system.m - system.n_holonomic:]
-    scale = float(np.max(np.abs(q))) * float(np.max(np.abs(jacobian)))
-    if violation > constraint_violation_tolerance(scale):
+    g, off = holonomic_residual(system, q)
+    if off:
+        violation = float(np.max(np.abs(g)))
         raise InputError(
             f"`{name}` violates the holonomic constraints: max abs(g({name})) = {violation:.3e}; "
             f"give a configuration on g(q) = 0.")

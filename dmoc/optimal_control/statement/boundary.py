@@ -93,6 +93,16 @@ def _pivot_columns(matrix, count):
     return np.array(chosen, dtype=int)
 
 
+def outside_bounds(q, lower, upper):
+    """(i, q[i], below, bound) for each entry of `q` outside the box [lower, upper] (shapes
+    (n,)): `below` True for one under its lower bound, `bound` the one it crosses; a free
+    entry (NaN) is neither. Read as Python floats: NumPy's comparisons of arrays this short
+    cost more in a re-solve (benchmarks/peers.py resolve)."""
+    return [(i, x, x < low, low if x < low else high)
+            for i, (x, low, high) in enumerate(zip(q.tolist(), lower.tolist(), upper.tolist()))
+            if x < low or x > high]
+
+
 def fully_given(q, v):
     """True when the boundary configuration q and velocity v, shapes (n,), have no free
     (NaN) entries."""
@@ -156,13 +166,10 @@ def set_boundary(problem, given):
             check_allowed_velocity("v_" + end, sys, q, v)
         # a start given by its momentum has no velocity rows
         rows[end] = imposes_velocity_rows(complete, v) and (end == "goal" or problem._p_start is None)
-    lower, upper = (bound.tolist() for bound in problem._state_bounds)
+    lower, upper = problem._state_bounds
     for name in (k for k in ("q_start", "q_goal") if k in given):
-        data = getattr(problem, "_" + name).tolist()
-        outside = [f"{name}[{i}] ({sys.names[i]}) = {x:.6g} {'<' if x < low else '>'} "
-                   f"{low if x < low else high:.6g}"
-                   for i, (x, low, high) in enumerate(zip(data, lower, upper))
-                   if x < low or x > high]              # a free entry (NaN) is neither
+        outside = [f"{name}[{i}] ({sys.names[i]}) = {x:.6g} {'<' if below else '>'} {bound:.6g}"
+                   for i, x, below, bound in outside_bounds(getattr(problem, "_" + name), lower, upper)]
         if outside:
             raise InputError(f"`{name}` must lie within `state_bounds`; {', '.join(outside)}.")
     problem._velocity_rows = rows
