@@ -23,6 +23,12 @@ import secrets
 CURRENT = "current"
 
 
+def temporary_name(name, suffix=""):
+    """The hidden name ``.NAME.PID.HEX.tmp[SUFFIX]`` of a temporary for `name`, the one
+    `dmoc._util.files` sweeps when a process left it behind (see its module notes)."""
+    return f".{name}.{os.getpid()}.{secrets.token_hex(6)}.tmp{suffix}"
+
+
 def hidden_folder(name):
     """The name of the hidden folder of the set `name` in its folder."""
     return f".{name}.dmoc"
@@ -105,7 +111,7 @@ def _link(target, path):
         if os.readlink(path) == target:
             return False
     folder, name = os.path.split(path)      # a hidden name the next run's sweep knows
-    temporary = os.path.join(folder, f".{name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+    temporary = os.path.join(folder, temporary_name(name))
     os.symlink(target, temporary)
     try:
         os.replace(temporary, path)
