@@ -74,10 +74,7 @@ def _undo(out, base, version, made):
         path = os.path.join(out, file)
         if not os.path.exists(path):
             os.unlink(path)
-    folder = os.path.join(base, version)
-    for file in os.listdir(folder):
-        os.unlink(os.path.join(folder, file))
-    os.rmdir(folder)
+    _remove_folder(os.path.join(base, version))
 
 
 def _current(base):
@@ -133,11 +130,16 @@ def _clean(out, base, version, link_target):
         if entry.name in (version, CURRENT):
             continue
         if entry.is_dir(follow_symlinks=False):
-            for file in os.listdir(entry.path):
-                os.unlink(os.path.join(entry.path, file))
-            os.rmdir(entry.path)
+            _remove_folder(entry.path)
         else:
             os.unlink(entry.path)
+
+
+def _remove_folder(folder):
+    """Remove the version folder `folder` and its files."""
+    for file in os.listdir(folder):
+        os.unlink(os.path.join(folder, file))
+    os.rmdir(folder)
 
 
 def _fsync(folder):
