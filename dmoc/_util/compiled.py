@@ -125,7 +125,8 @@ class Library:
         its verified bytes `data` (`sealed_file`), each checked to have the signature
         (inputs, outputs and their sparsity) of the Function it stands for; a library that
         does not is removed and `CompiledCodeError` raised."""
-        path = (sealed_file.sealed_path(data) if sealed_file.available()
+        digest = name[len(self.prefix) + 1:-len(cache_folder.SUFFIX)]  # hashed by `verified`/`publish`
+        path = (sealed_file.sealed_path(data, digest) if sealed_file.available()
                 else os.path.join(where.path, name))
         loaded = {}
         for f in self.functions:

@@ -23,6 +23,12 @@ import secrets
 CURRENT = "current"
 
 
+def temporary_name(name, suffix=""):
+    """The hidden name ``.NAME.PID.HEX.tmp[SUFFIX]`` of a temporary for `name`, the one
+    `dmoc._util.files` sweeps when a process left it behind (see its module notes)."""
+    return f".{name}.{os.getpid()}.{secrets.token_hex(6)}.tmp{suffix}"
+
+
 def hidden_folder(name):
     """The name of the hidden folder of the set `name` in its folder."""
     return f".{name}.dmoc"
@@ -68,10 +74,7 @@ def _undo(out, base, version, made):
         path = os.path.join(out, file)
         if not os.path.exists(path):
             os.unlink(path)
-    folder = os.path.join(base, version)
-    for file in os.listdir(folder):
-        os.unlink(os.path.join(folder, file))
-    os.rmdir(folder)
+    _remove_folder(os.path.join(base, version))
 
 
 def _current(base):
@@ -105,7 +108,7 @@ def _link(target, path):
         if os.readlink(path) == target:
             return False
     folder, name = os.path.split(path)      # a hidden name the next run's sweep knows
-    temporary = os.path.join(folder, f".{name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+    temporary = os.path.join(folder, temporary_name(name))
     os.symlink(target, temporary)
     try:
         os.replace(temporary, path)
@@ -127,11 +130,16 @@ def _clean(out, base, version, link_target):
         if entry.name in (version, CURRENT):
             continue
         if entry.is_dir(follow_symlinks=False):
-            for file in os.listdir(entry.path):
-                os.unlink(os.path.join(entry.path, file))
-            os.rmdir(entry.path)
+            _remove_folder(entry.path)
         else:
             os.unlink(entry.path)
+
+
+def _remove_folder(folder):
+    """Remove the version folder `folder` and its files."""
+    for file in os.listdir(folder):
+        os.unlink(os.path.join(folder, file))
+    os.rmdir(folder)
 
 
 def _fsync(folder):

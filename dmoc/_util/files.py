@@ -23,7 +23,6 @@ import pathlib
 import re
 import shutil
 import time
-import uuid
 
 from ..errors import InputError, MissingFileError
 from . import file_set
@@ -87,8 +86,7 @@ def _named(name):
     return name if name.startswith("the ") else f"`{name}`"
 
 
-def _temporary_name(name, suffix=""):
-    return f".{name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp{suffix}"
+_temporary_name = file_set.temporary_name     # one format for both, the sweep's `_TEMPORARY`
 
 
 @contextlib.contextmanager

@@ -10,7 +10,6 @@ new one.
 """
 
 import fcntl
-import hashlib
 import os
 
 _SEALS = (getattr(fcntl, "F_SEAL_WRITE", 0) | getattr(fcntl, "F_SEAL_GROW", 0)
@@ -23,11 +22,11 @@ def available():
     return hasattr(os, "memfd_create") and os.path.isdir("/proc/self/fd")
 
 
-def sealed_path(data):
-    """The path of a sealed anonymous file holding the bytes `data` (see the module
-    notes); the same path for the same bytes."""
-    key = hashlib.sha256(data).hexdigest()
-    if key not in _OPEN:
+def sealed_path(data, digest):
+    """The path of a sealed anonymous file holding the bytes `data`, whose SHA-256 (hex)
+    is `digest` (the caller has it: the cache folder hashed these bytes to verify them;
+    see the module notes); the same path for the same bytes."""
+    if digest not in _OPEN:
         fd = os.memfd_create("dmoc-library", os.MFD_CLOEXEC | os.MFD_ALLOW_SEALING)
         try:
             view = memoryview(data)
@@ -37,5 +36,5 @@ def sealed_path(data):
         except BaseException:
             os.close(fd)
             raise
-        _OPEN[key] = f"/proc/self/fd/./{fd}"
-    return _OPEN[key]
+        _OPEN[digest] = f"/proc/self/fd/./{fd}"
+    return _OPEN[digest]

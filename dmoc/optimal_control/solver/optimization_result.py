@@ -148,22 +148,22 @@ def _checked_fields(path, extra, n):
     values = {"cost": float(scalar(path, RESULT_FILE, RESULT_PREFIX + "cost", extra["cost"], "fiu")),
               "success": bool(scalar(path, RESULT_FILE, RESULT_PREFIX + "success", extra["success"], "b")),
               "status": status_of(text("status")), "message": text("message"),
-              "stats": _json(path, "stats", text("stats"), dict),
+              "stats": _json(path, "stats", text("stats")),
               "x": x, "lam_x": vector("lam_x", None if x is None else x.size),
               "lam_g": vector("lam_g"), "structure": text("structure"),
               "q_ref": vector("q_ref", n)}     # files from before q_ref have none
     if "verdict" in extra:               # files of unjudged results have none
-        values["verdict"] = _verdict(path, _json(path, "verdict", text("verdict"), dict))
+        values["verdict"] = _verdict(path, _json(path, "verdict", text("verdict")))
     return values
 
 
-def _json(path, name, text, kind):
-    """The JSON value of field `name` (`text`), when it is a `kind`."""
+def _json(path, name, text):
+    """The JSON object (dict) of field `name` (`text`)."""
     try:
         value = json.loads(text)
     except (ValueError, RecursionError) as err:
         value = err
-    if not isinstance(value, kind):
+    if not isinstance(value, dict):
         got = (f"{type(value).__name__}: {value}" if isinstance(value, Exception)
                else f"a JSON {type(value).__name__}")
         raise TrajectoryFileError(f"{str(path)!r} is not {RESULT_FILE}: `{RESULT_PREFIX}{name}` "
