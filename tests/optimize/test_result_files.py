@@ -79,3 +79,13 @@ def test_a_linear_solver_ipopt_lacks_is_named(capfd):
     with pytest.raises(dmoc.InputError, match=r"`options\['linear_solver'\]` must be one of "
                        "IPOPT's linear solvers 'mumps', .*; got 'ma99'"):
         dmoc.optimize(problem, options={"linear_solver": "ma99"})
+
+def test_a_probe_that_found_no_solver_refuses_none_for_availability(monkeypatch):
+    """The probe of the build's linear solvers crashed or hung before its first find: a
+    known name is passed on to IPOPT (which reports an unavailable one itself) instead of an
+    IndexError from the message; an unknown name is still refused."""
+    from dmoc.optimal_control.solver import linear_solver_choice as choice
+    monkeypatch.setattr(choice, "available", lambda: ())
+    choice.check_linear_solver({"linear_solver": "mumps"})
+    with pytest.raises(dmoc.InputError, match="must be one of IPOPT's linear solvers"):
+        choice.check_linear_solver({"linear_solver": "ma99"})

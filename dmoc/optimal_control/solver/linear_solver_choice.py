@@ -21,7 +21,8 @@ KNOWN = ("mumps", "spral", "ma27", "ma57", "ma77", "ma86", "ma97", "wsmp", "pard
 def check_linear_solver(options):
     """Refuse (InputError) ``options["linear_solver"]`` unless it is one of KNOWN that this
     IPOPT has (`available`; "custom", a solver linked in through IPOPT's C++ interface, is
-    never there for CasADi)."""
+    never there for CasADi). When the probe found none (it crashed or hung before the
+    first), nothing is refused for availability: IPOPT reports an unavailable solver itself."""
     if "linear_solver" not in options:
         return
     value = options["linear_solver"]
@@ -30,7 +31,7 @@ def check_linear_solver(options):
         raise InputError(f"`options['linear_solver']` must be one of IPOPT's linear solvers "
                          f"{', '.join(map(repr, KNOWN))}; got {value!r}.")
     have = available()
-    if name not in have:
+    if have and name not in have:      # none found: the probe itself failed, IPOPT decides
         raise InputError(f"`options['linear_solver']` = {value!r} is not available in this "
                          f"IPOPT build, which has {', '.join(map(repr, have))} (the HSL "
                          f"solvers ma27-ma97 need the HSL library installed where IPOPT finds "
@@ -43,10 +44,14 @@ def available():
     in a child process (a failed try of one solver after another's can crash IPOPT: Pardiso
     after the HSL solvers), each name printed as it is found; a crash loses only the names
     after it, tried last (those that crash)."""
-    done = subprocess.run([sys.executable, "-c", _PROBE, *KNOWN[:-1]], capture_output=True,
-                          text=True, check=False, timeout=300)
-    found = [line[len("found "):] for line in done.stdout.splitlines()
-             if line.startswith("found ")]
+    try:
+        done = subprocess.run([sys.executable, "-c", _PROBE, *KNOWN[:-1]], capture_output=True,
+                              text=True, check=False, timeout=300)
+    except subprocess.TimeoutExpired as err:     # what was printed before it hung still holds
+        done = err
+    stdout = done.stdout or ""
+    stdout = stdout.decode() if isinstance(stdout, bytes) else stdout
+    found = [line[len("found "):] for line in stdout.splitlines() if line.startswith("found ")]
     return tuple(name for name in KNOWN if name in found)
 
 
