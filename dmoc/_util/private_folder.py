@@ -32,6 +32,8 @@ def private_folder(path):
     descriptor = os.open(os.sep, _FOLDER)
     where = os.sep
     try:
+        if parts:
+            _check_parent(os.fstat(descriptor), where, path)
         for depth, part in enumerate(parts):
             below = _enter(descriptor, where, part, path, last=depth == len(parts) - 1)
             os.close(descriptor)
