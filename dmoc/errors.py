@@ -95,6 +95,15 @@ class Interrupted(KeyboardInterrupt):
         self.result = result
 
 
+def failure(message, result):
+    """The exception for a failed `result` (with `message`): `Interrupted` when a Ctrl-C
+    stopped it (``result.status == "interrupted"``), else `SolverError`; both carry
+    `result`. One rule for every driver, so a Ctrl-C is never reported as a failed
+    solve."""
+    error = Interrupted if result.status == Status.INTERRUPTED else SolverError
+    return error(message, result)
+
+
 class DmocWarning(UserWarning):
     """Base class of the warnings dmoc gives on its own account: the computation goes on,
     but a result may not have the property the user expects (docs/errors.md, "Warnings")."""

@@ -9,7 +9,7 @@ import time
 from dataclasses import replace
 
 from .._util import checks
-from ..errors import InputError, SolverError, Status
+from ..errors import InputError, SolverError, Status, failure
 from ..optimal_control import OptimalControlProblem
 from .error_estimate import richardson_estimate, with_estimate
 from .high_order import started_solve
@@ -61,6 +61,9 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
         A level's solve failed, or the target needs more than `max_steps` steps, with
         ``throw=True`` (the default); ``.result`` is the last level's. With ``throw=False``
         the result comes back with ``success=False``.
+    Interrupted
+        A Ctrl-C stopped a level's solve, with ``throw=True``; ``.result`` is that level's
+        last iterate, ``stats["levels"]`` the levels so far.
 
     Notes
     -----
@@ -129,8 +132,8 @@ def _finished(result, levels, estimate, accuracy, keywords, max_steps=None):
     stats = result.stats
     if max_steps is None and not result.success:        # a level failed its solve or verdict
         if keywords.get("throw", True):
-            raise SolverError(result.message + " The last level's result is in `.result`.",
-                              result)
+            raise failure(result.message + " The last level's result is in `.result`.",
+                          result)
         return result
     if max_steps is None:
         message = (

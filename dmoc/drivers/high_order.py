@@ -15,7 +15,7 @@ import dataclasses
 import time
 
 from .._util import checks
-from ..errors import Interrupted, SolverError, Status
+from ..errors import Status, failure
 from ..optimal_control import OptimalControlProblem
 from ..optimal_control.solver.solving import solve
 from .verdict import judged_solve
@@ -67,8 +67,7 @@ def started_solve(problem, *, guess=None, throw=True, options=None, **keywords):
         result = judged_solve(problem, throw=False, options=options, **keywords)
     result = dataclasses.replace(result, stats={**result.stats, "start": record})
     if throw and not result.success:
-        error = Interrupted if result.status == Status.INTERRUPTED else SolverError
-        raise error(result.message + " The result is in `.result`.", result)
+        raise failure(result.message + " The result is in `.result`.", result)
     return result
 
 

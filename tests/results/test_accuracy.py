@@ -10,6 +10,8 @@ Oracles, none taken from dmoc:
 - `with_steps` against the same problem built anew at that N.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -18,6 +20,7 @@ import dmoc
 import dmoc.problems
 from dmoc.drivers import error_estimate
 from dmoc.drivers.accuracy import GROWTH, optimize_to_accuracy
+from dmoc.drivers.high_order import started_solve
 from dmoc.drivers.error_estimate import estimate_error
 
 J_STAR = 8.72240586430
@@ -179,6 +182,33 @@ def test_too_few_steps_allowed_stop_the_loop():
     with pytest.raises(dmoc.SolverError, match="not reached") as info:
         optimize_to_accuracy(problem, 1e-6, max_steps=15, options=QUIET)
     assert info.value.result.status == "accuracy_not_reached"
+
+
+@pytest.mark.parametrize("throw", [True, False])
+def test_a_ctrl_c_in_a_level_is_an_interrupt_not_a_failed_solve(monkeypatch, throw):
+    """A level's solve stopped by Ctrl-C (its result says "interrupted", as IPOPT's
+    interrupted run returns it) ends the loop as an Interrupted (a KeyboardInterrupt, which
+    ``except dmoc.SolverError`` must not swallow) holding that level's result and the
+    levels so far; with throw=False the result comes back with that status."""
+    solved = []
+
+    def second_level_interrupted(level, **keywords):
+        result = started_solve(level, **keywords)
+        solved.append(level.steps)
+        if len(solved) < 2:
+            return result
+        return dataclasses.replace(result, success=False, status=dmoc.Status.INTERRUPTED,
+                                   message="IPOPT: interrupted (KeyboardInterrupt).")
+    monkeypatch.setattr("dmoc.drivers.accuracy.started_solve", second_level_interrupted)
+    problem = dmoc.problems.knife_edge_parking(10)
+    if throw:
+        with pytest.raises(dmoc.Interrupted) as info:
+            optimize_to_accuracy(problem, 1e-6, options=QUIET)
+        result = info.value.result
+    else:
+        result = optimize_to_accuracy(problem, 1e-6, throw=False, options=QUIET)
+    assert (result.success, result.status) == (False, "interrupted")
+    assert [level["steps"] for level in result.stats["levels"]] == solved == [10, 20]
 
 
 def test_with_steps_is_the_problem_built_at_that_n():

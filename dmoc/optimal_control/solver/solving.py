@@ -15,7 +15,7 @@ import numpy as np
 from ..._util import checks
 from ..._util.deferred import Pending
 from ..statement.problem import OptimalControlProblem
-from ...errors import DmocDeprecationWarning, InputError, Interrupted, SolverError, Status
+from ...errors import DmocDeprecationWarning, InputError, Status, failure
 from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
@@ -78,10 +78,8 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
     status, message, success = _outcome(st, stats, cost, sigints)
     result = _result(problem, solver, sol, fixed, (cost, success, status, message, stats))
-    if status == Status.INTERRUPTED and throw:
-        raise Interrupted(message + " The last iterate is in `.result`.", result)
     if not success and throw:
-        raise SolverError(message + " The last iterate is in `.result`.", result)
+        raise failure(message + " The last iterate is in `.result`.", result)
     return result
 
 
