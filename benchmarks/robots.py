@@ -2,7 +2,7 @@
 
 For serial chains of n revolute joints generated here as URDF text (n = 2, 4, 6, 8, 12:
 links of 0.3 m hanging along -z, masses 3 kg x 0.85^i, axes cycling z, y, y, x, y, z) and for the shipped
-models (`double_pendulum`, `arm6`): the build of `dmoc.RobotSystem` (adam's parse, the
+models (`double_pendulum`, `arm6`, `arm7`): the build of `dmoc.RobotSystem` (adam's parse, the
 links' recursion, the Lagrangian's Function; adam imported before), the SX size of L, the
 first `simulate` in CasADi's virtual machine (`jit=False`: the step's Function built), the
 virtual machine's step (a run of `--steps` steps), the first compiled run (`jit=True` with an
@@ -176,7 +176,7 @@ def main(argv=None):
                         help="also the first compile and the compiled step (default on)")
     parser.add_argument("--dmoc", action="store_true", help="also a rest-to-rest DMOC")
     parser.add_argument("--shipped", action="store_true",
-                        help="also the shipped double_pendulum and arm6")
+                        help="also the shipped double_pendulum, arm6 and arm7")
     parser.add_argument("--alternatives", action="store_true",
                         help="also the Hessian of L built from adam's CRBA, expanded or called")
     parser.add_argument("--smallest", action="store_true",
@@ -195,7 +195,7 @@ def main(argv=None):
                 file.write(chain_urdf(n))
             models.append((f"chain-{n}", path))
         models += [(name, example_urdf(name))
-                   for name in (("double_pendulum", "arm6") if args.shipped else ())]
+                   for name in (("double_pendulum", "arm6", "arm7") if args.shipped else ())]
         rows = [measure(name, path, args.steps, args.compile, args.dmoc) for name, path in models]
         ways = [row for name, path in models for row in alternatives(name, path)] \
             if args.alternatives else []

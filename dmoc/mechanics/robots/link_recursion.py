@@ -15,6 +15,7 @@ import numpy as np
 
 REVOLUTE = ("revolute", "continuous")
 PRISMATIC = "prismatic"
+ROUND_OFF = 1e-15    # entries of a constant rotation below this are rounding errors of zeros
 
 
 @dataclass(frozen=True)
@@ -58,11 +59,14 @@ class Link:
 
 
 def rpy_rotation(rpy):
-    """R = Rz(yaw) Ry(pitch) Rx(roll), the URDF convention (fixed axes x, y, z), (3, 3)."""
+    """R = Rz(yaw) Ry(pitch) Rx(roll), the URDF convention (fixed axes x, y, z), (3, 3);
+    entries within ROUND_OFF of 0 are 0 (cos(pi/2) in doubles is 6e-17), so that a frame
+    turned by a multiple of pi/2 multiplies no more than an unturned one."""
     (cr, cp, cy), (sr, sp, sy) = np.cos(rpy), np.sin(rpy)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    R = np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                  [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                  [-sp, cp * sr, cp * cr]])
+    return np.where(np.abs(R) < ROUND_OFF, 0.0, R)
 
 
 def axis_rotation(axis, angle):
