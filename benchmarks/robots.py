@@ -8,7 +8,8 @@ first `simulate` in CasADi's virtual machine (`jit=False`: the step's Function b
 virtual machine's step (a run of `--steps` steps), the first compiled run (`jit=True` with an
 empty cache folder: the step's C compiled), the compiled step, and with `--dmoc` a
 rest-to-rest DMOC end to end (problem built and `dmoc.optimize` judged, N = 20 over 1 s,
-cost u^T u + 10 v^T v, the file's limits). Midpoint rule, h = 0.01, from q = 0.1 at rest
+cost u^T u + 10 v^T v, the file's limits, from q = 0.3 or the nearest point 0.6 inside the
+limits, each joint moving 0.5 to 0.2 in alternating directions). Midpoint rule, h = 0.01, from q = 0.1 at rest
 under zero torques (a small swing about the hanging rest, for any number of steps). Then the log-log slope of each cost against n over the chains.
 
 With `--alternatives`, the Hessian of L in (q, v) (what the step's Newton Jacobian is made
@@ -79,7 +80,8 @@ def simulated(system, steps, jit):
 def rest_to_rest(system, steps=20):
     """Seconds of a judged rest-to-rest DMOC over 1 s (problem built and solved), and its
     verdict."""
-    q_start = np.full(system.n, 0.3)
+    lower, upper = system.position_limits
+    q_start = np.clip(0.3, lower + 0.6, upper - 0.6)       # 0.3 where the limits allow it
     q_goal = q_start + np.linspace(0.5, 0.2, system.n) * np.where(np.arange(system.n) % 2, -1, 1)
 
     def solve():
