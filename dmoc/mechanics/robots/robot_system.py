@@ -191,8 +191,8 @@ def _link(node, order):
     link, joint, parent = node.get_elements()
     inertial = link.inertial
     turn = rpy_rotation(_numbers(inertial.origin.rpy))
-    inertia = turn @ _numbers(inertial.inertia.matrix).reshape(3, 3) @ turn.T
-    mass, center = float(_numbers(inertial.mass)[0]), _numbers(inertial.origin.xyz)
+    inertia = turn @ _numbers(inertial.inertia.matrix) @ turn.T
+    mass, center = float(_numbers(inertial.mass)), _numbers(inertial.origin.xyz)
     if joint is None:
         return Link(None, "base", None, np.zeros(3), np.eye(3), np.zeros(3), mass, center, inertia)
     axis = np.zeros(3)
@@ -205,5 +205,6 @@ def _link(node, order):
 
 
 def _numbers(value):
-    """The numbers of one of adam's constant CasADi arrays, flattened (column-major)."""
-    return np.array(ca.evalf(ca.SX(value.array)), float).ravel(order="F")
+    """The numbers of one of adam's constant CasADi arrays: shape (3,) for a vector, (3, 3)
+    for a matrix, () for a scalar."""
+    return np.squeeze(np.array(ca.evalf(ca.SX(value.array)), float))
