@@ -7,6 +7,7 @@ large.
 import casadi as ca
 
 MINOR_UNKNOWNS = 6  # blocks up to this size are inverted by cofactors: fewer operations than QR
+DENSE_MINOR = 4     # a dense Jacobian without multipliers larger than this takes QR (`_inverse_times`)
 
 
 def newton_update(g, y, unknowns):
@@ -52,9 +53,12 @@ def newton_update(g, y, unknowns):
 def _inverse_times(J, g):
     """J^{-1} g by cofactors or by QR, whichever takes fewer operations for the sparsity of
     J (counted after common-subexpression elimination, which only the cofactors gain from):
-    cofactors for small or sparse J, QR for a dense one (a robot's 6 x 6 mass matrix:
-    1545 operations by cofactors, 603 by QR, and 13769 by cofactors without the
-    elimination, as in the virtual machine)."""
+    cofactors for small or sparse J, QR for a dense one. A dense J of more than
+    DENSE_MINOR unknowns goes to QR without counting (building its cofactors costs 0.1 s
+    at 6 x 6): by cofactors a dense 5 x 5 takes 579 operations (2004 without the
+    elimination, as in the virtual machine) and a 6 x 6 1545 (13769), by QR 370 and 603."""
+    if J.nnz() == J.numel() and J.size1() > DENSE_MINOR:
+        return ca.solve(J, g)
     A, r = ca.SX.sym("J", J.sparsity()), ca.SX.sym("g", g.sparsity())
     cofactors, qr = ca.mtimes(ca.inv_minor(A), r), ca.solve(A, r)
     count = [ca.Function("x", [A, r], [x]).n_instructions() for x in (ca.cse(cofactors), qr)]
