@@ -2,23 +2,35 @@
 
 For serial chains of n revolute joints generated here as URDF text (n = 2, 4, 6, 8, 12:
 links of 0.3 m hanging along -z, masses 3 kg x 0.85^i, axes cycling z, y, y, x, y, z) and for the shipped
-models (`double_pendulum`, `arm6`): the build of `dmoc.RobotSystem` (adam's CRBA and
-centre of mass, the Lagrangian's Function; adam imported before), the SX size of L, the
+models (`double_pendulum`, `arm6`, `arm7`): the build of `dmoc.RobotSystem` (adam's parse, the
+links' recursion, the Lagrangian's Function; adam imported before), the SX size of L, the
 first `simulate` in CasADi's virtual machine (`jit=False`: the step's Function built), the
 virtual machine's step (a run of `--steps` steps), the first compiled run (`jit=True` with an
 empty cache folder: the step's C compiled), the compiled step, and with `--dmoc` a
 rest-to-rest DMOC end to end (problem built and `dmoc.optimize` judged, N = 20 over 1 s,
-cost u^T u + 10 v^T v, the file's limits). Midpoint rule, h = 0.01, from q = 0.1 at rest
+cost u^T u + 10 v^T v, the file's limits, from q = 0.3 or the nearest point 0.6 inside the
+limits, each joint moving 0.5 to 0.2 in alternating directions). Midpoint rule, h = 0.01, from q = 0.1 at rest
 under zero torques (a small swing about the hanging rest, for any number of steps). Then the log-log slope of each cost against n over the chains.
 
+With `--alternatives`, the Hessian of L in (q, v) (what the step's Newton Jacobian is made
+of) three ways for each model: dmoc's L from the links' recursion (the baseline), and
+L = 1/2 v^T M(q) v - V(q) with adam's composite rigid body algorithm M(q) and centre of
+mass V(q), either expanded in one SX graph (dmoc's L before the recursion) or called as
+Functions in an MX graph; each one's size in instructions, its build and its evaluation in
+CasADi's virtual machine (best of 3 x 200 calls at a random state), as ratios over the
+baseline's, and the largest difference from it.
+
     python benchmarks/robots.py                         # chains of 2-12 joints, compiled
-    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
+    python benchmarks/robots.py --alternatives --no-compile --joints 2 4 6 8 12 --shipped
+    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile --alternatives
 """
 
 import argparse
 import os
+import pathlib
 import tempfile
 import time
+import timeit
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -68,7 +80,8 @@ def simulated(system, steps, jit):
 def rest_to_rest(system, steps=20):
     """Seconds of a judged rest-to-rest DMOC over 1 s (problem built and solved), and its
     verdict."""
-    q_start = np.full(system.n, 0.3)
+    lower, upper = system.position_limits
+    q_start = np.clip(0.3, lower + 0.6, upper - 0.6)       # 0.3 where the limits allow it
     q_goal = q_start + np.linspace(0.5, 0.2, system.n) * np.where(np.arange(system.n) % 2, -1, 1)
 
     def solve():
@@ -102,6 +115,54 @@ def measure(name, path, steps, compile_, dmoc_):
     return row
 
 
+def crba_lagrangian(path, gravity=9.81):
+    """L(q, v) = 1/2 v^T M(q) v - V(q) with M(q) of adam's composite rigid body algorithm
+    and V(q) = g m z_com(q) of its centre of mass, both as SX Functions of q: what
+    dmoc.RobotSystem built before the links' recursion."""
+    from adam.casadi import KinDynComputations
+    from dmoc.mechanics.robots.urdf_file import read_urdf
+    joints, text = read_urdf(pathlib.Path(path))
+    model = KinDynComputations(text, [j.name for j in joints])
+    q, base = ca.SX.sym("q", len(joints)), ca.SX.eye(4)
+    M = ca.Function("M", [q], [ca.SX(model.mass_matrix(base, q)[6:, 6:])])
+    V = ca.Function("V", [q], [ca.SX(gravity * model.get_total_mass()
+                                     * model.CoM_position(base, q)[2])])
+    return lambda q, v: 0.5 * ca.bilin(M(q), v, v) - V(q)
+
+
+def alternatives(name, path):
+    """Rows of the Hessian of L in (q, v) built three ways (see the module's notes)."""
+    system = dmoc.RobotSystem(path)
+    crba = crba_lagrangian(path)
+    rng = np.random.default_rng(0)
+    q0, v0 = rng.uniform(-1, 1, system.n), rng.uniform(-1, 1, system.n)
+    rows = []
+    for way, kind, lagrangian in (("recursion (dmoc)", ca.SX, system.lagrangian),
+                                  ("CRBA, expanded SX", ca.SX, crba),
+                                  ("CRBA, called in MX", ca.MX, crba)):
+        q, v = kind.sym("q", system.n), kind.sym("v", system.n)
+        build, H = seconds(lambda: ca.Function(
+            "H", [q, v], [ca.hessian(lagrangian(q, v), ca.vertcat(q, v))[0]]))
+        value = np.array(H(q0, v0))
+        evaluation = min(timeit.repeat(lambda: H(q0, v0), number=200, repeat=3)) / 200
+        rows.append({"model": name, "way": way, "instructions": H.n_instructions(),
+                     "build": build, "evaluation": evaluation, "value": value})
+    return rows
+
+
+def report_alternatives(rows):
+    print("Hessian of L in (q, v), ratios over the recursion's:")
+    print("| model | way | instructions | build | evaluation (VM) | max difference |")
+    print("|---|---|---:|---:|---:|---:|")
+    for r in rows:
+        base = next(b for b in rows if b["model"] == r["model"])
+        print(f"| {r['model']} | {r['way']} | {r['instructions']} "
+              f"({r['instructions'] / base['instructions']:.2f}x) | {r['build'] * 1e3:.1f} ms "
+              f"({r['build'] / base['build']:.2f}x) | {r['evaluation'] * 1e3:.4f} ms "
+              f"({r['evaluation'] / base['evaluation']:.2f}x) | "
+              f"{np.abs(r['value'] - base['value']).max():.1e} |")
+
+
 def slope(rows, key):
     n = np.array([r["n"] for r in rows], float)
     y = np.array([r[key] for r in rows], float)
@@ -117,25 +178,32 @@ def main(argv=None):
                         help="also the first compile and the compiled step (default on)")
     parser.add_argument("--dmoc", action="store_true", help="also a rest-to-rest DMOC")
     parser.add_argument("--shipped", action="store_true",
-                        help="also the shipped double_pendulum and arm6")
+                        help="also the shipped double_pendulum, arm6 and arm7")
+    parser.add_argument("--alternatives", action="store_true",
+                        help="also the Hessian of L built from adam's CRBA, expanded or called")
     parser.add_argument("--smallest", action="store_true",
-                        help="the smallest run: --joints 2 --steps 20 --no-compile")
+                        help="the smallest run: --joints 2 --steps 20 --no-compile --alternatives")
     args = parser.parse_args(argv)
     if args.smallest:
-        args.joints, args.steps, args.compile = [2], 20, False
+        args.joints, args.steps, args.compile, args.alternatives = [2], 20, False, True
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:
         os.environ["DMOC_CACHE_DIR"] = os.path.join(folder, "cache")   # an empty cache
-        rows = []
+        models = []
         for n in args.joints:
             path = os.path.join(folder, f"chain{n}.urdf")
             with open(path, "w") as file:
                 file.write(chain_urdf(n))
-            rows.append(measure(f"chain-{n}", path, args.steps, args.compile, args.dmoc))
-        shipped = [measure(name, example_urdf(name), args.steps, args.compile, args.dmoc)
-                   for name in (("double_pendulum", "arm6") if args.shipped else ())]
-    report(rows + shipped, rows, args)
+            models.append((f"chain-{n}", path))
+        models += [(name, example_urdf(name))
+                   for name in (("double_pendulum", "arm6", "arm7") if args.shipped else ())]
+        rows = [measure(name, path, args.steps, args.compile, args.dmoc) for name, path in models]
+        ways = [row for name, path in models for row in alternatives(name, path)] \
+            if args.alternatives else []
+    report(rows, rows[:len(args.joints)], args)
+    if ways:
+        report_alternatives(ways)
 
 
 def report(rows, chains, args):

@@ -1,6 +1,7 @@
 """The URDF files shipped with dmoc (package data of the mechanics stage): a double
-pendulum and a six-joint arm with the dimensions and masses of a UR5-class industrial arm,
-both written for dmoc.
+pendulum, a six-joint arm with the dimensions and masses of a UR5-class industrial arm and
+a seven-joint arm with the joint frames and limits of a Panda-class collaborative arm, all
+written for dmoc.
 """
 
 import pathlib
@@ -11,6 +12,7 @@ from ..._util import checks
 EXAMPLE_MODELS = {
     "double_pendulum": "two 1 kg, 1 m rods about parallel axes, hanging along -z",
     "arm6": "six revolute joints, 21.3 kg with its base, a fixed tool; UR5-class lengths and masses",
+    "arm7": "seven revolute joints, 19.8 kg with its base, a fixed hand; Panda-class joint frames and limits",
 }
 
 
@@ -20,7 +22,7 @@ def example_urdf(name):
     Parameters
     ----------
     name : str
-        One of ``EXAMPLE_MODELS``: "double_pendulum" or "arm6".
+        One of ``EXAMPLE_MODELS``: "double_pendulum", "arm6" or "arm7".
 
     Returns
     -------

@@ -1,8 +1,9 @@
 """A fixed-base robot from its URDF file as a MechanicalSystem, for the mechanics stage:
-L(q, v) = 1/2 v^T M(q) v - V(q) with the joint-space mass matrix M(q) of the composite
-rigid body algorithm and the potential V(q) = g sum_i m_i z_i(q) of the links' centres of
-mass, both built as CasADi expressions by adam [1]_ from the same file; the joint torques
-are the controls and viscous joint friction a force.
+L(q, v) = T(q, v) - V(q), the links' kinetic and gravitational energies summed over the
+kinematic tree by the forward recursion of `link_recursion` (O(n) nodes for n joints, so
+that the step's second derivatives of L stay O(n^2)), on the tree, joint frames and
+inertias adam [1]_ parses from the file; the joint torques are the controls and viscous
+joint friction a force.
 """
 
 import functools
@@ -13,6 +14,7 @@ import numpy as np
 from ..._util import checks
 from ...errors import InputError, InputTypeError
 from ..system import MechanicalSystem
+from .link_recursion import Link, energies, rpy_rotation
 from .step_failure import step_failure_hint
 from .urdf_file import read_urdf
 
@@ -51,7 +53,7 @@ class RobotSystem(MechanicalSystem):
     velocity_limits : ndarray, shape (n,)
     friction : ndarray, shape (n,)
     mass_matrix : casadi.Function
-        ``M(q)`` (n, n), symmetric positive definite.
+        ``M(q) = d^2T/dv^2`` (n, n), symmetric positive definite.
     potential : casadi.Function
         ``V(q)``, the gravitational energy g sum_i m_i z_i(q) (the base's mass included, a
         constant).
@@ -64,9 +66,11 @@ class RobotSystem(MechanicalSystem):
 
     so that the Lagrange-d'Alembert equations are M(q) v' + C(q, v) v + dV/dq = u - D v,
     the rigid-body equations of motion (C(q, v) v the Coriolis and centrifugal terms).
-    M(q) comes from adam's composite rigid body algorithm with the base at the origin
-    (the joint block of its floating-base mass matrix) and V(q) from its centre of mass,
-    V = g m z_com; the tests check M, dV/dq and the bias terms against Pinocchio's.
+    L is not built from M(q): T = 1/2 v^T M(q) v is summed over the links from their
+    velocities, each link's from its parent's (`dmoc.mechanics.robots.link_recursion`),
+    which costs O(n) nodes where M(q) costs O(n^2) entries of O(n) each. adam parses the
+    file (the tree, the joints' origins and axes, the links' inertias); the tests check
+    M, dV/dq and the bias terms of L against Pinocchio's.
 
     References
     ----------
@@ -88,14 +92,17 @@ class RobotSystem(MechanicalSystem):
         n = len(self.joints)
         g = checks.finite_float("gravity", gravity)
         self.friction = _friction(friction, self.joints)
-        self.mass_matrix, self.potential = _rigid_body_functions(text, self.joints, g)
+        q, v = ca.SX.sym("q", n), ca.SX.sym("v", n)
+        T, V = energies(_tree(text, self.joints), q, v, g)
+        self.mass_matrix = ca.Function("M", [q], [ca.hessian(T, v)[0]], ["q"], ["M"])
+        self.potential = ca.Function("V", [q], [V], ["q"], ["V"])
         self.position_limits = (np.array([j.lower for j in self.joints]),
                                 np.array([j.upper for j in self.joints]))
         self.effort_limits = (-np.array([j.effort for j in self.joints]),
                               np.array([j.effort for j in self.joints]))
         self.velocity_limits = np.array([j.velocity for j in self.joints])
-        M, V, D = self.mass_matrix, self.potential, ca.DM(self.friction)
-        super().__init__(lambda q, v: 0.5 * ca.bilin(M(q), v, v) - V(q), n,
+        D = ca.DM(self.friction)
+        super().__init__(ca.Function("L", [q, v], [T - V]), n,
                          force=lambda q, v, u: u - D * v, n_u=n,
                          names=tuple(j.name for j in self.joints),
                          control_names=tuple(f"tau_{j.name}" for j in self.joints),
@@ -159,23 +166,45 @@ def _friction(friction, joints):
     return d
 
 
-def _rigid_body_functions(text, joints, g):
-    """M(q) and V(q) as CasADi Functions of q (n,), built by adam from the URDF `text`."""
+def _tree(text, joints):
+    """The links of the URDF `text` as adam parses them (its tree, the joints' origins and
+    axes, the links' inertias), with the `joints` moving and the file's others held at 0."""
     try:
-        from adam.casadi import KinDynComputations
+        from adam.casadi import casadi_like
+        from adam.model import Model, build_model_factory
     except ImportError as err:
         raise ModuleNotFoundError(f"RobotSystem reads URDF files with adam-robotics, which is "
                                   f"not installed ({err}); install the extra: {EXTRA}.",
                                   name="adam") from err
     names = [j.name for j in joints]
     try:
-        model = KinDynComputations(text, names)
+        model = Model.build(build_model_factory(text, casadi_like.SpatialMath()), names)
     except Exception as err:       # adam's errors on a model it cannot take, reported as ours
         raise InputError(f"`path`: adam could not build the rigid-body model of the file with "
                          f"the joints {names}: {type(err).__name__}: {err}") from err
-    q = ca.SX.sym("q", len(joints))
-    base = ca.SX.eye(4)
-    M = model.mass_matrix(base, q)[6:, 6:]
-    V = g * model.get_total_mass() * model.CoM_position(base, q)[2]
-    return (ca.Function("M", [q], [ca.SX(M)], ["q"], ["M"]),
-            ca.Function("V", [q], [ca.SX(V)], ["q"], ["V"]))
+    order = {name: i for i, name in enumerate(model.tree.ordered_nodes_list)}
+    return tuple(_link(node, order) for node in model.tree)
+
+
+def _link(node, order):
+    """The `Link` of adam's tree node `node`; `order` maps link names to their index."""
+    link, joint, parent = node.get_elements()
+    inertial = link.inertial
+    turn = rpy_rotation(_numbers(inertial.origin.rpy))
+    inertia = turn @ _numbers(inertial.inertia.matrix) @ turn.T
+    mass, center = float(_numbers(inertial.mass)), _numbers(inertial.origin.xyz)
+    if joint is None:
+        return Link(None, "base", None, np.zeros(3), np.eye(3), np.zeros(3), mass, center, inertia)
+    axis = np.zeros(3)
+    if joint.idx is not None:
+        axis = _numbers(joint.axis)
+        axis = axis / np.linalg.norm(axis)
+    return Link(order[parent.name], joint.type if joint.idx is not None else "fixed", joint.idx,
+                _numbers(joint.origin.xyz), rpy_rotation(_numbers(joint.origin.rpy)), axis,
+                mass, center, inertia)
+
+
+def _numbers(value):
+    """The numbers of one of adam's constant CasADi arrays: shape (3,) for a vector, (3, 3)
+    for a matrix, () for a scalar."""
+    return np.squeeze(np.array(ca.evalf(ca.SX(value.array)), float))

@@ -73,7 +73,8 @@ def read_urdf(path):
         No file at `path`.
     InputError
         Not a URDF (no <robot> root), a joint of a type dmoc cannot take yet (floating,
-        planar) or malformed numbers; the message names the file and the joint.
+        planar), a zero axis or malformed numbers; the message names the file and the
+        joint.
     """
     readable_file("path", path)
     try:
@@ -110,6 +111,17 @@ def _write_defaults(root):
             ElementTree.SubElement(element, "axis", xyz="1 0 0")
 
 
+def _numbers(text, name, path):
+    """The three numbers of an xyz attribute of joint `name`."""
+    try:
+        values = [float(x) for x in text.split()]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise InputError(f"joint {name!r} of {str(path)!r}: xyz={text!r} must be three numbers.")
+    return values
+
+
 def _joint(element, kind, path):
     """The Joint of the <joint> `element` of type `kind`."""
     name = element.get("name")
@@ -130,6 +142,10 @@ def _joint(element, kind, path):
     if not lower < upper:
         raise InputError(f"joint {name!r} of {str(path)!r}: its limits must satisfy lower < "
                          f"upper; got lower={lower}, upper={upper}.")
+    axis = element.find("axis")
+    if axis is not None and not any(_numbers(axis.get("xyz", "1 0 0"), name, path)):
+        raise InputError(f"joint {name!r} of {str(path)!r}: its <axis xyz> must be a nonzero "
+                         f"vector (the joint's direction); got {axis.get('xyz')!r}.")
     damping = number(dynamics, "damping", 0.0)
     if not damping >= 0:
         raise InputError(f"joint {name!r} of {str(path)!r}: damping must be >= 0; got {damping}.")
