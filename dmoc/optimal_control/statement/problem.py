@@ -10,6 +10,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
+from ...errors import InputError
 from ...discrete import Discretization, discretize
 from .boundary import set_boundary
 from .final_time import FixedFinalTime, as_final_time
@@ -69,9 +70,17 @@ class OptimalControlProblem(ReadOnly):
         formulation whose p_{k+1} is not explicit (the Hamiltonian (+) form (39), explicit
         in q_{k+1}) or depends on p_k (the (-) form (43), unless the Hamiltonian makes it
         free of p_k) carries the momenta as variables (`dmoc.principle.explicit.substitutable`).
-    parameters : dict of str -> float or array_like of shape (k,), optional
+    parameters : dict of str -> float or array_like, optional
         Named data the costs and path constraints read through ``w`` (weights, obstacle
-        positions): entries of p, so `with_parameters` changes them without a new NLP.
+        positions, references): entries of p, so `with_parameters` changes them without a
+        new NLP. A value of shape (k,) is fixed; (N, k) gives one row per step (step k's
+        cost and path constraints read row k, held over the step as its control is); (N+1,
+        k) one row per knot (row k at t_k, linear in time between knots: the cost's
+        quadrature points and the path constraints' midpoint read the interpolated value,
+        the terminal cost row N). The name ``"t"`` with a scalar declares the clock: ``w["t"]``
+        is then the time t_0 + (k + c) h where a callable is evaluated (c the fraction of
+        step k; free final times included), the value the start time t_0
+        (docs/stages/optimize.md, "Time-varying costs and references").
 
     Attributes
     ----------
@@ -125,7 +134,7 @@ class OptimalControlProblem(ReadOnly):
         checks.instance("disc", disc, Discretization, "a Discretization")
         sys, self._steps = disc.system, checks.positive_int("steps", steps)
         self._final_time = as_final_time(duration, self._steps, disc.h)
-        self._parameters = w = ProblemParameters(parameters)
+        self._parameters = w = ProblemParameters(parameters, self._steps)
         self._stated = (momenta, path_constraints)      # `with_rule` makes the rule's parts anew
         self._disc, (self._formulation, self._residual, self._momentum_treatment, self._path) = \
             disc, rule_parts(disc, variant, momenta, path_constraints, w)
@@ -210,8 +219,14 @@ class OptimalControlProblem(ReadOnly):
         >>> finer.steps, finer.disc.h
         (40, 0.1)
         """
+        along = [k for k, kind in self._parameters.schedule.kinds.items() if kind != "fixed"]
+        if along:
+            raise InputError(f"`with_steps` cannot carry parameters given along the horizon to "
+                             f"another N ({', '.join(repr(k) for k in along)}); build the problem "
+                             f"on {steps} steps with their values there.")
         new = self._copy()
         new._steps = checks.positive_int("steps", steps)
+        new._parameters = ProblemParameters(self._parameters.values, new._steps)   # the clock's knots
         new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
         if not self.free_time:
             new._final_time = FixedFinalTime(new._disc.h)
