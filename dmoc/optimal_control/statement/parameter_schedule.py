@@ -129,7 +129,7 @@ class ParameterSchedule:
         if not self.varying:
             return None
         w, c, h = ca.SX.sym("w", self.step_size), ca.SX.sym("c"), ca.SX.sym("h")
-        return ca.Function("parameters_at", [w, c, h], [self.at(w, c, h)], ["w", "c", "h"], ["w"])
+        return ca.Function("parameters_at", [w, c, h], [self.at(w, c, h)], ["w", "c", "h"], ["w_c"])
 
 
 def _kind(value, steps):

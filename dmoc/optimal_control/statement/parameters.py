@@ -91,7 +91,7 @@ class ProblemParameters:
         new.layout, new.schedule, new.values = self.layout, self.schedule, dict(self.values)
         for name, value in values.items():
             new.values[name] = _value(f"parameters[{name!r}]", value, self.schedule.steps,
-                                      shape=self.values[name].shape)
+                                      shape=self.values[name].shape, clock=name == CLOCK)
         return new
 
     def symbols(self, w):
@@ -107,11 +107,13 @@ def _value(name, value, steps, *, shape=None, clock=False):
     kinds = ("a scalar (the start time t_0 of the clock `t`)" if clock else
              f"a scalar or shape (k,) (fixed), (N, k) = ({steps}, k) (one row per step) or "
              f"(N+1, k) = ({steps + 1}, k) (one row per knot), k >= 1")
-    if shape is not None:
+    if clock:
+        fits, expected = out.shape == (1,), kinds
+    elif shape is not None:
         fits, expected = out.shape == shape, f"shape {shape}"
     else:
-        fits, expected = (out.shape == (1,) if clock else out.size > 0 and (
-            out.ndim == 1 or (out.ndim == 2 and out.shape[0] in (steps, steps + 1)))), kinds
+        fits, expected = out.size > 0 and (out.ndim == 1 or (
+            out.ndim == 2 and out.shape[0] in (steps, steps + 1))), kinds
     if not fits:
         raise InputError(f"`{name}` must be {expected}; got shape {np.shape(value)}.")
     if not np.isfinite(out).all():
