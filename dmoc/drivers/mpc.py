@@ -179,7 +179,6 @@ class MPC:
         start = problem.p_start if problem.p_start is not None else np.zeros(n)
         self.problem = problem.with_boundary(p_start=start)
         self._references = HorizonReferences(problem, references)
-        self._time = problem.parameter_values.get("t")      # the clock's t_0 at the next step
         self.plan, self.log, self._age = None, [], 0
         self._guess, self._options = guess, options
 
@@ -238,22 +237,18 @@ class MPC:
         # read from x: the plan's Trajectory is made only when a caller asks for it
         u = self.problem.transcription.x_layout.unpack(self.plan.x, "u")[:, self._age].copy()
         self._record(start, u, result, tic, self._age)
-        if self._time is not None:
-            self._time = self._time + self.log[-1].h
+        self._references.advance(self.log[-1].h)
         return u
 
     def _restated(self, start, parameters):
         """The problem of this step: the start, and the parameters (the windows of the
         references, the clock, the caller's `parameters`) where any are to be set."""
         values = dict(parameters or {})
-        own = set(self._references.values) | ({"t"} if self._time is not None else set())
-        mine = sorted(own & set(values))
+        mine = sorted(self._references.names & set(values))
         if mine:
             raise InputError(f"`parameters` must not set {mine}: the controller moves its references "
                              f"and its clock on by itself.")
-        values.update(self._references.window(len(self.log)))
-        if self._time is not None:
-            values["t"] = self._time
+        values.update(self._references.at(len(self.log)))
         problem = self.problem.with_parameters(**values) if values else self.problem
         return problem.with_boundary(q_start=start.q, p_start=start.p)
 

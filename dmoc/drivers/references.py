@@ -13,7 +13,8 @@ from ..optimal_control.statement.parameter_schedule import CLOCK, FIXED, PER_KNO
 
 
 class HorizonReferences:
-    """The windows of `references` that a controller's horizon reads at each step.
+    """The windows of `references` and the clock that a controller's horizon reads at
+    each step.
 
     Parameters
     ----------
@@ -28,6 +29,11 @@ class HorizonReferences:
     Attributes
     ----------
     values : dict of str -> ndarray, shape (M, k)
+    time : ndarray, shape (1,), or None
+        With the clock ``"t"`` among the problem's parameters, the start time of the next
+        step (`advance` moves it on by the steps applied).
+    names : set of str
+        The parameters the controller sets: those of `values`, and ``"t"`` with the clock.
     """
 
     def __init__(self, problem, references):
@@ -51,6 +57,21 @@ class HorizonReferences:
                                  f"{'' if np.isfinite(array).all() else ' with a NaN or infinite entry'}.")
             self.values[name] = array
             self._rows[name] = N + (kinds[name] == PER_KNOT)
+        self.time = problem.parameter_values.get(CLOCK)
+        self.names = set(self.values) | ({CLOCK} if self.time is not None else set())
+
+    def at(self, step):
+        """The parameter values of controller step `step`: the `window`, and the clock's
+        start time."""
+        out = self.window(step)
+        if self.time is not None:
+            out[CLOCK] = self.time
+        return out
+
+    def advance(self, h):
+        """Move the clock on by the step `h` just applied."""
+        if self.time is not None:
+            self.time = self.time + h
 
     def window(self, step):
         """{name: rows step ... step + N - 1 (or + N), shape (N, k) or (N+1, k)} at

@@ -14,7 +14,7 @@ from ..._util.symbolic import checked_function
 from ...errors import InputError, InputTypeError
 from ..._util.layout import Layout, step_symbols
 from ..solver.ipopt import DEFAULT_IPOPT_OPTIONS
-from .parameter_schedule import CLOCK, ParameterSchedule
+from .parameter_schedule import CLOCK, FIXED, ParameterSchedule
 
 
 class ProblemParameters:
@@ -93,6 +93,16 @@ class ProblemParameters:
             new.values[name] = _value(f"parameters[{name!r}]", value, self.schedule.steps,
                                       shape=self.values[name].shape, clock=name == CLOCK)
         return new
+
+    def on_steps(self, steps):
+        """These parameters on a grid of `steps` steps (the clock's knots anew); refused
+        for values given along the horizon, whose rows belong to this grid."""
+        along = [k for k, kind in self.schedule.kinds.items() if kind != FIXED]
+        if along:
+            raise InputError(f"`with_steps` cannot carry parameters given along the horizon to "
+                             f"another N ({', '.join(repr(k) for k in along)}); build the problem "
+                             f"on {steps} steps with their values there.")
+        return ProblemParameters(self.values, steps)
 
     def symbols(self, w):
         """{name: block of the column symbol w} for the user callables."""

@@ -10,7 +10,6 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ...errors import InputError
 from ...discrete import Discretization, discretize
 from .boundary import set_boundary
 from .final_time import FixedFinalTime, as_final_time
@@ -71,16 +70,10 @@ class OptimalControlProblem(ReadOnly):
         in q_{k+1}) or depends on p_k (the (-) form (43), unless the Hamiltonian makes it
         free of p_k) carries the momenta as variables (`dmoc.principle.explicit.substitutable`).
     parameters : dict of str -> float or array_like, optional
-        Named data the costs and path constraints read through ``w`` (weights, obstacle
-        positions, references): entries of p, so `with_parameters` changes them without a
-        new NLP. A value of shape (k,) is fixed; (N, k) gives one row per step (step k's
-        cost and path constraints read row k, held over the step as its control is); (N+1,
-        k) one row per knot (row k at t_k, linear in time between knots: the cost's
-        quadrature points and the path constraints' midpoint read the interpolated value,
-        the terminal cost row N). The name ``"t"`` with a scalar declares the clock: ``w["t"]``
-        is then the time t_0 + (k + c) h where a callable is evaluated (c the fraction of
-        step k; free final times included), the value the start time t_0
-        (docs/stages/optimize.md, "Time-varying costs and references").
+        Named data the costs and path constraints read through ``w`` (weights, obstacles,
+        references): entries of p, so `with_parameters` changes them without a new NLP.
+        Shape (k,) fixed, (N, k) per step, (N+1, k) per knot; ``"t"`` the clock
+        (`ProblemParameters`).
 
     Attributes
     ----------
@@ -124,8 +117,7 @@ class OptimalControlProblem(ReadOnly):
                   for k in ("q_start", "q_goal", "v_start", "v_goal", "p_start")},
                **{k: "use `problem.with_parameters(name=value)`, which keeps the NLP"
                   for k in ("parameters", "parameter_values")}}
-    _CHANGE_ANY = ("build a new OptimalControlProblem (its data and its NLP, "
-                   "`problem.transcription`, are built together)")
+    _CHANGE_ANY = "build a new OptimalControlProblem (its data and its NLP are built together)"
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None, p_start=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
@@ -209,24 +201,19 @@ class OptimalControlProblem(ReadOnly):
 
     def with_steps(self, steps):
         """This problem on N = `steps` steps over the same time: h = N_old h_old / N (a
-        free final time keeps its range (T_min, T_max)). The step residual, costs and
-        path constraints take h as an input and are shared; the NLP is new (another
-        `structure`), so an optimum of this problem guesses the copy through its
-        trajectory, resampled. `dmoc.drivers.accuracy` refines grids with it.
+        free final time keeps its range). The step residual, costs and path constraints
+        take h as an input and are shared; the NLP is new (another `structure`): an optimum
+        of this problem guesses it through its trajectory, resampled (`dmoc.drivers.accuracy`).
+        Parameters given along the horizon are refused (`ProblemParameters.on_steps`).
 
         >>> import dmoc.problems
         >>> finer = dmoc.problems.knife_edge_parking(20).with_steps(40)
         >>> finer.steps, finer.disc.h
         (40, 0.1)
         """
-        along = [k for k, kind in self._parameters.schedule.kinds.items() if kind != "fixed"]
-        if along:
-            raise InputError(f"`with_steps` cannot carry parameters given along the horizon to "
-                             f"another N ({', '.join(repr(k) for k in along)}); build the problem "
-                             f"on {steps} steps with their values there.")
         new = self._copy()
         new._steps = checks.positive_int("steps", steps)
-        new._parameters = ProblemParameters(self._parameters.values, new._steps)   # the clock's knots
+        new._parameters = self._parameters.on_steps(new._steps)
         new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
         if not self.free_time:
             new._final_time = FixedFinalTime(new._disc.h)
@@ -282,10 +269,8 @@ class OptimalControlProblem(ReadOnly):
     momenta = Transcribed()
     configurations = Transcribed()
 
-    @property
-    def parameter_values(self):
-        """{name: value, shape (k,)} of the problem's `parameters`."""
-        return {k: v.copy() for k, v in self._parameters.values.items()}
+    parameter_values = property(lambda self: {k: v.copy() for k, v in self._parameters.values.items()},
+                                doc="{name: value, shape (k,), (N, k) or (N+1, k)} of the `parameters`.")
 
     @property
     def velocity_rows(self):
