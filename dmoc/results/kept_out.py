@@ -19,7 +19,7 @@ def kept_out_region(problem, x, y):
     ----------
     problem : OptimalControlProblem
         Its path constraints at the knots (``g0`` of `path_constraints`) with its parameter
-        values w.
+        values w (those at q_0 for values given along the horizon).
     x, y : int
         Columns of q spanning the plane.
 

@@ -151,3 +151,15 @@ def test_new_values_keep_their_shapes_and_the_clock_is_a_scalar():
         tracking_problem(r, ubar).with_parameters(t=[0.0, 1.0])
     with pytest.raises(InputError, match=r"with_steps.*'r', 'ubar'"):
         problem.with_steps(2 * N)
+
+
+def test_the_clock_of_a_free_final_time_runs_with_its_step():
+    """Rest-to-rest parking costs less the longer it takes, so T reaches its upper bound
+    10; the clock t_0 + k h with t_0 = 0.5, held below 5 at every knot, stops it at 4.5."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.2)
+    free = dict(q_start=[0, 0, 0], q_goal=[0, 1, 0], duration=(1.0, 10.0))
+    unbounded = dmoc.optimize(dmoc.OptimalControlProblem(disc, 20, **free))
+    clocked = dmoc.optimize(dmoc.OptimalControlProblem(
+        disc, 20, **free, parameters={"t": 0.5}, path_constraints=lambda q, v, u, w: w["t"] - 5.0))
+    assert unbounded.trajectory.t[-1] == pytest.approx(10.0, abs=1e-8)
+    assert clocked.trajectory.t[-1] == pytest.approx(4.5, abs=1e-8)
