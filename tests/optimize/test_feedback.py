@@ -76,6 +76,31 @@ def test_the_constrained_step_matches_differences_of_the_simulator(rule):
         np.testing.assert_allclose(A[k] @ impulse, 0, atol=1e-13)
 
 
+def test_a_holonomic_step_stays_on_the_sphere_to_first_order():
+    """The spherical pendulum, g(q) = |q|^2 - l^2: A_k and B_k map into the tangent space
+    at q_{k+1} (q_{k+1} . dq_{k+1} = 0), and along curves on the sphere (rotations of
+    q_k) and along every momentum they equal central differences of the simulator."""
+    disc = dmoc.discretize(dmoc.systems.spherical_pendulum(), 0.05)
+    q0, controls = np.array([np.sin(0.5), 0.0, -np.cos(0.5)]), np.array([[0.3, -0.2]] * 4)
+    traj = dmoc.simulate(disc, q0=q0, v0=[0.0, 0.8, 0.0], steps=4, controls=controls, jit=False).trajectory
+    A, B = dmoc.flow_jacobians(disc, traj)
+    k, eps = 2, 1e-5
+    q, p = traj.q[k], traj.p[k]
+    assert np.abs(traj.q[k + 1] @ A[k][:3]).max() < 1e-14 and np.abs(traj.q[k + 1] @ B[k][:3]).max() < 1e-14
+
+    def step(q, p):
+        run = dmoc.simulate(disc, q0=q, p0=p, steps=1, controls=controls[k][None], jit=False)
+        return np.concatenate([run.trajectory.q[1], run.trajectory.p[1]])
+    for axis in np.eye(3)[:2]:          # q rotated about the axis by +-eps (Rodrigues)
+        turned = [q * np.cos(s) + np.cross(axis, q) * np.sin(s) + axis * (axis @ q) * (1 - np.cos(s))
+                  for s in (eps, -eps)]
+        np.testing.assert_allclose(A[k][:, :3] @ np.cross(axis, q),
+                                   (step(turned[0], p) - step(turned[1], p)) / (2 * eps), rtol=0, atol=1e-8)
+    for e in np.eye(3):
+        np.testing.assert_allclose(A[k][:, 3:] @ e, (step(q, p + eps * e) - step(q, p - eps * e)) / (2 * eps),
+                                   rtol=0, atol=1e-8)
+
+
 MASS_ERROR = 1.05
 
 
