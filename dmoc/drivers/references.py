@@ -45,7 +45,7 @@ class HorizonReferences:
         kinds, N = problem.parameters.schedule.kinds, problem.steps
         self._rows, self.values = {}, {}
         for name, value in references.items():
-            if kinds.get(name, FIXED) == FIXED or name == CLOCK:
+            if kinds.get(name, FIXED) == FIXED:          # the clock is a fixed value too
                 along = sorted(k for k, kind in kinds.items() if kind != FIXED)
                 raise InputError(f"`references` names parameters given per step or per knot of "
                                  f"`problem`, {along}; got {name!r}.")
