@@ -27,7 +27,14 @@ which one uncounted warmed-up process compiles the library first: the seconds it
 spent creating the solver (compiling and loading) are reported as the compile time, and
 every timed process finds the library in the cache (its step 0 loads it).
 
-    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3] [--mx] [--jit]
+With `--tracking` every checkout whose `dmoc.MPC` takes `references` also runs a tracking
+controller ("tracking" rows): the plan of knife-edge parking over 4 s (N = 40, solved
+before the clock starts) followed over the same horizon by a problem whose running and
+terminal costs read the plan's configurations and controls as parameters per knot and per
+step, `dmoc.MPC(problem, references=...)` moving their windows on at every step (new
+entries of p, no new NLP), the plant and kick as above.
+
+    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3] [--mx] [--jit] [--tracking]
     python benchmarks/mpc.py --checkouts /work/main /path/to/branch     # before/after
 """
 
@@ -50,7 +57,24 @@ from dmoc.problems import knife_edge_parking  # noqa: E402
 from resolve import add_checkouts, imported_dmoc  # noqa: E402
 
 
-SWITCHES = {"default": {}, "mx": {"expand": False}, "jit": {"jit": True}}
+SWITCHES = {"default": {}, "mx": {"expand": False}, "jit": {"jit": True}, "tracking": {}}
+
+
+def controlled(horizon, mode):
+    """(the controller's problem, the keywords of `dmoc.MPC`) of `mode`: the parking problem,
+    or for "tracking" the plan's tracking problem and its references."""
+    if mode != "tracking":
+        return knife_edge_parking(horizon, duration=0.1 * horizon), SWITCHES[mode]
+    import casadi as ca
+    parking = knife_edge_parking(40)
+    plan = dmoc.optimize(parking).trajectory
+    problem = dmoc.OptimalControlProblem(
+        parking.disc, horizon, q_start=plan.q[0], q_goal=[None] * 3, v_goal=[None] * 3,
+        parameters={"q_ref": plan.q[np.minimum(np.arange(horizon + 1), 40)],
+                    "u_ref": plan.u[np.minimum(np.arange(horizon), 39)]},
+        running_cost=lambda q, v, u, w: 1e4 * ca.sumsqr(q - w["q_ref"]) + ca.sumsqr(u - w["u_ref"]),
+        terminal_cost=lambda q, v, w: 1e4 * ca.sumsqr(q - w["q_ref"]))
+    return problem, {"references": {"q_ref": plan.q, "u_ref": np.vstack([plan.u, np.zeros((1, 2))])}}
 
 
 def closed_loop(horizon, steps, warm_up, mode="default"):
@@ -59,10 +83,10 @@ def closed_loop(horizon, steps, warm_up, mode="default"):
     if warm_up:
         dmoc.optimize(knife_edge_parking(20))       # load IPOPT and the plugins
         dmoc.clear_caches()
-    problem = knife_edge_parking(horizon, duration=0.1 * horizon)
+    problem, keywords = controlled(horizon, mode)
     plant = dmoc.discretize(dmoc.systems.knife_edge(mass=1.1), problem.disc.h)
     wall, cpu = time.perf_counter(), time.process_time()
-    controller = dmoc.MPC(problem, **SWITCHES[mode])   # builds the NLP
+    controller = dmoc.MPC(problem, **keywords)   # builds the NLP
     build = {"step": time.perf_counter() - wall, "cpu": time.process_time() - cpu}
     q, p, cpu = np.zeros(3), np.zeros(3), []
     for k in range(steps):
@@ -147,6 +171,8 @@ def main(argv=None):
     parser.add_argument("--jit", action="store_true", help="also run dmoc.MPC(problem, jit=True)")
     parser.add_argument("--mx", action="store_true",
                         help="also run dmoc.MPC(problem, expand=False) (the MX graph)")
+    parser.add_argument("--tracking", action="store_true",
+                        help="also run a tracking controller (references moved at every step)")
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
     parser.add_argument("--mode", choices=SWITCHES, default="default", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -162,7 +188,8 @@ def main(argv=None):
         print(f"# {checkout}: dmoc from {found}")
     print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps\n")
     variants = [(c, "default") for c in args.checkouts]
-    variants += [(c, mode) for mode, switch, wanted in (("mx", "expand", args.mx), ("jit", "jit", args.jit))
+    variants += [(c, mode) for mode, switch, wanted in (("mx", "expand", args.mx), ("jit", "jit", args.jit),
+                                                        ("tracking", "references", args.tracking))
                  for c in args.checkouts if wanted and takes(c, switch)]
     for checkout, mode in variants:
         if mode == "jit":

@@ -20,7 +20,9 @@ from .optimal_control.statement import examples as problems
 from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
 from .results import animation, diagnostics, plotting
 from .simulation import SimulationResult, simulate
+from .drivers.flow_linearization import flow_jacobians
 from .drivers.mpc import MPC
+from .drivers.riccati import FeedbackGains, tvlqr
 from .drivers.optimum import optimize
 from ._util.public_modules import publish
 
@@ -53,6 +55,9 @@ __all__ = [
     "Verdict",
     "from_waypoints",
     "MPC",
+    "flow_jacobians",
+    "tvlqr",
+    "FeedbackGains",
     "Trajectory",
     "systems",
     "problems",

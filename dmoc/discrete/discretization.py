@@ -110,7 +110,7 @@ class Discretization:
         system, rule = self.system, self.rule
         x = step_symbols(system.n, self.n_stages, self.n_controls)
         q0, q1, s, u, h = x["q0"], x["q1"], x["s"], x["u"], x["h"]
-        L_d = quadrature(rule, lambda q, v, _: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
+        L_d = quadrature(rule, lambda q, v, *_: system.lagrangian(q, v), q0, q1, s, ca.SX(0, 1), h)
         forces = virtual_work(rule, system.force, rule.samples(q0, q1, s, h), u, (q0, q1, s))
         return {"discrete_lagrangian": ca.Function("L_d", [q0, q1, s, h], [L_d],
                                                    ["q0", "q1", "s", "h"], ["L_d"]),
@@ -126,17 +126,23 @@ class Discretization:
         other.h = checks.step_size("h", h)
         return other
 
-    def discrete_cost(self, running_cost):
+    def discrete_cost(self, running_cost, parameters_at=None):
         """The step integral C_d(q0, q1, s, u, h, w) of ``running_cost(q, v, u[, w])`` (a
         callable or a Function; `running_integrand`) by the quadrature of the rule's
         interpolant (`Rule.interpolant`; the chord's midpoint for a HamiltonianRule), u the
         control interpolated at each quadrature point, w the problem's parameters
-        (`dmoc.optimal_control.statement.parameters`; empty when the cost takes none)."""
+        (`dmoc.optimal_control.statement.parameters`; empty when the cost takes none).
+        With `parameters_at`, a Function ``(w, c, h) -> w_c``, w is the step's vector of
+        parameters and the cost reads w_c at the fraction c of the step of each point
+        (values that vary along the horizon, the time)."""
         running_cost = running_integrand(self.system, running_cost)
         x = step_symbols(self.system.n, self.n_stages, self.n_controls)
         q0, q1, s, u, h = x["q0"], x["q1"], x["s"], x["u"], x["h"]
-        w = ca.SX.sym("w", running_cost.size1_in(3))
-        C_d = quadrature(self.rule, lambda q, v, uc: running_cost(q, v, uc, w), q0, q1, s, u, h)
+        w = ca.SX.sym("w", running_cost.size1_in(3) if parameters_at is None else parameters_at.size1_in(0))
+
+        def integrand(q, v, uc, c):
+            return running_cost(q, v, uc, w if parameters_at is None else parameters_at(w, c, h))
+        C_d = quadrature(self.rule, integrand, q0, q1, s, u, h)
         return ca.Function("C_d", [q0, q1, s, u, h, w], [C_d], ["q0", "q1", "s", "u", "h", "w"], ["C_d"])
 
     def __repr__(self):
@@ -179,7 +185,7 @@ def state_functions(system, rule, x):
     if isinstance(system, HamiltonianSystem):
         E = (system.hamiltonian(q0, x["p0"]) + system.hamiltonian(q1, x["p1"])) / 2
     else:
-        E = quadrature(rule, lambda q, v, _: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
+        E = quadrature(rule, lambda q, v, *_: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
     return {"discrete_constraint": ca.Function("omega_d", [q0, q1, s, h], [omega_d],
                                                ["q0", "q1", "s", "h"], ["omega_d"]),
             "midpoint_state": ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],

@@ -128,11 +128,12 @@ def linear_combination(coefficients, terms):
 
 
 def quadrature(rule, integrand, q0, q1, s, u, h):
-    """Sum of weight * integrand(q, v, u) over the quadrature points of `rule`'s
-    interpolant (any `Rule`), u the control there: the step integral of it on q(t)."""
+    """Sum of weight * integrand(q, v, u, c) over the quadrature points of `rule`'s
+    interpolant (any `Rule`), u the control there, c the point's fraction of the step: the
+    step integral of it on q(t)."""
     shape = rule.interpolant
     points = shape.samples(q0, q1, rule.stage_configurations(s, q0.shape[0]), h)
-    return sum(w * integrand(q, v, rule.control_at(u, c)) for w, q, v, c in points)
+    return sum(w * integrand(q, v, rule.control_at(u, c), c) for w, q, v, c in points)
 
 
 def virtual_work(rule, force, samples, u, variables):

@@ -2,5 +2,7 @@
 `optimize` (`optimum`) is the solve judged by the checks of `verdict`, with its error
 estimate (`error_estimate`) and grids refined to a target accuracy (`accuracy`); `mpc` is the
 receding-horizon controller, `measurement` its policy for measured states off the bounds or
-the constraints. The package re-exports nothing: `dmoc.optimize` and `dmoc.MPC`
-are the public names."""
+the constraints, `references` the windows of a tracked plan it moves on; `flow_linearization`
+linearizes the discrete step along a trajectory and `riccati` makes LQR gains of it. The
+package re-exports nothing: `dmoc.optimize`, `dmoc.MPC`, `dmoc.flow_jacobians` and
+`dmoc.tvlqr` are the public names."""

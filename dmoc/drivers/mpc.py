@@ -2,9 +2,11 @@
 receding-horizon controller re-solves one problem structure from each measured state, made
 a start within the bounds and on the constraints by its measurement policy
 (`dmoc.drivers.measurement`) and given by a momentum (`OptimalControlProblem(p_start=...)`),
-with IPOPT's kept solver warm-started from the previous optimum shifted by one step, primal
-and dual, and applies the first step's controls; a failed solve raises, or
-(``on_failure="shift"``) the last optimum's plan is followed one more step.
+with the windows of its references and its clock moved on by one step
+(`dmoc.drivers.references`; new parameter values, the same NLP), with IPOPT's kept solver
+warm-started from the previous optimum shifted by one step, primal and dual, and applies
+the first step's controls; a failed solve raises, or (``on_failure="shift"``) the last
+optimum's plan is followed one more step.
 """
 
 import dataclasses
@@ -17,6 +19,7 @@ from ..errors import InputError, Interrupted, SolverError, Status
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..optimal_control.solver.solving import solve        # the raw IPOPT solve of one problem
 from .measurement import MeasurementPolicy
+from .references import HorizonReferences
 
 ON_FAILURE = ("raise", "shift")
 
@@ -124,6 +127,13 @@ class MPC:
         d2L/dv2 (q clipped to the box and put on g = 0, v projected onto ker A(q)); the
         record says what was corrected and by how much. "refuse": InputError naming the
         step and each violated bound or constraint with its value.
+    references : dict of str -> array_like of shape (M, k), optional
+        For a tracking controller: the whole run's values of parameters of `problem` given
+        per step or per knot (a planned trajectory, its controls as a feed-forward); step j
+        solves with their rows j ... j+N-1 (per step) or j ... j+N (per knot), the last
+        row repeated past the end (`dmoc.drivers.references.HorizonReferences`). With the
+        clock (the parameter ``"t"``), step j also starts at the time t_0 plus the steps h
+        applied so far.
 
     Attributes
     ----------
@@ -156,7 +166,7 @@ class MPC:
     """
 
     def __init__(self, problem, *, guess=None, options=None, on_failure="raise",
-                 measurement="project", expand=True, jit=False):
+                 measurement="project", references=None, expand=True, jit=False):
         checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
         self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
         self._measurement = MeasurementPolicy(problem, measurement)
@@ -168,10 +178,11 @@ class MPC:
         n = problem.disc.system.n
         start = problem.p_start if problem.p_start is not None else np.zeros(n)
         self.problem = problem.with_boundary(p_start=start)
+        self._references = HorizonReferences(problem, references)
         self.plan, self.log, self._age = None, [], 0
         self._guess, self._options = guess, options
 
-    def step(self, q, *, v=None, p=None):
+    def step(self, q, *, v=None, p=None, parameters=None):
         """Solve from the measured state and return the controls of the first step.
 
         Parameters
@@ -181,6 +192,11 @@ class MPC:
             The measured velocity (then p = dL/dv(q, v)) or momentum: exactly one. A
             measurement outside `state_bounds` or off the constraints is projected or
             refused by the `measurement` policy.
+        parameters : dict, optional
+            New values of the problem's parameters from this step on
+            (`OptimalControlProblem.with_parameters`: the same NLP), e.g. a reference
+            window of your own; names in `references` and the clock are the
+            controller's.
 
         Returns
         -------
@@ -205,7 +221,7 @@ class MPC:
         tic = time.perf_counter()
         start = self._measurement.start(len(self.log), q, v=v, p=p)
         try:
-            self.problem = self.problem.with_boundary(q_start=start.q, p_start=start.p)
+            self.problem = self._restated(start, parameters)
         except InputError as err:       # e.g. a start in an obstacle (path constraints)
             raise type(err)(f"MPC step {len(self.log)}: {err}") from None
         guess = self._guess if self.plan is None else shifted(self.plan, self.problem, self._age + 1)
@@ -221,7 +237,20 @@ class MPC:
         # read from x: the plan's Trajectory is made only when a caller asks for it
         u = self.problem.transcription.x_layout.unpack(self.plan.x, "u")[:, self._age].copy()
         self._record(start, u, result, tic, self._age)
+        self._references.advance(self.log[-1].h)
         return u
+
+    def _restated(self, start, parameters):
+        """The problem of this step: the start, and the parameters (the windows of the
+        references, the clock, the caller's `parameters`) where any are to be set."""
+        values = dict(parameters or {})
+        mine = sorted(self._references.names & set(values))
+        if mine:
+            raise InputError(f"`parameters` must not set {mine}: the controller moves its references "
+                             f"and its clock on by itself.")
+        values.update(self._references.at(len(self.log)))
+        problem = self.problem.with_parameters(**values) if values else self.problem
+        return problem.with_boundary(q_start=start.q, p_start=start.p)
 
     def _record(self, start, u, result, tic, age):
         h = None if age is None else self.problem.final_time.step(

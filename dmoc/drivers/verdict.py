@@ -237,7 +237,7 @@ def _knot_arguments(problem, traj, ends):
     chords[0::2], chords[1::2] = q0, q1
     s = problem.disc.rule.stage_guess(chords, np.repeat(traj.p, 2, axis=0))[0::2]
     u = np.tile(traj.control(traj.t), len(traj.control_nodes))
-    w = np.repeat(np.reshape(problem.parameters.vector(), (-1, 1)), N + 1, axis=1)
+    w = problem.parameters.knot_values()
     return (q0.T, q1.T, np.reshape(s, (N + 1, -1)).T, u.T, np.full((1, N + 1), h), w)
 
 

@@ -19,7 +19,7 @@ def kept_out_region(problem, x, y):
     ----------
     problem : OptimalControlProblem
         Its path constraints at the knots (``g0`` of `path_constraints`) with its parameter
-        values w.
+        values w (those at q_0 for values given along the horizon).
     x, y : int
         Columns of q spanning the plane.
 
@@ -36,7 +36,7 @@ def kept_out_region(problem, x, y):
     q = ca.SX.sym("q", n)
     symbols = {name: ca.SX.zeros(path.sparsity_in(name)) for name in path.name_in()}
     symbols["q0"] = q
-    symbols["w"] = ca.SX(ca.DM(problem.parameters.vector()))
+    symbols["w"] = ca.SX(ca.DM(problem.parameters.knot_values()[:, 0]))    # those at q_0
     g0 = path(**symbols)["g0"]
     others = ca.vertcat(*[q[i] for i in range(n) if i not in (x, y)])
     rows = [g0[i] for i in range(g0.numel())

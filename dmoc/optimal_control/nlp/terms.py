@@ -61,21 +61,27 @@ class _StepSlots:
         self.n_x, self.n_p = sizes
         self.scales = scales
         self.h = problem.final_time.slot(X, P)
-        self.q_ref, self.w = P["q_ref"], ("p", P["w"])
+        self.q_ref = P["q_ref"]
+        self.w_steps = P["w"][:, 0][problem.parameters.schedule.step_indices()]
         self.key = _functions_key(problem, G)
 
     @property
     def cost(self):
-        """C_d(q0, q1, s, u, h, w) of the running cost (built only when a term is)."""
-        return self.problem.disc.discrete_cost(self.problem.running_cost)
+        """C_d(q0, q1, s, u, h, w) of the running cost, w the step's vector of parameters
+        (built only when a term is)."""
+        return self.problem.disc.discrete_cost(self.problem.running_cost,
+                                               self.problem.parameters.schedule.point_function())
 
     def at(self, first, stop, suffix=""):
-        """Slots q0, q1, lam, s, u (steps first ... stop - 1), names + suffix, and h, w."""
-        X = self.X
+        """Slots q0, q1, lam, s, u and w (the steps' vectors of parameters,
+        `ParameterSchedule.step_indices`) of steps first ... stop - 1, names + suffix, and
+        h."""
+        X, w = self.X, self.w_steps
         slots = {"q0": ("q", X["q"][:, first:stop]), "q1": ("q", X["q"][:, first + 1:stop + 1]),
                  "lam": ("x", X["lam"][:, first:stop]), "s": ("x", X["s"][:, first:stop]),
-                 "u": ("x", X["u"][:, first:stop])}
-        return {**{k + suffix: v for k, v in slots.items()}, "h": self.h, "w": self.w}
+                 "u": ("x", X["u"][:, first:stop]),
+                 "w": ("p", w if w.shape[1] == 1 else w[:, first:stop])}
+        return {**{k + suffix: v for k, v in slots.items()}, "h": self.h}
 
     def term(self, name, slots, body, g_index):
         """`_term` with q_ref added to the slots of source "q" and the problem's scales, its
@@ -112,12 +118,14 @@ class _StepSlots:
         problem, X, G, N = self.problem, self.X, self.G, self.N
         condition = problem.formulation.momentum_conditions(problem.disc.system)[1]
         momenta, terminal = problem.momentum_treatment, problem.terminal_cost
-        slots = {"q": ("q", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"]), "w": self.w,
-                 **momenta.goal_slots(self)}
+        last = self.at(N - 1, N)
+        slots = {"q": ("q", X["q"][:, N:]), "v": ("x", X["v_goal"]), "nu": ("x", X["nu"]),
+                 "w": last["w"], "h": last["h"], **momenta.goal_slots(self)}
 
-        def body(s):
+        def body(s):        # the terminal cost reads the parameters at q_N: the end of step N-1
             s = {**s, "p": momenta.goal_momentum(s)}
-            cost = 0 if terminal is None else terminal(s["q"], s["v"], s["w"])
+            w = problem.parameters.schedule.at(s["w"], 1, s["h"])
+            cost = 0 if terminal is None else terminal(s["q"], s["v"], w)
             return cost, self._boundary_rows(condition, s, "goal", "nu")
         return self.term("goal", slots, body, np.vstack([G["goal"], G["goal_velocity"]]))
 
@@ -171,12 +179,13 @@ def _term(name, slots, body, g_index, key, scales):
 def _functions_key(problem, G):
     """What the term Functions of `problem` depend on: the residual (system, rule,
     formulation), how the momenta enter, where h lives, the velocity rows (G: the row
-    indices by block) and the user's cost and path Functions (by value)."""
+    indices by block), the kinds of the parameters (fixed, per step, per knot, the clock)
+    and the user's cost and path Functions (by value)."""
     user = (problem.running_cost, problem.terminal_cost, problem.path_constraints)
     digest = hashlib.sha256("\0".join("" if f is None else f.serialize() for f in user).encode())
     return (problem.residual.key, problem.momentum_treatment.name, problem.final_time.free,
             G["start_velocity"].size, G["goal_velocity"].size, problem.p_start is not None,
-            digest.hexdigest())
+            problem.parameters.schedule.key, digest.hexdigest())
 
 
 def _indices(layout):

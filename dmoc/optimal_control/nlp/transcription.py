@@ -81,7 +81,7 @@ class Transcription(ReadOnly):
                                  ("mu", (m_start, 1)), ("nu", (m_end, 1)),
                                  ("h", (problem.final_time.x_entries, 1))])
         self._p_layout = Layout([("h", (problem.final_time.p_values.size, 1)), ("q_ref", (n, 1)),
-                                 ("w", (problem.parameters.layout.size, 1)),
+                                 ("w", (problem.parameters.schedule.size, 1)),
                                  ("p_start", (0 if problem.p_start is None else n, 1))])
         self._g_layout = Layout([("dynamics", (self._dynamics_rows.size, N)), ("start", (n, 1)),
                                  ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),

@@ -14,32 +14,44 @@ from ..._util.symbolic import checked_function
 from ...errors import InputError, InputTypeError
 from ..._util.layout import Layout, step_symbols
 from ..solver.ipopt import DEFAULT_IPOPT_OPTIONS
+from .parameter_schedule import CLOCK, FIXED, ParameterSchedule
 
 
 class ProblemParameters:
-    """Named parameters, each a scalar or a 1-d array of reals.
+    """Named parameters: fixed values, or values along the horizon (per step or per knot),
+    and the clock.
 
     Parameters
     ----------
-    values : dict of str -> float or array_like of shape (k,), or None
-        None (or an empty dict): no parameters, and the user callables take no `w`.
+    values : dict of str -> float or array_like, or None
+        Each a scalar or shape (k,) (fixed), (N, k) (one row per step, held over the step)
+        or (N+1, k) (one row per knot, linear in time between knots); ``"t"``, a scalar,
+        declares the clock: the callables' ``w["t"]`` is the time t_0 + (k + c) h where
+        they are evaluated, its value the start time t_0
+        (`dmoc.optimal_control.statement.parameter_schedule`). None (or an empty dict): no
+        parameters, and the user callables take no `w`.
+    steps : int
+        N.
 
     Attributes
     ----------
     layout : Layout
-        The blocks of the stacked vector w, one per name (a scalar is a block of size 1).
+        The blocks of the vector w the callables read, one per name (a scalar is a block
+        of size 1): the values at the point where they are evaluated.
     values : dict of str -> ndarray
-        The current values, shape (k,) each, read-only: a problem's p is formed of them once
-        (`with_values` gives new ones).
+        The current values, shapes (k,), (N, k) or (N+1, k), read-only: a problem's p is
+        formed of them once (`with_values` gives new ones).
+    schedule : ParameterSchedule
+        Their kinds and places in p.
 
     Examples
     --------
-    >>> w = ProblemParameters({"weight": 2.0, "centre": [0.0, 1.0]})
+    >>> w = ProblemParameters({"weight": 2.0, "centre": [0.0, 1.0]}, 10)
     >>> w.vector().tolist(), w.with_values(weight=3.0).vector().tolist()
     ([2.0, 0.0, 1.0], [3.0, 0.0, 1.0])
     """
 
-    def __init__(self, values):
+    def __init__(self, values, steps):
         if values is None:
             values = {}
         if not isinstance(values, dict):
@@ -49,8 +61,9 @@ class ProblemParameters:
         for name, value in values.items():
             if not isinstance(name, str) or not name.isidentifier():
                 raise InputError(f"`parameters` names must be identifiers (str); got {name!r}.")
-            self.values[name] = _value(f"parameters[{name!r}]", value)
-        self.layout = Layout([(name, v.size) for name, v in self.values.items()])
+            self.values[name] = _value(f"parameters[{name!r}]", value, steps, clock=name == CLOCK)
+        self.schedule = ParameterSchedule(self.values, steps)
+        self.layout = self.schedule.layout
 
     @property
     def given(self):
@@ -58,33 +71,64 @@ class ProblemParameters:
         return bool(self.values)
 
     def vector(self):
-        """The stacked values, shape (layout.size,)."""
-        return np.concatenate([v for v in self.values.values()] or [np.zeros(0)])
+        """The stored values, shape (schedule.size,): the values raveled row by row (the
+        knot indices 0 ... N after them with the clock), as p holds them."""
+        return self.schedule.stored(self.values)
+
+    def knot_values(self):
+        """Step vectors at the knots, shape (schedule.step_size, N+1)
+        (`ParameterSchedule.knot_indices`): column k gives the values at q_k at every
+        fraction of a step."""
+        return self.vector()[self.schedule.knot_indices()]
 
     def with_values(self, **values):
-        """These parameters with some values replaced (same names and sizes)."""
+        """These parameters with some values replaced (same names and shapes)."""
         if values and not self.given:
             raise InputError(f"this problem has no parameters (got {sorted(values)}); give "
                              f"`parameters=` to OptimalControlProblem to make data re-solvable.")
         checks.no_unknown_keys("parameters", values, self.values)
         new = ProblemParameters.__new__(ProblemParameters)
-        new.layout, new.values = self.layout, dict(self.values)      # read-only: shared
+        new.layout, new.schedule, new.values = self.layout, self.schedule, dict(self.values)
         for name, value in values.items():
-            new.values[name] = _value(f"parameters[{name!r}]", value, self.values[name].size)
+            new.values[name] = _value(f"parameters[{name!r}]", value, self.schedule.steps,
+                                      shape=self.values[name].shape, clock=name == CLOCK)
         return new
+
+    def on_steps(self, steps):
+        """These parameters on a grid of `steps` steps (the clock's knots anew); refused
+        for values given along the horizon, whose rows belong to this grid."""
+        along = [k for k, kind in self.schedule.kinds.items() if kind != FIXED]
+        if along:
+            raise InputError(f"`with_steps` cannot carry parameters given along the horizon to "
+                             f"another N ({', '.join(repr(k) for k in along)}); build the problem "
+                             f"on {steps} steps with their values there.")
+        return ProblemParameters(self.values, steps)
 
     def symbols(self, w):
         """{name: block of the column symbol w} for the user callables."""
         return {name: w[self.layout.slice(name)] for name in self.layout.blocks}
 
 
-def _value(name, value, size=None):
-    out = np.atleast_1d(checks.real_array(name, value, "a real number or a 1-d array of them"))
-    if out.ndim != 1 or out.size == 0 or (size is not None and out.size != size):
-        expected = f"shape ({size},)" if size is not None else "a scalar or shape (k,), k >= 1"
+def _value(name, value, steps, *, shape=None, clock=False):
+    """`value` as a read-only float array of `shape`, or (shape None) of (k,), (N, k) or
+    (N+1, k) (a scalar for the clock), finite."""
+    out = checks.real_array(name, value, "a real number or an array of them")
+    out = out.reshape(1) if out.ndim == 0 else out
+    kinds = ("a scalar (the start time t_0 of the clock `t`)" if clock else
+             f"a scalar or shape (k,) (fixed), (N, k) = ({steps}, k) (one row per step) or "
+             f"(N+1, k) = ({steps + 1}, k) (one row per knot), k >= 1")
+    if clock:
+        fits, expected = out.shape == (1,), kinds
+    elif shape is not None:
+        fits, expected = out.shape == shape, f"shape {shape}"
+    else:
+        fits, expected = out.size > 0 and (out.ndim == 1 or (
+            out.ndim == 2 and out.shape[0] in (steps, steps + 1))), kinds
+    if not fits:
         raise InputError(f"`{name}` must be {expected}; got shape {np.shape(value)}.")
     if not np.isfinite(out).all():
-        raise InputError(f"`{name}` must be finite; got {out.tolist()}.")
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(out))[0])
+        raise InputError(f"`{name}` must be finite; entry {bad} is {out[bad]}.")
     out = np.array(out, dtype=float)        # a copy of the caller's, made read-only
     out.flags.writeable = False
     return out
@@ -105,7 +149,9 @@ def path_function(path, disc, parameters):
     Function ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)``: "g" in the middle of the
     step (on the rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0"
     and "g1" the rows that read the configuration alone (not v, not u) at the step's knots
-    q0 and q1, "knot_rows" their indices in g (a constant; `knot_rows`)."""
+    q0 and q1, "knot_rows" their indices in g (a constant; `knot_rows`). w is the step's
+    vector of `parameters` (`ParameterSchedule.step_indices`), read at the fractions 1/2,
+    0 and 1 of the step."""
     sys = disc.system
     _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
     symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
@@ -116,10 +162,11 @@ def path_function(path, disc, parameters):
     _refuse_comparisons(g)
     of_q = [i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(*symbols[1:3]))]
     x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
-    w, still = symbols[-1], (ca.SX.zeros(sys.n), ca.SX.zeros(sys.n_u))
+    w, still = ca.SX.sym("w", parameters.schedule.step_size), (ca.SX.zeros(sys.n), ca.SX.zeros(sys.n_u))
     q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
-    values = [at_state(q, v, disc.rule.control_at(x["u"], 0.5), w),
-              *(at_state(knot, *still, w)[of_q] for knot in (x["q0"], x["q1"]))]
+    at = parameters.schedule.at
+    values = [at_state(q, v, disc.rule.control_at(x["u"], 0.5), at(w, 0.5, x["h"])),
+              *(at_state(knot, *still, at(w, c, x["h"]))[of_q] for knot, c in ((x["q0"], 0), (x["q1"], 1)))]
     names = ["q0", "q1", "s", "u", "h"]
     rows = ca.SX(ca.DM(np.array(of_q, dtype=float).reshape(-1, 1)))
     return ca.Function("path_constraints", [x[k] for k in names] + [w], values + [rows],
@@ -148,7 +195,8 @@ def refuse_violated_ends(path, problem, made):
         rows, at_end = made[key]
         if not rows:
             continue
-        values = np.array(at_end(np.nan_to_num(given), problem.parameters.vector())).ravel()
+        w = problem.parameters.knot_values()[:, 0 if end == "q_start" else -1]
+        values = np.array(at_end(np.nan_to_num(given), w, problem.disc.h)).ravel()
         worst = int(np.argmax(values))
         if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
             raise InputError(
@@ -160,15 +208,17 @@ def refuse_violated_ends(path, problem, made):
 
 def _end_rows(path, problem, output, given):
     """(the rows of `path`'s `output`, g0 or g1, that read no free (NaN) entry of the end
-    configuration `given`, the Function (q, w) -> those rows at that end, or None without
-    rows)."""
+    configuration `given` (nor h, when the final time is free), the Function (q, w, h) ->
+    those rows at that end, or None without rows)."""
     x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
-    w = ca.SX.sym("w", problem.parameters.layout.size)
+    w = ca.SX.sym("w", problem.parameters.schedule.step_size)
     q = x["q0" if output == "g0" else "q1"]
     g = path(**{k: x[k] for k in ("q0", "q1", "s", "u", "h")}, w=w)[output]
     free = q[np.flatnonzero(~np.isfinite(given)).tolist()]
+    if problem.free_time:           # the time at q_N (the clock) is free too
+        free = ca.vertcat(free, x["h"])
     rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], free)]
-    return rows, ca.Function("at_end", [q, w], [g[rows]]) if rows else None
+    return rows, ca.Function("at_end", [q, w, x["h"]], [g[rows]]) if rows else None
 
 
 # CasADi's comparisons and logical operations: an entry that is one is a 0/1 value

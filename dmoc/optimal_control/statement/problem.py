@@ -69,9 +69,11 @@ class OptimalControlProblem(ReadOnly):
         formulation whose p_{k+1} is not explicit (the Hamiltonian (+) form (39), explicit
         in q_{k+1}) or depends on p_k (the (-) form (43), unless the Hamiltonian makes it
         free of p_k) carries the momenta as variables (`dmoc.principle.explicit.substitutable`).
-    parameters : dict of str -> float or array_like of shape (k,), optional
-        Named data the costs and path constraints read through ``w`` (weights, obstacle
-        positions): entries of p, so `with_parameters` changes them without a new NLP.
+    parameters : dict of str -> float or array_like, optional
+        Named data the costs and path constraints read through ``w`` (weights, obstacles,
+        references): entries of p, so `with_parameters` changes them without a new NLP.
+        Shape (k,) fixed, (N, k) per step, (N+1, k) per knot; ``"t"`` the clock
+        (`ProblemParameters`).
 
     Attributes
     ----------
@@ -115,8 +117,7 @@ class OptimalControlProblem(ReadOnly):
                   for k in ("q_start", "q_goal", "v_start", "v_goal", "p_start")},
                **{k: "use `problem.with_parameters(name=value)`, which keeps the NLP"
                   for k in ("parameters", "parameter_values")}}
-    _CHANGE_ANY = ("build a new OptimalControlProblem (its data and its NLP, "
-                   "`problem.transcription`, are built together)")
+    _CHANGE_ANY = "build a new OptimalControlProblem (its data and its NLP are built together)"
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None, p_start=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
@@ -125,7 +126,7 @@ class OptimalControlProblem(ReadOnly):
         checks.instance("disc", disc, Discretization, "a Discretization")
         sys, self._steps = disc.system, checks.positive_int("steps", steps)
         self._final_time = as_final_time(duration, self._steps, disc.h)
-        self._parameters = w = ProblemParameters(parameters)
+        self._parameters = w = ProblemParameters(parameters, self._steps)
         self._stated = (momenta, path_constraints)      # `with_rule` makes the rule's parts anew
         self._disc, (self._formulation, self._residual, self._momentum_treatment, self._path) = \
             disc, rule_parts(disc, variant, momenta, path_constraints, w)
@@ -200,10 +201,10 @@ class OptimalControlProblem(ReadOnly):
 
     def with_steps(self, steps):
         """This problem on N = `steps` steps over the same time: h = N_old h_old / N (a
-        free final time keeps its range (T_min, T_max)). The step residual, costs and
-        path constraints take h as an input and are shared; the NLP is new (another
-        `structure`), so an optimum of this problem guesses the copy through its
-        trajectory, resampled. `dmoc.drivers.accuracy` refines grids with it.
+        free final time keeps its range). The step residual, costs and path constraints
+        take h as an input and are shared; the NLP is new (another `structure`): an optimum
+        of this problem guesses it through its trajectory, resampled (`dmoc.drivers.accuracy`).
+        Parameters given along the horizon are refused (`ProblemParameters.on_steps`).
 
         >>> import dmoc.problems
         >>> finer = dmoc.problems.knife_edge_parking(20).with_steps(40)
@@ -212,6 +213,7 @@ class OptimalControlProblem(ReadOnly):
         """
         new = self._copy()
         new._steps = checks.positive_int("steps", steps)
+        new._parameters = self._parameters.on_steps(new._steps)
         new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
         if not self.free_time:
             new._final_time = FixedFinalTime(new._disc.h)
@@ -267,10 +269,8 @@ class OptimalControlProblem(ReadOnly):
     momenta = Transcribed()
     configurations = Transcribed()
 
-    @property
-    def parameter_values(self):
-        """{name: value, shape (k,)} of the problem's `parameters`."""
-        return {k: v.copy() for k, v in self._parameters.values.items()}
+    parameter_values = property(lambda self: {k: v.copy() for k, v in self._parameters.values.items()},
+                                doc="{name: value, shape (k,), (N, k) or (N+1, k)} of the `parameters`.")
 
     @property
     def velocity_rows(self):
