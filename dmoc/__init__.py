@@ -15,7 +15,8 @@ from .discrete import (Discretization, GroupDiscretization, HamiltonianDiscretiz
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
                      MissingFileError, SolverError, Status, TrajectoryFileError)
 from .mechanics import Body, HamiltonianSystem, MechanicalSystem, RigidBody, RobotSystem, systems
-from .optimal_control import OptimalControlProblem, OptimizationResult, Verdict, from_waypoints
+from .optimal_control import (GroupOptimalControlProblem, OptimalControlProblem, OptimizationResult, Verdict,
+                              from_waypoints)
 from .optimal_control.statement import examples as problems
 from .principle import (GroupStepResidual, RotationTrajectory, StepResidual, Trajectory, action_sum,
                         dirac, formulations, group_step_residual, step_residual)
@@ -53,6 +54,7 @@ __all__ = [
     "simulate",
     "SimulationResult",
     "OptimalControlProblem",
+    "GroupOptimalControlProblem",
     "optimize",
     "OptimizationResult",
     "Verdict",
