@@ -39,7 +39,7 @@ class GroupDiscretization:
             L_d = (1/h) tr((I - F_k) J_d) - (h/2) (U(R_k) + U(R_{k+1})),
             J_d = tr(J)/2 I - J
 
-        (Lee, Leok & McClamroch [1]_, eq. (14); for U = 0 the Moser-Veselov Lagrangian).
+        (Lee, Leok & McClamroch [1]_; for U = 0 the Moser-Veselov Lagrangian).
     discrete_force : casadi.Function
         ``f_d(q0, q1, F, u, h) -> (f_minus, f_plus)``, each (3,): the body torques at the
         two ends, (h/2) tau(R_k, xi_k, u_k) and (h/2) tau(R_{k+1}, xi_k, u_k), with the

@@ -1,13 +1,14 @@
 """The rotation group SO(3), the configuration space of a rigid body (first stage of the
 pipeline): the hat map R^3 -> so(3) and its inverse vee, the Cayley map cay: R^3 -> SO(3)
-that writes a step's group increment F_k = R_k^T R_{k+1} in three coordinates, its inverse,
-and the row-major layout that carries a rotation matrix as a vector of 9 entries. The maps
-take and return CasADi expressions (they evaluate numerically on DM or numpy input).
+that writes a step's group increment F_k = R_k^T R_{k+1} in three coordinates [1]_, its
+inverse, the Bjorck-Bowie step that keeps products of rotations orthogonal [2]_, and the
+row-major layout that carries a rotation matrix as a vector of 9 entries. The maps take and
+return CasADi expressions (they evaluate numerically on DM or numpy input).
 
 References
 ----------
 .. [1] M. Kobilarov, J. E. Marsden, "Discrete geometric optimal control on Lie groups",
-   IEEE Trans. Robotics 27 (2011), Sec. IV (the Cayley map on SO(3)).
+   IEEE Trans. Robotics 27 (2011) (the Cayley map on SO(3) and its use in DMOC).
 .. [2] A. Bjorck, C. Bowie, "An iterative algorithm for computing the best estimate of an
    orthogonal matrix", SIAM J. Numer. Anal. 8 (1971) 358-364.
 """
@@ -35,7 +36,7 @@ def vee(A):
 
 def cayley(f):
     """The Cayley map cay(f) = (I - f^/2)^{-1} (I + f^/2) = I + 4/(4 + |f|^2) (f^ + f^2/2),
-    shape (3,) -> (3, 3), a rotation for every f ([1], eq. (30))."""
+    shape (3,) -> (3, 3), a rotation for every f (Kobilarov & Marsden [1])."""
     F = hat(f)
     return ca.DM.eye(3) + 4 / (4 + ca.dot(f, f)) * (F + 0.5 * ca.mtimes(F, F))
 
@@ -48,7 +49,7 @@ def cayley_inverse(F):
 
 def orthogonalized(R):
     """R (3 I - R^T R) / 2, one Newton step of the polar decomposition toward the nearest
-    rotation (Bjorck & Bowie [2]_): the identity on SO(3), it removes the round-off of a
+    rotation (Bjorck & Bowie [2]): the identity on SO(3), it removes the round-off of a
     product of rotations (of order |R^T R - I|^2 left) without moving R by more than it."""
     return 0.5 * ca.mtimes(R, 3 * ca.DM.eye(3) - ca.mtimes(R.T, R))
 

@@ -18,8 +18,8 @@ from ..mechanics.rotations import cayley, matrix_of, vector_of
 class GroupStepResidual:
     """The step residual R of a rigid body on SO(3): the left-trivialized discrete
     Euler-Poincare (Lie-Poisson) equations with forces, one step of the Lie group
-    variational integrator (Lee, Leok & McClamroch [1]_, eqs. (17)-(19); with torques,
-    the discrete Lagrange-d'Alembert principle of [2]_, Sec. III).
+    variational integrator (Lee, Leok & McClamroch [1]_; with torques,
+    the discrete Lagrange-d'Alembert principle as in [2]_).
 
     ``function(q0, p0, f, p1, u, h) -> r``: q0 (9) the rows of R_k, p0 and p1 (3 each)
     the body angular momenta Pi_k and Pi_{k+1}, f (3) the Cayley coordinates of the
@@ -50,7 +50,7 @@ class GroupStepResidual:
     the discrete Legendre transforms Pi_k = -D1 L_d - f_minus, Pi_{k+1} = D2 L_d + f_plus
     of the (+) form (37) written on the group; without constraints the (-) form (41) has
     the same rows. For L_d of `GroupDiscretization` they are, with M(R) the moment of U,
-    M^ = dU/dR^T R - R^T dU/dR ([1], eq. (19)),
+    M^ = dU/dR^T R - R^T dU/dR [1]_,
 
         h Pi_k^ + (h^2/2) M_k^ = F_k J_d - J_d F_k^T,
         Pi_{k+1} = F_k^T Pi_k + (h/2) F_k^T M_k + (h/2) M_{k+1}

@@ -1,7 +1,8 @@
 """The group step residual against the closed form of the Lie group variational integrator
-written in this file (Lee, Leok & McClamroch, CMAME 196 (2007), eqs. (17)-(19), with the
-torques entering as h/2 of the moment): its rows are derived by automatic differentiation
-of L_d along the variations dR = R eta^, so the closed form is a separate path."""
+written in this file (Lee, Leok & McClamroch, CMAME 196 (2007): the discrete equations of a
+rigid body in a potential, with body torques entering as h/2 of the moment): the residual's
+rows are derived by automatic differentiation of L_d along the variations dR = R eta^, so
+the closed form is a separate path."""
 
 import numpy as np
 import pytest
