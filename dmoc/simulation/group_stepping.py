@@ -17,7 +17,7 @@ from ..mechanics.rotations import as_rotation, matrix_of, orthogonalized, vector
 from ..principle.group_residual import group_step_residual
 from ..principle.rotation_trajectory import RotationTrajectory
 from .outcome import finished_result, interrupted_result
-from .preparation import _native
+from .preparation import native_choice
 from .stepper import DiracStepper, step_layouts
 
 
@@ -53,22 +53,17 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
     steps (no constraints). Returns a SimulationResult whose trajectory is a
     RotationTrajectory."""
     tic = time.perf_counter()
-    body = disc.system
-    R0 = as_rotation("q0", q0)
-    if (v0 is None) == (p0 is None):
-        raise InputError("give exactly one of `v0` (the body angular velocity Omega_0, shape "
-                         "(3,)) and `p0` (the body angular momentum Pi_0, shape (3,)).")
-    Pi0 = body.inertia @ checks.array("v0", v0, (3,)) if p0 is None else checks.array("p0", p0, (3,))
+    start = _start(disc, q0, v0, p0)
     steps = checks.positive_int("steps", steps)
     checks.choice("variant", variant, ("+", "-"))
     tol, max_iter = checks.positive_float("tol", tol), checks.positive_int("max_iter", max_iter)
     throw = checks.boolean("throw", throw)
-    controls = (np.zeros((steps, body.n_u)) if controls is None
-                else checks.array("controls", controls, (steps, body.n_u)))
-    residual, native = group_step_residual(disc), _native(jit)
+    n_u = disc.system.n_u
+    controls = (np.zeros((steps, n_u)) if controls is None
+                else checks.array("controls", controls, (steps, n_u)))
+    residual, native = group_step_residual(disc), native_choice(jit)
     stepper = _STEPPERS.get((residual.key, tol, max_iter, native),
                             lambda: GroupStepper(residual, tol, max_iter, native))
-    start = np.concatenate([R0.ravel(), Pi0, disc.h * np.linalg.solve(body.inertia, Pi0)])
     acc, out, failed_rnorm, redone, stopped = stepper.run(start, controls, disc.h)
     k = out.shape[0]
     state = stepper.state.split(acc)
@@ -81,3 +76,15 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
     if stopped:
         return interrupted_result(traj, stats, throw)
     return finished_result(traj, stats, failed_rnorm, tol, throw)
+
+
+def _start(disc, q0, v0, p0):
+    """The stepper's start state: the rows of R_0, Pi_0 (J v0 or p0) and the first guess
+    f = h J^{-1} Pi_0 (the increment of a step at the start's angular velocity)."""
+    J = disc.system.inertia
+    R0 = as_rotation("q0", q0)
+    if (v0 is None) == (p0 is None):
+        raise InputError("give exactly one of `v0` (the body angular velocity Omega_0, shape "
+                         "(3,)) and `p0` (the body angular momentum Pi_0, shape (3,)).")
+    Pi0 = J @ checks.array("v0", v0, (3,)) if p0 is None else checks.array("p0", p0, (3,))
+    return np.concatenate([R0.ravel(), Pi0, disc.h * np.linalg.solve(J, Pi0)])

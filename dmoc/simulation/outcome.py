@@ -18,8 +18,9 @@ class SimulationResult:
 
     Attributes
     ----------
-    trajectory : Trajectory
-        All steps that converged (all of them when `success`).
+    trajectory : Trajectory or RotationTrajectory
+        All steps that converged (all of them when `success`); a RotationTrajectory for
+        a rigid body on SO(3) (`GroupDiscretization`).
     success : bool
     status : dmoc.Status
         ``"converged"``, ``"newton_failed"``, ``"non_finite"`` (a step produced NaN/Inf)

@@ -21,7 +21,11 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
 
     Parameters
     ----------
-    disc : Discretization
+    disc : Discretization or GroupDiscretization
+        A GroupDiscretization (a `RigidBody` on SO(3)) is simulated on the group
+        (`dmoc.simulation.group_stepping.simulate_on_group`): q0 is then the rotation
+        R_0, shape (3, 3), v0 the body angular velocity and p0 the body angular momentum,
+        shape (3,), and the trajectory a RotationTrajectory.
     q0 : array_like, shape (n,)
         Initial configuration.
     v0, p0 : array_like, shape (n,)
