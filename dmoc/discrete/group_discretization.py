@@ -54,7 +54,6 @@ class GroupDiscretization:
        full body problem", Comput. Methods Appl. Mech. Engrg. 196 (2007) 2907-2924.
     """
 
-    family = "group"
     order = 2
 
     def __init__(self, system, h, rule="midpoint"):

@@ -66,8 +66,6 @@ class GroupStepResidual:
        groups", IEEE Trans. Robotics 27 (2011) 641-655.
     """
 
-    variant = "+"
-
     def __init__(self, disc):
         checks.instance("disc", disc, GroupDiscretization, "a GroupDiscretization")
         self.system, self.key = disc.system, ("group", disc.key)

@@ -4,6 +4,7 @@ rigid body in a potential, with body torques entering as h/2 of the moment): the
 rows are derived by automatic differentiation of L_d along the variations dR = R eta^, so
 the closed form is a separate path."""
 
+import casadi as ca
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -49,7 +50,6 @@ def closed_form(R0, p0, f, p1, tau, moment=gravity_moment):
 
 def forced_top():
     """A heavy top with a general inertia tensor, turned by body torques u."""
-    import casadi as ca
     rho = ca.DM(CENTRE)
     return dmoc.RigidBody(INERTIA, potential=lambda R: MASS * GRAVITY * ca.mtimes(R[2, :], rho),
                           torque=lambda R, omega, u: u, n_u=3)

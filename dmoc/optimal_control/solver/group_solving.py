@@ -11,6 +11,7 @@ import numpy as np
 
 from ..._util import checks
 from ...errors import SolverError
+from ...mechanics.rotations import cayley_inverse
 from ...principle.rotation_trajectory import RotationTrajectory
 from ..nlp.group_transcription import group_transcription
 from ..statement.group_problem import GroupOptimalControlProblem
@@ -61,10 +62,7 @@ def geodesic_guess(problem, T):
     """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`), f_k =
     cay^{-1}(R_k^T R_{k+1}), Pi_k = J f_k / h (the last step's at N), zero controls."""
     R = problem.geodesic()
-    F = np.einsum("kji,kjl->kil", R[:-1], R[1:])
-    trace = np.trace(F, axis1=1, axis2=2)
-    f = 2 * np.stack([F[:, 2, 1] - F[:, 1, 2], F[:, 0, 2] - F[:, 2, 0], F[:, 1, 0] - F[:, 0, 1]],
-                     axis=1) / (1 + trace)[:, None]
+    f = np.array([np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])])
     Pi = np.vstack([f, f[-1:]]) @ problem.disc.system.inertia / problem.disc.h
     blocks = {"q": R.reshape(-1, 9).T, "Pi": Pi.T, "f": f.T,
               "u": np.zeros((problem.residual.n_controls, problem.steps))}
