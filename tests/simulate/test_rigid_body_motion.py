@@ -162,3 +162,18 @@ def test_bad_arguments_are_named(given, match):
 def test_bad_inertia_is_named(inertia, match):
     with pytest.raises(ValueError, match=match):
         dmoc.RigidBody(inertia)
+
+
+def test_spin_about_a_principal_axis_turns_by_arcsin_and_fails_beyond():
+    """About the principal axis e3 the left rows read h Pi_3 = J_3 sin(phi) (F J_d - J_d F^T
+    for F a rotation by phi about e3), so each step turns by phi = arcsin(h Omega_3), and
+    no increment exists when h Omega_3 > 1: the simulator reports the failed step."""
+    disc = dmoc.discretize(dmoc.systems.free_rigid_body(INERTIA), 0.1)
+    traj = dmoc.simulate(disc, q0=np.eye(3), v0=[0.0, 0.0, 9.0], steps=7).trajectory
+    angles = np.unwrap(np.arctan2(traj.R[:, 1, 0], traj.R[:, 0, 0]))
+    assert np.abs(angles - np.arange(8) * np.arcsin(0.9)).max() <= 1e-13
+    failed = dmoc.simulate(disc, q0=np.eye(3), v0=[0.0, 0.0, 11.0], steps=7, throw=False)
+    assert failed.status == "newton_failed" and failed.stats["completed_steps"] == 0
+    assert "step 0" in failed.message and np.array_equal(failed.trajectory.R, np.eye(3)[None])
+    with pytest.raises(dmoc.SolverError, match="step 0"):
+        dmoc.simulate(disc, q0=np.eye(3), v0=[0.0, 0.0, 11.0], steps=7)
