@@ -10,14 +10,16 @@ stage modules of those names; ``dmoc.batch`` is imported on first use.
 """
 
 from ._util.cache import clear_caches
-from .discrete import (Discretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
+from .discrete import (Discretization, GroupDiscretization, HamiltonianDiscretization, Lobatto3, Lobatto4, Midpoint,
                        Trapezoid, discrete_legendre, discretize)
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
                      MissingFileError, SolverError, Status, TrajectoryFileError)
-from .mechanics import Body, HamiltonianSystem, MechanicalSystem, RobotSystem, systems
-from .optimal_control import OptimalControlProblem, OptimizationResult, Verdict, from_waypoints
+from .mechanics import Body, HamiltonianSystem, MechanicalSystem, RigidBody, RobotSystem, systems
+from .optimal_control import (GroupOptimalControlProblem, OptimalControlProblem, OptimizationResult, Verdict,
+                              from_waypoints)
 from .optimal_control.statement import examples as problems
-from .principle import StepResidual, Trajectory, action_sum, dirac, formulations, step_residual
+from .principle import (GroupStepResidual, RotationTrajectory, StepResidual, Trajectory, action_sum,
+                        dirac, formulations, group_step_residual, step_residual)
 from .results import animation, diagnostics, plotting
 from .simulation import SimulationResult, simulate
 from .drivers.flow_linearization import flow_jacobians
@@ -35,11 +37,13 @@ __all__ = [
     "MechanicalSystem",
     "HamiltonianSystem",
     "RobotSystem",
+    "RigidBody",
     "Body",
     "Discretization",
     "discretize",
     "discrete_legendre",
     "HamiltonianDiscretization",
+    "GroupDiscretization",
     "Midpoint",
     "Trapezoid",
     "Lobatto3",
@@ -47,9 +51,12 @@ __all__ = [
     "StepResidual",
     "action_sum",
     "step_residual",
+    "GroupStepResidual",
+    "group_step_residual",
     "simulate",
     "SimulationResult",
     "OptimalControlProblem",
+    "GroupOptimalControlProblem",
     "optimize",
     "OptimizationResult",
     "Verdict",
@@ -59,6 +66,7 @@ __all__ = [
     "tvlqr",
     "FeedbackGains",
     "Trajectory",
+    "RotationTrajectory",
     "systems",
     "problems",
     "formulations",

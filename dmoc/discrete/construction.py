@@ -2,9 +2,11 @@
 takes (discrete Lagrangian or discrete Hamiltonians) and builds it."""
 
 from ..errors import InputTypeError
+from ..mechanics.rigid_body import RigidBody
 from ..mechanics.system import HamiltonianSystem, MechanicalSystem
 from .degenerate import warn_order_reduction
 from .discretization import Discretization
+from .group_discretization import GroupDiscretization
 from .hamiltonian import HamiltonianDiscretization
 
 
@@ -14,18 +16,19 @@ def discretize(system, h, rule="midpoint"):
 
     Parameters
     ----------
-    system : MechanicalSystem or HamiltonianSystem
+    system : MechanicalSystem or HamiltonianSystem or RigidBody
     h : float
         Step size, > 0.
     rule : str or QuadratureRule or HamiltonianRule
         For a MechanicalSystem a name in `dmoc.discrete.RULES` (``"midpoint"``, the
         default, ``"trapezoid"``, ``"lobatto3"``, ``"lobatto4"``) or a rule instance; for a
         HamiltonianSystem a name in `dmoc.discrete.HAMILTONIAN_RULES` (``"midpoint"``,
-        ``"symplectic-euler"``) or a HamiltonianRule.
+        ``"symplectic-euler"``) or a HamiltonianRule; for a RigidBody ``"midpoint"``, the
+        Lie group variational integrator on SO(3) (`GroupDiscretization`).
 
     Returns
     -------
-    Discretization or HamiltonianDiscretization
+    Discretization or HamiltonianDiscretization or GroupDiscretization
 
     Raises
     ------
@@ -54,9 +57,11 @@ def discretize(system, h, rule="midpoint"):
     """
     if isinstance(system, HamiltonianSystem):
         return HamiltonianDiscretization(system, h, rule)
+    if isinstance(system, RigidBody):
+        return GroupDiscretization(system, h, rule)
     if not isinstance(system, MechanicalSystem):
-        raise InputTypeError(f"`system` must be a MechanicalSystem or a HamiltonianSystem; got "
-                        f"{type(system).__name__}.")
+        raise InputTypeError(f"`system` must be a MechanicalSystem, a HamiltonianSystem or a "
+                             f"RigidBody; got {type(system).__name__}.")
     disc = Discretization(system, h, rule)
     warn_order_reduction(disc)
     return disc

@@ -3,8 +3,10 @@
 (`error_estimate`) or the grid refined to an accuracy target (`accuracy`) on request."""
 
 from .._util import checks
+from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from .accuracy import optimize_to_accuracy
 from .error_estimate import estimate_error, with_estimate
+from .group_optimum import optimize_on_group
 from .high_order import started_solve
 
 
@@ -16,7 +18,9 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem or GroupOptimalControlProblem
+        A problem on SO(3) takes `options`, `throw` and `check` only (its verdict is the
+        replay; `dmoc.drivers.group_optimum`).
     guess : Trajectory or OptimizationResult, optional
         Initial guess. A Trajectory is resampled in time if its number of steps differs.
         An OptimizationResult of a problem with the same `structure` (the same problem
@@ -120,6 +124,13 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     no caller uses such an optimum unawares; ``err.result`` keeps it for a look or as a
     guess.
     """
+    if isinstance(problem, GroupOptimalControlProblem):
+        return optimize_on_group(problem, options=options, throw=throw, check=check,
+                                 guess=(guess, None), reuse_solver=(reuse_solver, True),
+                                 expand=(expand, False), jit=(jit, False),
+                                 linear_solver_report=(linear_solver_report, False),
+                                 estimate=(estimate, False), accuracy=(accuracy, None),
+                                 max_steps=(max_steps, 100_000))
     estimate = checks.boolean("estimate", estimate)
     keywords = {"options": options, "reuse_solver": reuse_solver, "expand": expand,
                 "linear_solver_report": linear_solver_report, "jit": jit, "throw": throw,

@@ -203,7 +203,7 @@ def _stepper(disc, formulation, tol, max_iter, jit):
     """The DiracStepper of `disc`'s residual in `formulation` (`step_residual`, checked as
     for `simulate`), kept across calls (`_STEPPERS`)."""
     residual = step_residual(disc, formulation)
-    native = _native(jit)
+    native = native_choice(jit)
     return _STEPPERS.get((residual.key, tol, max_iter, native),
                          lambda: DiracStepper(residual, tol, max_iter, native))
 
@@ -211,7 +211,7 @@ def _stepper(disc, formulation, tol, max_iter, jit):
 _STEPPERS = BoundedCache(16, "steppers")     # keyed by (residual key, tol, max_iter, native): h is an input
 
 
-def _native(jit):
+def native_choice(jit):
     """`jit` checked: None, or True (then a C compiler must exist), or False."""
     if jit is None:
         return None

@@ -32,6 +32,16 @@ FAST_ITERATIONS = 3
 NATIVE_AFTER_SECONDS = 0.5
 
 
+def step_layouts(n_q, n, m, ns):
+    """(unknowns, state, out) Layouts of a stepper whose configurations have n_q entries
+    (q), momenta and increments n (p, dq, p0), multipliers m (nu) and stage values ns (ds, s)."""
+    unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
+    state = Layout([("q", n_q), ("p", n), *((k, unknowns.numel(k)) for k in unknowns.blocks)])
+    out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1), ("scale", 1),
+                  ("nonfinite", 1)])
+    return unknowns, state, out
+
+
 class DiracStepper:
     """Step map (q_k, p_k', u_k, h) -> (q_{k+1}, p_{k+1}', ...) of a StepResidual.
 
@@ -54,11 +64,7 @@ class DiracStepper:
 
     def __init__(self, residual, tol, max_iter, native=False):
         self.residual, self.tol = residual, tol
-        n, m, ns = residual.n, residual.n_lam, residual.n_stages
-        self.unknowns = Layout([("dq", n), ("nu", m), ("ds", ns)])
-        self.state = Layout([("q", n), ("p", n), *((k, self.unknowns.numel(k)) for k in self.unknowns.blocks)])
-        self.out = Layout([("p0", n), ("nu", m), ("s", ns), ("rnorm", 1), ("update", 1),
-                           ("scale", 1), ("nonfinite", 1)])
+        self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
         self.fast = self._fast_step(eliminate=native is not False)
         self.robust = self._robust_step(max_iter)
@@ -69,6 +75,12 @@ class DiracStepper:
         self._auto = native is None and self.library.key is not None
         if native or (self._auto and self.library.cached()):
             self._go_native()
+
+    def _layouts(self):
+        """(unknowns, state, out) Layouts of the blocks named in the class docstring, of
+        sizes n (q, p, dq, p0), m (nu) and n_stages (ds, s)."""
+        R = self.residual
+        return step_layouts(R.n, R.n, R.n_lam, R.n_stages)
 
     def _go_native(self):
         """Evaluate the horizons from now on with the compiled library. When compiling fails,

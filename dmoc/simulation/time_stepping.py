@@ -5,40 +5,14 @@ A run is checked and started by `dmoc.simulation.preparation` and concluded here
 """
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import Interrupted, SolverError, Status
+from ..discrete.group_discretization import GroupDiscretization
 from ..principle.trajectory import Trajectory
+from .group_stepping import simulate_on_group
+from .outcome import SimulationResult, finished_result, interrupted_result
 from .preparation import prepare
-
-
-@dataclass
-class SimulationResult:
-    """Outcome of `simulate`.
-
-    Attributes
-    ----------
-    trajectory : Trajectory
-        All steps that converged (all of them when `success`).
-    success : bool
-    status : dmoc.Status
-        ``"converged"``, ``"newton_failed"``, ``"non_finite"`` (a step produced NaN/Inf)
-        or ``"interrupted"`` (Ctrl-C; ``throw=False``).
-    message : str
-    stats : dict
-        ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
-        Newton redid), ``max_residual`` (max-norm of R over the completed steps, checked
-        at every step on both paths), ``native`` (True when the fast path ended the run as
-        compiled C), ``wall_time`` in seconds (building or loading the compiled step included).
-    """
-
-    trajectory: Trajectory
-    success: bool
-    status: str
-    message: str
-    stats: dict = field(default_factory=dict)
 
 
 def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
@@ -47,7 +21,11 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
 
     Parameters
     ----------
-    disc : Discretization
+    disc : Discretization or GroupDiscretization
+        A GroupDiscretization (a `RigidBody` on SO(3)) is simulated on the group
+        (`dmoc.simulation.group_stepping.simulate_on_group`): q0 is then the rotation
+        R_0, shape (3, 3), v0 the body angular velocity and p0 the body angular momentum,
+        shape (3,), and the trajectory a RotationTrajectory.
     q0 : array_like, shape (n,)
         Initial configuration.
     v0, p0 : array_like, shape (n,)
@@ -117,6 +95,9 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     >>> res.trajectory.q.shape, res.success
     ((11, 3), True)
     """
+    if isinstance(disc, GroupDiscretization):
+        return simulate_on_group(disc, q0=q0, v0=v0, p0=p0, steps=steps, controls=controls,
+                                 variant=variant, throw=throw, tol=tol, max_iter=max_iter, jit=jit)
     run = prepare(disc, q0=q0, v0=v0, p0=p0, steps=steps, controls=controls, variant=variant,
                   throw=throw, tol=tol, max_iter=max_iter, jit=jit)
     return conclude(run, run.stepper.run(run.start, run.controls, disc.h))
@@ -133,10 +114,10 @@ def conclude(run, stepped, *, final=False):
     rnorm = out[:, stepper.out.slice("rnorm")]
     stats = _stats(run, k, redone, float(rnorm.max()) if k else 0.0, wall)
     if interrupted:
-        return _interrupted(traj, stats, run.throw)
+        return interrupted_result(traj, stats, run.throw)
     explain = getattr(run.disc.system, "step_failure_hint", None)
     hint = explain(traj.q[-1], traj.p[-1], run.disc.h) if explain and k < stats["steps"] else None
-    return _finish(traj, stats, failed_rnorm, run.tol, run.throw, hint)
+    return finished_result(traj, stats, failed_rnorm, run.tol, run.throw, hint)
 
 
 def conclude_group(runs, controls, acc, out, stepped, *, final=False):
@@ -162,7 +143,7 @@ def conclude_group(runs, controls, acc, out, stepped, *, final=False):
         largest = out[rows, :, first.stepper.out.slice("rnorm")].max(axis=(1, 2))
         for i, traj, rnorm in zip(whole, trajectories, largest):
             stats = _stats(runs[i], N, stepped[i][3], float(rnorm), now - runs[i].tic)
-            results[i] = _finish(traj, stats, None, runs[i].tol, runs[i].throw)
+            results[i] = finished_result(traj, stats, None, runs[i].tol, runs[i].throw)
     return results
 
 
@@ -171,11 +152,6 @@ def _stats(run, k, redone, max_residual, wall):
     Newton, `wall` seconds after its `tic`."""
     return {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
             "max_residual": max_residual, "native": run.stepper.native, "wall_time": wall}
-
-
-# the smallest residual relative to the momenta that a converged step can be asked for:
-# 100 units of round-off (evaluating R sums and multiplies O(n) terms of size |p|)
-ROUNDOFF_FLOOR = 100 * np.finfo(float).eps
 
 
 def _assemble(stepper, formulation, disc, controls, acc, out, final):
@@ -193,47 +169,3 @@ def _assemble(stepper, formulation, disc, controls, acc, out, final):
     assembled = Trajectory.assembled if acc.ndim == 2 else Trajectory.assembled_runs
     return assembled(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
                      disc.rule.control_nodes, disc.rule.stage_nodes, final)
-
-
-def _interrupted(traj, stats, throw):
-    """The result of a run stopped by Ctrl-C after ``stats["completed_steps"]`` accepted
-    steps."""
-    k = stats["completed_steps"]
-    result = SimulationResult(
-        traj, False, Status.INTERRUPTED,
-        f"interrupted (KeyboardInterrupt) after {k} of {stats['steps']} steps (t = "
-        f"{k * traj.h:.6g}); the {k} completed steps are in `.result.trajectory`.", stats)
-    if throw:
-        raise Interrupted(result.message, result)
-    return result
-
-
-def _finish(traj, stats, failed_rnorm, tol, throw, hint=None):
-    """Report success, or the failed step with the trajectory before it; `hint` is the
-    system's reading of the state before a failed step (`RobotSystem.step_failure_hint`),
-    None for systems without one."""
-    k, steps = stats["completed_steps"], stats["steps"]
-    if k == steps:
-        return SimulationResult(traj, True, Status.CONVERGED,
-                                f"{steps} steps converged (max residual {stats['max_residual']:.2e}).", stats)
-    where = f"at step {k} (t = {k * traj.h:.6g})"
-    if np.isnan(failed_rnorm):
-        status, what = Status.NON_FINITE, (
-            f"step {k} turned NaN or Inf (t = {k * traj.h:.6g}): the residual, the next state or "
-            f"the multipliers are not finite; "
-            + (f"{hint}." if hint else f"check the force and the controls of step {k}."))
-    else:
-        hint = (f"`tol` = {tol:.1e} is below the round-off floor: 1000 tol is less than the "
-                f"{ROUNDOFF_FLOOR:.1e} (100 units of round-off, relative to the momenta) "
-                f"that evaluating the residual reaches; use tol >= {ROUNDOFF_FLOOR / 1e3:.1e} "
-                f"(default 1e-12)"
-                if 1e3 * tol < ROUNDOFF_FLOOR else hint or "try a smaller step h or check the controls")
-        status, what = Status.NEWTON_FAILED, (
-            f"Newton did not converge {where}: residual max-norm {failed_rnorm:.3e} > 1000 tol "
-            f"= {1e3 * tol:.1e} (relative to the momenta) after the iteration limit; {hint}.")
-    result = SimulationResult(
-        traj, False, status, what + f" The trajectory up to step {k} is in `.result.trajectory`.",
-        stats)
-    if throw:
-        raise SolverError(result.message, result)
-    return result

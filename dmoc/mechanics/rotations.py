@@ -1,0 +1,76 @@
+"""The rotation group SO(3), the configuration space of a rigid body (first stage of the
+pipeline): the hat map R^3 -> so(3) and its inverse vee, the Cayley map cay: R^3 -> SO(3)
+that writes a step's group increment F_k = R_k^T R_{k+1} in three coordinates [1]_, its
+inverse, the Bjorck-Bowie step that keeps products of rotations orthogonal [2]_, and the
+row-major layout that carries a rotation matrix as a vector of 9 entries. The maps take and
+return CasADi expressions (they evaluate numerically on DM or numpy input).
+
+References
+----------
+.. [1] M. Kobilarov, J. E. Marsden, "Discrete geometric optimal control on Lie groups",
+   IEEE Trans. Robotics 27 (2011) (the Cayley map on SO(3) and its use in DMOC).
+.. [2] A. Bjorck, C. Bowie, "An iterative algorithm for computing the best estimate of an
+   orthogonal matrix", SIAM J. Numer. Anal. 8 (1971) 358-364.
+"""
+
+import casadi as ca
+import numpy as np
+
+from .._util import checks
+from ..errors import InputError
+
+ORTHOGONALITY_TOLERANCE = 1e-10     # |R^T R - I| accepted of a rotation given by a user
+
+
+def hat(w):
+    """The skew matrix w^ of w, shape (3,) -> (3, 3), with w^ x = w x x."""
+    return ca.vertcat(ca.horzcat(0, -w[2], w[1]),
+                      ca.horzcat(w[2], 0, -w[0]),
+                      ca.horzcat(-w[1], w[0], 0))
+
+
+def vee(A):
+    """The vector of the skew part of a (3, 3) matrix: vee(w^) = w; shape (3, 1)."""
+    return 0.5 * ca.vertcat(A[2, 1] - A[1, 2], A[0, 2] - A[2, 0], A[1, 0] - A[0, 1])
+
+
+def cayley(f):
+    """The Cayley map cay(f) = (I - f^/2)^{-1} (I + f^/2) = I + 4/(4 + |f|^2) (f^ + f^2/2),
+    shape (3,) -> (3, 3), a rotation for every f (Kobilarov & Marsden [1])."""
+    F = hat(f)
+    return ca.DM.eye(3) + 4 / (4 + ca.dot(f, f)) * (F + 0.5 * ca.mtimes(F, F))
+
+
+def cayley_inverse(F):
+    """cay^{-1}(F) = 2 vee(F - F^T) / (1 + tr F), shape (3, 3) -> (3,); defined for
+    rotations by less than pi."""
+    return 4 * vee(F) / (1 + ca.trace(F))
+
+
+def orthogonalized(R):
+    """R (3 I - R^T R) / 2, one Newton step of the polar decomposition toward the nearest
+    rotation (Bjorck & Bowie [2]): the identity on SO(3), it removes the round-off of a
+    product of rotations (of order |R^T R - I|^2 left) without moving R by more than it."""
+    return 0.5 * ca.mtimes(R, 3 * ca.DM.eye(3) - ca.mtimes(R.T, R))
+
+
+def matrix_of(q):
+    """The (3, 3) rotation whose rows, one after another, are the 9 entries of q."""
+    return ca.reshape(q, 3, 3).T
+
+
+def vector_of(R):
+    """The 9 entries of the (3, 3) matrix R, row after row (the inverse of `matrix_of`)."""
+    return ca.vec(R.T)
+
+
+def as_rotation(name, value):
+    """`value` checked to be a rotation matrix, shape (3, 3), R^T R = I to
+    ORTHOGONALITY_TOLERANCE and det R = +1; returned as a float array."""
+    R = checks.array(name, value, (3, 3))
+    defect = float(np.abs(R.T @ R - np.eye(3)).max())
+    if defect > ORTHOGONALITY_TOLERANCE or np.linalg.det(R) < 0:
+        raise InputError(f"`{name}` must be a rotation matrix (R^T R = I to "
+                         f"{ORTHOGONALITY_TOLERANCE:g}, det R = +1); got |R^T R - I| = "
+                         f"{defect:.2e}, det R = {np.linalg.det(R):.6g}.")
+    return R

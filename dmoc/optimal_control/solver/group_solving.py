@@ -1,0 +1,76 @@
+"""Consumer 2 of the group step residual, its solver: IPOPT on the NLP of a
+`GroupOptimalControlProblem` (`group_transcription`), started along the geodesic between
+the end rotations, its optimum returned as an OptimizationResult whose trajectory is a
+RotationTrajectory.
+"""
+
+import time
+
+import casadi as ca
+import numpy as np
+
+from ..._util import checks
+from ...errors import SolverError
+from ...mechanics.rotations import cayley_inverse
+from ...principle.rotation_trajectory import RotationTrajectory
+from ..nlp.group_transcription import group_transcription
+from ..statement.group_problem import GroupOptimalControlProblem
+from .ipopt import DEFAULT_IPOPT_OPTIONS, iteration_count
+from .optimization_result import OptimizationResult
+
+
+def solve_on_group(problem, *, options=None, throw=True):
+    """Solve `problem` with IPOPT (exact Hessian), unjudged.
+
+    Parameters
+    ----------
+    problem : GroupOptimalControlProblem
+    options : dict, optional
+        IPOPT options over ``DEFAULT_IPOPT_OPTIONS``.
+    throw : bool
+        Raise SolverError when IPOPT fails (its ``.result`` the last iterate).
+
+    Returns
+    -------
+    OptimizationResult
+        ``trajectory`` a RotationTrajectory; ``x`` the NLP vector (`GroupTranscription`);
+        ``stats``: ``iterations``, ``return_status``, ``max_violation``, ``solve_time``.
+    """
+    checks.instance("problem", problem, GroupOptimalControlProblem, "a GroupOptimalControlProblem")
+    throw = checks.boolean("throw", throw)
+    T = group_transcription(problem)
+    opts = {**DEFAULT_IPOPT_OPTIONS, **(options or {})}
+    solver = ca.nlpsol("group_dmoc", "ipopt", T.nlp, {"ipopt": opts, "print_time": False})
+    tic = time.perf_counter()
+    sol = solver(x0=geodesic_guess(problem, T), lbx=T.lbx, ubx=T.ubx, lbg=0, ubg=0)
+    st = solver.stats()
+    x, g = np.array(sol["x"]).ravel(), np.array(sol["g"]).ravel()
+    stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
+             "max_violation": float(np.abs(g).max()), "solve_time": time.perf_counter() - tic}
+    success = bool(st["success"])
+    message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, max "
+               f"violation {stats['max_violation']:.2e}.")
+    result = OptimizationResult(trajectory=trajectory_of(problem, T, x), cost=float(sol["f"]),
+                                success=success, status=st["return_status"], message=message,
+                                stats=stats, x=x)
+    if throw and not success:
+        raise SolverError(message + " The last iterate is in `.result`.", result)
+    return result
+
+
+def geodesic_guess(problem, T):
+    """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`), f_k =
+    cay^{-1}(R_k^T R_{k+1}), Pi_k = J f_k / h (the last step's at N), zero controls."""
+    R = problem.geodesic()
+    f = np.array([np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])])
+    Pi = np.vstack([f, f[-1:]]) @ problem.disc.system.inertia / problem.disc.h
+    blocks = {"q": R.reshape(-1, 9).T, "Pi": Pi.T, "f": f.T,
+              "u": np.zeros((problem.residual.n_controls, problem.steps))}
+    return np.concatenate([blocks[name].ravel(order="F") for name in T.x_layout.blocks])
+
+
+def trajectory_of(problem, T, x):
+    """The RotationTrajectory of the NLP vector x."""
+    q, Pi, f, u = (T.x_layout.unpack(x, name).T for name in ("q", "Pi", "f", "u"))
+    h = problem.disc.h
+    return RotationTrajectory(h * np.arange(problem.steps + 1), q.reshape(-1, 3, 3), Pi, f, u, h)
