@@ -5,6 +5,9 @@ theta (3 s^2 - 2 s^3), s = t/T, of cost J* = 12 I^2 theta^2 / T^3: I theta'' = t
 gyroscopic term Omega x I Omega vanishes), and the cubic is the minimum-effort rest-to-rest
 profile. The discrete optimum must reach J* at order 2 and replay in the simulator."""
 
+import signal
+
+import casadi as ca
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -50,3 +53,46 @@ def test_slew_problem_refuses_bad_data():
     problem = dmoc.GroupOptimalControlProblem(disc, 10, R_start=np.eye(3), R_goal=GOAL)
     with pytest.raises(ValueError, match="expand"):
         dmoc.optimize(problem, expand=True)
+
+
+
+class SigintCallback(ca.Callback):
+    """An IPOPT iteration callback that sends this process a SIGINT, as a Ctrl-C does."""
+
+    def __init__(self, nx, ng):
+        ca.Callback.__init__(self)
+        self.sizes = {"x": nx, "g": ng, "lam_x": nx, "lam_g": ng, "f": 1, "lam_p": 0}
+        self.construct("sigint", {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self.sizes[ca.nlpsol_out(i)], 1)
+
+    def eval(self, arg):
+        signal.raise_signal(signal.SIGINT)
+        return [0]
+
+
+def test_a_ctrl_c_during_the_group_solve_raises_interrupted_with_the_last_iterate(monkeypatch):
+    """A SIGINT while IPOPT iterates (sent from its iteration callback) ends the solve with
+    status "interrupted", raised as dmoc.Interrupted (not a SolverError) with throw."""
+    nlpsol, callbacks = ca.nlpsol, []
+
+    def with_sigint(name, plugin, nlp, options):
+        callbacks.append(SigintCallback(nlp["x"].numel(), nlp["g"].numel()))
+        return nlpsol(name, plugin, nlp, {**options, "iteration_callback": callbacks[-1]})
+    monkeypatch.setattr(ca, "nlpsol", with_sigint)
+    with pytest.raises(dmoc.Interrupted) as info:
+        slew(10)
+    assert (info.value.result.status, info.value.result.success) == ("interrupted", False)

@@ -10,11 +10,12 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ...errors import SolverError
+from ...errors import failure
 from ...mechanics.rotations import cayley_inverse
 from ...principle.rotation_trajectory import RotationTrajectory
 from ..nlp.group_transcription import group_transcription
 from ..statement.group_problem import GroupOptimalControlProblem
+from . import interrupt
 from .ipopt import DEFAULT_IPOPT_OPTIONS, iteration_count
 from .optimization_result import OptimizationResult
 
@@ -28,7 +29,8 @@ def solve_on_group(problem, *, options=None, throw=True):
     options : dict, optional
         IPOPT options over ``DEFAULT_IPOPT_OPTIONS``.
     throw : bool
-        Raise SolverError when IPOPT fails (its ``.result`` the last iterate).
+        Raise SolverError when IPOPT fails, Interrupted when a Ctrl-C stopped it (its
+        ``.result`` the last iterate, status ``"interrupted"``).
 
     Returns
     -------
@@ -42,19 +44,23 @@ def solve_on_group(problem, *, options=None, throw=True):
     opts = {**DEFAULT_IPOPT_OPTIONS, **(options or {})}
     solver = ca.nlpsol("group_dmoc", "ipopt", T.nlp, {"ipopt": opts, "print_time": False})
     tic = time.perf_counter()
-    sol = solver(x0=geodesic_guess(problem, T), lbx=T.lbx, ubx=T.ubx, lbg=0, ubg=0)
+    with interrupt.watch() as sigints:
+        sol = solver(x0=geodesic_guess(problem, T), lbx=T.lbx, ubx=T.ubx, lbg=0, ubg=0)
     st = solver.stats()
     x, g = np.array(sol["x"]).ravel(), np.array(sol["g"]).ravel()
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "max_violation": float(np.abs(g).max()), "solve_time": time.perf_counter() - tic}
-    success = bool(st["success"])
-    message = (f"IPOPT: {st['return_status']} after {stats['iterations']} iterations, max "
+    success, status = bool(st["success"]), st["return_status"]
+    message = (f"IPOPT: {status} after {stats['iterations']} iterations, max "
                f"violation {stats['max_violation']:.2e}.")
+    interrupted = interrupt.verdict(sigints, stats["iterations"], float(sol["f"]))
+    if interrupted is not None:
+        (status, message), success = interrupted, False
     result = OptimizationResult(trajectory=trajectory_of(problem, T, x), cost=float(sol["f"]),
-                                success=success, status=st["return_status"], message=message,
+                                success=success, status=status, message=message,
                                 stats=stats, x=x)
     if throw and not success:
-        raise SolverError(message + " The last iterate is in `.result`.", result)
+        raise failure(message + " The last iterate is in `.result`.", result)
     return result
 
 
