@@ -2,8 +2,8 @@
 Lagrange-d'Alembert(-Pontryagin) principle with variations on the group, dR_k = R_k eta_k^,
 obtained by automatic differentiation of the discrete Lagrangian in the group increment
 F_k = cay(f_k) (`dmoc.discrete.GroupDiscretization`). Both consumers use this residual: the
-simulator solves it for the three Cayley coordinates f_k of each step; the optimizer would
-impose it at every step (docs/theory.md, "Rotations as group elements").
+simulator solves it for the three Cayley coordinates f_k of each step; the optimizer
+imposes it at every step (`dmoc.GroupOptimalControlProblem`) (docs/theory.md, "Rotations as group elements").
 """
 
 import casadi as ca
