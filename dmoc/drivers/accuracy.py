@@ -75,7 +75,9 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     N_k, and each level's estimate compares its cost with the level before. The first
     level of a stage rule from the default guess starts from the midpoint rule's optimum
     (`dmoc.drivers.high_order`). Every level
-    is judged (`dmoc.drivers.verdict`); one the verdict finds under-resolved is refined
+    is judged (`dmoc.drivers.verdict`); where a control bound switches inside the horizon
+    (`ErrorEstimate.switching`) the cost and the final time are extrapolated with order 1,
+    and N grows by up to GROWTH a level. One the verdict finds under-resolved is refined
     to 2N like the first, any other failure ends the loop. The rule stays the problem's:
     a higher order reaches small targets on far fewer steps (benchmarks/accuracy.py).
     """
@@ -143,7 +145,10 @@ def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=N
             f"{result.message} Accuracy {accuracy:g} reached on {levels[-1]['steps']} steps "
             f"({levels[-1]['rule']}) after {len(levels)} levels: estimated relative error "
             f"{estimate.cost:.1e} of the cost, {estimate.final_state:.1e} of the final state"
-            + (f", {estimate.final_time:.1e} of the final time." if problem.free_time else "."))
+            + (f", {estimate.final_time:.1e} of the final time." if problem.free_time else ".")
+            + (" A control bound switches inside the horizon: the estimates of the cost and "
+               "the final time assume order 1, a conservative guess, not a bound."
+               if estimate.switching else ""))
         return replace(result, stats=stats, message=message)
     figure = "not yet estimated" if estimate is None else f"{estimate.largest:.1e}"
     message = (f"Accuracy {accuracy:g} not reached: the estimated relative error is "

@@ -332,7 +332,7 @@ def test_a_coordinate_that_moves_by_round_off_counts_against_the_motion():
     traj = result.trajectory
     assert np.ptp(traj.q[:, 1:]) < 1e-20 and np.ptp(traj.q[:, 0]) == pytest.approx(1.0)
     estimate = estimate_error(problem, result, options=QUIET)
-    assert estimate.final_state < 1e-12
+    assert estimate.final_state < 1e-12 and not estimate.switching
     assert np.abs(traj.q[-1] - knife_edge_end(traj, traj.control_nodes)).max() < 1e-12
     scales = error_estimate.coordinate_scales(traj.q)
     np.testing.assert_array_equal(scales, [np.ptp(traj.q[:, 0])] * 3)
@@ -374,3 +374,30 @@ def test_the_loop_goes_on_while_the_final_time_is_off(tmp_path):
     loaded = dmoc.OptimizationResult.load(tmp_path / "r.npz")
     assert loaded.stats["error_estimate"] == result.stats["error_estimate"]
     assert loaded.stats["error_estimate"]["final_time"] > 0
+
+
+def minimum_time(steps):
+    """The knife edge (m = J = 1) driven 1 m straight ahead from rest to rest in least time
+    with |u| <= 1 (lobatto4): bang-bang, u0 = 1 then -1, switching at T*/2, T* = 2
+    sqrt(d m / F) = 2 s, J = T."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 2.0 / steps, "lobatto4")
+    return dmoc.OptimalControlProblem(disc, steps, q_start=[0, 0, 0], q_goal=[1, 0, 0],
+                                      duration=(0.5, 10), running_cost=lambda q, v, u: 1,
+                                      control_bounds=([-1, -1], [1, 1]))
+
+
+def test_a_switching_control_bound_is_extrapolated_with_order_1():
+    """At N = 13 the switch falls inside a step and T_13 is 2.3e-4 below T* = 2 (N = 6 puts
+    it on a knot: T_6 is right to 1e-10). Order 6 would estimate 2e-6, 100 times too small;
+    the switch is detected and order 1 gives an estimate within a factor 10. accuracy=1e-6
+    from N = 13 then reports success only with T within the target (with order 6 it
+    stopped on 137 steps with T off by 2.1e-6)."""
+    problem = minimum_time(13)
+    result = dmoc.optimize(problem, options=QUIET)
+    estimate = estimate_error(problem, result, options=QUIET)
+    true = abs(final_time(result) / 2.0 - 1)
+    assert estimate.switching and estimate.order == 1 and true > 1e-4
+    assert 0.1 <= estimate.final_time / true <= 10 and 0.1 <= estimate.cost / true <= 10
+    result = dmoc.optimize(problem, accuracy=1e-6, options=QUIET)
+    assert result.success and "a conservative guess" in result.message
+    assert abs(final_time(result) / 2.0 - 1) <= 1e-6 and abs(result.cost / 2.0 - 1) <= 1e-6
