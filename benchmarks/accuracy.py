@@ -38,7 +38,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 import dmoc  # noqa: E402
 import dmoc.problems  # noqa: E402
-from dmoc.drivers.error_estimate import estimate_error  # noqa: E402
+from dmoc.drivers.error_estimate import coordinate_scales, estimate_error  # noqa: E402
 
 ACCURACY = 1e-6
 QUIET = {"print_level": 0, "sb": "yes"}
@@ -105,8 +105,7 @@ def true_errors(name, rule, N):
     if not result.success:                      # e.g. under-resolved: not a pick
         return np.inf, np.inf
     traj = result.trajectory
-    excursion = np.ptp(traj.q, axis=0)
-    state = np.abs(traj.q[-1] - true_final_state(problem, traj)) / np.where(excursion > 0, excursion, 1.0)
+    state = np.abs(traj.q[-1] - true_final_state(problem, traj)) / coordinate_scales(traj.q)
     return abs(result.cost - J) / J, float(state.max())
 
 

@@ -1,7 +1,8 @@
 """The accuracy target, a driver (issue 23): `optimize_to_accuracy` refines the grid,
 N_{k+1} = N_k (2 e_k / accuracy)^(1/p), each level warm-started from the last, until the
 Richardson estimate e_k of the discretization error of the cost and of the re-simulated
-final state (`dmoc.drivers.error_estimate`) is below a target (docs/stages/drivers.md,
+final state, and of the final time where it is free (`dmoc.drivers.error_estimate`),
+is below a target (docs/stages/drivers.md,
 "Accuracy targets and error estimates")."""
 
 import math
@@ -23,7 +24,8 @@ GROWTH = 16
 
 def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **keywords):
     """Solve `problem` on finer and finer grids until the estimated relative error of its
-    cost and of its re-simulated final state is below `accuracy` (`estimate_error`).
+    cost, of its re-simulated final state and of a free final time is below `accuracy`
+    (`estimate_error`).
 
     Parameters
     ----------
@@ -32,7 +34,8 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
         the first two levels only measure the error.
     accuracy : float
         The target of `ErrorEstimate.largest`, relative: of the cost to |J|, of each
-        coordinate of the final configuration to its excursion over the optimum. In
+        coordinate of the final configuration to its excursion over the optimum, of a free
+        final time to T_N. In
         [SMALLEST_ACCURACY, 1).
     guess : Trajectory or OptimizationResult, optional
         The first level's guess (`dmoc.optimize`); each later level starts from the last
@@ -72,7 +75,9 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     N_k, and each level's estimate compares its cost with the level before. The first
     level of a stage rule from the default guess starts from the midpoint rule's optimum
     (`dmoc.drivers.high_order`). Every level
-    is judged (`dmoc.drivers.verdict`); one the verdict finds under-resolved is refined
+    is judged (`dmoc.drivers.verdict`); where a control bound switches inside the horizon
+    (`ErrorEstimate.switching`) the cost and the final time are extrapolated with order 1,
+    and N grows by up to GROWTH a level. One the verdict finds under-resolved is refined
     to 2N like the first, any other failure ends the loop. The rule stays the problem's:
     a higher order reaches small targets on far fewer steps (benchmarks/accuracy.py).
     """
@@ -89,10 +94,10 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
         levels.append(_level_record(level, result, estimate, time.perf_counter() - tic))
         tic = time.perf_counter()
         if not (result.success or coarse) or (estimate is not None and estimate.largest <= accuracy):
-            return _finished(result, levels, estimate, accuracy, keywords)
+            return _finished(level, result, levels, estimate, accuracy, keywords)
         steps = 2 * level.steps if estimate is None else _next_steps(level.steps, estimate, accuracy)
         if steps > max_steps:
-            return _finished(result, levels, estimate, accuracy, keywords, max_steps)
+            return _finished(level, result, levels, estimate, accuracy, keywords, max_steps)
         level, previous = level.with_steps(steps), result
 
 
@@ -122,8 +127,8 @@ def _level_record(problem, result, estimate, seconds):
             "start": result.stats.get("start")}
 
 
-def _finished(result, levels, estimate, accuracy, keywords, max_steps=None):
-    """The last level's result with the levels and the estimate in its stats; status
+def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=None):
+    """The last level's (of `problem`) result with the levels and the estimate in its stats; status
     ``"accuracy_not_reached"`` when `max_steps` stopped the loop; SolverError with throw
     when it failed."""
     result = replace(result, stats={**result.stats, "levels": levels})
@@ -139,7 +144,11 @@ def _finished(result, levels, estimate, accuracy, keywords, max_steps=None):
         message = (
             f"{result.message} Accuracy {accuracy:g} reached on {levels[-1]['steps']} steps "
             f"({levels[-1]['rule']}) after {len(levels)} levels: estimated relative error "
-            f"{estimate.cost:.1e} of the cost, {estimate.final_state:.1e} of the final state.")
+            f"{estimate.cost:.1e} of the cost, {estimate.final_state:.1e} of the final state"
+            + (f", {estimate.final_time:.1e} of the final time." if problem.free_time else ".")
+            + (" A control bound switches inside the horizon: the estimates of the cost and "
+               "the final time assume order 1, a conservative guess, not a bound."
+               if estimate.switching else ""))
         return replace(result, stats=stats, message=message)
     figure = "not yet estimated" if estimate is None else f"{estimate.largest:.1e}"
     message = (f"Accuracy {accuracy:g} not reached: the estimated relative error is "

@@ -1,9 +1,10 @@
 """The error estimate, a driver (issue 23): `estimate_error`, the discretization error
-of a DMOC optimum's cost and of its re-simulated final state by Richardson extrapolation
-with the order p of the discretization, J_N - J ~ (J_N - J_M) / (1 - (N / M)^p) from a
-solve on a coarser grid and q_N - q(T) ~ (q_N - q_2N) / (1 - 2^-p) from a replay on a
-finer one, as an `ErrorEstimate` that `with_estimate` records in a result
-(docs/stages/drivers.md, "Accuracy targets and error estimates")."""
+of a DMOC optimum's cost, of its free final time and of its re-simulated final state by
+Richardson extrapolation with the order p of the discretization,
+J_N - J ~ (J_N - J_M) / (1 - (N / M)^p) (and T_N - T alike) from a solve on a coarser
+grid and q_N - q(T) ~ (q_N - q_2N) / (1 - 2^-p) from a replay on a finer one, as an
+`ErrorEstimate` that `with_estimate` records in a result (docs/stages/drivers.md,
+"Accuracy targets and error estimates")."""
 
 import time
 from dataclasses import asdict, dataclass, replace
@@ -30,17 +31,35 @@ class ErrorEstimate:
     final_state : float
         max_i |q_N,i - q_i(T)| / range_i: q(T) the end of the continuous flow driven by
         the optimum's controls from its start, range_i the excursion of coordinate i over
-        the optimum (1 where it does not move), so that the figure does not depend on
-        units. The momentum p_N is left out: it differs from p(T) by a constraint impulse
-        A(q_N)^T mu of the order of the step (measured on the knife edge and the disk)
-        that changes no allowed velocity.
+        the optimum, or the largest coordinate's where it moves by no more than round-off
+        (`coordinate_scales`), so that the figure does not depend on units. The momentum
+        p_N is left out: it differs from p(T) by a constraint impulse A(q_N)^T mu of the
+        order of the step (measured on the knife edge and the disk) that changes no
+        allowed velocity.
+    final_time : float
+        |T_N - T| / T_N for a problem with a free final time: T_N = N h_N the optimum's,
+        T the continuous problem's. 0 for a fixed final time, which has no error. The cost
+        does not bound it: J is stationary in T at the optimum, so an error dT moves the
+        cost by O(dT^2) (the knife edge's T_N is off by 6e-4 at N = 20 when the cost is
+        within 2e-7 of J*, next to a large constant cost).
     cost_error : float
         The signed estimate of J_N - J.
+    final_time_error : float
+        The signed estimate of T_N - T (0 for a fixed final time).
     state_error : ndarray, shape (n,)
         The signed estimate of q_N - q(T).
     order : int
-        The order p the extrapolation assumes: the discretization's (`Discretization.order`,
-        which is lower than the rule's for stage rules on degenerate Lagrangians).
+        The order p the extrapolation of the cost and the final time assumes: the
+        discretization's (`Discretization.order`, which is lower than the rule's for stage
+        rules on degenerate Lagrangians), or 1 where `switching`. The final state's always
+        assumes the discretization's: its replay drives each step by the step's own
+        polynomial controls.
+    switching : bool
+        True when a control bound is active at some control nodes and not at others
+        (`switches`): the controls switch inside the horizon (bang-bang arcs), the cost
+        is not C N^-p there, and the extrapolation assumes order 1, a conservative guess,
+        not a bound (on the knife edge's minimum time, lobatto4 at N = 13 with order 6
+        estimated 2e-6 against a true 2.3e-4).
     steps, reference_steps : int
         N, and the steps of the solve whose cost was compared with the optimum's.
     time : float
@@ -49,17 +68,20 @@ class ErrorEstimate:
 
     cost: float
     final_state: float
+    final_time: float
     cost_error: float
+    final_time_error: float
     state_error: np.ndarray
     order: int
+    switching: bool
     steps: int
     reference_steps: int
     time: float
 
     @property
     def largest(self):
-        """max(cost, final_state), the figure an accuracy target bounds."""
-        return max(self.cost, self.final_state)
+        """max(cost, final_state, final_time), the figure an accuracy target bounds."""
+        return max(self.cost, self.final_state, self.final_time)
 
 
 def estimate_error(problem, result, *, reference=None, **keywords):
@@ -87,7 +109,8 @@ def estimate_error(problem, result, *, reference=None, **keywords):
     Notes
     -----
     A rule of order p gives J_N = J + C N^-p + o(N^-p), so two costs give
-    J_N - J ~ (J_N - J_M) / (1 - (N / M)^p). The final state is the re-simulated one:
+    J_N - J ~ (J_N - J_M) / (1 - (N / M)^p), and the final times of a free-time problem
+    T_N - T ~ (T_N - T_M) / (1 - (N / M)^p). The final state is the re-simulated one:
     `simulate` drives the system from the optimum's (q_0, p_0) by its controls (each
     step's interpolant, `Trajectory.control`) on 2N steps of the same rule and variant;
     its end q_2N and the optimum's q_N (at the goal) give q_N - q(T) ~ (q_N - q_2N) /
@@ -120,14 +143,23 @@ def estimate_error(problem, result, *, reference=None, **keywords):
 
 def richardson_estimate(problem, result, reference, tic):
     """The ErrorEstimate of `result` against `reference`, timed from `tic`."""
-    p, N, M = problem.disc.order, problem.steps, reference.trajectory.steps
-    cost_error = np.inf if not reference.success else \
-        (result.cost - reference.cost) / (1.0 - (N / M) ** p)
-    end, scale = _end_state(result.trajectory)
-    state_error = (end - _replayed_end(problem, result.trajectory)) / (1.0 - 2.0 ** -p)
+    p, N, M, traj = problem.disc.order, problem.steps, reference.trajectory.steps, result.trajectory
+    switching = switches(problem, traj)
+    order = 1 if switching else p
+    cost_error = _extrapolated(result.cost, reference.cost, N, M, order, reference.success)
+    T, T_M = (run.steps * run.h for run in (traj, reference.trajectory))
+    time_error = _extrapolated(T, T_M, N, M, order, reference.success) if problem.free_time else 0.0
+    state_error = (traj.q[-1] - _replayed_end(problem, traj)) / (1.0 - 2.0 ** -p)
     return ErrorEstimate(abs(cost_error) / (abs(result.cost) or 1.0),
-                         float(np.max(np.abs(state_error) / scale)), float(cost_error),
-                         state_error, p, N, M, time.perf_counter() - tic)
+                         float(np.max(np.abs(state_error) / coordinate_scales(traj.q))),
+                         abs(time_error) / T, float(cost_error), float(time_error), state_error,
+                         order, switching, N, M, time.perf_counter() - tic)
+
+
+def _extrapolated(fine, coarse, N, M, p, solved):
+    """The Richardson estimate of the error of `fine` (on N steps) from `coarse` (on M
+    steps), (fine - coarse) / (1 - (N / M)^p); infinite when the coarse solve failed."""
+    return (fine - coarse) / (1.0 - (N / M) ** p) if solved else np.inf
 
 
 def _check_steps(problem, result):
@@ -136,10 +168,68 @@ def _check_steps(problem, result):
                          f"got one on {result.trajectory.steps} steps.")
 
 
-def _end_state(traj):
-    """(q_N, the excursion of each coordinate over the trajectory; 1 where none)."""
-    excursion = np.ptp(traj.q, axis=0)
-    return traj.q[-1], np.where(excursion > 0, excursion, 1.0)
+def switches(problem, traj):
+    """Whether a control bound of `problem` is active at some of the control nodes of
+    `traj` and not at others: a switch of the active set inside the horizon.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+        Its ``control_bounds`` (lower, upper), shapes (n_u,), infinite where unbounded.
+    traj : Trajectory
+        Controls `u`, shape (N, len(control_nodes) * n_u).
+
+    Returns
+    -------
+    bool
+
+    Notes
+    -----
+    Control i is at a bound b at a node when |u_i - b| <= 1e-6 (|b| + max_k |u_k,i|), a
+    tolerance relative to the control's size and above IPOPT's distance to an active
+    bound (the interior point stays 5e-10 to 3e-8 off the bound -2 on the knife edge's
+    minimum time with lobatto4 at N = 20 to 320). A bound that is active everywhere or
+    nowhere is no switch; one reached only between the nodes is not seen.
+    """
+    lower, upper = problem.control_bounds
+    u = np.asarray(traj.u, dtype=float).reshape(-1, len(lower))         # (N k, n_u), in time
+    size = np.max(np.abs(u), axis=0)
+    for bound in (lower, upper):
+        finite = np.isfinite(bound)
+        b, u_b = bound[finite], u[:, finite]
+        active = np.abs(u_b - b) <= 1e-6 * (np.abs(b) + size[finite])
+        if np.any(active.any(axis=0) & ~active.all(axis=0)):
+            return True
+    return False
+
+
+def coordinate_scales(q):
+    """The scale of each coordinate's end error in `ErrorEstimate.final_state`.
+
+    Parameters
+    ----------
+    q : ndarray, shape (N+1, n)
+        The knots of a trajectory.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The excursion max_k q_k,i - min_k q_k,i of coordinate i where it moves, and the
+        largest excursion E of any coordinate where it does not (1 where none moves).
+
+    Notes
+    -----
+    A coordinate does not move when its excursion is at most sqrt(eps) E (eps the double
+    precision, sqrt(eps) = 1.5e-8). The solve and the replay carry every coordinate with
+    the round-off of the whole motion, so a coordinate that stays put in the continuous
+    problem moves by round-off (a knife edge driven straight ahead by 1 m: y and theta by
+    1e-31) and ends off by round-off of E; relative to its own excursion that error would
+    be of order 1 however fine the grid, and an accuracy target would never be met. The
+    scales, and so the figure, do not depend on a common change of the coordinates' units.
+    """
+    excursion = np.ptp(np.asarray(q, dtype=float), axis=0)
+    largest = float(np.max(excursion, initial=0.0)) or 1.0
+    return np.where(excursion > np.sqrt(np.finfo(float).eps) * largest, excursion, largest)
 
 
 def _replayed_end(problem, traj):

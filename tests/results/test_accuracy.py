@@ -7,10 +7,16 @@ Oracles, none taken from dmoc:
   integrated by scipy's DOP853 on equations written here: with m = J = 1 the speed s
   along the blade obeys s' = u0, the heading theta'' = u1, and (x, y)' = s (cos, sin)
   theta;
-- `with_steps` against the same problem built anew at that N.
+- `with_steps` against the same problem built anew at that N;
+- the knife edge (m = J = 1) driven straight ahead by d = 1 from rest to rest in a free
+  time T, minimizing integral of 1 + |u|^2: its heading and lateral position stay put,
+  x is a double integrator whose least integral of u^2 over T is 12 d^2 / T^3, so
+  T* = sqrt(6 d) (min over T of T + 12 d^2 / T^3) and J* = T* + 12 d^2 / T*^3.
 """
 
 import dataclasses
+
+import casadi as ca
 
 import numpy as np
 import pytest
@@ -65,6 +71,7 @@ def test_the_estimate_is_within_a_factor_10_of_the_true_error(rule, steps):
     assert moving.sum() >= 2 and np.all((0.1 <= ratio) & (ratio <= 10)), (estimate.state_error, true_state)
     assert (estimate.steps, estimate.reference_steps, estimate.order) == (steps, steps // 2,
                                                                          problem.disc.rule.order)
+    assert estimate.final_time == estimate.final_time_error == 0.0      # a fixed final time
 
 
 def test_a_given_reference_is_used_as_it_is(monkeypatch):
@@ -294,3 +301,103 @@ def test_optimize_with_estimate_puts_it_on_the_verdict():
     assert result.verdict.discretization_error == max(estimate["cost"], estimate["final_state"])
     with pytest.raises(dmoc.InputTypeError, match="`estimate`"):
         dmoc.optimize(problem, options=QUIET, estimate="yes")
+
+
+T_STRAIGHT = np.sqrt(6.0)
+J_STRAIGHT = T_STRAIGHT + 12.0 / T_STRAIGHT ** 3
+
+
+def straight_ahead(steps, fee=0.0):
+    """The knife edge driven 1 m straight ahead from rest to rest in a free final time in
+    [0.5, 10] s (midpoint rule: its error in T is far above round-off), minimizing
+    integral of 1 + |u|^2 plus a terminal `fee` (a constant: the optimum and T* stay, J*
+    grows by `fee`)."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 2.5 / steps)
+    return dmoc.OptimalControlProblem(disc, steps, q_start=[0, 0, 0], q_goal=[1, 0, 0],
+                                      duration=(0.5, 10), terminal_cost=lambda q, v: fee,
+                                      running_cost=lambda q, v, u: 1 + ca.sumsqr(u))
+
+
+def final_time(result):
+    return result.trajectory.steps * result.trajectory.h
+
+
+def test_a_coordinate_that_moves_by_round_off_counts_against_the_motion():
+    """Driven straight ahead, y and theta move by round-off (1e-31): their end errors are
+    round-off of the 1 m motion, not errors of order 1 relative to their own excursions
+    (the estimate was 1.9 at N = 20 and the accuracy loop never met 1e-6), and the true
+    end (DOP853) agrees to round-off."""
+    problem = straight_ahead(20)
+    result = dmoc.optimize(problem, options=QUIET)
+    traj = result.trajectory
+    assert np.ptp(traj.q[:, 1:]) < 1e-20 and np.ptp(traj.q[:, 0]) == pytest.approx(1.0)
+    estimate = estimate_error(problem, result, options=QUIET)
+    assert estimate.final_state < 1e-12 and not estimate.switching
+    assert np.abs(traj.q[-1] - knife_edge_end(traj, traj.control_nodes)).max() < 1e-12
+    scales = error_estimate.coordinate_scales(traj.q)
+    np.testing.assert_array_equal(scales, [np.ptp(traj.q[:, 0])] * 3)
+    np.testing.assert_array_equal(error_estimate.coordinate_scales(1e3 * traj.q), 1e3 * scales)
+
+
+def test_a_free_final_time_is_part_of_the_target():
+    """accuracy = 1e-6 on the straight drive: success, cost and final time within the
+    target of J* and T*, each estimate within a factor 10 of its true error (the final
+    state's true error is round-off), and the estimate kept through save and load."""
+    result = dmoc.optimize(straight_ahead(10), accuracy=1e-6, options=QUIET, throw=False)
+    assert result.success and "of the final time" in result.message
+    T = final_time(result)
+    true_time, true_cost = abs(T / T_STRAIGHT - 1), abs(result.cost / J_STRAIGHT - 1)
+    assert true_time <= 1e-6 and true_cost <= 1e-6
+    estimate = result.stats["error_estimate"]
+    assert 0.1 <= estimate["final_time"] / true_time <= 10
+    assert 0.1 <= estimate["cost"] / true_cost <= 10
+    assert np.sign(estimate["final_time_error"]) == np.sign(T - T_STRAIGHT)
+    assert result.verdict.discretization_error == max(estimate["cost"], estimate["final_state"],
+                                                      estimate["final_time"])
+
+
+def test_the_loop_goes_on_while_the_final_time_is_off(tmp_path):
+    """A terminal fee of 1e4 divides the relative cost error by about 3000 and leaves T*:
+    at N = 20 the cost's and the final state's estimates are below 1e-5 while T_20 is
+    off by 6e-4 of T*, where the loop stopped before the final time was in the target.
+    Now the loop goes on until T is within 1e-5."""
+    accuracy, fee = 1e-5, 1e4
+    coarse, finer = (dmoc.optimize(straight_ahead(N, fee), options=QUIET) for N in (10, 20))
+    at_20 = estimate_error(straight_ahead(20, fee), finer, reference=coarse)
+    assert max(at_20.cost, at_20.final_state) < accuracy < 1e-4 < abs(final_time(finer) / T_STRAIGHT - 1)
+    assert at_20.largest == at_20.final_time
+    result = dmoc.optimize(straight_ahead(10, fee), accuracy=accuracy, options=QUIET)
+    assert result.stats["levels"][-1]["steps"] > 20
+    assert abs(final_time(result) / T_STRAIGHT - 1) <= accuracy
+    assert abs(result.cost / (J_STRAIGHT + fee) - 1) <= accuracy
+    result.save(tmp_path / "r.npz")
+    loaded = dmoc.OptimizationResult.load(tmp_path / "r.npz")
+    assert loaded.stats["error_estimate"] == result.stats["error_estimate"]
+    assert loaded.stats["error_estimate"]["final_time"] > 0
+
+
+def minimum_time(steps):
+    """The knife edge (m = J = 1) driven 1 m straight ahead from rest to rest in least time
+    with |u| <= 1 (lobatto4): bang-bang, u0 = 1 then -1, switching at T*/2, T* = 2
+    sqrt(d m / F) = 2 s, J = T."""
+    disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 2.0 / steps, "lobatto4")
+    return dmoc.OptimalControlProblem(disc, steps, q_start=[0, 0, 0], q_goal=[1, 0, 0],
+                                      duration=(0.5, 10), running_cost=lambda q, v, u: 1,
+                                      control_bounds=([-1, -1], [1, 1]))
+
+
+def test_a_switching_control_bound_is_extrapolated_with_order_1():
+    """At N = 13 the switch falls inside a step and T_13 is 2.3e-4 below T* = 2 (N = 6 puts
+    it on a knot: T_6 is right to 1e-10). Order 6 would estimate 2e-6, 100 times too small;
+    the switch is detected and order 1 gives an estimate within a factor 10. accuracy=1e-6
+    from N = 13 then reports success only with T within the target (with order 6 it
+    stopped on 137 steps with T off by 2.1e-6)."""
+    problem = minimum_time(13)
+    result = dmoc.optimize(problem, options=QUIET)
+    estimate = estimate_error(problem, result, options=QUIET)
+    true = abs(final_time(result) / 2.0 - 1)
+    assert estimate.switching and estimate.order == 1 and true > 1e-4
+    assert 0.1 <= estimate.final_time / true <= 10 and 0.1 <= estimate.cost / true <= 10
+    result = dmoc.optimize(problem, accuracy=1e-6, options=QUIET)
+    assert result.success and "a conservative guess" in result.message
+    assert abs(final_time(result) / 2.0 - 1) <= 1e-6 and abs(result.cost / 2.0 - 1) <= 1e-6
