@@ -55,7 +55,8 @@ def worst(transcription, largest, row):
 
 def described(transcription, row):
     """The row `row` of the constraint vector of `transcription` by its group: "dynamics
-    at step k (block row r)", "path constraint i at step k", "path constraint i at knot k"
+    at step k (block row r)", "path constraint i at step k", "path constraint i at knot k",
+    "velocity bound of v[i] at knot k" (or "at step k (point j)": the step's interior point j)
     or "boundary condition 'group' row r"."""
     group, block_row, col = transcription.g_layout.locate(row)
     if group == "dynamics":
@@ -64,7 +65,11 @@ def described(transcription, row):
     if group == "path":
         return f"path constraint {block_row} at step {col}"
     if group == "path_knots":
-        return f"path constraint {transcription.path_knot_rows[block_row]} at knot {col}"
+        return f"path constraint {block_row} at knot {col}"
+    if group in ("velocity_steps", "velocity_knots"):
+        bounded = transcription.velocity_bounded
+        where = f"knot {col}" if group == "velocity_knots" else f"step {col} (point {block_row // len(bounded)})"
+        return f"velocity bound of v[{bounded[block_row % len(bounded)]}] at {where}"
     return f"boundary condition '{group}' row {block_row}"
 
 

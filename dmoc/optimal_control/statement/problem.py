@@ -50,12 +50,20 @@ class OptimalControlProblem(ReadOnly):
     terminal_cost : callable, optional
         ``terminal_cost(q, v)`` at (q_N, v_N).
     control_bounds, state_bounds : pair of array_like, optional
-        (lower, upper), shapes (n_u,) and (n,); None entries are unbounded.
+        (lower, upper), shapes (n_u,) and (n,); None entries are unbounded. Imposed on x:
+        the controls at the rule's control nodes, the configurations at the knots.
+    velocity_bounds : pair of array_like, optional
+        (lower, upper), shape (n,) each, None entries unbounded: lower <= v <= upper on the
+        velocity of the rule's interpolant at every knot (the knot velocity below) and at
+        each step's interior points (a stage rule's stage nodes, a linear rule's midpoint),
+        and on free boundary velocities; a given `v_start` or `v_goal` outside them is
+        refused. A rate limit (|steering rate| <= 0.4) is one of these.
     path_constraints : callable, optional
-        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint (on the
-        rule's interpolant, u interpolated there), its rows of q alone at every knot q_0
-        ... q_N too; a given end that violates one is refused (docs/stages/optimize.md,
-        "Path constraints").
+        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 in the middle of every step (on
+        the rule's interpolant, u interpolated there) and at every knot q_0 ... q_N with
+        the knot velocity and the knot's control; a given end that violates a row of q
+        alone is refused (docs/stages/optimize.md, "Path constraints and velocity
+        bounds").
     duration : pair of float, optional
         (T_min, T_max): free final time, h = T/N becomes a decision variable.
     variant : {"+", "-"} or Formulation
@@ -82,12 +90,14 @@ class OptimalControlProblem(ReadOnly):
         `v_start` is all NaN when `p_start` is given.
     p_start : ndarray, shape (n,), or None
         The start momentum, when given instead of `v_start`.
-    control_bounds, state_bounds : tuple of ndarray
-        (lower, upper), shapes (n_u,) and (n,), infinite where unbounded.
+    control_bounds, state_bounds, velocity_bounds : tuple of ndarray
+        (lower, upper), shapes (n_u,), (n,) and (n,), infinite where unbounded.
+    velocity_bounded : tuple of int
+        The entries of v with a finite velocity bound (the velocity rows' entries).
     running_cost, terminal_cost, path_constraints : casadi.Function or None
         The user's callables checked on symbols: ``(q, v, u, w) -> cost``,
-        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)`` at the
-        step's midpoint and (its rows of q alone, knot_rows) at its two knots.
+        ``(q, v, w) -> cost`` and ``(q, v, u, w) -> g``, the path constraints at one
+        state (flattened to a column).
     parameters : ProblemParameters
         Their `parameter_values` are entries of p (`with_parameters` changes them).
     final_time : FixedFinalTime or FreeFinalTime
@@ -106,6 +116,30 @@ class OptimalControlProblem(ReadOnly):
         problem.transcription.nlp``). `structure` is a key of the NLP by value: see
         `with_boundary` and `dmoc.optimize`.
 
+    Notes
+    -----
+    Where each limit is imposed (every row of the NLP is named in
+    `Transcription.g_layout`; `dmoc.optimal_control.nlp.path_terms`):
+
+    ======================  ===============================================================
+    control_bounds          the control values u_{k,j} at the rule's control nodes (x)
+    state_bounds            the configurations q_0 ... q_N (x)
+    velocity_bounds         the knot velocities v_0 ... v_N (stage rules; for a linear rule
+                            they lie between two bounded step velocities) and the
+                            interpolant's velocity at each step's interior points: the
+                            stage nodes, the midpoint of a linear rule (g); the free
+                            entries of v_start, v_goal (x)
+    path_constraints        every row in the middle of every step, (q(t_k + h/2),
+                            q'(t_k + h/2), u(t_k + h/2)) on the interpolant, and every row
+                            at every knot, (q_k, v_k, u(t_k)) (g)
+    ======================  ===============================================================
+
+    The knot velocity v_k is the mean of the velocities of the interpolants of steps k - 1
+    and k at q_k (one side at q_0 and q_N), and u(t_k) the control of the step that starts
+    at t_k (the last step's at t_N), as `Trajectory.control` gives it:
+    `dmoc.discrete.knot_states`, the one definition the verdict checks an optimum with
+    (`dmoc.drivers.verdict`), so that the optimizer and the verdict read the same numbers.
+
     Every attribute is read-only: assigning one raises AttributeError naming the way to
     change it (`with_boundary`, `with_parameters`, or a new problem), so that the
     statement and its NLP never disagree.
@@ -120,8 +154,8 @@ class OptimalControlProblem(ReadOnly):
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None, p_start=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
-                 state_bounds=None, path_constraints=None, duration=None, variant="+",
-                 momenta="substituted", parameters=None):
+                 state_bounds=None, velocity_bounds=None, path_constraints=None, duration=None,
+                 variant="+", momenta="substituted", parameters=None):
         checks.instance("disc", disc, Discretization, "a Discretization")
         sys, self._steps = disc.system, checks.positive_int("steps", steps)
         self._final_time = as_final_time(duration, self._steps, disc.h)
@@ -135,7 +169,8 @@ class OptimalControlProblem(ReadOnly):
             "terminal_cost", terminal_cost, sys, ("q", "v"), w)
         self._control_bounds = checks.bound_pair("control_bounds", control_bounds, sys.n_u)
         self._state_bounds = checks.bound_pair("state_bounds", state_bounds, sys.n)
-        for bound in (*self._control_bounds, *self._state_bounds):
+        self._velocity_bounds = checks.bound_pair("velocity_bounds", velocity_bounds, sys.n)
+        for bound in (*self._control_bounds, *self._state_bounds, *self._velocity_bounds):
             frozen(bound)
         set_boundary(self, {"q_start": q_start, "q_goal": q_goal, "v_start": v_start,
                             "p_start": p_start, "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
@@ -242,11 +277,12 @@ class OptimalControlProblem(ReadOnly):
     v_goal = property(lambda self: self._v_goal, doc="Goal velocity, shape (n,), NaN free.")
     control_bounds = property(lambda self: self._control_bounds, doc="(lower, upper), shapes (n_u,).")
     state_bounds = property(lambda self: self._state_bounds, doc="(lower, upper), shapes (n,).")
+    velocity_bounds = property(lambda self: self._velocity_bounds, doc="(lower, upper), shapes (n,).")
     parameters = property(lambda self: self._parameters, doc="The ProblemParameters.")
     running_cost = property(lambda self: self._running, doc="Function (q, v, u, w) -> cost.")
     terminal_cost = property(lambda self: self._terminal, doc="Function (q, v, w) -> cost, or None.")
     path_constraints = property(lambda self: self._path,
-                                doc="Function (q0, q1, s, u, h, w) -> g (g <= 0), or None.")
+                                doc="Function (q, v, u, w) -> g (g <= 0), or None.")
     transcription = property(lambda self: self._transcription, doc="The problem's Transcription.")
 
     nlp = Transcribed()
@@ -278,6 +314,13 @@ class OptimalControlProblem(ReadOnly):
         (`dmoc.optimal_control.statement.boundary.imposes_velocity_rows`), found when the boundary data are
         set."""
         return dict(self._velocity_rows)
+
+    @property
+    def velocity_bounded(self):
+        """The entries of v with a finite velocity bound, a tuple of int: those of the
+        NLP's velocity rows."""
+        lower, upper = self._velocity_bounds
+        return tuple(int(i) for i in np.flatnonzero(np.isfinite(lower) | np.isfinite(upper)))
 
     @property
     def variant(self):

@@ -1,0 +1,102 @@
+"""The terms of the DMOC NLP that hold the motion's limits (consumer 2 of the step residual):
+the user's path constraints g(q, v, u) <= 0 and the velocity bounds lower <= v <= upper, at
+each step's interior points and at every knot q_0 ... q_N, where the verdict checks them
+(`dmoc.drivers.verdict`). The velocities are those of `dmoc.discrete.knot_states`, one
+definition for both: at a knot the mean of the two interpolants' end velocities (one side
+at q_0 and q_N), inside a step the interpolant's velocity (docs/stages/optimize.md, "Path
+constraints and velocity bounds").
+
+Which rows are where (g blocks of `Transcription.g_layout`):
+
+- ``path`` (rows, N): g at the middle of every step on the rule's interpolant,
+  (q(t_k + h/2), q'(t_k + h/2), u(t_k + h/2)) (`Discretization.midpoint_state`);
+- ``path_knots`` (rows, N + 1): every row of g at every knot, (q_k, v_k, u(t_k)), v_k the
+  knot velocity and u(t_k) the control of the step that starts there (of the last step at
+  q_N), as `Trajectory.control` reads it;
+- ``velocity_steps`` (points * bounded, N): the bounded entries of the interpolant's
+  velocity at the step's interior points (`knot_states.interior_points`: the stage nodes, or
+  the midpoint of a linear rule, whose step velocity (q_{k+1} - q_k)/h is the velocity of
+  the whole step);
+- ``velocity_knots`` (bounded, N + 1): the bounded entries of v_k, for rules with stage
+  nodes; a linear rule's v_k is the mean of two step velocities (one at the ends), inside
+  the box whenever they are, so those rows would repeat ``velocity_steps``.
+"""
+
+import casadi as ca
+import numpy as np
+
+from ...discrete.knot_states import (end_velocity_function, interior_points,
+                                     interior_velocity_function, knot_velocity)
+
+
+def velocity_rows(rule, bounded):
+    """(rows of ``velocity_steps``, rows of ``velocity_knots``) for `rule` with `bounded`
+    velocity entries (a count): every interior point's, and the knots' for a rule with
+    stage nodes."""
+    return len(interior_points(rule)) * bounded, bounded if rule.stage_nodes else 0
+
+
+def _slots(slots, suffix=""):
+    """The slots a path or velocity row reads (q0, q1, s, u with `suffix`; h, w) of a
+    `_StepSlots.at` dict, without the multipliers."""
+    return {k: v for k, v in slots.items() if k not in ("lam" + suffix, "lam")}
+
+
+def path_terms(step, G):
+    """The terms of blocks ``path``, ``velocity_steps`` and the knot rows
+    (``path_knots`` with ``velocity_knots``) of the problem of `step` (`terms._StepSlots`),
+    G the row indices by block; none for an empty block."""
+    problem, N = step.problem, step.N
+    disc, path = problem.disc, problem.path_constraints
+    rule, n = disc.rule, disc.system.n
+    bounded = list(problem.velocity_bounded)
+    terms = []
+    if G["path"].size:
+        def middle(s):
+            q, v = disc.midpoint_state(s["q0"], s["q1"], s["s"], s["h"])
+            return 0, path(q, v, rule.control_at(s["u"], 0.5), s["w"])
+        terms.append(step.term("path", _slots(step.at(0, N)), middle, G["path"]))
+    if G["velocity_steps"].size:
+        inside = interior_velocity_function(rule, n, disc.n_stages)
+        entries = [j * n + i for j in range(len(interior_points(rule))) for i in bounded]
+
+        def interior(s):
+            return 0, inside(s["q0"], s["q1"], s["s"], s["h"])[entries]
+        terms.append(step.term("velocity_steps", _slots(step.at(0, N)), interior, G["velocity_steps"]))
+    rows = np.vstack([G["path_knots"], G["velocity_knots"]])
+    if rows.size:
+        terms += _knot_terms(step, rows, G["velocity_knots"].size > 0)
+    return terms
+
+
+def _knot_terms(step, rows, velocity_rows):
+    """The terms of the knot rows `rows` (row indices (r, N + 1): the path constraints, then
+    the bounded velocities when `velocity_rows`) at q_0, at q_1 ... q_{N-1} (two steps
+    each: the knot velocity reads both interpolants) and at q_N."""
+    problem, N = step.problem, step.N
+    disc, path = problem.disc, problem.path_constraints
+    ends = end_velocity_function(disc.rule, disc.system.n, disc.n_stages)
+    bounded = list(problem.velocity_bounded) if velocity_rows else []
+    control_at = disc.rule.control_at
+
+    def at_knot(q, v, u, w):
+        return ca.vertcat(*([path(q, v, u, w)] if path is not None else []), v[bounded])
+
+    def first(s):
+        return 0, at_knot(s["q0"], ends(s["q0"], s["q1"], s["s"], s["h"])[0], control_at(s["u"], 0.0), s["w"])
+
+    def interior(s):
+        arriving = ends(s["q0_before"], s["q1_before"], s["s_before"], s["h"])[1]
+        leaving = ends(s["q0"], s["q1"], s["s"], s["h"])[0]
+        return 0, at_knot(s["q0"], knot_velocity(arriving, leaving), control_at(s["u"], 0.0), s["w"])
+
+    def last(s):
+        return 0, at_knot(s["q1"], ends(s["q0"], s["q1"], s["s"], s["h"])[1], control_at(s["u"], 1.0), s["w"])
+    terms = [step.term("knot_first", _slots(step.at(0, 1)), first, rows[:, :1]),
+             step.term("knot_last", _slots(step.at(N - 1, N)), last, rows[:, N:])]
+    if N > 1:
+        before = {k: v for k, v in _slots(step.at(0, N - 1, "_before"), "_before").items()
+                  if k not in ("u_before",)}
+        slots = {**before, **_slots(step.at(1, N))}
+        terms.append(step.term("knots", slots, interior, rows[:, 1:N]))
+    return terms
