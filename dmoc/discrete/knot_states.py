@@ -15,7 +15,7 @@ import numpy as np
 from .._util.cache import BoundedCache
 
 _END_VELOCITIES = BoundedCache(32, "end_velocities")    # keyed by (rule, n, stage rows): not per N or h
-_INTERIOR_VELOCITIES = BoundedCache(32, "interior_velocities")
+_INTERIOR_STATES = BoundedCache(32, "interior_states")
 
 
 def end_velocity_function(rule, n, n_stages):
@@ -54,15 +54,17 @@ def interior_points(rule):
     return tuple(rule.stage_nodes) or (0.5,)
 
 
-def interior_velocity_function(rule, n, n_stages):
-    """The Function ``(q0, q1, s, h) -> v``, shape (len(interior_points) * n,): the
-    velocity of one step's interpolant at each of `interior_points(rule)`, point by point.
-    Built once per (rule, n, n_stages) and kept (cache ``"interior_velocities"``)."""
+def interior_state_function(rule, n, n_stages):
+    """The Function ``(q0, q1, s, h) -> (q, v)``, shapes (len(interior_points) * n,): the
+    configuration and the velocity of one step's interpolant at each of
+    `interior_points(rule)`, point by point. Built once per (rule, n, n_stages) and kept
+    (cache ``"interior_states"``)."""
     def build():
         q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
                         (("q0", n), ("q1", n), ("s", n_stages), ("h", 1)))
         samples = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
                                            tuple((c, 1.0) for c in interior_points(rule)))
-        return ca.Function("interior_velocities", [q0, q1, s, h],
-                           [ca.vertcat(*[v for _, _, v, _ in samples])], ["q0", "q1", "s", "h"], ["v"])
-    return _INTERIOR_VELOCITIES.get((rule, n, n_stages), build)
+        return ca.Function("interior_states", [q0, q1, s, h],
+                           [ca.vertcat(*[q for _, q, _, _ in samples]),
+                            ca.vertcat(*[v for _, _, v, _ in samples])], ["q0", "q1", "s", "h"], ["q", "v"])
+    return _INTERIOR_STATES.get((rule, n, n_stages), build)

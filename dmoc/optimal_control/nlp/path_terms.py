@@ -8,8 +8,10 @@ constraints and velocity bounds").
 
 Which rows are where (g blocks of `Transcription.g_layout`):
 
-- ``path`` (rows, N): g at the middle of every step on the rule's interpolant,
-  (q(t_k + h/2), q'(t_k + h/2), u(t_k + h/2)) (`Discretization.midpoint_state`);
+- ``path`` (points * rows, N): g at each step's interior points on the rule's
+  interpolant, (q(t_k + c h), q'(t_k + c h), u(t_k + c h)) for c in
+  `knot_states.interior_points` (the stage nodes, or the midpoint of a linear rule),
+  point by point;
 - ``path_knots`` (rows, N + 1): every row of g at every knot, (q_k, v_k, u(t_k)), v_k the
   knot velocity and u(t_k) the control of the step that starts there (of the last step at
   q_N), as `Trajectory.control` reads it;
@@ -26,14 +28,17 @@ import casadi as ca
 import numpy as np
 
 from ...discrete.knot_states import (end_velocity_function, interior_points,
-                                     interior_velocity_function, knot_velocity)
+                                     interior_state_function, knot_velocity)
 
 
-def velocity_rows(rule, bounded):
-    """(rows of ``velocity_steps``, rows of ``velocity_knots``) for `rule` with `bounded`
-    velocity entries (a count): every interior point's, and the knots' for a rule with
-    stage nodes."""
-    return len(interior_points(rule)) * bounded, bounded if rule.stage_nodes else 0
+def row_counts(rule, rows, bounded):
+    """{block: rows per step or knot} of ``path``, ``path_knots``, ``velocity_steps`` and
+    ``velocity_knots`` for `rule` with `rows` path constraint rows and `bounded` velocity
+    entries (counts): every interior point's, and the knots' (of the velocities only for a
+    rule with stage nodes)."""
+    points = len(interior_points(rule))
+    return {"path": points * rows, "path_knots": rows, "velocity_steps": points * bounded,
+            "velocity_knots": bounded if rule.stage_nodes else 0}
 
 
 def _slots(slots, suffix=""):
@@ -50,18 +55,19 @@ def path_terms(step, G):
     disc, path = problem.disc, problem.path_constraints
     rule, n = disc.rule, disc.system.n
     bounded = list(problem.velocity_bounded)
-    terms = []
+    points, terms = interior_points(rule), []
+    inside = interior_state_function(rule, n, disc.n_stages)
     if G["path"].size:
         def middle(s):
-            q, v = disc.midpoint_state(s["q0"], s["q1"], s["s"], s["h"])
-            return 0, path(q, v, rule.control_at(s["u"], 0.5), s["w"])
+            q, v = inside(s["q0"], s["q1"], s["s"], s["h"])
+            return 0, ca.vertcat(*[path(q[j * n:(j + 1) * n], v[j * n:(j + 1) * n], rule.control_at(s["u"], c),
+                                        s["w"]) for j, c in enumerate(points)])
         terms.append(step.term("path", _slots(step.at(0, N)), middle, G["path"]))
     if G["velocity_steps"].size:
-        inside = interior_velocity_function(rule, n, disc.n_stages)
-        entries = [j * n + i for j in range(len(interior_points(rule))) for i in bounded]
+        entries = [j * n + i for j in range(len(points)) for i in bounded]
 
         def interior(s):
-            return 0, inside(s["q0"], s["q1"], s["s"], s["h"])[entries]
+            return 0, inside(s["q0"], s["q1"], s["s"], s["h"])[1][entries]
         terms.append(step.term("velocity_steps", _slots(step.at(0, N)), interior, G["velocity_steps"]))
     rows = np.vstack([G["path_knots"], G["velocity_knots"]])
     if rows.size:

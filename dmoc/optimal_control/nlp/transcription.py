@@ -10,7 +10,7 @@ import numpy as np
 
 from ..._util.layout import Layout
 from ..statement.parameters import refuse_violated_ends
-from .path_terms import velocity_rows
+from .path_terms import row_counts
 from ..statement.read_only import ReadOnly, frozen
 from .scaling import nlp_scales
 from .terms import transcribe
@@ -41,8 +41,8 @@ class Transcription(ReadOnly):
         when the start is a momentum), of p (``h, q_ref, w, p_start``; ``p_start`` empty
         unless the problem gives it) and
         of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
-        ``start_velocity``, ``goal_velocity``, ``path`` (rows, N) at the steps' midpoints,
-        ``path_knots`` (rows, N+1) at q_0 ... q_N, ``velocity_steps`` (points * bounded,
+        ``start_velocity``, ``goal_velocity``, ``path`` (points * rows, N) at the steps'
+        interior points, ``path_knots`` (rows, N+1) at q_0 ... q_N, ``velocity_steps`` (points * bounded,
         N) at the steps' interior points, ``velocity_knots`` (bounded, N+1, stage rules
         only) at q_0 ... q_N: `dmoc.optimal_control.nlp.path_terms`).
     velocity_bounded : tuple of int
@@ -78,7 +78,7 @@ class Transcription(ReadOnly):
         rows = {e: sys.m if imposed else 0 for e, imposed in problem.velocity_rows.items()}
         path = problem.path_constraints
         self._velocity_bounded = tuple(problem.velocity_bounded)
-        inside, at_knots = velocity_rows(disc.rule, len(self._velocity_bounded))
+        count = row_counts(disc.rule, path.numel_out(0) if path else 0, len(self._velocity_bounded))
         self._dynamics_rows = problem.momentum_treatment.dynamics_rows
         self._x_layout = Layout([("q", (n, N + 1)), ("p", (n, problem.momentum_treatment.columns(N))),
                                  ("lam", (disc.n_multipliers, N)), ("s", (disc.n_stages, N)),
@@ -91,9 +91,9 @@ class Transcription(ReadOnly):
         self._g_layout = Layout([("dynamics", (self._dynamics_rows.size, N)), ("start", (n, 1)),
                                  ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),
                                  ("goal_velocity", (rows["goal"], 1)),
-                                 ("path", (path.numel_out(0) if path else 0, N)),
-                                 ("path_knots", (path.numel_out(0) if path else 0, N + 1)),
-                                 ("velocity_steps", (inside, N)), ("velocity_knots", (at_knots, N + 1))])
+                                 ("path", (count["path"], N)), ("path_knots", (count["path_knots"], N + 1)),
+                                 ("velocity_steps", (count["velocity_steps"], N)),
+                                 ("velocity_knots", (count["velocity_knots"], N + 1))])
         q_ref = reference(problem.q_start, problem.q_goal)
         self._x_scale, self._g_scale = (frozen(s) for s in nlp_scales(
             disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
