@@ -21,6 +21,15 @@ the replay's departure, before and now; per problem the midpoint rule's cost at 
 (N the largest of `--steps`) and their Richardson limit J_2N + (J_2N - J_N) / 3.
 
     python benchmarks/verdict.py --hard truck lane disk --steps 30 60
+
+With ``--hard truck --rates``, instead: the truck with its steering-rate limit |delta'| <=
+0.4 written as a path row (the baseline) and as a velocity bound, lobatto3 and lobatto4 at
+each N of `--steps` from the default guess: status, iterations (the midpoint start's + the
+stage rule's), wall seconds, final time, cost, the largest knot rate |v_k| of delta
+(`dmoc.discrete.knot_states`, the verdict's knot velocity) and the seconds of the bound over
+those of the row.
+
+    python benchmarks/verdict.py --hard truck --rates --steps 60 120
 """
 
 import argparse
@@ -29,6 +38,8 @@ import platform
 import subprocess
 import sys
 import time
+
+import numpy as np
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -104,6 +115,26 @@ def hard(names, steps):
               f"(N = {N}): Richardson limit {limit}", flush=True)
 
 
+def rates(steps):
+    """The `--rates` table: the truck's steering rate as a path row and as a bound."""
+    sys.path[:0] = [ROOT]
+    from tests.optimize.hard_problems import STEERING_RATE, truck_bay
+    from dmoc.discrete.knot_states import knot_velocities
+    from dmoc.results.knot_velocities import end_velocities
+    print(f"{'rule':<9}{'N':>4}{'written':>8} | {'status':>16}{'it':>9}{'s':>7}{'T':>8}{'J':>14}{'replay':>9}"
+          f"{'rate - 0.4':>12}{'bound/row s':>12}")
+    for N in steps:
+        for rule in ("lobatto3", "lobatto4"):
+            row_seconds = None
+            for written in ("path", "bound"):
+                problem = truck_bay(N, rule, written)
+                result, seconds = _timed(lambda: dmoc.optimize(problem, throw=False))
+                rate = np.abs(knot_velocities(*end_velocities(problem.disc, result.trajectory))[:, 3]).max()
+                row_seconds = row_seconds or seconds
+                print(f"{rule:<9}{N:>4}{written:>8} | {_cells(result, seconds)}"
+                      f"{rate - STEERING_RATE:>+12.1e}{seconds / row_seconds:>12.2f}", flush=True)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
@@ -112,10 +143,12 @@ def main(argv=None):
     parser.add_argument("--child", nargs=3)
     parser.add_argument("--hard", nargs="+", choices=["truck", "lane", "disk"], metavar="NAME",
                         help="stage rules from the default guess on truck, lane, disk, before and now")
+    parser.add_argument("--rates", action="store_true",
+                        help="with --hard truck: the steering rate as a path row and as a velocity bound")
     args = parser.parse_args(argv)
     if args.hard:
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
-        hard(args.hard, args.steps)
+        rates(args.steps) if args.rates else hard(args.hard, args.steps)
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
         return
     if args.child:

@@ -71,11 +71,13 @@ def test_the_rows_and_the_free_boundary_velocities_carry_the_bounds():
 
 def test_every_copy_keeps_the_bounds():
     problem = parking()
-    copies = [problem.with_boundary(q_goal=[0.1, 1, 0]), problem.with_steps(20), problem.with_rule("lobatto3")]
+    copies = [problem.with_boundary(q_goal=[0.1, 1, 0]), problem.with_steps(20), problem.with_rule("lobatto3"),
+              dmoc.MPC(problem).problem]
     for copy in copies:
         assert copy.velocity_bounds[1][2] == RATE and copy.velocity_bounded == (2,)
         assert copy.g_layout.numel("velocity_steps") > 0
     assert copies[0].structure == problem.structure
+    assert dmoc.MPC(problem).problem.structure != problem.structure    # a start momentum instead
 
 
 def test_the_verdict_names_a_violated_bound_and_its_knot():

@@ -41,10 +41,10 @@ def row_counts(rule, rows, bounded):
             "velocity_knots": bounded if rule.stage_nodes else 0}
 
 
-def _slots(slots, suffix=""):
-    """The slots a path or velocity row reads (q0, q1, s, u with `suffix`; h, w) of a
-    `_StepSlots.at` dict, without the multipliers."""
-    return {k: v for k, v in slots.items() if k not in ("lam" + suffix, "lam")}
+def _slots(slots, *unread):
+    """The slots of a `_StepSlots.at` dict that a path or velocity row reads: all but the
+    multipliers (lam) and those named in `unread`."""
+    return {k: v for k, v in slots.items() if not k.startswith("lam") and k not in unread}
 
 
 def path_terms(step, G):
@@ -101,8 +101,6 @@ def _knot_terms(step, rows, velocity_rows):
     terms = [step.term("knot_first", _slots(step.at(0, 1)), first, rows[:, :1]),
              step.term("knot_last", _slots(step.at(N - 1, N)), last, rows[:, N:])]
     if N > 1:
-        before = {k: v for k, v in _slots(step.at(0, N - 1, "_before"), "_before").items()
-                  if k not in ("u_before",)}
-        slots = {**before, **_slots(step.at(1, N))}
+        slots = {**_slots(step.at(0, N - 1, "_before"), "u_before"), **_slots(step.at(1, N))}
         terms.append(step.term("knots", slots, interior, rows[:, 1:N]))
     return terms
