@@ -25,9 +25,11 @@ the replay's departure, before and now; per problem the midpoint rule's cost at 
 With ``--hard truck --rates``, instead: the truck with its steering-rate limit |delta'| <=
 0.4 written as a path row (the baseline) and as a velocity bound, lobatto3 and lobatto4 at
 each N of `--steps` from the default guess: status, iterations (the midpoint start's + the
-stage rule's), wall seconds, final time, cost, the largest knot rate |v_k| of delta
-(`dmoc.discrete.knot_states`, the verdict's knot velocity) and the seconds of the bound over
-those of the row.
+stage rule's), wall seconds, final time, cost, replay, the largest rate |delta'| over 0.4 at
+the knots (the verdict's knot velocity) and at the stage nodes, recomputed from the
+trajectory by numpy polynomials through the Lobatto nodes
+(tests/optimize/test_knot_rates.py, not dmoc's interpolant), and the seconds of the bound
+over those of the row.
 
     python benchmarks/verdict.py --hard truck --rates --steps 60 120
 """
@@ -119,20 +121,20 @@ def rates(steps):
     """The `--rates` table: the truck's steering rate as a path row and as a bound."""
     sys.path[:0] = [ROOT]
     from tests.optimize.hard_problems import STEERING_RATE, truck_bay
-    from dmoc.discrete.knot_states import knot_velocities
-    from dmoc.results.knot_velocities import end_velocities
+    from tests.optimize.test_knot_rates import knot_and_stage_velocities
     print(f"{'rule':<9}{'N':>4}{'written':>8} | {'status':>16}{'it':>9}{'s':>7}{'T':>8}{'J':>14}{'replay':>9}"
-          f"{'rate - 0.4':>12}{'bound/row s':>12}")
+          f"{'knots-0.4':>11}{'nodes-0.4':>11}{'bound/row s':>12}")
     for N in steps:
         for rule in ("lobatto3", "lobatto4"):
             row_seconds = None
             for written in ("path", "bound"):
                 problem = truck_bay(N, rule, written)
                 result, seconds = _timed(lambda: dmoc.optimize(problem, throw=False))
-                rate = np.abs(knot_velocities(*end_velocities(problem.disc, result.trajectory))[:, 3]).max()
+                over = [np.abs(v[:, 3]).max() - STEERING_RATE
+                        for v in knot_and_stage_velocities(result.trajectory, rule)]
                 row_seconds = row_seconds or seconds
                 print(f"{rule:<9}{N:>4}{written:>8} | {_cells(result, seconds)}"
-                      f"{rate - STEERING_RATE:>+12.1e}{seconds / row_seconds:>12.2f}", flush=True)
+                      f"{over[0]:>+11.1e}{over[1]:>+11.1e}{seconds / row_seconds:>12.2f}", flush=True)
 
 
 def main(argv=None):

@@ -51,14 +51,16 @@ def velocity(coefficients, c, h):
     return sum((degree - i) * coefficients[i] * c ** (degree - i - 1) for i in range(degree)) / h
 
 
-def knot_and_stage_rates(traj, rule):
-    """theta' at the knots (the mean of both sides) and at the interior nodes."""
+def knot_and_stage_velocities(traj, rule):
+    """q' at the knots (the mean of both sides), shape (N + 1, n), and at the interior
+    nodes (the midpoint of a linear rule), shape (N * nodes, n); also read by
+    benchmarks/verdict.py --rates."""
     steps = polynomials(traj, rule)
     start = np.array([velocity(a, 0.0, traj.h) for a in steps])
     end = np.array([velocity(a, 1.0, traj.h) for a in steps])
     knots = np.concatenate([start[:1], (end[:-1] + start[1:]) / 2, end[-1:]])
     inside = [velocity(a, c, traj.h) for a in steps for c in (NODES[rule][1:-1] or (0.5,))]
-    return knots[:, 2], np.array(inside)[:, 2]
+    return knots, np.array(inside)
 
 
 def replayed_rates(traj, rule):
@@ -90,7 +92,7 @@ def test_the_rate_limit_holds_at_every_knot_and_stage_node(rule, steps, written)
     of the knot rows."""
     result = dmoc.optimize(parking(rule, steps, written))
     assert result.verdict.passed
-    knots, inside = knot_and_stage_rates(result.trajectory, rule)
+    knots, inside = (v[:, 2] for v in knot_and_stage_velocities(result.trajectory, rule))
     assert np.abs(knots).max() <= LIMIT + 1e-8 and np.abs(inside).max() <= LIMIT + 1e-8
     assert max(np.abs(knots).max(), np.abs(inside).max()) >= LIMIT - 1e-6
     if rule != "midpoint":
