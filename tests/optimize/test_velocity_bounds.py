@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.drivers.verdict import judge
+from dmoc.drivers.verdict import judge, verdict_message
+from dmoc.optimal_control.solver.violation import described
 
 RATE = 0.6
 
@@ -97,6 +98,22 @@ def test_the_verdict_names_a_violated_bound_and_its_knot():
     assert verdict.path_violation == pytest.approx(relative[side].max(), rel=1e-12) and verdict.path_violation > 0.1
     assert verdict.path_limit == f"velocity_bounds {side} of theta (v[2] {'<=' if side == 'upper' else '>='} " \
                                  f"{RATE if side == 'upper' else -RATE:g})"
+    assert f"{verdict.path_limit} is violated at knot {verdict.path_step}" in verdict_message(verdict, free)
     assert dmoc.Verdict.from_dict(verdict.as_dict()) == verdict
     old = {k: v for k, v in verdict.as_dict().items() if k != "path_limit"}
     assert dmoc.Verdict.checked({**old, "status": "path_violated"}).path_limit == ""
+
+
+def test_the_rows_are_named_by_their_limit_entry_and_place():
+    """`stats["most_violated"]` names a velocity row by its entry and knot or step (and the
+    step's interior point where there are several), a path row by its row and point."""
+    problem = parking(rule="lobatto4", path_constraints=lambda q, v, u: q[0] - 5.0)
+    G = problem.g_layout
+    row = {name: G.slice(name).start for name in ("velocity_knots", "velocity_steps", "path")}
+    assert described(problem.transcription, row["velocity_knots"] + 3) == "velocity bound of v[2] at knot 3"
+    assert described(problem.transcription, row["velocity_steps"] + 2 * 4 + 1) == \
+        "velocity bound of v[2] at step 4 (point 1)"
+    assert described(problem.transcription, row["path"] + 2 * 4 + 1) == "path constraint 0 at step 4 (point 1)"
+    midpoint = parking(path_constraints=lambda q, v, u: q[0] - 5.0)
+    assert described(midpoint.transcription, midpoint.g_layout.slice("path").start + 4) == \
+        "path constraint 0 at step 4"
