@@ -115,5 +115,6 @@ def test_the_rows_are_named_by_their_limit_entry_and_place():
         "velocity bound of v[2] at step 4 (point 1)"
     assert described(problem.transcription, row["path"] + 2 * 4 + 1) == "path constraint 0 at step 4 (point 1)"
     midpoint = parking(path_constraints=lambda q, v, u: q[0] - 5.0)
-    assert described(midpoint.transcription, midpoint.g_layout.slice("path").start + 4) == \
-        "path constraint 0 at step 4"
+    rows = {name: midpoint.g_layout.slice(name).start + 4 for name in ("path", "velocity_steps")}
+    assert described(midpoint.transcription, rows["path"]) == "path constraint 0 at step 4"
+    assert described(midpoint.transcription, rows["velocity_steps"]) == "velocity bound of v[2] at step 4"

@@ -60,8 +60,9 @@ def path_terms(step, G):
     if G["path"].size:
         def middle(s):
             q, v = inside(s["q0"], s["q1"], s["s"], s["h"])
-            return 0, ca.vertcat(*[path(q[j * n:(j + 1) * n], v[j * n:(j + 1) * n], rule.control_at(s["u"], c),
-                                        s["w"]) for j, c in enumerate(points)])
+            at = [slice(j * n, (j + 1) * n) for j in range(len(points))]
+            return 0, ca.vertcat(*[path(q[j], v[j], rule.control_at(s["u"], c), s["w"])
+                                   for j, c in zip(at, points)])
         terms.append(step.term("path", _slots(step.at(0, N)), middle, G["path"]))
     if G["velocity_steps"].size:
         entries = [j * n + i for j in range(len(points)) for i in bounded]

@@ -57,7 +57,8 @@ def described(transcription, row):
     """The row `row` of the constraint vector of `transcription` by its group: "dynamics
     at step k (block row r)", "path constraint i at step k", "path constraint i at knot k",
     "velocity bound of v[i] at knot k" (with " (point j)" after "step k" where a step has
-    several interior points: `dmoc.discrete.knot_states.interior_points`) or "boundary condition 'group' row r"."""
+    several interior points: `dmoc.discrete.knot_states.interior_points`) or "boundary
+    condition 'group' row r"."""
     group, block_row, col = transcription.g_layout.locate(row)
     if group == "dynamics":
         name, row_in_block, _ = transcription.dynamics_rows.locate(block_row)     # blocks of one column
@@ -70,7 +71,9 @@ def described(transcription, row):
         return f"path constraint {block_row} at knot {col}"
     if group in ("velocity_steps", "velocity_knots"):
         bounded = transcription.velocity_bounded
-        where = f"knot {col}" if group == "velocity_knots" else f"step {col} (point {block_row // len(bounded)})"
+        several = transcription.g_layout.blocks["velocity_steps"][1] > len(bounded)
+        point = f" (point {block_row // len(bounded)})" if several else ""
+        where = f"knot {col}" if group == "velocity_knots" else f"step {col}{point}"
         return f"velocity bound of v[{bounded[block_row % len(bounded)]}] at {where}"
     return f"boundary condition '{group}' row {block_row}"
 

@@ -166,7 +166,8 @@ def set_boundary(problem, given):
             check_allowed_velocity("v_" + end, sys, q, v)
         # a start given by its momentum has no velocity rows
         rows[end] = imposes_velocity_rows(complete, v) and (end == "goal" or problem._p_start is None)
-    for names, bounds in ((("q_start", "q_goal"), "state_bounds"), (("v_start", "v_goal"), "velocity_bounds")):
+    for names, bounds in ((("q_start", "q_goal"), "state_bounds"),
+                          (("v_start", "v_goal"), "velocity_bounds")):
         for name in (k for k in names if k in given):
             _refuse_outside(name, getattr(problem, "_" + name), bounds, getattr(problem, "_" + bounds),
                             sys.names)
