@@ -21,6 +21,17 @@ the replay's departure, before and now; per problem the midpoint rule's cost at 
 (N the largest of `--steps`) and their Richardson limit J_2N + (J_2N - J_N) / 3.
 
     python benchmarks/verdict.py --hard truck lane disk --steps 30 60
+
+With ``--hard truck --rates``, instead: the truck with its steering-rate limit |delta'| <=
+0.4 written as a path row (the baseline) and as a velocity bound, lobatto3 and lobatto4 at
+each N of `--steps` from the default guess: status, iterations (the midpoint start's + the
+stage rule's), wall seconds, final time, cost, replay, the largest rate |delta'| over 0.4 at
+the knots (the verdict's knot velocity) and at the stage nodes, recomputed from the
+trajectory by numpy polynomials through the Lobatto nodes
+(tests/optimize/test_knot_rates.py, not dmoc's interpolant), and the seconds of the bound
+over those of the row.
+
+    python benchmarks/verdict.py --hard truck --rates --steps 60 120
 """
 
 import argparse
@@ -29,6 +40,8 @@ import platform
 import subprocess
 import sys
 import time
+
+import numpy as np
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -104,6 +117,26 @@ def hard(names, steps):
               f"(N = {N}): Richardson limit {limit}", flush=True)
 
 
+def rates(steps):
+    """The `--rates` table: the truck's steering rate as a path row and as a bound."""
+    sys.path[:0] = [ROOT]
+    from tests.optimize.hard_problems import STEERING_RATE, truck_bay
+    from tests.optimize.test_knot_rates import knot_and_stage_velocities
+    print(f"{'rule':<9}{'N':>4}{'written':>8} | {'status':>16}{'it':>9}{'s':>7}{'T':>8}{'J':>14}{'replay':>9}"
+          f"{'knots-0.4':>11}{'nodes-0.4':>11}{'bound/row s':>12}")
+    for N in steps:
+        for rule in ("lobatto3", "lobatto4"):
+            row_seconds = None
+            for written in ("path", "bound"):
+                problem = truck_bay(N, rule, written)
+                result, seconds = _timed(lambda: dmoc.optimize(problem, throw=False))
+                over = [np.abs(v[:, 3]).max() - STEERING_RATE
+                        for v in knot_and_stage_velocities(result.trajectory, rule)]
+                row_seconds = row_seconds or seconds
+                print(f"{rule:<9}{N:>4}{written:>8} | {_cells(result, seconds)}"
+                      f"{over[0]:>+11.1e}{over[1]:>+11.1e}{seconds / row_seconds:>12.2f}", flush=True)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
@@ -112,10 +145,12 @@ def main(argv=None):
     parser.add_argument("--child", nargs=3)
     parser.add_argument("--hard", nargs="+", choices=["truck", "lane", "disk"], metavar="NAME",
                         help="stage rules from the default guess on truck, lane, disk, before and now")
+    parser.add_argument("--rates", action="store_true",
+                        help="with --hard truck: the steering rate as a path row and as a velocity bound")
     args = parser.parse_args(argv)
     if args.hard:
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
-        hard(args.hard, args.steps)
+        rates(args.steps) if args.rates else hard(args.hard, args.steps)
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
         return
     if args.child:

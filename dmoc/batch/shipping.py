@@ -19,7 +19,7 @@ from ..errors import DmocError, InputTypeError
 from .tasks import pack_problem
 
 _ARRAYS = ("lbx", "ubx", "lbg", "ubg", "p")
-_SHARED = ("_disc", "_final_time", "_control_bounds", "_state_bounds", "_formulation",
+_SHARED = ("_disc", "_final_time", "_control_bounds", "_state_bounds", "_velocity_bounds", "_formulation",
            "_momentum_treatment", "_running", "_terminal", "_path")
 
 

@@ -16,6 +16,7 @@ from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
 from ..optimal_control.solver.verdict_record import STATUSES, Verdict
 from ..results.diagnostics import compared_momenta, replays
+from ..discrete.knot_states import knot_velocities
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
@@ -65,7 +66,8 @@ def judge(problem, result):
     same equations as NLP rows, at whatever root IPOPT reached. Their agreement to
     `REPLAY_TOLERANCE` says that IPOPT's root is the simulator's. The velocity jumps are
     those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
-    path constraints are evaluated at every knot (`knot_path_values`). The one-optimum
+    path constraints and the velocity bounds are evaluated at every knot
+    (`knot_path_values`, `knot_velocity_bound_values`). The one-optimum
     case of `verdicts`.
     """
     return verdicts([(problem, result)])[0]
@@ -99,12 +101,17 @@ def _verdict(problem, traj, simulated, ends, knot_values):
     changes[:, resting] = 0.0
     k, i = np.unravel_index(np.argmax(changes), changes.shape) if changes.size else (-1, 0)
     jump = float(changes[k, i]) if changes.size else 0.0
-    path, path_step, path_row = _path_violation(knot_values)
+    bounds, bound_names = knot_velocity_bound_values(problem, traj, ends)
+    rows = 0 if knot_values is None else knot_values.shape[1]
+    path, path_step, row, limit = _path_violation(
+        np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
+        [f"path_constraints row {r}" for r in range(rows)] + bound_names)
     failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
               jump > JUMP_LIMIT)
     status = next((s for s, f in zip(STATUSES, failed) if f), Status.PASSED)
     return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
-                   problem.disc.system.names[i], path, path_step, path_row)
+                   problem.disc.system.names[i], path, path_step, row if row < rows else -1,
+                   path_limit=limit)
 
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
@@ -149,11 +156,11 @@ def verdict_message(verdict, result):
             f"change of the fast coordinates, or start from a sound optimum (`guess=`)"
             + _stage_rule_advice(traj),
         Status.PATH_VIOLATED:
-            f"path constraint row {verdict.path_row} is violated at knot {verdict.path_step} "
+            f"{verdict.path_limit} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
-            f"of the row's scale max(1, max |g|) (limit {PATH_TOLERANCE:g}): the NLP imposes "
-            f"the constraints at its own points, not at every knot. Use more steps or keep a "
-            f"margin in g",
+            f"of the row's scale max(1, max |g|) (limit {PATH_TOLERANCE:g}), although the NLP "
+            f"imposes it at every knot with the same knot velocity: IPOPT's tolerance or a "
+            f"solve on another root. Tighten IPOPT's `tol` or keep a margin in the limit",
         Status.UNDER_RESOLVED:
             f"the grid does not resolve the motion: {jump} (limit {JUMP_LIMIT:g}). Use more "
             f"steps, or bound the per-step change of that coordinate"}[verdict.status]
@@ -199,10 +206,12 @@ def _scale(*sizes):
 
 def knot_path_values(problem, traj):
     """The path constraints g evaluated at every knot, shape (N + 1, rows): at (q_k, v_k,
-    u(t_k)) with v_k the mean of the interpolants' velocities at q_k from both sides (one
-    side at the ends; `dmoc.diagnostics.end_velocities`), through
-    ``problem.path_constraints`` on a straight step centred at q_k with velocity v_k.
-    The one-optimum case of `_knot_path_values_of`."""
+    u(t_k)), v_k the knot velocity (the mean of the interpolants' velocities at q_k from
+    both sides, one side at the ends: `dmoc.discrete.knot_states.knot_velocities`), u(t_k)
+    `Trajectory.control` there, with the parameters at q_k (`_knot_arguments`); the values
+    the NLP's knot rows impose
+    (`dmoc.optimal_control.nlp.path_terms`). The one-optimum case of
+    `_knot_path_values_of`."""
     return _knot_path_values_of([(problem, traj, end_velocities(problem.disc, traj))])[0]
 
 
@@ -217,8 +226,7 @@ def _knot_path_values_of(triples):
     for members in found.values():
         path = triples[members[0]][0].path_constraints
         columns = [_knot_arguments(*triples[i]) for i in members]
-        g = path.map(sum(c[0].shape[1] for c in columns))(
-            *(np.hstack(parts) for parts in zip(*columns)))[path.index_out("g")]
+        g = path.map(sum(c[0].shape[1] for c in columns))(*(np.hstack(parts) for parts in zip(*columns)))
         knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
         for i, block in zip(members, np.split(np.array(g).T, knots)):
             values[i] = block
@@ -226,30 +234,39 @@ def _knot_path_values_of(triples):
 
 
 def _knot_arguments(problem, traj, ends):
-    """The arguments (q0, q1, s, u, h, w) of ``problem.path_constraints`` at the N + 1
-    knots of `traj` (`knot_path_values`), one column per knot, from its interpolant's
-    end velocities `ends`."""
-    N, h = traj.steps, traj.h
-    start, end = ends
-    v = np.vstack([start[:1], (end[:-1] + start[1:]) / 2, end[-1:]])
-    q0, q1 = traj.q - v * h / 2, traj.q + v * h / 2
-    chords = np.empty((2 * (N + 1), traj.q.shape[1]))
-    chords[0::2], chords[1::2] = q0, q1
-    s = problem.disc.rule.stage_guess(chords, np.repeat(traj.p, 2, axis=0))[0::2]
-    u = np.tile(traj.control(traj.t), len(traj.control_nodes))
-    w = problem.parameters.knot_values()
-    return (q0.T, q1.T, np.reshape(s, (N + 1, -1)).T, u.T, np.full((1, N + 1), h), w)
+    """The arguments (q, v, u, w) of ``problem.path_constraints`` at the N + 1 knots of
+    `traj` (`knot_path_values`), one column per knot, from its interpolant's end
+    velocities `ends`; w the parameters at each knot (`ProblemParameters.knot_points`, the
+    clock with the optimum's step h)."""
+    w = problem.parameters.knot_points(traj.h)
+    return traj.q.T, knot_velocities(*ends).T, traj.control(traj.t).T, w
 
 
-def _path_violation(g):
-    """(largest g_k relative to its row's scale max(1, max_k |g_k|), knot, row) of the path
-    values at the knots `g` (`knot_path_values`); (0, -1, -1) without path constraints
-    (None) or violations. The 1 keeps a row that is held at zero everywhere (an equality
-    written as the pair g, -g) from being measured against its own round-off."""
-    if g is None:
-        return 0.0, -1, -1
+def knot_velocity_bound_values(problem, traj, ends=None):
+    """The velocity bounds as rows g <= 0 at every knot, shape (N + 1, rows), and their
+    names: lower_i - v_k,i and v_k,i - upper_i for each finite bound, v_k the knot velocity
+    (`knot_path_values`; `ends` the interpolants' end velocities when computed already)."""
+    v = knot_velocities(*(end_velocities(problem.disc, traj) if ends is None else ends))
+    names, columns = problem.disc.system.names, []
+    for side, (bound, sign, relation) in enumerate(zip(problem.velocity_bounds, (-1.0, 1.0), (">=", "<="))):
+        for i in np.flatnonzero(np.isfinite(bound)):
+            columns.append((sign * (v[:, i] - bound[i]),
+                            f"velocity_bounds {('lower', 'upper')[side]} of {names[i]} "
+                            f"(v[{i}] {relation} {bound[i]:.6g})"))
+    values = np.column_stack([c for c, _ in columns]) if columns else np.zeros((v.shape[0], 0))
+    return values, [name for _, name in columns]
+
+
+def _path_violation(g, names):
+    """(largest g_k relative to its row's scale max(1, max_k |g_k|), knot, row, the row's
+    name among `names`) of the values at the knots `g` (N + 1, rows: `knot_path_values`
+    then `knot_velocity_bound_values`); (0, -1, -1, "") without rows or violations. The 1
+    keeps a row that is held at zero everywhere (an equality written as the pair g, -g)
+    from being measured against its own round-off."""
+    if g.size == 0:
+        return 0.0, -1, -1, ""
     relative = g / np.maximum(np.abs(g).max(axis=0), 1.0)
     k, row = np.unravel_index(np.argmax(relative), relative.shape)
     if relative[k, row] <= 0:
-        return 0.0, -1, -1
-    return float(relative[k, row]), int(k), int(row)
+        return 0.0, -1, -1, ""
+    return float(relative[k, row]), int(k), int(row), names[row]

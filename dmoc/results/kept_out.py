@@ -8,6 +8,8 @@ that an obstacle stated only as a constraint (a problem file of the command line
 import casadi as ca
 import numpy as np
 
+from ..optimal_control.statement.parameters import knot_rows
+
 
 def kept_out_region(problem, x, y):
     """The function g(X, Y) = max_i g_i(q) over the configuration rows of `problem`'s path
@@ -18,8 +20,8 @@ def kept_out_region(problem, x, y):
     Parameters
     ----------
     problem : OptimalControlProblem
-        Its path constraints at the knots (``g0`` of `path_constraints`) with its parameter
-        values w (those at q_0 for values given along the horizon).
+        Its path constraints' rows of q alone (`knot_rows`) with its parameter values w
+        (those at q_0 for values given along the horizon).
     x, y : int
         Columns of q spanning the plane.
 
@@ -34,13 +36,10 @@ def kept_out_region(problem, x, y):
         return None
     n = problem.disc.system.n
     q = ca.SX.sym("q", n)
-    symbols = {name: ca.SX.zeros(path.sparsity_in(name)) for name in path.name_in()}
-    symbols["q0"] = q
-    symbols["w"] = ca.SX(ca.DM(problem.parameters.knot_values()[:, 0]))    # those at q_0
-    g0 = path(**symbols)["g0"]
+    g = path(q, ca.SX.zeros(path.size1_in("v")), ca.SX.zeros(path.size1_in("u")),
+             ca.SX(ca.DM(problem.parameters.knot_points(problem.disc.h)[:, 0])))    # those at q_0
     others = ca.vertcat(*[q[i] for i in range(n) if i not in (x, y)])
-    rows = [g0[i] for i in range(g0.numel())
-            if others.numel() == 0 or not ca.depends_on(g0[i], others)]
+    rows = [g[i] for i in knot_rows(path) if others.numel() == 0 or not ca.depends_on(g[i], others)]
     if not rows:
         return None
     plane = ca.vertcat(q[x], q[y])

@@ -5,11 +5,10 @@ and the jumps of the step velocities; the verdict on an optimum reads them
 (`dmoc.drivers.verdict`), for one trajectory or many in one call.
 """
 
-import casadi as ca
 import numpy as np
 
 from .._util import checks
-from .._util.cache import BoundedCache
+from ..discrete.knot_states import end_velocity_function
 from ..principle.trajectory import Trajectory, check_trajectory
 
 
@@ -17,9 +16,9 @@ def end_velocities(disc, traj):
     """The velocities of each step's interpolant at its two ends, shapes (N, n) and (N, n):
     q'_k(0) and q'_k(h) of the rule's polynomial through q_k, the stage configurations and
     q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
-    rules. The step's Function is built once per rule, n and stage rows and kept (cache
-    ``"end_velocities"``): a verdict per re-solve does not rebuild it. The one-trajectory
-    case of `end_velocities_of`."""
+    rules. The step's Function (`dmoc.discrete.knot_states.end_velocity_function`) is built
+    once per rule, n and stage rows and kept: a verdict per re-solve does not rebuild it.
+    The one-trajectory case of `end_velocities_of`."""
     return end_velocities_of([(disc, traj)])[0]
 
 
@@ -34,7 +33,7 @@ def end_velocities_of(pairs):
         found.setdefault((disc.rule, disc.system.n, traj.s.shape[1]), []).append(i)
     ends = [None] * len(pairs)
     for key, members in found.items():
-        velocities = _END_VELOCITIES.get(key, lambda: _end_velocity_function(*key))
+        velocities = end_velocity_function(*key)
         trajs = [pairs[i][1] for i in members]
         steps = [traj.steps for traj in trajs]
         start, end = (np.array(x).T for x in velocities.map(sum(steps))(
@@ -44,20 +43,6 @@ def end_velocities_of(pairs):
         for i, a, b in zip(members, np.split(start, bounds), np.split(end, bounds)):
             ends[i] = (a, b)
     return ends
-
-
-_END_VELOCITIES = BoundedCache(32, "end_velocities")    # keyed by (rule, n, stage rows): not per N or h
-
-
-def _end_velocity_function(rule, n, n_stages):
-    """The Function (q0, q1, s, h) -> (q'(0), q'(h)) of one step's interpolant under `rule`
-    (`end_velocities`), for n coordinates and `n_stages` stage rows."""
-    q0, q1, s, h = (ca.SX.sym(name, size) for name, size in
-                    (("q0", n), ("q1", n), ("s", n_stages), ("h", 1)))
-    ends = rule.interpolant.samples(q0, q1, rule.stage_configurations(s, n), h,
-                                    ((0.0, 1.0), (1.0, 1.0)))
-    return ca.Function("end_velocities", [q0, q1, s, h], [ends[0][2], ends[1][2]],
-                       ["q0", "q1", "s", "h"], ["start", "end"])
 
 
 def velocity_changes(disc, traj, *, ends=None):

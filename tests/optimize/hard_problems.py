@@ -48,23 +48,35 @@ def truck_with_trailer():
 def _kept_out(q, v, u):
     """Rows <= 0: the steering rate, the speed, the jack-knife, four trailer points out of
     the parked trailers' discs, the truck's front on the road."""
+    return ca.vertcat(v[3] ** 2 - STEERING_RATE ** 2, _kept_out_but_rate(q, v, u))
+
+
+def _kept_out_but_rate(q, v, u):
+    """The rows of `_kept_out` after the first (the steering rate): speed, jack-knife,
+    discs, road edge."""
     heading = ca.vertcat(ca.cos(q[4]), ca.sin(q[4]))
     points = [q[:2] - s * HITCH * heading for s in (0.0, 0.5, 1.0, 1.3)]
     discs = [RADIUS ** 2 - ca.sumsqr(point - ca.DM(centre)) for point in points for centre in PARKED]
     front = q[1] + WHEELBASE * ca.sin(q[2])
-    return ca.vertcat(v[3] ** 2 - STEERING_RATE ** 2, v[0] ** 2 + v[1] ** 2 - SPEED ** 2,
-                      (q[4] - q[2]) ** 2 - JACK_KNIFE ** 2, *discs, front - ROAD_EDGE)
+    return ca.vertcat(v[0] ** 2 + v[1] ** 2 - SPEED ** 2, (q[4] - q[2]) ** 2 - JACK_KNIFE ** 2, *discs,
+                      front - ROAD_EDGE)
 
 
-def truck_bay(steps=30, rule="midpoint"):
+def truck_bay(steps=30, rule="midpoint", rate="path"):
     """Back the trailer into the bay: from rest at (10, 6) heading +x to rest with the
     truck's axle at (0, 1), truck and trailer heading +y (the trailer in the bay between
-    the parked trailers), free final time in [8, 120] s; cost int (F/F)^2 + (tau/T)^2 + 0.1 dt."""
+    the parked trailers), free final time in [8, 120] s; cost int (F/F)^2 + (tau/T)^2 + 0.1 dt.
+    `rate`: the steering rate limit as the path row v_delta^2 - 0.4^2 <= 0 ("path") or as
+    the velocity bound |v_delta| <= 0.4 ("bound")."""
     disc = dmoc.discretize(truck_with_trailer(), 30.0 / steps, rule)
+    limits = ({"path_constraints": _kept_out} if rate == "path" else
+              {"path_constraints": _kept_out_but_rate,
+               "velocity_bounds": ([None, None, None, -STEERING_RATE, None],
+                                   [None, None, None, STEERING_RATE, None])})
     return dmoc.OptimalControlProblem(
         disc, steps, q_start=[10.0, 6.0, 0.0, 0.0, 0.0], q_goal=[0.0, 1.0, np.pi / 2, 0.0, np.pi / 2],
         running_cost=lambda q, v, u: (u[0] / FORCE) ** 2 + (u[1] / TORQUE) ** 2 + 0.1,
-        path_constraints=_kept_out, control_bounds=([-FORCE, -TORQUE], [FORCE, TORQUE]),
+        control_bounds=([-FORCE, -TORQUE], [FORCE, TORQUE]), **limits,
         state_bounds=([None, None, None, -STEERING, None], [None, ROAD_EDGE, None, STEERING, None]),
         duration=(8.0, 120.0))
 

@@ -75,6 +75,6 @@ def test_path_constraints_with_a_branch_inside_pass(disc):
     """A comparison inside an expression (a branch of ca.if_else) is not the constraint."""
     ocp = problem(disc, path_constraints=lambda q, v, u: ca.vertcat(
         q[0] - 0.5, ca.if_else(q[1] < 0, -q[1], q[1]) - 2))
-    g = ocp.path_constraints(ca.DM([0.2, -0.4, 0]), ca.DM([0.4, -0.4, 0]), ca.DM(0, 1),
-                             ca.DM.zeros(2), 0.1, ca.DM(0, 1))[0]       # "g", at the midpoint
+    g = ocp.path_constraints(q=ca.DM([0.3, -0.4, 0]), v=ca.DM.zeros(3), u=ca.DM.zeros(2),
+                             w=ca.DM(0, 1))["g"]        # at one state (q, v, u)
     np.testing.assert_allclose(np.array(g).ravel(), [0.3 - 0.5, 0.4 - 2], rtol=0, atol=1e-15)

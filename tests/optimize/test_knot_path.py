@@ -1,5 +1,5 @@
 """Path constraints hold at every knot q_0 ... q_N as well as at the steps' midpoints, and
-an end that violates one is refused before the solve.
+an end that violates one of q alone is refused before the solve.
 
 Oracles, none taken from the code under test:
 - the disc obstacle's closed form |(x, y) - c| >= rho, evaluated here at every knot and at
@@ -94,15 +94,16 @@ def test_rows_that_read_a_free_entry_are_not_judged_before_the_solve():
     drive(12, q_goal=[None, 0.05, 0, None, None])
 
 
-def test_rows_that_read_v_or_u_stay_at_the_midpoints():
-    """A speed limit and a torque limit (rows 1 and 2) are not imposed at the knots, where
-    the rule defines neither v nor u (for the midpoint rule their knot rows would repeat
-    the midpoint's); the disc (row 0) is. A start that breaks the speed limit's formula
-    with v = 0 is not refused; a start inside the disc is, naming the user's row 1."""
+def test_rows_that_read_v_or_u_are_held_at_the_knots_too_but_not_judged_at_a_given_end():
+    """A speed limit and a torque limit (rows 1 and 2) are imposed at the knots with the
+    knot velocity and control, as the disc (row 0) is (tests/optimize/test_knot_rates.py
+    checks their values). A start that breaks the speed limit's formula with v = 0 is not
+    refused (the knot velocity at a given end is the solve's); a start inside the disc is,
+    naming the user's row 1."""
     problem = drive(12, path_constraints=lambda q, v, u: ca.vertcat(
         outside_disc(q, v, u), v[0] - 1.0, u[0] - 5.0))
     assert problem.g_layout.blocks["path"][1:] == (3, 12)
-    assert problem.g_layout.blocks["path_knots"][1:] == (1, 13)
+    assert problem.g_layout.blocks["path_knots"][1:] == (3, 13)
     drive(12, path_constraints=lambda q, v, u: 1.0 - v[0] - ca.sumsqr(q[:2]))
     with pytest.raises(dmoc.InputError, match=r"`q_start` must satisfy .*got g\[1\] = "):
         drive(12, q_start=[1.0, 0.0, 0, 0, 0],

@@ -61,9 +61,11 @@ def _running(q, v, u):
 def _options(system):
     """The optional data of a problem by name; "all" combines them."""
     spec = SYSTEMS[system]
+    n = len(spec["q_start"])
     options = {"plain": {}, "free-time": {"duration": (0.5 * T, 2.0 * T)},
                "path": {"path_constraints": _path}, "terminal": {"terminal_cost": _terminal},
-               "running": {"running_cost": _running}, "free-boundary": spec["free"]}
+               "running": {"running_cost": _running}, "free-boundary": spec["free"],
+               "velocity": {"velocity_bounds": ([-5.0] + [None] * (n - 1), [None] * (n - 1) + [5.0])}}
     options["all"] = {k: v for option in options.values() for k, v in option.items()}
     return options
 

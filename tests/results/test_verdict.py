@@ -22,7 +22,7 @@ import pytest
 
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
-from dmoc.drivers.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE, judge
+from dmoc.drivers.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE, judge, verdict_message
 
 KNIFE_EDGE_J = 8.72240586430
 ROLLING_DISK_J = 1.02891883211
@@ -83,62 +83,66 @@ def test_ten_steps_of_parking_are_under_resolved_and_twenty_are_not():
     assert fine.success and fine.verdict.passed and fine.verdict.velocity_jump < JUMP_LIMIT
 
 
-def test_a_rate_limit_between_the_knots_is_a_path_violation():
-    """A limit on the heading rate reads v, so the NLP imposes it at the step midpoints
-    only; lobatto3's quadratic interpolant then turns faster at the knots on the edges of
-    the saturated arc, and the verdict finds the worst knot. Oracle: the interpolant's
-    velocity at a knot written out here, the mean of the derivatives at the knot of the
-    quadratics through (q_k, s_k, q_{k+1}) on both sides."""
-    free = dmoc.optimize(knife_edge_parking(50, rule="lobatto3")).trajectory
-    limit = 0.5 * np.abs(np.diff(free.q[:, 2])).max() / free.h
+def test_a_rate_limit_crossed_at_the_knots_is_a_path_violation():
+    """A limit on the heading rate, half the free parking's largest step rate: the free
+    optimum judged against it crosses it at the knots on the edges of the saturated arc,
+    and the verdict finds the worst knot; the NLP holds it at every knot, so the limited
+    problem's own optimum passes. Oracle: the interpolant's velocity at a knot written out
+    here, the mean of the derivatives at the knot of the quadratics through
+    (q_k, s_k, q_{k+1}) on both sides."""
+    free = dmoc.optimize(knife_edge_parking(50, rule="lobatto3"))
+    limit = 0.5 * np.abs(np.diff(free.trajectory.q[:, 2])).max() / free.trajectory.h
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 4.0 / 50, "lobatto3")
     problem = dmoc.OptimalControlProblem(disc, 50, q_start=[0, 0, 0], q_goal=[0, 1, 0],
                                          path_constraints=lambda q, v, u: ca.vertcat(v[2] - limit, -v[2] - limit))
-    result = dmoc.optimize(problem, throw=False)
-    q, s, h = result.trajectory.q[:, 2], result.trajectory.s[:, 2], result.trajectory.h
+    verdict = judge(problem, free)
+    q, s, h = free.trajectory.q[:, 2], free.trajectory.s[:, 2], free.trajectory.h
     at_end = (q[:-1] - 4 * s + 3 * q[1:]) / h          # d/dt at tau = 1 of step k
     at_start = (-3 * q[:-1] + 4 * s - q[1:]) / h       # d/dt at tau = 0 of step k
     rate = (at_end[:-1] + at_start[1:]) / 2            # at the inner knots 1 .. N-1
     over = np.maximum(rate - limit, -rate - limit)
     assert over.max() > PATH_TOLERANCE * limit          # the knots cross the limit
-    assert result.status == "path_violated" and result.stats["return_status"] == "Solve_Succeeded"
-    k = result.verdict.path_step        # the motion is symmetric: two knots tie
+    assert verdict.status == "path_violated"
+    k = verdict.path_step        # the motion is symmetric: two knots tie
     assert over[k - 1] > over.max() - 1e-9 * limit
-    assert result.verdict.path_row == (0 if rate[k - 1] > 0 else 1)
-    assert f"knot {result.verdict.path_step}" in result.message
+    assert verdict.path_row == (0 if rate[k - 1] > 0 else 1)
+    assert verdict.path_limit == f"path_constraints row {verdict.path_row}"
+    message = verdict_message(verdict, free)
+    assert f"path_constraints row {verdict.path_row} is violated at knot {k}" in message
+    assert dmoc.optimize(problem).verdict.passed
 
 
 def rate_limited(unit):
     """Knife-edge parking on 50 lobatto3 steps under the heading-rate limit of the test
     above, its rows g = (v - limit, -v - limit) multiplied by `unit` (rad/s -> mrad/s:
-    1000), and the knots' g of its optimum from the interpolant written out here (inner
-    knots 1 .. N-1; the ends are at rest, |g| = unit * limit there, less than inside)."""
-    free = dmoc.optimize(knife_edge_parking(50, rule="lobatto3")).trajectory
-    limit = 0.5 * np.abs(np.diff(free.q[:, 2])).max() / free.h
+    1000): the verdict on the free optimum judged against it, and the knots' g of that
+    optimum from the interpolant written out here (inner knots 1 .. N-1; the ends are at
+    rest, |g| = unit * limit there, less than inside)."""
+    result = dmoc.optimize(knife_edge_parking(50, rule="lobatto3"))
+    limit = 0.5 * np.abs(np.diff(result.trajectory.q[:, 2])).max() / result.trajectory.h
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 4.0 / 50, "lobatto3")
     problem = dmoc.OptimalControlProblem(
         disc, 50, q_start=[0, 0, 0], q_goal=[0, 1, 0],
         path_constraints=lambda q, v, u: unit * ca.vertcat(v[2] - limit, -v[2] - limit))
-    result = dmoc.optimize(problem, throw=False)
     q, s, h = result.trajectory.q[:, 2], result.trajectory.s[:, 2], result.trajectory.h
     rate = ((q[:-1] - 4 * s + 3 * q[1:])[:-1] + (-3 * q[:-1] + 4 * s - q[1:])[1:]) / (2 * h)
-    return result, unit * np.column_stack([rate - limit, -rate - limit])
+    return judge(problem, result), unit * np.column_stack([rate - limit, -rate - limit])
 
 
 @pytest.mark.parametrize("unit", [1000.0, 0.1])
 def test_a_path_row_is_measured_against_max_1_and_its_largest_value(unit):
-    """The knots' overshoot of the rate limit (1e-3 of the row's largest |g|, about 1.07 in
-    rad/s) against the row's scale max(1, max_k |g_k|): in mrad/s (|g| up to 1070) the
-    figure it has in rad/s, relative; at a tenth of the unit (|g| up to 0.107) the
-    overshoot itself, 1e-4, still far above PATH_TOLERANCE."""
-    result, g = rate_limited(unit)
-    row = result.verdict.path_row
+    """The knots' overshoot of the rate limit (0.33 of the row's largest |g|, about 1.6 in
+    rad/s) against the row's scale max(1, max_k |g_k|): in mrad/s (|g| up to 1606) the
+    figure it has in rad/s, relative; at a tenth of the unit (|g| up to 0.16) the
+    overshoot itself, 0.054."""
+    verdict, g = rate_limited(unit)
+    row = verdict.path_row
     expected = g.max() / max(1.0, np.abs(g[:, row]).max())
-    assert result.status == "path_violated"
-    assert result.verdict.path_violation == pytest.approx(expected, rel=1e-6)
-    assert result.verdict.path_violation > 100 * PATH_TOLERANCE
+    assert verdict.status == "path_violated"
+    assert verdict.path_violation == pytest.approx(expected, rel=1e-6)
+    assert verdict.path_violation > 100 * PATH_TOLERANCE
     # the motion is symmetric: two knots tie to rounding, as in the test above
-    assert g[result.verdict.path_step - 1, row] > g.max() - 1e-9 * np.abs(g).max()
+    assert g[verdict.path_step - 1, row] > g.max() - 1e-9 * np.abs(g).max()
 
 
 def test_an_equality_written_as_a_pair_of_rows_passes():

@@ -71,7 +71,10 @@ def problems():
 
 
 def test_a_verdict_with_warm_caches_equals_the_first_bit_for_bit():
-    optima = {status: (problem, dmoc.optimize(problem, check=False))
+    """(The rate-limited parking is judged with the optimum of the parking without the
+    limit, whose knots cross it: its own optimum holds the limit at every knot.)"""
+    solved = {"path_violated": knife_edge_parking(50, rule="lobatto3")}
+    optima = {status: (problem, dmoc.optimize(solved.get(status, problem), check=False))
               for status, problem in problems().items()}
     first = {}
     for status, (problem, result) in optima.items():

@@ -26,8 +26,9 @@ from dmoc.drivers.verdict import REPLAY_TOLERANCE, judge, verdicts
 
 
 def rate_limited(limit, steps=50):
-    """Knife-edge parking under a heading-rate limit (lobatto3): the NLP holds it at the
-    step midpoints only, the knots cross it (test_verdict.py: path_violated)."""
+    """Knife-edge parking under a heading-rate limit (lobatto3), judged with the optimum of
+    the parking without it (`optima`), whose knots cross it (test_verdict.py:
+    path_violated; the NLP holds the limit at every knot, so its own optimum passes)."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 4.0 / steps, "lobatto3")
     return dmoc.OptimalControlProblem(disc, steps, q_start=[0, 0, 0], q_goal=[0, 1, 0],
                                       path_constraints=lambda q, v, u: ca.vertcat(v[2] - limit, -v[2] - limit))
@@ -63,7 +64,9 @@ def optima():
                  rolling_disk_steering(11, rule="lobatto4"), rate_limited(0.3), rate_limited(0.4),
                  car(), obstacle([1.0, 0.05]), obstacle([1.1, -0.1])]
     problems = [problems[i] for i in rng.permutation(len(problems))]
-    return [(p, dmoc.optimize(p, check=False, throw=False)) for p in problems]
+    free = dmoc.optimize(knife_edge_parking(50, rule="lobatto3"), check=False)     # for rate_limited
+    return [(p, free if p.path_constraints is not None and p.steps == 50 else
+             dmoc.optimize(p, check=False, throw=False)) for p in problems]
 
 
 def replay_oracle(problem, traj):

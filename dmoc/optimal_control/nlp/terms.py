@@ -2,8 +2,9 @@
 OptimalControlProblem are evaluated at which steps, on which entries of x and p, as the
 terms of a partially separable NLP (`dmoc.optimal_control.nlp.separable`). The step residual of
 (37)/(41) (or (39)/(43)) is mapped over the steps as the problem's momentum treatment says
-(`dmoc.optimal_control.nlp.momenta`); the boundary rows, the terminal cost and the path constraints
-(at the steps' midpoints and at every knot) are terms of their own.
+(`dmoc.optimal_control.nlp.momenta`); the boundary rows and the terminal cost are terms of
+their own, and so are the path constraints and velocity bounds (`path_terms`: inside the
+steps and at every knot).
 """
 
 import hashlib
@@ -12,6 +13,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util.cache import BoundedCache
+from .path_terms import path_terms
 from .separable import SeparableNLP, Term, function_key
 
 _FUNCTIONS = BoundedCache(128, "term_functions")   # term Functions by (`_functions_key`, term name): not per N
@@ -39,14 +41,7 @@ def transcribe(problem, layouts, scales):
     X, P, G = (_indices(lay) for lay in layouts)
     step = _StepSlots(problem, X, P, G, scales, (layouts[0].size, layouts[1].size))
     terms = problem.momentum_treatment.dynamics_terms(step, G["dynamics"]) + [step.start(), step.goal()]
-    path, N = problem.path_constraints, problem.steps
-    at = (("path", (0, N), "g", G["path"]),                     # the midpoints, then the rows
-          ("path_knots", (0, N), "g0", G["path_knots"][:, :N]),  # of q alone at q_0 ... q_{N-1}
-          ("path_end", (N - 1, N), "g1", G["path_knots"][:, N:]))    # and at q_N
-    for name, steps, output, rows in at:
-        if rows.size:
-            terms.append(step.term(name, step.at(*steps),
-                                   lambda s, output=output: (0, path(**inputs_of(path, s))[output]), rows))
+    terms += path_terms(step, G)
     nlp = SeparableNLP(*(lay.size for lay in layouts), terms)
     return nlp, problem.momentum_treatment.momenta_function(step)
 
@@ -179,13 +174,13 @@ def _term(name, slots, body, g_index, key, scales):
 def _functions_key(problem, G):
     """What the term Functions of `problem` depend on: the residual (system, rule,
     formulation), how the momenta enter, where h lives, the velocity rows (G: the row
-    indices by block), the kinds of the parameters (fixed, per step, per knot, the clock)
-    and the user's cost and path Functions (by value)."""
+    indices by block), the kinds of the parameters (fixed, per step, per knot, the clock),
+    the velocity-bounded entries and the user's cost and path Functions (by value)."""
     user = (problem.running_cost, problem.terminal_cost, problem.path_constraints)
     digest = hashlib.sha256("\0".join("" if f is None else f.serialize() for f in user).encode())
     return (problem.residual.key, problem.momentum_treatment.name, problem.final_time.free,
             G["start_velocity"].size, G["goal_velocity"].size, problem.p_start is not None,
-            problem.parameters.schedule.key, digest.hexdigest())
+            problem.parameters.schedule.key, tuple(problem.velocity_bounded), digest.hexdigest())
 
 
 def _indices(layout):

@@ -9,7 +9,8 @@ statement; this object is everything built from it for the solver.
 import numpy as np
 
 from ..._util.layout import Layout
-from ..statement.parameters import knot_rows, refuse_violated_ends
+from ..statement.parameters import refuse_violated_ends
+from .path_terms import row_counts
 from ..statement.read_only import ReadOnly, frozen
 from .scaling import nlp_scales
 from .terms import transcribe
@@ -40,11 +41,13 @@ class Transcription(ReadOnly):
         when the start is a momentum), of p (``h, q_ref, w, p_start``; ``p_start`` empty
         unless the problem gives it) and
         of g (``dynamics`` (rows of `dynamics_rows`, N), ``start``, ``goal``,
-        ``start_velocity``, ``goal_velocity``, ``path`` (rows, N) at the steps' midpoints,
-        ``path_knots`` (rows of q alone, N+1) at q_0 ... q_N).
-    path_knot_rows : tuple of int
-        The indices, among the path constraints' rows, of those in ``path_knots``: the
-        rows that read the configuration alone.
+        ``start_velocity``, ``goal_velocity``, ``path`` (points * rows, N) at the steps'
+        interior points, ``path_knots`` (rows, N+1) at q_0 ... q_N, ``velocity_steps`` (points * bounded,
+        N) at the steps' interior points, ``velocity_knots`` (bounded, N+1, stage rules
+        only) at q_0 ... q_N: `dmoc.optimal_control.nlp.path_terms`).
+    velocity_bounded : tuple of int
+        The entries of v with a finite velocity bound, those of the velocity rows (in
+        their order).
     dynamics_rows : Layout
         The residual rows imposed at each step (all of R, or all but "right").
     x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
@@ -74,6 +77,8 @@ class Transcription(ReadOnly):
         m_start, m_end = problem.formulation.momentum_conditions(sys)[2:]
         rows = {e: sys.m if imposed else 0 for e, imposed in problem.velocity_rows.items()}
         path = problem.path_constraints
+        self._velocity_bounded = tuple(problem.velocity_bounded)
+        count = row_counts(disc.rule, path.numel_out(0) if path else 0, len(self._velocity_bounded))
         self._dynamics_rows = problem.momentum_treatment.dynamics_rows
         self._x_layout = Layout([("q", (n, N + 1)), ("p", (n, problem.momentum_treatment.columns(N))),
                                  ("lam", (disc.n_multipliers, N)), ("s", (disc.n_stages, N)),
@@ -86,8 +91,9 @@ class Transcription(ReadOnly):
         self._g_layout = Layout([("dynamics", (self._dynamics_rows.size, N)), ("start", (n, 1)),
                                  ("goal", (n, 1)), ("start_velocity", (rows["start"], 1)),
                                  ("goal_velocity", (rows["goal"], 1)),
-                                 ("path", (path.numel_out(0) if path else 0, N)),
-                                 ("path_knots", (path.numel_out(1) if path else 0, N + 1))])
+                                 ("path", (count["path"], N)), ("path_knots", (count["path_knots"], N + 1)),
+                                 ("velocity_steps", (count["velocity_steps"], N)),
+                                 ("velocity_knots", (count["velocity_knots"], N + 1))])
         q_ref = reference(problem.q_start, problem.q_goal)
         self._x_scale, self._g_scale = (frozen(s) for s in nlp_scales(
             disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
@@ -95,7 +101,6 @@ class Transcription(ReadOnly):
         self._separable, self._momenta = transcribe(
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
-        self._path_knot_rows = knot_rows(path) if path else ()
         self._end_checks = {}       # `refuse_violated_ends`' checks, shared with `with_bounds`
         q, v_start, v_goal = (self._x_layout.slice(name) for name in ("q", "v_start", "v_goal"))
         # the entries of x the boundary data fix: q_0 and q_N (column 0 and N of block q),
@@ -123,9 +128,16 @@ class Transcription(ReadOnly):
             lay.unpack(bound, "u")[:] = np.tile(problem.control_bounds[side],
                                                 len(problem.disc.rule.control_nodes))[:, None]
             lay.unpack(bound, "h")[:] = step_range[side]
+            for end in ("v_start", "v_goal"):       # free boundary velocities in the box
+                lay.unpack(bound, end)[:] = problem.velocity_bounds[side][:, None]
         lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
         for name in ("path", "path_knots"):
             lbg[self._g_layout.slice(name)] = -np.inf
+        for name in ("velocity_steps", "velocity_knots"):
+            for bound, side in ((lbg, 0), (ubg, 1)):
+                block = self._g_layout.unpack(bound, name)
+                block[:] = np.resize(problem.velocity_bounds[side][list(self._velocity_bounded)],
+                                     block.shape[0])[:, None]
         self._lbg, self._ubg = frozen(lbg), frozen(ubg)
         self._scaled_g_bounds = (frozen(lbg * self._g_scale), frozen(ubg * self._g_scale))
         self._open_bounds = (lbx, ubx)
@@ -133,7 +145,8 @@ class Transcription(ReadOnly):
 
     def _set_boundary_bounds(self, problem):
         """q_ref, p, `lbx` and `ubx` from `problem`'s data: the open bounds (those of u and
-        h, of block q the state bounds, infinite elsewhere) with the given boundary data
+        h, of block q the state bounds, of v_start and v_goal the velocity bounds, infinite
+        elsewhere) with the given boundary data
         fixed; the path constraints checked at the given ends. The open bounds are formed
         again only when q_ref changes (its bits): a `with_bounds` that keeps q_ref (new
         goals for a given start) copies them and writes the data. q_ref and p themselves are
@@ -185,8 +198,8 @@ class Transcription(ReadOnly):
                                doc="(lbg * g_scale, ubg * g_scale), the bounds IPOPT imposes.")
     p = property(lambda self: self._p, doc="Values of the parameter vector p.")
     q_ref = property(lambda self: self._q_ref, doc="The configuration x is centered on.")
-    path_knot_rows = property(lambda self: self._path_knot_rows,
-                              doc="The rows of the path constraints held at the knots (of q alone).")
+    velocity_bounded = property(lambda self: self._velocity_bounded,
+                                doc="The entries of v with a finite velocity bound.")
 
     @property
     def structure(self):

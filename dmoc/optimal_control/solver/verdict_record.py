@@ -22,7 +22,8 @@ class Verdict:
     status : dmoc.Status
         ``"passed"``, or the worst check that failed, in the order of `STATUSES`:
         ``"not_replayable"`` (`simulate` from the optimum's initial state with its controls
-        departs from it), ``"path_violated"`` (a path constraint fails at a knot q_k),
+        departs from it), ``"path_violated"`` (a path constraint or a velocity bound fails
+        at a knot q_k),
         ``"under_resolved"`` (a step velocity changes by a large part of its peak within
         one step).
     replay_q, replay_p : float
@@ -41,10 +42,18 @@ class Verdict:
     jump_coordinate : str
         The coordinate's name.
     path_violation : float
-        The largest path-constraint value g at the knots relative to the row's scale
-        (max(1, max_k |g_k|) of that row); 0 without path constraints.
-    path_step, path_row : int
-        The knot k and the row of `path_constraints` where it is found; -1 if none.
+        The largest value g at the knots of a path-constraint row or a velocity bound row
+        (lower - v, v - upper) relative to the row's scale (max(1, max_k |g_k|) of that
+        row); 0 without path constraints and velocity bounds.
+    path_step : int
+        The knot k where it is found; -1 if none.
+    path_row : int
+        The row of `path_constraints` where it is found; -1 if none or if it is a velocity
+        bound.
+    path_limit : str
+        The limit found violated, by name: ``"path_constraints row 2"`` or
+        ``"velocity_bounds upper of delta (v[3] <= 0.4)"``; "" if none (and in files
+        written before velocity bounds).
     discretization_error : float or None
         The estimated distance of the optimum from the continuous one. This is where the
         estimate of ``dmoc.drivers.error_estimate.estimate_error`` joins the verdict; None:
@@ -62,6 +71,7 @@ class Verdict:
     path_step: int
     path_row: int
     discretization_error: float = None
+    path_limit: str = ""
 
     @property
     def passed(self):
@@ -81,11 +91,11 @@ class Verdict:
     @classmethod
     def checked(cls, values):
         """The Verdict of the dict `values` read from a file: its keys exactly the fields
-        (`discretization_error` may be left out), each value of the field's type; else
-        InputError saying which ("must ..." follows the caller's name of the dict)."""
+        (`discretization_error` and `path_limit` may be left out), each value of the
+        field's type; else InputError saying which ("must ..." follows the caller's name of the dict)."""
         names = [f.name for f in fields(cls)]
         unknown = sorted(set(values) - set(names))
-        missing = sorted(set(names) - set(values) - {"discretization_error"})
+        missing = sorted(set(names) - set(values) - {"discretization_error", "path_limit"})
         if unknown or missing:
             raise InputError(f"must have the keys {names}; " + (
                 f"got the unknown keys {unknown}" if unknown else f"it lacks {missing}"))
@@ -103,5 +113,5 @@ class Verdict:
 _TYPES = {"status": str, "replay_q": (int, float), "replay_p": (int, float), "replay_step": int,
           "velocity_jump": (int, float), "jump_step": int, "jump_coordinate": str,
           "path_violation": (int, float), "path_step": int, "path_row": int,
-          "discretization_error": (int, float)}
+          "discretization_error": (int, float), "path_limit": str}
 _DESCRIBED = {str: "a string", int: "an integer", (int, float): "a number"}

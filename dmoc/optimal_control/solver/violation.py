@@ -55,16 +55,26 @@ def worst(transcription, largest, row):
 
 def described(transcription, row):
     """The row `row` of the constraint vector of `transcription` by its group: "dynamics
-    at step k (block row r)", "path constraint i at step k", "path constraint i at knot k"
-    or "boundary condition 'group' row r"."""
+    at step k (block row r)", "path constraint i at step k", "path constraint i at knot k",
+    "velocity bound of v[i] at knot k" (with " (point j)" after "step k" where a step has
+    several interior points: `dmoc.discrete.knot_states.interior_points`) or "boundary
+    condition 'group' row r"."""
     group, block_row, col = transcription.g_layout.locate(row)
     if group == "dynamics":
         name, row_in_block, _ = transcription.dynamics_rows.locate(block_row)     # blocks of one column
         return f"dynamics at step {col} ({name} row {row_in_block})"
     if group == "path":
-        return f"path constraint {block_row} at step {col}"
+        rows, per_step = (transcription.g_layout.blocks[name][1] for name in ("path_knots", "path"))
+        point = f" (point {block_row // rows})" if per_step > rows else ""
+        return f"path constraint {block_row % rows} at step {col}{point}"
     if group == "path_knots":
-        return f"path constraint {transcription.path_knot_rows[block_row]} at knot {col}"
+        return f"path constraint {block_row} at knot {col}"
+    if group in ("velocity_steps", "velocity_knots"):
+        bounded = transcription.velocity_bounded
+        several = transcription.g_layout.blocks["velocity_steps"][1] > len(bounded)
+        point = f" (point {block_row // len(bounded)})" if several else ""
+        where = f"knot {col}" if group == "velocity_knots" else f"step {col}{point}"
+        return f"velocity bound of v[{bounded[block_row % len(bounded)]}] at {where}"
     return f"boundary condition '{group}' row {block_row}"
 
 

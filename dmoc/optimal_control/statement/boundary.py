@@ -166,13 +166,22 @@ def set_boundary(problem, given):
             check_allowed_velocity("v_" + end, sys, q, v)
         # a start given by its momentum has no velocity rows
         rows[end] = imposes_velocity_rows(complete, v) and (end == "goal" or problem._p_start is None)
-    lower, upper = problem._state_bounds
-    for name in (k for k in ("q_start", "q_goal") if k in given):
-        outside = [f"{name}[{i}] ({sys.names[i]}) = {x:.6g} {'<' if below else '>'} {bound:.6g}"
-                   for i, x, below, bound in outside_bounds(getattr(problem, "_" + name), lower, upper)]
-        if outside:
-            raise InputError(f"`{name}` must lie within `state_bounds`; {', '.join(outside)}.")
+    for names, bounds in ((("q_start", "q_goal"), "state_bounds"),
+                          (("v_start", "v_goal"), "velocity_bounds")):
+        for name in (k for k in names if k in given):
+            _refuse_outside(name, getattr(problem, "_" + name), bounds, getattr(problem, "_" + bounds),
+                            sys.names)
     problem._velocity_rows = rows
+
+
+def _refuse_outside(name, data, bounds, box, names):
+    """InputError naming every entry of the boundary data `data` (called `name`) outside
+    the box `box` = (lower, upper) of the problem's `bounds`, with its value and the bound it
+    crosses; free entries (NaN) pass."""
+    outside = [f"{name}[{i}] ({names[i]}) = {x:.6g} {'<' if below else '>'} {bound:.6g}"
+               for i, x, below, bound in outside_bounds(data, *box)]
+    if outside:
+        raise InputError(f"`{name}` must lie within `{bounds}`; {', '.join(outside)}.")
 
 
 # the boundary data of each end: given any of them, that end's checks and velocity rows are

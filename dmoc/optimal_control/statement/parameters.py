@@ -12,7 +12,6 @@ import numpy as np
 from ..._util import checks
 from ..._util.symbolic import checked_function
 from ...errors import InputError, InputTypeError
-from ..._util.layout import Layout, step_symbols
 from ..solver.ipopt import DEFAULT_IPOPT_OPTIONS
 from .parameter_schedule import CLOCK, FIXED, ParameterSchedule
 
@@ -81,6 +80,13 @@ class ProblemParameters:
         fraction of a step."""
         return self.vector()[self.schedule.knot_indices()]
 
+    def knot_points(self, h):
+        """The values the callables read at the knots q_0 ... q_N, shape (layout.size, N+1):
+        column k the point vector w at q_k (`knot_values` at any fraction of a step, the
+        clock's entry t_0 + k `h`), as the NLP's knot rows read them."""
+        values, at = self.knot_values(), self.schedule.point_function()
+        return values if at is None else np.array(at.map(values.shape[1])(values, 0.0, h))
+
     def with_values(self, **values):
         """These parameters with some values replaced (same names and shapes)."""
         if values and not self.given:
@@ -144,81 +150,71 @@ def cost_function(name, cost, system, args, parameters):
     return checked_function(name, _with_w(cost, parameters), symbols, (*args, "w"), (1, 1))
 
 
-def path_function(path, disc, parameters):
-    """The path constraints of one step, path(q, v, u[, w]) flattened to a column, as the
-    Function ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)``: "g" in the middle of the
-    step (on the rule's interpolant; (q_{k+1/2}, (q1 - q0)/h, u_k) for linear rules), "g0"
-    and "g1" the rows that read the configuration alone (not v, not u) at the step's knots
-    q0 and q1, "knot_rows" their indices in g (a constant; `knot_rows`). w is the step's
-    vector of `parameters` (`ParameterSchedule.step_indices`), read at the fractions 1/2,
-    0 and 1 of the step."""
-    sys = disc.system
+def path_function(path, system, parameters):
+    """The user's path constraints path(q, v, u[, w]) at one state, checked on symbols, as
+    the Function ``(q, v, u, w) -> g`` (g flattened to a column, imposed as g <= 0), w the
+    values of `parameters` at that point (`ParameterSchedule.at`; the time there for the
+    clock). The NLP evaluates it on the rule's interpolant at every step's interior points
+    and at every knot with the knot velocity (`dmoc.optimal_control.nlp.path_terms`), the
+    verdict at the knots of an optimum (`dmoc.drivers.verdict`)."""
     _check_arity("path_constraints", path, ("q", "v", "u"), parameters)
-    symbols = [ca.SX.sym(a, k) for a, k in (("q", sys.n), ("v", sys.n), ("u", sys.n_u),
+    symbols = [ca.SX.sym(a, k) for a, k in (("q", system.n), ("v", system.n), ("u", system.n_u),
                                             ("w", parameters.layout.size))]
     at_state = checked_function("path_constraints", _with_w(path, parameters), symbols,
                                 ("q", "v", "u", "w"), None)
-    g = at_state(*symbols)
+    g = ca.vec(at_state(*symbols))
     _refuse_comparisons(g)
-    of_q = [i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(*symbols[1:3]))]
-    x = step_symbols(sys.n, disc.n_stages, disc.n_controls)
-    w, still = ca.SX.sym("w", parameters.schedule.step_size), (ca.SX.zeros(sys.n), ca.SX.zeros(sys.n_u))
-    q, v = disc.midpoint_state(x["q0"], x["q1"], x["s"], x["h"])
-    at = parameters.schedule.at
-    values = [at_state(q, v, disc.rule.control_at(x["u"], 0.5), at(w, 0.5, x["h"])),
-              *(at_state(knot, *still, at(w, c, x["h"]))[of_q] for knot, c in ((x["q0"], 0), (x["q1"], 1)))]
-    names = ["q0", "q1", "s", "u", "h"]
-    rows = ca.SX(ca.DM(np.array(of_q, dtype=float).reshape(-1, 1)))
-    return ca.Function("path_constraints", [x[k] for k in names] + [w], values + [rows],
-                       names + ["w"], ["g", "g0", "g1", "knot_rows"])
+    return ca.Function("path_constraints", symbols, [g], ["q", "v", "u", "w"], ["g"])
 
 
 def knot_rows(path):
-    """The indices in g of the rows of `path_function`'s g0 and g1, a tuple of int."""
-    out = path(*[ca.DM.zeros(path.sparsity_in(i)) for i in range(path.n_in())])
-    return tuple(int(i) for i in np.array(out[path.index_out("knot_rows")]).ravel())
+    """The indices of the rows of the path constraints `path` (`path_function`) that read
+    the configuration alone (not v, not u), a tuple of int: those a given end can be
+    checked against and that keep a region of the plane out (`dmoc.results.kept_out`)."""
+    q, v, u, w = (ca.SX.sym(name, path.size1_in(name)) for name in ("q", "v", "u", "w"))
+    g = path(q, v, u, w)
+    return tuple(i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(v, u)))
 
 
 def refuse_violated_ends(path, problem, made):
     """InputError when a given end, q_start or q_goal, violates a row of the path
-    constraints that is imposed at the knots (`path_function`'s g0, g1: the rows that read
-    the configuration alone): such a problem has no solution. Rows that read a free entry
+    constraints that reads the configuration alone (`knot_rows`; every row is imposed at
+    every knot, the ends included): such a problem has no solution. Rows that read a free entry
     of that end are not checked. `made` is a dict that keeps the check of each end per
     set of free entries (`_end_rows`: it depends on `path` and that set alone), shared by
     the problems of one NLP (`Transcription.with_bounds`), so that new boundary data are
     checked without building it again at every ``with_boundary`` (benchmarks/peers.py)."""
-    for end, output in (("q_start", "g0"), ("q_goal", "g1")):
+    for end in ("q_start", "q_goal"):
         given = getattr(problem, end)
         key = (end, np.isfinite(given).tobytes())
         if key not in made:
-            made[key] = _end_rows(path, problem, output, given)
+            made[key] = _end_rows(path, problem, end, given)
         rows, at_end = made[key]
         if not rows:
             continue
-        w = problem.parameters.knot_values()[:, 0 if end == "q_start" else -1]
-        values = np.array(at_end(np.nan_to_num(given), w, problem.disc.h)).ravel()
+        w = problem.parameters.knot_points(problem.disc.h)[:, 0 if end == "q_start" else -1]
+        values = np.array(at_end(np.nan_to_num(given), w)).ravel()
         worst = int(np.argmax(values))
         if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
             raise InputError(
                 f"`{end}` must satisfy `path_constraints` g <= 0, which hold at every knot q_0 "
-                f"... q_N, the ends included; got g[{knot_rows(path)[rows[worst]]}] = "
+                f"... q_N, the ends included; got g[{rows[worst]}] = "
                 f"{values[worst]:.6g} there. "
                 f"Move `{end}` or the constraint.")
 
 
-def _end_rows(path, problem, output, given):
-    """(the rows of `path`'s `output`, g0 or g1, that read no free (NaN) entry of the end
-    configuration `given` (nor h, when the final time is free), the Function (q, w, h) ->
-    those rows at that end, or None without rows)."""
-    x = step_symbols(problem.disc.system.n, problem.disc.n_stages, problem.disc.n_controls)
-    w = ca.SX.sym("w", problem.parameters.schedule.step_size)
-    q = x["q0" if output == "g0" else "q1"]
-    g = path(**{k: x[k] for k in ("q0", "q1", "s", "u", "h")}, w=w)[output]
+def _end_rows(path, problem, end, given):
+    """(the rows of `path` that read the configuration alone (`knot_rows`) and no free (NaN)
+    entry of the end configuration `given`, nor, at q_goal of a free final time, the clock
+    (the time t_0 + N h there is free), the Function (q, w) -> those rows at that end, w
+    the values of the parameters there, or None without rows)."""
+    q, w = ca.SX.sym("q", problem.disc.system.n), ca.SX.sym("w", problem.parameters.layout.size)
+    g = path(q, ca.SX.zeros(path.size1_in("v")), ca.SX.zeros(path.size1_in("u")), w)
     free = q[np.flatnonzero(~np.isfinite(given)).tolist()]
-    if problem.free_time:           # the time at q_N (the clock) is free too
-        free = ca.vertcat(free, x["h"])
-    rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], free)]
-    return rows, ca.Function("at_end", [q, w, x["h"]], [g[rows]]) if rows else None
+    if end == "q_goal" and problem.free_time and CLOCK in problem.parameters.layout.blocks:
+        free = ca.vertcat(free, w[problem.parameters.layout.slice(CLOCK)])
+    rows = [i for i in knot_rows(path) if not ca.depends_on(g[i], free)]
+    return rows, ca.Function("at_end", [q, w], [g[rows]]) if rows else None
 
 
 # CasADi's comparisons and logical operations: an entry that is one is a 0/1 value

@@ -10,16 +10,17 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ...discrete import Discretization, discretize
+from ...discrete import Discretization
 from .boundary import set_boundary
-from .final_time import FixedFinalTime, as_final_time
+from .final_time import as_final_time
 from .parameters import ProblemParameters, cost_function
+from .problem_copies import ProblemCopies
 from .rule_parts import rule_parts
 from .read_only import ReadOnly, Transcribed, frozen
 from ..nlp.transcription import Transcription
 
 
-class OptimalControlProblem(ReadOnly):
+class OptimalControlProblem(ProblemCopies, ReadOnly):
     """A DMOC problem: minimize sum_k C_d(q_k, q_{k+1}, u_k) + terminal cost subject to the
     step residual of (37)/(41) at every step and the boundary data.
 
@@ -50,12 +51,20 @@ class OptimalControlProblem(ReadOnly):
     terminal_cost : callable, optional
         ``terminal_cost(q, v)`` at (q_N, v_N).
     control_bounds, state_bounds : pair of array_like, optional
-        (lower, upper), shapes (n_u,) and (n,); None entries are unbounded.
+        (lower, upper), shapes (n_u,) and (n,); None entries are unbounded. Imposed on x:
+        the controls at the rule's control nodes, the configurations at the knots.
+    velocity_bounds : pair of array_like, optional
+        (lower, upper), shape (n,) each, None entries unbounded: lower <= v <= upper on the
+        velocity of the rule's interpolant at every knot (the knot velocity below) and at
+        each step's interior points (a stage rule's stage nodes, a linear rule's midpoint),
+        and on free boundary velocities; a given `v_start` or `v_goal` outside them is
+        refused. A rate limit (|steering rate| <= 0.4) is one of these.
     path_constraints : callable, optional
-        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at every step midpoint (on the
-        rule's interpolant, u interpolated there), its rows of q alone at every knot q_0
-        ... q_N too; a given end that violates one is refused (docs/stages/optimize.md,
-        "Path constraints").
+        ``path_constraints(q, v, u) -> g`` imposed as g <= 0 at each step's interior points
+        (on the rule's interpolant, u and w interpolated there) and at every knot q_0 ...
+        q_N with the knot velocity and the knot's control and w; a given end that violates a row of q
+        alone is refused (docs/stages/optimize.md, "Path constraints and velocity
+        bounds").
     duration : pair of float, optional
         (T_min, T_max): free final time, h = T/N becomes a decision variable.
     variant : {"+", "-"} or Formulation
@@ -84,12 +93,14 @@ class OptimalControlProblem(ReadOnly):
         `v_start` is all NaN when `p_start` is given.
     p_start : ndarray, shape (n,), or None
         The start momentum, when given instead of `v_start`.
-    control_bounds, state_bounds : tuple of ndarray
-        (lower, upper), shapes (n_u,) and (n,), infinite where unbounded.
+    control_bounds, state_bounds, velocity_bounds : tuple of ndarray
+        (lower, upper), shapes (n_u,), (n,) and (n,), infinite where unbounded.
+    velocity_bounded : tuple of int
+        The entries of v with a finite velocity bound (the velocity rows' entries).
     running_cost, terminal_cost, path_constraints : casadi.Function or None
         The user's callables checked on symbols: ``(q, v, u, w) -> cost``,
-        ``(q, v, w) -> cost`` and ``(q0, q1, s, u, h, w) -> (g, g0, g1, knot_rows)`` at the
-        step's midpoint and (its rows of q alone, knot_rows) at its two knots.
+        ``(q, v, w) -> cost`` and ``(q, v, u, w) -> g``, the path constraints at one
+        state (flattened to a column).
     parameters : ProblemParameters
         Their `parameter_values` are entries of p (`with_parameters` changes them).
     final_time : FixedFinalTime or FreeFinalTime
@@ -108,6 +119,31 @@ class OptimalControlProblem(ReadOnly):
         problem.transcription.nlp``). `structure` is a key of the NLP by value: see
         `with_boundary` and `dmoc.optimize`.
 
+    Notes
+    -----
+    Where each limit is imposed (every row of the NLP is named in
+    `Transcription.g_layout`; `dmoc.optimal_control.nlp.path_terms`):
+
+    ======================  ===============================================================
+    control_bounds          the control values u_{k,j} at the rule's control nodes (x)
+    state_bounds            the configurations q_0 ... q_N (x)
+    velocity_bounds         the knot velocities v_0 ... v_N (stage rules; for a linear rule
+                            they lie between two bounded step velocities) and the
+                            interpolant's velocity at each step's interior points: the
+                            stage nodes, the midpoint of a linear rule (g); the free
+                            entries of v_start, v_goal (x)
+    path_constraints        every row at each step's interior points t_k + c h (as the
+                            velocity bounds), (q, q', u, w) there on the interpolant, w the
+                            parameters at c, and every row at every knot, (q_k, v_k, u(t_k),
+                            w(t_k)) (g)
+    ======================  ===============================================================
+
+    The knot velocity v_k is the mean of the velocities of the interpolants of steps k - 1
+    and k at q_k (one side at q_0 and q_N), and u(t_k) the control of the step that starts
+    at t_k (the last step's at t_N), as `Trajectory.control` gives it:
+    `dmoc.discrete.knot_states`, the one definition the verdict checks an optimum with
+    (`dmoc.drivers.verdict`), so that the optimizer and the verdict read the same numbers.
+
     Every attribute is read-only: assigning one raises AttributeError naming the way to
     change it (`with_boundary`, `with_parameters`, or a new problem), so that the
     statement and its NLP never disagree.
@@ -121,8 +157,8 @@ class OptimalControlProblem(ReadOnly):
 
     def __init__(self, disc, steps, *, q_start, q_goal, v_start=None, v_goal=None, p_start=None,
                  running_cost=None, terminal_cost=None, control_bounds=None,
-                 state_bounds=None, path_constraints=None, duration=None, variant="+",
-                 momenta="substituted", parameters=None):
+                 state_bounds=None, velocity_bounds=None, path_constraints=None, duration=None,
+                 variant="+", momenta="substituted", parameters=None):
         checks.instance("disc", disc, Discretization, "a Discretization")
         sys, self._steps = disc.system, checks.positive_int("steps", steps)
         self._final_time = as_final_time(duration, self._steps, disc.h)
@@ -136,98 +172,12 @@ class OptimalControlProblem(ReadOnly):
             "terminal_cost", terminal_cost, sys, ("q", "v"), w)
         self._control_bounds = checks.bound_pair("control_bounds", control_bounds, sys.n_u)
         self._state_bounds = checks.bound_pair("state_bounds", state_bounds, sys.n)
-        for bound in (*self._control_bounds, *self._state_bounds):
+        self._velocity_bounds = checks.bound_pair("velocity_bounds", velocity_bounds, sys.n)
+        for bound in (*self._control_bounds, *self._state_bounds, *self._velocity_bounds):
             frozen(bound)
         set_boundary(self, {"q_start": q_start, "q_goal": q_goal, "v_start": v_start,
                             "p_start": p_start, "v_goal": np.zeros(sys.n) if v_goal is None else v_goal})
         self._transcription = Transcription(self)
-
-    def _copy(self):
-        """A shallow copy, its attributes this problem's until set anew (as `copy.copy`
-        makes it, without its protocol's calls: a re-solve's `with_boundary` pays it)."""
-        new = object.__new__(type(self))
-        new.__dict__.update(self.__dict__)
-        return new
-
-    def with_boundary(self, *, q_start=None, q_goal=None, v_start=None, v_goal=None, p_start=None):
-        """This problem with new boundary data; arguments left None keep this problem's
-        (a given `p_start` replaces the start velocity, a given `v_start` the start
-        momentum).
-
-        The boundary data enter the NLP only through the bounds lbx = ubx (and p_start
-        through p), so the copy shares this problem's NLP (and `structure`, hence its
-        compiled solver and a warm start from this problem's optimum) unless an end changes
-        between fully given and partly free with a nonzero or free velocity (then the
-        velocity rows A(q) v = 0 appear or vanish), or the start changes between a velocity
-        and a momentum: then the NLP is rebuilt.
-
-        Examples
-        --------
-        >>> import dmoc, dmoc.problems
-        >>> problem = dmoc.problems.knife_edge_parking(20)
-        >>> moved = problem.with_boundary(q_goal=[0.2, 1.0, 0.0])
-        >>> moved.q_goal.tolist(), moved.structure == problem.structure
-        ([0.2, 1.0, 0.0], True)
-        """
-        new = self._copy()
-        given = {"q_start": q_start, "q_goal": q_goal, "v_start": v_start, "v_goal": v_goal,
-                 "p_start": p_start}
-        set_boundary(new, {k: v for k, v in given.items() if v is not None})
-        same_nlp = (new._velocity_rows == self._velocity_rows
-                    and (new.p_start is None) == (self.p_start is None))
-        new._transcription = self._transcription.with_bounds(new) if same_nlp else Transcription(new)
-        return new
-
-    def with_parameters(self, **values):
-        """This problem with new values of some of its `parameters` (same names and sizes):
-        the same NLP and `structure`, so `optimize` reuses the solver, and the optimum of
-        this problem warm-starts the copy.
-
-        Examples
-        --------
-        >>> import casadi as ca, dmoc
-        >>> disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.1)
-        >>> problem = dmoc.OptimalControlProblem(
-        ...     disc, 20, q_start=[0, 0, 0], q_goal=[0, 1, 0], parameters={"r": 1.0},
-        ...     running_cost=lambda q, v, u, w: u[0] ** 2 + w["r"] * u[1] ** 2)
-        >>> heavier = problem.with_parameters(r=10.0)
-        >>> heavier.parameter_values["r"].tolist(), heavier.structure == problem.structure
-        ([10.0], True)
-        """
-        new = self._copy()
-        new._parameters = self._parameters.with_values(**values)
-        new._transcription = self._transcription.with_bounds(new)
-        return new
-
-    def with_steps(self, steps):
-        """This problem on N = `steps` steps over the same time: h = N_old h_old / N (a
-        free final time keeps its range). The step residual, costs and path constraints
-        take h as an input and are shared; the NLP is new (another `structure`): an optimum
-        of this problem guesses it through its trajectory, resampled (`dmoc.drivers.accuracy`).
-        Parameters given along the horizon are refused (`ProblemParameters.on_steps`).
-
-        >>> import dmoc.problems
-        >>> finer = dmoc.problems.knife_edge_parking(20).with_steps(40)
-        >>> finer.steps, finer.disc.h
-        (40, 0.1)
-        """
-        new = self._copy()
-        new._steps = checks.positive_int("steps", steps)
-        new._parameters = self._parameters.on_steps(new._steps)
-        new._disc = self._disc.with_step(self._steps * self._disc.h / new._steps)
-        if not self.free_time:
-            new._final_time = FixedFinalTime(new._disc.h)
-        new._transcription = Transcription(new)
-        return new
-
-    def with_rule(self, rule):
-        """This problem with another `rule` of `dmoc.discretize`: a new NLP (`structure`)."""
-        new = self._copy()
-        new._disc = discretize(self._disc.system, self._disc.h, rule)
-        new._formulation, new._residual, new._momentum_treatment, new._path = rule_parts(
-            new._disc, self.variant, *self._stated, self._parameters)
-        new._transcription = Transcription(new)
-        return new
 
     disc = property(lambda self: self._disc, doc="The Discretization (system, rule, step h).")
     steps = property(lambda self: self._steps, doc="The number of steps N.")
@@ -244,11 +194,12 @@ class OptimalControlProblem(ReadOnly):
     v_goal = property(lambda self: self._v_goal, doc="Goal velocity, shape (n,), NaN free.")
     control_bounds = property(lambda self: self._control_bounds, doc="(lower, upper), shapes (n_u,).")
     state_bounds = property(lambda self: self._state_bounds, doc="(lower, upper), shapes (n,).")
+    velocity_bounds = property(lambda self: self._velocity_bounds, doc="(lower, upper), shapes (n,).")
     parameters = property(lambda self: self._parameters, doc="The ProblemParameters.")
     running_cost = property(lambda self: self._running, doc="Function (q, v, u, w) -> cost.")
     terminal_cost = property(lambda self: self._terminal, doc="Function (q, v, w) -> cost, or None.")
     path_constraints = property(lambda self: self._path,
-                                doc="Function (q0, q1, s, u, h, w) -> g (g <= 0), or None.")
+                                doc="Function (q, v, u, w) -> g (g <= 0), or None.")
     transcription = property(lambda self: self._transcription, doc="The problem's Transcription.")
 
     nlp = Transcribed()
@@ -278,6 +229,13 @@ class OptimalControlProblem(ReadOnly):
         (`dmoc.optimal_control.statement.boundary.imposes_velocity_rows`), found when the boundary data are
         set."""
         return dict(self._velocity_rows)
+
+    @property
+    def velocity_bounded(self):
+        """The entries of v with a finite velocity bound, a tuple of int: those of the
+        NLP's velocity rows."""
+        lower, upper = self._velocity_bounds
+        return tuple(int(i) for i in np.flatnonzero(np.isfinite(lower) | np.isfinite(upper)))
 
     @property
     def variant(self):

@@ -1,7 +1,7 @@
 """What a DMOC problem's statement takes from its rule (consumer 2, its statement): the
 formulation of the step rows (37)/(41), the step residual, the momentum treatment and the
-path constraints at the rule's points, made once per discretization, by
-`OptimalControlProblem` and again by its `with_rule`."""
+checked path constraints (which the NLP evaluates at the rule's points), made once per
+discretization, by `OptimalControlProblem` and again by its `with_rule`."""
 
 from typing import NamedTuple
 
@@ -34,5 +34,5 @@ def rule_parts(disc, variant, momenta, path_constraints, parameters):
     `path_constraints` (a callable or None) and its ProblemParameters."""
     formulation = as_formulation(variant, disc)
     residual = step_residual(disc, formulation)
-    path = None if path_constraints is None else path_function(path_constraints, disc, parameters)
+    path = None if path_constraints is None else path_function(path_constraints, disc.system, parameters)
     return RuleParts(formulation, residual, momentum_treatment(momenta, residual), path)
