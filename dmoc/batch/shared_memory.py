@@ -34,9 +34,14 @@ MIN_BYTES = 1 << 20
 # per worker suffice; an unused slot is an empty file).
 SLOTS = 8
 
-# Bytes of slots the client keeps between batches (the rest are emptied): about what a
-# batch of 1000 runs of 1000 knife-edge steps keeps in flight on 2 workers.
-KEPT_BYTES = 1 << 26
+# Bytes of slots the client keeps between batches (the rest are emptied): a batch of 1000
+# runs of 1000 knife-edge steps on 2 workers fills 4 slots of 22 MB, which the next batch
+# then writes into without the kernel handing out (zeroed) memory again.
+KEPT_BYTES = 1 << 27
+
+# A slot's file grows in steps of GRAIN bytes (its mapping with it), so that a chunk's
+# arrays, written group by group, remap it a few times, not once per group.
+GRAIN = 1 << 22
 
 # A slot's file: its token (16 bytes), its state (8 bytes: FREE, or the ticket of the chunk
 # written there and not yet read), then from HEADER on the chunk's arrays.
@@ -181,47 +186,59 @@ def _read_into(handle, buffer, offset):
 
 
 class SharedFile:
-    """A worker's slot for the arrays of one chunk (`allocate`), when `share`, the client's
-    `Exchange`, reaches this worker and the arrays reach `MIN_BYTES`; once sealed, ``path
-    = (pid, fd, token, ticket)`` and ``layout[name] = (offset, dtype, shape)``."""
+    """A worker's slot for the arrays of one chunk, when `share`, the client's `Exchange`,
+    reaches this worker: held (locked) from the first `reserve` that finds a free slot
+    until `seal` or `release`, grown by each later `reserve` as the chunk's arrays are
+    written; once sealed, ``path = (pid, fd, token, ticket)`` and ``layout[name] =
+    (offset, dtype, shape)``. An instance that goes away still holding its slot lets it
+    go."""
 
     def __init__(self, share):
         self.share, self.path, self.layout, self._held = share, None, None, None
 
-    def allocate(self, shapes):
-        """{name: writable array of shapes[name] = (shape, dtype)} in a free slot of the
-        client, held (locked) until `seal` or `release`, or None where there is none."""
-        layout, size = {}, 0
-        for name, (shape, dtype) in shapes.items():
-            layout[name] = (size, np.dtype(dtype).str, tuple(shape))
-            size += np.dtype(dtype).itemsize * int(np.prod(shape))
+    def reserve(self, size):
+        """A writable mapping of the slot held, at least `HEADER` + `size` bytes long (the
+        arrays start at `HEADER`): the slot held, grown if need be, or else a free slot of
+        the client when `size` reaches `MIN_BYTES`, one this process has mapped before
+        first (`_known_first`); None where there is none (no share, a smaller `size`,
+        every slot busy, no memory for it). The mappings of earlier calls stay valid (the
+        same file): what was written through them stays in the slot."""
+        if self._held is not None:
+            return self._held[0].grow(HEADER + size)
         if self.share is None or size < max(self.share[2], 1):
             return None
         pid, slots, _ = self.share
-        for fd, token in slots:
-            opened = _opened(pid, fd, token)
+        for fd, token, opened in _known_first(pid, slots):
             memory = opened.hold(HEADER + size) if opened is not None else None
             if memory is not None:
-                self._held, self.layout = (opened, (pid, fd, token)), layout
-                return {name: _view(memory, offset + HEADER, dtype, shape)
-                        for name, (offset, dtype, shape) in layout.items()}
+                self._held = (opened, (pid, fd, token))
+                self._finalizer = weakref.finalize(self, _Opened.let_go, opened, FREE)
+                return memory
         return None
 
-    def seal(self):
-        """Whether the arrays went to a slot the client will read: the slot is marked with
-        a new ticket and let go."""
+    @property
+    def held(self):
+        """Whether this chunk holds a slot (`reserve` found one; not sealed or released)."""
+        return self._held is not None
+
+    def seal(self, layout):
+        """Whether the arrays `layout` places (``{name: (offset after HEADER, dtype,
+        shape)}``) went to a slot the client will read: the slot is marked with a new
+        ticket and let go."""
         if self._held is None:
             return False
         (opened, where), ticket = self._held, FREE
         while ticket == FREE:
             ticket = secrets.token_bytes(STATE)
+        self._finalizer.detach()
         opened.let_go(ticket)
-        self._held, self.path = None, (*where, ticket)
+        self._held, self.path, self.layout = None, (*where, ticket), layout
         return True
 
     def release(self):
-        """Let go of a slot taken by `allocate` and not sealed (its arrays not sent)."""
+        """Let go of a slot taken by `reserve` and not sealed (its arrays not sent)."""
         if self._held is not None:
+            self._finalizer.detach()
             self._held[0].let_go(FREE)
             self._held = None
 
@@ -245,16 +262,33 @@ class _Opened:
             return None
         try:
             if os.pread(self.fd, STATE, TOKEN) == FREE:
-                if os.fstat(self.fd).st_size < size:     # reserved: no SIGBUS on a full memory
-                    os.posix_fallocate(self.fd, 0, size)
-                if self.memory is None or len(self.memory) < size:
-                    self.memory = mmap.mmap(self.fd, size)
-                return self.memory
+                return self._mapped(size)
         except OSError:
             pass
         fcntl.flock(self.fd, fcntl.LOCK_UN)
         self.lock.release()
         return None
+
+    def grow(self, size):
+        """The held slot's mapping of at least `size` bytes, or None when there is no memory
+        for it (the slot stays held, as it was)."""
+        try:
+            return self._mapped(size)
+        except OSError:
+            return None
+
+    def _mapped(self, size):
+        """The mapping of the slot's whole file, at least `size` bytes: the file first
+        reserved that large, in steps of GRAIN (no SIGBUS on a full memory); the mapping
+        kept from chunk to chunk (its pages stay mapped in this process) until the file
+        outgrows it."""
+        length = os.fstat(self.fd).st_size
+        if length < size:
+            length = -(-size // GRAIN) * GRAIN
+            os.posix_fallocate(self.fd, 0, length)
+        if self.memory is None or len(self.memory) < length:
+            self.memory = mmap.mmap(self.fd, length)
+        return self.memory
 
     def let_go(self, state):
         """Write the slot's `state` and unlock it."""
@@ -268,6 +302,14 @@ class _Opened:
 # (pid, fd, token) -> _Opened or None (not the client's), of one client at a time, <= 2 SLOTS
 _OPENED = {}
 _OPENED_LOCK = threading.Lock()
+
+
+def _known_first(pid, slots):
+    """(fd, token, `_Opened` or None) of each of the client's `slots`, those this process
+    has mapped first, the largest mapping first: their pages are mapped here already, so
+    writing a chunk there costs no page faults (a worker keeps to a few slots of its own)."""
+    opened = [(fd, token, _opened(pid, fd, token)) for fd, token in slots]
+    return sorted(opened, key=lambda slot: -len(slot[2].memory or b"") if slot[2] else 0)
 
 
 def _opened(pid, fd, token):
@@ -294,7 +336,3 @@ def _open(pid, fd, token):
     if handle is not None:
         os.close(handle)
     return None
-
-
-def _view(memory, offset, dtype, shape):
-    return np.frombuffer(memory, dtype, int(np.prod(shape)), offset).reshape(shape)

@@ -34,13 +34,16 @@ def _arrays(rows=7):
 
 def _write(share, rows=7):
     """What a worker does with a chunk's arrays: (path, layout), or None (through Dask)."""
-    file, arrays = shared_memory.SharedFile(share), _arrays(rows)
-    into = file.allocate({name: (a.shape, a.dtype) for name, a in arrays.items()})
-    if into is None:
+    file, arrays, layout, size = shared_memory.SharedFile(share), _arrays(rows), {}, 0
+    for name, a in arrays.items():
+        layout[name], size = (size, a.dtype.str, a.shape), size + a.nbytes
+    memory = file.reserve(size)
+    if memory is None:
         return None
     for name, a in arrays.items():
-        into[name][...] = a
-    return (file.path, file.layout) if file.seal() else None
+        start = shared_memory.HEADER + layout[name][0]
+        np.frombuffer(memory, a.dtype, a.size, start).reshape(a.shape)[...] = a
+    return (file.path, file.layout) if file.seal(layout) else None
 
 
 def _any_size(share):
@@ -79,12 +82,12 @@ def test_slots_are_reused_across_batches_and_freed_at_the_end():
 
 
 def test_the_pool_keeps_at_most_kept_bytes(monkeypatch):
-    monkeypatch.setattr(shared_memory, "KEPT_BYTES", 2 * shared_memory.HEADER + 8 * 50)
+    monkeypatch.setattr(shared_memory, "KEPT_BYTES", shared_memory.GRAIN + shared_memory.HEADER)
     with shared_memory.Exchange() as share:
         for _ in range(3):
             _write(_any_size(share), rows=10)
     sizes = [os.fstat(slot.fd).st_size for slot in shared_memory._POOL]
-    assert sizes[0] == shared_memory.HEADER + 8 * 42 and max(sizes[1:]) <= shared_memory.HEADER
+    assert sizes[0] == shared_memory.GRAIN and max(sizes[1:]) <= shared_memory.HEADER
 
 
 def test_small_chunks_busy_slots_and_no_share_use_dask():
@@ -94,7 +97,7 @@ def test_small_chunks_busy_slots_and_no_share_use_dask():
         held = []
         for _ in range(shared_memory.SLOTS):
             file = shared_memory.SharedFile(_any_size(share))
-            assert file.allocate({"t": ((4,), float)}) is not None
+            assert file.reserve(32) is not None
             held.append(file)
         assert _write(_any_size(share)) is None           # every slot is being written
         held[0].release()
@@ -149,7 +152,7 @@ def test_a_slot_a_writer_still_holds_at_the_end_leaves_the_pool():
     exchange = shared_memory.Exchange()
     with exchange as share:
         file = shared_memory.SharedFile(_any_size(share))
-        file.allocate({"t": ((4,), float)})
+        file.reserve(32)
         held = next(slot for slot in exchange.slots if slot.fd == file._held[1][1])
     assert held not in shared_memory._POOL and len(shared_memory._POOL) == shared_memory.SLOTS - 1
     file.release()
