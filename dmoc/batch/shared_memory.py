@@ -247,7 +247,7 @@ class _Opened:
     """A worker's descriptor and mapping of one slot of a client."""
 
     def __init__(self, fd):
-        self.fd, self.memory, self.lock = fd, None, threading.Lock()
+        self.fd, self.mappings, self.lock = fd, [], threading.Lock()
         weakref.finalize(self, os.close, fd)     # when no chunk in writing holds it either
 
     def hold(self, size):
@@ -278,17 +278,20 @@ class _Opened:
             return None
 
     def _mapped(self, size):
-        """The mapping of the slot's whole file, at least `size` bytes: the file first
-        reserved that large, in steps of GRAIN (no SIGBUS on a full memory); the mapping
-        kept from chunk to chunk (its pages stay mapped in this process) until the file
-        outgrows it."""
+        """The shortest of this process's mappings of the slot at least `size` bytes long,
+        the file first reserved that large, in steps of GRAIN (no SIGBUS on a full
+        memory); a new mapping of the whole file when it grew past them all. Every mapping
+        is kept, so a page is written through the same mapping from chunk to chunk and
+        stays mapped in this process: a mapping made anew would fault in every page again."""
         length = os.fstat(self.fd).st_size
         if length < size:
             length = -(-size // GRAIN) * GRAIN
             os.posix_fallocate(self.fd, 0, length)
-        if self.memory is None or len(self.memory) < length:
-            self.memory = mmap.mmap(self.fd, length)
-        return self.memory
+        for memory in self.mappings:
+            if len(memory) >= size:
+                return memory
+        self.mappings.append(mmap.mmap(self.fd, length))
+        return self.mappings[-1]
 
     def let_go(self, state):
         """Write the slot's `state` and unlock it."""
@@ -306,10 +309,11 @@ _OPENED_LOCK = threading.Lock()
 
 def _known_first(pid, slots):
     """(fd, token, `_Opened` or None) of each of the client's `slots`, those this process
-    has mapped first, the largest mapping first: their pages are mapped here already, so
-    writing a chunk there costs no page faults (a worker keeps to a few slots of its own)."""
+    has mapped first, the largest first: their pages are mapped here already, so writing a
+    chunk there costs no page faults (a worker keeps to a few slots of its own)."""
     opened = [(fd, token, _opened(pid, fd, token)) for fd, token in slots]
-    return sorted(opened, key=lambda slot: -len(slot[2].memory or b"") if slot[2] else 0)
+    return sorted(opened, key=lambda slot: -len(slot[2].mappings[-1])
+                  if slot[2] and slot[2].mappings else 0)
 
 
 def _opened(pid, fd, token):
