@@ -43,41 +43,63 @@ KEPT_BYTES = 1 << 27
 # arrays, written group by group, remap it a few times, not once per group.
 GRAIN = 1 << 22
 
-# A slot's file: its token (16 bytes), its state (8 bytes: FREE, or the ticket of the chunk
-# written there and not yet read), then from HEADER on the chunk's arrays.
+# A slot's file: its token (16 bytes), its state (8 bytes: FREE, the ticket of the chunk
+# written there and not yet read, or TAKEN while the client's results hold its pages),
+# then from HEADER on the chunk's arrays.
 TOKEN, STATE, HEADER = 16, 8, 64
-FREE = bytes(STATE)
+FREE, TAKEN = bytes(STATE), b"\xff" * STATE
 
 _POOL = []                       # the client's free Slots, of the process `_POOL_PID`
 _POOL_PID = [os.getpid()]        # (a process forked from the client makes a pool of its own)
 _POOL_LOCK = threading.Lock()
+_LENDING = {}                    # fd -> (Exchange, Slot) of the slots lent by open Exchanges
+_HELD = [0]                      # bytes of taken slots kept open to join the pool again
 
 
 class Slot:
     """A memfd of the client's process: its descriptor `fd`, the random `token` at its start."""
 
-    def __init__(self):
+    def __init__(self, token=None):
         self.fd = os.memfd_create("dmoc-batch", os.MFD_CLOEXEC)
-        self.token = secrets.token_bytes(TOKEN)
+        self.token = secrets.token_bytes(TOKEN) if token is None else token
         os.pwrite(self.fd, self.token + FREE, 0)
 
-    def reset(self, kept):
-        """Mark the slot free and empty it when `kept` bytes of slots are kept already; its
-        size (bytes), or None when a writer holds it (then it is closed, not kept)."""
+    def reset(self):
+        """Mark the slot free; False when a writer holds it (then it is closed)."""
         try:
             fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             os.close(self.fd)
-            return None
+            return False
         try:
             os.pwrite(self.fd, FREE, TOKEN)
-            size = os.fstat(self.fd).st_size
-            if kept + size > KEPT_BYTES and size > HEADER:
-                os.ftruncate(self.fd, HEADER)
-                size = HEADER
-            return size
+            return True
         finally:
             fcntl.flock(self.fd, fcntl.LOCK_UN)
+
+
+def _pooled(slots):
+    """Put the free `slots` in the pool, which keeps the largest first: at most 2 SLOTS
+    slots and `KEPT_BYTES` of them, the others emptied (beyond the bytes) or closed
+    (beyond the count); in another process than the pool's, close them."""
+    with _POOL_LOCK:
+        if _POOL_PID[0] != os.getpid():
+            for slot in slots:
+                os.close(slot.fd)
+            return
+        sized = sorted(((os.fstat(slot.fd).st_size, slot) for slot in _POOL + list(slots)),
+                       key=lambda pair: -pair[0])
+        _POOL.clear()
+        kept = 0
+        for size, slot in sized:
+            if len(_POOL) >= 2 * SLOTS:
+                os.close(slot.fd)
+                continue
+            if kept + size > KEPT_BYTES and size > HEADER:
+                os.ftruncate(slot.fd, HEADER)
+                size = HEADER
+            kept += size
+            _POOL.append(slot)
 
 
 class Exchange:
@@ -96,6 +118,8 @@ class Exchange:
                 for slot in _POOL:
                     os.close(slot.fd)            # this process's copy of the parent's slot
                 _POOL.clear()
+                _LENDING.clear()
+                _HELD[0] = 0
                 _POOL_PID[0] = os.getpid()
             self.slots = _POOL[:SLOTS]
             del _POOL[:SLOTS]
@@ -105,18 +129,32 @@ class Exchange:
         except OSError:          # no memory for a file now: Dask carries the rest
             if not self.slots:
                 return None
+        with _POOL_LOCK:
+            _LENDING.update((slot.fd, (self, slot)) for slot in self.slots)
         return os.getpid(), tuple((slot.fd, slot.token) for slot in self.slots), MIN_BYTES
 
     def __exit__(self, *exc):
-        kept, returned = 0, []
-        for slot in self.slots:
-            size = slot.reset(kept)
-            if size is not None:
-                kept += size
-                returned.append(slot)
         with _POOL_LOCK:
-            _POOL.extend(returned)
+            for slot in self.slots:
+                _LENDING.pop(slot.fd, None)
+        _pooled([slot for slot in self.slots if slot.reset()])
         self.slots = []
+
+    def hand_over(self, slot):
+        """A descriptor of `slot`'s file, whose pages a client's results keep from now on,
+        and a new file under `slot`'s descriptor and token for the rest of the batch (the
+        workers reach it as the same slot). OSError when there is no memory for a file."""
+        fresh = Slot(slot.token)
+        try:
+            taken = os.dup(slot.fd)
+            try:
+                os.dup2(fresh.fd, slot.fd, inheritable=False)
+            except OSError:
+                os.close(taken)
+                raise
+        finally:
+            os.close(fresh.fd)
+        return taken
 
 
 def reach_slot(pid, fd):
@@ -140,9 +178,14 @@ def holds_token(handle, token):
 
 def read(path, layout):
     """The arrays a `SharedFile` put in the slot `path` = (pid, fd, token, ticket), views of
-    one new buffer of this process they are copied into (one read per chunk); the slot is
-    then free. OSError when the slot is not the client's of this token and ticket, is too
-    small for the layout, or the layout places anything but arrays of numbers."""
+    one buffer of this process (one per chunk), after which the slot takes the next chunk.
+    OSError when the slot is not the client's of this token and ticket, is too small for
+    the layout, or the layout places anything but arrays of numbers.
+
+    A slot an `Exchange` of this process lends is taken (`_taken`): the buffer is a
+    private mapping of its pages, not a copy, and a new file takes its place in the
+    batch; elsewhere (a slot of no open Exchange) the arrays are copied out and the slot
+    is free again."""
     pid, fd, token, ticket = path
     handle = reach_slot(pid, fd)
     refused = OSError(f"/proc/{pid}/fd/{fd} is not a slot of this batch holding that chunk")
@@ -154,13 +197,61 @@ def read(path, layout):
         if (not holds_token(handle, token) or os.pread(handle, STATE, TOKEN) != ticket
                 or os.fstat(handle).st_size < HEADER + size):
             raise refused
-        buffer = np.empty(size, np.uint8)
-        _read_into(handle, memoryview(buffer), HEADER)
-        os.pwrite(handle, FREE, TOKEN)
+        buffer = _taken(handle, pid, fd, size)
+        if buffer is None:
+            buffer = np.empty(size, np.uint8)
+            _read_into(handle, memoryview(buffer), HEADER)
+            os.pwrite(handle, FREE, TOKEN)
     finally:
         os.close(handle)
     return {name: buffer[start:stop].view(dtype).reshape(shape)
             for name, (start, stop, dtype, shape) in spans.items()}
+
+
+def _taken(handle, pid, fd, size):
+    """The `size` bytes after HEADER of the slot open as `handle`, which an Exchange of
+    this process lends, as a private (copy-on-write) mapping of its pages, writable: the
+    slot is marked TAKEN, so no worker writes there while the mapping lives, and its
+    Exchange puts a new file under its descriptor (`Exchange.hand_over`). When the
+    mapping goes (no array of the results is left) the file joins the pool again, free,
+    with the pages the workers have mapped already, if `KEPT_BYTES` of taken and pooled
+    slots allow; else it is closed. None (copy the arrays instead) where no Exchange of
+    this process lends the slot or no new file can be made."""
+    with _POOL_LOCK:
+        lent = _LENDING.get(fd) if pid == os.getpid() == _POOL_PID[0] else None
+    if lent is None:
+        return None
+    exchange, slot = lent
+    try:
+        taken = exchange.hand_over(slot)
+    except OSError:
+        return None
+    os.pwrite(handle, TAKEN, TOKEN)
+    memory = mmap.mmap(handle, HEADER + size, flags=mmap.MAP_PRIVATE)
+    length = os.fstat(taken).st_size
+    with _POOL_LOCK:
+        kept = _HELD[0] + length <= KEPT_BYTES
+        _HELD[0] += length if kept else 0
+    if kept:
+        weakref.finalize(memory, _returned, taken, slot.token, length)
+    else:
+        os.close(taken)
+    return np.frombuffer(memory, np.uint8, size, HEADER)
+
+
+def _returned(fd, token, length):
+    """The results holding the pages of the slot file `fd` of `token` (`length` bytes) are
+    gone: it joins the pool, free (`_pooled`)."""
+    with _POOL_LOCK:
+        _HELD[0] -= length
+        ours = _POOL_PID[0] == os.getpid()
+    if not ours:                        # a forked child's copy of the results
+        os.close(fd)
+        return
+    slot = Slot.__new__(Slot)
+    slot.fd, slot.token = fd, token
+    os.pwrite(fd, FREE, TOKEN)
+    _pooled([slot])
 
 
 def _spans(layout):
@@ -302,7 +393,10 @@ class _Opened:
             self.lock.release()
 
 
-# (pid, fd, token) -> _Opened or None (not the client's), of one client at a time, <= 2 SLOTS
+# (pid, fd, token) -> the inode there, and (pid, inode, token) -> _Opened or None (not the
+# client's): of one client at a time, up to 4 SLOTS. A file is known by its inode, so a
+# slot whose file the client handed to its results is opened anew, and a file that comes
+# back to the pool under another descriptor is the mapping this worker has already.
 _OPENED = {}
 _OPENED_LOCK = threading.Lock()
 
@@ -317,14 +411,21 @@ def _known_first(pid, slots):
 
 
 def _opened(pid, fd, token):
-    """This worker's `_Opened` slot `fd` of the client `pid`, or None where it is not that
-    client's slot of this `token` (another machine or process namespace)."""
-    key = (pid, fd, token)
+    """This worker's `_Opened` of the file under the slot `fd` of the client `pid`, or None
+    where it is not that client's slot of this `token` (another machine or process
+    namespace)."""
+    try:
+        key = (pid, os.stat(f"/proc/{pid}/fd/{fd}").st_ino, token)
+    except OSError:
+        return None
     with _OPENED_LOCK:
         if key not in _OPENED:
-            if len(_OPENED) >= 2 * SLOTS or any(other[0] != pid for other in _OPENED):
+            if len(_OPENED) >= 4 * SLOTS or any(other[0] != pid for other in _OPENED):
                 _OPENED.clear()
-            _OPENED[key] = _open(pid, fd, token)
+            opened = _open(pid, fd, token)
+            if opened is not None and os.fstat(opened.fd).st_ino != key[1]:
+                return None             # the file changed meanwhile: not cached
+            _OPENED[key] = opened
         return _OPENED[key]
 
 

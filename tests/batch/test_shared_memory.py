@@ -5,6 +5,7 @@ slot is free again; a slot that is not the client's, not of this chunk or too sm
 refused; busy slots, small chunks and full memory go through Dask; whatever a batch leaves
 in its slots is freed at its end, and the pool keeps at most KEPT_BYTES."""
 
+import gc
 import os
 
 import numpy as np
@@ -55,19 +56,33 @@ def _states(slots):
     return [os.pread(slot.fd, shared_memory.STATE, shared_memory.TOKEN) for slot in slots]
 
 
-def test_what_a_worker_writes_the_client_reads_bit_for_bit_into_its_own_arrays():
+def test_what_a_worker_writes_the_client_takes_bit_for_bit_as_arrays_of_its_own():
+    """The client's arrays are the slot's pages, mapped privately, not copied: bit for bit
+    what the worker wrote, writable, views of one buffer per chunk. Read once, the slot
+    takes the next chunk in a new file, which leaves them as they are; the client's
+    writes do not reach the file; once the arrays are gone the file is back in the pool,
+    free, with what the worker wrote."""
     with shared_memory.Exchange() as share:
         path, layout = _write(_any_size(share))
+        inode = os.fstat(path[1]).st_ino
         back = shared_memory.read(path, layout)
         owner = back["t"].base                        # one buffer of the client per chunk
-        assert type(owner) is np.ndarray and owner.flags.owndata and owner.flags.writeable
         for name, a in _arrays().items():
             assert back[name].shape == a.shape and back[name].tobytes() == a.tobytes()
             assert back[name].base is owner and back[name].flags.writeable
             assert back[name].flags.aligned and back[name].dtype == a.dtype
         with pytest.raises(OSError, match="not a slot of this batch holding that chunk"):
-            shared_memory.read(path, layout)                 # read once: the slot is free again
-        assert _write(_any_size(share)) is not None    # and takes the next chunk
+            shared_memory.read(path, layout)                 # read once
+        assert os.fstat(path[1]).st_ino != inode             # a new file under the slot
+        assert _write(_any_size(share), rows=9) is not None  # takes the next chunk
+        assert all(back[name].tobytes() == a.tobytes() for name, a in _arrays().items())
+        back["q"][...] = -1.0
+    del back, owner
+    gc.collect()
+    taken = [slot for slot in shared_memory._POOL if os.fstat(slot.fd).st_ino == inode]
+    assert len(taken) == 1 and _states(taken) == [shared_memory.FREE]
+    q = _arrays()["q"]
+    assert os.pread(taken[0].fd, q.nbytes, shared_memory.HEADER + layout["q"][0]) == q.tobytes()
 
 
 def test_slots_are_reused_across_batches_and_freed_at_the_end():
