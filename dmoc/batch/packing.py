@@ -7,8 +7,8 @@ buffer (`Trajectory.unchecked`: no copy, no check; each run's arrays are its own
 On the worker the buffer is the chunk's `ChunkMemory`: the runs stepped in lockstep copy
 their trajectories straight into it (`dmoc.simulation.lockstep.simulate_lockstep`'s
 `memory`), and for a client on the worker's machine it is a slot of the client's shared
-memory (`dmoc.batch.shared_memory`), so that the arrays are written once, where the
-client reads them, and no chunk allocates memory of its own for them. Elsewhere Dask's
+memory (`dmoc.batch.shared_memory`), so that the arrays are written once, into the pages
+the client's results keep, and no chunk allocates memory of its own for them. Elsewhere Dask's
 serialization sends the buffer as an out-of-band frame (pickle protocol 5).
 """
 

@@ -12,8 +12,9 @@ through ``/proc/<pid>/fd/<fd>`` (the kernel allows the same user only), finds th
 and takes the slot's lock (``flock``) writes a chunk's arrays into it (`SharedFile`), marks
 it with a random ticket and sends only the slot, the ticket and the layout; anywhere else
 (another machine, namespace or user, every slot busy, a chunk under `MIN_BYTES`) the
-arrays go through Dask. The client copies the arrays out (`read`) and frees the slot. The
-file holds numbers only: nothing in it is unpickled or run.
+arrays go through Dask. The client's results keep the slot's pages (`read`: a private
+mapping, no copy) and a new file takes the slot's place; the file comes back to the pool
+when the results are gone. The file holds numbers only: nothing in it is unpickled or run.
 """
 
 import fcntl
