@@ -54,7 +54,7 @@ _POOL = []                       # the client's free Slots, of the process `_POO
 _POOL_PID = [os.getpid()]        # (a process forked from the client makes a pool of its own)
 _POOL_LOCK = threading.Lock()
 _LENDING = {}                    # fd -> (Exchange, Slot) of the slots lent by open Exchanges
-_HELD = [0]                      # bytes of taken slots kept open to join the pool again
+_HELD = [0]                      # taken slots kept open to join the pool again (<= 2 SLOTS)
 
 
 class Slot:
@@ -215,8 +215,8 @@ def _taken(handle, pid, fd, size):
     slot is marked TAKEN, so no worker writes there while the mapping lives, and its
     Exchange puts a new file under its descriptor (`Exchange.hand_over`). When the
     mapping goes (no array of the results is left) the file joins the pool again, free,
-    with the pages the workers have mapped already, if `KEPT_BYTES` of taken and pooled
-    slots allow; else it is closed. None (copy the arrays instead) where no Exchange of
+    with the pages the workers have mapped already (`_pooled`), if at most 2 SLOTS taken
+    files are kept open for that; else its descriptor is closed now. None (copy the arrays instead) where no Exchange of
     this process lends the slot or no new file can be made."""
     with _POOL_LOCK:
         lent = _LENDING.get(fd) if pid == os.getpid() == _POOL_PID[0] else None
@@ -229,22 +229,21 @@ def _taken(handle, pid, fd, size):
         return None
     os.pwrite(handle, TAKEN, TOKEN)
     memory = mmap.mmap(handle, HEADER + size, flags=mmap.MAP_PRIVATE)
-    length = os.fstat(taken).st_size
     with _POOL_LOCK:
-        kept = _HELD[0] + length <= KEPT_BYTES
-        _HELD[0] += length if kept else 0
+        kept = _HELD[0] < 2 * SLOTS
+        _HELD[0] += kept
     if kept:
-        weakref.finalize(memory, _returned, taken, slot.token, length)
+        weakref.finalize(memory, _returned, taken, slot.token)
     else:
         os.close(taken)
     return np.frombuffer(memory, np.uint8, size, HEADER)
 
 
-def _returned(fd, token, length):
-    """The results holding the pages of the slot file `fd` of `token` (`length` bytes) are
-    gone: it joins the pool, free (`_pooled`)."""
+def _returned(fd, token):
+    """The results holding the pages of the slot file `fd` of `token` are gone: it joins
+    the pool, free (`_pooled`)."""
     with _POOL_LOCK:
-        _HELD[0] -= length
+        _HELD[0] -= 1
         ours = _POOL_PID[0] == os.getpid()
     if not ours:                        # a forked child's copy of the results
         os.close(fd)
