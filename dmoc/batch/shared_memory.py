@@ -420,7 +420,12 @@ def _opened(pid, fd, token):
         return None
     with _OPENED_LOCK:
         if key not in _OPENED:
-            if len(_OPENED) >= 4 * SLOTS or any(other[0] != pid for other in _OPENED):
+            if any(other[0] != pid for other in _OPENED):
+                _OPENED.clear()
+            if len(_OPENED) >= 4 * SLOTS:       # files never written here go first
+                for other in [k for k, o in _OPENED.items() if o is None or not o.mappings]:
+                    del _OPENED[other]
+            if len(_OPENED) >= 4 * SLOTS:
                 _OPENED.clear()
             opened = _open(pid, fd, token)
             if opened is not None and os.fstat(opened.fd).st_ino != key[1]:
