@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from ..principle.trajectory import Trajectory
-from . import shared_memory
+from . import shared_memory, slot_writer
 
 FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
 
@@ -26,7 +26,7 @@ FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
 class ChunkMemory:
     """Float memory for the trajectories of one chunk on its worker, handed out in
     consecutive pieces (`take`): pieces of a slot of the client's shared memory
-    (`shared_memory.SharedFile`) once a piece reaches `shared_memory.MIN_BYTES` and a free
+    (`slot_writer.SharedFile`) once a piece reaches `shared_memory.MIN_BYTES` and a free
     slot reaches this worker (then every later piece too, the slot grown); else new
     arrays, which `pack` copies.
 
@@ -37,7 +37,7 @@ class ChunkMemory:
     """
 
     def __init__(self, share=None):
-        self.file = shared_memory.SharedFile(share)
+        self.file = slot_writer.SharedFile(share)
         self.used = 0             # floats of the slot handed out, after its HEADER
         self._mappings = []       # (address, mapping) of each mapping a piece was taken from
 
@@ -180,5 +180,5 @@ def unpack(heads, data):
 
 
 def unpack_shared(heads, path, layout):
-    """`unpack` of the buffer a `shared_memory.SharedFile` put in the slot `path` (copied out)."""
+    """`unpack` of the buffer a `slot_writer.SharedFile` put in the slot `path` (copied out)."""
     return unpack(heads, shared_memory.read(path, layout)["data"])

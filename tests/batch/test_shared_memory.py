@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from dmoc.batch import shared_memory  # noqa: E402
+from dmoc.batch import shared_memory, slot_writer  # noqa: E402
 
 if not hasattr(os, "memfd_create") or not os.path.isdir("/proc/self/fd"):
     pytest.skip("no memfd or /proc here: every chunk goes through Dask", allow_module_level=True)
@@ -35,7 +35,7 @@ def _arrays(rows=7):
 
 def _write(share, rows=7):
     """What a worker does with a chunk's arrays: (path, layout), or None (through Dask)."""
-    file, arrays, layout, size = shared_memory.SharedFile(share), _arrays(rows), {}, 0
+    file, arrays, layout, size = slot_writer.SharedFile(share), _arrays(rows), {}, 0
     for name, a in arrays.items():
         layout[name], size = (size, a.dtype.str, a.shape), size + a.nbytes
     memory = file.reserve(size)
@@ -111,7 +111,7 @@ def test_small_chunks_busy_slots_and_no_share_use_dask():
         assert _write(None) is None
         held = []
         for _ in range(shared_memory.SLOTS):
-            file = shared_memory.SharedFile(_any_size(share))
+            file = slot_writer.SharedFile(_any_size(share))
             assert file.reserve(32) is not None
             held.append(file)
         assert _write(_any_size(share)) is None           # every slot is being written
@@ -166,7 +166,7 @@ def test_full_memory_means_dask_and_a_free_slot(monkeypatch):
 def test_a_slot_a_writer_still_holds_at_the_end_leaves_the_pool():
     exchange = shared_memory.Exchange()
     with exchange as share:
-        file = shared_memory.SharedFile(_any_size(share))
+        file = slot_writer.SharedFile(_any_size(share))
         file.reserve(32)
         held = next(slot for slot in exchange.slots if slot.fd == file._held[1][1])
     assert held not in shared_memory._POOL and len(shared_memory._POOL) == shared_memory.SLOTS - 1
