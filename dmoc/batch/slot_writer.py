@@ -13,7 +13,8 @@ import secrets
 import threading
 import weakref
 
-from .shared_memory import FREE, GRAIN, HEADER, SLOTS, STATE, TOKEN, holds_token, reach_slot
+from .shared_memory import (FREE, GRAIN, HEADER, SLOTS, STATE, TAKEN, TOKEN, holds_token,
+                            reach_slot)
 
 
 class SharedFile:
@@ -59,7 +60,7 @@ class SharedFile:
         if self._held is None:
             return False
         (opened, where), ticket = self._held, FREE
-        while ticket == FREE:
+        while ticket in (FREE, TAKEN):
             ticket = secrets.token_bytes(STATE)
         self._finalizer.detach()
         opened.let_go(ticket)
@@ -75,7 +76,7 @@ class SharedFile:
 
 
 class _Opened:
-    """A worker's descriptor and mapping of one slot of a client."""
+    """A worker's descriptor and mappings of one slot file of a client."""
 
     def __init__(self, fd):
         self.fd, self.mappings, self.lock = fd, [], threading.Lock()
