@@ -1,113 +1,184 @@
-"""How a chunk of `simulate_many`'s results travels from its worker to the client: every
-trajectory field concatenated over the chunk's runs into one array (t, q, p over the
-knots, lam, u, s over the steps, mu stacked), so that Dask moves seven arrays for the
-chunk rather than seven per run; the client gets each run's Trajectory back as views of
-those arrays (`Trajectory.unchecked`: no copy, no check; each run's rows are its own).
-Dask's serialization sends the arrays as out-of-band frames (pickle protocol 5); to a
-client on the worker's machine they go through shared memory (`dmoc.batch.shared_memory`).
+"""How a chunk of `simulate_many`'s results travels from its worker to the client: the
+trajectories' arrays (t, q, p, lam, u, s, mu of every run) lie in one buffer of floats
+and each result carries where its own are, so that Dask moves one array for the chunk
+rather than seven per run; the client gets each run's Trajectory back as views of that
+buffer (`Trajectory.unchecked`: no copy, no check; each run's arrays are its own).
+
+On the worker the buffer is the chunk's `ChunkMemory`: the runs stepped in lockstep copy
+their trajectories straight into it (`dmoc.simulation.lockstep.simulate_lockstep`'s
+`memory`), and for a client on the worker's machine it is a slot of the client's shared
+memory (`dmoc.batch.shared_memory`), so that the arrays are written once, into the pages
+the client's results keep, and no chunk allocates memory of its own for them. Elsewhere Dask's
+serialization sends the buffer as an out-of-band frame (pickle protocol 5).
 """
 
 import dataclasses
+import math
 
 import numpy as np
 
 from ..principle.trajectory import Trajectory
-from . import shared_memory
+from . import shared_memory, slot_writer
 
-KNOT_FIELDS = ("t", "q", "p")            # N + 1 rows per run
-STEP_FIELDS = ("lam", "u", "s")          # N rows per run
+FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
+
+
+class ChunkMemory:
+    """Float memory for the trajectories of one chunk on its worker, handed out in
+    consecutive pieces (`take`): pieces of a slot of the client's shared memory
+    (`slot_writer.SharedFile`) once a piece reaches `shared_memory.MIN_BYTES` and a free
+    slot reaches this worker (then every later piece too, the slot grown); else new
+    arrays, which `pack` copies.
+
+    Parameters
+    ----------
+    share : tuple or None
+        The client's `shared_memory.Exchange` value, or None (no slot: new arrays).
+    """
+
+    def __init__(self, share=None):
+        self.file = slot_writer.SharedFile(share)
+        self.used = 0             # floats of the slot handed out, after its HEADER
+        self._mappings = []       # (address, mapping) of each mapping a piece was taken from
+
+    def take(self, count):
+        """A writable float array of shape (count,): the next `count` floats of the slot,
+        or a new array."""
+        memory = self.file.reserve(8 * (self.used + count))
+        if memory is None:
+            return np.empty(count)
+        start = shared_memory.HEADER + 8 * self.used
+        piece = np.frombuffer(memory, float, count, start)
+        if not self._mappings or self._mappings[-1][1] is not memory:
+            self._mappings.append((piece.ctypes.data - start, memory))
+        self.used += count
+        return piece
+
+    def position(self, array):
+        """The index among the slot's floats (after its HEADER) of the first of `array`'s,
+        when `array` is a C-contiguous float array inside the pieces taken from the slot;
+        else None."""
+        if not self.file.held or array.dtype != float or not array.flags.c_contiguous:
+            return None
+        for base, memory in self._mappings:
+            start = array.ctypes.data - base - shared_memory.HEADER
+            if (0 <= start and start % 8 == 0 and start + array.nbytes <= 8 * self.used
+                    and shared_memory.HEADER + start + array.nbytes <= len(memory)):
+                return start // 8
+        return None
 
 
 class PackedResults(list):
-    """A list of SimulationResults that pickles as a few arrays (`pack`), written to a
-    slot of the client's shared memory when `share` (`shared_memory.Exchange`) allows it;
-    unpickled, it is a plain list of equal results (`unpack`), in the same order."""
+    """A list of SimulationResults that pickles as one buffer (`pack`): the slot of its
+    `memory` (`ChunkMemory`) when the arrays are there, sealed for the client; else an
+    array Dask sends. Unpickled, it is a plain list of equal results (`unpack`), in the
+    same order. It is packed once: pickled again, it gives the same slot (which the client
+    reads once) or buffer; once sent through a slot, its own arrays are the client's to
+    reuse."""
 
-    def __init__(self, results, share=None):
+    def __init__(self, results, memory=None):
         super().__init__(results)
-        self.share = share
+        self.memory = memory if memory is not None else ChunkMemory()
+        self._sent = None
 
     def __reduce__(self):
-        file = shared_memory.SharedFile(self.share)
-        try:
-            heads, arrays = pack(self, file.allocate)
-        except BaseException:      # the slot taken must not stay locked
-            file.release()
-            raise
-        if arrays is not None and file.seal():
-            return unpack_shared, (heads, file.path, file.layout)
-        return unpack, (heads, arrays)
+        if self._sent is None:
+            try:
+                heads, data = pack(self, self.memory)
+            except BaseException:      # the slot taken must not stay locked
+                self.memory.file.release()
+                raise
+            if data is None:
+                file = self.memory.file
+                file.seal({"data": (0, np.dtype(float).str, (self.memory.used,))})
+                self._sent = unpack_shared, (heads, file.path, file.layout)
+            else:
+                self._sent = unpack, (heads, data)
+        return self._sent
 
 
-def pack(results, allocate=None):
-    """(heads, arrays) of the SimulationResults `results`.
+def pack(results, memory):
+    """(heads, data) of the SimulationResults `results`, their trajectories' arrays placed
+    in `memory`'s slot or in `data`.
 
     Parameters
     ----------
     results : list of SimulationResult
-    allocate : callable, optional
-        ``allocate({name: (shape, dtype)})`` gives the arrays to fill
-        (`shared_memory.SharedFile.allocate`), or None for new ones (the default).
+    memory : ChunkMemory
+        Arrays in its slot stay where they are; the others are copied into it.
 
     Returns
     -------
     heads : list, one per result
-        (result without its trajectory, (N, h, variant, control_nodes, stage_nodes) of
-        its trajectory), or (result, None) for a result kept whole: one without a
-        trajectory, or whose trajectory's columns differ from the first packed one's.
-    arrays : dict of ndarray, or None when no trajectory is packed
-        ``t`` (K,), ``q``, ``p`` (K, n) with K the sum of N + 1 over the packed runs;
-        ``lam``, ``u``, ``s`` (sum of N, ...); ``mu`` (runs, m).
+        (result without its trajectory, (h, variant, control_nodes, stage_nodes, places)
+        of its trajectory, places the (start, shape) of each of FIELDS in the buffer), or
+        (result, None) for a result kept whole: one without a trajectory, or with an
+        array that is not of floats.
+    data : ndarray of float, shape (floats,), or None
+        None when every array is in `memory`'s slot (its first ``memory.used`` floats);
+        else the buffer, all the arrays copied into it, and the slot, if any, let go.
     """
-    widths = [(r, _widths(r.trajectory)) for r in results if r.trajectory is not None]
-    packed = [r for r, width in widths if width == widths[0][1]]
-    if not packed:
-        return [(r, None) for r in results], None
-    chosen = {id(r) for r in packed}
-    columns = {name: [getattr(r.trajectory, name) for r in packed]
-               for name in (*KNOT_FIELDS, *STEP_FIELDS, "mu")}
-    shapes = {name: ((sum(len(a) for a in parts), *parts[0].shape[1:]), np.result_type(*parts))
-              for name, parts in columns.items()}
-    shapes["mu"] = ((len(packed), *columns["mu"][0].shape), shapes["mu"][1])
-    arrays = allocate(shapes) if allocate is not None else None
-    if arrays is None:
-        arrays = {name: np.empty(shape, dtype) for name, (shape, dtype) in shapes.items()}
-    for name in (*KNOT_FIELDS, *STEP_FIELDS):
-        np.concatenate(columns[name], out=arrays[name])
-    np.stack(columns["mu"], out=arrays["mu"])
-    heads = []
-    for r in results:
-        if id(r) not in chosen:
+    fields = [_fields(r.trajectory) for r in results]
+    arrays = [a for each in fields if each is not None for a in each]
+    starts = [memory.position(a) if a.size else 0 for a in arrays]
+    missing = [i for i, start in enumerate(starts) if start is None]
+    if missing:
+        piece = memory.take(sum(arrays[i].size for i in missing))
+        at = memory.position(piece)
+        if at is not None:                  # in the slot: copied there
+            for i in missing:
+                np.copyto(piece[:arrays[i].size].reshape(arrays[i].shape), arrays[i])
+                piece, starts[i], at = piece[arrays[i].size:], at, at + arrays[i].size
+            missing = []
+    data = None
+    if missing or not memory.file.held:
+        data, at = np.empty(sum(a.size for a in arrays)), 0
+        for i, a in enumerate(arrays):
+            np.copyto(data[at:at + a.size].reshape(a.shape), a)
+            starts[i], at = at, at + a.size
+        memory.file.release()
+    return _heads(results, fields, starts), data
+
+
+def _fields(traj):
+    """The arrays of FIELDS of `traj`, or None when it has no trajectory or one of them is
+    not an array of floats."""
+    if traj is None:
+        return None
+    arrays = [getattr(traj, name) for name in FIELDS]
+    return arrays if all(isinstance(a, np.ndarray) and a.dtype == float for a in arrays) else None
+
+
+def _heads(results, fields, starts):
+    """The heads of `pack`: each result with the places of its `fields` (`starts`, in
+    order), or whole."""
+    heads, start = [], iter(starts)
+    for r, arrays in zip(results, fields):
+        if arrays is None:
             heads.append((r, None))
             continue
         traj = r.trajectory
+        places = tuple((next(start), a.shape) for a in arrays)
         heads.append((dataclasses.replace(r, trajectory=None),
-                      (traj.steps, traj.h, traj.variant, traj.control_nodes, traj.stage_nodes)))
-    return heads, arrays
+                      (traj.h, traj.variant, traj.control_nodes, traj.stage_nodes, places)))
+    return heads
 
 
-def unpack(heads, arrays):
-    """The list of results `pack` made `heads` and `arrays` of, each packed trajectory
-    made of views of `arrays`."""
-    results, knot, step, run = [], 0, 0, 0
+def unpack(heads, data):
+    """The list of results `pack` made `heads` and `data` of, each packed trajectory made
+    of views of `data`."""
+    results = []
     for result, shape in heads:
         if shape is not None:
-            steps, h, variant, control_nodes, stage_nodes = shape
-            knots, rows = slice(knot, knot + steps + 1), slice(step, step + steps)
-            t, q, p = (arrays[name][knots] for name in KNOT_FIELDS)
-            lam, u, s = (arrays[name][rows] for name in STEP_FIELDS)
-            result.trajectory = Trajectory.unchecked(t, q, p, lam, u, h, variant, arrays["mu"][run],
-                                                     s, control_nodes, stage_nodes)
-            knot, step, run = knot + steps + 1, step + steps, run + 1
+            h, variant, control_nodes, stage_nodes, places = shape
+            t, q, p, lam, u, s, mu = (data[start:start + math.prod(dims)].reshape(dims)
+                                      for start, dims in places)
+            result.trajectory = Trajectory.unchecked(t, q, p, lam, u, h, variant, mu, s,
+                                                     control_nodes, stage_nodes)
         results.append(result)
     return results
 
 
 def unpack_shared(heads, path, layout):
-    """`unpack` of arrays that a `shared_memory.SharedFile` put in the slot `path` (copied out)."""
-    return unpack(heads, shared_memory.read(path, layout))
-
-
-def _widths(traj):
-    """The columns of each field of `traj`, which a concatenation needs equal."""
-    return tuple(getattr(traj, name).shape[1:] for name in (*KNOT_FIELDS, *STEP_FIELDS, "mu"))
+    """`unpack` of the buffer a `slot_writer.SharedFile` put in the slot `path` (copied out)."""
+    return unpack(heads, shared_memory.read(path, layout)["data"])

@@ -50,15 +50,18 @@ def run_items(discs, runs):
     """(shipments {digest: bytes}, items [(digest, data)]): one Discretization of each
     value shipped once (discretizations of equal ``key``, the system's and the rule's,
     and equal step h are one, however they were built), each run as ``item(run)`` for
-    `tasks.simulate_chunk`."""
-    shipments, items, names = {}, [], {}
+    `tasks.simulate_chunk`. A Discretization object met again is looked up by identity
+    (hashing its key costs about as much as an item)."""
+    shipments, items, names, seen = {}, [], {}, {}
     for i, (disc, run) in enumerate(zip(discs, runs)):
-        value = (type(disc), disc.key, disc.h)
-        if value not in names:
-            data = pickled(f"disc[{i}]", disc)
-            names[value] = digest(data)
-            shipments[names[value]] = data
-        items.append((names[value], item(f"runs[{i}]", run)))
+        if id(disc) not in seen:
+            value = (type(disc), disc.key, disc.h)
+            if value not in names:
+                data = pickled(f"disc[{i}]", disc)
+                names[value] = digest(data)
+                shipments[names[value]] = data
+            seen[id(disc)] = disc, names[value]          # the disc kept: its id stays its own
+        items.append((seen[id(disc)][1], item(f"runs[{i}]", run)))
     return shipments, items
 
 

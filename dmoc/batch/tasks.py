@@ -20,11 +20,12 @@ import time
 import casadi as ca
 import cloudpickle
 import distributed
+import numpy as np
 
 from .._util.cache import BoundedCache
 from ..errors import Status
 from .item_guard import attempt, caught, guarded, guarded_chunk, in_turn, stamp
-from .packing import PackedResults
+from .packing import ChunkMemory, PackedResults
 from ..optimal_control.solver.optimization_result import OptimizationResult
 from ..principle.trajectory import Trajectory
 from ..optimal_control.solver.solving import solve as ipopt_solve
@@ -150,12 +151,13 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget
     """For each item, ``shipping.pickled(run)``: ``simulate(disc, **run, throw=False)`` on
     the shipped Discretization, its trajectory cut to the last knot when `keep` is
     ``"final"`` (`final_knot`); as `optimize_chunk`, the results a `PackedResults` (their
-    trajectories travel as a few arrays, through shared memory when `share`, the client's
-    `shared_memory.Exchange`, reaches this worker).
+    trajectories travel as one buffer, a slot of the client's shared memory when `share`,
+    the client's `shared_memory.Exchange`, reaches this worker: the chunk's `ChunkMemory`).
 
     Without a `timeout`, the runs that can step together do so in lockstep
-    (`dmoc.simulation.lockstep`: the same results as one by one, for less CPU); each item's
-    seconds are then the chunk's CPU seconds over its items. With a `timeout`, each item
+    (`dmoc.simulation.lockstep`: the same results as one by one, for less CPU), their
+    trajectories written straight into the chunk's memory; each item's seconds are then
+    the chunk's CPU seconds over its items. With a `timeout`, each item
     runs alone, in a thread the task can abandon. With a `budget`, the chunk ends once it
     has spent that many CPU seconds, as in `optimize_chunk` (in lockstep, groups of 1, 2,
     4, ... runs, `_in_budget`)."""
@@ -168,26 +170,31 @@ def simulate_chunk(digest, items, timeout, keep="trajectory", share=None, budget
             return simulate(disc, **run, throw=False)
         return load, solve
 
-    calls = [runner(item) for item in items]
-    if timeout is None:
-        results, seconds = _in_budget(calls, keep == "final", budget)
-    else:
-        results, seconds = guarded_chunk(SimulationResult, calls, timeout, budget)
-        if keep == "final":
-            _cut_to_final_knots(results)
-    return PackedResults(results, share), seconds
+    calls, memory = [runner(item) for item in items], ChunkMemory(share)
+    try:
+        if timeout is None:
+            results, seconds = _in_budget(calls, keep == "final", budget, memory.take)
+        else:
+            results, seconds = guarded_chunk(SimulationResult, calls, timeout, budget)
+            if keep == "final":
+                _cut_to_final_knots(results)
+    except BaseException:           # the slot taken must not stay locked
+        memory.file.release()
+        raise
+    return PackedResults(results, memory), seconds
 
 
-def _in_budget(calls, final, budget):
-    """(results, seconds) of the first of `calls` run in lockstep (`_in_lockstep`): all of
-    them when `budget` is None; else groups of 1, 2, 4, ... items, each at most what the
-    CPU seconds left of the `budget` pay at the cost per item so far, until the budget is
-    spent (so a chunk of slow items still returns within about its budget)."""
+def _in_budget(calls, final, budget, memory=np.empty):
+    """(results, seconds) of the first of `calls` run in lockstep (`_in_lockstep`, the
+    trajectories copied into ``memory(size)``): all of them when `budget` is None; else
+    groups of 1, 2, 4, ... items, each at most what the CPU seconds left of the `budget`
+    pay at the cost per item so far, until the budget is spent (so a chunk of slow items
+    still returns within about its budget)."""
     if budget is None:
-        return _in_lockstep(calls, final)
+        return _in_lockstep(calls, final, memory)
     results, seconds, size = [], [], 1
     while len(results) < len(calls) and sum(seconds) < budget:
-        group, spent = _in_lockstep(calls[len(results):len(results) + size], final)
+        group, spent = _in_lockstep(calls[len(results):len(results) + size], final, memory)
         results += group
         seconds += spent
         affordable = (budget - sum(seconds)) * len(results) / max(sum(seconds), 1e-9)
@@ -195,19 +202,19 @@ def _in_budget(calls, final, budget):
     return results, seconds
 
 
-def _in_lockstep(calls, final):
+def _in_lockstep(calls, final, memory):
     """(results, seconds) of the (load, solve) `calls` of `simulate_chunk`: each item's
     arguments loaded in its own guard, then checked together (`prepare_runs`: an item
     refused gets its own "exception" result) and the runs prepared stepped in lockstep
-    (`simulate_lockstep`, their trajectories of the last knot only when `final`); should
-    that raise, each item runs alone (`guarded`, then cut to `final_knot`), so an error
-    stays its item's. Each result is stamped with this worker's address; the seconds are
+    (`simulate_lockstep`, their trajectories of the last knot only when `final`, copied
+    into ``memory(size)``); should that raise, each item runs alone (`guarded`, then cut
+    to `final_knot`), so an error stays its item's. Each result is stamped with this worker's address; the seconds are
     the chunk's CPU time shared equally."""
     tic = time.process_time()
     results = [attempt(SimulationResult, load, lambda pair: pair) for load, _ in calls]
     loaded = {i: pair for i, pair in enumerate(results) if not isinstance(pair, SimulationResult)}
     try:
-        stepped = _lockstep(list(loaded.values()), final)
+        stepped = _lockstep(list(loaded.values()), final, memory)
     except BaseException:       # any error of the group: each item again, alone
         stepped = [guarded(SimulationResult, *calls[i], None)[0] for i in loaded]
         if final:
@@ -218,14 +225,15 @@ def _in_lockstep(calls, final):
     return results, [(time.process_time() - tic) / len(calls)] * len(calls)
 
 
-def _lockstep(loaded, final):
+def _lockstep(loaded, final, memory):
     """The SimulationResults of the (disc, run) pairs `loaded`, all of one shipment (one
-    Discretization): `prepare_runs`, then `simulate_lockstep` of the runs prepared."""
+    Discretization): `prepare_runs`, then `simulate_lockstep` of the runs prepared (their
+    trajectories copied into ``memory(size)``)."""
     if not loaded:
         return []
     prepared = prepare_runs(loaded[0][0], [dict(run, throw=False) for _, run in loaded])
     stepped = iter(simulate_lockstep([run for run in prepared if isinstance(run, Run)],
-                                     final=final))
+                                     final=final, memory=memory))
     return [next(stepped) if isinstance(run, Run) else
             caught(SimulationResult, Status.EXCEPTION, "", run) for run in prepared]
 

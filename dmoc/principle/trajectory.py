@@ -121,13 +121,15 @@ class Trajectory:
 
     @classmethod
     def assembled_runs(cls, t, q, p, lam, u, h, variant, mu, s, control_nodes, stage_nodes,
-                       final=False):
+                       final=False, memory=np.empty):
         """`assembled` of R runs of the same shapes at once: the arrays t (R, N+1), q, p
         (R, N+1, n), lam, u, s (R, N, ...), mu (R, m) or None, the other fields shared. A
         list of R Trajectories, the same fields as `assembled` of each run, whose arrays
-        are its rows of one copy per field (C-contiguous views: a trajectory kept alone
-        keeps the arrays of all R alive)."""
-        t, q, p, lam, u, h, mu, s = trajectory_fields.assembled(t, q, p, lam, u, h, mu, s, final)
+        are its rows of one buffer, ``memory(size)``, a float array of shape (size,) (a new
+        array by default; C-contiguous views: a trajectory kept alone keeps the arrays of
+        all R alive)."""
+        t, q, p, lam, u, h, mu, s = trajectory_fields.assembled(t, q, p, lam, u, h, mu, s, final,
+                                                                memory)
         nodes = trajectory_fields.node_tuples(control_nodes, stage_nodes)
         return [cls.unchecked(t[i], q[i], p[i], lam[i], u[i], h, variant, mu[i], s[i], *nodes)
                 for i in range(q.shape[0])]

@@ -64,12 +64,12 @@ def per_step(name, value, N):
     return checks.array(name, data, data.shape, allow_nan=True)
 
 
-def assembled(t, q, p, lam, u, h, mu, s, final):
+def assembled(t, q, p, lam, u, h, mu, s, final, memory=np.empty):
     """(t, q, p, lam, u, h, mu, s) of `Trajectory.assembled`: each array copied as a float
     array (of the last knot only when `final`), `mu` None as zeros, `h` a float; arrays of
     one run, or of runs along their leading axes (`Trajectory.assembled_runs`), then all
-    copied into one buffer (numpy backs a large one with huge pages: far fewer new pages to
-    fault in than one array per field)."""
+    copied into one buffer, ``memory(size)`` (a new array by default; numpy backs a large
+    one with huge pages: far fewer new pages to fault in than one array per field)."""
     if final:
         t, q, p = t[..., -1:], q[..., -1:, :], p[..., -1:, :]
         lam, u, s = lam[..., :0, :], u[..., :0, :], s[..., :0, :]
@@ -79,7 +79,7 @@ def assembled(t, q, p, lam, u, h, mu, s, final):
     if q.ndim == 2:
         copies = [np.array(a, dtype=float, order="C") for a in arrays]
     else:
-        buffer, copies = np.empty(sum(np.size(a) for a in arrays)), []
+        buffer, copies = memory(sum(np.size(a) for a in arrays)), []
         for a in arrays:
             copies.append(buffer[:np.size(a)].reshape(np.shape(a)))
             buffer = buffer[np.size(a):]

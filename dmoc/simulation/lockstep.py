@@ -24,14 +24,16 @@ GROUP_BYTES = 1 << 25
 _SCRATCH = threading.local()        # the memory of `_scratch`, one per thread
 
 
-def simulate_lockstep(runs, *, final=False):
+def simulate_lockstep(runs, *, final=False, memory=np.empty):
     """`simulate` of each of `runs` (`preparation.Run`, from `prepare_runs`), the runs of each
     of their `groups` in lockstep: the SimulationResults in the order of `runs`, each
     what ``simulate`` returns for the same arguments but ``stats["wall_time"]`` (its
     group's time so far), its trajectory of the last knot only when `final`
     (`conclude_group`: the trajectories of a group's runs that completed every step are
-    rows of one array per field). With ``throw``, a failed run raises as ``simulate``
-    does once its group has run."""
+    rows of one array per field, all in one float array ``memory(size)`` of shape
+    (size,) per group: a new one by default, a piece of the client's shared memory in a
+    batch, `dmoc.batch.packing.ChunkMemory`). With ``throw``, a failed run raises as
+    ``simulate`` does once its group has run."""
     results = [None] * len(runs)
     for members in groups(runs):
         group = [runs[i] for i in members]
@@ -43,7 +45,7 @@ def simulate_lockstep(runs, *, final=False):
             controls = _stacked([run.controls for run in group])
             concluded = conclude_group(group, controls, *run_lockstep(
                 group[0].stepper, np.array([run.start for run in group]), controls,
-                group[0].disc.h), final=final)
+                group[0].disc.h), final=final, memory=memory)
         for i, result in zip(members, concluded):
             results[i] = result
     return results
@@ -175,15 +177,15 @@ def _evaluate(stepper, states, controls, h, following, per_step):
 
 def _scratch(shapes):
     """Float arrays of the `shapes` ({name: shape}) in memory this thread reuses from call
-    to call (grown when too small, up to 2 GROUP_BYTES; larger ones are fresh each time):
-    a group's arrays are tens of MB, which fresh allocations would fault in page by page
-    each time."""
+    to call (2 GROUP_BYTES, about what a group needs, allocated once and touched only as
+    far as used; larger ones are fresh each time): a group's arrays are tens of MB, which
+    fresh allocations would fault in page by page each time."""
     sizes = {name: int(np.prod(shape)) for name, shape in shapes.items()}
     total = sum(sizes.values())
     memory = getattr(_SCRATCH, "memory", None)
     if memory is None or memory.size < total:
-        memory = np.empty(total)
-        if 8 * total <= 2 * GROUP_BYTES:        # kept up to about what a group needs
+        memory = np.empty(max(total, 2 * GROUP_BYTES // 8))
+        if 8 * total <= 2 * GROUP_BYTES:
             _SCRATCH.memory = memory
     arrays, at = {}, 0
     for name, shape in shapes.items():

@@ -120,13 +120,14 @@ def conclude(run, stepped, *, final=False):
     return finished_result(traj, stats, failed_rnorm, run.tol, run.throw, hint)
 
 
-def conclude_group(runs, controls, acc, out, stepped, *, final=False):
+def conclude_group(runs, controls, acc, out, stepped, *, final=False, memory=np.empty):
     """`conclude` of each of `runs`, R runs stepped in lockstep (`run_lockstep`) under
     `controls` (R, N, n_controls) into `acc` (R, N+1, state.size) and `out` (R, N,
     out.size), of which each of `stepped` (what `DiracStepper.run` returns) holds views:
     the runs that completed every step concluded together, their trajectories rows of one
-    array per field (`Trajectory.assembled_runs`), the others one by one. The same
-    results as `conclude` of each run, but that a trajectory's arrays are views."""
+    array per field in one buffer, ``memory(size)`` (`Trajectory.assembled_runs`), the
+    others one by one. The same results as `conclude` of each run, but that a
+    trajectory's arrays are views."""
     N = acc.shape[1] - 1
     results, whole = [None] * len(runs), []
     for i, (_, o, _, _, cut) in enumerate(stepped):
@@ -139,7 +140,7 @@ def conclude_group(runs, controls, acc, out, stepped, *, final=False):
         rows = slice(None) if len(whole) == len(runs) else whole
         first = runs[whole[0]]
         trajectories = _assemble(first.stepper, first.formulation, first.disc, controls[rows],
-                                 acc[rows], out[rows], final)
+                                 acc[rows], out[rows], final, memory)
         largest = out[rows, :, first.stepper.out.slice("rnorm")].max(axis=(1, 2))
         for i, traj, rnorm in zip(whole, trajectories, largest):
             stats = _stats(runs[i], N, stepped[i][3], float(rnorm), now - runs[i].tic)
@@ -154,18 +155,20 @@ def _stats(run, k, redone, max_residual, wall):
             "max_residual": max_residual, "native": run.stepper.native, "wall_time": wall}
 
 
-def _assemble(stepper, formulation, disc, controls, acc, out, final):
+def _assemble(stepper, formulation, disc, controls, acc, out, final, memory=np.empty):
     """Trajectory from the horizon's states (the start first) and per-step outputs
     (time-major arrays), its fields copied as ``Trajectory(...)`` copies them, without its
     checks (`Trajectory.assembled`, of the last knot only when `final`; mu None, a (-)
     run that failed at its first step, is no impulse); of runs in lockstep along a leading
-    axis of `controls`, `acc` and `out`, the list of their Trajectories
-    (`Trajectory.assembled_runs`)."""
+    axis of `controls`, `acc` and `out`, the list of their Trajectories, copied into
+    ``memory(size)`` (`Trajectory.assembled_runs`)."""
     h = disc.h
     state, per_step = stepper.state.split(acc), stepper.out.split(out)
     p, lam, mu = formulation.trajectory_blocks(state["p"], per_step["p0"], per_step["nu"],
                                                stepper.residual.m)
     t = np.broadcast_to(h * np.arange(acc.shape[-2]), acc.shape[:-1])
-    assembled = Trajectory.assembled if acc.ndim == 2 else Trajectory.assembled_runs
-    return assembled(t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
-                     disc.rule.control_nodes, disc.rule.stage_nodes, final)
+    fields = (t, state["q"], p, lam, controls, h, formulation.name, mu, per_step["s"],
+              disc.rule.control_nodes, disc.rule.stage_nodes, final)
+    if acc.ndim == 2:
+        return Trajectory.assembled(*fields)
+    return Trajectory.assembled_runs(*fields, memory)

@@ -246,3 +246,41 @@ def test_runs_a_budget_left_unrun_are_queued_again_and_run_once(client, keep, mo
     assert len(stream.data) == len(runs)        # every chunk returned after one run
     for got, run in zip(results, runs):
         _assert_same(got, disc, run, keep)
+
+
+@pytest.mark.skipif(not hasattr(os, "memfd_create") or not os.path.isdir("/proc/self/fd"),
+                    reason="no memfd or /proc here: every chunk goes through Dask")
+def test_a_chunk_in_lockstep_writes_its_trajectories_straight_into_the_slot(monkeypatch):
+    """A worker's chunk stepped in lockstep copies each run's trajectory once, from the
+    lockstep's memory straight into a slot of the client's shared memory (`ChunkMemory`):
+    when the chunk is pickled every array is in the slot already and nothing more is
+    written there; pickled twice it names the same slot, which the client reads once, and
+    the results are the serial ones bit for bit."""
+    from dmoc.batch import shared_memory, shipping
+    monkeypatch.setattr(tasks, "stamp", lambda results: None)           # no worker here
+    disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.05)
+    runs = [{"q0": [0, 0, 0], "v0": [c, 0, 1], "steps": 30, "jit": False}
+            for c in np.linspace(0.5, 2, 12)]
+    shipments, items = shipping.run_items([disc] * len(runs), runs)
+    (digest, data), = shipments.items()
+    shipment = tasks.Shipment(digest, data)
+    shipment.setup(None)
+    try:
+        with shared_memory.Exchange() as share:
+            packed, _ = tasks.simulate_chunk(digest, [bytes(d) for _, d in items], None,
+                                             share=(*share[:2], 0))
+            memory = packed.memory
+            assert memory.file.held and len(packed) == len(runs)
+            for result in packed:
+                for name in FIELDS:
+                    a = getattr(result.trajectory, name)
+                    assert a.size == 0 or memory.position(a) is not None, name
+            used = memory.used
+            sent = pickle.dumps(packed, protocol=5)
+            assert memory.used == used and not memory.file.held     # nothing copied: sealed
+            assert pickle.dumps(packed, protocol=5) == sent          # the same slot again
+            results = pickle.loads(sent)
+    finally:
+        shipment.teardown(None)
+    for got, run in zip(results, runs):
+        _assert_same(got, disc, run, "trajectory")

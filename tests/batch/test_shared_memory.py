@@ -5,6 +5,7 @@ slot is free again; a slot that is not the client's, not of this chunk or too sm
 refused; busy slots, small chunks and full memory go through Dask; whatever a batch leaves
 in its slots is freed at its end, and the pool keeps at most KEPT_BYTES."""
 
+import gc
 import os
 
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from dmoc.batch import shared_memory  # noqa: E402
+from dmoc.batch import shared_memory, slot_writer  # noqa: E402
 
 if not hasattr(os, "memfd_create") or not os.path.isdir("/proc/self/fd"):
     pytest.skip("no memfd or /proc here: every chunk goes through Dask", allow_module_level=True)
@@ -34,13 +35,16 @@ def _arrays(rows=7):
 
 def _write(share, rows=7):
     """What a worker does with a chunk's arrays: (path, layout), or None (through Dask)."""
-    file, arrays = shared_memory.SharedFile(share), _arrays(rows)
-    into = file.allocate({name: (a.shape, a.dtype) for name, a in arrays.items()})
-    if into is None:
+    file, arrays, layout, size = slot_writer.SharedFile(share), _arrays(rows), {}, 0
+    for name, a in arrays.items():
+        layout[name], size = (size, a.dtype.str, a.shape), size + a.nbytes
+    memory = file.reserve(size)
+    if memory is None:
         return None
     for name, a in arrays.items():
-        into[name][...] = a
-    return (file.path, file.layout) if file.seal() else None
+        start = shared_memory.HEADER + layout[name][0]
+        np.frombuffer(memory, a.dtype, a.size, start).reshape(a.shape)[...] = a
+    return (file.path, file.layout) if file.seal(layout) else None
 
 
 def _any_size(share):
@@ -52,19 +56,33 @@ def _states(slots):
     return [os.pread(slot.fd, shared_memory.STATE, shared_memory.TOKEN) for slot in slots]
 
 
-def test_what_a_worker_writes_the_client_reads_bit_for_bit_into_its_own_arrays():
+def test_what_a_worker_writes_the_client_takes_bit_for_bit_as_arrays_of_its_own():
+    """The client's arrays are the slot's pages, mapped privately, not copied: bit for bit
+    what the worker wrote, writable, views of one buffer per chunk. Read once, the slot
+    takes the next chunk in a new file, which leaves them as they are; the client's
+    writes do not reach the file; once the arrays are gone the file is back in the pool,
+    free, with what the worker wrote."""
     with shared_memory.Exchange() as share:
         path, layout = _write(_any_size(share))
+        inode = os.fstat(path[1]).st_ino
         back = shared_memory.read(path, layout)
         owner = back["t"].base                        # one buffer of the client per chunk
-        assert type(owner) is np.ndarray and owner.flags.owndata and owner.flags.writeable
         for name, a in _arrays().items():
             assert back[name].shape == a.shape and back[name].tobytes() == a.tobytes()
             assert back[name].base is owner and back[name].flags.writeable
             assert back[name].flags.aligned and back[name].dtype == a.dtype
         with pytest.raises(OSError, match="not a slot of this batch holding that chunk"):
-            shared_memory.read(path, layout)                 # read once: the slot is free again
-        assert _write(_any_size(share)) is not None    # and takes the next chunk
+            shared_memory.read(path, layout)                 # read once
+        assert os.fstat(path[1]).st_ino != inode             # a new file under the slot
+        assert _write(_any_size(share), rows=9) is not None  # takes the next chunk
+        assert all(back[name].tobytes() == a.tobytes() for name, a in _arrays().items())
+        back["q"][...] = -1.0
+    del back, owner
+    gc.collect()
+    taken = [slot for slot in shared_memory._POOL if os.fstat(slot.fd).st_ino == inode]
+    assert len(taken) == 1 and _states(taken) == [shared_memory.FREE]
+    q = _arrays()["q"]
+    assert os.pread(taken[0].fd, q.nbytes, shared_memory.HEADER + layout["q"][0]) == q.tobytes()
 
 
 def test_slots_are_reused_across_batches_and_freed_at_the_end():
@@ -79,12 +97,12 @@ def test_slots_are_reused_across_batches_and_freed_at_the_end():
 
 
 def test_the_pool_keeps_at_most_kept_bytes(monkeypatch):
-    monkeypatch.setattr(shared_memory, "KEPT_BYTES", 2 * shared_memory.HEADER + 8 * 50)
+    monkeypatch.setattr(shared_memory, "KEPT_BYTES", shared_memory.GRAIN + shared_memory.HEADER)
     with shared_memory.Exchange() as share:
         for _ in range(3):
             _write(_any_size(share), rows=10)
     sizes = [os.fstat(slot.fd).st_size for slot in shared_memory._POOL]
-    assert sizes[0] == shared_memory.HEADER + 8 * 42 and max(sizes[1:]) <= shared_memory.HEADER
+    assert sizes[0] == shared_memory.GRAIN and max(sizes[1:]) <= shared_memory.HEADER
 
 
 def test_small_chunks_busy_slots_and_no_share_use_dask():
@@ -93,8 +111,8 @@ def test_small_chunks_busy_slots_and_no_share_use_dask():
         assert _write(None) is None
         held = []
         for _ in range(shared_memory.SLOTS):
-            file = shared_memory.SharedFile(_any_size(share))
-            assert file.allocate({"t": ((4,), float)}) is not None
+            file = slot_writer.SharedFile(_any_size(share))
+            assert file.reserve(32) is not None
             held.append(file)
         assert _write(_any_size(share)) is None           # every slot is being written
         held[0].release()
@@ -148,8 +166,8 @@ def test_full_memory_means_dask_and_a_free_slot(monkeypatch):
 def test_a_slot_a_writer_still_holds_at_the_end_leaves_the_pool():
     exchange = shared_memory.Exchange()
     with exchange as share:
-        file = shared_memory.SharedFile(_any_size(share))
-        file.allocate({"t": ((4,), float)})
+        file = slot_writer.SharedFile(_any_size(share))
+        file.reserve(32)
         held = next(slot for slot in exchange.slots if slot.fd == file._held[1][1])
     assert held not in shared_memory._POOL and len(shared_memory._POOL) == shared_memory.SLOTS - 1
     file.release()

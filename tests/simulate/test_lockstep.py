@@ -417,3 +417,37 @@ def test_arrays_of_other_dtypes_are_checked_as_checks_array_checks_them(monkeypa
             assert not isinstance(got, Exception), (run, got)
             assert got.start.tobytes() == want.start.tobytes()
     assert errors >= 6
+
+
+def test_a_group_concludes_into_the_memory_it_is_given():
+    """With `memory`, each group's trajectories are copied straight into the one float
+    array ``memory(size)`` gives for it (as a batch writes them into the client's shared
+    memory): every field of every run that completed is a view of one of those arrays,
+    the runs' arrays do not overlap, the results are those of `simulate`, and the group
+    asked for exactly what its runs' fields hold."""
+    disc = dmoc.discretize(_pendulum(), 0.1)
+    runs = _pendulum_runs(12, "+")
+    given = []
+
+    def memory(size):
+        given.append(np.full(size, np.nan))
+        return given[-1]
+
+    results = simulate_lockstep(prepare_runs(disc, [dict(run, throw=False) for run in runs]),
+                                memory=memory)
+    for got, want in zip(results, _serial(disc, runs)):
+        _assert_same(got, want)
+    whole = [r.trajectory for r in results if r.success]
+    assert len(given) == 1 and len(whole) > 10
+    spans = []                                          # bytes of `given[0]` each field covers
+    for traj in whole:
+        for name in FIELDS:
+            a = getattr(traj, name)
+            start = a.ctypes.data - given[0].ctypes.data
+            assert a.flags.c_contiguous and 0 <= start <= given[0].nbytes - a.nbytes, name
+            if a.size:
+                spans.append((start, start + a.nbytes))
+    spans.sort()
+    assert all(end <= start for (_, end), (start, _) in zip(spans, spans[1:]))   # no overlap
+    assert sum(end - start for start, end in spans) == given[0].nbytes           # no more asked
+    assert not np.isnan(given[0]).any()                 # every float handed out is a field's
