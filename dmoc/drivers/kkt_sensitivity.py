@@ -11,46 +11,46 @@ import numpy as np
 from .._util.cache import BoundedCache
 from ..errors import InputError
 
-_BLOCKS = BoundedCache(16, "kkt_blocks")      # the KKT block Function, by the NLP's structure
+_SOLUTIONS = BoundedCache(16, "kkt_solutions")    # by (NLP structure, number of parameters)
 
 ACTIVE_MULTIPLIER = 1e-6    # |multiplier| above this times (1 + the largest) marks an active bound
 ACTIVE_GAP = 1e-6           # and the row or entry within this (scaled, times 1 + |bound|) of it
 
 
-def kkt_blocks(transcription):
-    """The KKT system of the scaled NLP of `transcription` at an optimum and its sparse LU
-    solver, built once per NLP `structure`: (Function, Linsol).
+def kkt_solution(transcription, k):
+    """The Function (x, p, lam_g, active_g, active_x, d_p, d_bound) -> (dx, d_cost) of the
+    scaled NLP of `transcription`, for k parameters: `solve_kkt`'s system formed and solved
+    in one call; built once per NLP `structure` and k.
 
-    The Function (x, p, lam_g, active_g, active_x) -> (K, grad_f, d_grad_l_dp, d_g_dp,
-    d_f_dp) gives the matrix K of `solve_kkt` (2 n_x + n_g square, one sparsity pattern
-    whatever the active set: the 0/1 masks active_g (n_g,) and active_x (n_x,) choose its
-    values), the cost's gradient (n_x, 1), and the derivatives in p of the Lagrangian's
-    gradient d(grad f + jac^T lam_g)/dp (n_x, n_p), of g (n_g, n_p) and of f (1, n_p); the
-    Hessian and Jacobian are the solver's own (`SeparableNLP.derivatives`). The Linsol
-    (CasADi's sparse QR, "qr") keeps the symbolic factorization of that pattern: one
-    numeric factorization per call.
+    Inputs: the optimum x (n_x,), p (n_p,) and lam_g (n_g,); the 0/1 masks active_g (n_g,)
+    and active_x (n_x,) of the rows and entries held at a bound; the change of p (n_p, k)
+    and of the bound of each entry of x (n_x, k) per unit of each parameter. Outputs: dx/dtheta
+    (n_x, k) and dJ/dtheta = grad f . dx + df/dp dp (1, k). The Hessian and Jacobian are
+    the solver's own (`SeparableNLP.derivatives`); the matrix of `solve_kkt` has one
+    sparsity pattern whatever the active set (the masks choose its values), factored by
+    CasADi's sparse QR ("qr").
     """
     def build():
         nlp, derivatives = transcription.separable, transcription.separable.derivatives()
         x, p = nlp.x, nlp.p
-        n_x, n_g = x.numel(), nlp.g.numel()
+        n_x, n_g, n_p = x.numel(), nlp.g.numel(), p.numel()
         lam, a_g, a_x = ca.MX.sym("lam_g", n_g), ca.MX.sym("active_g", n_g), ca.MX.sym("active_x", n_x)
+        d_p, d_bound = ca.MX.sym("d_p", n_p, k), ca.MX.sym("d_bound", n_x, k)
         f, grad = derivatives["nlp_grad_f"](x, p)
         jac = derivatives["nlp_jac_g"](x, p)[1]
         upper = derivatives["nlp_hess_l"](x, p, 1, lam)
         hess = upper + ca.triu(upper, False).T
         grad_l = grad + ca.mtimes(jac.T, lam)
-        K = ca.blockcat([[hess, jac.T, ca.MX.eye(n_x)],
-                         [ca.mtimes(ca.diag(a_g), jac), ca.diag(1 - a_g), ca.MX(n_g, n_x)],
-                         [ca.diag(a_x), ca.MX(n_x, n_g), ca.diag(1 - a_x)]])
-        function = ca.Function("kkt_system", [x, p, lam, a_g, a_x],
-                               [K, grad, ca.jacobian(grad_l, p), ca.jacobian(nlp.g, p), ca.jacobian(f, p)],
-                               ["x", "p", "lam_g", "active_g", "active_x"],
-                               ["K", "grad_f", "d_grad_l_dp", "d_g_dp", "d_f_dp"])
-        solver = ca.Linsol("kkt_solver", "qr", function.sparsity_out("K"))
-        solver.sfact(ca.DM(function.sparsity_out("K"), 1.0))
-        return function, solver
-    return _BLOCKS.get(transcription.structure, build)
+        free = ca.diag(1 - a_x)         # the stationarity rows of the entries not held
+        K = ca.blockcat([[ca.mtimes(free, hess) + ca.diag(a_x), ca.mtimes(free, jac.T)],
+                         [ca.mtimes(ca.diag(a_g), jac), ca.diag(1 - a_g)]])
+        rhs = ca.vertcat(ca.mtimes(ca.diag(a_x), d_bound) - ca.mtimes(free, ca.mtimes(ca.jacobian(grad_l, p), d_p)),
+                         -ca.mtimes(ca.diag(a_g), ca.mtimes(ca.jacobian(nlp.g, p), d_p)))
+        dx = ca.solve(K, rhs, "qr")[:n_x, :]
+        d_cost = ca.mtimes(grad.T, dx) + ca.mtimes(ca.jacobian(f, p), d_p)
+        return ca.Function("kkt_solution", [x, p, lam, a_g, a_x, d_p, d_bound], [dx, d_cost],
+                           ["x", "p", "lam_g", "active_g", "active_x", "d_p", "d_bound"], ["dx", "d_cost"])
+    return _SOLUTIONS.get((transcription.structure, k), build)
 
 
 def active_sets(value, lower, upper, multiplier):
@@ -67,8 +67,8 @@ def active_sets(value, lower, upper, multiplier):
 
 
 def solve_kkt(transcription, x, p, lam_g, g_rows, x_rows, d_p, d_x_bound):
-    """dx/dtheta, shape (n_x, k), and the KKT blocks (`kkt_blocks`' outputs but K, as
-    ndarrays) of the scaled NLP's optimum (x, p, lam_g) of `transcription`.
+    """dx/dtheta, shape (n_x, k), and dJ/dtheta, shape (k,), of the scaled NLP's optimum
+    (x, p, lam_g) of `transcription`, from its KKT system (`kkt_solution`).
 
     Parameters
     ----------
@@ -92,32 +92,18 @@ def solve_kkt(transcription, x, p, lam_g, g_rows, x_rows, d_p, d_x_bound):
         [J_A  0      0  ] [dlam ] = - [ dg_A/dp dp      ]
         [E    0      0  ] [dnu  ]     [ -d(bound)       ]
 
-    (Fiacco 1976); the multipliers of the inactive rows and entries stay zero, which K
-    writes as rows dlam_i = 0, dnu_i = 0 so that its pattern does not depend on the
-    active set.
+    (Fiacco 1976). The multiplier nu_i of an entry held at its bound appears in the i-th
+    stationarity row alone, so that row and nu are dropped and dx_i = d(bound)_i written in
+    its place; the multipliers of the inactive rows of g stay zero, written as rows
+    dlam_i = 0. The matrix, of size n_x + n_g, so keeps one sparsity pattern whatever
+    the active set.
     """
-    function, solver = kkt_blocks(transcription)
-    n_x, n_g = x.size, lam_g.size
-    active_g, active_x = np.zeros(n_g), np.zeros(n_x)
-    active_g[g_rows], active_x[x_rows] = 1.0, 1.0
-    K, *blocks = function(x, p, lam_g, active_g, active_x)
-    blocks = [np.array(b) for b in blocks]
-    rhs = np.zeros((2 * n_x + n_g, d_p.shape[1]))
-    rhs[:n_x] = -blocks[1] @ d_p
-    rhs[n_x + g_rows] = -(blocks[2] @ d_p)[g_rows]
-    rhs[n_x + n_g + x_rows] = d_x_bound
-    solution = _solved(solver, K, rhs)
-    return solution[:n_x], blocks
-
-
-def _solved(solver, K, rhs):
-    """K^-1 rhs by `solver`; InputError when K is singular (no local sensitivities)."""
-    try:
-        solver.nfact(K)
-        solution = np.array(solver.solve(K, ca.DM(rhs)))
-    except RuntimeError:                # a factorization that failed
-        solution = np.full(rhs.shape, np.nan)
-    if not np.isfinite(solution).all():
+    k = d_p.shape[1]
+    active_g, active_x, d_bound = np.zeros(lam_g.size), np.zeros(x.size), np.zeros((x.size, k))
+    active_g[g_rows], active_x[x_rows], d_bound[x_rows] = 1.0, 1.0, d_x_bound
+    dx, d_cost = (o.full() for o in kkt_solution(transcription, k)(x, p, lam_g, active_g, active_x,
+                                                                    d_p, d_bound))
+    if not (np.isfinite(dx).all() and np.isfinite(d_cost).all()):
         raise InputError("the optimum's KKT matrix is singular: the active constraints are "
                          "dependent or the optimum is not strict; no sensitivities there.")
-    return solution
+    return dx, d_cost.ravel()

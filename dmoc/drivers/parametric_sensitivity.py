@@ -116,12 +116,11 @@ def sensitivities(problem, result, *, wrt):
     d_p, lower, upper = (np.hstack([c[i] for c in columns]) for i in range(3))
     xs, lam_gs, lam_xs = result.x / T.x_scale, result.lam_g / T.g_scale, result.lam_x * T.x_scale
     lbg, ubg = T.scaled_g_bounds
-    g_value = T.separable.values(xs, T.p)[1]
+    g_value = T.separable.values(xs, T.p)[1] if (lbg != ubg).any() else lbg    # all equality rows
     g_rows, _ = active_sets(g_value, lbg, ubg, lam_gs)
     x_rows, at_upper = active_sets(xs, T.lbx / T.x_scale, T.ubx / T.x_scale, lam_xs)
     d_bound = np.where(at_upper[:, None], upper[x_rows], lower[x_rows])
-    dxs, blocks = solve_kkt(T, xs, T.p, lam_gs, g_rows, x_rows, d_p, d_bound / T.x_scale[x_rows, None])
-    d_cost = blocks[0].ravel() @ dxs + blocks[3].ravel() @ d_p
+    dxs, d_cost = solve_kkt(T, xs, T.p, lam_gs, g_rows, x_rows, d_p, d_bound / T.x_scale[x_rows, None])
     return _in_user_shapes(problem, names, dxs * T.x_scale[:, None], d_p, d_cost,
                            {"g": g_rows, "x": x_rows})
 
@@ -167,8 +166,9 @@ def _value(problem, name):
 
 def _moved(problem, name, value):
     """`problem` with datum `name` set to `value` (the same NLP)."""
-    return (problem.with_boundary(**{name: value}) if name in BOUNDARY_DATA
-            else problem.with_parameters(**{name: value}))
+    if name in BOUNDARY_DATA:           # a free entry (NaN) stays free: None
+        return problem.with_boundary(**{name: [None if np.isnan(v) else v for v in value]})
+    return problem.with_parameters(**{name: value})
 
 
 def _in_user_shapes(problem, names, dx, d_p, d_cost, active):

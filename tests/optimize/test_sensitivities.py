@@ -94,3 +94,13 @@ def test_bad_requests_are_named():
     other = dmoc.optimize(dmoc.problems.knife_edge_parking(20))
     with pytest.raises(InputError, match=r"`result` must be an optimum of `problem`"):
         dmoc.sensitivities(p, other, wrt="q_goal")
+
+
+def test_a_free_goal_entry_has_zero_derivatives_and_the_others_match_re_solves():
+    p = problem().with_boundary(q_goal=[0.5, 1.0, None])
+    result = dmoc.optimize(p, options=OPTIONS)
+    d = dmoc.sensitivities(p, result, wrt="q_goal")
+    assert d.cost["q_goal"][2] == 0 and not d.q["q_goal"][..., 2].any()
+    moved = dmoc.optimize(p.with_boundary(q_goal=[0.5 + DELTA, 1.0, None]), guess=result, options=OPTIONS)
+    back = dmoc.optimize(p.with_boundary(q_goal=[0.5 - DELTA, 1.0, None]), guess=result, options=OPTIONS)
+    assert_relative(d.q["q_goal"][..., 0], (moved.trajectory.q - back.trajectory.q) / (2 * DELTA))
