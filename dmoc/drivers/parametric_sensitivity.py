@@ -32,11 +32,11 @@ class Sensitivities:
         The data differentiated in.
     cost : dict of str -> ndarray, shape s
         dJ/dtheta.
-    q : dict of str -> ndarray, shape (N+1, n, *s)
+    q : dict of str -> ndarray, shape (N+1, n) + s
         dq_k/dtheta of the optimal configurations.
-    u : dict of str -> ndarray, shape (N, n_controls, *s)
+    u : dict of str -> ndarray, shape (N, n_controls) + s
         du_k/dtheta of the optimal controls (at the rule's control nodes).
-    x : dict of str -> ndarray, shape (problem.transcription.x_layout.size, *s)
+    x : dict of str -> ndarray, shape (problem.transcription.x_layout.size,) + s
         dx/dtheta of the NLP vector in the system's units (its block "q" is q - q_ref).
     active : dict
         ``"g"``: the rows of g held at a bound (the equality rows and the active inequality
@@ -99,11 +99,11 @@ def sensitivities(problem, result, *, wrt):
     Examples
     --------
     >>> import dmoc, dmoc.problems
-    >>> problem = dmoc.problems.knife_edge_parking(10)
+    >>> problem = dmoc.problems.knife_edge_parking(20)
     >>> result = dmoc.optimize(problem)
     >>> d = dmoc.sensitivities(problem, result, wrt="q_goal")
     >>> d.cost["q_goal"].shape, d.q["q_goal"].shape
-    ((3,), (11, 3, 3))
+    ((3,), (21, 3, 3))
     """
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     checks.instance("result", result, OptimizationResult, "an OptimizationResult")

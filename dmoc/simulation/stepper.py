@@ -230,9 +230,8 @@ class DiracStepper:
 
     def run(self, start, controls, h, law=None):
         """Steps from state `start` under `controls` (N, n_controls), stopping at the first step
-        that neither Newton path converges, or at a KeyboardInterrupt (Ctrl-C). With a
-        feedback `law` ((k, state) -> controls of step k, `dmoc.simulation.feedback_law`),
-        the steps go one at a time, each under controls[k] = law(k, acc[k]) written first.
+        that neither Newton path converges, or at a KeyboardInterrupt (Ctrl-C); under a
+        feedback `law` (`dmoc.simulation.feedback_law`) one step at a time.
 
         Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
         the failed step (NaN when it turned non-finite) or None, number of steps redone by
@@ -262,9 +261,9 @@ class DiracStepper:
         return acc[:k + 1], out[:k], rnorm, redone, False
 
     def _steps(self, acc, out, controls, h, done, law=None):
-        """Fill `acc` and `out` chunk by chunk (step by step under a feedback `law`, which
-        writes controls[k] from acc[k] first), counting in `done` = [steps accepted, steps
-        redone]; return the rnorm of a failed step (NaN when non-finite), or None."""
+        """Fill `acc` and `out` chunk by chunk (by steps under a `law`: controls[k] = law(k,
+        acc[k]) first), counting in `done` = [steps accepted, steps redone]; return the
+        rnorm of a failed step (NaN when non-finite), or None."""
         N = controls.shape[0]
         steps = np.full(min(N, CHUNK), float(h))
         while done[0] < N:
