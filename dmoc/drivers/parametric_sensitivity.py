@@ -65,7 +65,9 @@ def sensitivities(problem, result, *, wrt):
     wrt : str or tuple of str
         Names of boundary data (``"q_start"``, ``"q_goal"``, ``"v_start"``, ``"v_goal"``,
         ``"p_start"``, the last when the problem gives it) or of the problem's
-        `parameters`. An entry left free (NaN) has zero derivatives.
+        `parameters`. An entry left free (NaN) has zero derivatives. A velocity datum
+        (v_start, v_goal) of a system with velocity constraints moves off them along a
+        coordinate, which `with_boundary` refuses.
 
     Returns
     -------
@@ -142,6 +144,10 @@ def _columns(problem, name):
         moved = flat.copy()
         moved[i] += step
         other = _moved(problem, name, moved.reshape(value.shape)).transcription
+        if other.structure != T.structure:
+            raise InputError(f"`wrt` names {name!r}, whose change gives this problem another NLP "
+                             f"(e.g. v_goal at a partly free goal: its velocity rows change): "
+                             f"no derivative.")
         for c, a, b in zip(cols, (T.p, T.lbx, T.ubx), (other.p, other.lbx, other.ubx)):
             finite = np.isfinite(a) & np.isfinite(b)
             c.append(np.subtract(b, a, out=np.zeros(a.size), where=finite) / step)
@@ -154,6 +160,9 @@ def _value(problem, name):
         raise InputError(f"`wrt` must name boundary data or parameters (str); got {name!r}.")
     if name in BOUNDARY_DATA:
         value = getattr(problem, name)
+        if name == "v_start" and problem.p_start is not None:
+            raise InputError("`wrt` names 'v_start', but this problem starts from p_start: "
+                             "differentiate in 'p_start'.")
         if value is None:
             raise InputError(f"`wrt` names {name!r}, which this problem does not give.")
         return np.asarray(value, dtype=float)

@@ -91,6 +91,12 @@ def test_bad_requests_are_named():
         dmoc.sensitivities(p, result, wrt="mass")
     with pytest.raises(InputError, match=r"`wrt` names 'p_start', which this problem does not give"):
         dmoc.sensitivities(p, result, wrt="p_start")
+    with pytest.raises(InputError, match=r"`wrt` names 'v_start', but this problem starts from p_start"):
+        started = p.with_boundary(p_start=[0.0, 0.0, 0.0])
+        dmoc.sensitivities(started, dmoc.optimize(started), wrt="v_start")
+    free = p.with_boundary(q_goal=[0.5, 1.0, None])
+    with pytest.raises(InputError, match=r"`wrt` names 'v_goal', whose change gives this problem another NLP"):
+        dmoc.sensitivities(free, dmoc.optimize(free), wrt="v_goal")
     other = dmoc.optimize(dmoc.problems.knife_edge_parking(20))
     with pytest.raises(InputError, match=r"`result` must be an optimum of `problem`"):
         dmoc.sensitivities(p, other, wrt="q_goal")
