@@ -2,8 +2,9 @@
 
 Oracles: central differences of re-solves with the data moved (`with_boundary`,
 `with_parameters`, warm-started, IPOPT to tol 1e-12), on a knife edge whose bounds are
-all inactive and on one whose control bound is active on three steps (the data moved by
-1e-4, far from a change of the active set); the envelope theorem: dJ/dq_goal equals minus
+all inactive, on one whose control bound is active on three steps and on one whose path
+constraint (a turning rate) is active at two midpoints (the data moved by 1e-4, far from
+a change of the active set); the envelope theorem: dJ/dq_goal equals minus
 the multipliers of the fixed entries q_N, and dJ/dr the derivative of the NLP's cost in r
 at the fixed optimal x.
 """
@@ -19,12 +20,13 @@ OPTIONS = {"tol": 1e-12}
 DELTA = 1e-4
 
 
-def problem(control_bounds=None):
+def problem(control_bounds=None, path_constraints=None):
     """The knife edge on 10 steps to a turned goal, cost u0^2 + r u1^2."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(), 0.2)
     return dmoc.OptimalControlProblem(
         disc, 10, q_start=[0, 0, 0], q_goal=[0.5, 1.0, 0.3], parameters={"r": 2.0},
-        running_cost=lambda q, v, u, w: u[0] ** 2 + w["r"] * u[1] ** 2, control_bounds=control_bounds)
+        running_cost=lambda q, v, u, w: u[0] ** 2 + w["r"] * u[1] ** 2, control_bounds=control_bounds,
+        path_constraints=path_constraints)
 
 
 def moved(problem, name, value):
@@ -51,15 +53,18 @@ def assert_relative(actual, expected, rtol=1e-6):
     assert np.abs(actual - expected).max() <= rtol * scale, (np.abs(actual - expected).max(), scale)
 
 
-@pytest.mark.parametrize("bounded", [False, True], ids=["inactive bounds", "active control bound"])
-def test_sensitivities_equal_differences_of_re_solves(bounded):
-    p = problem(([-10, -3], [10, 10]) if bounded else None)
+@pytest.mark.parametrize("case", ["inactive bounds", "active control bound", "active path constraint"])
+def test_sensitivities_equal_differences_of_re_solves(case):
+    bounded, path = case == "active control bound", case == "active path constraint"
+    p = problem(([-10, -3], [10, 10]) if bounded else None,
+                (lambda q, v, u, w: v[2] - 1.2) if path else None)      # turning rate <= 1.2
     result = dmoc.optimize(p, options=OPTIONS)
     names = ("q_goal", "r", "q_start") if bounded else ("q_goal", "r")
     d = dmoc.sensitivities(p, result, wrt=names)
     on_bound = np.isclose(result.trajectory.u[:, 1], -3.0, atol=1e-7)
     assert on_bound.sum() == (3 if bounded else 0)
     assert d.active["x"].size == 12 + on_bound.sum()      # q_0, q_N, v_start, v_goal and the bound
+    assert d.active["g"].size == 46 + (2 if path else 0)  # dynamics, start, goal, the held rate
     for name in names:
         cost, q, u = differences(p, result, name)
         shape = (3,) if name != "r" else (1,)
