@@ -14,6 +14,12 @@ construction + optimize (best of `--repeat`, each repeat in a fresh process so t
     python benchmarks/resolve.py
     python benchmarks/resolve.py --smallest      # the knife edge at N = 20, one process
     python benchmarks/resolve.py --checkouts /work/main /path/to/branch   # interleaved
+    python benchmarks/resolve.py --sensitivities  # dmoc.sensitivities against a warm re-solve
+
+With ``--sensitivities``, a second table, in this process: the derivatives of A's optimum in q_goal
+(`dmoc.sensitivities`, first call with its build, then best of `--repeat`) against the warm
+re-solve of B from A's optimum (``problem.with_boundary(q_goal=B)`` and optimize, best of
+`--repeat`); the ratio is sensitivities / warm re-solve (the goal: at most 0.2).
 """
 
 import argparse
@@ -85,6 +91,34 @@ def one_process(name, N):
     print(*(f"{s:.5f} {r.stats['iterations']}" for s, r in (first, resolve, warm, primal)))
 
 
+def best_of(repeat, run):
+    """(least wall seconds of `repeat` calls of `run`, its last value)."""
+    times = []
+    for _ in range(repeat):
+        tic = time.perf_counter()
+        value = run()
+        times.append(time.perf_counter() - tic)
+    return min(times), value
+
+
+def sensitivity_rows(cases, steps, repeat):
+    """(this process) the ``--sensitivities`` table: per case and N, the warm re-solve of
+    goal B from A's optimum and `dmoc.sensitivities` of A's optimum in q_goal."""
+    head = (f"{'case':<14}{'N':>6}{'warm s':>10}{'it':>4}{'sens first s':>14}{'sens s':>10}"
+            f"{'sens/warm':>11}")
+    print(head + "\n" + "-" * len(head))
+    for name in cases:
+        for N in steps:
+            a, b = GOALS[name]
+            problem = CASES[name](N, a)
+            first = dmoc.optimize(problem)
+            warm, moved = best_of(repeat, lambda: dmoc.optimize(problem.with_boundary(q_goal=b), guess=first))
+            build = best_of(1, lambda: dmoc.sensitivities(problem, first, wrt="q_goal"))[0]
+            sens = best_of(repeat, lambda: dmoc.sensitivities(problem, first, wrt="q_goal"))[0]
+            print(f"{name:<14}{N:>6}{warm:>10.4f}{moved.stats['iterations']:>4}{build:>14.4f}"
+                  f"{sens:>10.4f}{sens / warm:>11.2f}")
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "--one":
@@ -94,6 +128,8 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=3, help="fresh processes per case (default 3)")
     parser.add_argument("--steps", type=int, nargs="+", default=STEPS, help="N (default 100 400 1000)")
     parser.add_argument("--smallest", action="store_true", help="the knife edge at N = 20, one process")
+    parser.add_argument("--sensitivities", action="store_true",
+                        help="add the table of dmoc.sensitivities against a warm re-solve")
     add_checkouts(parser)
     args = parser.parse_args(argv)
     cases, steps = (("knife edge",), (20,)) if args.smallest else (CASES, args.steps)
@@ -119,6 +155,8 @@ def main(argv=None):
                       + "".join(f"{s:>12.4f}{int(i):>4}" for s, i in zip(seconds, its))
                       + f"{seconds[1] / seconds[0]:>10.2f}{seconds[2] / seconds[0]:>11.2f}"
                       f"{its[2] / its[1]:>15.2f}")
+    if args.sensitivities:
+        sensitivity_rows(cases, steps, max(args.repeat, 5))
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 

@@ -25,6 +25,7 @@ from .simulation import SimulationResult, simulate
 from .drivers.flow_linearization import flow_jacobians
 from .drivers.mpc import MPC
 from .drivers.riccati import FeedbackGains, tvlqr
+from .drivers.parametric_sensitivity import Sensitivities, sensitivities
 from .drivers.optimum import optimize
 from ._util.public_modules import publish
 
@@ -64,6 +65,8 @@ __all__ = [
     "MPC",
     "flow_jacobians",
     "tvlqr",
+    "sensitivities",
+    "Sensitivities",
     "FeedbackGains",
     "Trajectory",
     "RotationTrajectory",

@@ -24,7 +24,7 @@ SMALLEST = {
     "dmoc_vs_collocation": ["--smallest"],
     "mpc": ["--horizon", "10", "--steps", "3", "--repeat", "1", "--tracking"],
     "peers": ["first", "--smallest"],
-    "resolve": ["--smallest"],
+    "resolve": ["--smallest", "--sensitivities"],
     "robots": ["--smallest"],
     "scaling": ["--steps", "50", "100", "--repeat", "1"],
     "step_cost": ["--smallest"],

@@ -227,10 +227,13 @@ def _build_data(system, kind, primary, n, constraints, holonomic, force, n_u, dr
                             f"without them there is no motion to discretize (no step map).")
     (system.nonholonomic_matrix, system.holonomic,
      system.constraint_matrix) = constraint_functions(q, constraints, holonomic, problems)
-    args = ("q", second, "u")
+    args, before = ("q", second, "u"), len(problems)
     system.force = ca.Function("f", [q, x, u], [ca.SX.zeros(system.n)], args, ["f"]) \
         if force is None else user_function("force", force, (q, x, u), args, (system.n, 1),
                                             problems, label="f")
+    if len(problems) > before and system.n_u == 0:      # a force reading u, n_u forgotten
+        problems[-1] = problems[-1].rstrip(".") + (". With n_u = 0 the force is called with u of "
+                                                   "shape (0,): if it reads u, declare the number of controls, n_u=k.")
     names, units, controls, bodies = drawn
     system.names = coordinate_names(names, system.n, problems)
     system.control_names = control_names(controls, system.n_u, problems)

@@ -228,9 +228,10 @@ class DiracStepper:
         buffer.set_res(1, memoryview(out))
         evaluate()
 
-    def run(self, start, controls, h):
+    def run(self, start, controls, h, law=None):
         """Steps from state `start` under `controls` (N, n_controls), stopping at the first step
-        that neither Newton path converges, or at a KeyboardInterrupt (Ctrl-C).
+        that neither Newton path converges, or at a KeyboardInterrupt (Ctrl-C); under a
+        feedback `law` (`dmoc.simulation.feedback_law`) one step at a time.
 
         Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
         the failed step (NaN when it turned non-finite) or None, number of steps redone by
@@ -241,9 +242,9 @@ class DiracStepper:
         N = controls.shape[0]
         acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
         acc[0] = start
-        return self.resume(acc, out, controls, h, 0, redo=False)
+        return self.resume(acc, out, controls, h, 0, redo=False, law=law)
 
-    def resume(self, acc, out, controls, h, k, redo):
+    def resume(self, acc, out, controls, h, k, redo, law=None):
         """`run` from step `k` of arrays whose rows up to k (states) and k - 1 (outputs)
         are done, redoing step k with the line-search Newton first when `redo` (the fast
         path did not converge it): how a run that leaves the lockstep goes on
@@ -252,21 +253,24 @@ class DiracStepper:
         try:
             rnorm = self._redo(acc, out, controls, h, done) if redo else None
             if rnorm is None:
-                rnorm = self._steps(acc, out, controls, h, done)
+                rnorm = self._steps(acc, out, controls, h, done, law)
         except KeyboardInterrupt:
             k, redone = done
             return acc[:k + 1], out[:k], None, redone, True
         k, redone = done
         return acc[:k + 1], out[:k], rnorm, redone, False
 
-    def _steps(self, acc, out, controls, h, done):
-        """Fill `acc` and `out` chunk by chunk, counting in `done` = [steps accepted, steps
-        redone]; return the rnorm of a failed step (NaN when non-finite), or None."""
+    def _steps(self, acc, out, controls, h, done, law=None):
+        """Fill `acc` and `out` chunk by chunk (by steps under a `law`: controls[k] = law(k,
+        acc[k]) first), counting in `done` = [steps accepted, steps redone]; return the
+        rnorm of a failed step (NaN when non-finite), or None."""
         N = controls.shape[0]
         steps = np.full(min(N, CHUNK), float(h))
         while done[0] < N:
             k = done[0]
-            c = chunk_length(N - k)
+            c = 1 if law else chunk_length(N - k)
+            if law:
+                controls[k] = law(k, acc[k])
             self.native_if_due()
             tic = time.perf_counter()
             self._chunk(acc[k], controls[k:k + c], steps[:c], acc[k + 1:k + 1 + c], out[k:k + c])

@@ -9,13 +9,15 @@ import time
 import numpy as np
 
 from ..discrete.group_discretization import GroupDiscretization
+from ..errors import InputError
 from ..principle.trajectory import Trajectory
+from .feedback_law import closed_loop
 from .group_stepping import simulate_on_group
 from .outcome import SimulationResult, finished_result, interrupted_result
 from .preparation import prepare
 
 
-def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
+def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, feedback=None, variant="+",
              throw=True, tol=1e-12, max_iter=50, jit=None):
     """Simulate the implicit discrete Lagrange-d'Alembert equations (37) or (41).
 
@@ -39,6 +41,16 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
         midpoint and trapezoid rules one control u_k held on [t_k, t_{k+1}]); a shape
         (N, n_u) array is held over each step for any rule. Zeros by default. A
         Trajectory's ``u`` has this form, so ``controls=traj.u`` replays it.
+    feedback : FeedbackGains, optional
+        Close the loop: the controls of step k are ``feedback.control(k, q_k, p_k)`` at the
+        state the simulation reached (for `dmoc.tvlqr`'s gains u*_k - K_k (x_k - x*_k)), so
+        `disc` may be a plant other than the model the gains were taken on (another mass,
+        another rule of as many controls per step); the trajectory's ``u`` are the controls
+        applied. Excludes `controls`; needs variant "+", `steps` at most the gains' horizon
+        and `disc.h` equal to their trajectory's h. Any object with a ``trajectory`` and a
+        method ``control(k, q, p)`` returning shape (disc.n_controls,) is a law. The steps
+        then go one at a time (the same step solve as without it, never a whole horizon in
+        one compiled call).
     variant : {"+", "-"} or Formulation
         The form of the equations (`dmoc.formulations`).
     throw : bool
@@ -96,11 +108,18 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, variant="+",
     ((11, 3), True)
     """
     if isinstance(disc, GroupDiscretization):
+        if feedback is not None:
+            raise InputError("`feedback` is not available for a GroupDiscretization (a rigid body "
+                             "on SO(3)): its gains would need the group step's linearization.")
         return simulate_on_group(disc, q0=q0, v0=v0, p0=p0, steps=steps, controls=controls,
                                  variant=variant, throw=throw, tol=tol, max_iter=max_iter, jit=jit)
-    run = prepare(disc, q0=q0, v0=v0, p0=p0, steps=steps, controls=controls, variant=variant,
+    run = prepare(disc, q0=q0, v0=v0, p0=p0, steps=steps,
+                  controls=None if feedback is not None else controls, variant=variant,
                   throw=throw, tol=tol, max_iter=max_iter, jit=jit)
-    return conclude(run, run.stepper.run(run.start, run.controls, disc.h))
+    law = None
+    if feedback is not None:
+        run.controls, law = closed_loop(run, feedback, controls)
+    return conclude(run, run.stepper.run(run.start, run.controls, disc.h, law))
 
 
 def conclude(run, stepped, *, final=False):

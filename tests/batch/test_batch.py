@@ -102,7 +102,10 @@ def test_64_parking_problems_match_serial_solves(client, capsys):
     results = batch.optimize_many(problems, client=client)
     _assert_same_as_serial(problems, results)
     assert {r.stats["worker"] for r in results} == set(client.scheduler_info()["workers"])
-    last = capsys.readouterr().err.rstrip().split("\r")[-1]
+    err = capsys.readouterr().err             # captured, not a terminal: plain lines
+    bar = [line for line in err.splitlines() if line.startswith("optimize [")]
+    assert "\r" not in err and 2 <= len(bar) <= 11
+    last = bar[-1]
     assert re.fullmatch(r"optimize \[#{30}\] 64/64 elapsed \d+:\d\d eta 0:00", last), last
 
 

@@ -140,7 +140,7 @@ def test_progress_shows_elapsed_time_and_eta():
 
     from dmoc.batch.progress import ProgressBar
     ticks, stream = iter([100.0, 100.0, 130.0, 190.0]), io.StringIO()
-    bar = ProgressBar(8, "simulate", stream, clock=lambda: next(ticks))
+    bar = ProgressBar(8, "simulate", stream, clock=lambda: next(ticks), terminal=True)
     bar.advance(2)          # 30 s for 2 of 8: 90 s to go
     bar.advance(6)
     bar.close()
@@ -148,6 +148,29 @@ def test_progress_shows_elapsed_time_and_eta():
     assert frames[2] == "simulate [#######.......................] 2/8 elapsed 0:30 eta 1:30"
     assert frames[3] == "simulate [##############################] 8/8 elapsed 1:30 eta 0:00\n"
     assert frames[1].endswith("0/8 elapsed 0:00 eta ?")
+
+
+def test_progress_in_a_log_is_one_plain_line_per_tenth():
+    """A stream that is not a terminal (a StringIO, as a CI log) gets no carriage returns:
+    a line at the first item and at each further tenth of 1000 items, 11 in all, however
+    the items arrive; a bar closed early ends with its state."""
+    import io
+
+    from dmoc.batch.progress import ProgressBar
+    stream = io.StringIO()
+    bar = ProgressBar(1000, "optimize", stream, clock=lambda: 0.0)
+    for _ in range(1000):
+        bar.advance(1)
+    bar.close()
+    lines = stream.getvalue().split("\n")
+    assert "\r" not in stream.getvalue() and lines[-1] == ""
+    assert [line.split()[2] for line in lines[:-1]] == ["1/1000"] + [f"{100 * k}/1000" for k in range(1, 11)]
+    stream = io.StringIO()
+    bar = ProgressBar(1000, "optimize", stream, clock=lambda: 0.0)
+    bar.advance(150)
+    bar.advance(3)
+    bar.close()
+    assert [line.split()[2] for line in stream.getvalue().splitlines()] == ["150/1000", "153/1000"]
 
 
 def test_a_problem_whose_rebuild_is_refused_is_shipped_itself():

@@ -109,3 +109,13 @@ def test_lists_of_expressions_get_the_hint(kwargs, name, words):
 def test_a_list_of_numbers_is_still_a_constant():
     system = dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 3, constraints=lambda q: [[0.0, 1.0, 0.0]])
     assert system.m == 1
+
+
+@pytest.mark.parametrize("force", [lambda q, v, u: ca.vertcat(u[0], 0), lambda q, v, u: u],
+                         ids=["reads an entry", "returns u"])
+def test_a_force_reading_u_without_n_u_says_to_declare_it(force):
+    """n_u left at 0: u has no entries, so the force fails (a slice out of range) or returns
+    shape (0, 1); either message says to declare n_u."""
+    with pytest.raises(dmoc.InputError, match=r"(?s)`force` .*With n_u = 0 the force is called with u of "
+                                         r"shape \(0,\): if it reads u, declare the number of controls, n_u=k\."):
+        dmoc.MechanicalSystem(lambda q, v: 0.5 * ca.dot(v, v), 2, force=force)
