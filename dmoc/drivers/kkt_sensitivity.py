@@ -15,6 +15,11 @@ _SOLUTIONS = BoundedCache(16, "kkt_solutions")    # by (NLP structure, number of
 
 ACTIVE_MULTIPLIER = 1e-6    # |multiplier| above this times (1 + the largest) marks an active bound
 ACTIVE_GAP = 1e-6           # and the row or entry within this (scaled, times 1 + |bound|) of it
+# -DEPENDENT_ROWS on the diagonal of the active rows' multiplier block: active rows that
+# are dependent (a path row held at a knot and at the two stage points beside it, whose
+# velocity is their mean) leave the multipliers non-unique and the KKT matrix singular;
+# the shift picks one of them and moves dx by about DEPENDENT_ROWS |dlam|.
+DEPENDENT_ROWS = 1e-12
 
 
 def kkt_solution(transcription, k):
@@ -43,7 +48,7 @@ def kkt_solution(transcription, k):
         grad_l = grad + ca.mtimes(jac.T, lam)
         free = ca.diag(1 - a_x)         # the stationarity rows of the entries not held
         K = ca.blockcat([[ca.mtimes(free, hess) + ca.diag(a_x), ca.mtimes(free, jac.T)],
-                         [ca.mtimes(ca.diag(a_g), jac), ca.diag(1 - a_g)]])
+                         [ca.mtimes(ca.diag(a_g), jac), ca.diag(1 - a_g) - DEPENDENT_ROWS * ca.diag(a_g)]])
         rhs = ca.vertcat(ca.mtimes(ca.diag(a_x), d_bound) - ca.mtimes(free, ca.mtimes(ca.jacobian(grad_l, p), d_p)),
                          -ca.mtimes(ca.diag(a_g), ca.mtimes(ca.jacobian(nlp.g, p), d_p)))
         dx = ca.solve(K, rhs, "qr")[:n_x, :]
@@ -96,7 +101,9 @@ def solve_kkt(transcription, x, p, lam_g, g_rows, x_rows, d_p, d_x_bound):
     stationarity row alone, so that row and nu are dropped and dx_i = d(bound)_i written in
     its place; the multipliers of the inactive rows of g stay zero, written as rows
     dlam_i = 0. The matrix, of size n_x + n_g, so keeps one sparsity pattern whatever
-    the active set.
+    the active set. The zero block of the active rows is shifted to -DEPENDENT_ROWS I, so
+    that dependent active rows (a path row held at a knot and at the stage points beside
+    it) leave the matrix regular; dx moves by about DEPENDENT_ROWS |dlam|.
     """
     k = d_p.shape[1]
     active_g, active_x, d_bound = np.zeros(lam_g.size), np.zeros(x.size), np.zeros((x.size, k))

@@ -64,7 +64,9 @@ def test_sensitivities_equal_differences_of_re_solves(case):
     on_bound = np.isclose(result.trajectory.u[:, 1], -3.0, atol=1e-7)
     assert on_bound.sum() == (3 if bounded else 0)
     assert d.active["x"].size == 12 + on_bound.sum()      # q_0, q_N, v_start, v_goal and the bound
-    assert d.active["g"].size == 46 + (2 if path else 0)  # dynamics, start, goal, the held rate
+    # dynamics, start, goal, and the held rate: at two midpoints and at the knot between
+    # them, whose velocity is their mean (dependent rows: a singular KKT matrix unshifted)
+    assert d.active["g"].size == 46 + (3 if path else 0)
     for name in names:
         cost, q, u = differences(p, result, name)
         shape = (3,) if name != "r" else (1,)
