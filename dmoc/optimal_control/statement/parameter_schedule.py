@@ -62,6 +62,7 @@ class ParameterSchedule:
         P = self.layout.size
         self.step_size = 2 * P + (CLOCK in values) if self.varying else P
         self.key = tuple((name, self.kinds[name], v.shape[-1]) for name, v in values.items())
+        self._point_function = None
 
     def stored(self, values):
         """The vector p holds, shape (size,), of `values` (same names and shapes)."""
@@ -125,11 +126,15 @@ class ParameterSchedule:
 
     def point_function(self):
         """``(w, c, h) -> point`` of `at` as a casadi.Function (for the rule's quadrature
-        of the running cost, `Discretization.discrete_cost`), or None without `varying`."""
+        of the running cost, `Discretization.discrete_cost`), or None without `varying`;
+        built once per schedule (the problems of one NLP share it)."""
         if not self.varying:
             return None
-        w, c, h = ca.SX.sym("w", self.step_size), ca.SX.sym("c"), ca.SX.sym("h")
-        return ca.Function("parameters_at", [w, c, h], [self.at(w, c, h)], ["w", "c", "h"], ["w_c"])
+        if self._point_function is None:
+            w, c, h = ca.SX.sym("w", self.step_size), ca.SX.sym("c"), ca.SX.sym("h")
+            self._point_function = ca.Function("parameters_at", [w, c, h], [self.at(w, c, h)],
+                                               ["w", "c", "h"], ["w_c"])
+        return self._point_function
 
 
 def _kind(value, steps):

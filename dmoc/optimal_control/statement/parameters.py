@@ -184,6 +184,7 @@ def refuse_violated_ends(path, problem, made):
     set of free entries (`_end_rows`: it depends on `path` and that set alone), shared by
     the problems of one NLP (`Transcription.with_bounds`), so that new boundary data are
     checked without building it again at every ``with_boundary`` (benchmarks/peers.py)."""
+    points = None
     for end in ("q_start", "q_goal"):
         given = getattr(problem, end)
         key = (end, np.isfinite(given).tobytes())
@@ -192,7 +193,9 @@ def refuse_violated_ends(path, problem, made):
         rows, at_end = made[key]
         if not rows:
             continue
-        w = problem.parameters.knot_points(problem.disc.h)[:, 0 if end == "q_start" else -1]
+        if points is None:
+            points = problem.parameters.knot_points(problem.disc.h)
+        w = points[:, 0 if end == "q_start" else -1]
         values = np.array(at_end(np.nan_to_num(given), w)).ravel()
         worst = int(np.argmax(values))
         if values[worst] > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
