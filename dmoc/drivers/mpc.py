@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from .._util import checks, deferred
-from ..errors import InputError, Interrupted, SolverError, Status
+from ..errors import InputError, Status, failure
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..optimal_control.solver.solving import solve        # the raw IPOPT solve of one problem
 from .measurement import MeasurementPolicy
@@ -266,12 +266,12 @@ class MPC:
         why no control is returned."""
         step = len(self.log) - 1
         if result.status == Status.INTERRUPTED:
-            return Interrupted(f"MPC step {step}: {result.message}", result)
+            return failure(f"MPC step {step}: {result.message}", result)
         why = ("on_failure='raise'" if self.on_failure == "raise" else
                "no plan to follow: the first solve failed" if self.plan is None else
                f"the last optimum's plan is used up ({self._age + 1} failed solves in a row)")
-        return SolverError(f"MPC step {step}: {result.message} No control is applied ({why}); "
-                           f"the last iterate is in `.result`.", result)
+        return failure(f"MPC step {step}: {result.message} No control is applied ({why}); "
+                       f"the last iterate is in `.result`.", result)
 
 
 def shifted(result, problem, steps=1):
