@@ -16,7 +16,7 @@ from ..errors import InputError
 from ..mechanics.rotations import as_rotation, matrix_of, orthogonalized, vector_of
 from ..principle.group_residual import group_step_residual
 from ..principle.rotation_trajectory import RotationTrajectory
-from .outcome import finished_result, interrupted_result
+from .outcome import finished_result, interrupted_result, run_stats
 from .preparation import native_choice
 from .stepper import DiracStepper, step_layouts
 
@@ -70,9 +70,8 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
     traj = RotationTrajectory(disc.h * np.arange(k + 1), state["q"].reshape(-1, 3, 3), state["p"],
                               state["dq"][1:], controls[:k].copy(), disc.h)
     rnorm = out[:, stepper.out.slice("rnorm")]
-    stats = {"steps": steps, "completed_steps": k, "robust_steps": redone,
-             "max_residual": float(rnorm.max()) if k else 0.0, "native": stepper.native,
-             "wall_time": time.perf_counter() - tic}
+    stats = run_stats(steps, k, redone, float(rnorm.max()) if k else 0.0, stepper.native,
+                      time.perf_counter() - tic)
     if stopped:
         return interrupted_result(traj, stats, throw)
     return finished_result(traj, stats, failed_rnorm, tol, throw)

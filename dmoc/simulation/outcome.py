@@ -45,6 +45,14 @@ class SimulationResult:
 ROUNDOFF_FLOOR = 100 * np.finfo(float).eps
 
 
+def run_stats(steps, k, redone, max_residual, native, wall):
+    """A run's ``stats``: of `steps` asked, `k` completed, `redone` of them by the
+    line-search Newton, the largest residual, whether the step ran compiled, the wall
+    seconds."""
+    return {"steps": steps, "completed_steps": k, "robust_steps": redone,
+            "max_residual": max_residual, "native": native, "wall_time": wall}
+
+
 def interrupted_result(traj, stats, throw):
     """The result of a run stopped by Ctrl-C after ``stats["completed_steps"]`` accepted
     steps."""

@@ -13,7 +13,7 @@ from ..errors import InputError
 from ..principle.trajectory import Trajectory
 from .feedback_law import closed_loop
 from .group_stepping import simulate_on_group
-from .outcome import SimulationResult, finished_result, interrupted_result
+from .outcome import SimulationResult, finished_result, interrupted_result, run_stats
 from .preparation import prepare
 
 
@@ -168,10 +168,8 @@ def conclude_group(runs, controls, acc, out, stepped, *, final=False, memory=np.
 
 
 def _stats(run, k, redone, max_residual, wall):
-    """The stats of `run` after `k` completed steps, `redone` of them by the line-search
-    Newton, `wall` seconds after its `tic`."""
-    return {"steps": run.controls.shape[0], "completed_steps": k, "robust_steps": redone,
-            "max_residual": max_residual, "native": run.stepper.native, "wall_time": wall}
+    """`run_stats` of `run` after `k` completed steps, `wall` seconds after its `tic`."""
+    return run_stats(run.controls.shape[0], k, redone, max_residual, run.stepper.native, wall)
 
 
 def _assemble(stepper, formulation, disc, controls, acc, out, final, memory=np.empty):
