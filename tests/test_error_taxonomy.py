@@ -58,8 +58,13 @@ def simulate(ctx, **changes):
 
 
 def closed_client():
-    """A distributed.Client of an in-process cluster without workers, closed."""
+    """A distributed.Client of an in-process cluster without workers, closed. Clients of
+    earlier rows are collected first: a Client finalized by a garbage collection that runs
+    inside the new Client's start stops the shared loop runner it is starting and hangs
+    (seen once in CI, distributed 2026.8.0: Client.__del__ under LoopRunner.start)."""
+    import gc
     import distributed
+    gc.collect()
     with distributed.Client(processes=False, n_workers=0, dashboard_address=":0") as client:
         return client
 
