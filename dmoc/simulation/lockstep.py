@@ -18,8 +18,10 @@ from .time_stepping import conclude, conclude_group
 from .step_blocks import LOCKSTEP, chunk_length
 
 # the most bytes of arrays (`memory_needed`) one group of runs in lockstep holds at once
-# beyond their results: about 140 knife-edge runs of 1000 steps
-GROUP_BYTES = 1 << 25
+# beyond their results: about 35 knife-edge runs of 1000 steps. Larger groups gain nothing
+# (the runs go through the compiled horizon LOCKSTEP at a time) and touch more memory
+# for the first time in a batch that is larger than the ones before.
+GROUP_BYTES = 1 << 23
 
 _SCRATCH = threading.local()        # the memory of `_scratch`, one per thread
 
@@ -177,15 +179,16 @@ def _evaluate(stepper, states, controls, h, following, per_step):
 
 def _scratch(shapes):
     """Float arrays of the `shapes` ({name: shape}) in memory this thread reuses from call
-    to call (2 GROUP_BYTES, about what a group needs, allocated once and touched only as
-    far as used; larger ones are fresh each time): a group's arrays are tens of MB, which
-    fresh allocations would fault in page by page each time."""
+    to call (2 GROUP_BYTES, about what a group needs, allocated and touched once; larger
+    ones are fresh each time): a group's arrays are megabytes, which fresh allocations
+    would fault in page by page each time, and a later, larger batch with them."""
     sizes = {name: int(np.prod(shape)) for name, shape in shapes.items()}
     total = sum(sizes.values())
     memory = getattr(_SCRATCH, "memory", None)
     if memory is None or memory.size < total:
         memory = np.empty(max(total, 2 * GROUP_BYTES // 8))
         if 8 * total <= 2 * GROUP_BYTES:
+            memory.fill(0.0)          # its pages faulted in now, by the thread's first group
             _SCRATCH.memory = memory
     arrays, at = {}, 0
     for name, shape in shapes.items():
