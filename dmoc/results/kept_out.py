@@ -8,7 +8,7 @@ that an obstacle stated only as a constraint (a problem file of the command line
 import casadi as ca
 import numpy as np
 
-from ..optimal_control.statement.parameters import knot_rows
+from ..optimal_control.statement.parameters import configuration_rows
 
 
 def kept_out_region(problem, x, y):
@@ -36,10 +36,9 @@ def kept_out_region(problem, x, y):
         return None
     n = problem.disc.system.n
     q = ca.SX.sym("q", n)
-    g = path(q, ca.SX.zeros(path.size1_in("v")), ca.SX.zeros(path.size1_in("u")),
-             ca.SX(ca.DM(problem.parameters.knot_points(problem.disc.h)[:, 0])))    # those at q_0
-    others = ca.vertcat(*[q[i] for i in range(n) if i not in (x, y)])
-    rows = [g[i] for i in knot_rows(path) if others.numel() == 0 or not ca.depends_on(g[i], others)]
+    w = ca.SX(ca.DM(problem.parameters.knot_points(problem.disc.h)[:, 0]))      # those at q_0
+    g, rows = configuration_rows(path, q, w, ca.vertcat(*[q[i] for i in range(n) if i not in (x, y)]))
+    rows = [g[i] for i in rows]
     if not rows:
         return None
     plane = ca.vertcat(q[x], q[y])

@@ -176,6 +176,14 @@ def knot_rows(path):
     return tuple(i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(v, u)))
 
 
+def configuration_rows(path, q, w, free):
+    """(g, rows): the rows g(q, 0, 0, w) of the path constraints `path` at the configuration
+    `q` and parameter values `w` (SX), and the indices of those that read the configuration
+    alone (`knot_rows`) and none of the SX symbols `free` (entries of q or w left free)."""
+    g = path(q, ca.SX.zeros(path.size1_in("v")), ca.SX.zeros(path.size1_in("u")), w)
+    return g, [i for i in knot_rows(path) if free.numel() == 0 or not ca.depends_on(g[i], free)]
+
+
 def refuse_violated_ends(path, problem, made):
     """InputError when a given end, q_start or q_goal, violates a row of the path
     constraints that reads the configuration alone (`knot_rows`; every row is imposed at
@@ -212,11 +220,10 @@ def _end_rows(path, problem, end, given):
     (the time t_0 + N h there is free), the Function (q, w) -> those rows at that end, w
     the values of the parameters there, or None without rows)."""
     q, w = ca.SX.sym("q", problem.disc.system.n), ca.SX.sym("w", problem.parameters.layout.size)
-    g = path(q, ca.SX.zeros(path.size1_in("v")), ca.SX.zeros(path.size1_in("u")), w)
     free = q[np.flatnonzero(~np.isfinite(given)).tolist()]
     if end == "q_goal" and problem.free_time and CLOCK in problem.parameters.layout.blocks:
         free = ca.vertcat(free, w[problem.parameters.layout.slice(CLOCK)])
-    rows = [i for i in knot_rows(path) if not ca.depends_on(g[i], free)]
+    g, rows = configuration_rows(path, q, w, free)
     return rows, ca.Function("at_end", [q, w], [g[rows]]) if rows else None
 
 
