@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from ..principle.trajectory import Trajectory
+from ..principle.trajectory_fields import copied_into
 from . import shared_memory, slot_writer
 
 FIELDS = ("t", "q", "p", "lam", "u", "s", "mu")
@@ -126,18 +127,23 @@ def pack(results, memory):
         piece = memory.take(sum(arrays[i].size for i in missing))
         at = memory.position(piece)
         if at is not None:                  # in the slot: copied there
-            for i in missing:
-                np.copyto(piece[:arrays[i].size].reshape(arrays[i].shape), arrays[i])
-                piece, starts[i], at = piece[arrays[i].size:], at, at + arrays[i].size
+            copied_into(piece, [arrays[i] for i in missing])
+            for i, start in zip(missing, _starts([arrays[i] for i in missing], at)):
+                starts[i] = start
             missing = []
     data = None
     if missing or not memory.file.held:
-        data, at = np.empty(sum(a.size for a in arrays)), 0
-        for i, a in enumerate(arrays):
-            np.copyto(data[at:at + a.size].reshape(a.shape), a)
-            starts[i], at = at, at + a.size
+        data = np.empty(sum(a.size for a in arrays))
+        copied_into(data, arrays)
+        starts = _starts(arrays, 0)
         memory.file.release()
     return _heads(results, fields, starts), data
+
+
+def _starts(arrays, at):
+    """The index of the first float of each of `arrays` laid out one after another from
+    index `at` (`copied_into`)."""
+    return np.cumsum([at] + [a.size for a in arrays])[:-1].tolist()
 
 
 def _fields(traj):

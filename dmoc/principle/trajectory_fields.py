@@ -79,13 +79,21 @@ def assembled(t, q, p, lam, u, h, mu, s, final, memory=np.empty):
     if q.ndim == 2:
         copies = [np.array(a, dtype=float, order="C") for a in arrays]
     else:
-        buffer, copies = memory(sum(np.size(a) for a in arrays)), []
-        for a in arrays:
-            copies.append(buffer[:np.size(a)].reshape(np.shape(a)))
-            buffer = buffer[np.size(a):]
-            np.copyto(copies[-1], a)
+        copies = copied_into(memory(sum(np.size(a) for a in arrays)), arrays)
     t, q, p, lam, u, s, mu = copies
     return t, q, p, lam, u, float(h), mu, s
+
+
+def copied_into(buffer, arrays):
+    """Views of consecutive pieces of the flat float array `buffer`, in order, each of the
+    shape of one of `arrays` and holding a copy of its values (`buffer` at least as long
+    as their sizes together)."""
+    views, at = [], 0
+    for a in arrays:
+        views.append(buffer[at:at + np.size(a)].reshape(np.shape(a)))
+        np.copyto(views[-1], a)
+        at += np.size(a)
+    return views
 
 
 def node_tuples(control_nodes, stage_nodes):
