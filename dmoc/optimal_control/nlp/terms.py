@@ -7,6 +7,7 @@ their own, and so are the path constraints and velocity bounds (`path_terms`: in
 steps and at every knot).
 """
 
+import functools
 import hashlib
 
 import casadi as ca
@@ -60,10 +61,10 @@ class _StepSlots:
         self.w_steps = P["w"][:, 0][problem.parameters.schedule.step_indices()]
         self.key = _functions_key(problem, G)
 
-    @property
+    @functools.cached_property
     def cost(self):
         """C_d(q0, q1, s, u, h, w) of the running cost, w the step's vector of parameters
-        (built only when a term is)."""
+        (built when a term first reads it, once)."""
         return self.problem.disc.discrete_cost(self.problem.running_cost,
                                                self.problem.parameters.schedule.point_function())
 
