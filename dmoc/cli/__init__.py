@@ -98,11 +98,12 @@ def build_parser():
                      "h = T/N; with --free-time the guess's (default: 4, or the middle of "
                      "--free-time)")
     opt.add_argument("--free-time", metavar="TMIN,TMAX", help="free final time in [TMIN, TMAX]")
-    for which, names in (("control", "u"), ("state", "q")):
+    for which, names in (("control", "u"), ("state", "q"), ("velocity", "v")):
         for end, word in (("min", "lower"), ("max", "upper")):
             opt.add_argument(f"--{which}-{end}", metavar=names.upper(),
                              help=f"{word} bounds of {names}, comma-separated; entries 'none' "
-                             f"are unbounded")
+                             f"are unbounded" + (" (at every knot and stage node)"
+                                                 if which == "velocity" else ""))
     opt.add_argument("--max-iter", type=positive_int, default=1000, metavar="K",
                      help="IPOPT iteration limit (default: 1000)")
     dem = sub.add_parser("demo", help="simulate and optimize the built-in systems; write a summary and plots")

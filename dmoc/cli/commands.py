@@ -213,7 +213,8 @@ def _stated_problem(args, spec, system):
     controls = spec.control_labels(system)
     with options_named({"q_start": "--start", "q_goal": "--goal", "v_start": "--velocity",
                         "control_bounds": "--control-min/--control-max", "duration": "--free-time",
-                        "state_bounds": "--state-min/--state-max"}):
+                        "state_bounds": "--state-min/--state-max",
+                        "velocity_bounds": "--velocity-min/--velocity-max"}):
         return OptimalControlProblem(
             disc, steps, variant=args.variant or "+", duration=free_time,
             q_start=_with_none(_default("--start", args.start, spec.start or (0.0,) * system.n,
@@ -222,14 +223,16 @@ def _stated_problem(args, spec, system):
             v_start=None if args.velocity is None else _with_none(
                 arguments.vector("--velocity", args.velocity, system.names, free=True)),
             control_bounds=_bounds(args, "control", controls),
-            state_bounds=_bounds(args, "state", system.names))
+            state_bounds=_bounds(args, "state", system.names),
+            velocity_bounds=_bounds(args, "velocity", system.names))
 
 
 def _given_problem(args, problem):
     """The problem a file's factory returned, with the boundary data of --start, --goal
     and --velocity."""
     _refuse_stated(args, ("--steps", "--rule", "--variant", "--duration", "--free-time",
-                          "--control-min", "--control-max", "--state-min", "--state-max"))
+                          "--control-min", "--control-max", "--state-min", "--state-max",
+                          "--velocity-min", "--velocity-max"))
     names = problem.disc.system.names
     given = {key: _with_none(arguments.vector(option, text, names, free=True))
              for key, option, text in (("q_start", "--start", args.start),

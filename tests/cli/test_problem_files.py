@@ -96,7 +96,7 @@ def test_controls_without_times_need_a_duration(tmp_path, capsys):
 
 @pytest.mark.parametrize("option, value", [("--steps", "10"), ("--rule", "trapezoid"),
                                            ("--duration", "3"), ("--control-max", "1,1"),
-                                           ("--free-time", "1,2")])
+                                           ("--free-time", "1,2"), ("--velocity-max", "1,1,1")])
 def test_a_problem_refuses_the_options_it_states(option, value, capsys):
     assert main(["optimize", SYSTEM, option, value]) == 2
     err = capsys.readouterr().err
@@ -149,6 +149,17 @@ def test_control_and_state_bounds_hold(tmp_path, capsys):
                              "--state-max", "none,none,1.2")
     assert np.abs(traj.u[:, 0]).max() == pytest.approx(0.8, abs=1e-7)
     assert np.abs(traj.q[:, 2]).max() == pytest.approx(1.2, abs=1e-7)
+    assert bounded["cost"] > unbounded["cost"]
+
+
+def test_velocity_bounds_hold(tmp_path, capsys):
+    """--velocity-min/--velocity-max bound the heading rate, 1.07 unbounded, to 0.6: on the
+    midpoint rule at each step's midpoint, (q_{k+1} - q_k)/h."""
+    unbounded, free_traj = _optimum(tmp_path / "unbounded")
+    bounded, traj = _optimum(tmp_path / "bounded", "--velocity-min", "none,none,-0.6",
+                             "--velocity-max", "none,none,0.6")
+    assert np.abs(free_traj.velocities[:, 2]).max() > 1.0
+    assert np.abs(traj.velocities[:, 2]).max() == pytest.approx(0.6, abs=1e-7)
     assert bounded["cost"] > unbounded["cost"]
 
 
