@@ -15,6 +15,7 @@ from .._util import checks
 from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
 from ..optimal_control.solver.verdict_record import STATUSES, Verdict
+from ..optimal_control.statement.parameters import row_texts
 from ..results.diagnostics import compared_momenta, replays
 from ..discrete.knot_states import knot_velocities
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
@@ -103,9 +104,15 @@ def _verdict(problem, traj, simulated, ends, knot_values):
     jump = float(changes[k, i]) if changes.size else 0.0
     bounds, bound_names = knot_velocity_bound_values(problem, traj, ends)
     rows = 0 if knot_values is None else knot_values.shape[1]
+
+    def name_of(row):
+        if row >= rows:
+            return bound_names[row - rows]
+        text = row_texts(problem.path_constraints, problem.disc.system, problem.parameters.layout)[row]
+        return f"path_constraints row {row} ({text} <= 0)"
     path, path_step, row, limit = _path_violation(
         np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
-        [f"path_constraints row {r}" for r in range(rows)] + bound_names)
+        name_of)
     failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
               jump > JUMP_LIMIT)
     status = next((s for s, f in zip(STATUSES, failed) if f), Status.PASSED)
@@ -257,9 +264,9 @@ def knot_velocity_bound_values(problem, traj, ends=None):
     return values, [name for _, name in columns]
 
 
-def _path_violation(g, names):
+def _path_violation(g, name_of):
     """(largest g_k relative to its row's scale max(1, max_k |g_k|), knot, row, the row's
-    name among `names`) of the values at the knots `g` (N + 1, rows: `knot_path_values`
+    name ``name_of(row)``) of the values at the knots `g` (N + 1, rows: `knot_path_values`
     then `knot_velocity_bound_values`); (0, -1, -1, "") without rows or violations. The 1
     keeps a row that is held at zero everywhere (an equality written as the pair g, -g)
     from being measured against its own round-off."""
@@ -269,4 +276,4 @@ def _path_violation(g, names):
     k, row = np.unravel_index(np.argmax(relative), relative.shape)
     if relative[k, row] <= 0:
         return 0.0, -1, -1, ""
-    return float(relative[k, row]), int(k), int(row), names[row]
+    return float(relative[k, row]), int(k), int(row), name_of(int(row))

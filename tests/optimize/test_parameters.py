@@ -171,3 +171,16 @@ def test_discrete_cost_takes_a_plain_callable():
     assert value == pytest.approx(H * 0.25, rel=1e-15)
     with pytest.raises(TypeError, match="`running_cost` must be a callable"):
         disc().discrete_cost(3)
+
+
+def test_messages_write_a_path_row_with_the_names_of_its_symbols():
+    """`row_texts`: the coordinates, their velocities (v_<name>), the controls and the
+    parameters (a block of two entries as c_0, c_1) by name, a long row cut to the width."""
+    from dmoc.optimal_control.statement.parameters import row_texts
+    problem = dmoc.OptimalControlProblem(
+        disc(), N, q_start=START, q_goal=GOAL, parameters={"c": [-0.1, 0.5], "rho": 0.2},
+        path_constraints=lambda q, v, u, w: ca.vertcat(
+            obstacle(q, v, u, w), v[2] - 2 * u[1], ca.sumsqr(ca.vertcat(*[q[0] ** k for k in range(1, 30)]))))
+    texts = row_texts(problem.path_constraints, problem.disc.system, problem.parameters.layout)
+    assert texts[:2] == ("(sq(rho)-(sq((x-c_0))+sq((y-c_1))))", "(v_theta-(2.*torque))")
+    assert len(texts[2]) == 72 and texts[2].endswith("...")

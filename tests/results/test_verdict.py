@@ -106,9 +106,10 @@ def test_a_rate_limit_crossed_at_the_knots_is_a_path_violation():
     k = verdict.path_step        # the motion is symmetric: two knots tie
     assert over[k - 1] > over.max() - 1e-9 * limit
     assert verdict.path_row == (0 if rate[k - 1] > 0 else 1)
-    assert verdict.path_limit == f"path_constraints row {verdict.path_row}"
+    written = f"(v_theta-{limit:.6g})" if verdict.path_row == 0 else f"(-(v_theta+{limit:.6g}))"
+    assert verdict.path_limit == f"path_constraints row {verdict.path_row} ({written} <= 0)"
     message = verdict_message(verdict, free)
-    assert f"path_constraints row {verdict.path_row} is violated at knot {k}" in message
+    assert f"path_constraints row {verdict.path_row} ({written} <= 0) is violated at knot {k}" in message
     assert dmoc.optimize(problem).verdict.passed
 
 

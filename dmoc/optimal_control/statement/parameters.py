@@ -176,6 +176,25 @@ def knot_rows(path):
     return tuple(i for i in range(g.numel()) if not ca.depends_on(g[i], ca.vertcat(v, u)))
 
 
+def row_texts(path, system, layout, width=72):
+    """The expression of each row of the path constraints `path` (`path_function`) as the
+    user wrote it, with the system's coordinate names for q (v_<name> for v), its control
+    names for u and the parameter names of `layout` (a block of size k as name_0 ...
+    name_<k-1>), on one line, cut to `width` characters: how messages name a row besides
+    its index."""
+    def named(names):
+        return ca.vertcat(*[ca.SX.sym(name) for name in names]) if names else ca.SX(0, 1)
+    w = [name if layout.numel(name) == 1 else f"{name}_{j}"
+         for name in layout.blocks for j in range(layout.numel(name))]
+    g = path(named(system.names), named([f"v_{name}" for name in system.names]),
+             named(system.control_names), named(w))
+    texts = []
+    for i in range(g.numel()):
+        text = " ".join(str(g[i]).split())
+        texts.append(text if len(text) <= width else text[:width - 3] + "...")
+    return tuple(texts)
+
+
 def configuration_rows(path, q, w, free):
     """(g, rows): the rows g(q, 0, 0, w) of the path constraints `path` at the configuration
     `q` and parameter values `w` (SX), and the indices of those that read the configuration
