@@ -14,9 +14,11 @@ import numpy as np
 from ..._util import checks
 from ...errors import InputError, InputTypeError
 from ..system import MechanicalSystem
-from .link_recursion import Link, energies, rpy_rotation
+from .link_recursion import Link, energies, placement, rpy_rotation
 from .step_failure import step_failure_hint
 from .urdf_file import read_urdf
+from .wheeled_base import (BASE_NAMES, BASE_UNITS, base_velocity, read_wheels, rolling_constraints,
+                           rolling_rows, world_position)
 
 EXTRA = "pip install 'dmoc[robots]'"
 
@@ -85,29 +87,62 @@ class RobotSystem(MechanicalSystem):
     (2, 2, ('shoulder', 'elbow'))
     """
 
-    def __init__(self, path, joints=None, *, friction=None, gravity=9.81):
+    def __init__(self, path, joints=None, *, wheels=None, friction=None, gravity=9.81):
         self.path = checks.file_path("path", path)
         movable, text = read_urdf(self.path)
         self.joints = _chosen_joints(movable, joints)
-        n = len(self.joints)
         g = checks.finite_float("gravity", gravity)
         self.friction = _friction(friction, self.joints)
-        q, v = ca.SX.sym("q", n), ca.SX.sym("v", n)
-        T, V = energies(_tree(text, self.joints), q, v, g)
+        self.links = _tree(text, self.joints)
+        self.wheels = () if wheels is None else read_wheels(wheels, self.joints, self.links,
+                                                            text, self.path)
+        self.wheel_rows, constraints = (), None
+        if self.wheels:
+            B, self.wheel_rows = rolling_rows(self.wheels, len(self.joints))
+            constraints = rolling_constraints(B)
+        k, n_u = (3 if self.wheels else 0), len(self.joints)
+        q, v = ca.SX.sym("q", k + n_u), ca.SX.sym("v", k + n_u)
+        T, V = energies(self.links, q[k:], v[k:], g, base_velocity(q, v) if k else None)
         self.mass_matrix = ca.Function("M", [q], [ca.hessian(T, v)[0]], ["q"], ["M"])
         self.potential = ca.Function("V", [q], [V], ["q"], ["V"])
-        self.position_limits = (np.array([j.lower for j in self.joints]),
-                                np.array([j.upper for j in self.joints]))
+        self._set_limits(k)
+        D = ca.DM(self.friction)
+        super().__init__(ca.Function("L", [q, v], [T - V]), k + n_u, constraints=constraints,
+                         force=lambda q, v, u: ca.vertcat(ca.SX.zeros(k), u - D * v[k:]), n_u=n_u,
+                         names=BASE_NAMES[:k] + tuple(j.name for j in self.joints),
+                         control_names=tuple(f"tau_{j.name}" for j in self.joints),
+                         units={"t": "s", "q": BASE_UNITS[:k] + tuple(j.units[0] for j in self.joints),
+                                "u": tuple(j.units[1] for j in self.joints)})
+
+    def _set_limits(self, k):
+        """The limits of the file, the base's k coordinates unbounded."""
+        free = np.full(k, np.inf)
+        self.position_limits = (np.concatenate([-free, [j.lower for j in self.joints]]),
+                                np.concatenate([free, [j.upper for j in self.joints]]))
         self.effort_limits = (-np.array([j.effort for j in self.joints]),
                               np.array([j.effort for j in self.joints]))
-        self.velocity_limits = np.array([j.velocity for j in self.joints])
-        D = ca.DM(self.friction)
-        super().__init__(ca.Function("L", [q, v], [T - V]), n,
-                         force=lambda q, v, u: u - D * v, n_u=n,
-                         names=tuple(j.name for j in self.joints),
-                         control_names=tuple(f"tau_{j.name}" for j in self.joints),
-                         units={"t": "s", "q": tuple(j.units[0] for j in self.joints),
-                                "u": tuple(j.units[1] for j in self.joints)})
+        self.velocity_limits = np.concatenate([free, [j.velocity for j in self.joints]])
+
+    def link_position(self, name):
+        """The position of a link's frame origin, a casadi.Function q -> (3,) in the world's
+        frame (the fixed base's frame, or the plane's for a wheeled base).
+
+        Parameters
+        ----------
+        name : str
+            A link of the file.
+
+        Returns
+        -------
+        casadi.Function
+            ``link_position(q)``, q of shape (n,), named after the link.
+        """
+        names = [link.name for link in self.links]
+        checks.choice("name", name, tuple(names))
+        k = 3 if self.wheels else 0
+        q = ca.SX.sym("q", self.n)
+        _, p = placement(self.links, names.index(name), q[k:])
+        return ca.Function(name, [q], [world_position(q, p) if k else p], ["q"], ["position"])
 
     @functools.cached_property
     def stiffness(self):
@@ -194,12 +229,12 @@ def _link(node, order):
     inertia = turn @ _numbers(inertial.inertia.matrix) @ turn.T
     mass, center = float(_numbers(inertial.mass)), _numbers(inertial.origin.xyz)
     if joint is None:
-        return Link(None, "base", None, np.zeros(3), np.eye(3), np.zeros(3), mass, center, inertia)
+        return Link(link.name, None, "base", None, np.zeros(3), np.eye(3), np.zeros(3), mass, center, inertia)
     axis = np.zeros(3)
     if joint.idx is not None:
         axis = _numbers(joint.axis)
         axis = axis / np.linalg.norm(axis)
-    return Link(order[parent.name], joint.type if joint.idx is not None else "fixed", joint.idx,
+    return Link(link.name, order[parent.name], joint.type if joint.idx is not None else "fixed", joint.idx,
                 _numbers(joint.origin.xyz), rpy_rotation(_numbers(joint.origin.rpy)), axis,
                 mass, center, inertia)
 
