@@ -9,9 +9,11 @@ virtual machine's step (a run of `--steps` steps), the first compiled run (`jit=
 empty cache folder: the step's C compiled), the compiled step, and with `--dmoc` a
 rest-to-rest DMOC end to end (problem built and `dmoc.optimize` judged, N = 20 over 1 s,
 cost u^T u + 10 v^T v (0.1 v^T v on wheels, whose rates are many times the base's speed:
-10 buys an impulsive start that 20 steps do not resolve), the file's limits, from q = 0.3 or the nearest point 0.6 inside the
-limits, each joint moving 0.5 to 0.2 in alternating directions, a wheel's angle left free). Midpoint rule, h = 0.01, from q = 0.1 at rest
-under zero torques (a small swing about the hanging rest, for any number of steps). Then the log-log slope of each cost against n over the chains.
+10 buys an impulsive start that 20 steps do not resolve), the file's limits, from q = 0.3
+or the nearest point 0.6 inside the limits, each joint moving 0.5 to 0.2 in alternating
+directions, a wheel's angle left free). Midpoint rule, h = 0.01, from q = 0.1 at rest
+under zero torques (a small swing about the hanging rest, for any number of steps). Then
+the log-log slope of each cost against n over the chains.
 
 With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
 file as a fixed-base robot (the baseline: the wheels spin in the air) and on its wheels
@@ -90,7 +92,8 @@ def rest_to_rest(system, steps=20):
     lower, upper = system.position_limits
     q_start = np.clip(0.3, lower + 0.6, upper - 0.6)       # 0.3 where the limits allow it
     q_goal = q_start + np.linspace(0.5, 0.2, system.n) * np.where(np.arange(system.n) % 2, -1, 1)
-    q_goal = [None if i in {3 + w.index for w in system.wheels} else x for i, x in enumerate(q_goal)]
+    wheels = {3 + w.index for w in system.wheels}
+    q_goal = [None if i in wheels else x for i, x in enumerate(q_goal)]
     weight = 0.1 if system.wheels else 10
 
     def solve():
@@ -197,7 +200,8 @@ def main(argv=None):
                              "--alternatives --mobile")
     args = parser.parse_args(argv)
     if args.smallest:
-        args.joints, args.steps, args.compile, args.alternatives, args.mobile = [2], 20, False, True, True
+        args.joints, args.steps, args.compile = [2], 20, False
+        args.alternatives = args.mobile = True
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:

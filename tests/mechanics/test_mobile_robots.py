@@ -99,8 +99,10 @@ def test_mass_matrix_gravity_bias_and_constraints_equal_the_oracles(robot, oracl
         theirs = np.triu(theirs) + np.triu(theirs, 1).T
         assert close(np.array(M(q))[np.ix_(order, order)], theirs)
         assert close(np.array(robot.mass_matrix(q))[np.ix_(order, order)], theirs)
-        assert close(np.array(G(q)).ravel()[order], pin.computeGeneralizedGravity(model, data, q_pin))
-        assert close(np.array(bias(q, v)).ravel()[order], pin.nonLinearEffects(model, data, q_pin, v_pin))
+        assert close(np.array(G(q)).ravel()[order],
+                     pin.computeGeneralizedGravity(model, data, q_pin))
+        assert close(np.array(bias(q, v)).ravel()[order],
+                     pin.nonLinearEffects(model, data, q_pin, v_pin))
         assert close(force(q, v), -damping * v)
         pin.framesForwardKinematics(model, data, q_pin)
         assert close(tool(q), data.oMf[model.getFrameId("tool")].translation)
@@ -113,7 +115,8 @@ def test_the_wheels_names_limits_and_sizes_are_the_files(robot):
                            "arm_shoulder", "arm_elbow")
     assert robot.wheel_rows == ("left_wheel rolls", "right_wheel rolls",
                                 "left_wheel does not slip sideways")
-    assert [(w.joint, w.radius) for w in robot.wheels] == [("left_wheel", 0.08), ("right_wheel", 0.08)]
+    assert [(w.joint, w.radius) for w in robot.wheels] == [("left_wheel", 0.08),
+                                                           ("right_wheel", 0.08)]
     np.testing.assert_array_equal(robot.wheels[1].centre, [AXLE_X, -HALF_TRACK, 0.0])
     np.testing.assert_array_equal(robot.position_limits[1], [np.inf] * 5 + [2.9, 2.0, 2.5])
     np.testing.assert_array_equal(robot.effort_limits[1], [10, 10, 20, 30, 15])
@@ -265,7 +268,8 @@ def test_declared_radii_give_the_rows_of_the_geometry(tmp_path, robot):
     ([], ("left_wheel", "castor"), r"`wheels` must name distinct moving joints.*\['castor'\] not"),
     ([], ("left_wheel", "left_wheel"), r"`wheels` must name distinct"),
     ([], "left_wheel", r"`wheels` must be a sequence"),
-    ([], {"left_wheel": -0.08, "right_wheel": None}, r"the radius of 'left_wheel' must be a number > 0"),
+    ([], {"left_wheel": -0.08, "right_wheel": None},
+     r"the radius of 'left_wheel' must be a number > 0"),
     ([(LEFT_CYLINDER, '<geometry><sphere radius="0.08"/></geometry>')], WHEELS,
      r"joint 'left_wheel'.*link 'left_wheel_link' has no <collision> or <visual> <cylinder>"
      r".*wheels=\{'left_wheel': r\}"),
@@ -275,7 +279,8 @@ def test_declared_radii_give_the_rows_of_the_geometry(tmp_path, robot):
      WHEELS, r"must touch one ground plane.*'left_wheel' at z = -0.07, 'right_wheel' at z = -0.08"),
     ([('<origin xyz="0 0 0" rpy="0 0 0"/>\n      <geometry><cylinder',
        '<origin xyz="0 0.03 0" rpy="0 0 0"/>\n      <geometry><cylinder')],
-     WHEELS, r"the collision cylinder of link 'left_wheel_link' must be centred on the joint's axis"),
+     WHEELS, r"the collision cylinder of link 'left_wheel_link' must have a radius > 0, be "
+             r"centred on the joint's axis.*centre \[0.0, 0.03, 0.0\]"),
     ([('<parent link="base_link"/>\n    <child link="left_wheel_link"/>',
        '<parent link="turret"/>\n    <child link="left_wheel_link"/>')],
      WHEELS, r"wheel joint 'left_wheel'.*fixed to the base; \['turret'\] move"),

@@ -1,6 +1,7 @@
-"""The Lagrangian of a fixed-base robot by the forward recursion over its kinematic tree, for
-the mechanics stage: each link's angular velocity and the velocity of its origin in its own
-frame from its parent's, its centre of mass's velocity and height, and from them the
+"""The Lagrangian of a robot by the forward recursion over its kinematic tree, from a base at
+rest or moving in the horizontal plane, and its links' placements, for the mechanics stage:
+each link's angular velocity and the velocity of its origin in its own frame from its
+parent's, its centre of mass's velocity and height, and from them the
 kinetic energy T = sum_i 1/2 m_i |v_ci|^2 + 1/2 w_i^T I_i w_i and the gravitational energy
 V = g sum_i m_i z_ci. The graph of L has O(n) nodes for n joints (the mass matrix M(q) has
 n^2 entries of O(n) nodes each), so the step's second derivatives of L stay O(n^2).

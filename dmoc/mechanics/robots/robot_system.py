@@ -1,9 +1,10 @@
-"""A fixed-base robot from its URDF file as a MechanicalSystem, for the mechanics stage:
-L(q, v) = T(q, v) - V(q), the links' kinetic and gravitational energies summed over the
-kinematic tree by the forward recursion of `link_recursion` (O(n) nodes for n joints, so
-that the step's second derivatives of L stay O(n^2)), on the tree, joint frames and
-inertias adam [1]_ parses from the file; the joint torques are the controls and viscous
-joint friction a force.
+"""A robot from its URDF file as a MechanicalSystem, for the mechanics stage, on a fixed
+base or on wheels: L(q, v) = T(q, v) - V(q), the links' kinetic and gravitational energies
+summed over the kinematic tree by the forward recursion of `link_recursion` (O(n) nodes for
+n joints, so that the step's second derivatives of L stay O(n^2)), on the tree, joint frames
+and inertias adam [1]_ parses from the file; the joint torques are the controls and viscous
+joint friction a force; a wheeled base's rolling rows are constraint one-forms (27)
+(`wheeled_base`).
 """
 
 import functools
@@ -24,8 +25,9 @@ EXTRA = "pip install 'dmoc[robots]'"
 
 
 class RobotSystem(MechanicalSystem):
-    """A fixed-base robot arm read from a URDF file, as a MechanicalSystem (n joints, n
-    torques).
+    """A robot read from a URDF file, as a MechanicalSystem: an arm on a fixed base (n
+    joints, n torques) or, with `wheels`, a mobile robot whose base rolls on its wheels (n =
+    3 + joints, the base's pose first; m rolling rows (27); a torque per joint).
 
     Parameters
     ----------
@@ -34,6 +36,12 @@ class RobotSystem(MechanicalSystem):
     joints : sequence of str, optional
         The joints that move, in the order of q; the file's other movable joints are held at
         0. Default: every movable joint, in the file's order.
+    wheels : sequence of str or mapping of str to float or None, optional
+        The wheel joints (among `joints`): the file's root link becomes a base rolling on
+        them on the horizontal plane, its pose (x, y, theta) the first three coordinates of
+        q. Each wheel's axle and centre come from its joint's axis and origin, its radius
+        from its link's <collision> (else <visual>) cylinder, or from the mapping's value
+        (m) where not None (docs/robots.md, "A mobile manipulator"). Default: a fixed base.
     friction : float or array_like of shape (n,), optional
         Viscous joint friction coefficients d >= 0 (N m s/rad, N s/m); default the file's
         ``<dynamics damping=...>`` (0 where absent).
@@ -45,15 +53,26 @@ class RobotSystem(MechanicalSystem):
     path : pathlib.Path
     joints : tuple of dmoc.mechanics.robots.urdf_file.Joint
         The moving joints with their limits and damping, in the order of q.
-    n, n_u : int
-        Number of moving joints (both).
+    n, n_u, m : int
+        Sizes of q (the moving joints, after x, y, theta on wheels), of the torques (one
+        per moving joint) and of the rolling rows (0 on a fixed base).
     names, control_names : tuple of str
-        The joints' names and ``tau_<joint>``, the torques' (for plots and the CSV table).
-    position_limits, effort_limits : tuple of ndarray, shapes (n,) and (n,)
-        (lower, upper) joint positions and torques of the file, +-inf where it gives none:
-        ready for `OptimalControlProblem`'s ``state_bounds`` and ``control_bounds``.
+        "x", "y", "theta" on wheels, then the joints' names; ``tau_<joint>``, the torques'
+        (for plots and the CSV table).
+    position_limits, effort_limits : tuple of ndarray, shapes (n,) and (n_u,)
+        (lower, upper) positions and torques of the file, +-inf where it gives none (and
+        for the base's pose): ready for `OptimalControlProblem`'s ``state_bounds`` and
+        ``control_bounds``.
     velocity_limits : ndarray, shape (n,)
-    friction : ndarray, shape (n,)
+    friction : ndarray, shape (n_u,)
+        The joints' friction coefficients.
+    links : tuple of dmoc.mechanics.robots.link_recursion.Link
+        The kinematic tree, parents before children, the base first.
+    wheels : tuple of dmoc.mechanics.robots.wheeled_base.Wheel
+        The wheels read from the file, () on a fixed base.
+    wheel_rows : tuple of str
+        The rolling rows' names, in the order of the rows of A(q): "<joint> rolls", then
+        "<joint> does not slip sideways" where independent.
     mass_matrix : casadi.Function
         ``M(q) = d^2T/dv^2`` (n, n), symmetric positive definite.
     potential : casadi.Function
@@ -67,7 +86,11 @@ class RobotSystem(MechanicalSystem):
         L(q, v) = 1/2 v^T M(q) v - V(q),      f(q, v, u) = u - D v,
 
     so that the Lagrange-d'Alembert equations are M(q) v' + C(q, v) v + dV/dq = u - D v,
-    the rigid-body equations of motion (C(q, v) v the Coriolis and centrifugal terms).
+    the rigid-body equations of motion (C(q, v) v the Coriolis and centrifugal terms). On
+    wheels, f = (0, 0, 0, u - D v_joints) and the equations gain the constraint forces
+    A(q)^T lam with A(q) v = 0, A(q) = B diag(R(theta)^T, 1, I) the wheels' rolling rows
+    (`dmoc.mechanics.robots.wheeled_base.rolling_rows`); the base's velocity enters the
+    recursion as w_0 = (0, 0, thetadot), v_0 = R(theta)^T (xdot, ydot, 0).
     L is not built from M(q): T = 1/2 v^T M(q) v is summed over the links from their
     velocities, each link's from its parent's (`dmoc.mechanics.robots.link_recursion`),
     which costs O(n) nodes where M(q) costs O(n^2) entries of O(n) each. adam parses the
@@ -85,6 +108,9 @@ class RobotSystem(MechanicalSystem):
     >>> arm = RobotSystem(example_urdf("double_pendulum"))
     >>> (arm.n, arm.n_u, arm.names)
     (2, 2, ('shoulder', 'elbow'))
+    >>> robot = RobotSystem(example_urdf("mobile_arm"), wheels=("left_wheel", "right_wheel"))
+    >>> (robot.n, robot.m, robot.n_u, robot.names[:4])
+    (8, 3, 5, ('x', 'y', 'theta', 'left_wheel'))
     """
 
     def __init__(self, path, joints=None, *, wheels=None, friction=None, gravity=9.81):
@@ -111,7 +137,8 @@ class RobotSystem(MechanicalSystem):
                          force=lambda q, v, u: ca.vertcat(ca.SX.zeros(k), u - D * v[k:]), n_u=n_u,
                          names=BASE_NAMES[:k] + tuple(j.name for j in self.joints),
                          control_names=tuple(f"tau_{j.name}" for j in self.joints),
-                         units={"t": "s", "q": BASE_UNITS[:k] + tuple(j.units[0] for j in self.joints),
+                         units={"t": "s",
+                                "q": BASE_UNITS[:k] + tuple(j.units[0] for j in self.joints),
                                 "u": tuple(j.units[1] for j in self.joints)})
 
     def _set_limits(self, k):
@@ -136,6 +163,13 @@ class RobotSystem(MechanicalSystem):
         -------
         casadi.Function
             ``link_position(q)``, q of shape (n,), named after the link.
+
+        Examples
+        --------
+        >>> from dmoc.mechanics.robots import example_urdf
+        >>> robot = RobotSystem(example_urdf("mobile_arm"), wheels=("left_wheel", "right_wheel"))
+        >>> robot.link_position("tool")([1, 2, 0, 0, 0, 0, 0, 0])    # the arm upright
+        DM([1.15, 2, 0.78])
         """
         names = [link.name for link in self.links]
         checks.choice("name", name, tuple(names))
@@ -168,7 +202,8 @@ class RobotSystem(MechanicalSystem):
         return step_failure_hint(self, np.asarray(q, float), np.asarray(p, float), float(h))
 
     def __repr__(self):
-        return f"RobotSystem({str(self.path)!r}, n={self.n}, names={self.names})"
+        wheels = f", wheels={tuple(w.joint for w in self.wheels)}" if self.wheels else ""
+        return f"RobotSystem({str(self.path)!r}{wheels}, n={self.n}, names={self.names})"
 
 
 def _chosen_joints(movable, joints):

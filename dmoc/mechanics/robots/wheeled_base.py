@@ -126,6 +126,8 @@ def _wheel(name, index, links, i, radius, root, path):
     if moving:
         raise InputError(f"wheel joint {name!r} of {str(path)!r}: the links between it and the "
                          f"base {links[k].name!r} must be fixed to the base; {moving} move.")
+    # the joint's frame in the base's: the wheel's link at phi = 0 (q[index] = 0; its
+    # parents are fixed, so no other q enters)
     R, o = (np.array(ca.evalf(x)) for x in placement(links, i, ca.DM.zeros(index + 1)))
     axle = R @ links[i].axis
     if abs(axle[2]) > GEOMETRY_TOLERANCE:
@@ -142,30 +144,29 @@ def _wheel(name, index, links, i, radius, root, path):
 def _cylinder(root, link, joint, path):
     """(radius, centre (3,) in the link's frame) of the wheel link's <collision> cylinder
     (its <visual> one when it has no collision cylinder), checked to turn about the joint's
-    axis."""
+    axis. adam has parsed the file: its numbers are numbers."""
     element = next(e for e in root.iter("link") if e.get("name") == link.name)
-    for tag in ("collision", "visual"):
-        for shape in element.iter(tag):
-            cylinder = shape.find("geometry/cylinder")
-            if cylinder is not None:
-                break
-        else:
-            continue
-        origin = shape.find("origin")
-        xyz, rpy = ((np.array([float(x) for x in origin.get(key, "0 0 0").split()])
-                     if origin is not None else np.zeros(3)) for key in ("xyz", "rpy"))
-        along = rpy_rotation(rpy) @ np.array([0.0, 0.0, 1.0])
-        off_axis = xyz - (xyz @ link.axis) * link.axis
-        if np.linalg.norm(np.cross(along, link.axis)) > GEOMETRY_TOLERANCE or \
-                np.linalg.norm(off_axis) > GEOMETRY_TOLERANCE:
-            raise InputError(f"wheel joint {joint!r} of {str(path)!r}: the {tag} cylinder of link "
-                             f"{link.name!r} must be centred on the joint's axis and turn about "
-                             f"it (its axis along {link.axis.tolist()}); declare the radius "
-                             f"instead: wheels={{{joint!r}: r}}.")
-        return float(cylinder.get("radius")), xyz
-    raise InputError(f"wheel joint {joint!r} of {str(path)!r}: its link {link.name!r} has no "
-                     f"<collision> or <visual> <cylinder> to read the wheel's radius from; "
-                     f"declare it: wheels={{{joint!r}: r}}.")
+    shapes = [(tag, shape) for tag in ("collision", "visual") for shape in element.iter(tag)
+              if shape.find("geometry/cylinder") is not None]
+    if not shapes:
+        raise InputError(f"wheel joint {joint!r} of {str(path)!r}: its link {link.name!r} has no "
+                         f"<collision> or <visual> <cylinder> to read the wheel's radius from; "
+                         f"declare it: wheels={{{joint!r}: r}}.")
+    tag, shape = shapes[0]
+    radius = float(shape.find("geometry/cylinder").get("radius", "0"))
+    origin = shape.find("origin")
+    xyz, rpy = (np.array([float(x) for x in origin.get(key, "0 0 0").split()])
+                if origin is not None else np.zeros(3) for key in ("xyz", "rpy"))
+    along = rpy_rotation(rpy) @ np.array([0.0, 0.0, 1.0])          # a cylinder's axis is its z
+    off_axis = xyz - (xyz @ link.axis) * link.axis
+    if np.linalg.norm(np.cross(along, link.axis)) > GEOMETRY_TOLERANCE or \
+            np.linalg.norm(off_axis) > GEOMETRY_TOLERANCE or not radius > 0:
+        raise InputError(f"wheel joint {joint!r} of {str(path)!r}: the {tag} cylinder of link "
+                         f"{link.name!r} must have a radius > 0, be centred on the joint's axis "
+                         f"and turn about it (its axis along {link.axis.tolist()}); got radius "
+                         f"{radius}, centre {xyz.tolist()}, axis {np.round(along, 6).tolist()}; "
+                         f"declare the radius instead: wheels={{{joint!r}: r}}.")
+    return radius, xyz
 
 
 def _check_common_ground(wheels, path):
