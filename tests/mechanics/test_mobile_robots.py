@@ -263,6 +263,30 @@ def test_declared_radii_give_the_rows_of_the_geometry(tmp_path, robot):
     np.testing.assert_array_equal(declared.constraint_matrix(q), robot.constraint_matrix(q))
 
 
+LEFT_JOINT = '<origin xyz="-0.1 0.2 0" rpy="-1.5707963267948966 0 0"/>'
+
+
+@pytest.mark.parametrize("replacements", [
+    # the radius from the <visual> cylinder where the <collision> shape is a box
+    [(LEFT_CYLINDER + "\n    </collision>", '<geometry><box size="0.1 0.1 0.1"/></geometry>\n'
+      '    </collision>\n    <visual>' + LEFT_CYLINDER + '</visual>')],
+    # the left wheel on a fixed mount turned by pi about z, 0.1 m behind the base's origin:
+    # its joint's origin and rotation in the mount's frame compose to the same axle and centre
+    [('<parent link="base_link"/>\n    <child link="left_wheel_link"/>',
+      '<parent link="mount"/>\n    <child link="left_wheel_link"/>'),
+     (LEFT_JOINT, '<origin xyz="0 -0.2 0" rpy="-1.5707963267948966 0 -3.141592653589793"/>'),
+     ('<joint name="caster_mount"', '<joint name="mount_joint" type="fixed"><parent link="base_link"/>'
+      '<child link="mount"/><origin xyz="-0.1 0 0" rpy="0 0 3.141592653589793"/></joint>\n'
+      '  <link name="mount"/>\n  <joint name="caster_mount"')],
+], ids=["visual cylinder", "fixed turned mount"])
+def test_other_ways_to_the_same_wheels_give_the_same_rows(tmp_path, robot, replacements):
+    other = dmoc.RobotSystem(edited(tmp_path, *replacements), wheels=WHEELS)
+    q = np.array([0.1, 0.2, 0.7, 0, 0, 0, 0, 0])
+    np.testing.assert_allclose(other.constraint_matrix(q), robot.constraint_matrix(q),
+                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(other.mass_matrix(q), robot.mass_matrix(q), rtol=0, atol=1e-14)
+
+
 @pytest.mark.parametrize("replacements, wheels, match", [
     ([], ("left_wheel", "arm_yaw"), r"wheel joint 'arm_yaw'.*axis must be horizontal"),
     ([], ("left_wheel", "castor"), r"`wheels` must name distinct moving joints.*\['castor'\] not"),
