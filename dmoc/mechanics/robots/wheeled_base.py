@@ -122,7 +122,7 @@ def _wheel(name, index, links, i, radius, root, path):
     while links[k].parent is not None:
         chain.append(k)
         k = links[k].parent
-    moving = [links[k].name for k in chain if links[k].kind != "fixed"]
+    moving = [links[j].name for j in chain if links[j].kind != "fixed"]
     if moving:
         raise InputError(f"wheel joint {name!r} of {str(path)!r}: the links between it and the "
                          f"base {links[k].name!r} must be fixed to the base; {moving} move.")
