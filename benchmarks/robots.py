@@ -8,9 +8,17 @@ first `simulate` in CasADi's virtual machine (`jit=False`: the step's Function b
 virtual machine's step (a run of `--steps` steps), the first compiled run (`jit=True` with an
 empty cache folder: the step's C compiled), the compiled step, and with `--dmoc` a
 rest-to-rest DMOC end to end (problem built and `dmoc.optimize` judged, N = 20 over 1 s,
-cost u^T u + 10 v^T v, the file's limits, from q = 0.3 or the nearest point 0.6 inside the
-limits, each joint moving 0.5 to 0.2 in alternating directions). Midpoint rule, h = 0.01, from q = 0.1 at rest
-under zero torques (a small swing about the hanging rest, for any number of steps). Then the log-log slope of each cost against n over the chains.
+cost u^T u + 10 v^T v (0.1 v^T v on wheels, whose rates are many times the base's speed:
+10 buys an impulsive start that 20 steps do not resolve), the file's limits, from q = 0.3
+or the nearest point 0.6 inside the limits, each joint moving 0.5 to 0.2 in alternating
+directions, a wheel's angle left free). Midpoint rule, h = 0.01, from q = 0.1 at rest
+under zero torques (a small swing about the hanging rest, for any number of steps). Then
+the log-log slope of each cost against n over the chains.
+
+With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
+file as a fixed-base robot (the baseline: the wheels spin in the air) and on its wheels
+(`wheels=`: the base's pose x, y, theta added, three rolling rows), each cost of the wheeled
+one also as a ratio over the fixed one's.
 
 With `--alternatives`, the Hessian of L in (q, v) (what the step's Newton Jacobian is made
 of) three ways for each model: dmoc's L from the links' recursion (the baseline), and
@@ -22,7 +30,8 @@ baseline's, and the largest difference from it.
 
     python benchmarks/robots.py                         # chains of 2-12 joints, compiled
     python benchmarks/robots.py --alternatives --no-compile --joints 2 4 6 8 12 --shipped
-    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile --alternatives
+    python benchmarks/robots.py --mobile --dmoc --joints 2 4 6   # the mobile manipulator
+    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile --alternatives --mobile
 """
 
 import argparse
@@ -83,22 +92,25 @@ def rest_to_rest(system, steps=20):
     lower, upper = system.position_limits
     q_start = np.clip(0.3, lower + 0.6, upper - 0.6)       # 0.3 where the limits allow it
     q_goal = q_start + np.linspace(0.5, 0.2, system.n) * np.where(np.arange(system.n) % 2, -1, 1)
+    wheels = {3 + w.index for w in system.wheels}
+    q_goal = [None if i in wheels else x for i, x in enumerate(q_goal)]
+    weight = 0.1 if system.wheels else 10
 
     def solve():
         problem = dmoc.OptimalControlProblem(
             dmoc.discretize(system, 1.0 / steps), steps, q_start=q_start, q_goal=q_goal,
             v_start=np.zeros(system.n), control_bounds=system.effort_limits,
             state_bounds=system.position_limits,
-            running_cost=lambda q, v, u: ca.sumsqr(u) + 10 * ca.sumsqr(v))
+            running_cost=lambda q, v, u: ca.sumsqr(u) + weight * ca.sumsqr(v))
         return dmoc.optimize(problem, throw=False)
 
     wall, result = seconds(solve)
     return wall, result.verdict.status if result.verdict else result.status
 
 
-def measure(name, path, steps, compile_, dmoc_):
-    """One row: the costs of the model at `path`."""
-    build, system = seconds(lambda: dmoc.RobotSystem(path))
+def measure(name, path, steps, compile_, dmoc_, wheels=None):
+    """One row: the costs of the model at `path` (on its `wheels` when given)."""
+    build, system = seconds(lambda: dmoc.RobotSystem(path, wheels=wheels))
     row = {"model": name, "n": system.n, "build": build,
            "L nodes": system.lagrangian.n_instructions()}
     row["first vm"], _ = simulated(system, 10, False)
@@ -179,13 +191,17 @@ def main(argv=None):
     parser.add_argument("--dmoc", action="store_true", help="also a rest-to-rest DMOC")
     parser.add_argument("--shipped", action="store_true",
                         help="also the shipped double_pendulum, arm6 and arm7")
+    parser.add_argument("--mobile", action="store_true",
+                        help="also mobile_arm with its base fixed and on its wheels")
     parser.add_argument("--alternatives", action="store_true",
                         help="also the Hessian of L built from adam's CRBA, expanded or called")
     parser.add_argument("--smallest", action="store_true",
-                        help="the smallest run: --joints 2 --steps 20 --no-compile --alternatives")
+                        help="the smallest run: --joints 2 --steps 20 --no-compile "
+                             "--alternatives --mobile")
     args = parser.parse_args(argv)
     if args.smallest:
-        args.joints, args.steps, args.compile, args.alternatives = [2], 20, False, True
+        args.joints, args.steps, args.compile = [2], 20, False
+        args.alternatives = args.mobile = True
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:
@@ -199,6 +215,11 @@ def main(argv=None):
         models += [(name, example_urdf(name))
                    for name in (("double_pendulum", "arm6", "arm7") if args.shipped else ())]
         rows = [measure(name, path, args.steps, args.compile, args.dmoc) for name, path in models]
+        if args.mobile:
+            rows += [measure(f"mobile_arm{label}", example_urdf("mobile_arm"), args.steps,
+                             args.compile, args.dmoc, wheels)
+                     for label, wheels in ((" (fixed base)", None),
+                                           (" (wheeled)", ("left_wheel", "right_wheel")))]
         ways = [row for name, path in models for row in alternatives(name, path)] \
             if args.alternatives else []
     report(rows, rows[:len(args.joints)], args)
@@ -214,6 +235,8 @@ def report(rows, chains, args):
     print("|---|---:|---:|" + "---:|" * len(keys) + ("---|" if args.dmoc else ""))
     for r in rows:
         cells = [f"{r[k] * 1e3:.3f} ms" if k.endswith("step") else f"{r[k]:.3f} s" for k in keys]
+        if r["model"] == "mobile_arm (wheeled)":       # ratios over the fixed base's row
+            cells = [f"{c} ({r[k] / rows[-2][k]:.2f}x)" for c, k in zip(cells, keys)]
         print(f"| {r['model']} | {r['n']} | {r['L nodes']} | " + " | ".join(cells)
               + (f" | {r['verdict']} |" if args.dmoc else " |"))
     if len(chains) >= 3:

@@ -1,8 +1,9 @@
-"""Robots from their URDF files, in the mechanics stage: `RobotSystem` (a fixed-base arm as a
-MechanicalSystem, L = T - V summed over the links by the forward recursion of
-`link_recursion` on the tree adam parses, the optional extra ``dmoc[robots]``), the joints'
-data read from the file (`urdf_file`), the diagnosis of a failed step (`step_failure`) and
-the URDF files shipped with dmoc (`example_urdf`).
+"""Robots from their URDF files, in the mechanics stage: `RobotSystem` (a robot on a fixed
+base or on wheels as a MechanicalSystem, L = T - V summed over the links by the forward
+recursion of `link_recursion` on the tree adam parses, the optional extra
+``dmoc[robots]``), the joints' data read from the file (`urdf_file`), the wheels' rolling
+rows (`wheeled_base`), the diagnosis of a failed step (`step_failure`) and the URDF files
+shipped with dmoc (`example_urdf`).
 """
 
 from .example_models import EXAMPLE_MODELS, example_urdf

@@ -1,7 +1,7 @@
 """The URDF files shipped with dmoc (package data of the mechanics stage): a double
 pendulum, a six-joint arm with the dimensions and masses of a UR5-class industrial arm and
-a seven-joint arm with the joint frames and limits of a Panda-class collaborative arm, all
-written for dmoc.
+a seven-joint arm with the joint frames and limits of a Panda-class collaborative arm and a
+differential-drive base carrying a three-joint arm, all written for dmoc.
 """
 
 import pathlib
@@ -13,6 +13,8 @@ EXAMPLE_MODELS = {
     "double_pendulum": "two 1 kg, 1 m rods about parallel axes, hanging along -z",
     "arm6": "six revolute joints, 21.3 kg with its base, a fixed tool; UR5-class lengths and masses",
     "arm7": "seven revolute joints, 19.8 kg with its base, a fixed hand; Panda-class joint frames and limits",
+    "mobile_arm": "a differential-drive base (wheel joints left_wheel and right_wheel, a caster) "
+                  "carrying a three-joint arm and a fixed tool, 16.6 kg",
 }
 
 
@@ -22,7 +24,7 @@ def example_urdf(name):
     Parameters
     ----------
     name : str
-        One of ``EXAMPLE_MODELS``: "double_pendulum", "arm6" or "arm7".
+        One of ``EXAMPLE_MODELS``: "double_pendulum", "arm6", "arm7" or "mobile_arm".
 
     Returns
     -------

@@ -1,6 +1,7 @@
-"""The Lagrangian of a fixed-base robot by the forward recursion over its kinematic tree, for
-the mechanics stage: each link's angular velocity and the velocity of its origin in its own
-frame from its parent's, its centre of mass's velocity and height, and from them the
+"""The Lagrangian of a robot by the forward recursion over its kinematic tree, from a base at
+rest or moving in the horizontal plane, and its links' placements, for the mechanics stage:
+each link's angular velocity and the velocity of its origin in its own frame from its
+parent's, its centre of mass's velocity and height, and from them the
 kinetic energy T = sum_i 1/2 m_i |v_ci|^2 + 1/2 w_i^T I_i w_i and the gravitational energy
 V = g sum_i m_i z_ci. The graph of L has O(n) nodes for n joints (the mass matrix M(q) has
 n^2 entries of O(n) nodes each), so the step's second derivatives of L stay O(n^2).
@@ -24,6 +25,8 @@ class Link:
 
     Attributes
     ----------
+    name : str
+        The link's name in the file.
     parent : int or None
         Index of the parent link in the tree's order (parents before children); None for
         the base.
@@ -47,6 +50,7 @@ class Link:
         <inertial>'s inertia turned by its rpy).
     """
 
+    name: str
     parent: object
     kind: str
     index: object
@@ -79,7 +83,7 @@ def axis_rotation(axis, angle):
     return ca.SX(along) + ca.cos(angle) * ca.SX(np.eye(3) - along) + ca.sin(angle) * ca.SX(K)
 
 
-def energies(links, q, v, gravity):
+def energies(links, q, v, gravity, base=None):
     """The kinetic and gravitational energies of the tree `links` at (q, v).
 
     Parameters
@@ -90,6 +94,10 @@ def energies(links, q, v, gravity):
         Joint positions and velocities, in the order of the links' ``index``.
     gravity : float
         g, along -z of the base's frame.
+    base : pair of casadi.SX of shape (3, 1), optional
+        (w_0, v_0), the base's angular velocity and the velocity of its origin, in its own
+        frame, for a base moving in the horizontal plane (its z axis stays vertical, so
+        heights are still measured along its z); default at rest.
 
     Returns
     -------
@@ -116,7 +124,8 @@ def energies(links, q, v, gravity):
     T, V = ca.SX(0), ca.SX(0)
     for link in links:
         if link.parent is None:
-            frame = (ca.SX.zeros(3), ca.SX.zeros(3), ca.SX(np.array([[0.0, 0.0, 1.0]])), ca.SX(0))
+            w0, v0 = base if base is not None else (ca.SX.zeros(3), ca.SX.zeros(3))
+            frame = (w0, v0, ca.SX(np.array([[0.0, 0.0, 1.0]])), ca.SX(0))
         else:
             frame = _child_frame(link, frames[link.parent], q, v)
         frames.append(frame)
@@ -129,14 +138,34 @@ def energies(links, q, v, gravity):
     return T, V
 
 
-def _child_frame(link, parent, q, v):
-    """(w, v, z_row, z) of `link` from those of its `parent` (the recursion of `energies`)."""
-    w_p, v_p, z_row_p, z_p = parent
-    R, o, a = ca.SX(link.rotation), ca.SX(link.origin), ca.SX(link.axis)
+def joint_transform(link, q):
+    """(R, o): the orientation (3, 3) and origin (3, 1) of `link`'s frame in its parent's
+    frame at the joint positions q, SX: R = R_o Rot(a, q_k) and o for a revolute joint,
+    R = R_o and o + R_o a q_k for a prismatic one, (R_o, o) for a fixed one."""
+    R, o = ca.SX(link.rotation), ca.SX(link.origin)
     if link.kind in REVOLUTE:
         R = ca.mtimes(R, axis_rotation(link.axis, q[link.index]))
     elif link.kind == PRISMATIC:
-        o = o + ca.mtimes(R, a) * q[link.index]
+        o = o + ca.mtimes(R, ca.SX(link.axis)) * q[link.index]
+    return R, o
+
+
+def placement(links, i, q):
+    """(R, p): the orientation (3, 3) and origin (3, 1) of link `i`'s frame in the base's
+    frame at the joint positions q, SX, composed down the chain from the base."""
+    link = links[i]
+    if link.parent is None:
+        return ca.SX.eye(3), ca.SX.zeros(3)
+    R_p, p_p = placement(links, link.parent, q)
+    R, o = joint_transform(link, q)
+    return ca.mtimes(R_p, R), p_p + ca.mtimes(R_p, o)
+
+
+def _child_frame(link, parent, q, v):
+    """(w, v, z_row, z) of `link` from those of its `parent` (the recursion of `energies`)."""
+    w_p, v_p, z_row_p, z_p = parent
+    a = ca.SX(link.axis)
+    R, o = joint_transform(link, q)
     w = ca.mtimes(R.T, w_p)
     vel = ca.mtimes(R.T, v_p + ca.cross(w_p, o))
     if link.kind in REVOLUTE:

@@ -35,7 +35,8 @@ def step_failure_hint(system, q, p, h):
     The rates compared with 1/h are the largest joint speed |v_i| (rad/s: the rotation of a
     step is h |v_i|) and the largest frequency omega of the linearized free motion about q,
     omega^2 the largest |eigenvalue| of M(q)^-1 K(q) with K = d^2V/dq^2 the stiffness of
-    gravity, and the largest friction rate, eigenvalue of M(q)^-1 D.
+    gravity, and the largest friction rate, eigenvalue of M(q)^-1 D (D the joints' friction,
+    zero on a wheeled base's pose).
     """
     M = np.array(system.mass_matrix(q))
     v = np.linalg.solve(M, p)
@@ -43,7 +44,9 @@ def step_failure_hint(system, q, p, h):
     condition = inertia[-1] / inertia[0] if inertia[0] > 0 else np.inf
     K = np.array(system.stiffness(q))
     omega = np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(M, K))).max())
-    damping = np.abs(np.linalg.eigvals(np.linalg.solve(M, np.diag(system.friction)))).max()
+    D = np.zeros_like(M)                # friction acts on the joints, the last coordinates
+    D[len(M) - len(system.friction):, len(M) - len(system.friction):] = np.diag(system.friction)
+    damping = np.abs(np.linalg.eigvals(np.linalg.solve(M, D))).max()
     fastest = int(np.argmax(np.abs(v)))
     speeds = ", ".join(f"{name} {x:.3g}" for name, x in zip(system.names, v))
     state = (f"joint velocities at the last accepted step: {speeds} "

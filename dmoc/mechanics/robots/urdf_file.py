@@ -91,9 +91,11 @@ def read_urdf(path):
             continue
         if kind not in MOVABLE:
             raise InputError(f"joint {element.get('name')!r} of {str(path)!r} is of type {kind!r}; "
-                             f"dmoc takes fixed-base robots with joints of type "
-                             f"{sorted(MOVABLE)} or 'fixed' (floating and planar bases are "
-                             f"not supported yet).")
+                             f"dmoc takes joints of type {sorted(MOVABLE)} or 'fixed'. The "
+                             f"file's root link is the base: fixed, or rolling on its wheels "
+                             f"with `wheels=` (dmoc adds its planar pose x, y, theta), so "
+                             f"remove a planar joint to a world link; floating bases are not "
+                             f"supported yet.")
         joints.append(_joint(element, kind, path))
     if not joints:
         raise InputError(f"`path` must describe a robot with movable joints; {str(path)!r} has none.")
