@@ -44,7 +44,7 @@ def group_transcription(problem):
     x_layout = Layout([("q", (9, N + 1)), ("Pi", (3, N + 1)), ("f", (3, N)), ("u", (n_u, N))])
     x = ca.SX.sym("x", x_layout.size)
     q, Pi, f, u = (x_layout.unpack(x, name) for name in ("q", "Pi", "f", "u"))
-    dynamics = R.function.map(N)(q[:, :-1], Pi[:, :-1], f, Pi[:, 1:], u, h)
+    dynamics = R.function.map(N)(q[:, :-1], Pi[:, :-1], f, Pi[:, 1:], ca.SX(R.m, N), u, h)
     group = q[:, 1:] - R.reconstruction.map(N)(q[:, :-1], f)
     goal = cayley_inverse(ca.mtimes(ca.DM(problem.R_goal).T, matrix_of(q[:, -1])))
     g_layout = Layout([("dynamics", (6, N)), ("group", (9, N)), ("goal", 3)])
