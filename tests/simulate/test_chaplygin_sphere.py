@@ -161,3 +161,4 @@ def test_bad_arguments_are_named(given, match):
 def test_bad_bodies_are_named(given, match):
     with pytest.raises(ValueError, match=match):
         dmoc.RigidBody(INERTIA, **given)
+
