@@ -14,7 +14,7 @@ from .._util import checks
 from .._util.symbolic import user_function
 from ..errors import InputError
 from .rotations import matrix_of
-from .system import _fingerprint
+from .system import _check_rank, _fingerprint
 
 
 class RigidBody:
@@ -110,7 +110,9 @@ class RigidBody:
         A = user["constraints"](*[on_q[k] for k in self._passed(("R", "x"))])
         self.constraint_matrix = ca.Function("A", [q], [A], ["q"], ["A"])
         self.m = A.size1()
-        _check_rank(self.constraint_matrix, self.m)
+        _check_rank(self.constraint_matrix, 9 + self.n_x, 0, problems)    # at random q, as on R^n
+        if problems:
+            raise InputError(" ".join(problems))
         mass = ca.DM(np.asarray(block_diagonal(self.inertia, self.mass_matrix)))
         kinetic = 0.5 * ca.dot(p, ca.solve(mass, p))
         self.energy = ca.Function("energy", [q, p], [kinetic + self.potential(on_q["R"], on_q["x"])],
@@ -139,26 +141,6 @@ def block_diagonal(J, M):
     """The mass matrix diag(J, M) of the velocity (Omega, x'), shape (3 + n_x, 3 + n_x)."""
     n_x = M.shape[0]
     return np.block([[J, np.zeros((3, n_x))], [np.zeros((n_x, 3)), M]])
-
-
-def _check_rank(A, m):
-    """InputError if the one-forms are dependent at random configurations (the step
-    equations would then be singular)."""
-    rng = np.random.default_rng(0)
-    n_q = A.size1_in(0)
-    ranks = [np.linalg.matrix_rank(np.array(A(np.concatenate([_random_rotation(rng).ravel(),
-                                                              rng.normal(size=n_q - 9)]))))
-             for _ in range(3)]
-    if m and max(ranks) < m:
-        raise InputError(f"`constraints` must return linearly independent rows: A has rank "
-                         f"{max(ranks)} < m = {m} at random configurations.")
-
-
-def _random_rotation(rng):
-    """A rotation from the QR factor of a Gaussian matrix."""
-    Q, T = np.linalg.qr(rng.normal(size=(3, 3)))
-    Q = Q * np.sign(np.diag(T))
-    return Q if np.linalg.det(Q) > 0 else -Q
 
 
 def _inertia(value):
