@@ -137,6 +137,19 @@ class RigidBody:
         return f"RigidBody({self.name!r}, inertia={shown}, n_u={self.n_u}{extra})"
 
 
+ALLOWED_VELOCITY = 1e-10    # |A(q) v| accepted of a velocity a user gives, relative to 1 + |v|
+
+
+def check_allowed_velocity(body, q, v, given):
+    """InputError unless the velocity v = (Omega, x') (3 + n_x,) satisfies the body's
+    constraints at q (9 + n_x,), A(q) v = 0 to ALLOWED_VELOCITY; `given` names the
+    arguments v came from."""
+    defect = np.abs(np.array(body.constraint_matrix(q)) @ v).max(initial=0.0)
+    if defect > ALLOWED_VELOCITY * (1 + np.abs(v).max()):
+        raise InputError(f"the velocity of {given} must satisfy the constraints A(q) v = 0 of "
+                         f"{body.name!r}; got |A(q) v| = {defect:.2e}.")
+
+
 def block_diagonal(J, M):
     """The mass matrix diag(J, M) of the velocity (Omega, x'), shape (3 + n_x, 3 + n_x)."""
     n_x = M.shape[0]

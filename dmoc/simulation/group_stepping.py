@@ -14,7 +14,7 @@ import numpy as np
 from .._util import checks
 from .._util.cache import BoundedCache
 from ..errors import InputError
-from ..mechanics.rigid_body import block_diagonal
+from ..mechanics.rigid_body import block_diagonal, check_allowed_velocity
 from ..mechanics.rotations import as_rotation, joined_configuration, orthogonalized, split_configuration
 from ..principle.group_residual import group_step_residual
 from ..principle.rotation_trajectory import RotationTrajectory
@@ -31,14 +31,15 @@ class GroupStepper(DiracStepper):
 
     def _layouts(self):
         R = self.residual
-        return step_layouts(9 + R.n - 3, R.n, R.m, 0)
+        return step_layouts(R.inputs.numel("q0"), R.n, R.m, 0)
 
     def _equations(self):
         """G(y, params) -> (g, p0, q1, p1), params = (q0, p0, u, h): the left and constraint
         rows at y = (f, dx, lam), the momentum, q_{k+1} (R_k cay(f), one Bjorck-Bowie step,
         and x_k + dx) and p_{k+1} (the right rows at p1 = 0)."""
         R = self.residual
-        y, q0, p0 = ca.SX.sym("y", self.unknowns.size), ca.SX.sym("q0", 9 + R.n - 3), ca.SX.sym("p0", R.n)
+        y, p0 = ca.SX.sym("y", self.unknowns.size), ca.SX.sym("p0", R.n)
+        q0 = ca.SX.sym("q0", R.inputs.numel("q0"))
         u, h = ca.SX.sym("u", R.n_controls), ca.SX.sym("h")
         Y = self.unknowns.split(y)
         r = R.function(q0, p0, Y["dq"], ca.SX.zeros(R.n), Y["nu"], u, h)
@@ -48,8 +49,6 @@ class GroupStepper(DiracStepper):
                            [ca.vertcat(r[R.rows["left"]], r[R.rows["constraint"]]), p0, q1,
                             r[R.rows["right"]]], ["y", "params"], ["g", "p0", "q1", "p1"])
 
-
-ALLOWED_VELOCITY = 1e-10    # |A(q0) v0| accepted, relative to 1 + |v0|
 
 _STEPPERS = BoundedCache(8, "group_steppers")     # keyed by (residual key, tol, max_iter, native)
 
@@ -65,7 +64,7 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
     trajectory is a RotationTrajectory."""
     tic = time.perf_counter()
     body = disc.system
-    variant = checks.choice("variant", variant, ("+", "-") if body.m == 0 else ("+",))
+    checks.choice("variant", variant, ("+", "-") if body.m == 0 else ("+",))
     start = _start(disc, q0, v0, p0)
     steps = checks.positive_int("steps", steps)
     tol, max_iter = checks.positive_float("tol", tol), checks.positive_int("max_iter", max_iter)
@@ -103,10 +102,7 @@ def _start(disc, q0, v0, p0):
     mass = block_diagonal(body.inertia, body.mass_matrix)
     v = checks.array("v0", v0, (body.n,)) if p0 is None else \
         np.linalg.solve(mass, checks.array("p0", p0, (body.n,)))
-    defect = np.abs(np.array(body.constraint_matrix(q)) @ v).max(initial=0.0)
-    if defect > ALLOWED_VELOCITY * (1 + np.abs(v).max()):
-        raise InputError(f"the start velocity (`v0`, or the velocity of `p0`) must satisfy the "
-                         f"constraints A(q0) v = 0; |A(q0) v| = {defect:.2e}.")
+    check_allowed_velocity(body, q, v, "`v0` (or of `p0`) at `q0`")
     return np.concatenate([q, mass @ v, disc.h * v, np.zeros(body.m)])
 
 

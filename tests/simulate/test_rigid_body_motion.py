@@ -132,8 +132,8 @@ def test_steps_solve_the_shared_residual():
     controls = np.random.default_rng(0).normal(size=(30, 3))
     traj = dmoc.simulate(disc, q0=np.eye(3), v0=[0.2, 0.1, 1.0], steps=30, controls=controls).trajectory
     residual = dmoc.group_step_residual(disc)
-    r = np.array(residual.function.map(30)(traj.q[:-1].T, traj.Pi[:-1].T, traj.f.T, traj.Pi[1:].T, traj.lam.T,
-                                           controls.T, 0.05))
+    r = np.array(residual.function.map(30)(traj.q[:-1].T, traj.Pi[:-1].T, traj.f.T, traj.Pi[1:].T,
+                                           traj.lam.T, controls.T, 0.05))
     assert np.abs(r).max() <= 1e-13
     R1 = np.array(residual.reconstruction.map(30)(traj.q[:-1].T, traj.f.T)).T.reshape(-1, 3, 3)
     assert np.abs(R1 - traj.R[1:]).max() <= 1e-14

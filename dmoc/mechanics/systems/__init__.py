@@ -20,6 +20,7 @@ from .rigid_body_models import chaplygin_sphere, free_rigid_body, heavy_top, spa
 from .rolling_disk_model import rolling_disk, rolling_disk_solution
 from .spherical_pendulum_model import spherical_pendulum
 
-__all__ = ["car", "chaplygin_sphere", "differential_drive", "free_rigid_body", "heavy_top", "knife_edge", "knife_edge_solution",
-           "lc_circuit", "lc_circuit_solution", "point_vortices", "point_vortices_solution", "rolling_disk",
-           "rolling_disk_solution", "spacecraft", "spherical_pendulum"]
+__all__ = ["car", "chaplygin_sphere", "differential_drive", "free_rigid_body", "heavy_top", "knife_edge",
+           "knife_edge_solution", "lc_circuit", "lc_circuit_solution", "point_vortices",
+           "point_vortices_solution", "rolling_disk", "rolling_disk_solution", "spacecraft",
+           "spherical_pendulum"]

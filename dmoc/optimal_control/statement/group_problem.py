@@ -10,7 +10,7 @@ import numpy as np
 from ..._util import checks
 from ...discrete.group_discretization import GroupDiscretization
 from ...errors import InputError
-from ...mechanics.rigid_body import block_diagonal
+from ...mechanics.rigid_body import block_diagonal, check_allowed_velocity
 from ...mechanics.rotations import as_rotation
 from ...principle.group_residual import group_step_residual
 
@@ -80,10 +80,8 @@ class GroupOptimalControlProblem:
                                      ("goal", omega_goal, x_velocity_goal)))
         for end, R, x, p in (("start", self.R_start, self.x_start, self.p_start),
                              ("goal", self.R_goal, self.x_goal, self.p_goal)):
-            A = np.array(body.constraint_matrix(np.concatenate([R.ravel(), x])))
-            if np.abs(A @ np.linalg.solve(mass, p)).max(initial=0.0) > 1e-10 * (1 + np.abs(p).max()):
-                raise InputError(f"the velocity at the {end} (`omega_{end}`, `x_velocity_{end}`) "
-                                 f"must satisfy the constraints A(q) v = 0 at R_{end}, x_{end}.")
+            check_allowed_velocity(body, np.concatenate([R.ravel(), x]), np.linalg.solve(mass, p),
+                                   f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
 
     @property
     def duration(self):
