@@ -30,6 +30,17 @@ step of ``dmoc.simulate`` (three Cayley coordinates per step, "group" the defaul
 energy error, the spatial-angular-momentum error and |R^T R - I| after the run, which RK4
 lets drift and the group step keeps at round-off.
 
+Then the Chaplygin sphere (J = diag(1, 2, 2.5), m = 1.3, r = 0.7, Omega_0 = (1, -0.5, 2)),
+its two forms side by side: "group", `dmoc.systems.chaplygin_sphere` on SO(3) x R^2 (5
+increments and 2 rolling multipliers per step), and "embedded", the same ball as a
+MechanicalSystem on R^11 (the 9 entries of R and (x, y); L = 1/2 tr(R' J_d R'^T) +
+1/2 m |x'|^2, J_d = tr(J)/2 I - J; R^T R = I as 6 holonomic rows, the rolling as 2
+one-forms), both with the midpoint rule: the first compile (a fresh process with an empty
+cache: the first ``simulate(jit=True)`` of 10 steps, building and compiling the step), a
+10^5-step simulation with the compiled step, and after it |R^T R - I| and the drift of the
+contact angular momentum K = R J Omega + m r^2 (omega - (e3 . omega) e3) (group: read with
+its momenta, R Pi + r e3 x (p_x, 0)).
+
     python benchmarks/step_cost.py
     python benchmarks/step_cost.py --smallest     # 10^3 steps once, a smoke run
 """
@@ -245,6 +256,97 @@ def rigid_body_table(repeat, horizons):
                   f"{dE:>11.1e}{dm:>13.1e}{dR:>13.1e}")
 
 
+SPHERE = dict(inertia=np.array([1.0, 2.0, 2.5]), mass=1.3, radius=0.7)
+SPHERE_OMEGA, E3 = np.array([1.0, -0.5, 2.0]), np.array([0.0, 0.0, 1.0])
+
+
+def embedded_sphere():
+    """The Chaplygin sphere on R^11: q = (rows of R, x, y), R^T R = I as 6 holonomic rows."""
+    J, m, r = SPHERE["inertia"], SPHERE["mass"], SPHERE["radius"]
+    J_d = ca.DM(np.diag(0.5 * J.sum() - J))
+    v = ca.SX.sym("v", 11)
+
+    def kinetic(q, v):
+        Rdot = ca.reshape(v[:9], 3, 3).T
+        return 0.5 * ca.trace(ca.mtimes([Rdot, J_d, Rdot.T])) + 0.5 * m * ca.sumsqr(v[9:])
+
+    def rolling(q):
+        R, Rdot = ca.reshape(q[:9], 3, 3).T, ca.reshape(v[:9], 3, 3).T
+        omega = dmoc.mechanics.rotations.vee(ca.mtimes(Rdot, R.T))
+        slip = v[9:] - r * ca.cross(omega, ca.DM(E3))[:2]
+        return ca.jacobian(slip, v)
+
+    def orthogonality(q):
+        R = ca.reshape(q[:9], 3, 3).T
+        gram = ca.mtimes(R.T, R) - ca.DM.eye(3)
+        return ca.vertcat(*[gram[i, j] for i in range(3) for j in range(i, 3)])
+
+    return dmoc.MechanicalSystem(kinetic, 11, constraints=rolling, holonomic=orthogonality)
+
+
+def sphere_forms():
+    """{form: (discretization, q0, v0)} of the two forms at the same start."""
+    R0 = np.eye(3)
+    rolling = SPHERE["radius"] * np.cross(R0 @ SPHERE_OMEGA, E3)[:2]
+    group = dmoc.systems.chaplygin_sphere(SPHERE["inertia"], SPHERE["mass"], SPHERE["radius"])
+    Rdot = R0 @ np.array(dmoc.mechanics.rotations.hat(SPHERE_OMEGA))
+    return {"group": (dmoc.discretize(group, H), (R0, np.zeros(2)),
+                      np.concatenate([SPHERE_OMEGA, rolling])),
+            "embedded": (dmoc.discretize(embedded_sphere(), H), np.concatenate([R0.ravel(), [0, 0]]),
+                         np.concatenate([Rdot.ravel(), rolling]))}
+
+
+def sphere_errors(form, traj):
+    """(|R^T R - I|, max |K_k - K_0|) of a run of `form`."""
+    J, m, r = SPHERE["inertia"], SPHERE["mass"], SPHERE["radius"]
+    if form == "group":
+        R = traj.R
+        K = np.einsum("kij,kj->ki", R, traj.Pi) + r * np.cross(E3, np.pad(traj.p_x, ((0, 0), (0, 1))))
+    else:
+        R = traj.q[:, :9].reshape(-1, 3, 3)
+        Rdot = np.diff(traj.q[:, :9], axis=0).reshape(-1, 3, 3) / H   # chord velocities
+        Rm = 0.5 * (R[1:] + R[:-1])
+        W = np.einsum("kij,klj->kil", Rdot, Rm)
+        omega = 0.5 * np.stack([W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0],
+                                W[:, 1, 0] - W[:, 0, 1]], axis=1)
+        inertia = np.einsum("kij,j,klj->kil", Rm, J, Rm)
+        K = np.einsum("kij,kj->ki", inertia, omega) + m * r ** 2 * (omega - omega[:, 2:] * E3)
+    gram = np.einsum("kji,kjl->kil", R, R) - np.eye(3)
+    return np.abs(gram).max(), np.abs(K - K[0]).max()
+
+
+def one_sphere(form):
+    """(this process) the first simulate(jit=True) of 10 steps of `form`: wall seconds."""
+    disc, q0, v0 = sphere_forms()[form]
+    tic = time.perf_counter()
+    dmoc.simulate(disc, q0=q0, v0=v0, steps=10, jit=True)
+    print(f"{time.perf_counter() - tic:.2f}")
+
+
+def sphere_table(repeat, steps, fresh):
+    """The two forms of the Chaplygin sphere side by side, ratios group / embedded."""
+    print("\nChaplygin sphere: group form (SO(3) x R^2) against the embedded R^11 form")
+    head = (f"{'form':<10}{'first compile s':>16}{f'{steps:.0e} steps s':>16}{'ratio':>8}"
+            f"{'|R^T R - I|':>13}{'|K - K0|':>11}")
+    print(head + "\n" + "-" * len(head))
+    rows = {}
+    for form, (disc, q0, v0) in sphere_forms().items():
+        with tempfile.TemporaryDirectory() as empty:
+            first = (float(fresh_process("--one-sphere", form, env={"DMOC_CACHE_DIR": empty}))
+                     if fresh else float("nan"))
+        dmoc.simulate(disc, q0=q0, v0=v0, steps=10, jit=True)
+        walls, traj = [], None
+        for _ in range(repeat):
+            res = dmoc.simulate(disc, q0=q0, v0=v0, steps=steps, jit=True)
+            walls.append(res.stats["wall_time"])
+            traj = res.trajectory
+        rows[form] = (first, min(walls), *sphere_errors(form, traj))
+    for form, (first, wall, dR, dK) in rows.items():
+        ratio = wall / rows["embedded"][1]
+        print(f"{form:<10}{first:>16.2f}{wall:>16.3f}{ratio:>8.2f}{dR:>13.1e}{dK:>11.1e}")
+    print(f"first compile ratio group / embedded: {rows['group'][0] / rows['embedded'][0]:.2f}")
+
+
 def table(repeat, name, horizons=(10**4, 10**5)):
     case = CASES[name]
     funs = methods(case)
@@ -269,6 +371,9 @@ def main(argv=None):
     if argv and argv[0] == "--one-run":
         one_run(argv[1], int(argv[2]))
         return
+    if argv and argv[0] == "--one-sphere":
+        one_sphere(argv[1])
+        return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs per case; best is kept (default 5)")
     parser.add_argument("--smallest", action="store_true",
@@ -281,6 +386,8 @@ def main(argv=None):
         table(1 if args.smallest else args.repeat, name, (10**3,) if args.smallest else (10**4, 10**5))
     rigid_body_table(1 if args.smallest else args.repeat,
                      (10**3,) if args.smallest else (10**4, 10**5, 10**6))
+    sphere_table(1 if args.smallest else args.repeat, 10**3 if args.smallest else 10**5,
+                 fresh=not args.smallest)
     if args.smallest:
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
         return

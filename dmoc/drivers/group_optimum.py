@@ -15,8 +15,8 @@ GROUP_KEYWORDS = ("options", "throw", "check")
 
 def optimize_on_group(problem, *, options=None, throw=True, check=True, **others):
     """Solve `problem` (`solve_on_group`) and, with `check`, replay it: ``stats``
-    gains ``replay_deviation``, max |R_k - R_k'| and max |Pi_k - Pi_k'| / (1 + max |Pi|)
-    between the optimum and the simulation of its controls from (R_0, Pi_0); above
+    gains ``replay_deviation``, max |q_k - q_k'| (R_k and x_k) and max |p_k - p_k'| /
+    (1 + max |p|) between the optimum and the simulation of its controls from (q_0, p_0); above
     REPLAY_TOLERANCE the result fails with status ``"not_replayable"`` (raised with
     `throw`). `others` are the other keywords of `dmoc.optimize`, which must keep their
     defaults (refused by name otherwise)."""
@@ -28,11 +28,12 @@ def optimize_on_group(problem, *, options=None, throw=True, check=True, **others
     if not (check and result.success):
         return result
     traj = result.trajectory
-    replay = simulate(problem.disc, q0=traj.R[0], p0=traj.Pi[0], steps=problem.steps,
+    q0 = (traj.R[0], traj.x[0]) if problem.disc.system.n_x else traj.R[0]
+    replay = simulate(problem.disc, q0=q0, p0=traj.p[0], steps=problem.steps,
                       controls=traj.u, throw=False).trajectory
     k = replay.steps + 1
-    deviation = max(float(np.abs(replay.R - traj.R[:k]).max()),
-                    float(np.abs(replay.Pi - traj.Pi[:k]).max() / (1 + np.abs(traj.Pi).max())))
+    deviation = max(float(np.abs(replay.q - traj.q[:k]).max()),
+                    float(np.abs(replay.p - traj.p[:k]).max() / (1 + np.abs(traj.p).max())))
     result.stats["replay_deviation"] = deviation if k == traj.steps + 1 else np.inf
     if result.stats["replay_deviation"] > REPLAY_TOLERANCE:
         result.success, result.status = False, Status.NOT_REPLAYABLE

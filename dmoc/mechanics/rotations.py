@@ -64,6 +64,16 @@ def vector_of(R):
     return ca.vec(R.T)
 
 
+def split_configuration(q):
+    """(R, x) of a configuration q = (the 9 entries of R row after row, x) of SO(3) x R^n_x."""
+    return matrix_of(q[:9]), q[9:]
+
+
+def joined_configuration(R, x):
+    """The configuration vector (rows of R, x), the inverse of `split_configuration`."""
+    return ca.vertcat(vector_of(R), x)
+
+
 def as_rotation(name, value):
     """`value` checked to be a rotation matrix, shape (3, 3), R^T R = I to
     ORTHOGONALITY_TOLERANCE and det R = +1; returned as a float array."""

@@ -1,9 +1,11 @@
-"""The principle stage on the rotation group: the step residual of the discrete
+"""The principle stage on SO(3) x R^n_x: the step residual of the discrete
 Lagrange-d'Alembert(-Pontryagin) principle with variations on the group, dR_k = R_k eta_k^,
-obtained by automatic differentiation of the discrete Lagrangian in the group increment
-F_k = cay(f_k) (`dmoc.discrete.GroupDiscretization`). Both consumers use this residual: the
-simulator solves it for the three Cayley coordinates f_k of each step; the optimizer
-imposes it at every step (`dmoc.GroupOptimalControlProblem`) (docs/theory.md, "Rotations as group elements").
+and on the vector coordinates, obtained by automatic differentiation of the discrete
+Lagrangian in the group increment F_k = cay(f_k) and the vector increment
+(`dmoc.discrete.GroupDiscretization`), with the constraint one-forms as multiplier rows.
+Both consumers use this residual: the simulator solves it for the Cayley coordinates f_k,
+the vector increment and the multipliers of each step; the optimizer imposes it at every
+step (`dmoc.GroupOptimalControlProblem`) (docs/theory.md, "Rotations as group elements").
 """
 
 import casadi as ca
@@ -12,26 +14,29 @@ from .._util import checks
 from .._util.cache import BoundedCache
 from .._util.layout import Layout
 from ..discrete.group_discretization import GroupDiscretization
-from ..mechanics.rotations import cayley, matrix_of, vector_of
+from ..mechanics.rotations import cayley, joined_configuration, split_configuration, vector_of
 
 
 class GroupStepResidual:
-    """The step residual R of a rigid body on SO(3): the left-trivialized discrete
+    """The step residual R of a rigid body on SO(3) x R^n_x: the left-trivialized discrete
     Euler-Poincare (Lie-Poisson) equations with forces, one step of the Lie group
-    variational integrator (Lee, Leok & McClamroch [1]_; with torques,
-    the discrete Lagrange-d'Alembert principle as in [2]_).
+    variational integrator (Lee, Leok & McClamroch [1]_; with torques, the discrete
+    Lagrange-d'Alembert principle as in [2]_), with the constraint one-forms entering as
+    the (+) form (37) of [3]_ does on R^n.
 
-    ``function(q0, p0, f, p1, u, h) -> r``: q0 (9) the rows of R_k, p0 and p1 (3 each)
-    the body angular momenta Pi_k and Pi_{k+1}, f (3) the Cayley coordinates of the
-    increment F_k = cay(f), u (n_u), h; r has 6 rows in the order of `row_layout`,
-    ``"left"`` (3) and ``"right"`` (3). ``reconstruction(q0, f) -> q1`` gives the rows
-    of R_{k+1} = R_k cay(f).
+    ``function(q0, p0, f, p1, lam, u, h) -> r``: q0 (9 + n_x) the rows of R_k then x_k,
+    p0 and p1 (n = 3 + n_x each) the momenta (Pi_k, p_x,k) and (Pi_{k+1}, p_x,k+1), f (n)
+    the Cayley coordinates of the increment F_k = cay(f_{1:3}) followed by the vector
+    increment dx_k = x_{k+1} - x_k, lam (m) the multipliers, u (n_u), h; r has 2n + m
+    rows in the order of `row_layout`, ``"left"`` (n), ``"right"`` (n) and
+    ``"constraint"`` (m). ``reconstruction(q0, f) -> q1`` gives q_{k+1} = (the rows of
+    R_k cay(f_{1:3}), x_k + dx_k).
 
     Attributes
     ----------
     system : RigidBody
-    n, n_controls : int
-        3 (unknowns of a step, momenta) and the controls per step.
+    n, m, n_controls : int
+        3 + n_x (momenta and increments), constraint rows, controls per step.
     inputs, row_layout : Layout
     rows : dict of slice
     function, reconstruction : casadi.Function
@@ -40,23 +45,25 @@ class GroupStepResidual:
     Notes
     -----
     With the variations dR_k = R_k eta_k^ (so that R_k -> R_k cay(eps eta_k), F_k ->
-    cay(-eps eta_k) F_k and F_{k-1} -> F_{k-1} cay(eps eta_k)), D1 and D2 below are the
-    left-trivialized derivatives of L_d(R_k, R_{k+1}, F_k) along eta_k and eta_{k+1},
-    taken by automatic differentiation at eta = 0, and the rows are
+    cay(-eps eta_k) F_k and F_{k-1} -> F_{k-1} cay(eps eta_k)) and dx_k, D1 and D2 below
+    are the left-trivialized derivatives of L_d(q_k, q_{k+1}, F_k) along (eta_k, dx_k) and
+    (eta_{k+1}, dx_{k+1}), taken by automatic differentiation at zero, and the rows are
 
-        left  = p0 + D1 L_d + f_minus        (d/d eta_k)
-        right = D2 L_d + f_plus - p1         (d/d eta_{k+1})
+        left       = p0 + D1 L_d + f_minus - A(q_k)^T lam      (d/d(eta_k, dx_k))
+        right      = D2 L_d + f_plus - p1                       (d/d(eta_{k+1}, dx_{k+1}))
+        constraint = omega_d(q_k, q_{k+1})                      (the discrete one-forms)
 
-    the discrete Legendre transforms Pi_k = -D1 L_d - f_minus, Pi_{k+1} = D2 L_d + f_plus
-    of the (+) form (37) written on the group; without constraints the (-) form (41) has
-    the same rows. For L_d of `GroupDiscretization` they are, with M(R) the moment of U,
+    the discrete Legendre transforms of the (+) form (37) [3]_ written on the group, the
+    multiplier on the one-forms A at the d'Alembert node q_k, never on the gradient of
+    omega_d. Without constraints the (-) form (41) has the same rows. For L_d of
+    `GroupDiscretization` and n_x = m = 0 they are, with M(R) the moment of U,
     M^ = dU/dR^T R - R^T dU/dR [1]_,
 
         h Pi_k^ + (h^2/2) M_k^ = F_k J_d - J_d F_k^T,
         Pi_{k+1} = F_k^T Pi_k + (h/2) F_k^T M_k + (h/2) M_{k+1}
 
     (with torques, f_minus and f_plus enter as (h/2) M does), which the tests check as a
-    closed form. The left rows are solved for f; Pi_{k+1} is explicit.
+    closed form. The left and constraint rows are solved for (f, lam); p1 is explicit.
 
     References
     ----------
@@ -64,33 +71,42 @@ class GroupStepResidual:
        full body problem", Comput. Methods Appl. Mech. Engrg. 196 (2007) 2907-2924.
     .. [2] M. Kobilarov, J. E. Marsden, "Discrete geometric optimal control on Lie
        groups", IEEE Trans. Robotics 27 (2011) 641-655.
+    .. [3] M. Leok, T. Ohsawa, "Variational and geometric structures of discrete Dirac
+       mechanics", Found. Comput. Math. 11 (2011) 529-562.
     """
 
     def __init__(self, disc):
         checks.instance("disc", disc, GroupDiscretization, "a GroupDiscretization")
         self.system, self.key = disc.system, ("group", disc.key)
-        self.n, self.n_controls = 3, disc.n_controls
-        self.inputs = Layout([("q0", 9), ("p0", 3), ("f", 3), ("p1", 3),
-                              ("u", self.n_controls), ("h", 1)])
-        self.row_layout = Layout([("left", 3), ("right", 3)])
+        self.n, self.m, self.n_controls = disc.system.n, disc.system.m, disc.n_controls
+        n_x = self.n - 3
+        self.inputs = Layout([("q0", 9 + n_x), ("p0", self.n), ("f", self.n), ("p1", self.n),
+                              ("lam", self.m), ("u", self.n_controls), ("h", 1)])
+        self.row_layout = Layout([("left", self.n), ("right", self.n), ("constraint", self.m)])
         self.rows = self.row_layout.slices()
         self.function, self.reconstruction = self._build(disc)
 
     def _build(self, disc):
         x = {name: ca.SX.sym(name, self.inputs.numel(name)) for name in self.inputs.blocks}
-        R0, F, h = matrix_of(x["q0"]), cayley(x["f"]), x["h"]
-        R1 = ca.mtimes(R0, F)
-        eta0, eta1 = ca.SX.sym("eta0", 3), ca.SX.sym("eta1", 3)
-        C0, C1 = cayley(eta0), cayley(eta1)
-        varied = disc.discrete_lagrangian(vector_of(ca.mtimes(R0, C0)), vector_of(ca.mtimes(R1, C1)),
+        (R0, x0), F, h = split_configuration(x["q0"]), cayley(x["f"][:3]), x["h"]
+        R1, x1 = ca.mtimes(R0, F), x0 + x["f"][3:]
+        q0, q1 = x["q0"], joined_configuration(R1, x1)
+        eta0, eta1 = ca.SX.sym("eta0", self.n), ca.SX.sym("eta1", self.n)
+        C0, C1 = cayley(eta0[:3]), cayley(eta1[:3])
+        varied = disc.discrete_lagrangian(joined_configuration(ca.mtimes(R0, C0), x0 + eta0[3:]),
+                                          joined_configuration(ca.mtimes(R1, C1), x1 + eta1[3:]),
                                           vector_of(ca.mtimes([C0.T, F, C1])), h)
-        eta, zero = ca.vertcat(eta0, eta1), ca.SX.zeros(6)
-        D = ca.substitute(ca.gradient(varied, eta), eta, zero)
-        f_minus, f_plus = disc.discrete_force(vector_of(R0), vector_of(R1), vector_of(F), x["u"], h)
-        r = ca.cse(ca.vertcat(x["p0"] + D[:3] + f_minus, D[3:] + f_plus - x["p1"]))
+        eta = ca.vertcat(eta0, eta1)
+        D = ca.substitute(ca.gradient(varied, eta), eta, ca.SX.zeros(2 * self.n))
+        F9 = vector_of(F)
+        f_minus, f_plus = disc.discrete_force(q0, q1, F9, x["u"], h)
+        A0 = self.system.constraint_matrix(q0)
+        r = ca.cse(ca.vertcat(x["p0"] + D[:self.n] + f_minus - ca.mtimes(A0.T, x["lam"]),
+                              D[self.n:] + f_plus - x["p1"],
+                              disc.discrete_constraint(q0, q1, F9, h)))
         names = list(self.inputs.blocks)
         function = ca.Function("group_step_residual", [x[k] for k in names], [r], names, ["r"])
-        reconstruction = ca.Function("reconstruction", [x["q0"], x["f"]], [vector_of(R1)],
+        reconstruction = ca.Function("reconstruction", [x["q0"], x["f"]], [q1],
                                      ["q0", "f"], ["q1"])
         return function, reconstruction
 

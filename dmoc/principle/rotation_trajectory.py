@@ -1,7 +1,8 @@
-"""A discrete curve on the rotation group (principle stage): the rotations R_k, the body
+"""A discrete curve on SO(3) x R^n_x (principle stage): the rotations R_k, the body
 angular momenta Pi_k and the Cayley coordinates f_k of the increments F_k = R_k^T R_{k+1}
-of a rigid body whose steps solve the group step residual (`group_residual`), with the
-quantities its tests and users read off it."""
+of a rigid body whose steps solve the group step residual (`group_residual`), with its
+vector coordinates x_k, their momenta and the constraint multipliers, and the quantities
+its tests and users read off it."""
 
 from dataclasses import dataclass
 
@@ -17,14 +18,21 @@ class RotationTrajectory:
     ----------
     t : numpy.ndarray, shape (N+1,)
     R : numpy.ndarray, shape (N+1, 3, 3)
-        The rotations R_k (body to space), R_{k+1} = R_k cay(f_k).
+        The rotations R_k (body to space), R_{k+1} = R_k cay(f_k[:3]).
     Pi : numpy.ndarray, shape (N+1, 3)
         The body angular momenta Pi_k (the discrete momenta of the residual's rows).
-    f : numpy.ndarray, shape (N, 3)
-        The Cayley coordinates of each step's increment F_k = cay(f_k).
+    f : numpy.ndarray, shape (N, 3 + n_x)
+        Each step's increment: the Cayley coordinates of F_k = cay(f_k[:3]), then
+        dx_k = x_{k+1} - x_k.
     u : numpy.ndarray, shape (N, n_u)
         The controls, held on each step.
     h : float
+    x : numpy.ndarray, shape (N+1, n_x)
+        The vector coordinates x_k (none without them).
+    p_x : numpy.ndarray, shape (N+1, n_x)
+        Their momenta.
+    lam : numpy.ndarray, shape (N, m)
+        The multipliers of the constraint one-forms at q_k, the (+) form (37).
     """
 
     t: np.ndarray
@@ -33,6 +41,16 @@ class RotationTrajectory:
     f: np.ndarray
     u: np.ndarray
     h: float
+    x: np.ndarray = None
+    p_x: np.ndarray = None
+    lam: np.ndarray = None
+
+    def __post_init__(self):
+        k = self.R.shape[0]
+        empty = np.zeros((k, 0))
+        self.x = empty if self.x is None else self.x
+        self.p_x = empty if self.p_x is None else self.p_x
+        self.lam = np.zeros((k - 1, 0)) if self.lam is None else self.lam
 
     @property
     def steps(self):
@@ -41,8 +59,13 @@ class RotationTrajectory:
 
     @property
     def q(self):
-        """The rows of each R_k one after another, shape (N+1, 9)."""
-        return self.R.reshape(-1, 9)
+        """The configurations (the rows of R_k one after another, x_k), shape (N+1, 9 + n_x)."""
+        return np.hstack([self.R.reshape(-1, 9), self.x])
+
+    @property
+    def p(self):
+        """The momenta (Pi_k, p_x,k), shape (N+1, 3 + n_x)."""
+        return np.hstack([self.Pi, self.p_x])
 
     @property
     def spatial_momentum(self):

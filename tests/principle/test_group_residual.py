@@ -61,7 +61,7 @@ def test_rows_are_the_lie_group_variational_integrator(seed):
     residual = dmoc.group_step_residual(dmoc.discretize(forced_top(), H))
     R0 = Rotation.random(random_state=seed).as_matrix()
     p0, f, p1, u = rng.normal(size=3), 0.3 * rng.normal(size=3), rng.normal(size=3), rng.normal(size=3)
-    r = np.array(residual(R0.ravel(), p0, f, p1, u, H)).ravel()
+    r = np.array(residual(R0.ravel(), p0, f, p1, [], u, H)).ravel()
     expected = closed_form(R0, p0, f, p1, u)
     assert np.abs(r - expected).max() <= 1e-12 * (1 + np.abs(expected).max())
     # the closed form tells a wrong sign of the moment apart (a test of the test)
@@ -82,7 +82,7 @@ def test_free_body_momentum_update_is_coadjoint():
     body = dmoc.systems.free_rigid_body((1.0, 2.0, 3.0))
     residual = dmoc.group_step_residual(dmoc.discretize(body, H))
     R0, p0 = np.eye(3), np.array([1.0, 0.6, 0.6])
-    rows = lambda f: np.array(residual(R0.ravel(), p0, f, np.zeros(3), [], H)).ravel()  # noqa: E731
+    rows = lambda f: np.array(residual(R0.ravel(), p0, f, np.zeros(3), [], [], H)).ravel()  # noqa: E731
     f = fsolve(lambda f: rows(f)[:3], H * p0 / np.array([1.0, 2.0, 3.0]), xtol=1e-14)
     assert np.abs(rows(f)[3:] - cayley(f).T @ p0).max() <= 1e-12
 
@@ -95,3 +95,65 @@ def test_rule_other_than_the_group_one_is_refused():
 def test_residual_refuses_a_vector_space_discretization():
     with pytest.raises(TypeError, match="GroupDiscretization"):
         dmoc.group_step_residual(dmoc.discretize(dmoc.systems.knife_edge(), H))
+
+
+MASSES = np.array([[2.0, 0.3], [0.3, 1.5]])
+STIFFNESS, DAMPING = 0.7, 0.4
+
+
+def coupled_body():
+    """On SO(3) x R^2: U = x_1 e1 . R e3 + k/2 |x|^2 + m g e3 . R rho, body torques u, a
+    damping force -c x' on x, and one constraint row (R e1 ... the first row of R, 1, x_1)."""
+    rho = ca.DM(CENTRE)
+    return dmoc.RigidBody(
+        INERTIA, coordinates=MASSES, n_u=3,
+        potential=lambda R, x: x[0] * R[0, 2] + STIFFNESS / 2 * ca.dot(x, x)
+        + MASS * GRAVITY * ca.mtimes(R[2, :], rho),
+        torque=lambda R, omega, x, v, u: ca.vertcat(u, -DAMPING * v),
+        constraints=lambda R, x: ca.horzcat(R[0, :], 1, x[0]))
+
+
+def coupled_closed_form(R0, x0, p0, f, p1, lam, u):
+    """The rows of the module docstring's closed form with the vector part (the kinetic
+    energy (1/2h) dx^T M dx, U by the trapezoid rule, the force at both ends with
+    v = dx/h) and the multiplier row -A(q_k)^T lam on the left rows; the constraint row
+    (1/2)(A(q_k) + A(q_{k+1})) (cay^{-1}(F); dx)/h."""
+    F, dx = cayley(f[:3]), f[3:]
+    R1, x1 = R0 @ F, x0 + dx
+
+    def moment(R, x):     # dU/dR = x_1 e1 e3^T + m g e3 rho^T
+        dU = x[0] * np.outer([1, 0, 0], E3) + MASS * GRAVITY * np.outer(E3, CENTRE)
+        return vee(dU.T @ R - R.T @ dU)
+
+    def gradient_x(R, x):
+        return np.array([R[0, 2], 0.0]) + STIFFNESS * x
+
+    def A(R, x):
+        return np.concatenate([R[0], [1.0, x[0]]])[None]
+
+    J_d = 0.5 * np.trace(INERTIA) * np.eye(3) - INERTIA
+    force = -DAMPING * dx / H
+    left = np.concatenate([p0[:3] + H / 2 * (moment(R0, x0) + u) - vee(F @ J_d - J_d @ F.T) / H,
+                           p0[3:] - MASSES @ dx / H + H / 2 * (force - gradient_x(R0, x0))])
+    right = np.concatenate([vee(J_d @ F - F.T @ J_d) / H + H / 2 * (moment(R1, x1) + u),
+                            MASSES @ dx / H + H / 2 * (force - gradient_x(R1, x1))]) - p1
+    xi = np.concatenate([2 * vee(F - F.T) / (1 + np.trace(F)), dx]) / H
+    constraint = 0.5 * (A(R0, x0) + A(R1, x1)) @ xi
+    return np.concatenate([left - A(R0, x0).T @ lam, right, constraint])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_rows_with_coordinates_and_constraints(seed):
+    rng = np.random.default_rng(seed)
+    residual = dmoc.group_step_residual(dmoc.discretize(coupled_body(), H))
+    assert (residual.n, residual.m) == (5, 1)
+    R0 = Rotation.random(random_state=seed).as_matrix()
+    x0, p0, p1, u, lam = (rng.normal(size=k) for k in (2, 5, 5, 3, 1))
+    f = np.concatenate([0.3 * rng.normal(size=3), 0.1 * rng.normal(size=2)])
+    r = np.array(residual(np.concatenate([R0.ravel(), x0]), p0, f, p1, lam, u, H)).ravel()
+    expected = coupled_closed_form(R0, x0, p0, f, p1, lam, u)
+    assert np.abs(r - expected).max() <= 1e-12 * (1 + np.abs(expected).max())
+    # the multiplier sits on the left rows (the d'Alembert node q_k) only, as -A(q_k)^T
+    shifted = np.array(residual(np.concatenate([R0.ravel(), x0]), p0, f, p1, lam + 1.0, u, H)).ravel()
+    A0 = np.concatenate([R0[0], [1.0, x0[0]]])
+    assert np.abs((shifted - r)[:5] + A0).max() <= 1e-12 and not np.any((shifted - r)[5:])

@@ -133,7 +133,7 @@ def test_steps_solve_the_shared_residual():
     traj = dmoc.simulate(disc, q0=np.eye(3), v0=[0.2, 0.1, 1.0], steps=30, controls=controls).trajectory
     residual = dmoc.group_step_residual(disc)
     r = np.array(residual.function.map(30)(traj.q[:-1].T, traj.Pi[:-1].T, traj.f.T, traj.Pi[1:].T,
-                                           controls.T, 0.05))
+                                           traj.lam.T, controls.T, 0.05))
     assert np.abs(r).max() <= 1e-13
     R1 = np.array(residual.reconstruction.map(30)(traj.q[:-1].T, traj.f.T)).T.reshape(-1, 3, 3)
     assert np.abs(R1 - traj.R[1:]).max() <= 1e-14
@@ -177,3 +177,18 @@ def test_spin_about_a_principal_axis_turns_by_arcsin_and_fails_beyond():
     assert "step 0" in failed.message and np.array_equal(failed.trajectory.R, np.eye(3)[None])
     with pytest.raises(dmoc.SolverError, match="step 0"):
         dmoc.simulate(disc, q0=np.eye(3), v0=[0.0, 0.0, 11.0], steps=7)
+
+
+def test_suslov_constraint_without_coordinates_holds_to_round_off():
+    """Suslov's body: Omega . e3 = 0 in the body frame (a constant one-form on SO(3), no
+    vector coordinates). Its discrete one-form (f_k . e3)/h vanishes, so every increment
+    turns about an axis orthogonal to e3: checked from the rotations, e3 . cay^{-1}(R_k^T
+    R_{k+1}) = 0 to round-off, while the body tumbles."""
+    inertia = np.array([[2.0, 0.3, 0.4], [0.3, 1.5, 0.2], [0.4, 0.2, 1.0]])
+    body = dmoc.RigidBody(inertia, constraints=lambda R: np.array([[0.0, 0.0, 1.0]]))
+    traj = run(body, 0.05, 400, np.eye(3), [1.0, -0.5, 0.0])
+    F = np.einsum("kji,kjl->kil", traj.R[:-1], traj.R[1:])
+    axis_e3 = (F[:, 1, 0] - F[:, 0, 1]) / (1 + np.trace(F, axis1=1, axis2=2))
+    assert np.abs(axis_e3).max() <= 1e-15 * 10 and traj.lam.shape == (400, 1)
+    assert np.abs(traj.lam).max() > 1e-4 and traj.orthogonality_defect.max() <= 1e-13
+    assert np.abs(traj.R[-1] - np.eye(3)).max() > 0.5

@@ -1,9 +1,10 @@
-"""Rigid bodies with a fixed point, on SO(3) (`dmoc.RigidBody`): the free rigid body (Euler's
-equations Pi' = Pi x Omega, R' = R Omega^), the heavy top (a body in gravity, pivoted at a
-point other than its centre of mass) and a spacecraft turned by three body torques. Their
-oracles are the conserved quantities (energy; the spatial angular momentum R Pi, or its
-vertical component for the heavy top) and the reduced equations integrated by DOP853 in the
-tests.
+"""Rigid bodies on SO(3) x R^n_x (`dmoc.RigidBody`): the free rigid body (Euler's equations
+Pi' = Pi x Omega, R' = R Omega^), the heavy top (a body in gravity, pivoted at a point other
+than its centre of mass), a spacecraft turned by three body torques, and the Chaplygin
+sphere (a ball with an anisotropic inertia rolling without slipping on a plane, its contact
+point (x, y) the vector coordinates). Their oracles are the conserved quantities (energy;
+the spatial angular momentum R Pi, or its vertical component for the heavy top; the
+rolling constraints) and the reduced equations integrated by DOP853 in the tests.
 """
 
 import casadi as ca
@@ -68,3 +69,47 @@ def spacecraft(inertia=(1.0, 1.0, 1.0)):
     RigidBody
     """
     return RigidBody(inertia, torque=lambda R, omega, u: u, n_u=3, name="spacecraft")
+
+
+def chaplygin_sphere(inertia=(1.0, 2.0, 3.0), mass=1.0, radius=1.0, torques=False):
+    """The Chaplygin sphere: a ball of radius r and mass m whose centre of mass is its
+    geometric centre, with the body-frame inertia J about the centre, rolling without
+    slipping on the horizontal plane. Configuration (R, x) in SO(3) x R^2, x the position
+    (x, y) of the centre (and of the contact point below it);
+
+        L = 1/2 Omega^T J Omega + 1/2 m |x'|^2,
+
+    the rolling constraints (the material point at the contact, c - r e3, at rest):
+    x' = r P (omega x e3), omega = R Omega the spatial angular velocity and P the first
+    two rows, i.e. A = [r P e3^ R, I_2] on (Omega, x'). Gravity and the normal force do no
+    work (the centre stays at height r) and are left out. Energy and the contact angular
+    momentum K = R J Omega + m r^2 (omega - (e3 . omega) e3) (spatial) are conserved.
+
+    Parameters
+    ----------
+    inertia : array_like, shape (3,) or (3, 3)
+        J about the centre (body frame).
+    mass, radius : float
+        m > 0 and r > 0.
+    torques : bool
+        With True, three body torques u (n_u = 3, body frame) are the controls.
+
+    Returns
+    -------
+    RigidBody
+        n_x = 2, m = 2.
+    """
+    m = checks.positive_float("mass", mass)
+    r = checks.positive_float("radius", radius)
+    torques = checks.boolean("torques", torques)
+    e3_hat = ca.DM([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])    # the first two rows of e3^
+
+    def rolling(R, x):
+        return ca.horzcat(r * ca.mtimes(e3_hat, R), ca.DM.eye(2))
+
+    def torque(R, omega, x, v, u):
+        return ca.vertcat(u, ca.SX.zeros(2))
+
+    return RigidBody(inertia, coordinates=(m, m), constraints=rolling,
+                     torque=torque if torques else None, n_u=3 if torques else 0,
+                     name="Chaplygin sphere")

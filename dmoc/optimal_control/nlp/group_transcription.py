@@ -1,6 +1,7 @@
 """Consumer 2 of the group step residual, its NLP: the `GroupOptimalControlProblem`
-transcribed with the residual imposed at every step (6 rows) and the group product
-R_{k+1} = R_k cay(f_k) (9 rows), both from the one `GroupStepResidual` the simulator solves.
+transcribed with the residual imposed at every step (2n + m rows) and the group product
+R_{k+1} = R_k cay(f_k), x_{k+1} = x_k + dx_k (9 + n_x rows), both from the one
+`GroupStepResidual` the simulator solves.
 """
 
 from dataclasses import dataclass
@@ -9,7 +10,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util.layout import Layout
-from ...mechanics.rotations import cayley_inverse, matrix_of
+from ...mechanics.rotations import cayley_inverse, split_configuration
 
 
 @dataclass
@@ -21,13 +22,14 @@ class GroupTranscription:
     nlp : dict
         ``{"x", "f", "g"}`` SX expressions for ``casadi.nlpsol``.
     x_layout : Layout
-        Blocks ``q`` (9, N+1: the rows of R_k, column k), ``Pi`` (3, N+1), ``f`` (3, N),
-        ``u`` (n_u, N).
+        Blocks ``q`` (9 + n_x, N+1: the rows of R_k then x_k, column k), ``p`` (n, N+1),
+        ``f`` (n, N), ``lam`` (m, N), ``u`` (n_u, N), ``nu`` (m: the end impulse).
     g_layout : Layout
-        Blocks ``dynamics`` (6, N: the residual's rows), ``group`` (9, N: R_{k+1} - R_k
-        cay(f_k)) and ``goal`` (3: cay^{-1}(R_goal^T R_N)).
+        Blocks ``dynamics`` (2n + m, N: the residual's rows), ``group`` (9 + n_x, N:
+        q_{k+1} - (R_k cay(f_k), x_k + dx_k)), ``goal`` (3 + n_x: cay^{-1}(R_goal^T R_N),
+        x_N - x_goal) and ``end`` (n: p_N - p_goal - A(q_N)^T nu).
     lbx, ubx : numpy.ndarray
-        R_0 and the end momenta fixed, the rest free.
+        q_0 and p_0 fixed, the rest free.
     """
 
     nlp: dict
@@ -40,19 +42,23 @@ class GroupTranscription:
 def group_transcription(problem):
     """The GroupTranscription of `problem` (at its h)."""
     R, N, h = problem.residual, problem.steps, problem.disc.h
-    n_u = R.n_controls
-    x_layout = Layout([("q", (9, N + 1)), ("Pi", (3, N + 1)), ("f", (3, N)), ("u", (n_u, N))])
+    n, m, n_u, n_q = R.n, R.m, R.n_controls, R.inputs.numel("q0")
+    x_layout = Layout([("q", (n_q, N + 1)), ("p", (n, N + 1)), ("f", (n, N)), ("lam", (m, N)),
+                       ("u", (n_u, N)), ("nu", m)])
     x = ca.SX.sym("x", x_layout.size)
-    q, Pi, f, u = (x_layout.unpack(x, name) for name in ("q", "Pi", "f", "u"))
-    dynamics = R.function.map(N)(q[:, :-1], Pi[:, :-1], f, Pi[:, 1:], u, h)
+    q, p, f, lam, u, nu = (x_layout.unpack(x, name) for name in x_layout.blocks)
+    dynamics = R.function.map(N)(q[:, :-1], p[:, :-1], f, p[:, 1:], lam, u, h)
     group = q[:, 1:] - R.reconstruction.map(N)(q[:, :-1], f)
-    goal = cayley_inverse(ca.mtimes(ca.DM(problem.R_goal).T, matrix_of(q[:, -1])))
-    g_layout = Layout([("dynamics", (6, N)), ("group", (9, N)), ("goal", 3)])
-    nlp = {"x": x, "f": h * ca.sumsqr(u), "g": ca.vertcat(ca.vec(dynamics), ca.vec(group), goal)}
+    R_N, x_N = split_configuration(q[:, -1])
+    goal = ca.vertcat(cayley_inverse(ca.mtimes(ca.DM(problem.R_goal).T, R_N)), x_N - problem.x_goal)
+    end = p[:, -1] - problem.p_goal - ca.mtimes(R.system.constraint_matrix(q[:, -1]).T, nu)
+    g_layout = Layout([("dynamics", (2 * n + m, N)), ("group", (n_q, N)), ("goal", n_q - 6),
+                       ("end", n)])
+    nlp = {"x": x, "f": h * ca.sumsqr(u),
+           "g": ca.vertcat(ca.vec(dynamics), ca.vec(group), goal, end)}
     lbx, ubx = np.full(x_layout.size, -np.inf), np.full(x_layout.size, np.inf)
-    fixed = {("q", 0): problem.R_start.ravel(), ("Pi", 0): problem.Pi_start, ("Pi", N): problem.Pi_goal}
-    for (name, k), value in fixed.items():
-        rows = x_layout.blocks[name][1]
-        at = x_layout.slice(name).start + k * rows + np.arange(rows)
+    start = np.concatenate([problem.R_start.ravel(), problem.x_start])
+    for name, value in (("q", start), ("p", problem.p_start)):
+        at = x_layout.slice(name).start + np.arange(value.size)      # column 0
         lbx[at] = ubx[at] = value
     return GroupTranscription(nlp, x_layout, g_layout, lbx, ubx)

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..._util import checks
 from ...errors import failure
+from ...mechanics.rigid_body import block_diagonal
 from ...mechanics.rotations import cayley_inverse
 from ...principle.rotation_trajectory import RotationTrajectory
 from ..nlp.group_transcription import group_transcription
@@ -65,18 +66,24 @@ def solve_on_group(problem, *, options=None, throw=True):
 
 
 def geodesic_guess(problem, T):
-    """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`), f_k =
-    cay^{-1}(R_k^T R_{k+1}), Pi_k = J f_k / h (the last step's at N), zero controls."""
-    R = problem.geodesic()
-    f = np.array([np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])])
-    Pi = np.vstack([f, f[-1:]]) @ problem.disc.system.inertia / problem.disc.h
-    blocks = {"q": R.reshape(-1, 9).T, "Pi": Pi.T, "f": f.T,
-              "u": np.zeros((problem.residual.n_controls, problem.steps))}
+    """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`) and x_k on the
+    segment between the ends, f_k = (cay^{-1}(R_k^T R_{k+1}), x_{k+1} - x_k), p_k = M f_k
+    / h with M = diag(J, M_x) (the last step's at N), zero multipliers and controls."""
+    R, N = problem.geodesic(), problem.steps
+    x = np.linspace(problem.x_start, problem.x_goal, N + 1)
+    f = np.hstack([[np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])],
+                   np.diff(x, axis=0)])
+    body = problem.disc.system
+    p = np.vstack([f, f[-1:]]) @ block_diagonal(body.inertia, body.mass_matrix) / problem.disc.h
+    blocks = {"q": np.hstack([R.reshape(-1, 9), x]).T, "p": p.T, "f": f.T,
+              "lam": np.zeros((body.m, N)), "u": np.zeros((problem.residual.n_controls, N)),
+              "nu": np.zeros(body.m)}
     return np.concatenate([blocks[name].ravel(order="F") for name in T.x_layout.blocks])
 
 
 def trajectory_of(problem, T, x):
     """The RotationTrajectory of the NLP vector x."""
-    q, Pi, f, u = (T.x_layout.unpack(x, name).T for name in ("q", "Pi", "f", "u"))
+    q, p, f, lam, u = (T.x_layout.unpack(x, name).T for name in ("q", "p", "f", "lam", "u"))
     h = problem.disc.h
-    return RotationTrajectory(h * np.arange(problem.steps + 1), q.reshape(-1, 3, 3), Pi, f, u, h)
+    return RotationTrajectory(h * np.arange(problem.steps + 1), q[:, :9].reshape(-1, 3, 3),
+                              p[:, :3], f, u, h, x=q[:, 9:], p_x=p[:, 3:], lam=lam)

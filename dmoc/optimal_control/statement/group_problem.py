@@ -1,8 +1,8 @@
 """Consumer 2 of the group step residual, its statement: a DMOC problem for a rigid body on
-SO(3) (Kobilarov & Marsden, "Discrete geometric optimal control on Lie groups", IEEE T-RO
-27 (2011)): minimize the discrete control effort sum_k h |u_k|^2 subject to the
-`GroupStepResidual` at every step, from a rotation and body angular velocity to others.
-Its NLP is `dmoc.optimal_control.nlp.group_transcription`.
+SO(3) x R^n_x (Kobilarov & Marsden, "Discrete geometric optimal control on Lie groups",
+IEEE T-RO 27 (2011)): minimize the discrete control effort sum_k h |u_k|^2 subject to the
+`GroupStepResidual` at every step (its constraint rows included), from a rotation, a
+position and a velocity to others. Its NLP is `dmoc.optimal_control.nlp.group_transcription`.
 """
 
 import numpy as np
@@ -10,56 +10,78 @@ import numpy as np
 from ..._util import checks
 from ...discrete.group_discretization import GroupDiscretization
 from ...errors import InputError
+from ...mechanics.rigid_body import block_diagonal, check_allowed_velocity
 from ...mechanics.rotations import as_rotation
 from ...principle.group_residual import group_step_residual
 
 
 class GroupOptimalControlProblem:
-    """A rigid body steered on SO(3): minimize sum_k h |u_k|^2 (the integral of |tau|^2 for
-    controls held on each step) subject to the group step residual at every step.
+    """A rigid body steered on SO(3) x R^n_x: minimize sum_k h |u_k|^2 (the integral of
+    |tau|^2 for controls held on each step) subject to the group step residual at every
+    step.
 
     Parameters
     ----------
     disc : GroupDiscretization
-        Of a RigidBody with controls (e.g. `dmoc.systems.spacecraft`); its h fixes the
-        duration steps * h.
+        Of a RigidBody with controls (e.g. `dmoc.systems.spacecraft`, or
+        `dmoc.systems.chaplygin_sphere(torques=True)`); its h fixes the duration steps * h.
     steps : int
         N.
     R_start, R_goal : array_like, shape (3, 3)
         The rotations at t = 0 and t = N h.
     omega_start, omega_goal : array_like, shape (3,), optional
-        Body angular velocities at the ends (default: at rest), so that Pi_0 = J
-        omega_start and Pi_N = J omega_goal.
+        Body angular velocities at the ends (default: at rest).
+    x_start, x_goal : array_like, shape (n_x,), optional
+        The vector coordinates at the ends, for a body with coordinates (required then).
+    x_velocity_start, x_velocity_goal : array_like, shape (n_x,), optional
+        Their velocities at the ends (default: at rest). The velocity (omega, x') at each
+        end must satisfy the constraints there.
 
     Attributes
     ----------
     disc, steps, residual : GroupDiscretization, int, GroupStepResidual
     R_start, R_goal : numpy.ndarray, shape (3, 3)
-    Pi_start, Pi_goal : numpy.ndarray, shape (3,)
-        The body angular momenta the ends impose.
+    x_start, x_goal : numpy.ndarray, shape (n_x,)
+    p_start, p_goal : numpy.ndarray, shape (3 + n_x,)
+        The momenta (J omega, M x') the ends impose.
 
     Notes
     -----
-    The NLP carries, per knot, the 9 entries of R_k and Pi_k, and per step the Cayley
-    coordinates f_k and the control u_k; its rows per step are the 6 rows of the residual
-    and the 9 rows R_{k+1} - R_k cay(f_k) (the residual's `reconstruction`), so every R_k
-    is an exact group product of the start and the increments to the solver's tolerance.
-    R_0 and the end momenta are fixed by bounds; the goal rotation is the 3 rows
-    cay^{-1}(R_goal^T R_N) = 0 (the 9 entries of R_N = R_goal would be 6 rows too many).
+    The NLP carries, per knot, q_k (the 9 entries of R_k, then x_k) and p_k, per step the
+    increment f_k (Cayley coordinates, then dx_k), the multipliers lam_k and the control
+    u_k, and the end impulse nu (m); its rows per step are the 2n + m rows of the
+    residual and the 9 + n_x rows q_{k+1} - (R_k cay(f_k), x_k + dx_k) (the residual's
+    `reconstruction`), so every R_k is an exact group product of the start and the
+    increments to the solver's tolerance. q_0 and p_0 are fixed by bounds; the goal is the
+    3 rows cay^{-1}(R_goal^T R_N) = 0 (the 9 entries of R_N = R_goal would be 6 rows too
+    many) and x_N = x_goal, and the end momentum the (+) form's p_N = p_goal + A(q_N)^T nu
+    (an impulse nu at q_N, as `Formulation.momentum_conditions` on R^n).
     """
 
     def __init__(self, disc, steps, *, R_start, R_goal, omega_start=(0.0, 0.0, 0.0),
-                 omega_goal=(0.0, 0.0, 0.0)):
+                 omega_goal=(0.0, 0.0, 0.0), x_start=None, x_goal=None, x_velocity_start=None,
+                 x_velocity_goal=None):
         checks.instance("disc", disc, GroupDiscretization, "a GroupDiscretization")
         if disc.n_controls == 0:
             raise InputError("`disc` must be of a RigidBody with controls (n_u > 0), e.g. "
                              "dmoc.systems.spacecraft(); this one has none.")
         self.disc, self.steps = disc, checks.positive_int("steps", steps)
         self.residual = group_step_residual(disc)
+        body = disc.system
         self.R_start, self.R_goal = as_rotation("R_start", R_start), as_rotation("R_goal", R_goal)
-        J = disc.system.inertia
-        self.Pi_start = J @ checks.array("omega_start", omega_start, (3,))
-        self.Pi_goal = J @ checks.array("omega_goal", omega_goal, (3,))
+        self.x_start, self.x_goal = (_coordinates(body, name, value) for name, value in
+                                     (("x_start", x_start), ("x_goal", x_goal)))
+        mass = block_diagonal(body.inertia, body.mass_matrix)
+        self.p_start, self.p_goal = (
+            mass @ np.concatenate([checks.array(f"omega_{end}", omega, (3,)),
+                                   np.zeros(body.n_x) if rate is None
+                                   else checks.array(f"x_velocity_{end}", rate, (body.n_x,))])
+            for end, omega, rate in (("start", omega_start, x_velocity_start),
+                                     ("goal", omega_goal, x_velocity_goal)))
+        for end, R, x, p in (("start", self.R_start, self.x_start, self.p_start),
+                             ("goal", self.R_goal, self.x_goal, self.p_goal)):
+            check_allowed_velocity(body, np.concatenate([R.ravel(), x]), np.linalg.solve(mass, p),
+                                   f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
 
     @property
     def duration(self):
@@ -75,6 +97,16 @@ class GroupOptimalControlProblem:
 
     def __repr__(self):
         return f"GroupOptimalControlProblem({self.disc!r}, steps={self.steps})"
+
+
+def _coordinates(body, name, value):
+    """`value` as the body's vector coordinates (n_x,), required when it has them."""
+    if body.n_x == 0 and value is None:
+        return np.zeros(0)
+    if value is None:
+        raise InputError(f"`{name}` is required for {body.name!r}: its coordinates, shape "
+                         f"({body.n_x},).")
+    return checks.array(name, value, (body.n_x,))
 
 
 def rotation_matrix(phi):
