@@ -67,10 +67,10 @@ class DiracStepper:
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
         self.fast = self._fast_step(eliminate=native is not False)
-        self.robust = self._robust_step(max_iter)
-        horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in chunk_sizes()]
-        self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
-        self._use(horizons)
+        self.max_iter, self._robust = max_iter, None
+        self._use({})
+        self.library = (compiled.Library([self._horizon(c) for c in chunk_sizes()], "dirac_step")
+                        if native is not False else None)
         self.native, self.vm_seconds = False, 0.0
         self._auto = native is None and self.library.key is not None
         if native or (self._auto and self.library.cached()):
@@ -93,16 +93,31 @@ class DiracStepper:
             warnings.warn(f"{err}\nSimulating in CasADi's virtual machine instead.", RuntimeWarning)
             self._auto = False
             return
-        self._use(library.values())
+        self._use(dict(zip(chunk_sizes(), library.values())))
         self.native = True
 
     def _use(self, horizons):
-        """Evaluate the chunks with `horizons` (of 1, 2, 4, ..., CHUNK steps) from now on:
-        each through a buffer of its own, and, for runs in lockstep, through buffers of its
-        map over 1, 2, 4, ..., LOCKSTEP runs, made when first used (`horizons_of`)."""
-        self._horizons = dict(zip(chunk_sizes(), horizons))
-        self._chunks = {c: f.buffer() for c, f in self._horizons.items()}
-        self._mapped = {}
+        """Evaluate the chunks with `horizons` ({steps: Function} of 1, 2, 4, ..., CHUNK
+        steps; the fast step's `mapaccum` of a length missing there is made when first
+        used, `_horizon`) from now on: each through a buffer of its own, and, for runs in
+        lockstep, through buffers of its map over 1, 2, 4, ..., LOCKSTEP runs, also made
+        when first used (`horizons_of`). A replay of N steps in the virtual machine
+        (``native=False``) builds only the lengths of its chunks: 3 of the 11 at N = 11."""
+        self._horizons, self._chunks, self._mapped = dict(horizons), {}, {}
+
+    def _horizon(self, steps):
+        """The horizon of `steps` steps (a power of two up to CHUNK), made when first used."""
+        if steps not in self._horizons:
+            self._horizons[steps] = self.fast.mapaccum(f"horizon_{steps}", steps)
+        return self._horizons[steps]
+
+    @property
+    def robust(self):
+        """The line-search Newton step's Function (`_robust_step`), made when a step first
+        needs it: most runs never do."""
+        if self._robust is None:
+            self._robust = self._robust_step(self.max_iter)
+        return self._robust
 
     def horizons_of(self, steps, runs):
         """(buffer, evaluate) of the horizon of `steps` steps mapped over `runs` runs
@@ -113,7 +128,7 @@ class DiracStepper:
         (runs, steps, out.size), C-contiguous."""
         key = (steps, runs)
         if key not in self._mapped:
-            mapped = self._horizons[steps].map(f"horizon_{steps}_x{runs}", "serial", runs, [], [])
+            mapped = self._horizon(steps).map(f"horizon_{steps}_x{runs}", "serial", runs, [], [])
             self._mapped[key] = mapped.buffer()
         return self._mapped[key]
 
@@ -221,6 +236,8 @@ class DiracStepper:
         CasADi's buffer interface straight into the rows of the time-major arrays `acc`
         and `out` (C-contiguous, so the rows of a chunk are one block of memory)."""
         c = len(steps)
+        if c not in self._chunks:
+            self._chunks[c] = self._horizon(c).buffer()
         buffer, evaluate = self._chunks[c]
         for i, a in enumerate((state, controls, steps)):
             buffer.set_arg(i, memoryview(np.ascontiguousarray(a, dtype=float)))
