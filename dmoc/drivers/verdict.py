@@ -12,6 +12,8 @@ import dataclasses
 import numpy as np
 
 from .._util import checks
+from .._util.cache import BoundedCache
+from .._util.numeric import Evaluator
 from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
 from ..optimal_control.solver.verdict_record import STATUSES, Verdict
@@ -41,6 +43,11 @@ PATH_TOLERANCE = 1e-6
 # l_i, or the rest length where nothing moves: `dmoc.optimal_control.nlp.scaling.lengths`) is at rest
 # within IPOPT's tolerance; its velocity "jumps" are noise (a hold at the start: 7e-8 rad).
 REST_TOLERANCE = 1e-6
+
+# a path Function mapped over a number of knots, evaluated through its buffer: keyed by
+# (id of the path Function, knots), the value (that Function, its Evaluator) so that the
+# id stays its own while the entry lives
+_PATH_MAPS = BoundedCache(16, "path_maps")
 
 
 def judge(problem, result):
@@ -219,16 +226,19 @@ def _knot_path_values_of(triples):
     """`knot_path_values` of each (problem, traj, its `end_velocities`) of `triples`: those
     of one path Function in one call of it mapped over all their knots, their columns
     one optimum after another (a serial map: each optimum's values bit for bit those of
-    a call of its own)."""
+    a call of its own). The mapped Function is kept per path Function and number of
+    knots and called through its buffer (`dmoc._util.numeric.Evaluator`)."""
     found, values = {}, [None] * len(triples)
     for i, (problem, _, _) in enumerate(triples):
         found.setdefault(id(problem.path_constraints), []).append(i)
     for members in found.values():
         path = triples[members[0]][0].path_constraints
         columns = [_knot_arguments(*triples[i]) for i in members]
-        g = path.map(sum(c[0].shape[1] for c in columns))(*(np.hstack(parts) for parts in zip(*columns)))
+        total = sum(c[0].shape[1] for c in columns)
+        mapped = _PATH_MAPS.get((id(path), total), lambda: (path, Evaluator(path.map(total))))[1]
+        (g,) = mapped(*(np.hstack(parts) for parts in zip(*columns)))
         knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
-        for i, block in zip(members, np.split(np.array(g).T, knots)):
+        for i, block in zip(members, np.split(g.T, knots)):
             values[i] = block
     return values
 
