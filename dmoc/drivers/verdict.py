@@ -8,6 +8,7 @@ import each other.
 """
 
 import dataclasses
+import time
 
 import numpy as np
 
@@ -123,19 +124,25 @@ def _verdict(problem, traj, simulated, ends, knot_values):
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
     """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`: the
-    result with its `verdict`, ``success=False`` and the verdict's status when a check
-    fails (SolverError with `throw`). `dmoc.optimize` documents the keywords."""
+    result with its `verdict` and the verdict's wall seconds in ``stats["verdict_time"]``,
+    ``success=False`` and the verdict's status when a check fails (SolverError with
+    `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
     result = solve(problem, throw=throw, **keywords)
     if not (check and result.success):
         return result
-    return judged(result, judge(problem, result), throw=throw)
+    tic = time.perf_counter()
+    verdict = judge(problem, result)
+    return judged(result, verdict, throw=throw, seconds=time.perf_counter() - tic)
 
 
-def judged(result, verdict, *, throw=True):
-    """The converged `result` with its `verdict`: as it is when the verdict passed, else
+def judged(result, verdict, *, throw=True, seconds=None):
+    """The converged `result` with its `verdict` (and `seconds`, what judging it cost, in
+    ``stats["verdict_time"]`` unless None): as it is when the verdict passed, else
     with ``success=False``, the verdict's status and its message (`verdict_message`),
     raised as a SolverError with `throw`."""
+    if seconds is not None:
+        result = dataclasses.replace(result, stats={**result.stats, "verdict_time": seconds})
     if verdict.passed:
         return dataclasses.replace(result, verdict=verdict)
     result = dataclasses.replace(result, success=False, status=verdict.status, verdict=verdict,
