@@ -192,23 +192,34 @@ class DiracStepper:
         return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
 
     def _fast_step(self, eliminate):
-        """The fast path's Function; with `eliminate`, after common-subexpression
-        elimination (``ca.cse``), which the compiled library is generated from. A stepper
-        that never compiles (native=False) skips it: in the virtual machine it costs more
-        to build than it saves over a run (benchmarks/step_cost.py, "dirac-vm")."""
-        state, u, h, params, y = self._symbols(ca.SX)
-        ys = ca.SX.sym("y", y.numel())
-        g = self.equations(ys, params)[0]
-        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, self.unknowns)])
-        for _ in range(FAST_ITERATIONS):
-            delta = newton(y, params)
-            y = y - delta
-        update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
-        # eliminated: sin(q_k) once, not per iteration; dense, because the horizons write
-        # through buffers that receive the nonzeros only (a structural zero would shift the
-        # columns)
-        outputs = list(self._wrap(state, params, y, update))
-        outputs = [ca.densify(o) for o in (ca.cse(outputs) if eliminate else outputs)]
+        """The fast path's Function. With `eliminate`, one SX Function after
+        common-subexpression elimination (``ca.cse``), which the compiled library is
+        generated from. Without (a stepper that never compiles, native=False: the
+        verdict's replay), an MX Function calling the SX Functions of the Newton update
+        FAST_ITERATIONS times and of the step's end once: the same operations on the same
+        numbers, built in a fraction of the time of one SX Function holding every copy of
+        the update (rolling disk, lobatto4: 9 against 21 ms), at 1-2 us more per step in
+        the virtual machine (benchmarks/verdict.py). Elimination costs more to build there
+        than it saves over a run (benchmarks/step_cost.py, "dirac-vm")."""
+        state, u, h, params, guess = self._symbols(ca.SX)
+        ys = ca.SX.sym("y", guess.numel())
+        newton = ca.Function("newton_update", [ys, params],
+                             [newton_update(self.equations(ys, params)[0], ys, self.unknowns)])
+        if eliminate:
+            # eliminated: sin(q_k) once, not per iteration; dense, because the horizons write
+            # through buffers that receive the nonzeros only (a structural zero would shift
+            # the columns)
+            solved = self._wrap(state, params, *_iterated(newton, guess, params))
+            outputs = [ca.densify(o) for o in ca.cse(list(solved))]
+            return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"],
+                               ["next", "out"])
+        solved, update = ca.SX.sym("y", guess.numel()), ca.SX.sym("update")
+        start = ca.Function("step_start", [state, u, h], [params, guess])
+        ends = ca.Function("step_ends", [state, u, h, solved, update],
+                           [ca.densify(o) for o in self._wrap(state, params, solved, update)])
+        state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
+        params, guess = start(state, u, h)
+        outputs = ends(state, u, h, *_iterated(newton, guess, params))
         return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
     def _robust_step(self, max_iter):
@@ -315,3 +326,12 @@ class DiracStepper:
         done[0] = k + 1
         done[1] += 1
         return None
+
+
+def _iterated(newton, y, params):
+    """(y after FAST_ITERATIONS Newton updates ``y - newton(y, params)`` from `y`, the
+    last update's size relative to y: |delta|_inf / (1 + |y|_inf))."""
+    for _ in range(FAST_ITERATIONS):
+        delta = newton(y, params)
+        y = y - delta
+    return y, ca.norm_inf(delta) / (1 + ca.norm_inf(y))
