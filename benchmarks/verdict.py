@@ -85,10 +85,13 @@ def goal(name, offset):
 
 def judge_seconds():
     """seconds() -> the CPU seconds of the last call of `dmoc.drivers.verdict.judge`,
-    which this wraps (what ``stats["verdict_time"]`` holds as wall seconds)."""
+    which this wraps (what ``stats["verdict_time"]`` holds as wall seconds), the result's
+    trajectory built before (a deferred field: the solve's product, which the verdict
+    reads first)."""
     spent, judge = [0.0], dmoc.drivers.verdict.judge
 
     def timed(problem, result):
+        result.trajectory       # built on first reading (the solve's), as judged_solve does
         tic = time.process_time()
         verdict = judge(problem, result)
         spent[0] = time.process_time() - tic

@@ -124,13 +124,15 @@ def _verdict(problem, traj, simulated, ends, knot_values):
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
     """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`: the
-    result with its `verdict` and the verdict's wall seconds in ``stats["verdict_time"]``,
+    result with its `verdict` and the verdict's wall seconds in ``stats["verdict_time"]``
+    (the result's trajectory, which the verdict reads, built before: it is the solve's),
     ``success=False`` and the verdict's status when a check fails (SolverError with
     `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
     result = solve(problem, throw=throw, **keywords)
     if not (check and result.success):
         return result
+    result.trajectory           # the solve's product, built on first reading: not the verdict's cost
     tic = time.perf_counter()
     verdict = judge(problem, result)
     return judged(result, verdict, throw=throw, seconds=time.perf_counter() - tic)
