@@ -131,22 +131,19 @@ def _judged(solved):
     """The results of `solved`, each a (problem, IPOPT's result) or the result of an item
     that produced no solve: the converged optima judged together
     (`dmoc.drivers.verdict.verdicts`, then `judged`, ``throw=False``), the others as they
-    are, as `optimize` returns each, with an equal share of the verdicts' wall seconds in
-    ``stats["verdict_time"]``. Should the verdicts raise, each optimum is judged
+    are, as `optimize` returns each. Should the verdicts raise, each optimum is judged
     alone, so that an error stays its item's ("exception")."""
     results = [s if isinstance(s, OptimizationResult) else s[1] for s in solved]
     converged = [i for i, s in enumerate(solved) if not isinstance(s, OptimizationResult)
                  and s[1].success]
-    tic = time.perf_counter()
     try:
         found = verdicts([solved[i] for i in converged])
     except BaseException:       # any error of the group: each optimum again, alone
         found = [attempt(OptimizationResult, lambda pair=solved[i]: pair, lambda pair: judge(*pair))
                  for i in converged]
-    share = (time.perf_counter() - tic) / max(len(converged), 1)
     for i, verdict in zip(converged, found):
         results[i] = verdict if isinstance(verdict, OptimizationResult) else \
-            judged(results[i], verdict, throw=False, seconds=share)
+            judged(results[i], verdict, throw=False)
     return results
 
 
