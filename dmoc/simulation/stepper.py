@@ -6,9 +6,9 @@ multiplier it solves for enter the step (`Formulation.step_momentum`).
 Each step solves every residual row but "right" for y = (dq, nu, ds): the increment of
 the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
-(-p1 or -q1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
-Newton iterations (pure SX, optionally compiled to C; each update through the Schur
-complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
+(-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton
+iterations (`dmoc.simulation.fast_path`, optionally compiled to C; each update through the
+Schur complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
 converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
 horizons of 1, 2, 4, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on
 disk (`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate the
@@ -26,9 +26,8 @@ from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
-from .schur_complement import newton_update
+from .fast_path import fast_step
 
-FAST_ITERATIONS = 3
 NATIVE_AFTER_SECONDS = 0.5
 
 
@@ -66,7 +65,7 @@ class DiracStepper:
         self.residual, self.tol = residual, tol
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
-        self.fast = self._fast_step(eliminate=native is not False)
+        self.fast = fast_step(self, eliminate=native is not False)
         self.max_iter, self._robust = max_iter, None
         self._use({})
         self.library = (compiled.Library([self._horizon(c) for c in chunk_sizes()], "dirac_step")
@@ -168,7 +167,7 @@ class DiracStepper:
         """The stage values s = (q0, ..., q0) + ds."""
         return ca.repmat(q0, ds.numel() // q0.numel(), 1) + ds
 
-    def _wrap(self, state, params, sol, update):
+    def wrap(self, state, params, sol, update):
         """Next state and outputs from a solution y = (dq, nu, ds) of the step equations,
         with what `accepted` needs computed in the step itself (in C when compiled): the
         scale of the momenta and the count of non-finite entries (CasADi's max-norm skips
@@ -183,7 +182,7 @@ class DiracStepper:
         out["nonfinite"] = ca.sum1(1 - (ca.fabs(every) < ca.inf))
         return following, self.out.join(out)
 
-    def _symbols(self, kind):
+    def symbols(self, kind):
         """(state, u, h, params, warm start) symbols of kind SX or MX."""
         state = kind.sym("state", self.state.size)
         u, h = kind.sym("u", self.residual.n_controls), kind.sym("h")
@@ -191,39 +190,8 @@ class DiracStepper:
         guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
         return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
 
-    def _fast_step(self, eliminate):
-        """The fast path's Function. With `eliminate`, one SX Function after
-        common-subexpression elimination (``ca.cse``), which the compiled library is
-        generated from. Without (a stepper that never compiles, native=False: the
-        verdict's replay), an MX Function calling the SX Functions of the Newton update
-        FAST_ITERATIONS times and of the step's end once: the same operations on the same
-        numbers, built in a fraction of the time of one SX Function holding every copy of
-        the update (rolling disk, lobatto4: 9 against 21 ms), at 1-2 us more per step in
-        the virtual machine (benchmarks/verdict.py). Elimination costs more to build there
-        than it saves over a run (benchmarks/step_cost.py, "dirac-vm")."""
-        state, u, h, params, guess = self._symbols(ca.SX)
-        ys = ca.SX.sym("y", guess.numel())
-        newton = ca.Function("newton_update", [ys, params],
-                             [newton_update(self.equations(ys, params)[0], ys, self.unknowns)])
-        if eliminate:
-            # eliminated: sin(q_k) once, not per iteration; dense, because the horizons write
-            # through buffers that receive the nonzeros only (a structural zero would shift
-            # the columns)
-            solved = self._wrap(state, params, *_iterated(newton, guess, params))
-            outputs = [ca.densify(o) for o in ca.cse(list(solved))]
-            return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"],
-                               ["next", "out"])
-        solved, update = ca.SX.sym("y", guess.numel()), ca.SX.sym("update")
-        start = ca.Function("step_start", [state, u, h], [params, guess])
-        ends = ca.Function("step_ends", [state, u, h, solved, update],
-                           [ca.densify(o) for o in self._wrap(state, params, solved, update)])
-        state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
-        params, guess = start(state, u, h)
-        outputs = ends(state, u, h, *_iterated(newton, guess, params))
-        return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
-
     def _robust_step(self, max_iter):
-        state, u, h, params, guess = self._symbols(ca.MX)
+        state, u, h, params, guess = self.symbols(ca.MX)
         y, p = ca.SX.sym("y", guess.numel()), ca.SX.sym("p", params.numel())
         G = ca.Function("G", [y, p], [self.equations(y, p)[0]])
         newton = ca.rootfinder("newton_step", "newton", G, {
@@ -231,7 +199,7 @@ class DiracStepper:
             "error_on_fail": False})
         sol = newton(guess, params)
         return ca.Function("dirac_step_robust", [state, u, h],
-                           list(self._wrap(state, params, sol, ca.MX(0))),
+                           list(self.wrap(state, params, sol, ca.MX(0))),
                            ["state", "u", "h"], ["next", "out"])
 
     def accepted(self, out):
@@ -327,11 +295,3 @@ class DiracStepper:
         done[1] += 1
         return None
 
-
-def _iterated(newton, y, params):
-    """(y after FAST_ITERATIONS Newton updates ``y - newton(y, params)`` from `y`, the
-    last update's size relative to y: |delta|_inf / (1 + |y|_inf))."""
-    for _ in range(FAST_ITERATIONS):
-        delta = newton(y, params)
-        y = y - delta
-    return y, ca.norm_inf(delta) / (1 + ca.norm_inf(y))
