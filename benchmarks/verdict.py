@@ -1,14 +1,21 @@
-"""Benchmark: what the verdict costs, `dmoc.optimize` (``check=True``, the default) against
-IPOPT's solve alone (``check=False``) on the same problem, in the same process.
+"""Benchmark: what the verdict costs against the solve it judges, on a first solve and on a
+re-solve with new boundary data, both by `dmoc.optimize` as a user calls it (judged, no
+extra flags).
 
-For knife-edge parking and rolling-disk steering (dmoc.problems, variant "+") with each rule
-at each N: "first" is the process's first judged solve of that structure and rule (the
-replay's Newton step is built then, once per discretization structure); "again" a judged
-re-solve of the same problem; "raw" the same re-solve with ``check=False``. Reported: wall
-milliseconds of the optimize call (best of `--repeat` fresh processes for "first", best of
-`--repeat` calls for the others) and the ratios judged / raw.
+For knife-edge parking and rolling-disk steering (dmoc.problems) with lobatto3 and
+lobatto4, each at its least N within 1e-6 of the continuous optimum (benchmarks/peers.py):
+"first" is a solve after `dmoc.clear_caches` (everything built as in a new process: the
+solver, the midpoint rule's start, the replay's step); "re-solve" the problem moved to a
+goal near the last (``problem.with_boundary(q_goal=...)``) solved from the last optimum
+(``guess=``), cycling through 5 goals. For each: the verdict's CPU milliseconds (of the
+`judge` call; ``stats["verdict_time"]`` holds its wall time), the solve's (the optimize
+call less its verdict; the problem's construction not counted) and the ratio verdict /
+solve, medians over `--rounds` first solves and `--rounds` cycles
+of re-solves in each of `--repeat` processes per checkout, the checkouts interleaved
+(`--checkouts`, default this one), with the least and largest ratio of a process.
 
-    python benchmarks/verdict.py [--repeat 3] [--steps 100 1000] [--rules midpoint lobatto3 lobatto4]
+    python benchmarks/verdict.py [--repeat 3] [--rounds 5] [--checkouts /work/main .]
+    python benchmarks/verdict.py --smallest     # the knife edge, lobatto3, one process
 
 With ``--hard``, instead: stage rules (lobatto3, lobatto4) from the default guess on hard
 problems, the solve before issue 40 (IPOPT from the default guess, judged: `judged_solve`)
@@ -35,10 +42,12 @@ over those of the row.
 """
 
 import argparse
+import json
 import os
 import platform
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -49,29 +58,103 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 import dmoc  # noqa: E402
+import dmoc.drivers.verdict  # noqa: E402
 import dmoc.problems  # noqa: E402
 from dmoc.drivers.verdict import judged_solve  # noqa: E402
+from resolve import add_checkouts, imported_dmoc  # noqa: E402
 
 CASES = {"knife edge": dmoc.problems.knife_edge_parking,
          "rolling disk": dmoc.problems.rolling_disk_steering}
-RULES = ("midpoint", "lobatto3", "lobatto4")
-STEPS = (100, 1000)
+# the least N within 1e-6 of J* (benchmarks/peers.py, LEAST_N)
+LEAST_N = {"knife edge": {"lobatto3": 28, "lobatto4": 14},
+           "rolling disk": {"lobatto3": 31, "lobatto4": 11}}
+RULES = ("lobatto3", "lobatto4")
+# goals near the problems' own, (x, y, heading), as in benchmarks/peers.py
+OFFSETS = np.array([[0.05, 0.0, 0.0], [0.0, 0.05, 0.05], [-0.05, 0.05, 0.0],
+                    [0.05, -0.05, -0.05], [0.0, 0.0, 0.0]])
 
 
-def seconds(call):
-    tic = time.perf_counter()
-    call()
-    return time.perf_counter() - tic
+def goal(name, offset):
+    """The q_goal of `name` moved by `offset` = (dx, dy, dheading); the disk's rolling
+    angle stays free."""
+    if name == "knife edge":
+        return list(np.array([0.0, 1.0, 0.0]) + offset)
+    x, y, heading = np.array([1.0, 1.0, np.pi / 2]) + offset
+    return [x, y, None, heading]
 
 
-def one_process(name, rule, N, repeat):
-    """(this process) 'first again raw' seconds for one case."""
-    problem = CASES[name](N, rule=rule)
-    dmoc.optimize(problem, check=False)                 # the NLP solver is built
-    first = seconds(lambda: dmoc.optimize(problem))     # the replay's step is built
-    again = min(seconds(lambda: dmoc.optimize(problem)) for _ in range(repeat))
-    raw = min(seconds(lambda: dmoc.optimize(problem, check=False)) for _ in range(repeat))
-    return f"{first} {again} {raw}"
+def judge_seconds():
+    """seconds() -> the CPU seconds of the last call of `dmoc.drivers.verdict.judge`,
+    which this wraps (what ``stats["verdict_time"]`` holds as wall seconds), the result's
+    trajectory built before (a deferred field: the solve's product, which the verdict
+    reads first)."""
+    spent, judge = [0.0], dmoc.drivers.verdict.judge
+
+    def timed(problem, result):
+        result.trajectory       # built on first reading (the solve's), as judged_solve does
+        tic = time.process_time()
+        verdict = judge(problem, result)
+        spent[0] = time.process_time() - tic
+        return verdict
+    dmoc.drivers.verdict.judge = timed
+    return lambda: spent[0]
+
+
+def one_process(name, rule, rounds, goals):
+    """(this process) JSON {"first": [[verdict s, solve s], ...], "re-solve": [...]} of
+    `rounds` first solves and `rounds` cycles of re-solves through the last `goals` goals
+    of OFFSETS, in CPU seconds (`time.process_time`)."""
+    seconds, N = judge_seconds(), LEAST_N[name][rule]
+    rows = {"first": [], "re-solve": []}
+
+    def timed(run, problem, **keywords):
+        tic = time.process_time()
+        result = dmoc.optimize(problem, **keywords)
+        verdict = seconds()
+        rows[run].append([verdict, time.process_time() - tic - verdict])
+        if not (result.success and result.verdict.passed):
+            raise RuntimeError(f"{name} {rule}: {result.message}")
+        return result
+    for _ in range(rounds):
+        dmoc.clear_caches()
+        problem = CASES[name](N, rule=rule)
+        previous = timed("first", problem)
+    for _ in range(rounds):
+        for offset in OFFSETS[-goals:]:
+            previous = timed("re-solve", problem.with_boundary(q_goal=goal(name, offset)),
+                             guess=previous)
+    return json.dumps(rows)
+
+
+def cost_table(args):
+    """The table of verdict / solve, per checkout, problem and rule."""
+    for checkout in args.checkouts:
+        print(f"# {checkout}: {imported_dmoc(checkout)}")
+    print(f"{'checkout':<14}{'problem':<13}{'rule':<9}{'N':>3} | {'first: verdict cpu ms':>21}"
+          f"{'solve ms':>9}{'ratio':>7}{'(range)':>14} | {'re-solve: verdict cpu ms':>24}{'solve ms':>9}"
+          f"{'ratio':>7}{'(range)':>14}")
+    cases = [("knife edge", "lobatto3")] if args.smallest else \
+        [(name, rule) for name in CASES for rule in RULES]
+    for name, rule in cases:
+        rows = {c: [] for c in args.checkouts}
+        for _ in range(args.repeat):
+            for checkout in args.checkouts:         # interleaved: all see the same load
+                out = subprocess.run(
+                    [sys.executable, __file__, "--child", name, rule, str(args.rounds),
+                     str(args.goals)], env={**os.environ, "PYTHONPATH": checkout},
+                    cwd=tempfile.gettempdir(), capture_output=True, text=True, check=True)
+                rows[checkout].append(json.loads(out.stdout))
+        for checkout in args.checkouts:
+            cells = []
+            for run in ("first", "re-solve"):
+                every = np.array([r for process in rows[checkout] for r in process[run]])
+                verdict, solve = np.median(every, axis=0)
+                ratios = [np.median(np.array(p[run])[:, 0]) / np.median(np.array(p[run])[:, 1])
+                          for p in rows[checkout]]
+                cells.append(f"{verdict * 1e3:>{21 if run == 'first' else 24}.2f}{solve * 1e3:>9.2f}"
+                             f"{verdict / solve:>7.3f}{f' ({min(ratios):.3f}-{max(ratios):.3f})':>14}")
+            print(f"{os.path.basename(os.path.normpath(checkout)):<14}{name:<13}{rule:<9}"
+                  f"{LEAST_N[name][rule]:>3} | {cells[0]} | {cells[1]}", flush=True)
 
 
 def hard_problems():
@@ -139,14 +222,20 @@ def rates(steps):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--steps", type=int, nargs="+", default=STEPS, help="N (default 100 1000)")
-    parser.add_argument("--rules", nargs="+", default=RULES, choices=RULES)
-    parser.add_argument("--child", nargs=3)
+    parser.add_argument("--repeat", type=int, default=3, help="processes per checkout (default 3)")
+    parser.add_argument("--rounds", type=int, default=5,
+                        help="first solves, and cycles of re-solves, per process (default 5)")
+    parser.add_argument("--goals", type=int, default=len(OFFSETS), choices=range(1, len(OFFSETS) + 1),
+                        help=f"goals per cycle of re-solves (default {len(OFFSETS)})")
+    parser.add_argument("--smallest", action="store_true",
+                        help="the knife edge with lobatto3, one process, one round of 2 goals")
+    parser.add_argument("--steps", type=int, nargs="+", default=[30, 60], help="N, with --hard (default 30 60)")
+    parser.add_argument("--child", nargs=4)
     parser.add_argument("--hard", nargs="+", choices=["truck", "lane", "disk"], metavar="NAME",
                         help="stage rules from the default guess on truck, lane, disk, before and now")
     parser.add_argument("--rates", action="store_true",
                         help="with --hard truck: the steering rate as a path row and as a velocity bound")
+    add_checkouts(parser)
     args = parser.parse_args(argv)
     if args.hard:
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
@@ -154,27 +243,14 @@ def main(argv=None):
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
         return
     if args.child:
-        name, rule, N = args.child
-        print(one_process(name, rule, int(N), args.repeat))
+        name, rule, rounds, goals = args.child
+        print(one_process(name, rule, int(rounds), int(goals)))
         return
-    print(f"# {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
-          f"dmoc at {os.path.dirname(dmoc.__file__)}; load average {'%.2f %.2f %.2f' % os.getloadavg()}")
-    print(f"{'problem':13s} {'rule':9s} {'N':>5s} {'first ms':>9s} {'again ms':>9s} {'raw ms':>9s} "
-          f"{'first/raw':>9s} {'again/raw':>9s}")
-    for name in CASES:
-        for rule in args.rules:
-            for N in args.steps:
-                firsts, again, raw = [], None, None
-                for _ in range(args.repeat):
-                    out = subprocess.run([sys.executable, __file__, "--repeat", str(args.repeat),
-                                          "--child", name, rule, str(N)],
-                                         capture_output=True, text=True, check=True)
-                    f, a, r = map(float, out.stdout.split())
-                    firsts.append(f)
-                    again, raw = min(again or a, a), min(raw or r, r)
-                first = min(firsts)
-                print(f"{name:13s} {rule:9s} {N:5d} {first * 1e3:9.2f} {again * 1e3:9.2f} {raw * 1e3:9.2f} "
-                      f"{first / raw:9.2f} {again / raw:9.2f}", flush=True)
+    if args.smallest:
+        args.repeat, args.rounds, args.goals = 1, 1, 2
+    print(f"# {platform.processor() or platform.machine()}, Python {platform.python_version()}; "
+          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    cost_table(args)
     print(f"# load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 

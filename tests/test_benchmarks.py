@@ -28,7 +28,7 @@ SMALLEST = {
     "robots": ["--smallest"],
     "scaling": ["--steps", "50", "100", "--repeat", "1"],
     "step_cost": ["--smallest"],
-    "verdict": ["--repeat", "1", "--steps", "100", "--rules", "midpoint"],
+    "verdict": ["--smallest"],
     "warm_options": ["--quick"],
     "work_precision": ["--smallest"],
 }

@@ -1,9 +1,9 @@
-"""NumPy vectors to CasADi DM and back, for the calls that go through DM (the result's
-momenta): the same numbers, bit for bit, in less time than CasADi's own conversions of
-NumPy arrays (into a DM and out of one; benchmarks/peers.py resolve). The IPOPT call and
-the data's
-tolerances of every solve convert nothing: they go through their Functions' buffers
-(`dmoc._util.numeric.Evaluator`, `dmoc.optimal_control.solver.ipopt.PackedSolver`).
+"""NumPy vectors to CasADi DM and back through lists: the same numbers, bit for bit, in
+less time than CasADi's own conversions of NumPy arrays (benchmarks/peers.py resolve).
+No call of dmoc goes through DM any more (the result's momenta, the last, go through
+their Function's buffer since issue 41, like the IPOPT call and the data's tolerances:
+`dmoc._util.numeric.Evaluator`); tests/optimize/test_resolve_overhead.py calls a DM
+Function through `column` as its oracle.
 """
 
 import casadi as ca

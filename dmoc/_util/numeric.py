@@ -40,6 +40,11 @@ class Evaluator:
         self._vector = (function.n_in() == 1 and function.n_out() == 1     # `vector` applies
                         and function.sparsity_out(0).is_dense())
 
+    def __reduce__(self):
+        """Pickled as its Function (a closure that keeps an Evaluator, such as a problem's
+        momenta, ships to a worker): the buffers are made anew on their first call."""
+        return Evaluator, (self.function,)
+
     def __call__(self, *args):
         """The outputs at `args`, one per input, each the input's entries in column-major
         order (a vector of shape (n,) for an input (n, 1)), real and checked by the

@@ -8,10 +8,13 @@ import each other.
 """
 
 import dataclasses
+import time
 
 import numpy as np
 
 from .._util import checks
+from .._util.cache import BoundedCache
+from .._util.numeric import Evaluator
 from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
 from ..optimal_control.solver.verdict_record import STATUSES, Verdict
@@ -42,6 +45,11 @@ PATH_TOLERANCE = 1e-6
 # l_i, or the rest length where nothing moves: `dmoc.optimal_control.nlp.scaling.lengths`) is at rest
 # within IPOPT's tolerance; its velocity "jumps" are noise (a hold at the start: 7e-8 rad).
 REST_TOLERANCE = 1e-6
+
+# a path Function mapped over a number of knots, evaluated through its buffer: keyed by
+# (id of the path Function, knots), the value (that Function, its Evaluator) so that the
+# id stays its own while the entry lives
+_PATH_MAPS = BoundedCache(16, "path_maps")
 
 
 def judge(problem, result):
@@ -123,19 +131,27 @@ def _verdict(problem, traj, simulated, ends, knot_values):
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
     """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`: the
-    result with its `verdict`, ``success=False`` and the verdict's status when a check
-    fails (SolverError with `throw`). `dmoc.optimize` documents the keywords."""
+    result with its `verdict` and the verdict's wall seconds in ``stats["verdict_time"]``
+    (the result's trajectory, which the verdict reads, built before: it is the solve's),
+    ``success=False`` and the verdict's status when a check fails (SolverError with
+    `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
     result = solve(problem, throw=throw, **keywords)
     if not (check and result.success):
         return result
-    return judged(result, judge(problem, result), throw=throw)
+    result.trajectory           # the solve's product, built on first reading: not the verdict's cost
+    tic = time.perf_counter()
+    verdict = judge(problem, result)
+    return judged(result, verdict, throw=throw, seconds=time.perf_counter() - tic)
 
 
-def judged(result, verdict, *, throw=True):
-    """The converged `result` with its `verdict`: as it is when the verdict passed, else
+def judged(result, verdict, *, throw=True, seconds=None):
+    """The converged `result` with its `verdict` (and `seconds`, what judging it cost, in
+    ``stats["verdict_time"]`` unless None): as it is when the verdict passed, else
     with ``success=False``, the verdict's status and its message (`verdict_message`),
     raised as a SolverError with `throw`."""
+    if seconds is not None:
+        result = dataclasses.replace(result, stats={**result.stats, "verdict_time": seconds})
     if verdict.passed:
         return dataclasses.replace(result, verdict=verdict)
     result = dataclasses.replace(result, success=False, status=verdict.status, verdict=verdict,
@@ -226,16 +242,19 @@ def _knot_path_values_of(triples):
     """`knot_path_values` of each (problem, traj, its `end_velocities`) of `triples`: those
     of one path Function in one call of it mapped over all their knots, their columns
     one optimum after another (a serial map: each optimum's values bit for bit those of
-    a call of its own)."""
+    a call of its own). The mapped Function is kept per path Function and number of
+    knots and called through its buffer (`dmoc._util.numeric.Evaluator`)."""
     found, values = {}, [None] * len(triples)
     for i, (problem, _, _) in enumerate(triples):
         found.setdefault(id(problem.path_constraints), []).append(i)
     for members in found.values():
         path = triples[members[0]][0].path_constraints
         columns = [_knot_arguments(*triples[i]) for i in members]
-        g = path.map(sum(c[0].shape[1] for c in columns))(*(np.hstack(parts) for parts in zip(*columns)))
+        total = sum(c[0].shape[1] for c in columns)
+        mapped = _PATH_MAPS.get((id(path), total), lambda: (path, Evaluator(path.map(total))))[1]
+        (g,) = mapped(*(np.hstack(parts) for parts in zip(*columns)))
         knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
-        for i, block in zip(members, np.split(np.array(g).T, knots)):
+        for i, block in zip(members, np.split(g.T, knots)):
             values[i] = block
     return values
 

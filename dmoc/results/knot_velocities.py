@@ -8,8 +8,14 @@ and the jumps of the step velocities; the verdict on an optimum reads them
 import numpy as np
 
 from .._util import checks
+from .._util.cache import BoundedCache
+from .._util.numeric import Evaluator
 from ..discrete.knot_states import end_velocity_function
 from ..principle.trajectory import Trajectory, check_trajectory
+
+# the end velocities' Function mapped over a number of steps, evaluated through its buffer:
+# keyed by (rule, n, stage rows, steps), so a verdict per re-solve builds nothing
+_MAPPED = BoundedCache(32, "end_velocity_maps")
 
 
 def end_velocities(disc, traj):
@@ -27,18 +33,22 @@ def end_velocities_of(pairs):
     trajectories of one rule, n and stage rows in one call of the kept step Function
     mapped over all their steps, their columns one trajectory after another. A serial map
     evaluates the step's Function column by column, so each trajectory's velocities are
-    those of a call of its own bit for bit."""
+    those of a call of its own bit for bit. The mapped Function is kept per number of
+    steps and called through its buffer (`dmoc._util.numeric.Evaluator`: the same
+    evaluation without conversions to ``casadi.DM``, which cost 7-12 times the call)."""
     found = {}
     for i, (disc, traj) in enumerate(pairs):
         found.setdefault((disc.rule, disc.system.n, traj.s.shape[1]), []).append(i)
     ends = [None] * len(pairs)
     for key, members in found.items():
-        velocities = end_velocity_function(*key)
         trajs = [pairs[i][1] for i in members]
         steps = [traj.steps for traj in trajs]
-        start, end = (np.array(x).T for x in velocities.map(sum(steps))(
-            np.vstack([traj.q[:-1] for traj in trajs]).T, np.vstack([traj.q[1:] for traj in trajs]).T,
-            np.vstack([traj.s for traj in trajs]).T, np.repeat([traj.h for traj in trajs], steps)))
+        mapped = _MAPPED.get((*key, sum(steps)),
+                             lambda: Evaluator(end_velocity_function(*key).map(sum(steps))))
+        start, end = (x.T for x in mapped(      # rows of steps: the columns of the map, flat
+            np.vstack([traj.q[:-1] for traj in trajs]).ravel(),
+            np.vstack([traj.q[1:] for traj in trajs]).ravel(),
+            np.vstack([traj.s for traj in trajs]).ravel(), np.repeat([traj.h for traj in trajs], steps)))
         bounds = np.cumsum(steps)[:-1]
         for i, a, b in zip(members, np.split(start, bounds), np.split(end, bounds)):
             ends[i] = (a, b)

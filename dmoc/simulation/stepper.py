@@ -6,9 +6,9 @@ multiplier it solves for enter the step (`Formulation.step_momentum`).
 Each step solves every residual row but "right" for y = (dq, nu, ds): the increment of
 the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
-(-p1 or -q1), so it follows explicitly. A fast path runs FAST_ITERATIONS unrolled
-Newton iterations (pure SX, optionally compiled to C; each update through the Schur
-complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
+(-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton
+iterations (`dmoc.simulation.fast_path`, optionally compiled to C; each update through the
+Schur complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
 converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
 horizons of 1, 2, 4, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on
 disk (`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate the
@@ -26,9 +26,8 @@ from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
-from .schur_complement import newton_update
+from .fast_path import fast_step
 
-FAST_ITERATIONS = 3
 NATIVE_AFTER_SECONDS = 0.5
 
 
@@ -66,11 +65,11 @@ class DiracStepper:
         self.residual, self.tol = residual, tol
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
-        self.fast = self._fast_step(eliminate=native is not False)
-        self.robust = self._robust_step(max_iter)
-        horizons = [self.fast.mapaccum(f"horizon_{c}", c) for c in chunk_sizes()]
-        self.library = compiled.Library(horizons, "dirac_step") if native is not False else None
-        self._use(horizons)
+        self.fast = fast_step(self, eliminate=native is not False)
+        self.max_iter, self._robust = max_iter, None
+        self._use({})
+        self.library = (compiled.Library([self._horizon(c) for c in chunk_sizes()], "dirac_step")
+                        if native is not False else None)
         self.native, self.vm_seconds = False, 0.0
         self._auto = native is None and self.library.key is not None
         if native or (self._auto and self.library.cached()):
@@ -93,16 +92,31 @@ class DiracStepper:
             warnings.warn(f"{err}\nSimulating in CasADi's virtual machine instead.", RuntimeWarning)
             self._auto = False
             return
-        self._use(library.values())
+        self._use(dict(zip(chunk_sizes(), library.values())))
         self.native = True
 
     def _use(self, horizons):
-        """Evaluate the chunks with `horizons` (of 1, 2, 4, ..., CHUNK steps) from now on:
-        each through a buffer of its own, and, for runs in lockstep, through buffers of its
-        map over 1, 2, 4, ..., LOCKSTEP runs, made when first used (`horizons_of`)."""
-        self._horizons = dict(zip(chunk_sizes(), horizons))
-        self._chunks = {c: f.buffer() for c, f in self._horizons.items()}
-        self._mapped = {}
+        """Evaluate the chunks with `horizons` ({steps: Function} of 1, 2, 4, ..., CHUNK
+        steps; the fast step's `mapaccum` of a length missing there is made when first
+        used, `_horizon`) from now on: each through a buffer of its own, and, for runs in
+        lockstep, through buffers of its map over 1, 2, 4, ..., LOCKSTEP runs, also made
+        when first used (`horizons_of`). A replay of N steps in the virtual machine
+        (``native=False``) builds only the lengths of its chunks: 3 of the 11 at N = 11."""
+        self._horizons, self._chunks, self._mapped = dict(horizons), {}, {}
+
+    def _horizon(self, steps):
+        """The horizon of `steps` steps (a power of two up to CHUNK), made when first used."""
+        if steps not in self._horizons:
+            self._horizons[steps] = self.fast.mapaccum(f"horizon_{steps}", steps)
+        return self._horizons[steps]
+
+    @property
+    def robust(self):
+        """The line-search Newton step's Function (`_robust_step`), made when a step first
+        needs it: most runs never do."""
+        if self._robust is None:
+            self._robust = self._robust_step(self.max_iter)
+        return self._robust
 
     def horizons_of(self, steps, runs):
         """(buffer, evaluate) of the horizon of `steps` steps mapped over `runs` runs
@@ -113,7 +127,7 @@ class DiracStepper:
         (runs, steps, out.size), C-contiguous."""
         key = (steps, runs)
         if key not in self._mapped:
-            mapped = self._horizons[steps].map(f"horizon_{steps}_x{runs}", "serial", runs, [], [])
+            mapped = self._horizon(steps).map(f"horizon_{steps}_x{runs}", "serial", runs, [], [])
             self._mapped[key] = mapped.buffer()
         return self._mapped[key]
 
@@ -153,7 +167,7 @@ class DiracStepper:
         """The stage values s = (q0, ..., q0) + ds."""
         return ca.repmat(q0, ds.numel() // q0.numel(), 1) + ds
 
-    def _wrap(self, state, params, sol, update):
+    def wrap(self, state, params, sol, update):
         """Next state and outputs from a solution y = (dq, nu, ds) of the step equations,
         with what `accepted` needs computed in the step itself (in C when compiled): the
         scale of the momenta and the count of non-finite entries (CasADi's max-norm skips
@@ -168,7 +182,7 @@ class DiracStepper:
         out["nonfinite"] = ca.sum1(1 - (ca.fabs(every) < ca.inf))
         return following, self.out.join(out)
 
-    def _symbols(self, kind):
+    def symbols(self, kind):
         """(state, u, h, params, warm start) symbols of kind SX or MX."""
         state = kind.sym("state", self.state.size)
         u, h = kind.sym("u", self.residual.n_controls), kind.sym("h")
@@ -176,28 +190,8 @@ class DiracStepper:
         guess = ca.vertcat(*[X[k] for k in self.unknowns.blocks])
         return state, u, h, ca.vertcat(X["q"], X["p"], u, h), guess
 
-    def _fast_step(self, eliminate):
-        """The fast path's Function; with `eliminate`, after common-subexpression
-        elimination (``ca.cse``), which the compiled library is generated from. A stepper
-        that never compiles (native=False) skips it: in the virtual machine it costs more
-        to build than it saves over a run (benchmarks/step_cost.py, "dirac-vm")."""
-        state, u, h, params, y = self._symbols(ca.SX)
-        ys = ca.SX.sym("y", y.numel())
-        g = self.equations(ys, params)[0]
-        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, self.unknowns)])
-        for _ in range(FAST_ITERATIONS):
-            delta = newton(y, params)
-            y = y - delta
-        update = ca.norm_inf(delta) / (1 + ca.norm_inf(y))
-        # eliminated: sin(q_k) once, not per iteration; dense, because the horizons write
-        # through buffers that receive the nonzeros only (a structural zero would shift the
-        # columns)
-        outputs = list(self._wrap(state, params, y, update))
-        outputs = [ca.densify(o) for o in (ca.cse(outputs) if eliminate else outputs)]
-        return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
-
     def _robust_step(self, max_iter):
-        state, u, h, params, guess = self._symbols(ca.MX)
+        state, u, h, params, guess = self.symbols(ca.MX)
         y, p = ca.SX.sym("y", guess.numel()), ca.SX.sym("p", params.numel())
         G = ca.Function("G", [y, p], [self.equations(y, p)[0]])
         newton = ca.rootfinder("newton_step", "newton", G, {
@@ -205,7 +199,7 @@ class DiracStepper:
             "error_on_fail": False})
         sol = newton(guess, params)
         return ca.Function("dirac_step_robust", [state, u, h],
-                           list(self._wrap(state, params, sol, ca.MX(0))),
+                           list(self.wrap(state, params, sol, ca.MX(0))),
                            ["state", "u", "h"], ["next", "out"])
 
     def accepted(self, out):
@@ -221,6 +215,8 @@ class DiracStepper:
         CasADi's buffer interface straight into the rows of the time-major arrays `acc`
         and `out` (C-contiguous, so the rows of a chunk are one block of memory)."""
         c = len(steps)
+        if c not in self._chunks:
+            self._chunks[c] = self._horizon(c).buffer()
         buffer, evaluate = self._chunks[c]
         for i, a in enumerate((state, controls, steps)):
             buffer.set_arg(i, memoryview(np.ascontiguousarray(a, dtype=float)))
@@ -298,3 +294,4 @@ class DiracStepper:
         done[0] = k + 1
         done[1] += 1
         return None
+

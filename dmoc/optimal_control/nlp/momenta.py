@@ -11,7 +11,7 @@ import numpy as np
 
 from ..._util import checks
 from ..._util.cache import BoundedCache
-from ..._util.conversions import column, vector
+from ..._util.numeric import Evaluator
 from ...principle.explicit import single_output, solved_rows, substitutable
 from .terms import broadcast, inputs_of
 
@@ -125,19 +125,20 @@ class SubstitutedMomenta:
         """``momenta(x, p) -> P`` (n, N+1): p_0 from x and the explicit p_{k+1} of every
         step: the windows of p1's inputs gathered from x and p, stacked, and p1 mapped over
         the N steps on that one stacked input (a Function kept in a bounded cache per
-        residual and N, so that a call converts one array, not one per input of p1). The
-        stack is gathered by two index arrays made once (`_gathering`) and converted
-        through lists (`dmoc._util.conversions`). It holds index arrays and p1 only, not
-        the problem."""
+        residual and N, so that a call passes one array, not one per input of p1). The
+        stack is gathered by two index arrays made once (`_gathering`) and evaluated
+        through the Function's buffer (`dmoc._util.numeric.Evaluator`: no conversion to
+        ``casadi.DM``, which took most of the call). It holds index arrays and p1 only,
+        not the problem."""
         X, N, p1, key = slots.X, slots.N, self.p1, (self.residual.key, slots.N)
         windows = [slots.at(0, N, "_prev")[k if k == "h" else k + "_prev"] for k in p1.name_in()]
         gather, shift = _gathering(windows, slots.q_ref, N, slots.n_x, slots.n_p)
 
         def momenta(x, p):
             values = np.concatenate([x, p, _ZERO])
-            mapped = _MOMENTA.get(key, lambda: _stacked(p1).map(N))
-            stacked = column((values[gather] + values[shift]).ravel(), gather.shape[1])
-            return np.hstack([x[X["p"][:, :1]], vector(mapped(stacked)).reshape(N, -1).T])
+            mapped = _MOMENTA.get(key, lambda: Evaluator(_stacked(p1).map(N)))
+            (following,) = mapped((values[gather] + values[shift]).ravel())    # the stack, (rows, N)
+            return np.hstack([x[X["p"][:, :1]], following])
         return momenta
 
     def __repr__(self):

@@ -49,6 +49,8 @@ class OptimizationResult:
         linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
         whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT
         added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row),
+        ``verdict_time`` (wall seconds of the verdict when `dmoc.optimize` judged the
+        optimum: the replay and the checks at the knots, `dmoc.drivers.verdict.judge`),
         and with ``linear_solver_report=True`` ``linear_solver``
         (`dmoc.optimal_control.solver.linear_solver.linear_solver_report`).
     x : ndarray, shape (problem.x_layout.size,)

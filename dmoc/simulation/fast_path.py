@@ -1,0 +1,57 @@
+"""The fast path of the simulator's step (`dmoc.simulation.stepper`): FAST_ITERATIONS
+Newton updates unrolled from the warm start (each through the Schur complement of the
+multipliers, `dmoc.simulation.schur_complement`), then the step's end: the next state and
+the outputs that decide whether the step is accepted. As one SX Function after
+common-subexpression elimination, which the compiled library is generated from; or, for a
+stepper that never compiles, as an MX Function calling the update's SX Function, which is
+built in a fraction of the time for the same numbers.
+"""
+
+import casadi as ca
+
+from .schur_complement import newton_update
+
+FAST_ITERATIONS = 3
+
+
+def fast_step(stepper, eliminate):
+    """The fast path's Function ``(state, u, h) -> (next, out)`` of `stepper` (a
+    `DiracStepper`: its `equations`, `unknowns`, `symbols` and `wrap`), outputs dense
+    (the horizons write through buffers that receive the nonzeros only: a structural zero
+    would shift the columns).
+
+    With `eliminate`, one SX Function after ``ca.cse`` (sin(q_k) once, not per
+    iteration), which the compiled library is generated from. Without (a stepper that never
+    compiles, native=False: the verdict's replay), an MX Function calling the SX Functions
+    of the Newton update FAST_ITERATIONS times and of the step's start and end once: the
+    same operations on the same numbers as one SX Function holding every copy of the
+    update, built in a fraction of its time (rolling disk, lobatto4: 9 against 21 ms), at
+    1-2 us more per step in the virtual machine (benchmarks/verdict.py). Elimination costs
+    more to build there than it saves over a run (benchmarks/step_cost.py, "dirac-vm").
+    """
+    state, u, h, params, guess = stepper.symbols(ca.SX)
+    ys = ca.SX.sym("y", guess.numel())
+    newton = ca.Function("newton_update", [ys, params],
+                         [newton_update(stepper.equations(ys, params)[0], ys, stepper.unknowns)])
+    if eliminate:
+        solved = stepper.wrap(state, params, *_iterated(newton, guess, params))
+        outputs = [ca.densify(o) for o in ca.cse(list(solved))]
+        return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"],
+                           ["next", "out"])
+    solved, update = ca.SX.sym("y", guess.numel()), ca.SX.sym("update")
+    start = ca.Function("step_start", [state, u, h], [params, guess])
+    ends = ca.Function("step_ends", [state, u, h, solved, update],
+                       [ca.densify(o) for o in stepper.wrap(state, params, solved, update)])
+    state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
+    params, guess = start(state, u, h)
+    outputs = ends(state, u, h, *_iterated(newton, guess, params))
+    return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
+
+
+def _iterated(newton, y, params):
+    """(y after FAST_ITERATIONS Newton updates ``y - newton(y, params)`` from `y`, the
+    last update's size relative to y: |delta|_inf / (1 + |y|_inf))."""
+    for _ in range(FAST_ITERATIONS):
+        delta = newton(y, params)
+        y = y - delta
+    return y, ca.norm_inf(delta) / (1 + ca.norm_inf(y))
