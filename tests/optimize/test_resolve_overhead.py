@@ -19,7 +19,6 @@ import pytest
 import dmoc
 import dmoc.problems
 from dmoc._util.compiled import compiler
-from dmoc._util.conversions import column
 from dmoc._util.deferred import Pending
 from dmoc._util.numeric import Evaluator
 from dmoc.optimal_control.solver import ipopt
@@ -110,7 +109,7 @@ def _former_largest_row_sum(T, x0, jit):
     largest = ca.Function("former", [z], [ca.mmax(rows)])
     absolute = np.array(x0, dtype=float)
     absolute[T.x_layout.slice("q")] = T.configurations(x0).ravel()
-    return float(largest(column(np.concatenate([x0, absolute, T.p]))))
+    return float(largest(ca.DM(np.concatenate([x0, absolute, T.p]))))
 
 
 @pytest.mark.parametrize("jit", [False, pytest.param(True, marks=pytest.mark.skipif(
@@ -129,7 +128,7 @@ def test_the_row_sums_of_one_stacked_x_and_p_are_the_former_ones(jit):
         for _ in range(10):
             x0 = rng.normal(size=T.x_layout.size) * 10.0 ** rng.uniform(-3, 6)
             z = np.concatenate([x0, T.p])
-            assert float(largest(column(z))) == _former_largest_row_sum(T, x0, jit) == \
+            assert float(largest(ca.DM(z))) == _former_largest_row_sum(T, x0, jit) == \
                 through_buffer(z)[0][0, 0]
     assert ipopt.data_tolerances(far.transcription, far.transcription.lbx.clip(-1e7, 1e7))
 
