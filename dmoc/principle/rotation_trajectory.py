@@ -2,17 +2,29 @@
 angular momenta Pi_k and the Cayley coordinates f_k of the increments F_k = R_k^T R_{k+1}
 of a rigid body whose steps solve the group step residual (`group_residual`), with its
 vector coordinates x_k, their momenta and the constraint multipliers, and the quantities
-its tests and users read off it."""
+its tests and users read off it; its fields checked as ``Trajectory(...)`` checks its own
+(`trajectory_fields`) and saved to .npz files
+that round-trip exactly (`trajectory_file`)."""
 
 from dataclasses import dataclass
 
 import numpy as np
 
+from .._util import checks
+from ..errors import InputError
+from . import trajectory_fields
+from .trajectory_file import ROTATION_TRAJECTORY_FILE, read, write
+
 
 @dataclass
 class RotationTrajectory:
     """Time-major arrays of a rigid body's motion on SO(3) (`dmoc.simulate` of a
-    `GroupDiscretization`).
+    `GroupDiscretization`, the trajectory of `dmoc.optimize`'s result on the group).
+
+    Every field is checked and copied, as ``Trajectory(...)`` does: shapes, real numbers
+    (NaN allowed, the last iterate of a failed solve may hold it; never infinities), the
+    knot times on the grid t_0 + k h. R is not checked to be orthogonal (a failed solve's
+    iterate need not be).
 
     Attributes
     ----------
@@ -46,11 +58,24 @@ class RotationTrajectory:
     lam: np.ndarray = None
 
     def __post_init__(self):
-        k = self.R.shape[0]
-        empty = np.zeros((k, 0))
-        self.x = empty if self.x is None else self.x
-        self.p_x = empty if self.p_x is None else self.p_x
-        self.lam = np.zeros((k - 1, 0)) if self.lam is None else self.lam
+        R = checks.real_array("R", self.R, "an array of real numbers of shape (N+1, 3, 3)")
+        if R.ndim != 3 or R.shape[0] < 1 or R.shape[1:] != (3, 3):
+            raise InputError(f"`R` must have shape (N+1, 3, 3), one rotation per knot; got {R.shape}.")
+        self.R = checks.array("R", R, R.shape, allow_nan=True)
+        N1 = R.shape[0]
+        self.h = checks.positive_float("h", self.h)
+        self.t = trajectory_fields.time_grid(self.t, N1, self.h)
+        self.Pi = checks.array("Pi", self.Pi, (N1, 3), allow_nan=True)
+        self.f, self.u, self.lam = (trajectory_fields.per_step(name, value, N1 - 1) for name, value
+                                    in (("f", self.f), ("u", self.u), ("lam", self.lam)))
+        n_x = self.f.shape[1] - 3
+        if n_x < 0:
+            raise InputError(f"`f` must have 3 + n_x columns (the Cayley coordinates, then "
+                             f"dx_k); got {self.f.shape[1]}.")
+        empty = np.zeros((N1, 0))
+        self.x, self.p_x = (checks.array(name, empty if value is None else value, (N1, n_x),
+                                         allow_nan=True)
+                            for name, value in (("x", self.x), ("p_x", self.p_x)))
 
     @property
     def steps(self):
@@ -78,3 +103,29 @@ class RotationTrajectory:
         """max |R_k^T R_k - I| of each rotation, shape (N+1,)."""
         gram = np.einsum("kji,kjl->kil", self.R, self.R)
         return np.abs(gram - np.eye(3)).max(axis=(1, 2))
+
+    def __repr__(self):
+        return (f"RotationTrajectory(steps={self.steps}, n_x={self.x.shape[1]}, "
+                f"m={self.lam.shape[1]}, n_u={self.u.shape[1]}, h={self.h})")
+
+    def save(self, path):
+        """Write every field to an uncompressed .npz file at exactly `path` (exact round
+        trip), atomically, as `Trajectory.save` does."""
+        write(self, path)
+
+    @classmethod
+    def load(cls, path):
+        """Read a RotationTrajectory written by `save` (or the trajectory of a result on the
+        group written by `OptimizationResult.save`); never unpickles.
+
+        Raises
+        ------
+        MissingFileError
+            If there is no file at `path` (a FileNotFoundError).
+        InputError
+            If `path` is a folder.
+        TrajectoryFileError
+            If the file is empty, truncated, corrupted, not written by `save`, or the file of
+            a `Trajectory` (of a vector space: read it with `Trajectory.load`).
+        """
+        return read(cls, path, ROTATION_TRAJECTORY_FILE)[0]

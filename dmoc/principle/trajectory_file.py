@@ -1,12 +1,12 @@
-"""The file of a Trajectory (the principle stage's discrete solution): every field as an
-array of an uncompressed .npz archive, written atomically (`write`, behind
-`Trajectory.save`) and read back exactly, never unpickled, with a file that is not one
-refused by a TrajectoryFileError saying why (`read`, behind `Trajectory.load` and
-`OptimizationResult.load`): a file from elsewhere is read with bounds (`npz_archive`) and
-every field checked against its type and shape.
+"""The file of a Trajectory or a RotationTrajectory (the principle stage's discrete
+solutions): every field as an array of an uncompressed .npz archive, written atomically
+(`write`, behind `Trajectory.save` and `RotationTrajectory.save`) and read back exactly,
+never unpickled, with a file that is not one refused by a TrajectoryFileError saying why
+(`read`, behind their `load` and `OptimizationResult.load`): a file from elsewhere is read
+with bounds (`npz_archive`) and every field checked against its type and shape.
 """
 
-from dataclasses import fields
+from dataclasses import MISSING, fields
 
 import numpy as np
 
@@ -15,9 +15,13 @@ from .._util.files import atomic_write, readable_file, writable_file
 from .._util.npz_archive import BadArchive, read_arrays, regular_file
 from ..errors import InputError, InputTypeError, TrajectoryFileError
 
-_REQUIRED = {"t", "q", "p", "lam", "u", "h", "variant"}
 RESULT_PREFIX = "result_"       # the fields `OptimizationResult.save` adds to a trajectory file
 TRAJECTORY_FILE = "a valid dmoc trajectory file (one written by Trajectory.save)"
+ROTATION_TRAJECTORY_FILE = ("a valid dmoc trajectory file on SO(3) (one written by "
+                            "RotationTrajectory.save)")
+# a field only the other kind of trajectory has, and the reader of that kind
+_OTHER_KIND = {"R": "a trajectory on SO(3) (read it with RotationTrajectory.load)",
+               "q": "a trajectory of a vector space (read it with Trajectory.load)"}
 
 
 def write(traj, path, extra=None):
@@ -31,11 +35,13 @@ def write(traj, path, extra=None):
 
 
 def read(cls, path, kind):
-    """(the `cls` (Trajectory) in the .npz file at `path`, {name: array} of its fields
-    named RESULT_PREFIX + name); a file that is not one raises TrajectoryFileError saying
-    it is not `kind` (what the caller expected) and why: not a regular file, not an .npz
-    archive, members named twice, sizes beyond bounds (`npz_archive`), fields missing,
-    unknown or of the wrong type or shape."""
+    """(the `cls` (Trajectory or RotationTrajectory; of a tuple of them the first whose
+    fields without a default the file holds) in the .npz file at `path`, {name: array}
+    of its fields named RESULT_PREFIX + name); a file that is not one raises
+    TrajectoryFileError saying it is not `kind` (what the caller expected) and why: not a
+    regular file, not an .npz archive, members named twice, sizes beyond bounds
+    (`npz_archive`), fields missing (those of `cls` without a default), unknown or of the
+    wrong type or shape, or the file of the other kind of trajectory."""
     path = readable_file("path", checks.file_path("path", path))
     try:
         with regular_file(path) as file:
@@ -48,20 +54,30 @@ def read(cls, path, kind):
             arrays = read_arrays(file)
     except BadArchive as err:
         _invalid(path, kind, str(err))
+    if isinstance(cls, tuple):
+        cls = next((c for c in cls if _required(c) <= set(arrays)), cls[0])
     known = {f.name for f in fields(cls)}
-    missing = _REQUIRED - set(arrays)
+    missing = _required(cls) - set(arrays)
     unknown = {k for k in set(arrays) - known if not k.startswith(RESULT_PREFIX)}
+    other = [_OTHER_KIND[name] for name in _OTHER_KIND if name in unknown]
     if missing or unknown:
-        _invalid(path, kind, f"it lacks the fields {sorted(missing)}" if missing else
-                 f"it holds fields a Trajectory does not have: {sorted(unknown)}")
+        _invalid(path, kind, f"it is the file of {other[0]}" if other else
+                 f"it lacks the fields {sorted(missing)}" if missing else
+                 f"it holds fields a {cls.__name__} does not have: {sorted(unknown)}")
     values = {name: arrays[name] for name in set(arrays) & known}
     values["h"] = scalar(path, kind, "h", values["h"], "fiu").item()
-    values["variant"] = str(scalar(path, kind, "variant", values["variant"], "U"))
+    if "variant" in values:
+        values["variant"] = str(scalar(path, kind, "variant", values["variant"], "U"))
     try:
         traj = cls(**values)
     except (InputError, InputTypeError) as err:
         _invalid(path, kind, f"its fields do not form a trajectory: {err}")
     return traj, {k[len(RESULT_PREFIX):]: v for k, v in arrays.items() if k.startswith(RESULT_PREFIX)}
+
+
+def _required(cls):
+    """The names of the fields of the dataclass `cls` without a default."""
+    return {f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING}
 
 
 def scalar(path, kind, name, value, kinds):

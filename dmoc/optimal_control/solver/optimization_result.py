@@ -12,6 +12,7 @@ import numpy as np
 
 from ..._util.deferred import DeferredField, made
 from ...errors import InputError, TrajectoryFileError, status_of
+from ...principle.rotation_trajectory import RotationTrajectory
 from ...principle.trajectory import Trajectory
 from ...principle.trajectory_file import RESULT_PREFIX, read, scalar, write
 from .verdict_record import Verdict
@@ -23,8 +24,9 @@ class OptimizationResult:
 
     Attributes
     ----------
-    trajectory : Trajectory
-        The optimal trajectory, or the last iterate when not `success`. A solve whose x is
+    trajectory : Trajectory or RotationTrajectory
+        The optimal trajectory, or the last iterate when not `success` (a
+        RotationTrajectory for a `GroupOptimalControlProblem`). A solve whose x is
         finite makes it from `x` on first access (the same fields, bit for bit, as when
         made at once) and keeps it: a re-solve whose caller reads only x, the
         multipliers and the cost (a warm start) does not pay its momenta and arrays
@@ -93,7 +95,8 @@ class OptimizationResult:
 
     def save(self, path):
         """Write the result to an uncompressed .npz file at exactly `path`: the trajectory's
-        fields (so `Trajectory.load` reads it too), x, the multipliers, cost, status,
+        fields (so `Trajectory.load`, or `RotationTrajectory.load` of a result on the group,
+        reads it too), x, the multipliers, cost, status,
         message, structure, stats and the verdict (as JSON)."""
         extra = {RESULT_PREFIX + k: np.asarray(getattr(self, k))
                  for k in ("cost", "success", "status", "message", "x", "lam_x", "lam_g", "structure",
@@ -105,25 +108,28 @@ class OptimizationResult:
 
     @classmethod
     def load(cls, path):
-        """Read a result written by `save`; ``optimize(problem, guess=loaded)`` warm-starts
-        as from the result itself.
+        """Read a result written by `save`, exactly (its trajectory a RotationTrajectory
+        when it was one); ``optimize(problem, guess=loaded)`` warm-starts as from the
+        result itself (a problem of a vector space).
 
         Raises
         ------
         MissingFileError
             If there is no file at `path` (a FileNotFoundError).
         TrajectoryFileError
-            If the file is not a trajectory file (`Trajectory.load`), or is one without the
-            result's fields (written by `Trajectory.save`, not `OptimizationResult.save`).
+            If the file is not a trajectory file (`Trajectory.load`,
+            `RotationTrajectory.load`), or is one without the result's fields (written by
+            their `save`, not `OptimizationResult.save`).
         """
-        traj, extra = read(Trajectory, path, RESULT_FILE)   # checks the path, that it is an .npz
+        # checks the path, that it is an .npz
+        traj, extra = read((Trajectory, RotationTrajectory), path, RESULT_FILE)
         missing = sorted(_RESULT_FIELDS - set(extra))
         unknown = sorted(set(extra) - _RESULT_FIELDS - _OPTIONAL_FIELDS)
         if missing or unknown:
             raise TrajectoryFileError(
                 f"{str(path)!r} is not {RESULT_FILE}: " + (
                     f"it lacks the fields {missing}" + ("; it is a trajectory file (read it "
-                    "with Trajectory.load)." if len(missing) == len(_RESULT_FIELDS) else ".")
+                    f"with {type(traj).__name__}.load)." if len(missing) == len(_RESULT_FIELDS) else ".")
                     if missing else f"it holds result fields a result does not have: {unknown}."))
         return cls(traj, **_checked_fields(path, extra, traj.q.shape[1]))
 
