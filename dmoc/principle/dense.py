@@ -41,7 +41,7 @@ class Sample(NamedTuple):
 def step_times(traj, t):
     """(t, k, c) for times `t` in the horizon of `traj`: the times as a 1-D array, the step
     k of each (a knot belongs to the step that starts there, the last knot to the last
-    step) and the step time c = (t - t_k)/h in [0, 1].
+    step) and the step time c = (t - t_k)/h in [0, 1] (0 and 1 exactly at the knots).
 
     Raises
     ------
@@ -67,7 +67,8 @@ def step_times(traj, t):
     # the last knot at or before t (the stored t_k, exactly: floor((t_k - t_0)/h) can round
     # to k - 1)
     k = np.clip(np.searchsorted(traj.t, t, side="right") - 1, 0, traj.steps - 1)
-    return t, k, (t - traj.t[k]) / traj.h
+    # c = 1 exactly at the last knot, (t_N - t_{N-1})/h can round below it
+    return t, k, np.where(t == traj.t[k + 1], 1.0, (t - traj.t[k]) / traj.h)
 
 
 def controls(traj, k, c):

@@ -58,12 +58,23 @@ def simulated(rule, steps):
 def test_sample_at_the_knots_is_the_stored_solution(rule):
     traj = simulated(rule, 8)
     at_knots = traj.sample(traj.t)
-    np.testing.assert_allclose(at_knots.q, traj.q, rtol=0, atol=1e-14)
-    np.testing.assert_allclose(at_knots.p, traj.p, rtol=0, atol=1e-14)
+    assert np.array_equal(at_knots.q, traj.q) and np.array_equal(at_knots.p, traj.p)
     assert at_knots.t is not traj.t and np.array_equal(at_knots.t, traj.t)
     nodes = np.asarray(traj.control_nodes)
     at_nodes = traj.sample((traj.t[:-1, None] + nodes * traj.h).ravel())
     np.testing.assert_allclose(at_nodes.u.reshape(traj.steps, -1), traj.u, rtol=0, atol=1e-14)
+
+
+def test_the_last_knot_is_stored_where_its_step_time_rounds_off_one():
+    """t_N - t_{N-1} = 0.6 - 0.5 is (1 + 4 eps) h for h = 0.1: the last knot must still be
+    the stored q_N and p_N, not the chord extrapolated by round-off."""
+    rng = np.random.default_rng(3)
+    t = 0.1 * np.arange(7)
+    assert (t[-1] - t[-2]) / 0.1 != 1.0              # the case this test is about
+    traj = dmoc.Trajectory(t, rng.normal(size=(7, 2)), rng.normal(size=(7, 2)), np.zeros((6, 0)),
+                           rng.normal(size=(6, 1)), 0.1, "+")
+    last = traj.sample(t[-1])
+    assert np.array_equal(last.q, traj.q[-1]) and np.array_equal(last.p, traj.p[-1])
 
 
 @pytest.mark.parametrize("rule", list(ORDERS))
