@@ -3,8 +3,8 @@ angular momenta Pi_k and the Cayley coordinates f_k of the increments F_k = R_k^
 of a rigid body whose steps solve the group step residual (`group_residual`), with its
 vector coordinates x_k, their momenta and the constraint multipliers, and the quantities
 its tests and users read off it; its fields checked as ``Trajectory(...)`` checks its own
-(`trajectory_fields`) and saved to .npz files
-that round-trip exactly (`trajectory_file`)."""
+(`trajectory_fields`), sampled between the knots on the group (`group_dense`) and saved to
+.npz files that round-trip exactly (`trajectory_file`)."""
 
 from dataclasses import dataclass
 
@@ -12,7 +12,7 @@ import numpy as np
 
 from .._util import checks
 from ..errors import InputError
-from . import trajectory_fields
+from . import group_dense, trajectory_fields
 from .trajectory_file import ROTATION_TRAJECTORY_FILE, read, write
 
 
@@ -56,6 +56,11 @@ class RotationTrajectory:
     x: np.ndarray = None
     p_x: np.ndarray = None
     lam: np.ndarray = None
+
+    # the step's nodes as `Trajectory` names them (for `dense`): a control held on each
+    # step, no stages
+    control_nodes = (0.5,)
+    stage_nodes = ()
 
     def __post_init__(self):
         R = checks.real_array("R", self.R, "an array of real numbers of shape (N+1, 3, 3)")
@@ -107,6 +112,33 @@ class RotationTrajectory:
     def __repr__(self):
         return (f"RotationTrajectory(steps={self.steps}, n_x={self.x.shape[1]}, "
                 f"m={self.lam.shape[1]}, n_u={self.u.shape[1]}, h={self.h})")
+
+    def sample(self, t):
+        """The motion at any times of the horizon on an orthogonal interpolant
+        (`group_dense.sample`): R(t) = R_k cay(c f_k), c = (t - t_k)/h, the step's own
+        Cayley increment scaled along its axis, x(t) the chord, (Omega, x') its
+        derivative, (Pi, p_x) linear between the knots, u held; the stored values at the
+        knots.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (K,)
+            Times in [t_0, t_N] (`Trajectory.control` says how the ends are read).
+
+        Returns
+        -------
+        RotationSample
+            t (K,), R (K, 3, 3), x (K, n_x), v = (Omega, x') and p = (Pi, p_x) (K, 3 + n_x),
+            u (K, n_u); for a scalar `t`, t a float and the others without their first axis.
+
+        Raises
+        ------
+        InputError
+            If a time lies outside [t_0, t_N] or is not finite, or the trajectory has no step.
+        InputTypeError
+            If `t` is not made of real numbers.
+        """
+        return group_dense.sample(self, t)
 
     def save(self, path):
         """Write every field to an uncompressed .npz file at exactly `path` (exact round
