@@ -17,7 +17,7 @@ except ImportError:  # pragma: no cover - depends on the installation
     raise ImportError("dmoc.batch needs dask.distributed: pip install 'dmoc[batch]'.") from None
 
 from .._util import checks
-from ..discrete import Discretization
+from ..discrete import Discretization, GroupDiscretization
 from ..errors import InputError, InputTypeError
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..optimal_control.solver.optimization_result import OptimizationResult
@@ -133,9 +133,13 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
     steps step in lockstep (`dmoc.simulation.lockstep`: the results of `simulate` bit for
     bit, for less CPU per run), unless `timeout` is set (then each runs alone).
 
+    A GroupDiscretization (a rigid body on SO(3), `dmoc.simulation.group_stepping`) is
+    run the same way, each run alone (no lockstep), its RotationTrajectory sent whole
+    with its result: the results of `simulate` bit for bit.
+
     Parameters
     ----------
-    disc : Discretization or sequence of Discretization, length B
+    disc : Discretization, GroupDiscretization or sequence of them, length B
         One discretization for every run, or one per run.
     runs : sequence of dict, length B
         Keyword arguments of `simulate` for each run: ``q0``, ``steps`` and one of ``v0``
@@ -143,7 +147,8 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
         ``max_iter``, ``jit``. ``throw`` is always False.
     keep : {"trajectory", "final"}
         What each result's `trajectory` holds: every knot (default), or only the last
-        one, t_N, q_N and p_N as a Trajectory of shape (1, n) with no step, for sweeps
+        one, t_N, q_N and p_N as a Trajectory of shape (1, n) with no step (on SO(3) a
+        RotationTrajectory of R_N, Pi_N, x_N, p_x,N), for sweeps
         that need the end state: a worker then sends about 0.3 kB per run instead of
         80 kB for 1000 steps of the knife edge, whose transfer is a large part of a
         batch of short runs (docs/batch.md). ``stats`` are those of the whole run.
@@ -171,12 +176,13 @@ def simulate_many(disc, runs, *, keep="trajectory", client=None, progress=True, 
             missing = " and ".join(f"`{k}`" for k in REQUIRED_KEYS if k not in run)
             raise InputError(f"`runs[{i}]` must give {' and '.join(f'`{k}`' for k in REQUIRED_KEYS)} "
                              f"of `simulate`; it lacks {missing}.")
-    if isinstance(disc, Discretization):
+    if isinstance(disc, (Discretization, GroupDiscretization)):
         disc = [disc] * len(runs)
-    discs = _sequence("disc", disc, Discretization, "Discretization")
+    discs = _sequence("disc", disc, (Discretization, GroupDiscretization),
+                      "Discretization or GroupDiscretization")
     if len(discs) != len(runs):
-        raise InputError(f"`disc` must be one Discretization or one per run ({len(runs)}); "
-                         f"got {len(discs)}.")
+        raise InputError(f"`disc` must be one Discretization (or GroupDiscretization) or one "
+                         f"per run ({len(runs)}); got {len(discs)}.")
     timeout = _seconds("timeout", timeout)
     keep = checks.choice("keep", keep, KEEP)
     shipments, items = shipping.run_items(discs, runs)

@@ -113,8 +113,8 @@ def pack(results, memory):
     heads : list, one per result
         (result without its trajectory, (h, variant, control_nodes, stage_nodes, places)
         of its trajectory, places the (start, shape) of each of FIELDS in the buffer), or
-        (result, None) for a result kept whole: one without a trajectory, or with an
-        array that is not of floats.
+        (result, None) for a result kept whole: one without a Trajectory (none, or a
+        RotationTrajectory), or with an array that is not of floats.
     data : ndarray of float, shape (floats,), or None
         None when every array is in `memory`'s slot (its first ``memory.used`` floats);
         else the buffer, all the arrays copied into it, and the slot, if any, let go.
@@ -147,9 +147,10 @@ def _starts(arrays, at):
 
 
 def _fields(traj):
-    """The arrays of FIELDS of `traj`, or None when it has no trajectory or one of them is
-    not an array of floats."""
-    if traj is None:
+    """The arrays of FIELDS of `traj`, or None when it is not a Trajectory (none, or a
+    RotationTrajectory, which travels whole with its result) or one of them is not an
+    array of floats."""
+    if not isinstance(traj, Trajectory):
         return None
     arrays = [getattr(traj, name) for name in FIELDS]
     return arrays if all(isinstance(a, np.ndarray) and a.dtype == float for a in arrays) else None

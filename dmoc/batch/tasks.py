@@ -27,6 +27,8 @@ from ..errors import Status
 from .item_guard import attempt, caught, guarded, guarded_chunk, in_turn, stamp
 from .packing import ChunkMemory, PackedResults
 from ..optimal_control.solver.optimization_result import OptimizationResult
+from ..discrete.group_discretization import GroupDiscretization
+from ..principle.rotation_trajectory import RotationTrajectory
 from ..principle.trajectory import Trajectory
 from ..optimal_control.solver.solving import solve as ipopt_solve
 from ..drivers.verdict import judge, judged, verdicts
@@ -207,22 +209,33 @@ def _in_lockstep(calls, final, memory):
     arguments loaded in its own guard, then checked together (`prepare_runs`: an item
     refused gets its own "exception" result) and the runs prepared stepped in lockstep
     (`simulate_lockstep`, their trajectories of the last knot only when `final`, copied
-    into ``memory(size)``); should that raise, each item runs alone (`guarded`, then cut
-    to `final_knot`), so an error stays its item's. Each result is stamped with this worker's address; the seconds are
+    into ``memory(size)``); should that raise, each item runs alone (`_alone`), so an
+    error stays its item's. The runs of a GroupDiscretization (a rigid body on SO(3),
+    which `simulate_lockstep` does not step) each run alone. Each result is stamped with this worker's address; the seconds are
     the chunk's CPU time shared equally."""
     tic = time.process_time()
     results = [attempt(SimulationResult, load, lambda pair: pair) for load, _ in calls]
     loaded = {i: pair for i, pair in enumerate(results) if not isinstance(pair, SimulationResult)}
-    try:
-        stepped = _lockstep(list(loaded.values()), final, memory)
-    except BaseException:       # any error of the group: each item again, alone
-        stepped = [guarded(SimulationResult, *calls[i], None)[0] for i in loaded]
-        if final:
-            _cut_to_final_knots(stepped)
+    if any(isinstance(disc, GroupDiscretization) for disc, _ in loaded.values()):
+        stepped = _alone(calls, loaded, final)      # no lockstep on SO(3): each run alone
+    else:
+        try:
+            stepped = _lockstep(list(loaded.values()), final, memory)
+        except BaseException:       # any error of the group: each item again, alone
+            stepped = _alone(calls, loaded, final)
     for i, result in zip(loaded, stepped):
         results[i] = result
     stamp(results)
     return results, [(time.process_time() - tic) / len(calls)] * len(calls)
+
+
+def _alone(calls, indices, final):
+    """The SimulationResults of the `calls` of `indices`, each run alone (`guarded`) and,
+    when `final`, cut to its last knot (`final_knot`)."""
+    stepped = [guarded(SimulationResult, *calls[i], None)[0] for i in indices]
+    if final:
+        _cut_to_final_knots(stepped)
+    return stepped
 
 
 def _lockstep(loaded, final, memory):
@@ -247,7 +260,11 @@ def _cut_to_final_knots(results):
 
 def final_knot(trajectory):
     """The last knot of `trajectory` as a Trajectory of no step (`Trajectory.assembled`
-    with ``final``); copies, so the run's arrays can go."""
+    with ``final``), or as a RotationTrajectory of no step; copies, so the run's arrays
+    can go."""
     tr = trajectory
+    if isinstance(tr, RotationTrajectory):
+        return RotationTrajectory(tr.t[-1:], tr.R[-1:], tr.Pi[-1:], tr.f[:0], tr.u[:0], tr.h,
+                                  x=tr.x[-1:], p_x=tr.p_x[-1:], lam=tr.lam[:0])
     return Trajectory.assembled(tr.t, tr.q, tr.p, tr.lam, tr.u, tr.h, tr.variant, tr.mu, tr.s,
                                 tr.control_nodes, tr.stage_nodes, final=True)

@@ -18,6 +18,8 @@ distributed = pytest.importorskip("distributed")
 import dmoc  # noqa: E402
 from dmoc import batch  # noqa: E402
 from dmoc.problems import knife_edge_parking, parking_goals  # noqa: E402
+from scipy.spatial.transform import Rotation  # noqa: E402
+from tests._helpers import same  # noqa: E402
 
 GOALS = parking_goals()
 
@@ -220,6 +222,32 @@ def test_simulate_many_keeps_only_the_final_knot_on_request(client):
         assert np.array_equal(got.trajectory.p, want.trajectory.p[-1:])
         assert np.array_equal(got.trajectory.mu, want.trajectory.mu)
     assert results[-1].status == "newton_failed" and results[-1].stats["completed_steps"] < 40
+
+
+def test_simulate_many_on_the_rotation_group_matches_serial_runs(client):
+    """Rigid bodies on SO(3) (GroupDiscretization): each result is the serial `simulate`'s
+    (the oracle) bit for bit, every field of its RotationTrajectory; a run the simulator
+    refuses is its own "exception"; keep="final" holds the serial run's last knot."""
+    r, J = 0.7, (1.0, 1.5, 2.5)
+    ball = dmoc.discretize(dmoc.systems.chaplygin_sphere(J, 1.3, r, torques=True), 0.1)
+    top = dmoc.discretize(dmoc.systems.heavy_top(J, 1.0, (0.05, 0.0, 0.5), 9.81), 0.05)
+    R0 = Rotation.from_rotvec([0.3, -0.2, 0.5]).as_matrix()
+    rolls = [{"q0": (R0, [0.2, -0.1]), "v0": np.concatenate([w, r * np.cross(R0 @ w, [0, 0, 1])[:2]]),
+              "steps": 20, "controls": np.full((20, 3), c)}
+             for w, c in ((np.array([1.0, -0.5, 2.0]), 0.0), (np.array([0.2, 0.4, -1.0]), 0.3))]
+    runs = rolls + [{"q0": R0, "v0": [0.5, -0.3, 8.0], "steps": 20}, {"q0": R0, "v0": [1, 0, 0], "steps": 20}]
+    discs = [ball, ball, top, ball]
+    results = batch.simulate_many(discs, runs, client=client, progress=False)
+    for got, d, run in zip(results[:3], discs, runs):
+        want = dmoc.simulate(d, **run)
+        assert got.success and isinstance(got.trajectory, dmoc.RotationTrajectory)
+        assert same(got.trajectory, want.trajectory)
+    assert results[3].status == "exception" and "`q0` must be the pair (R_0, x_0)" in results[3].message
+    finals = batch.simulate_many(ball, rolls, keep="final", client=client, progress=False)
+    for got, run in zip(finals, rolls):
+        want = dmoc.simulate(ball, **run).trajectory
+        assert got.trajectory.steps == 0 and np.array_equal(got.trajectory.R, want.R[-1:])
+        assert np.array_equal(got.trajectory.p, want.p[-1:]) and np.array_equal(got.trajectory.x, want.x[-1:])
 
 
 def test_problem_round_trips_through_bytes():
