@@ -15,6 +15,8 @@ import numpy as np
 
 from ..mechanics import systems
 from ..mechanics.system import MechanicalSystem
+from ..mechanics.rigid_body import RigidBody
+from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..optimal_control.statement.problem import OptimalControlProblem
 from .arguments import UsageError
 
@@ -174,12 +176,15 @@ def _made(spec, params):
     except Exception as err:  # the user's factory: say what broke, in one line
         raise UsageError("SYSTEM", f"the factory raised {type(err).__name__}: {err}") from None
     if not isinstance(made, (MechanicalSystem, OptimalControlProblem)):
+        on_group = isinstance(made, (RigidBody, GroupOptimalControlProblem))
         raise UsageError("SYSTEM", f"the factory must return {_RETURNS}; got "
-                         f"{type(made).__name__}")
+                         f"{type(made).__name__}" + (_NOT_ON_GROUP if on_group else ""))
     return made
 
 
 _RETURNS = "a MechanicalSystem or an OptimalControlProblem"
+_NOT_ON_GROUP = (" (the command line does not take rigid bodies on SO(3) yet: simulate and "
+                 "optimize them from Python, docs/rigid_bodies.md)")
 
 
 def describe():

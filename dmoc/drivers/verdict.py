@@ -22,6 +22,7 @@ from ..optimal_control.statement.parameters import row_texts
 from ..results.diagnostics import compared_momenta, replays
 from ..discrete.knot_states import knot_velocities
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
+from .judged_inputs import check_judged
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
 # millimetres or kilograms gets the verdict it gets in metres (docs/stages/drivers.md,
@@ -36,10 +37,9 @@ JUMP_LIMIT = 1.0
 # Below this size an optimum's q or p gives no scale (it does not move from the origin).
 NO_SCALE = 1e-12
 # A knot violates a path constraint when g_k exceeds this part of the row's scale,
-# max(1, max_k |g_k|): the NLP imposes the path rows unscaled
-# (`dmoc.optimal_control.nlp.scaling`), so 1 in the row's own units is the size IPOPT holds
-# it to; a row whose values are larger is measured against them (the same figure in mm as
-# in m).
+# max(1, max_k |g_k|): the NLP imposes the path rows unscaled (`dmoc.optimal_control.nlp.
+# scaling`), so 1 in the row's own units is the size IPOPT holds it to; a row whose values
+# are larger is measured against them (the same figure in mm as in m).
 PATH_TOLERANCE = 1e-6
 # A coordinate whose excursion is below this part of its NLP scale (the motion's length
 # l_i, or the rest length where nothing moves: `dmoc.optimal_control.nlp.scaling.lengths`) is at rest
@@ -76,9 +76,10 @@ def judge(problem, result):
     `REPLAY_TOLERANCE` says that IPOPT's root is the simulator's. The velocity jumps are
     those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
     path constraints and the velocity bounds are evaluated at every knot
-    (`knot_path_values`, `knot_velocity_bound_values`). The one-optimum
-    case of `verdicts`.
+    (`knot_path_values`, `knot_velocity_bound_values`). The one-optimum case of `verdicts`.
+    InputTypeError for a problem or trajectory on SO(3) (`judged_inputs`).
     """
+    check_judged(problem, result.trajectory, "result.trajectory")
     return verdicts([(problem, result)])[0]
 
 
@@ -121,8 +122,7 @@ def _verdict(problem, traj, simulated, ends, knot_values):
     path, path_step, row, limit = _path_violation(
         np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
         name_of)
-    failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE,
-              jump > JUMP_LIMIT)
+    failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE, jump > JUMP_LIMIT)
     status = next((s for s, f in zip(STATUSES, failed) if f), Status.PASSED)
     return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
                    problem.disc.system.names[i], path, path_step, row if row < rows else -1,
@@ -232,9 +232,9 @@ def knot_path_values(problem, traj):
     u(t_k)), v_k the knot velocity (the mean of the interpolants' velocities at q_k from
     both sides, one side at the ends: `dmoc.discrete.knot_states.knot_velocities`), u(t_k)
     `Trajectory.control` there, with the parameters at q_k (`_knot_arguments`); the values
-    the NLP's knot rows impose
-    (`dmoc.optimal_control.nlp.path_terms`). The one-optimum case of
-    `_knot_path_values_of`."""
+    the NLP's knot rows impose (`dmoc.optimal_control.nlp.path_terms`). The one-optimum
+    case of `_knot_path_values_of`. InputTypeError on SO(3), as `judge`."""
+    check_judged(problem, traj)
     return _knot_path_values_of([(problem, traj, end_velocities(problem.disc, traj))])[0]
 
 
@@ -271,7 +271,9 @@ def _knot_arguments(problem, traj, ends):
 def knot_velocity_bound_values(problem, traj, ends=None):
     """The velocity bounds as rows g <= 0 at every knot, shape (N + 1, rows), and their
     names: lower_i - v_k,i and v_k,i - upper_i for each finite bound, v_k the knot velocity
-    (`knot_path_values`; `ends` the interpolants' end velocities when computed already)."""
+    (`knot_path_values`; `ends` the interpolants' end velocities when computed already).
+    InputTypeError on SO(3), as `judge`."""
+    check_judged(problem, traj)
     v = knot_velocities(*(end_velocities(problem.disc, traj) if ends is None else ends))
     names, columns = problem.disc.system.names, []
     for side, (bound, sign, relation) in enumerate(zip(problem.velocity_bounds, (-1.0, 1.0), (">=", "<="))):

@@ -160,7 +160,10 @@ def replay_error(problem, result):
 
 def compared_momenta(problem, traj):
     """How many of p_0 ... p_N a replay reproduces: N + 1, or N where the formulation puts
-    the end impulse into p_N (variant "-")."""
+    the end impulse into p_N (variant "-"). InputTypeError unless `problem` is an
+    OptimalControlProblem and `traj` a Trajectory (not their forms on SO(3))."""
+    checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+    checks.instance("traj", traj, Trajectory, "a Trajectory")
     return traj.steps + as_formulation(traj.variant, problem.disc).end_momentum_determined
 
 

@@ -24,7 +24,9 @@ def end_velocities(disc, traj):
     q_{k+1} (`Rule.interpolant`); both (q_{k+1} - q_k)/h for the midpoint and trapezoid
     rules. The step's Function (`dmoc.discrete.knot_states.end_velocity_function`) is built
     once per rule, n and stage rows and kept: a verdict per re-solve does not rebuild it.
-    The one-trajectory case of `end_velocities_of`."""
+    The one-trajectory case of `end_velocities_of`; InputError unless `traj` fits `disc`
+    (`check_trajectory`: a Discretization and a Trajectory, not their forms on SO(3))."""
+    check_trajectory(disc, traj)
     return end_velocities_of([(disc, traj)])[0]
 
 
