@@ -35,8 +35,8 @@ def write(traj, path, extra=None):
 
 
 def read(cls, path, kind):
-    """(the `cls` (Trajectory or RotationTrajectory; of a tuple of them the first whose
-    fields without a default the file holds) in the .npz file at `path`, {name: array}
+    """(the `cls` (Trajectory or RotationTrajectory; of a tuple of them the one of which
+    the file holds the most fields without a default, the first of equals) in the .npz file at `path`, {name: array}
     of its fields named RESULT_PREFIX + name); a file that is not one raises
     TrajectoryFileError saying it is not `kind` (what the caller expected) and why: not a
     regular file, not an .npz archive, members named twice, sizes beyond bounds
@@ -54,8 +54,8 @@ def read(cls, path, kind):
             arrays = read_arrays(file)
     except BadArchive as err:
         _invalid(path, kind, str(err))
-    if isinstance(cls, tuple):
-        cls = next((c for c in cls if _required(c) <= set(arrays)), cls[0])
+    if isinstance(cls, tuple):          # the kind whose fields the file holds most of
+        cls = max(cls, key=lambda kind: len(_required(kind) & set(arrays)))
     known = {f.name for f in fields(cls)}
     missing = _required(cls) - set(arrays)
     unknown = {k for k in set(arrays) - known if not k.startswith(RESULT_PREFIX)}

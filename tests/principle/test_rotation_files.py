@@ -76,6 +76,15 @@ def test_the_other_kind_of_file_is_named(rolled, tmp_path):
     assert "it is the file of a trajectory of a vector space (read it with Trajectory.load)" in message
 
 
+def test_a_damaged_result_file_on_the_group_names_its_field(rolled, tmp_path):
+    rolled.save(tmp_path / "r.npz")
+    with np.load(tmp_path / "r.npz") as data:
+        arrays = {k: v for k, v in data.items() if k != "f"}
+    np.savez(tmp_path / "r.npz", **arrays)
+    message = load_error(tmp_path / "r.npz", dmoc.OptimizationResult.load)
+    assert "is not an optimization result file" in message and "it lacks the fields ['f']" in message
+
+
 @pytest.mark.parametrize("content, what", [
     (b"", "it is empty"),
     (np.random.default_rng(1).bytes(500), "it is not an .npz (zip) archive"),
