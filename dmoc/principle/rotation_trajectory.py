@@ -82,6 +82,20 @@ class RotationTrajectory:
                                          allow_nan=True)
                             for name, value in (("x", self.x), ("p_x", self.p_x)))
 
+    @classmethod
+    def unchecked(cls, t, R, Pi, f, u, h, x, p_x, lam):
+        """The RotationTrajectory of these fields as they are: no check, no copy.
+
+        For dmoc's consumers (the simulator and the optimizer on the group), which build
+        every field with the shapes and types the checks of ``RotationTrajectory(...)``
+        would give it (float arrays, `h` a float): those checks and copies cost about half
+        of a compiled 10^5-step simulation of the Chaplygin sphere. The arrays are kept as
+        given, views included: nothing else may write to them.
+        """
+        traj = object.__new__(cls)
+        traj.__dict__.update(t=t, R=R, Pi=Pi, f=f, u=u, h=h, x=x, p_x=p_x, lam=lam)
+        return traj
+
     @property
     def steps(self):
         """N, the number of steps."""

@@ -79,9 +79,9 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
     k = out.shape[0]
     state = stepper.state.split(acc)
     q, p = state["q"], state["p"]
-    traj = RotationTrajectory(disc.h * np.arange(k + 1), q[:, :9].reshape(-1, 3, 3), p[:, :3],
-                              state["dq"][1:], controls[:k].copy(), disc.h, x=q[:, 9:],
-                              p_x=p[:, 3:], lam=out[:, stepper.out.slice("nu")])
+    traj = RotationTrajectory.unchecked(disc.h * np.arange(k + 1), q[:, :9].reshape(-1, 3, 3),
+                                        p[:, :3], state["dq"][1:], controls[:k].copy(), disc.h,
+                                        q[:, 9:], p[:, 3:], out[:, stepper.out.slice("nu")])
     rnorm = out[:, stepper.out.slice("rnorm")]
     stats = run_stats(steps, k, redone, float(rnorm.max()) if k else 0.0, stepper.native,
                       time.perf_counter() - tic)

@@ -85,5 +85,5 @@ def trajectory_of(problem, T, x):
     """The RotationTrajectory of the NLP vector x."""
     q, p, f, lam, u = (T.x_layout.unpack(x, name).T for name in ("q", "p", "f", "lam", "u"))
     h = problem.disc.h
-    return RotationTrajectory(h * np.arange(problem.steps + 1), q[:, :9].reshape(-1, 3, 3),
-                              p[:, :3], f, u, h, x=q[:, 9:], p_x=p[:, 3:], lam=lam)
+    return RotationTrajectory.unchecked(h * np.arange(problem.steps + 1), q[:, :9].reshape(-1, 3, 3),
+                                        p[:, :3], f, u, h, q[:, 9:], p[:, 3:], lam)
