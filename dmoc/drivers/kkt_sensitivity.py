@@ -138,7 +138,7 @@ def active_sets(value, lower, upper, multiplier):
     with lower == upper, and those at a bound with a multiplier of the bound's sign
     (CasADi's convention: positive at an upper bound). Returns (indices, at_upper)."""
     scale = ACTIVE_MULTIPLIER * (1 + np.abs(multiplier).max(initial=0.0))
-    gap = lambda bound: np.abs(value - bound) <= ACTIVE_GAP * (1 + np.abs(np.nan_to_num(bound, posinf=0, neginf=0)))
+    gap = lambda bound: np.abs(value - bound) <= ACTIVE_GAP * (1 + np.where(np.isfinite(bound), np.abs(bound), 0.0))
     fixed = lower == upper
     at_upper = ~fixed & (multiplier > scale) & gap(upper)
     at_lower = ~fixed & (multiplier < -scale) & gap(lower)
