@@ -62,6 +62,7 @@ def kkt_system(transcription):
 
 
 def _system(nlp):
+    """The `KKTSystem` of the SeparableNLP `nlp`: its entries' sources by numpy, once."""
     functions = nlp_functions(nlp, expand=True)
     n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
     hess_rows, hess_cols = (np.array(i) for i in functions["nlp_hess_l"].sparsity_out(0).get_triplet())
@@ -79,7 +80,7 @@ def _system(nlp):
         np.add.at(into, slot, values)
     sparsity = ca.Sparsity(n, n, np.searchsorted(keys // n, np.arange(n + 1)).tolist(), (keys % n).tolist())
     x, p, lam = nlp.x, nlp.p, ca.MX.sym("lam_g", n_g)
-    f, grad = functions["nlp_grad_f"](x, p)
+    grad = functions["nlp_grad_f"](x, p)[1]
     g, jac = functions["nlp_jac_g"](x, p)
     hess = functions["nlp_hess_l"](x, p, 1, lam)
     values = ca.vertcat(0, *(ca.sparsity_cast(m, ca.Sparsity.dense(m.nnz(), 1)) for m in (hess, jac)))
