@@ -18,7 +18,7 @@ from ..errors import InputError
 from ..optimal_control.nlp.evaluation import nlp_functions
 
 _SYSTEMS = BoundedCache(16, "kkt_systems")          # by NLP structure
-_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, number of parameters)
+_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, fixed entries, number of parameters)
 _DIRECTIONS = BoundedCache(16, "kkt_directions")    # by (NLP structure, number of parameters)
 
 ACTIVE_MULTIPLIER = 1e-6    # |multiplier| above this times (1 + the largest) marks an active bound
@@ -32,7 +32,7 @@ DEPENDENT_ROWS = 1e-12
 
 @dataclass(frozen=True)
 class KKTSystem:
-    """The KKT matrix of `solve_kkt` of one NLP structure, as the gather of its nonzeros.
+    """The KKT matrix of `solve_kkt` of one NLP structure, as the gather of its entries.
 
     Attributes
     ----------
@@ -41,19 +41,16 @@ class KKTSystem:
         (1 + nnz_H + nnz_J, 1))``: the rows, the gradient of f and the values the matrix
         is gathered from, 0 then the nonzeros of the upper triangle of the Lagrangian's
         Hessian and of the Jacobian of g (`SeparableNLP.derivatives`, expanded).
-    sparsity : casadi.Sparsity
-        Of the matrix, (n_x + n_g) square: the Hessian, J^T, J and the diagonal, one
-        pattern whatever the active set.
-    source, row, diagonal : ndarray of int, shape (nnz,)
-        Nonzero i of the matrix is values[source[i]] times the mask of its row row[i] plus
-        the diagonal term diagonal[i] (0: none; else 1 + the index of the diagonal entry).
+    entries : tuple of ndarray of int
+        (row, column, source, diagonal) of the entries of the (n_x + n_g) square matrix:
+        the Hessian, J^T, J and the diagonal, one pattern whatever the active set. Entry i
+        is values[source[i]] times the mask of its row plus the diagonal term diagonal[i]
+        (0: none; else 1 + the index of the diagonal entry); an entry may be listed twice
+        (a Hessian diagonal entry and the diagonal term), its terms summed.
     """
 
     blocks: Evaluator
-    sparsity: ca.Sparsity
-    source: np.ndarray
-    row: np.ndarray
-    diagonal: np.ndarray
+    entries: tuple
 
 
 def kkt_system(transcription):
@@ -69,16 +66,11 @@ def _system(nlp):
     jac_rows, jac_cols = (np.array(i) for i in functions["nlp_jac_g"].sparsity_out(1).get_triplet())
     in_hess, in_jac = 1 + np.arange(hess_rows.size), 1 + hess_rows.size + np.arange(jac_rows.size)
     strict = hess_rows != hess_cols
-    # (row, column, source) of every entry: the triangle, its mirror, J^T, J, the diagonal
+    # the triangle, its mirror, J^T, J, the diagonal
     rows = np.concatenate([hess_rows, hess_cols[strict], jac_cols, n_x + jac_rows, np.arange(n)])
     cols = np.concatenate([hess_cols, hess_rows[strict], n_x + jac_rows, jac_cols, np.arange(n)])
     source = np.concatenate([in_hess, in_hess[strict], in_jac, in_jac, np.zeros(n, int)])
     diagonal = np.concatenate([np.zeros(rows.size - n, int), 1 + np.arange(n)])
-    keys, slot = np.unique(cols * n + rows, return_inverse=True)    # column-major, as CasADi
-    gathered = [np.zeros(keys.size, int), np.zeros(keys.size, int)]
-    for into, values in zip(gathered, (source, diagonal)):       # one of each per entry at most
-        np.add.at(into, slot, values)
-    sparsity = ca.Sparsity(n, n, np.searchsorted(keys // n, np.arange(n + 1)).tolist(), (keys % n).tolist())
     x, p, lam = nlp.x, nlp.p, ca.MX.sym("lam_g", n_g)
     grad = functions["nlp_grad_f"](x, p)[1]
     g, jac = functions["nlp_jac_g"](x, p)
@@ -86,13 +78,26 @@ def _system(nlp):
     values = ca.vertcat(0, *(ca.sparsity_cast(m, ca.Sparsity.dense(m.nnz(), 1)) for m in (hess, jac)))
     blocks = ca.Function("kkt_blocks", [x, p, lam], [g, grad, values], ["x", "p", "lam_g"],
                          ["g", "grad_f", "values"])
-    return KKTSystem(Evaluator(blocks), sparsity, gathered[0], keys % n, gathered[1])
+    return KKTSystem(Evaluator(blocks), (rows, cols, source, diagonal))
 
 
-def kkt_solution(transcription, k):
+def _gathered(rows, cols, source, diagonal, shape):
+    """(sparsity, source, row, diagonal) per nonzero of the matrix of `shape` whose entries
+    are listed (`KKTSystem.entries`, renumbered): duplicates merged, column-major."""
+    keys, slot = np.unique(cols * shape[0] + rows, return_inverse=True)
+    merged = [np.zeros(keys.size, int), np.zeros(keys.size, int)]
+    for into, values in zip(merged, (source, diagonal)):        # one of each per entry at most
+        np.add.at(into, slot, values)
+    sparsity = ca.Sparsity(*shape, np.searchsorted(keys // shape[0], np.arange(shape[1] + 1)).tolist(),
+                           (keys % shape[0]).tolist())
+    return sparsity, merged[0], keys % shape[0], merged[1]
+
+
+def kkt_solution(transcription, k, fixed):
     """The Evaluator of ``(values, active_x, active_g, d_bound, r) -> dx``: `solve_kkt`'s
-    system for k parameters, its matrix gathered from the `KKTSystem`'s values and
-    factored by CasADi's sparse QR ("qr"); built once per NLP `structure` and k.
+    system for k parameters without the entries `fixed` (lbx == ubx, int array), whose dx
+    is their bound's change, its matrix gathered from the `KKTSystem`'s values and factored
+    by CasADi's sparse QR ("qr"); built once per NLP `structure`, `fixed` and k.
 
     Inputs: `values` of `KKTSystem.blocks`; the 0/1 masks active_x (n_x,) and active_g
     (n_g,) of the entries and rows held at a bound; the change of the bound of each entry
@@ -100,20 +105,30 @@ def kkt_solution(transcription, k):
     each parameter (`kkt_directions`). Output: dx/dtheta (n_x, k).
     """
     def build():
-        system, nlp = kkt_system(transcription), transcription.separable
-        n_x, n_g = nlp.n_x, nlp.n_g
-        values = ca.MX.sym("values", system.blocks.function.nnz_out(2))
+        nlp, (rows, cols, source, diagonal) = transcription.separable, kkt_system(transcription).entries
+        n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
+        kept = np.ones(n, bool)
+        kept[fixed] = False
+        m, position = int(kept.sum()), np.where(kept, np.cumsum(kept) - 1, -1)
+        position[fixed] = n + np.arange(fixed.size)       # beyond the kept ones: columns moved to the right side
+        square, side = kept[rows] & kept[cols], kept[rows] & ~kept[cols]
+        K = _gathered(position[rows[square]], position[cols[square]], source[square], diagonal[square], (m, m))
+        F = _gathered(position[rows[side]], position[cols[side]] - n, source[side], diagonal[side], (m, fixed.size))
+        values = ca.MX.sym("values", int(source.max(initial=0)) + 1)
         a_x, a_g = ca.MX.sym("active_x", n_x), ca.MX.sym("active_g", n_g)
-        d_bound, r = ca.MX.sym("d_bound", n_x, k), ca.MX.sym("r", n_x + n_g, k)
-        masks = ca.vertcat(1 - a_x, a_g)      # the stationarity rows of the free entries, the held rows
-        diagonal = ca.vertcat(0, a_x, 1 - (1 + DEPENDENT_ROWS) * a_g)
-        nonzeros = (values[system.source.tolist()] * masks[system.row.tolist()]
-                    + diagonal[system.diagonal.tolist()])
-        held = ca.vertcat(ca.repmat(a_x, 1, k) * d_bound, ca.MX(n_g, k))
-        dx = ca.solve(ca.MX(system.sparsity, nonzeros), held + ca.repmat(masks, 1, k) * r, "qr")[:n_x, :]
+        d_bound, r = ca.MX.sym("d_bound", n_x, k), ca.MX.sym("r", n, k)
+        kept_rows = np.flatnonzero(kept).tolist()
+        masks = ca.vertcat(1 - a_x, a_g)[kept_rows]      # the stationarity rows of the free entries, the held rows
+        diagonal_terms = ca.vertcat(0, a_x, 1 - (1 + DEPENDENT_ROWS) * a_g)
+        matrix = ca.MX(K[0], values[K[1].tolist()] * masks[K[2].tolist()] + diagonal_terms[K[3].tolist()])
+        d_fixed = d_bound[fixed.tolist(), :]
+        moved = ca.mtimes(ca.MX(F[0], values[F[1].tolist()] * masks[F[2].tolist()]), d_fixed)
+        held = ca.vertcat(ca.repmat(a_x, 1, k) * d_bound, ca.MX(n_g, k))[kept_rows, :]
+        solution = ca.solve(matrix, held + ca.repmat(masks, 1, k) * r[kept_rows, :] - moved, "qr")
+        dx = ca.vertcat(solution, d_fixed)[np.where(kept, position, position - n + m)[:n_x].tolist(), :]
         return Evaluator(ca.Function("kkt_solution", [values, a_x, a_g, d_bound, r], [dx],
                                      ["values", "active_x", "active_g", "d_bound", "r"], ["dx"]))
-    return _SOLUTIONS.get((transcription.structure, k), build)
+    return _SOLUTIONS.get((transcription.structure, fixed.tobytes(), k), build)
 
 
 def kkt_directions(transcription, k):
@@ -204,7 +219,7 @@ def solve_kkt(transcription, x, lam_g, lam_x, d_p, d_lower, d_upper):
     else:
         r, d_f = np.zeros((x.size + lam_g.size, k)), np.zeros((1, k))
     try:
-        dx, = kkt_solution(T, k)(values, active_x, active_g, d_bound, r)
+        dx, = kkt_solution(T, k, np.flatnonzero(T.lbx == T.ubx))(values, active_x, active_g, d_bound, r)
     except RuntimeError:
         dx = np.full((x.size, k), np.nan)
     if not np.isfinite(dx).all():
