@@ -198,8 +198,10 @@ def solve_kkt(transcription, x, lam_g, lam_x, d_p, d_lower, d_upper):
     (Fiacco 1976). The multiplier nu_i of an entry held at its bound appears in the i-th
     stationarity row alone, so that row and nu are dropped and dx_i = d(bound)_i written in
     its place; the multipliers of the inactive rows of g stay zero, written as rows
-    dlam_i = 0. The matrix, of size n_x + n_g, so keeps one sparsity pattern whatever
-    the active set (`KKTSystem`), and its sparse QR one symbolic analysis. The zero block
+    dlam_i = 0. The matrix so keeps one sparsity pattern whatever the active set
+    (`KKTSystem`), and its sparse QR one symbolic analysis; the entries fixed by lbx ==
+    ubx (the boundary data) are left out of it, their columns times their bounds' change
+    moved to the right side (a quarter less fill in the rolling disk's QR). The zero block
     of the active rows is shifted to -DEPENDENT_ROWS I, so that dependent active rows (a
     path row held at a knot and at the stage points beside it) leave the matrix regular;
     dx moves by about DEPENDENT_ROWS |dlam|. The derivatives in p (forward mode,
