@@ -19,7 +19,8 @@ construction + optimize (best of `--repeat`, each repeat in a fresh process so t
 With ``--sensitivities``, a second table, in this process: the derivatives of A's optimum in q_goal
 (`dmoc.sensitivities`, first call with its build, then best of `--repeat`) against the warm
 re-solve of B from A's optimum (``problem.with_boundary(q_goal=B)`` and optimize, best of
-`--repeat`); the ratio is sensitivities / warm re-solve (the goal: at most 0.2).
+`--repeat`); the ratio is sensitivities / warm re-solve (the goal: at most 0.2). The table adds
+"bounded knife", the knife edge with control bounds active on about a third of the steps.
 """
 
 import argparse
@@ -46,8 +47,14 @@ CASES = {
         dmoc.discretize(dmoc.systems.rolling_disk(mass=1.0, radius=1.0), 4.0 / N), N,
         q_start=[0.0] * 4, q_goal=goal),
 }
+# the knife edge with its controls bounded, active on 42 of 120 entries at N = 60 (the
+# ``--sensitivities`` table alone: an active set that changes with the goal)
+BOUNDED = {"bounded knife": lambda N, goal: dmoc.OptimalControlProblem(
+    dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 4.0 / N), N,
+    q_start=[0.0] * 3, q_goal=goal, control_bounds=([-1.2, -1.5], [1.2, 1.5]))}
 GOALS = {"knife edge": ((0.0, 1.0, 0.0), (0.1, 1.1, 0.1)),
-         "rolling disk": ((1.0, 1.0, None, np.pi / 2), (1.1, 0.9, None, np.pi / 2 + 0.1))}
+         "rolling disk": ((1.0, 1.0, None, np.pi / 2), (1.1, 0.9, None, np.pi / 2 + 0.1)),
+         "bounded knife": ((0.0, 1.0, 0.0), (0.1, 1.1, 0.1))}
 STEPS = (100, 400, 1000)
 RUNS = ("first", "re-solve", "warm", "primal")
 
@@ -110,7 +117,7 @@ def sensitivity_rows(cases, steps, repeat):
     for name in cases:
         for N in steps:
             a, b = GOALS[name]
-            problem = CASES[name](N, a)
+            problem = {**CASES, **BOUNDED}[name](N, a)
             first = dmoc.optimize(problem)
             warm, moved = best_of(repeat, lambda: dmoc.optimize(problem.with_boundary(q_goal=b), guess=first))
             build = best_of(1, lambda: dmoc.sensitivities(problem, first, wrt="q_goal"))[0]
@@ -156,7 +163,7 @@ def main(argv=None):
                       + f"{seconds[1] / seconds[0]:>10.2f}{seconds[2] / seconds[0]:>11.2f}"
                       f"{its[2] / its[1]:>15.2f}")
     if args.sensitivities:
-        sensitivity_rows(cases, steps, max(args.repeat, 5))
+        sensitivity_rows(cases if args.smallest else (*cases, *BOUNDED), steps, max(args.repeat, 5))
     print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
 
 

@@ -1,17 +1,25 @@
 """The KKT system of an optimum of the transcribed NLP, and its solution for the derivatives
 of the optimum in the NLP's parameter vector p and bounds lbx, ubx (a driver: sensitivities
 of an optimum, `dmoc.drivers.parametric_sensitivity`). The blocks are the exact derivatives
-the solver uses (`SeparableNLP.derivatives`), in the scaled NLP IPOPT solves, and their
-derivatives in p; the active set is read from the optimum's multipliers.
+the solver uses (`SeparableNLP.derivatives`, expanded to SX), in the scaled NLP IPOPT
+solves, and their derivatives in p; the active set is read from the optimum's multipliers.
+Per NLP `structure` the evaluation of the blocks, the matrix's sparsity and the solution
+are built once; each call passes float arrays through the Functions' buffers.
 """
+
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
 from .._util.cache import BoundedCache
+from .._util.numeric import Evaluator
 from ..errors import InputError
+from ..optimal_control.nlp.evaluation import nlp_functions
 
-_SOLUTIONS = BoundedCache(16, "kkt_solutions")    # by (NLP structure, number of parameters)
+_SYSTEMS = BoundedCache(16, "kkt_systems")          # by NLP structure
+_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, fixed entries, number of parameters)
+_DIRECTIONS = BoundedCache(16, "kkt_directions")    # by (NLP structure, number of parameters)
 
 ACTIVE_MULTIPLIER = 1e-6    # |multiplier| above this times (1 + the largest) marks an active bound
 ACTIVE_GAP = 1e-6           # and the row or entry within this (scaled, times 1 + |bound|) of it
@@ -22,40 +30,123 @@ ACTIVE_GAP = 1e-6           # and the row or entry within this (scaled, times 1 
 DEPENDENT_ROWS = 1e-12
 
 
-def kkt_solution(transcription, k):
-    """The Function (x, p, lam_g, active_g, active_x, d_p, d_bound) -> (dx, d_cost) of the
-    scaled NLP of `transcription`, for k parameters: `solve_kkt`'s system formed and solved
-    in one call; built once per NLP `structure` and k.
+@dataclass(frozen=True)
+class KKTSystem:
+    """The KKT matrix of `solve_kkt` of one NLP structure, as the gather of its entries.
 
-    Inputs: the optimum x (n_x,), p (n_p,) and lam_g (n_g,); the 0/1 masks active_g (n_g,)
-    and active_x (n_x,) of the rows and entries held at a bound; the change of p (n_p, k)
-    and of the bound of each entry of x (n_x, k) per unit of each parameter. Outputs: dx/dtheta
-    (n_x, k) and dJ/dtheta = grad f . dx + df/dp dp (1, k). The Hessian and Jacobian are
-    the solver's own (`SeparableNLP.derivatives`); the matrix of `solve_kkt` has one
-    sparsity pattern whatever the active set (the masks choose its values), factored by
-    CasADi's sparse QR ("qr").
+    Attributes
+    ----------
+    blocks : Evaluator
+        ``(x (n_x,), p (n_p,), lam_g (n_g,)) -> (g (n_g, 1), grad_f (n_x, 1), values
+        (1 + nnz_H + nnz_J, 1))``: the rows, the gradient of f and the values the matrix
+        is gathered from, 0 then the nonzeros of the upper triangle of the Lagrangian's
+        Hessian and of the Jacobian of g (`SeparableNLP.derivatives`, expanded).
+    entries : tuple of ndarray of int
+        (row, column, source, diagonal) of the entries of the (n_x + n_g) square matrix:
+        the Hessian, J^T, J and the diagonal, one pattern whatever the active set. Entry i
+        is values[source[i]] times the mask of its row plus the diagonal term diagonal[i]
+        (0: none; else 1 + the index of the diagonal entry); an entry may be listed twice
+        (a Hessian diagonal entry and the diagonal term), its terms summed.
+    """
+
+    blocks: Evaluator
+    entries: tuple
+
+
+def kkt_system(transcription):
+    """The `KKTSystem` of the scaled NLP of `transcription`, built once per `structure`."""
+    return _SYSTEMS.get(transcription.structure, lambda: _system(transcription.separable))
+
+
+def _system(nlp):
+    """The `KKTSystem` of the SeparableNLP `nlp`: its entries' sources by numpy, once."""
+    functions = nlp_functions(nlp, expand=True)
+    n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
+    hess_rows, hess_cols = (np.array(i) for i in functions["nlp_hess_l"].sparsity_out(0).get_triplet())
+    jac_rows, jac_cols = (np.array(i) for i in functions["nlp_jac_g"].sparsity_out(1).get_triplet())
+    in_hess, in_jac = 1 + np.arange(hess_rows.size), 1 + hess_rows.size + np.arange(jac_rows.size)
+    strict = hess_rows != hess_cols
+    # the triangle, its mirror, J^T, J, the diagonal
+    rows = np.concatenate([hess_rows, hess_cols[strict], jac_cols, n_x + jac_rows, np.arange(n)])
+    cols = np.concatenate([hess_cols, hess_rows[strict], n_x + jac_rows, jac_cols, np.arange(n)])
+    source = np.concatenate([in_hess, in_hess[strict], in_jac, in_jac, np.zeros(n, int)])
+    diagonal = np.concatenate([np.zeros(rows.size - n, int), 1 + np.arange(n)])
+    x, p, lam = nlp.x, nlp.p, ca.MX.sym("lam_g", n_g)
+    grad = functions["nlp_grad_f"](x, p)[1]
+    g, jac = functions["nlp_jac_g"](x, p)
+    hess = functions["nlp_hess_l"](x, p, 1, lam)
+    values = ca.vertcat(0, *(ca.sparsity_cast(m, ca.Sparsity.dense(m.nnz(), 1)) for m in (hess, jac)))
+    blocks = ca.Function("kkt_blocks", [x, p, lam], [g, grad, values], ["x", "p", "lam_g"],
+                         ["g", "grad_f", "values"])
+    return KKTSystem(Evaluator(blocks), (rows, cols, source, diagonal))
+
+
+def _gathered(rows, cols, source, diagonal, shape):
+    """(sparsity, source, row, diagonal) per nonzero of the matrix of `shape` whose entries
+    are listed (`KKTSystem.entries`, renumbered): duplicates merged, column-major."""
+    keys, slot = np.unique(cols * shape[0] + rows, return_inverse=True)
+    merged = [np.zeros(keys.size, int), np.zeros(keys.size, int)]
+    for into, values in zip(merged, (source, diagonal)):        # one of each per entry at most
+        np.add.at(into, slot, values)
+    sparsity = ca.Sparsity(*shape, np.searchsorted(keys // shape[0], np.arange(shape[1] + 1)).tolist(),
+                           (keys % shape[0]).tolist())
+    return sparsity, merged[0], keys % shape[0], merged[1]
+
+
+def kkt_solution(transcription, k, fixed):
+    """The Evaluator of ``(values, active_x, active_g, d_bound, r) -> dx``: `solve_kkt`'s
+    system for k parameters without the entries `fixed` (lbx == ubx, int array), whose dx
+    is their bound's change, its matrix gathered from the `KKTSystem`'s values and factored
+    by CasADi's sparse QR ("qr"); built once per NLP `structure`, `fixed` and k.
+
+    Inputs: `values` of `KKTSystem.blocks`; the 0/1 masks active_x (n_x,) and active_g
+    (n_g,) of the entries and rows held at a bound; the change of the bound of each entry
+    of x (n_x, k) and minus the change of (grad L, g) in p, (n_x + n_g, k), per unit of
+    each parameter (`kkt_directions`). Output: dx/dtheta (n_x, k).
     """
     def build():
-        nlp, derivatives = transcription.separable, transcription.separable.derivatives()
-        x, p = nlp.x, nlp.p
-        n_x, n_g, n_p = x.numel(), nlp.g.numel(), p.numel()
-        lam, a_g, a_x = ca.MX.sym("lam_g", n_g), ca.MX.sym("active_g", n_g), ca.MX.sym("active_x", n_x)
-        d_p, d_bound = ca.MX.sym("d_p", n_p, k), ca.MX.sym("d_bound", n_x, k)
-        f, grad = derivatives["nlp_grad_f"](x, p)
-        jac = derivatives["nlp_jac_g"](x, p)[1]
-        upper = derivatives["nlp_hess_l"](x, p, 1, lam)
-        hess = upper + ca.triu(upper, False).T
-        grad_l = grad + ca.mtimes(jac.T, lam)
-        free = ca.diag(1 - a_x)         # the stationarity rows of the entries not held
-        K = ca.blockcat([[ca.mtimes(free, hess) + ca.diag(a_x), ca.mtimes(free, jac.T)],
-                         [ca.mtimes(ca.diag(a_g), jac), ca.diag(1 - a_g) - DEPENDENT_ROWS * ca.diag(a_g)]])
-        rhs = ca.vertcat(ca.mtimes(ca.diag(a_x), d_bound) - ca.mtimes(free, ca.mtimes(ca.jacobian(grad_l, p), d_p)),
-                         -ca.mtimes(ca.diag(a_g), ca.mtimes(ca.jacobian(nlp.g, p), d_p)))
-        dx = ca.solve(K, rhs, "qr")[:n_x, :]
-        d_cost = ca.mtimes(grad.T, dx) + ca.mtimes(ca.jacobian(f, p), d_p)
-        return ca.Function("kkt_solution", [x, p, lam, a_g, a_x, d_p, d_bound], [dx, d_cost],
-                           ["x", "p", "lam_g", "active_g", "active_x", "d_p", "d_bound"], ["dx", "d_cost"])
-    return _SOLUTIONS.get((transcription.structure, k), build)
+        nlp, (rows, cols, source, diagonal) = transcription.separable, kkt_system(transcription).entries
+        n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
+        kept = np.ones(n, bool)
+        kept[fixed] = False
+        m, position = int(kept.sum()), np.where(kept, np.cumsum(kept) - 1, -1)
+        position[fixed] = n + np.arange(fixed.size)       # beyond the kept ones: columns moved to the right side
+        square, side = kept[rows] & kept[cols], kept[rows] & ~kept[cols]
+        K = _gathered(position[rows[square]], position[cols[square]], source[square], diagonal[square], (m, m))
+        F = _gathered(position[rows[side]], position[cols[side]] - n, source[side], diagonal[side], (m, fixed.size))
+        values = ca.MX.sym("values", int(source.max(initial=0)) + 1)
+        a_x, a_g = ca.MX.sym("active_x", n_x), ca.MX.sym("active_g", n_g)
+        d_bound, r = ca.MX.sym("d_bound", n_x, k), ca.MX.sym("r", n, k)
+        kept_rows = np.flatnonzero(kept).tolist()
+        masks = ca.vertcat(1 - a_x, a_g)[kept_rows]      # the stationarity rows of the free entries, the held rows
+        diagonal_terms = ca.vertcat(0, a_x, 1 - (1 + DEPENDENT_ROWS) * a_g)
+        matrix = ca.MX(K[0], values[K[1].tolist()] * masks[K[2].tolist()] + diagonal_terms[K[3].tolist()])
+        d_fixed = d_bound[fixed.tolist(), :]
+        moved = ca.mtimes(ca.MX(F[0], values[F[1].tolist()] * masks[F[2].tolist()]), d_fixed)
+        held = ca.vertcat(ca.repmat(a_x, 1, k) * d_bound, ca.MX(n_g, k))[kept_rows, :]
+        solution = ca.solve(matrix, held + ca.repmat(masks, 1, k) * r[kept_rows, :] - moved, "qr")
+        dx = ca.vertcat(solution, d_fixed)[np.where(kept, position, position - n + m)[:n_x].tolist(), :]
+        return Evaluator(ca.Function("kkt_solution", [values, a_x, a_g, d_bound, r], [dx],
+                                     ["values", "active_x", "active_g", "d_bound", "r"], ["dx"]))
+    return _SOLUTIONS.get((transcription.structure, fixed.tobytes(), k), build)
+
+
+def kkt_directions(transcription, k):
+    """The Evaluator of ``(x, p, lam_g, d_p) -> (r, d_f)``: minus the derivatives of the
+    Lagrangian's gradient and of g along the k columns of d_p (n_p, k), stacked, shape
+    (n_x + n_g, k), and those of f, (1, k) (forward mode); built once per NLP `structure`
+    and k, called only for data that move p."""
+    def build():
+        nlp = transcription.separable
+        functions = nlp_functions(nlp, expand=True)
+        x, p, lam, d_p = nlp.x, nlp.p, ca.MX.sym("lam_g", nlp.n_g), ca.MX.sym("d_p", nlp.n_p, k)
+        f, grad = functions["nlp_grad_f"](x, p)
+        g, jac = functions["nlp_jac_g"](x, p)
+        moved = ca.jtimes(ca.vertcat(grad + ca.mtimes(jac.T, lam), g, f), p, d_p)
+        n = nlp.n_x + nlp.n_g
+        return Evaluator(ca.Function("kkt_directions", [x, p, lam, d_p], [-moved[:n, :], moved[n:, :]],
+                                     ["x", "p", "lam_g", "d_p"], ["r", "d_f"]))
+    return _DIRECTIONS.get((transcription.structure, k), build)
 
 
 def active_sets(value, lower, upper, multiplier):
@@ -63,7 +154,7 @@ def active_sets(value, lower, upper, multiplier):
     with lower == upper, and those at a bound with a multiplier of the bound's sign
     (CasADi's convention: positive at an upper bound). Returns (indices, at_upper)."""
     scale = ACTIVE_MULTIPLIER * (1 + np.abs(multiplier).max(initial=0.0))
-    gap = lambda bound: np.abs(value - bound) <= ACTIVE_GAP * (1 + np.abs(np.nan_to_num(bound, posinf=0, neginf=0)))
+    gap = lambda bound: np.abs(value - bound) <= ACTIVE_GAP * (1 + np.where(np.isfinite(bound), np.abs(bound), 0.0))
     fixed = lower == upper
     at_upper = ~fixed & (multiplier > scale) & gap(upper)
     at_lower = ~fixed & (multiplier < -scale) & gap(lower)
@@ -71,21 +162,28 @@ def active_sets(value, lower, upper, multiplier):
     return rows, at_upper[rows]
 
 
-def solve_kkt(transcription, x, p, lam_g, g_rows, x_rows, d_p, d_x_bound):
-    """dx/dtheta, shape (n_x, k), and dJ/dtheta, shape (k,), of the scaled NLP's optimum
-    (x, p, lam_g) of `transcription`, from its KKT system (`kkt_solution`).
+def solve_kkt(transcription, x, lam_g, lam_x, d_p, d_lower, d_upper):
+    """dx/dtheta, shape (n_x, k), dJ/dtheta, shape (k,), and the active rows of g and
+    entries of x, of the scaled NLP's optimum of `transcription`, from its KKT system.
 
     Parameters
     ----------
     transcription : Transcription
-    x, p, lam_g : ndarray, shapes (n_x,), (n_p,), (n_g,)
-        The optimum in the scaled NLP (x / x_scale, p, lam_g / g_scale).
-    g_rows, x_rows : ndarray of int
-        The active rows of g and entries of x (`active_sets`), held at their bounds.
+    x, lam_g, lam_x : ndarray, shapes (n_x,), (n_g,), (n_x,)
+        The optimum in the scaled NLP (x / x_scale, lam_g / g_scale, lam_x * x_scale), at
+        the transcription's p.
     d_p : ndarray, shape (n_p, k)
         The change of p per unit of each of k parameters.
-    d_x_bound : ndarray, shape (len(x_rows), k)
-        The change of each active entry's bound per unit of each parameter (scaled).
+    d_lower, d_upper : ndarray, shapes (n_x, k)
+        The change of the scaled bounds lbx / x_scale, ubx / x_scale per unit of each
+        parameter.
+
+    Returns
+    -------
+    dx : ndarray, shape (n_x, k)
+    d_cost : ndarray, shape (k,)
+    g_rows, x_rows : ndarray of int
+        The rows of g and entries of x held at a bound (`active_sets`).
 
     Notes
     -----
@@ -100,17 +198,33 @@ def solve_kkt(transcription, x, p, lam_g, g_rows, x_rows, d_p, d_x_bound):
     (Fiacco 1976). The multiplier nu_i of an entry held at its bound appears in the i-th
     stationarity row alone, so that row and nu are dropped and dx_i = d(bound)_i written in
     its place; the multipliers of the inactive rows of g stay zero, written as rows
-    dlam_i = 0. The matrix, of size n_x + n_g, so keeps one sparsity pattern whatever
-    the active set. The zero block of the active rows is shifted to -DEPENDENT_ROWS I, so
-    that dependent active rows (a path row held at a knot and at the stage points beside
-    it) leave the matrix regular; dx moves by about DEPENDENT_ROWS |dlam|.
+    dlam_i = 0. The matrix so keeps one sparsity pattern whatever the active set
+    (`KKTSystem`), and its sparse QR one symbolic analysis; the entries fixed by lbx ==
+    ubx (the boundary data) are left out of it, their columns times their bounds' change
+    moved to the right side (a quarter less fill in the rolling disk's QR). The zero block
+    of the active rows is shifted to -DEPENDENT_ROWS I, so that dependent active rows (a
+    path row held at a knot and at the stage points beside it) leave the matrix regular;
+    dx moves by about DEPENDENT_ROWS |dlam|. The derivatives in p (forward mode,
+    `kkt_directions`) are formed only when d_p is not zero (boundary data other than
+    q_start and p_start fix bounds alone).
     """
-    k = d_p.shape[1]
-    active_g, active_x, d_bound = np.zeros(lam_g.size), np.zeros(x.size), np.zeros((x.size, k))
-    active_g[g_rows], active_x[x_rows], d_bound[x_rows] = 1.0, 1.0, d_x_bound
-    dx, d_cost = (o.full() for o in kkt_solution(transcription, k)(x, p, lam_g, active_g, active_x,
-                                                                    d_p, d_bound))
-    if not (np.isfinite(dx).all() and np.isfinite(d_cost).all()):
+    T, k = transcription, d_p.shape[1]
+    g, grad, values = kkt_system(T).blocks(x, T.p, lam_g)
+    lbg, ubg = T.scaled_g_bounds
+    g_rows, _ = active_sets(g[:, 0], lbg, ubg, lam_g)
+    x_rows, at_upper = active_sets(x, T.lbx / T.x_scale, T.ubx / T.x_scale, lam_x)
+    active_x, active_g, d_bound = np.zeros(x.size), np.zeros(lam_g.size), np.zeros((x.size, k))
+    active_x[x_rows], active_g[g_rows] = 1.0, 1.0
+    d_bound[x_rows] = np.where(at_upper[:, None], d_upper[x_rows], d_lower[x_rows])
+    if d_p.any():
+        r, d_f = kkt_directions(T, k)(x, T.p, lam_g, d_p)
+    else:
+        r, d_f = np.zeros((x.size + lam_g.size, k)), np.zeros((1, k))
+    try:
+        dx, = kkt_solution(T, k, np.flatnonzero(T.lbx == T.ubx))(values, active_x, active_g, d_bound, r)
+    except RuntimeError:
+        dx = np.full((x.size, k), np.nan)
+    if not np.isfinite(dx).all():
         raise InputError("the optimum's KKT matrix is singular: the active constraints are "
                          "dependent or the optimum is not strict; no sensitivities there.")
-    return dx, d_cost.ravel()
+    return dx, grad[:, 0] @ dx + d_f[0], g_rows, x_rows

@@ -14,7 +14,7 @@ import numpy as np
 from .._util import checks
 from ..errors import InputError
 from ..optimal_control import OptimalControlProblem, OptimizationResult
-from .kkt_sensitivity import active_sets, solve_kkt
+from .kkt_sensitivity import solve_kkt
 
 BOUNDARY_DATA = ("q_start", "q_goal", "v_start", "v_goal", "p_start")
 
@@ -88,7 +88,7 @@ def sensitivities(problem, result, *, wrt):
     lam_x^T x, the active rows of g and the active entries of x at their bounds) gives a
     linear system in (dx, dlam) with the Lagrangian's Hessian and the active rows'
     Jacobian (`solve_kkt`) [1]. The active set is that of the result's multipliers
-    (`active_sets`): the derivatives are one-sided where a bound is about to become
+    (`dmoc.drivers.kkt_sensitivity.active_sets`): the derivatives are one-sided where a bound is about to become
     active or inactive. dJ/dtheta = grad f . dx/dtheta + df/dp dp/dtheta; by the envelope
     theorem it also equals the derivative of the Lagrangian in theta at fixed (x, lam):
     for q_goal, minus the result's ``lam_x`` at the q_N entries.
@@ -117,12 +117,8 @@ def sensitivities(problem, result, *, wrt):
     columns = [_columns(problem, name) for name in names]
     d_p, lower, upper = (np.hstack([c[i] for c in columns]) for i in range(3))
     xs, lam_gs, lam_xs = result.x / T.x_scale, result.lam_g / T.g_scale, result.lam_x * T.x_scale
-    lbg, ubg = T.scaled_g_bounds
-    g_value = T.separable.values(xs, T.p)[1] if (lbg != ubg).any() else lbg    # all equality rows
-    g_rows, _ = active_sets(g_value, lbg, ubg, lam_gs)
-    x_rows, at_upper = active_sets(xs, T.lbx / T.x_scale, T.ubx / T.x_scale, lam_xs)
-    d_bound = np.where(at_upper[:, None], upper[x_rows], lower[x_rows])
-    dxs, d_cost = solve_kkt(T, xs, T.p, lam_gs, g_rows, x_rows, d_p, d_bound / T.x_scale[x_rows, None])
+    dxs, d_cost, g_rows, x_rows = solve_kkt(T, xs, lam_gs, lam_xs, d_p, lower / T.x_scale[:, None],
+                                            upper / T.x_scale[:, None])
     return _in_user_shapes(problem, names, dxs * T.x_scale[:, None], d_p, d_cost,
                            {"g": g_rows, "x": x_rows})
 

@@ -117,3 +117,34 @@ def test_a_free_goal_entry_has_zero_derivatives_and_the_others_match_re_solves()
     moved = dmoc.optimize(p.with_boundary(q_goal=[0.5 + DELTA, 1.0, None]), guess=result, options=OPTIONS)
     back = dmoc.optimize(p.with_boundary(q_goal=[0.5 - DELTA, 1.0, None]), guess=result, options=OPTIONS)
     assert_relative(d.q["q_goal"][..., 0], (moved.trajectory.q - back.trajectory.q) / (2 * DELTA))
+
+
+@pytest.mark.parametrize("case", ["active control bound", "dependent active rows"])
+def test_the_kkt_solution_equals_a_dense_solve_of_the_kkt_system(case):
+    """The matrix gathered from the solver's derivatives and its sparse QR, against the KKT
+    system written here from the NLP's expressions (CasADi's hessian and jacobian of
+    `transcription.nlp`, the active set read off the bounds) and solved densely by least
+    squares: its minimum-norm multipliers of the dependent rows (the turning rate held at
+    two midpoints and at the knot between them) leave dx unique."""
+    p = problem(([-10, -3], [10, 10]), None) if case == "active control bound" else \
+        problem(None, lambda q, v, u, w: v[2] - 1.2)
+    result = dmoc.optimize(p, options=OPTIONS)
+    d = dmoc.sensitivities(p, result, wrt="q_goal")
+    T = p.transcription
+    x, p_value, f, g = (T.nlp[k] for k in ("x", "p", "f", "g"))
+    x_value, lam = result.x / T.x_scale, result.lam_g / T.g_scale
+    at = ca.Function("at", [x, p_value], [ca.hessian(f + ca.dot(lam, g), x)[0], ca.jacobian(g, x), g])
+    H, J, g_value = (np.array(m) for m in at(x_value, T.p))
+    lbx, ubx = T.lbx / T.x_scale, T.ubx / T.x_scale
+    held = np.flatnonzero((lbx == ubx) | np.isclose(x_value, lbx, atol=1e-7) | np.isclose(x_value, ubx, atol=1e-7))
+    lbg, ubg = T.scaled_g_bounds
+    rows = np.flatnonzero((lbg == ubg) | np.isclose(g_value.ravel(), ubg, atol=1e-7))
+    assert rows.size - np.linalg.matrix_rank(J[rows]) == (1 if case == "dependent active rows" else 0)
+    E = np.eye(x_value.size)[held]
+    K = np.block([[H, J[rows].T, E.T], [J[rows], np.zeros((rows.size, rows.size + held.size))],
+                  [E, np.zeros((held.size, rows.size + held.size))]])
+    q_N = T.x_layout.slice("q").start + 10 * 3 + np.arange(3)      # q_goal fixes q_N (q_ref = q_start)
+    rhs = np.zeros((K.shape[0], 3))
+    rhs[x_value.size + rows.size + np.searchsorted(held, q_N), range(3)] = 1 / T.x_scale[q_N]
+    dx = np.linalg.lstsq(K, rhs, rcond=None)[0][:x_value.size]
+    assert_relative(d.x["q_goal"] / T.x_scale[:, None], dx, rtol=1e-8)
