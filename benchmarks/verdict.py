@@ -154,13 +154,13 @@ def study(count, seed):
     """The `--study` table: the verdict's class on `count` random problems of `seed`."""
     sys.path[:0] = [ROOT]
     from tests.results.verdict_study import counts, random_problems, study as judged_case
-    print(f"{'problem':<46}{'status':>17}{'estimate':>9}{'dJ':>9}{'dT':>9}{'replay':>9}{'path':>9}"
+    print(f"{'problem':<52}{'status':>17}{'estimate':>9}{'dJ':>9}{'dT':>9}{'replay':>9}{'path':>9}"
           f"{'truth':>9}  class")
     rows = []
     for case in random_problems(count, seed):
         row = judged_case(case)
         rows.append(row)
-        print(f"{row.label:<46}{row.status:>17}" + "".join(
+        print(f"{row.label:<52}{row.status:>17}" + "".join(
             f"{x:>9.1e}" for x in (row.estimate, row.cost_error, row.time_error, row.departure, row.path,
                                    row.truth_uncertainty)) + f"  {row.kind}"
               + ("" if row.default_kind == row.kind else f" (default verdict: {row.default_kind})"), flush=True)

@@ -12,7 +12,7 @@ import dmoc.problems
 
 from dmoc.drivers.error_estimate import UNRESOLVED_END, estimate_error, touches
 
-from .verdict_study import (Case, _keep_out, _running_cost, knife_edge_plant, random_problems, replay,
+from .verdict_study import (Case, keep_out, running_cost, knife_edge_plant, random_problems, replay,
                             rolling_disk_plant, truth, vector_field)
 
 J_PARKING = 8.72240586430       # knife-edge parking, m = J = 1, T = 4 (issue 23)
@@ -70,9 +70,9 @@ def test_a_limit_held_nowhere_keeps_the_rules_order():
     case, = random_problems(13, only={12})
     result = dmoc.optimize(case.problem)
     assert not touches(case.problem, result.trajectory)
-    far = _keep_out(np.array([100.0, 100.0]), 1.0)
+    far = keep_out(np.array([100.0, 100.0]), 1.0)
     problem = dmoc.OptimalControlProblem(case.problem.disc, case.problem.steps, q_start=case.problem.q_start,
-                                         q_goal=case.problem.q_goal, running_cost=_running_cost(case.scales, 0.0),
+                                         q_goal=case.problem.q_goal, running_cost=running_cost(case.scales, 0.0),
                                          path_constraints=far)
     estimate = estimate_error(problem, dmoc.optimize(problem))
     assert not estimate.path_active and estimate.order == 6

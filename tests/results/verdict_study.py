@@ -25,15 +25,16 @@ difference. The replay (`replay`) drives the continuous plant by dmoc's controls
 (`Trajectory.control`, each step on its own) from the start with scipy's DOP853.
 
 Classification (`study`): an optimum is *right* when its errors are within what it
-declares, 10 times dmoc's own Richardson estimate with its order
-(`dmoc.drivers.error_estimate.estimate_error`, ``largest``; 10 % where it is infinite, its
-coarser solve failed) plus three times the truth's uncertainty: the relative cost error |J_N - J*| / |J*|, the final time's |T_N - T*| / T*,
-the path rows' largest value along the replay over their scale max(1, max |g|), and the
-replay's largest departure from the knots over the configurations' span, which must also
-be below 10 % (a replay that small is "the motion it claims"). A passed verdict on a right
-optimum is a true success, on a wrong one a false success; a refusal of a right one a false
-refusal, of a wrong one a true refusal. IPOPT's own failures are counted apart (no optimum
-to judge), as are truths whose two grids differ by more than TRUTH_SPREAD.
+declares, DECLARED = 10 times dmoc's own Richardson estimate with its order
+(`dmoc.drivers.error_estimate.estimate_error`, ``largest``; CAP = 25 % where that is
+infinite, its coarser solve failed) plus three times the truth's uncertainty: the
+relative cost error |J_N - J*| / |J*|, the final time's |T_N - T*| / T*, the path rows'
+largest value along the replay over their scale max(1, max |g|), and the replay's largest
+departure from the knots over the configurations' span, which must also be below CAP (a
+motion a quarter of its span away is not the motion it claims). A passed verdict on a
+right optimum is a true success, on a wrong one a false success; a refusal of a right one
+a false refusal, of a wrong one a true refusal. IPOPT's own failures are counted apart (no
+optimum to judge), as are truths whose two grids differ by more than TRUTH_SPREAD of J*.
 """
 
 import dataclasses
@@ -48,7 +49,6 @@ from dmoc.drivers.error_estimate import estimate_error, with_estimate
 RULES = ("midpoint", "lobatto3", "lobatto4")
 STEPS = {"midpoint": (4, 40), "lobatto3": (3, 30), "lobatto4": (3, 24)}
 # a right optimum's errors: within DECLARED times its own estimate; its replay's below CAP
-# of the span (a motion a quarter of its span away is not the motion it claims)
 DECLARED, CAP = 10.0, 0.25
 TRUTH_INTERVALS = 320
 # a truth whose two grids differ by more than this part of J* is not a truth ("truth failed")
@@ -187,20 +187,22 @@ def _random_case(i, rng, build):
     n = plant.n
     problem = dmoc.OptimalControlProblem(
         dmoc.discretize(system, T / steps, rule), steps, q_start=np.zeros(n), q_goal=goal,
-        running_cost=_running_cost(scales, weight),
+        running_cost=running_cost(scales, weight),
         control_bounds=None if bound is None else ([-bound * s for s in scales], [bound * s for s in scales]),
-        state_bounds=state_bounds, path_constraints=None if disc is None else _keep_out(*disc),
+        state_bounds=state_bounds, path_constraints=None if disc is None else keep_out(*disc),
         duration=(0.4 * T, 3.0 * T) if free else None)
     label = (f"{i:2d} {kind:<12} {rule:<8} N={steps:<3d}" + (" free-T" if free else "")
              + (f" |u|<={bound:.2f}s" if bound else "") + (" disc" if disc else ""))
     return Case(label, problem, plant, scales, weight, disc)
 
 
-def _running_cost(scales, weight):
+def running_cost(scales, weight):
+    """The running cost (u_0 / s_0)^2 + (u_1 / s_1)^2 + weight, s the `scales`."""
     return lambda q, v, u: (u[0] / scales[0]) ** 2 + (u[1] / scales[1]) ** 2 + weight
 
 
-def _keep_out(centre, radius):
+def keep_out(centre, radius):
+    """The path row r^2 - |(x, y) - c|^2 <= 0 of a keep-out disc of `radius` r at `centre` c."""
     return lambda q, v, u: radius ** 2 - (q[0] - centre[0]) ** 2 - (q[1] - centre[1]) ** 2
 
 
@@ -233,7 +235,7 @@ def _shooting(case, guess_traj, K):
     plant, problem = case.plant, case.problem
     n, field = plant.n, vector_field(plant)
     x, u0, u1, h = ca.SX.sym("x", 2 * n), ca.SX.sym("u0", 2), ca.SX.sym("u1", 2), ca.SX.sym("h")
-    cost = _running_cost(case.scales, case.time_weight)
+    cost = running_cost(case.scales, case.time_weight)
 
     def augmented(x, u):
         return ca.vertcat(field(x, u), cost(x[:n], x[n:], u))
@@ -347,7 +349,8 @@ def study(case):
     time_error = abs(traj.t[-1] - T) / T if ok and case.problem.free_time else 0.0
     departure, path = replay(case, traj)
     ok = ok and uncertainty <= TRUTH_SPREAD * abs(J)
-    allowed = (DECLARED * estimate + 3 * uncertainty / abs(J) + 1e-6 if np.isfinite(estimate) else CAP) if ok else np.nan
+    declared = DECLARED * estimate + 3 * uncertainty / abs(J) + 1e-6 if np.isfinite(estimate) else CAP
+    allowed = declared if ok else np.nan
     right = bool(ok and max(cost_error, time_error, path) <= allowed and departure <= min(CAP, allowed))
     return Row(case.label, str(judged.status), judged.success, estimate, cost_error, time_error, departure,
                path, uncertainty / abs(J) if ok else np.nan, right, _kind(ok, judged.success, right),
