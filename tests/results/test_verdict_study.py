@@ -10,7 +10,8 @@ from scipy.integrate import solve_ivp
 import dmoc
 import dmoc.problems
 
-from dmoc.drivers.error_estimate import UNRESOLVED_END, estimate_error, touches
+from dmoc.drivers.active_limits import touches
+from dmoc.drivers.error_estimate import UNRESOLVED_END, estimate_error
 
 from .verdict_study import (Case, keep_out, running_cost, knife_edge_plant, random_problems, replay,
                             rolling_disk_plant, truth, vector_field)
