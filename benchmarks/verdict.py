@@ -39,6 +39,19 @@ trajectory by numpy polynomials through the Lobatto nodes
 over those of the row.
 
     python benchmarks/verdict.py --hard truck --rates --steps 60 120
+
+With ``--study COUNT``, instead: the verdict's quality on COUNT seeded random problems
+(knife edge, rolling disk, car, a Chaplygin sleigh built in the study; random SI data,
+goals, horizons, N, rules, free final times, control bounds, keep-out discs), each
+optimum's truth from an independent transcription (RK4 multiple shooting of the continuous
+equations, IPOPT through CasADi) and a DOP853 replay of its controls
+(tests/results/verdict_study.py): per problem the status (with the estimate, as
+``estimate=True`` gives it), dmoc's own error estimate, the true errors (cost, final
+time, replay, path along the replay), the truth's uncertainty and the class (true/false
+success, true/false refusal; the default verdict's where it differs); then the counts of
+both.
+
+    python benchmarks/verdict.py --study 40 [--seed 40]
 """
 
 import argparse
@@ -220,6 +233,25 @@ def rates(steps):
                       f"{over[0]:>+11.1e}{over[1]:>+11.1e}{seconds / row_seconds:>12.2f}", flush=True)
 
 
+def study(count, seed):
+    """The `--study` table: the verdict's class on `count` random problems of `seed`."""
+    sys.path[:0] = [ROOT]
+    from tests.results.verdict_study import counts, random_problems, study as judged_case
+    print(f"{'problem':<52}{'status':>17}{'estimate':>9}{'dJ':>9}{'dT':>9}{'replay':>9}{'path':>9}"
+          f"{'truth':>9}  class")
+    rows = []
+    for case in random_problems(count, seed):
+        row = judged_case(case)
+        rows.append(row)
+        print(f"{row.label:<52}{row.status:>17}" + "".join(
+            f"{x:>9.1e}" for x in (row.estimate, row.cost_error, row.time_error, row.departure, row.path,
+                                   row.truth_uncertainty)) + f"  {row.kind}"
+              + ("" if row.default_kind == row.kind else f" (default verdict: {row.default_kind})"), flush=True)
+    for field, name in (("kind", "with the estimate (estimate=True)"), ("default_kind", "default verdict")):
+        print(f"counts, {name}: " + ", ".join(f"{kind} {number}" for kind, number in counts(rows, field).items()))
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="processes per checkout (default 3)")
@@ -236,7 +268,15 @@ def main(argv=None):
     parser.add_argument("--rates", action="store_true",
                         help="with --hard truck: the steering rate as a path row and as a velocity bound")
     add_checkouts(parser)
+    parser.add_argument("--study", type=int, metavar="COUNT",
+                        help="the verdict's quality on COUNT random problems against independent truths")
+    parser.add_argument("--seed", type=int, default=40, help="with --study: the problems' seed")
     args = parser.parse_args(argv)
+    if args.study:
+        print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
+        study(args.study, args.seed)
+        print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the end")
+        return
     if args.hard:
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at the start")
         rates(args.steps) if args.rates else hard(args.hard, args.steps)

@@ -68,6 +68,15 @@ def test_smallest_run(name, capsys):
     assert out.strip(), f"benchmarks/{name}.py printed nothing"
 
 
+def test_verdict_study_slice(capsys):
+    """The verdict study of issue 40 (`verdict.py --study`) on its first 2 problems of seed
+    40: both optima right (against the truth of the continuous problem) and passed."""
+    importlib.import_module("verdict").main(["--study", "2"])
+    out = capsys.readouterr().out
+    assert "counts, with the estimate (estimate=True): true success 2, false success 0" in out
+    assert "counts, default verdict: true success 2, false success 0" in out
+
+
 def test_peers_says_when_the_peer_side_is_skipped(capsys):
     importlib.import_module("peers").main(["resolve", "--smallest"])
     out = capsys.readouterr().out

@@ -13,10 +13,20 @@ import numpy as np
 
 from .._util import checks
 from ..discrete.rules import lagrange_basis
-from ..errors import InputError
+from ..errors import InputError, Status
 from ..optimal_control import OptimalControlProblem, OptimizationResult
 from ..simulation import simulate
+from .active_limits import switches, touches
 from .verdict import judged_solve
+
+# An estimated end error (`ErrorEstimate.final_state`) beyond this part of the coordinates'
+# excursion says that the grid does not resolve the motion: the system driven by the
+# optimum's controls ends elsewhere, whatever the replay on the optimum's own grid says
+# (`with_estimate`). The verdict study of issue 40 (benchmarks/verdict.py --study): a
+# Chaplygin sleigh past a keep-out disc, lobatto3 on 3 steps, 0.79 (DOP853 under its
+# controls departs by 0.32 of the span; velocity jump 0.44, replay 1e-15); the optima of
+# the study that are right 0.09 at most.
+UNRESOLVED_END = 0.25
 
 
 @dataclass(frozen=True)
@@ -51,9 +61,17 @@ class ErrorEstimate:
     order : int
         The order p the extrapolation of the cost and the final time assumes: the
         discretization's (`Discretization.order`, which is lower than the rule's for stage
-        rules on degenerate Lagrangians), or 1 where `switching`. The final state's always
-        assumes the discretization's: its replay drives each step by the step's own
-        polynomial controls.
+        rules on degenerate Lagrangians), 1 where `switching`, at most 2 where
+        `path_active`. The final state's always assumes the discretization's: its replay
+        drives each step by the step's own polynomial controls.
+    path_active : bool
+        True when a path constraint or a velocity bound holds with equality at a knot or
+        an interior point of a stage rule's optimum (`touches`): held only at those
+        points, the motion between them cuts into the limit by O(h^2), so the cost
+        converges at order 2 whatever the rule's order, and the extrapolation assumes 2
+        (verdict study of issue 40, benchmarks/verdict.py --study: a rolling disk beside a
+        keep-out disc, lobatto4 at N = 11, estimated 2.3e-4 with order 6 against a true
+        4.8e-3; 4.8e-3 with order 2).
     switching : bool
         True when a control bound is active at some control nodes and not at others
         (`switches`): the controls switch inside the horizon (bang-bang arcs), the cost
@@ -77,6 +95,7 @@ class ErrorEstimate:
     steps: int
     reference_steps: int
     time: float
+    path_active: bool = False
 
     @property
     def largest(self):
@@ -145,7 +164,8 @@ def richardson_estimate(problem, result, reference, tic):
     """The ErrorEstimate of `result` against `reference`, timed from `tic`."""
     p, N, M, traj = problem.disc.order, problem.steps, reference.trajectory.steps, result.trajectory
     switching = switches(problem, traj)
-    order = 1 if switching else p
+    path_active = p > 2 and not switching and touches(problem, traj)
+    order = 1 if switching else 2 if path_active else p
     cost_error = _extrapolated(result.cost, reference.cost, N, M, order, reference.success)
     T, T_M = (run.steps * run.h for run in (traj, reference.trajectory))
     time_error = _extrapolated(T, T_M, N, M, order, reference.success) if problem.free_time else 0.0
@@ -153,7 +173,7 @@ def richardson_estimate(problem, result, reference, tic):
     return ErrorEstimate(abs(cost_error) / (abs(result.cost) or 1.0),
                          float(np.max(np.abs(state_error) / coordinate_scales(traj.q))),
                          abs(time_error) / T, float(cost_error), float(time_error), state_error,
-                         order, switching, N, M, time.perf_counter() - tic)
+                         order, switching, N, M, time.perf_counter() - tic, path_active)
 
 
 def _extrapolated(fine, coarse, N, M, p, solved):
@@ -166,41 +186,6 @@ def _check_steps(problem, result):
     if result.trajectory.steps != problem.steps:
         raise InputError(f"`result` must be an optimum of `problem` ({problem.steps} steps); "
                          f"got one on {result.trajectory.steps} steps.")
-
-
-def switches(problem, traj):
-    """Whether a control bound of `problem` is active at some of the control nodes of
-    `traj` and not at others: a switch of the active set inside the horizon.
-
-    Parameters
-    ----------
-    problem : OptimalControlProblem
-        Its ``control_bounds`` (lower, upper), shapes (n_u,), infinite where unbounded.
-    traj : Trajectory
-        Controls `u`, shape (N, len(control_nodes) * n_u).
-
-    Returns
-    -------
-    bool
-
-    Notes
-    -----
-    Control i is at a bound b at a node when |u_i - b| <= 1e-6 (|b| + max_k |u_k,i|), a
-    tolerance relative to the control's size and above IPOPT's distance to an active
-    bound (the interior point stays 5e-10 to 3e-8 off the bound -2 on the knife edge's
-    minimum time with lobatto4 at N = 20 to 320). A bound that is active everywhere or
-    nowhere is no switch; one reached only between the nodes is not seen.
-    """
-    lower, upper = problem.control_bounds
-    u = np.asarray(traj.u, dtype=float).reshape(-1, len(lower))         # (N k, n_u), in time
-    size = np.max(np.abs(u), axis=0)
-    for bound in (lower, upper):
-        finite = np.isfinite(bound)
-        b, u_b = bound[finite], u[:, finite]
-        active = np.abs(u_b - b) <= 1e-6 * (np.abs(b) + size[finite])
-        if np.any(active.any(axis=0) & ~active.all(axis=0)):
-            return True
-    return False
 
 
 def coordinate_scales(q):
@@ -253,9 +238,21 @@ def _replayed_end(problem, traj):
 def with_estimate(result, estimate):
     """`result` with `estimate` (an ErrorEstimate) in ``stats["error_estimate"]`` (plain
     numbers and lists, so `OptimizationResult.save` keeps it) and its largest figure in
-    ``verdict.discretization_error`` where the result was judged."""
+    ``verdict.discretization_error`` where the result was judged; a passed verdict becomes
+    ``"under_resolved"`` (``success=False``) when the estimated end error exceeds
+    UNRESOLVED_END."""
     stats = {**result.stats, "error_estimate": {**asdict(estimate),
                                                 "state_error": estimate.state_error.tolist()}}
     verdict = result.verdict if result.verdict is None else \
         replace(result.verdict, discretization_error=estimate.largest)
-    return replace(result, stats=stats, verdict=verdict)
+    result = replace(result, stats=stats, verdict=verdict)
+    if verdict is None or not (verdict.passed and result.success) or not estimate.final_state > UNRESOLVED_END:
+        return result
+    message = (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), but the "
+               f"optimum fails its verdict (under_resolved): the grid does not resolve the motion: "
+               f"driven by its controls on twice the steps, the system ends "
+               f"{estimate.final_state:.2g} of the coordinates' excursion away from its end (limit "
+               f"{UNRESOLVED_END:g}; `stats[\"error_estimate\"]`). Use more steps; "
+               f"docs/stages/drivers.md, \"Verdicts\".")
+    return replace(result, success=False, status=Status.UNDER_RESOLVED, message=message,
+                   verdict=replace(verdict, status=Status.UNDER_RESOLVED))

@@ -3,6 +3,7 @@
 (`error_estimate`) or the grid refined to an accuracy target (`accuracy`) on request."""
 
 from .._util import checks
+from ..errors import failure
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from .accuracy import optimize_to_accuracy
 from .error_estimate import estimate_error, with_estimate
@@ -84,7 +85,9 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         (`dmoc.drivers.error_estimate.estimate_error`: a solve on N/2 steps started from the
         optimum and a replay on 2N steps; its cost against the solve:
         benchmarks/accuracy.py --estimates) into ``verdict.discretization_error`` and
-        ``stats["error_estimate"]``. Default False.
+        ``stats["error_estimate"]``; a passed verdict becomes ``"under_resolved"`` when the
+        estimated end error exceeds a quarter of the coordinates' excursion
+        (`dmoc.drivers.error_estimate.UNRESOLVED_END`). Default False.
     accuracy : float, optional
         A relative target in [1e-9, 1) for the estimated error of the cost and of the
         re-simulated final state: the grid is refined from ``problem.steps``, each level
@@ -141,4 +144,7 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     result = started_solve(problem, guess=guess, **keywords)
     if not (estimate and result.success):
         return result
-    return with_estimate(result, estimate_error(problem, result, **keywords))
+    result = with_estimate(result, estimate_error(problem, result, **keywords))
+    if throw and not result.success:        # the estimate found the grid too coarse
+        raise failure(result.message + " The optimum is in `.result`.", result)
+    return result
