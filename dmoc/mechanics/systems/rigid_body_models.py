@@ -2,7 +2,8 @@
 Pi' = Pi x Omega, R' = R Omega^), the heavy top (a body in gravity, pivoted at a point other
 than its centre of mass), a spacecraft turned by three body torques, and the Chaplygin
 sphere (a ball with an anisotropic inertia rolling without slipping on a plane, its contact
-point (x, y) the vector coordinates). Their oracles are the conserved quantities (energy;
+point (x, y) the vector coordinates), and a quadrotor (a thrust along its body axis and three
+body torques, its centre of mass the vector coordinates). Their oracles are the conserved quantities (energy;
 the spatial angular momentum R Pi, or its vertical component for the heavy top; the
 rolling constraints) and the reduced equations integrated by DOP853 in the tests.
 """
@@ -113,3 +114,39 @@ def chaplygin_sphere(inertia=(1.0, 2.0, 3.0), mass=1.0, radius=1.0, torques=Fals
     return RigidBody(inertia, coordinates=(m, m), constraints=rolling,
                      torque=torque if torques else None, n_u=3 if torques else 0,
                      name="Chaplygin sphere")
+
+
+def quadrotor(mass=1.0, inertia=(0.02, 0.02, 0.04), gravity=9.81):
+    """A quadrotor: a rigid body with rotation R and centre of mass x in R^3, driven by a
+    thrust f along its body axis R e3 and three body torques, in gravity along -e3:
+
+        L = 1/2 Omega^T J Omega + 1/2 m |x'|^2 - m g x_3,
+
+    controls u = (f, tau_1, tau_2, tau_3) (n_u = 4), the generalized force (tau, f R e3):
+    the body torque on R and the thrust on x. Its reduced equations are
+    m x'' = f R e3 - m g e3, R' = R Omega^, J Omega' = J Omega x Omega + tau (Lee, Leok &
+    McClamroch, "Geometric tracking control of a quadrotor UAV on SE(3)", CDC 2010). It
+    hovers at rest, at any position, with R = I, f = m g and tau = 0.
+
+    Parameters
+    ----------
+    mass : float
+        m > 0.
+    inertia : array_like, shape (3,) or (3, 3)
+        J about the centre of mass (body frame).
+    gravity : float
+        g >= 0.
+
+    Returns
+    -------
+    RigidBody
+        n_x = 3, m = 0, n_u = 4.
+    """
+    m = checks.positive_float("mass", mass)
+    g = checks.nonnegative_float("gravity", gravity)
+
+    def thrust_and_torques(R, omega, x, v, u):
+        return ca.vertcat(u[1:], u[0] * R[:, 2])
+
+    return RigidBody(inertia, coordinates=(m, m, m), potential=lambda R, x: m * g * x[2],
+                     torque=thrust_and_torques, n_u=4, name="quadrotor")
