@@ -69,8 +69,9 @@ def test_second_order_against_dop853_and_rotations_to_round_off():
 
 
 def test_hover_is_an_equilibrium():
-    """f = m g, tau = 0, R = I at rest stays at rest; with no thrust it falls as g t^2 / 2
-    (the (+) form of the trapezoid potential: exactly, at the knots)."""
+    """f = m g, tau = 0, R = I at rest stays at rest; with no thrust it falls, and since the
+    trapezoid rule is exact for the linear potential m g x_3 the knots lie on
+    x_3(0) - g t^2 / 2 to round-off."""
     body = dmoc.systems.quadrotor(MASS, INERTIA, GRAVITY)
     disc = dmoc.discretize(body, 0.05)
     hover = np.tile([MASS * GRAVITY, 0.0, 0.0, 0.0], (20, 1))
