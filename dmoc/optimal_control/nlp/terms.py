@@ -14,6 +14,7 @@ import casadi as ca
 import numpy as np
 
 from ..._util.cache import BoundedCache
+from .control_hull import hull_terms
 from .path_terms import path_terms
 from .separable import SeparableNLP, Term, function_key
 
@@ -42,7 +43,7 @@ def transcribe(problem, layouts, scales):
     X, P, G = (_indices(lay) for lay in layouts)
     step = _StepSlots(problem, X, P, G, scales, (layouts[0].size, layouts[1].size))
     terms = problem.momentum_treatment.dynamics_terms(step, G["dynamics"]) + [step.start(), step.goal()]
-    terms += path_terms(step, G)
+    terms += path_terms(step, G) + hull_terms(step, G)
     nlp = SeparableNLP(*(lay.size for lay in layouts), terms)
     return nlp, problem.momentum_treatment.momenta_function(step)
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..._util.layout import Layout
 from ..statement.parameters import refuse_violated_ends
+from .control_hull import hull_bounds, hulled_controls
 from .path_terms import row_counts
 from ..statement.read_only import ReadOnly, frozen
 from .scaling import nlp_scales
@@ -44,10 +45,15 @@ class Transcription(ReadOnly):
         ``start_velocity``, ``goal_velocity``, ``path`` (points * rows, N) at the steps'
         interior points, ``path_knots`` (rows, N+1) at q_0 ... q_N, ``velocity_steps`` (points * bounded,
         N) at the steps' interior points, ``velocity_knots`` (bounded, N+1, stage rules
-        only) at q_0 ... q_N: `dmoc.optimal_control.nlp.path_terms`).
+        only) at q_0 ... q_N: `dmoc.optimal_control.nlp.path_terms`; ``control_hull``
+        ((d - 1) * hulled, N): the interior Bernstein coefficients of the bounded
+        controls' interpolants, `dmoc.optimal_control.nlp.control_hull`).
     velocity_bounded : tuple of int
         The entries of v with a finite velocity bound, those of the velocity rows (in
         their order).
+    hulled_controls : tuple of int
+        The controls with a finite bound whose interpolant is bounded between the nodes
+        (rules with 3 or more control nodes; else empty).
     dynamics_rows : Layout
         The residual rows imposed at each step (all of R, or all but "right").
     x_scale, g_scale : ndarray, shapes (x_layout.size,) and (g_layout.size,)
@@ -79,6 +85,8 @@ class Transcription(ReadOnly):
         path = problem.path_constraints
         self._velocity_bounded = tuple(problem.velocity_bounded)
         count = row_counts(disc.rule, path.numel_out(0) if path else 0, len(self._velocity_bounded))
+        hull_lower, hull_upper = hull_bounds(problem.control_bounds, disc.rule.control_nodes)
+        self._hulled = tuple(hulled_controls(problem.control_bounds, disc.rule.control_nodes))
         self._dynamics_rows = problem.momentum_treatment.dynamics_rows
         self._x_layout = Layout([("q", (n, N + 1)), ("p", (n, problem.momentum_treatment.columns(N))),
                                  ("lam", (disc.n_multipliers, N)), ("s", (disc.n_stages, N)),
@@ -93,11 +101,16 @@ class Transcription(ReadOnly):
                                  ("goal_velocity", (rows["goal"], 1)),
                                  ("path", (count["path"], N)), ("path_knots", (count["path_knots"], N + 1)),
                                  ("velocity_steps", (count["velocity_steps"], N)),
-                                 ("velocity_knots", (count["velocity_knots"], N + 1))])
+                                 ("velocity_knots", (count["velocity_knots"], N + 1)),
+                                 ("control_hull", (hull_lower.size, N))])
         q_ref = reference(problem.q_start, problem.q_goal)
-        self._x_scale, self._g_scale = (frozen(s) for s in nlp_scales(
-            disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
-            problem.q_goal - problem.q_start))
+        x_scale, g_scale = nlp_scales(disc, problem.formulation, (self._x_layout, self._g_layout),
+                                      self._dynamics_rows, q_ref, problem.q_goal - problem.q_start)
+        if hull_lower.size:         # in units of their controls, as the control values in x
+            u_scale = self._x_layout.unpack(x_scale, "u")[:sys.n_u, 0]
+            self._g_layout.unpack(g_scale, "control_hull")[:] = 1 / np.resize(
+                u_scale[list(self._hulled)], hull_lower.size)[:, None]
+        self._x_scale, self._g_scale = frozen(x_scale), frozen(g_scale)
         self._separable, self._momenta = transcribe(
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
@@ -133,6 +146,9 @@ class Transcription(ReadOnly):
         lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
         for name in ("path", "path_knots"):
             lbg[self._g_layout.slice(name)] = -np.inf
+        for bound, side in ((lbg, 0), (ubg, 1)):
+            self._g_layout.unpack(bound, "control_hull")[:] = hull_bounds(
+                problem.control_bounds, problem.disc.rule.control_nodes)[side][:, None]
         for name in ("velocity_steps", "velocity_knots"):
             for bound, side in ((lbg, 0), (ubg, 1)):
                 block = self._g_layout.unpack(bound, name)
@@ -200,6 +216,8 @@ class Transcription(ReadOnly):
     q_ref = property(lambda self: self._q_ref, doc="The configuration x is centered on.")
     velocity_bounded = property(lambda self: self._velocity_bounded,
                                 doc="The entries of v with a finite velocity bound.")
+    hulled_controls = property(lambda self: self._hulled,
+                               doc="The controls bounded between their nodes (`control_hull`).")
 
     @property
     def structure(self):

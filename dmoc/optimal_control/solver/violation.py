@@ -75,6 +75,10 @@ def described(transcription, row):
         point = f" (point {block_row // len(bounded)})" if several else ""
         where = f"knot {col}" if group == "velocity_knots" else f"step {col}{point}"
         return f"velocity bound of v[{bounded[block_row % len(bounded)]}] at {where}"
+    if group == "control_hull":
+        hulled = transcription.hulled_controls
+        return (f"control bound of u[{hulled[block_row % len(hulled)]}] between the nodes of "
+                f"step {col} (Bernstein coefficient {block_row // len(hulled) + 1})")
     return f"boundary condition '{group}' row {block_row}"
 
 

@@ -125,7 +125,9 @@ class OptimalControlProblem(ProblemCopies, ReadOnly):
     `Transcription.g_layout`; `dmoc.optimal_control.nlp.path_terms`):
 
     ======================  ===============================================================
-    control_bounds          the control values u_{k,j} at the rule's control nodes (x)
+    control_bounds          the control values u_{k,j} at the rule's control nodes (x),
+                            and, for 3 or more nodes, the interior Bernstein coefficients
+                            of their interpolant, so it stays in the box (g)
     state_bounds            the configurations q_0 ... q_N (x)
     velocity_bounds         the knot velocities v_0 ... v_N (stage rules; for a linear rule
                             they lie between two bounded step velocities) and the
