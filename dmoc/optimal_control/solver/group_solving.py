@@ -19,6 +19,7 @@ from ..statement.group_problem import GroupOptimalControlProblem
 from . import interrupt
 from .ipopt import DEFAULT_IPOPT_OPTIONS, iteration_count
 from .optimization_result import OptimizationResult
+from .violation import most_violated
 
 
 def solve_on_group(problem, *, options=None, throw=True):
@@ -37,7 +38,9 @@ def solve_on_group(problem, *, options=None, throw=True):
     -------
     OptimizationResult
         ``trajectory`` a RotationTrajectory; ``x`` the NLP vector (`GroupTranscription`);
-        ``stats``: ``iterations``, ``return_status``, ``max_violation``, ``solve_time``.
+        ``stats``: ``iterations``, ``return_status``, ``max_violation`` (of all rows'
+        bounds), ``most_violated`` (that row named: "path constraint i at knot k", "dynamics
+        at step k (left row r)", ...; "none"), ``solve_time``.
     """
     checks.instance("problem", problem, GroupOptimalControlProblem, "a GroupOptimalControlProblem")
     throw = checks.boolean("throw", throw)
@@ -46,14 +49,16 @@ def solve_on_group(problem, *, options=None, throw=True):
     solver = ca.nlpsol("group_dmoc", "ipopt", T.nlp, {"ipopt": opts, "print_time": False})
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
-        sol = solver(x0=geodesic_guess(problem, T), lbx=T.lbx, ubx=T.ubx, lbg=0, ubg=0)
+        sol = solver(x0=geodesic_guess(problem, T), lbx=T.lbx, ubx=T.ubx, lbg=T.lbg, ubg=T.ubg)
     st = solver.stats()
-    x, g = np.array(sol["x"]).ravel(), np.array(sol["g"]).ravel()
+    x = np.array(sol["x"]).ravel()
+    largest, row = most_violated(T, np.array(sol["g"]).ravel())
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
-             "max_violation": float(np.abs(g).max()), "solve_time": time.perf_counter() - tic}
+             "max_violation": largest, "most_violated": row,
+             "solve_time": time.perf_counter() - tic}
     success, status = bool(st["success"]), st["return_status"]
-    message = (f"IPOPT: {status} after {stats['iterations']} iterations, max "
-               f"violation {stats['max_violation']:.2e}.")
+    message = (f"IPOPT: {status} after {stats['iterations']} iterations; most violated: {row} "
+               f"(|violation| = {largest:.2e}).")
     interrupted = interrupt.verdict(sigints, stats["iterations"], float(sol["f"]))
     if interrupted is not None:
         (status, message), success = interrupted, False
@@ -67,18 +72,31 @@ def solve_on_group(problem, *, options=None, throw=True):
 
 def geodesic_guess(problem, T):
     """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`) and x_k on the
-    segment between the ends, f_k = (cay^{-1}(R_k^T R_{k+1}), x_{k+1} - x_k), p_k = M f_k
-    / h with M = diag(J, M_x) (the last step's at N), zero multipliers and controls."""
+    segment between the ends bent by `bump`, f_k = (cay^{-1}(R_k^T R_{k+1}), x_{k+1} -
+    x_k), p_k = M f_k / h with M = diag(J, M_x) (the last step's at N), zero multipliers
+    and controls."""
     R, N = problem.geodesic(), problem.steps
-    x = np.linspace(problem.x_start, problem.x_goal, N + 1)
+    body = problem.disc.system
+    tau = np.linspace(0.0, 1.0, N + 1)
+    x = (problem.x_start + np.outer(tau, problem.x_goal - problem.x_start)
+         + np.outer(np.sin(np.pi * tau), bump(body.mass_matrix, problem.x_goal - problem.x_start)))
     f = np.hstack([[np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])],
                    np.diff(x, axis=0)])
-    body = problem.disc.system
     p = np.vstack([f, f[-1:]]) @ block_diagonal(body.inertia, body.mass_matrix) / problem.disc.h
     blocks = {"q": np.hstack([R.reshape(-1, 9), x]).T, "p": p.T, "f": f.T,
               "lam": np.zeros((body.m, N)), "u": np.zeros((problem.residual.n_controls, N)),
               "nu": np.zeros(body.m)}
     return np.concatenate([blocks[name].ravel(order="F") for name in T.x_layout.blocks])
+
+
+def bump(M, motion):
+    """The bend 0.1 d / sqrt(M_ii) of each coordinate at the middle of the guess, shape
+    (n_x,), d^2 = motion^T M motion the squared length of the motion in the metric of M_x
+    (how far coordinate i would move if it made the whole motion), as the default guess on
+    R^n bends its chord (`dmoc.optimal_control.solver.guess`): it keeps the guess off a
+    mirror symmetry of the problem (a straight flight at an obstacle, whose rows have no
+    gradient across the line), and is zero without a motion."""
+    return 0.1 * np.sqrt(motion @ M @ motion / np.diag(M))
 
 
 def trajectory_of(problem, T, x):

@@ -57,8 +57,9 @@ def described(transcription, row):
     """The row `row` of the constraint vector of `transcription` by its group: "dynamics
     at step k (block row r)", "path constraint i at step k", "path constraint i at knot k",
     "velocity bound of v[i] at knot k" (with " (point j)" after "step k" where a step has
-    several interior points: `dmoc.discrete.knot_states.interior_points`) or "boundary
-    condition 'group' row r"."""
+    several interior points: `dmoc.discrete.knot_states.interior_points`), "group product
+    at step k (row r)" (q_{k+1} = R_k cay(f_k) of a problem on SO(3): `group_transcription`)
+    or "boundary condition 'group' row r"."""
     group, block_row, col = transcription.g_layout.locate(row)
     if group == "dynamics":
         name, row_in_block, _ = transcription.dynamics_rows.locate(block_row)     # blocks of one column
@@ -79,6 +80,8 @@ def described(transcription, row):
         hulled = transcription.hulled_controls
         return (f"control bound of u[{hulled[block_row % len(hulled)]}] between the nodes of "
                 f"step {col} (Bernstein coefficient {block_row // len(hulled) + 1})")
+    if group == "group":
+        return f"group product at step {col} (row {block_row})"
     return f"boundary condition '{group}' row {block_row}"
 
 

@@ -5,14 +5,18 @@ IEEE T-RO 27 (2011)): minimize the discrete control effort sum_k h |u_k|^2 subje
 position and a velocity to others. Its NLP is `dmoc.optimal_control.nlp.group_transcription`.
 """
 
+import casadi as ca
 import numpy as np
 
 from ..._util import checks
+from ..._util.symbolic import checked_function
 from ...discrete.group_discretization import GroupDiscretization
 from ...errors import InputError
 from ...mechanics.rigid_body import block_diagonal, check_allowed_velocity
 from ...mechanics.rotations import as_rotation
 from ...principle.group_residual import group_step_residual
+from ..solver.ipopt import DEFAULT_IPOPT_OPTIONS
+from .parameters import refuse_comparisons
 
 
 class GroupOptimalControlProblem:
@@ -36,6 +40,13 @@ class GroupOptimalControlProblem:
     x_velocity_start, x_velocity_goal : array_like, shape (n_x,), optional
         Their velocities at the ends (default: at rest). The velocity (omega, x') at each
         end must satisfy the constraints there.
+    path_constraints : callable, optional
+        ``path_constraints(R, x, u) -> g``, imposed as g <= 0 at every knot q_0 ... q_N:
+        R the rotation R_k (a 3 x 3 CasADi SX matrix), x the vector coordinates x_k
+        (n_x,), u the control u_k of the step that starts at the knot (u_{N-1} at q_N),
+        shape (n_u,); g any shape, its entries (column-major) the rows, expressions not
+        comparisons (write |x_{1:2} - c| >= r as ``r**2 - sumsqr(x[:2] - c)``). Rows that
+        read R and x alone must hold at the given ends (refused otherwise).
 
     Attributes
     ----------
@@ -44,6 +55,8 @@ class GroupOptimalControlProblem:
     x_start, x_goal : numpy.ndarray, shape (n_x,)
     p_start, p_goal : numpy.ndarray, shape (3 + n_x,)
         The momenta (J omega, M x') the ends impose.
+    path_constraints : casadi.Function or None
+        ``(R, x, u) -> g`` (`group_path_function`), None without path constraints.
 
     Notes
     -----
@@ -55,12 +68,15 @@ class GroupOptimalControlProblem:
     increments to the solver's tolerance. q_0 and p_0 are fixed by bounds; the goal is the
     3 rows cay^{-1}(R_goal^T R_N) = 0 (the 9 entries of R_N = R_goal would be 6 rows too
     many) and x_N = x_goal, and the end momentum the (+) form's p_N = p_goal + A(q_N)^T nu
-    (an impulse nu at q_N, as `Formulation.momentum_conditions` on R^n).
+    (an impulse nu at q_N, as `Formulation.momentum_conditions` on R^n). The path
+    constraints are the rows g(R_k, x_k, u_k) <= 0, k = 0 ... N, as the knot rows of a
+    problem on R^n (`dmoc.optimal_control.nlp.path_terms`); between knots nothing is
+    imposed.
     """
 
     def __init__(self, disc, steps, *, R_start, R_goal, omega_start=(0.0, 0.0, 0.0),
                  omega_goal=(0.0, 0.0, 0.0), x_start=None, x_goal=None, x_velocity_start=None,
-                 x_velocity_goal=None):
+                 x_velocity_goal=None, path_constraints=None):
         checks.instance("disc", disc, GroupDiscretization, "a GroupDiscretization")
         if disc.n_controls == 0:
             raise InputError("`disc` must be of a RigidBody with controls (n_u > 0), e.g. "
@@ -82,6 +98,11 @@ class GroupOptimalControlProblem:
                              ("goal", self.R_goal, self.x_goal, self.p_goal)):
             check_allowed_velocity(body, np.concatenate([R.ravel(), x]), np.linalg.solve(mass, p),
                                    f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
+        self.path_constraints = (None if path_constraints is None
+                                 else group_path_function(path_constraints, disc))
+        if self.path_constraints is not None:
+            for end, R, x in (("start", self.R_start, self.x_start), ("goal", self.R_goal, self.x_goal)):
+                _refuse_violated_end(self.path_constraints, end, R, x)
 
     @property
     def duration(self):
@@ -107,6 +128,33 @@ def _coordinates(body, name, value):
         raise InputError(f"`{name}` is required for {body.name!r}: its coordinates, shape "
                          f"({body.n_x},).")
     return checks.array(name, value, (body.n_x,))
+
+
+def group_path_function(path, disc):
+    """The user's path constraints path(R, x, u) on SO(3) x R^n_x, checked on symbols (R a
+    3 x 3 SX, x (n_x,), u (n_u,) of `disc`), as the Function ``(R, x, u) -> g``, g
+    flattened to a column and imposed as g <= 0; refused when it fails on symbols, returns
+    no CasADi expression or returns comparisons (`refuse_comparisons`), as the path
+    constraints of a problem on R^n (`dmoc.optimal_control.statement.parameters.path_function`)."""
+    symbols = [ca.SX.sym("R", 3, 3), ca.SX.sym("x", disc.system.n_x), ca.SX.sym("u", disc.n_controls)]
+    at_knot = checked_function("path_constraints", path, symbols, ("R", "x", "u"), None)
+    refuse_comparisons(at_knot(*symbols))
+    return at_knot
+
+
+def _refuse_violated_end(path, end, R, x):
+    """InputError when the given end (R, x) violates a row of `path` that reads R and x
+    alone (not u): every row holds at q_0 and q_N, so the problem would have no solution."""
+    u = ca.SX.sym("u", path.size1_in("u"))
+    g = path(ca.DM(R), ca.DM(x), u)
+    rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], u)]
+    values = [float(ca.evalf(g[i])) for i in rows]
+    if values and max(values) > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
+        worst = int(np.argmax(values))
+        raise InputError(f"`R_{end}`, `x_{end}` must satisfy `path_constraints` g <= 0, which "
+                         f"hold at every knot q_0 ... q_N, the ends included; got "
+                         f"g[{rows[worst]}] = {values[worst]:.6g} there. Move the end or the "
+                         f"constraint.")
 
 
 def rotation_matrix(phi):

@@ -163,7 +163,7 @@ def path_function(path, system, parameters):
     at_state = checked_function("path_constraints", _with_w(path, parameters), symbols,
                                 ("q", "v", "u", "w"), None)
     g = ca.vec(at_state(*symbols))
-    _refuse_comparisons(g)
+    refuse_comparisons(g)
     return ca.Function("path_constraints", symbols, [g], ["q", "v", "u", "w"], ["g"])
 
 
@@ -250,7 +250,7 @@ def _end_rows(path, problem, end, given):
 _TRUTH_VALUES = (ca.OP_LT, ca.OP_LE, ca.OP_EQ, ca.OP_NE, ca.OP_NOT, ca.OP_AND, ca.OP_OR)
 
 
-def _refuse_comparisons(g):
+def refuse_comparisons(g):
     """InputError when an entry of the path constraints' expression `g` is a comparison
     (q[0] < 0.5): it is the 0/1 truth value, which `g <= 0` would impose as "false"."""
     for i in range(g.nnz()):
