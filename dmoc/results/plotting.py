@@ -16,6 +16,7 @@ from .diagnostic_plots import (control_work, plot_constraint_violation, plot_con
                                plot_cost_convergence, plot_energy_balance, plot_energy_error)
 from .kept_out import kept_out_region
 from .path_plot import plot_path
+from .robot_figure import plot_robot
 from .time_plots import plot_controls, plot_states
 from .._util import checks
 from .._util.files import make_folder
@@ -26,7 +27,7 @@ from ..principle.trajectory import Trajectory
 
 __all__ = ["plot_path", "plot_states", "plot_controls", "plot_constraint_violation",
            "plot_energy_error", "plot_energy_balance", "control_work", "plot_convergence",
-           "plot_cost_convergence", "planes", "save_trajectory_plots"]
+           "plot_cost_convergence", "plot_robot", "planes", "save_trajectory_plots"]
 
 
 def planes(names):
