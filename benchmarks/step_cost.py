@@ -40,9 +40,15 @@ cache: the first ``simulate(jit=True)`` of 10 steps, building and compiling the 
 10^5-step simulation with the compiled step, and after it |R^T R - I| and the drift of the
 contact angular momentum K = R J Omega + m r^2 (omega - (e3 . omega) e3) (group: read with
 its momenta, R Pi + r e3 x (p_x, 0)).
+Then the DMOC of tests/optimize/test_sphere_roll.py on both forms, with body torques (the
+embedded force 1/2 R u^ on the entries of R): rest to rest from (I, 0) to a quarter turn
+about e3 at (1, 0.5) in 4 s, N = 20, min sum h |u|^2, each built and solved by
+``dmoc.optimize`` after ``dmoc.clear_caches`` (wall and CPU seconds); "embedded" from its
+default guess, "embedded-geo" from the group form's geodesic guess written entry by entry;
+their costs differ by the two discretizations' O(h^2) errors.
 
     python benchmarks/step_cost.py
-    python benchmarks/step_cost.py --smallest     # 10^3 steps once, a smoke run
+    python benchmarks/step_cost.py --smallest     # 10^3 steps once, DMOC at N = 4: a smoke run
 """
 
 import argparse
@@ -260,8 +266,10 @@ SPHERE = dict(inertia=np.array([1.0, 2.0, 2.5]), mass=1.3, radius=0.7)
 SPHERE_OMEGA, E3 = np.array([1.0, -0.5, 2.0]), np.array([0.0, 0.0, 1.0])
 
 
-def embedded_sphere():
-    """The Chaplygin sphere on R^11: q = (rows of R, x, y), R^T R = I as 6 holonomic rows."""
+def embedded_sphere(torques=False):
+    """The Chaplygin sphere on R^11: q = (rows of R, x, y), R^T R = I as 6 holonomic rows;
+    with `torques`, three body torques u (n_u = 3): the virtual work u . vee(skew(R^T dR))
+    = 1/2 <R u^, dR>, so the generalized force on the entries of R is 1/2 R u^."""
     J, m, r = SPHERE["inertia"], SPHERE["mass"], SPHERE["radius"]
     J_d = ca.DM(np.diag(0.5 * J.sum() - J))
     v = ca.SX.sym("v", 11)
@@ -281,7 +289,13 @@ def embedded_sphere():
         gram = ca.mtimes(R.T, R) - ca.DM.eye(3)
         return ca.vertcat(*[gram[i, j] for i in range(3) for j in range(i, 3)])
 
-    return dmoc.MechanicalSystem(kinetic, 11, constraints=rolling, holonomic=orthogonality)
+    def torque(q, v, u):
+        R = ca.reshape(q[:9], 3, 3).T
+        return ca.vertcat(ca.reshape(0.5 * ca.mtimes(R, dmoc.mechanics.rotations.hat(u)).T, 9, 1),
+                          ca.SX.zeros(2))
+
+    return dmoc.MechanicalSystem(kinetic, 11, constraints=rolling, holonomic=orthogonality,
+                                 **(dict(force=torque, n_u=3) if torques else {}))
 
 
 def sphere_forms():
@@ -323,7 +337,48 @@ def one_sphere(form):
     print(f"{time.perf_counter() - tic:.2f}")
 
 
-def sphere_table(repeat, steps, fresh):
+def sphere_roll(form, steps=20):
+    """The DMOC of tests/optimize/test_sphere_roll.py in `form` ("group", "embedded",
+    "embedded-geo"), as a user builds and solves it: rest to rest from (I, 0) to a quarter
+    turn about e3 at (1, 0.5) in 4 s, h = 4 / steps, cost sum h |u|^2 (u the body torques).
+    Embedded: the goal's entries R_11, R_20, R_21 given and the other six free, those
+    `OptimalControlProblem` names (with R^T R = I at q_N the nine would be imposed twice);
+    "embedded" from its default guess, "embedded-geo" from the group form's default guess
+    written entry by entry (R_k = exp(k/N pi/2 e3^), x_k linear). After `dmoc.clear_caches`:
+    (wall s, CPU s of this process and its children, both of build + solve; cost; IPOPT
+    iterations; success;
+    the verdict: its status, or for the group form, which `optimize` judges by its replay
+    alone, "replay" and the replay deviation; max |R_N - R_goal|)."""
+    goal, share = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), np.linspace(0, 1, steps + 1)
+    dmoc.clear_caches()
+    tic, cpu = time.perf_counter(), os.times()
+    if form == "group":
+        body = dmoc.systems.chaplygin_sphere(SPHERE["inertia"], SPHERE["mass"], SPHERE["radius"],
+                                             torques=True)
+        problem = dmoc.GroupOptimalControlProblem(
+            dmoc.discretize(body, 4 / steps), steps, R_start=np.eye(3), R_goal=goal, x_start=[0.0, 0.0],
+            x_goal=[1.0, 0.5])
+        guess = None
+    else:
+        disc = dmoc.discretize(embedded_sphere(torques=True), 4 / steps)
+        problem = dmoc.OptimalControlProblem(
+            disc, steps, q_start=np.concatenate([np.eye(3).ravel(), [0.0, 0.0]]),
+            q_goal=[None] * 4 + [goal[1, 1], None, goal[2, 0], goal[2, 1], None, 1.0, 0.5])
+        c, s = np.cos(np.pi / 2 * share), np.sin(np.pi / 2 * share)
+        zero, one = np.zeros_like(c), np.ones_like(c)
+        q = np.stack([c, -s, zero, s, c, zero, zero, zero, one, share, 0.5 * share], axis=1)
+        guess = (dmoc.Trajectory(4 * share, q, np.zeros_like(q), np.zeros((steps, disc.system.m)),
+                                 np.zeros((steps, 3)), 4 / steps, "+") if form == "embedded-geo" else None)
+    result = dmoc.optimize(problem, guess=guess, throw=False)
+    wall, cpu_end = time.perf_counter() - tic, os.times()
+    R_N = result.trajectory.R[-1] if form == "group" else result.trajectory.q[-1, :9].reshape(3, 3)
+    verdict = (f"replay {result.stats.get('replay_deviation', np.nan):.0e}" if form == "group"
+               else str(getattr(result.verdict, "status", None)))
+    return (wall, sum(cpu_end[:4]) - sum(cpu[:4]), result.cost, result.stats["iterations"],
+            result.success, verdict, np.abs(R_N - goal).max())
+
+
+def sphere_table(repeat, steps, fresh, roll_steps=20):
     """The two forms of the Chaplygin sphere side by side, ratios group / embedded."""
     print("\nChaplygin sphere: group form (SO(3) x R^2) against the embedded R^11 form")
     head = (f"{'form':<10}{'first compile s':>16}{f'{steps:.0e} steps s':>16}{'ratio':>8}"
@@ -345,6 +400,20 @@ def sphere_table(repeat, steps, fresh):
         ratio = wall / rows["embedded"][1]
         print(f"{form:<10}{first:>16.2f}{wall:>16.3f}{ratio:>8.2f}{dR:>13.1e}{dK:>11.1e}")
     print(f"first compile ratio group / embedded: {rows['group'][0] / rows['embedded'][0]:.2f}")
+    print(f"\nDMOC, roll from rest to (1, 0.5) and a quarter turn in 4 s, N = {roll_steps} (first "
+          "solve, build + solve)")
+    head = (f"{'form':<14}{'wall s':>8}{'CPU s':>8}{'ratio':>12}{'cost':>12}{'iter':>6}{'success':>9}"
+            f"{'verdict':>16}{'|R_N - goal|':>14}")
+    print(head + "\n" + "-" * len(head))
+    solves = {form: sphere_roll(form, roll_steps) for form in ("embedded", "embedded-geo", "group")}
+    for form, (wall, cpu, cost, iterations, success, verdict, dR) in solves.items():
+        ratio = f"{wall / solves['embedded'][0]:.2f}/{cpu / solves['embedded'][1]:.2f}"
+        print(f"{form:<14}{wall:>8.2f}{cpu:>8.2f}{ratio:>12}{cost:>12.6f}{iterations:>6}"
+              f"{str(success):>9}{verdict:>16}{dR:>14.1e}")
+    print(f"ratios wall/CPU against embedded; group against embedded-geo: "
+          f"{solves['group'][0] / solves['embedded-geo'][0]:.2f}/"
+          f"{solves['group'][1] / solves['embedded-geo'][1]:.2f}; cost group - embedded-geo: "
+          f"{solves['group'][2] - solves['embedded-geo'][2]:.2e} (two discretizations, O(h^2))")
 
 
 def table(repeat, name, horizons=(10**4, 10**5)):
@@ -387,7 +456,7 @@ def main(argv=None):
     rigid_body_table(1 if args.smallest else args.repeat,
                      (10**3,) if args.smallest else (10**4, 10**5, 10**6))
     sphere_table(1 if args.smallest else args.repeat, 10**3 if args.smallest else 10**5,
-                 fresh=not args.smallest)
+                 fresh=not args.smallest, roll_steps=4 if args.smallest else 20)
     if args.smallest:
         print(f"load average {'%.2f %.2f %.2f' % os.getloadavg()} at end")
         return
