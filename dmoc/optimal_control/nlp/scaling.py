@@ -108,7 +108,7 @@ def row_scale(l, rows):
     return np.sqrt(((np.where(np.isfinite(a), a, 0.0) * l) ** 2).sum(axis=1))
 
 
-def nlp_scales(disc, formulation, layouts, dynamics_rows, q, motion):
+def nlp_scales(disc, formulation, layouts, dynamics_rows, q, motion, hulled=()):
     """(x_scale, g_scale), shapes (x_layout.size,) and (g_layout.size,), of the DMOC NLP of
     `disc` and `formulation` with `layouts` = (x_layout, g_layout) and the residual rows
     `dynamics_rows` imposed per step (`dmoc.optimal_control.nlp.transcription.Transcription`), from
@@ -123,7 +123,8 @@ def nlp_scales(disc, formulation, layouts, dynamics_rows, q, motion):
     the boundary rows when the system's `momentum_residual_units` is "momentum"), 1 / l_i
     on the rows in configuration or velocity units (the other "left", "right" rows and the
     boundary rows of a Hamiltonian system), 1 / |a_r o l| on the constraint and velocity
-    rows (`row_scale`); 1 on the path rows.
+    rows (`row_scale`); 1 on the path rows; on the ``control_hull`` rows of the controls
+    `hulled` (their order, tiled), 1 over the scale of each one's control in x.
     Every factor is rounded to the nearest power of 2 (`power_of_two`). The objective is
     not scaled: a cost stated in consistent units is the same in
     any units.
@@ -153,6 +154,9 @@ def nlp_scales(disc, formulation, layouts, dynamics_rows, q, motion):
         G.unpack(g_scale, end)[:] = (1 / p if sys.momentum_residual_units == "momentum" else 1 / l)[:, None]
         if G.numel(end + "_velocity"):
             G.unpack(g_scale, end + "_velocity")[:] = 1 / row_scale(l, A)[:, None]
+    if G.numel("control_hull"):         # in units of their controls, as the control values in x
+        hull = G.unpack(g_scale, "control_hull")
+        hull[:] = 1 / np.resize(covector_scale(p, B.T)[list(hulled)], hull.shape[0])[:, None]
     return power_of_two(x_scale), power_of_two(g_scale)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..._util.layout import Layout
 from ..statement.parameters import refuse_violated_ends
-from .control_hull import hull_bounds, hulled_controls
+from .control_hull import hull_bounds, hull_matrix, hulled_controls
 from .path_terms import row_counts
 from ..statement.read_only import ReadOnly, frozen
 from .scaling import nlp_scales
@@ -85,7 +85,6 @@ class Transcription(ReadOnly):
         path = problem.path_constraints
         self._velocity_bounded = tuple(problem.velocity_bounded)
         count = row_counts(disc.rule, path.numel_out(0) if path else 0, len(self._velocity_bounded))
-        hull_lower, hull_upper = hull_bounds(problem.control_bounds, disc.rule.control_nodes)
         self._hulled = tuple(hulled_controls(problem.control_bounds, disc.rule.control_nodes))
         self._dynamics_rows = problem.momentum_treatment.dynamics_rows
         self._x_layout = Layout([("q", (n, N + 1)), ("p", (n, problem.momentum_treatment.columns(N))),
@@ -102,15 +101,12 @@ class Transcription(ReadOnly):
                                  ("path", (count["path"], N)), ("path_knots", (count["path_knots"], N + 1)),
                                  ("velocity_steps", (count["velocity_steps"], N)),
                                  ("velocity_knots", (count["velocity_knots"], N + 1)),
-                                 ("control_hull", (hull_lower.size, N))])
+                                 ("control_hull", (hull_matrix(disc.rule.control_nodes).shape[0]
+                                                   * len(self._hulled), N))])
         q_ref = reference(problem.q_start, problem.q_goal)
-        x_scale, g_scale = nlp_scales(disc, problem.formulation, (self._x_layout, self._g_layout),
-                                      self._dynamics_rows, q_ref, problem.q_goal - problem.q_start)
-        if hull_lower.size:         # in units of their controls, as the control values in x
-            u_scale = self._x_layout.unpack(x_scale, "u")[:sys.n_u, 0]
-            self._g_layout.unpack(g_scale, "control_hull")[:] = 1 / np.resize(
-                u_scale[list(self._hulled)], hull_lower.size)[:, None]
-        self._x_scale, self._g_scale = frozen(x_scale), frozen(g_scale)
+        self._x_scale, self._g_scale = (frozen(s) for s in nlp_scales(
+            disc, problem.formulation, (self._x_layout, self._g_layout), self._dynamics_rows, q_ref,
+            problem.q_goal - problem.q_start, self._hulled))
         self._separable, self._momenta = transcribe(
             problem, (self._x_layout, self._p_layout, self._g_layout), (self._x_scale, self._g_scale))
         self._nlp = {k: getattr(self._separable, k) for k in ("x", "p", "f", "g")}
@@ -146,9 +142,9 @@ class Transcription(ReadOnly):
         lbg, ubg = np.zeros(self._g_layout.size), np.zeros(self._g_layout.size)
         for name in ("path", "path_knots"):
             lbg[self._g_layout.slice(name)] = -np.inf
-        for bound, side in ((lbg, 0), (ubg, 1)):
-            self._g_layout.unpack(bound, "control_hull")[:] = hull_bounds(
-                problem.control_bounds, problem.disc.rule.control_nodes)[side][:, None]
+        for bound, hull in zip((lbg, ubg), hull_bounds(problem.control_bounds,
+                                                       problem.disc.rule.control_nodes)):
+            self._g_layout.unpack(bound, "control_hull")[:] = hull[:, None]
         for name in ("velocity_steps", "velocity_knots"):
             for bound, side in ((lbg, 0), (ubg, 1)):
                 block = self._g_layout.unpack(bound, name)
