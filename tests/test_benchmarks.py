@@ -8,6 +8,7 @@ import importlib
 import io
 import os
 import pathlib
+import re
 import sys
 
 import pytest
@@ -59,6 +60,17 @@ def test_every_script_is_run_here_and_named_in_the_docs():
     assert set(SHARED.values()) <= set(SMALLEST)
     for name in MODULES:
         assert f"{name}.py" in performance, name
+
+
+def test_the_performance_page_is_a_reference_not_a_log():
+    """docs/performance.md holds today's figures (issue 39): at most 800 lines, and no
+    section headed as a round, a pass or a stage of development ("Third round", "ninth
+    pass", ...)."""
+    lines = (ROOT / "docs" / "performance.md").read_text().splitlines()
+    assert len(lines) <= 800
+    log_titles = re.compile(r"\b(round|rounds|pass|passes|stage \d+|first|second|third|fourth|"
+                            r"fifth|sixth|seventh|eighth|ninth|tenth)\b", re.IGNORECASE)
+    assert [h for h in lines if h.startswith("#") and log_titles.search(h)] == []
 
 
 @pytest.mark.parametrize("name", sorted(SMALLEST))
