@@ -1,5 +1,5 @@
-"""Benchmark: dmoc against rockit at equal accuracy, a first solve and a re-solve with new
-boundary data, on rolling-disk steering and knife-edge parking (J* of `J_STAR`).
+"""Benchmark: dmoc against rockit and Drake at equal accuracy, a first solve and a re-solve
+with new boundary data, on rolling-disk steering and knife-edge parking (J* of `J_STAR`).
 
 The environment: rockit is not a dependency of dmoc. Run this script with the python of a
 separate virtual environment holding dmoc and the peers, installed from PyPI::
@@ -7,19 +7,21 @@ separate virtual environment holding dmoc and the peers, installed from PyPI::
     python3 -m venv venv-peers && venv-peers/bin/pip install -e . rockit-meco drake
     venv-peers/bin/python benchmarks/peers.py first|resolve
 
-Without rockit the script runs the dmoc side alone and says that the peer side is skipped.
-Drake is installed in that environment but not compared yet: no Drake transcription of
-these problems is written.
+Without rockit the script runs the dmoc side alone and says that the peer side is skipped;
+without Drake (``pydrake``) its first-solve rows are left out.
 
 Each method runs at the least N whose optimum is within 1e-6 of J* (`LEAST_N`, found by
 ``--scan``: doubling, then bisection). rockit solves the reduced ODEs by multiple
 shooting (`rockit_ocp`: one RK4 step per interval, piecewise-linear controls, its NLP
-expanded to SX); IPOPT options as dmoc's defaults.
+expanded to SX); IPOPT options as dmoc's defaults. Drake transcribes the same ODEs with its
+``DirectCollocation`` (Hermite-Simpson on a ``SymbolicVectorSystem``, first-order-hold
+controls; `drake_program`) and solves the one program with its IPOPT and with SNOPT.
 
 - ``first``: each method builds its problem and solves it from its default start, as a
   new process would: dmoc with every cache emptied first (`dmoc.clear_caches`),
-  ``dmoc.optimize`` ("judged", the verdict included) and the raw solve ("raw"); rockit's
-  ``ocp.solve()``. Nothing is compiled to C. The methods run in turn, the one that goes
+  ``dmoc.optimize`` ("judged", the verdict included), the raw solve ("raw") and
+  ``dmoc.optimize(problem, accuracy=1e-6)`` from N = 10 ("accuracy"); rockit's
+  ``ocp.solve()``; Drake's program built and solved by IPOPT and by SNOPT. Nothing is compiled to C. The methods run in turn, the one that goes
   first turning round by round; per method the median and least wall time over
   `--repeat` rounds and the ratio of the medians to rockit's.
 - ``resolve``: each method solves the original goal (its solver is built), then re-solves
@@ -77,8 +79,11 @@ REDUCED_INERTIA = {"knife edge": (1.0, 1.0), "rolling disk": (1.5, 0.25)}
 DMOC_RULES = ("lobatto3", "lobatto4")
 DMOC_RUNS = ("judged", "unjudged", "raw", "raw SX", "raw C")
 # the least N within 1e-6 of J* (``--scan`` finds them again)
-LEAST_N = {"rolling disk": {"lobatto3": 31, "lobatto4": 11, "rockit": 42},
-           "knife edge": {"lobatto3": 28, "lobatto4": 14, "rockit": 62}}
+LEAST_N = {"rolling disk": {"lobatto3": 31, "lobatto4": 11, "rockit": 42, "drake": 28},
+           "knife edge": {"lobatto3": 28, "lobatto4": 14, "rockit": 62, "drake": 32}}
+# the peers this script compares when their modules import, and their PyPI distributions
+PEER_MODULES = {"rockit": "rockit", "drake": "pydrake.planning"}
+PEER_DISTRIBUTIONS = {"rockit": "rockit-meco", "drake": "drake"}
 PROBLEMS = {"disk": ("rolling disk",), "knife": ("knife edge",), "both": ("rolling disk", "knife edge")}
 
 
@@ -281,12 +286,91 @@ def function_step(ocp, goal, sol):
     return step
 
 
+# ---- Drake ----------------------------------------------------------------------------
+
+def drake_program(name, N):
+    """(program, initial guess) of Drake's problem `name` on N intervals: the reduced ODEs of
+    `rockit_ocp` as a ``SymbolicVectorSystem``, transcribed by ``DirectCollocation``
+    (Hermite-Simpson, first-order-hold controls, N equal steps of DURATION / N), from rest
+    to rest at the goal; the cost the exact integral of |u|^2 over the piecewise-linear
+    controls, h/3 (a^2 + a b + b^2) per interval and control (Drake's ``AddRunningCost``
+    would integrate it by the trapezoidal rule, an error of order h^2); started on
+    rockit's start point."""
+    from pydrake.planning import DirectCollocation
+    from pydrake.symbolic import Variable, cos, sin
+    from pydrake.systems.primitives import SymbolicVectorSystem
+    from pydrake.trajectories import PiecewisePolynomial
+    x = [Variable(s) for s in ("x", "y", "heading", "speed", "turn")]
+    u = [Variable("u0"), Variable("u1")]
+    along, turning = REDUCED_INERTIA[name]
+    f = [x[3] * cos(x[2]), x[3] * sin(x[2]), x[4], u[0] / along, u[1] / turning]
+    system = SymbolicVectorSystem(state=x, input=u, dynamics=f)
+    h = DURATION / N
+    collocation = DirectCollocation(system, system.CreateDefaultContext(), N + 1, h, h)
+    collocation.AddEqualTimeIntervalsConstraints()
+    program = collocation.prog()
+    rest_at_goal = np.r_[GOAL[name], 0.0, 0.0]
+    program.AddBoundingBoxConstraint(np.zeros(5), np.zeros(5), collocation.initial_state())
+    program.AddBoundingBoxConstraint(rest_at_goal, rest_at_goal, collocation.final_state())
+    interval = 2 * h / 3 * np.array([[1.0, 0.5], [0.5, 1.0]])     # the Hessian of h/3 (a^2 + ab + b^2)
+    for k in range(N):
+        for i in range(2):
+            program.AddQuadraticCost(interval, np.zeros(2),
+                                     [collocation.input(k)[i], collocation.input(k + 1)[i]], is_convex=True)
+    t = np.linspace(0.0, DURATION, N + 1)
+    bend = np.sin(np.pi * t / DURATION)
+    start = np.zeros((5, N + 1))
+    start[2] = np.arctan2(GOAL[name][1], GOAL[name][0]) * bend
+    start[3] = np.hypot(*GOAL[name][:2]) / DURATION * bend
+    collocation.SetInitialTrajectory(PiecewisePolynomial(), PiecewisePolynomial.FirstOrderHold(t, start))
+    return program
+
+
+def drake_solve(program, solver):
+    """(success, iterations or -1, cost) of `program` solved by Drake's "ipopt" (dmoc's IPOPT
+    tolerances; Drake's IPOPT has no MUMPS, it uses its default SPRAL) or "snopt" (major
+    optimality and feasibility tolerances 1e-10)."""
+    from pydrake.solvers import IpoptSolver, SnoptSolver, SolverOptions
+    chosen = {"ipopt": IpoptSolver, "snopt": SnoptSolver}[solver]()
+    options = SolverOptions()
+    settings = ({"tol": IPOPT["tol"], "constr_viol_tol": IPOPT["constr_viol_tol"], "print_level": 0}
+                if solver == "ipopt" else
+                {"Major optimality tolerance": 1e-10, "Major feasibility tolerance": 1e-10})
+    for key, value in settings.items():
+        options.SetOption(chosen.solver_id(), key, value)
+    result = chosen.Solve(program, None, options)
+    details = result.get_solver_details()
+    iterations = getattr(details, "iteration_count", -1) if solver == "ipopt" else -1
+    return result.is_success(), iterations, result.get_optimal_cost()
+
+
+def drake_cost(name):
+    """N -> Drake's optimal cost at N intervals (IPOPT), at the original goal."""
+    def cost_at(N):
+        return drake_solve(drake_program(name, N), "ipopt")[2]
+    return cost_at
+
+
+def drake_first(name, N, solver):
+    """first() -> (seconds, iterations, cost): Drake's program `name` on N intervals built and
+    solved by `solver` ("ipopt" or "snopt")."""
+    def first():
+        tic = time.perf_counter()
+        success, iterations, cost = drake_solve(drake_program(name, N), solver)
+        seconds = time.perf_counter() - tic
+        if not success:
+            raise RuntimeError(f"Drake {solver} at N = {N}: not solved")
+        return seconds, iterations, cost
+    return first
+
+
 # ---- first solves ---------------------------------------------------------------------
 
-def dmoc_first(name, rule, N, judged):
+def dmoc_first(name, rule, N, how):
     """first() -> (seconds, iterations, cost): dmoc's problem `name` at N steps with
-    `rule` built and solved from its default guess after `dmoc.clear_caches`, judged
-    (``dmoc.optimize``) or raw (the unjudged solve)."""
+    `rule` built and solved from its default guess after `dmoc.clear_caches`, `how`:
+    "judged" (``dmoc.optimize``), "raw" (the unjudged solve) or "accuracy"
+    (``dmoc.optimize(problem, accuracy=ACCURACY)``, the last level's iterations and cost)."""
     import dmoc
     from dmoc.optimal_control import solve
 
@@ -294,7 +378,8 @@ def dmoc_first(name, rule, N, judged):
         dmoc.clear_caches()
         tic = time.perf_counter()
         problem = dmoc_problem(name, N, rule, GOAL[name])
-        result = dmoc.optimize(problem) if judged else solve(problem)
+        result = (solve(problem) if how == "raw" else
+                  dmoc.optimize(problem, accuracy=ACCURACY if how == "accuracy" else None))
         seconds = time.perf_counter() - tic
         if not result.success:
             raise RuntimeError(f"dmoc {rule}: {result.message}")
@@ -315,26 +400,39 @@ def rockit_first(name, N):
 
 
 def first_solves(names, rules, n_star, repeat, peers):
-    """Print the first solves of `names`, dmoc with `rules`, and rockit's when `peers`."""
+    """Print the first solves of `names`: dmoc with `rules` (judged, raw, and with
+    ``accuracy=1e-6`` from N = 10), and the peers of `peers` ("rockit", "drake"); the
+    ratios of each row's median to each peer's. The peers' modules are imported first,
+    untimed (dmoc's already is)."""
+    for peer in peers:
+        importlib.import_module(PEER_MODULES[peer])
     for name in names:
-        methods = {f"dmoc {rule} {how}, N = {n_star[name, rule]}":
-                   dmoc_first(name, rule, n_star[name, rule], how == "judged")
-                   for rule in rules for how in ("judged", "raw")}
-        if peers:
+        methods = {}
+        for rule in rules:
+            for how in ("judged", "raw", "accuracy"):
+                N = 10 if how == "accuracy" else n_star[name, rule]
+                methods[f"dmoc {rule} {how}, N = {N}"] = dmoc_first(name, rule, N, how)
+        if "rockit" in peers:
             methods[f"rockit, N = {n_star[name, 'rockit']}"] = rockit_first(name, n_star[name, "rockit"])
+        for solver in ("ipopt", "snopt") if "drake" in peers else ():
+            methods[f"Drake {solver.upper()}, N = {n_star[name, 'drake']}"] = \
+                drake_first(name, n_star[name, "drake"], solver)
         labels, rows = list(methods), {m: [] for m in methods}
         for k in range(repeat):
             for method in labels[k % len(labels):] + labels[:k % len(labels)]:
                 rows[method].append(methods[method]())
-        base = float(np.median([r[0] for r in rows[labels[-1]]])) if peers else np.nan
+        medians = {m: float(np.median([r[0] for r in rows[m]])) for m in labels}
+        bases = [m for m in labels if not m.startswith("dmoc")]
         print(f"\n{name}, J* = {J_STAR[name]}: first solve, build included ({repeat} rounds)")
-        print(f"{'method':<34}{'median ms':>10}{'least ms':>10}{'it':>4}{'|J - J*| / J*':>15}{'/ rockit':>10}")
+        print(f"{'method':<36}{'median ms':>10}{'least ms':>10}{'it':>4}{'|J - J*| / J*':>15}"
+              + "".join(f"{'/ ' + b.split(',')[0]:>14}" for b in bases))
         for method in labels:
             seconds = np.array([r[0] for r in rows[method]])
             _, iterations, cost = rows[method][-1]
             error = abs(cost - J_STAR[name]) / J_STAR[name]
-            print(f"{method:<34}{np.median(seconds) * 1e3:>10.1f}{seconds.min() * 1e3:>10.1f}"
-                  f"{iterations:>4}{error:>15.2e}{np.median(seconds) / base:>10.3f}")
+            print(f"{method:<36}{medians[method] * 1e3:>10.1f}{seconds.min() * 1e3:>10.1f}"
+                  f"{iterations if iterations >= 0 else '-':>4}{error:>15.2e}"
+                  + "".join(f"{medians[method] / medians[b]:>14.3f}" for b in bases))
 
 
 # ---- re-solves --------------------------------------------------------------------------
@@ -359,13 +457,15 @@ def one(argv):
 
 
 def scans(peers):
-    """{(name, method): N*} for every problem and method (rockit's when `peers`)."""
+    """{(name, method): N*} for every problem and method (the peers' of `peers`)."""
     found = {}
     for name, j_star in J_STAR.items():
         for rule in DMOC_RULES:
             found[name, rule] = least_n(dmoc_cost(name, rule), j_star, 8)
-        if peers:
+        if "rockit" in peers:
             found[name, "rockit"] = least_n(rockit_cost(name), j_star, 16)
+        if "drake" in peers:
+            found[name, "drake"] = least_n(drake_cost(name), j_star, 16)
     return found
 
 
@@ -410,14 +510,14 @@ def table(name, n_star, measured, checkouts, rules):
 
 def resolves(names, rules, n_star, args, peers):
     """Print the re-solves of `names`, dmoc with `rules` per checkout and rockit's when
-    `peers`: in child processes, `args.rounds` times interleaved; with `args.smallest` once
+    "rockit" is in `peers` (Drake has no re-solve rows): in child processes, `args.rounds` times interleaved; with `args.smallest` once
     in this process."""
     counts = str(args.repeat), str(args.goals)
     for name in names:
         rounds = []
         for _ in range(args.rounds):            # interleaved: all see the same load
             rounds.append({})
-            if peers:
+            if "rockit" in peers:
                 rockit = "rockit-jit" if args.rockit_jit else "rockit"
                 rounds[-1]["rockit"] = child(args.checkouts[0], name, rockit,
                                              str(n_star[name, "rockit"]), *counts)
@@ -453,10 +553,11 @@ def main(argv=None):
     parser.add_argument("--smallest", action="store_true",
                         help="the rolling disk with lobatto4 only, once, in this process")
     args = parser.parse_args(argv)
-    peers = importlib.util.find_spec("rockit") is not None
-    if peers:
-        print(f"rockit {importlib.metadata.version('rockit-meco')}", end="; ")
-    else:
+    peers = {peer for peer, module in PEER_MODULES.items()
+             if importlib.util.find_spec(module.split(".")[0])}
+    for peer in sorted(peers):
+        print(f"{peer} {importlib.metadata.version(PEER_DISTRIBUTIONS[peer])}", end="; ")
+    if "rockit" not in peers:
         print("rockit is not importable here: the peer side is skipped (see the docstring "
               "for its environment)", end="; ")
     print(f"python {platform.python_version()}, casadi {ca.__version__}; {os.cpu_count()} cores; "
