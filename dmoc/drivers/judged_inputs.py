@@ -9,7 +9,7 @@ from ..principle.trajectory import Trajectory
 
 _PROBLEM = ("an OptimalControlProblem (a GroupOptimalControlProblem, on SO(3), has no velocity "
             "bounds; `judge` and `knot_path_values` take it)")
-_TRAJECTORY = "a Trajectory (a RotationTrajectory, on SO(3), has no verdict's checks)"
+_TRAJECTORY = "a Trajectory (a RotationTrajectory goes with a GroupOptimalControlProblem)"
 
 
 def check_judged(problem, traj, traj_name="traj"):
