@@ -65,10 +65,9 @@ def judge_on_group(problem, result):
                       throw=False).trajectory
     replay_q, replay_p, replay_step = replay_departure(traj, replay, traj.steps + 1)
     goal = goal_error(problem, traj)
-    texts = () if problem.path_constraints is None else _row_texts(problem)
     path, path_step, row, limit = path_violation(
         group_knot_path_values(problem, traj),
-        lambda row: f"path_constraints row {row} ({texts[row]} <= 0)")
+        lambda row: f"path_constraints row {row} ({_row_texts(problem)[row]} <= 0)")
     jump, jump_step, coordinate = largest_change(
         relative_changes(*group_end_velocities(traj)) if traj.steps > 1 else np.zeros((0, 0)),
         [f"Omega_{i}" for i in range(3)] + [f"x_{i}" for i in range(problem.disc.system.n_x)])

@@ -77,7 +77,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         iterate or the judged optimum with its `verdict`.
     check : bool
         True (default): judge the optimum IPOPT converged to (`judge`): the replay by
-        `simulate`, the velocity jumps, the path constraints at the knots. False: IPOPT's
+        `simulate`, the velocity jumps, the path constraints at the knots, and on SO(3) the
+        last knot at the goal (`dmoc.drivers.group_verdict.judge_on_group`). False: IPOPT's
         verdict only, for callers that judge themselves (an MPC's re-solves); the same as
         the raw `dmoc.optimal_control.solve`.
     estimate : bool
