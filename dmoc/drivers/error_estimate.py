@@ -12,9 +12,9 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .._util import checks
+from ..discrete.group_discretization import GroupDiscretization
 from ..discrete.rules import lagrange_basis
 from ..errors import InputError, Status
-from ..discrete.group_discretization import GroupDiscretization
 from ..optimal_control import OptimalControlProblem, OptimizationResult
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..simulation import simulate

@@ -164,7 +164,8 @@ def verdict_message(verdict, result):
             f"its last knot misses the goal by {verdict.goal_error:.2e} (the angle of "
             f"R_goal^T R_N in radians, or x_N - x_goal over the span of x; limit "
             f"{GOAL_TOLERANCE:g}): IPOPT stopped at an acceptable level or on loosened "
-            f"tolerances. Tighten IPOPT's `tol` and `constr_viol_tol`",
+            f"tolerances, or the optimum is another goal's. Tighten IPOPT's `tol` and "
+            f"`constr_viol_tol`",
         Status.PATH_VIOLATED:
             f"{verdict.path_limit} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
