@@ -26,7 +26,7 @@ from ..discrete.knot_states import knot_velocities
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 from .group_verdict import group_knot_path_values, judge_on_group
 from .judged_inputs import check_judged
-from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, NO_SCALE, PATH_TOLERANCE,  # noqa: F401 (re-exported)
+from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE,  # noqa: F401 (re-exported)
                              REPLAY_TOLERANCE, REST_TOLERANCE, largest_change, path_violation,
                              q_scale, replay_departure, worst_status)
 
