@@ -346,9 +346,8 @@ def sphere_roll(form, steps=20):
     "embedded" from its default guess, "embedded-geo" from the group form's default guess
     written entry by entry (R_k = exp(k/N pi/2 e3^), x_k linear). After `dmoc.clear_caches`:
     (wall s, CPU s of this process and its children, both of build + solve; cost; IPOPT
-    iterations; success;
-    the verdict: its status, or for the group form, which `optimize` judges by its replay
-    alone, "replay" and the replay deviation; max |R_N - R_goal|)."""
+    iterations; success; the verdict's status; max |R_N - R_goal|; for the group form the
+    result of ``optimize(problem, estimate=True)`` solved again, else None)."""
     goal, share = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), np.linspace(0, 1, steps + 1)
     dmoc.clear_caches()
     tic, cpu = time.perf_counter(), os.times()
@@ -372,10 +371,10 @@ def sphere_roll(form, steps=20):
     result = dmoc.optimize(problem, guess=guess, throw=False)
     wall, cpu_end = time.perf_counter() - tic, os.times()
     R_N = result.trajectory.R[-1] if form == "group" else result.trajectory.q[-1, :9].reshape(3, 3)
-    verdict = (f"replay {result.stats.get('replay_deviation', np.nan):.0e}" if form == "group"
-               else str(getattr(result.verdict, "status", None)))
+    verdict = str(getattr(result.verdict, "status", None))
+    estimated = dmoc.optimize(problem, estimate=True, throw=False) if form == "group" else None
     return (wall, sum(cpu_end[:4]) - sum(cpu[:4]), result.cost, result.stats["iterations"],
-            result.success, verdict, np.abs(R_N - goal).max())
+            result.success, verdict, np.abs(R_N - goal).max(), estimated)
 
 
 def sphere_table(repeat, steps, fresh, roll_steps=20):
@@ -406,7 +405,7 @@ def sphere_table(repeat, steps, fresh, roll_steps=20):
             f"{'verdict':>16}{'|R_N - goal|':>14}")
     print(head + "\n" + "-" * len(head))
     solves = {form: sphere_roll(form, roll_steps) for form in ("embedded", "embedded-geo", "group")}
-    for form, (wall, cpu, cost, iterations, success, verdict, dR) in solves.items():
+    for form, (wall, cpu, cost, iterations, success, verdict, dR, _) in solves.items():
         ratio = f"{wall / solves['embedded'][0]:.2f}/{cpu / solves['embedded'][1]:.2f}"
         print(f"{form:<14}{wall:>8.2f}{cpu:>8.2f}{ratio:>12}{cost:>12.6f}{iterations:>6}"
               f"{str(success):>9}{verdict:>16}{dR:>14.1e}")
@@ -414,6 +413,14 @@ def sphere_table(repeat, steps, fresh, roll_steps=20):
           f"{solves['group'][0] / solves['embedded-geo'][0]:.2f}/"
           f"{solves['group'][1] / solves['embedded-geo'][1]:.2f}; cost group - embedded-geo: "
           f"{solves['group'][2] - solves['embedded-geo'][2]:.2e} (two discretizations, O(h^2))")
+    estimate = solves["group"][-1].stats.get("error_estimate")
+    if estimate is None:                # the optimum failed its verdict: nothing estimated
+        print(f"group, estimate=True: {solves['group'][-1].status}, no estimate")
+        return
+    print(f"group, estimate=True (a solve on N/2 steps and a replay on 2N): the estimate takes "
+          f"{estimate['time']:.2f} s, {estimate['time'] / solves['group'][0]:.2f}x the group's first "
+          f"solve; estimated cost error {estimate['cost_error']:.3e} ({estimate['cost']:.1e} "
+          f"relative), end {estimate['final_state']:.1e}")
 
 
 def table(repeat, name, horizons=(10**4, 10**5)):

@@ -146,6 +146,7 @@ class Status(str, enum.Enum):
     INTERRUPTED = "interrupted"
     PASSED = "passed"
     NOT_REPLAYABLE = "not_replayable"
+    GOAL_MISSED = "goal_missed"
     PATH_VIOLATED = "path_violated"
     UNDER_RESOLVED = "under_resolved"
     ACCURACY_NOT_REACHED = "accuracy_not_reached"
@@ -171,6 +172,7 @@ MESSAGES = {
     Status.INTERRUPTED: "stopped by Ctrl-C (SIGINT)",
     Status.PASSED: "the optimum passed the verdict's checks",
     Status.NOT_REPLAYABLE: "simulating the optimum's controls from its initial state departs from it",
+    Status.GOAL_MISSED: "the optimum's last knot is not at the goal (a problem on SO(3))",
     Status.PATH_VIOLATED: "a path constraint fails at a knot",
     Status.UNDER_RESOLVED: "a step velocity changes by a large part of its peak within one step",
     Status.ACCURACY_NOT_REACHED: "the largest number of steps allowed did not reach the accuracy asked for",

@@ -11,11 +11,11 @@ import pytest
 import dmoc
 from dmoc.errors import MESSAGES, Status, status_of
 
-# The statuses dmoc wrote as plain strings before the enumeration (issue 39), and the
-# simulator's success status.
+# The statuses dmoc wrote as plain strings before the enumeration (issue 39), the
+# simulator's success status, and the verdict on SO(3)'s missed goal (issue 43).
 STRINGS = ["converged", "newton_failed", "non_finite", "interrupted", "passed", "not_replayable",
            "path_violated", "under_resolved", "accuracy_not_reached", "timeout", "worker_lost",
-           "exception", "undeserializable", "scheduler_lost"]
+           "exception", "undeserializable", "scheduler_lost", "goal_missed"]
 
 
 @pytest.mark.parametrize("text", STRINGS)

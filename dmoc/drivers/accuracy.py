@@ -12,8 +12,9 @@ from dataclasses import replace
 from .._util import checks
 from ..errors import InputError, SolverError, Status, failure
 from ..optimal_control import OptimalControlProblem
+from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from .error_estimate import richardson_estimate, with_estimate
-from .high_order import started_solve
+from .group_optimum import judged_level_solve
 
 # Targets below this are refused: the estimate is a difference of costs that IPOPT (tol
 # 1e-10 on the scaled NLP) and round-off know to about 1e-10 relative.
@@ -29,9 +30,11 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem or GroupOptimalControlProblem
         The first level: its N and rule. Start coarse (N of 10 to 20 with a stage rule):
-        the first two levels only measure the error.
+        the first two levels only measure the error. A problem on SO(3) solves every level
+        from its geodesic guess, judged by `dmoc.drivers.group_verdict` (its rule, the
+        midpoint/Cayley step, has order 2).
     accuracy : float
         The target of `ErrorEstimate.largest`, relative: of the cost to |J|, of each
         coordinate of the final configuration to its excursion over the optimum, of a free
@@ -81,13 +84,14 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     to 2N like the first, any other failure ends the loop. The rule stays the problem's:
     a higher order reaches small targets on far fewer steps (benchmarks/accuracy.py).
     """
-    checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+    checks.instance("problem", problem, (OptimalControlProblem, GroupOptimalControlProblem),
+                    "an OptimalControlProblem or a GroupOptimalControlProblem")
     accuracy = _accuracy(accuracy)
     max_steps = checks.positive_int("max_steps", max_steps)
     levels, level, previous, tic = [], problem, None, time.perf_counter()
     while True:
-        result = started_solve(level, guess=guess if previous is None else previous.trajectory,
-                               **{**keywords, "throw": False})
+        result = judged_level_solve(level, guess=guess if previous is None else previous.trajectory,
+                                    **{**keywords, "throw": False})
         coarse = result.status == Status.UNDER_RESOLVED      # what more steps cure: refine
         estimate = None if previous is None or not result.success else \
             richardson_estimate(level, result, previous, time.perf_counter())
@@ -121,10 +125,16 @@ def _next_steps(steps, estimate, accuracy):
 
 
 def _level_record(problem, result, estimate, seconds):
-    return {"steps": problem.steps, "rule": problem.disc.rule.name, "cost": result.cost,
+    return {"steps": problem.steps, "rule": _rule_name(problem), "cost": result.cost,
             "status": result.status, "iterations": result.stats["iterations"],
             "estimate": None if estimate is None else estimate.largest, "time": seconds,
             "start": result.stats.get("start")}
+
+
+def _rule_name(problem):
+    """The name of the rule of `problem` (on the group the rule is its name, "midpoint")."""
+    rule = problem.disc.rule
+    return rule if isinstance(rule, str) else rule.name
 
 
 def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=None):
@@ -153,8 +163,9 @@ def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=N
     figure = "not yet estimated" if estimate is None else f"{estimate.largest:.1e}"
     message = (f"Accuracy {accuracy:g} not reached: the estimated relative error is "
                f"{figure} on {levels[-1]['steps']} steps and the next level "
-               f"would need more than `max_steps` = {max_steps}; raise `max_steps` or use a "
-               f"rule of higher order (lobatto3, lobatto4).")
+               f"would need more than `max_steps` = {max_steps}; raise `max_steps`"
+               + ("." if isinstance(problem, GroupOptimalControlProblem) else
+                  " or use a rule of higher order (lobatto3, lobatto4)."))
     result = replace(result, success=False, status=Status.ACCURACY_NOT_REACHED, message=message,
                      stats=stats)
     if keywords.get("throw", True):

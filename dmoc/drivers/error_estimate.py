@@ -12,12 +12,14 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .._util import checks
+from ..discrete.group_discretization import GroupDiscretization
 from ..discrete.rules import lagrange_basis
 from ..errors import InputError, Status
 from ..optimal_control import OptimalControlProblem, OptimizationResult
+from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..simulation import simulate
 from .active_limits import switches, touches
-from .verdict import judged_solve
+from .group_optimum import judged_level_solve
 
 # An estimated end error (`ErrorEstimate.final_state`) beyond this part of the coordinates'
 # excursion says that the grid does not resolve the motion: the system driven by the
@@ -109,8 +111,11 @@ def estimate_error(problem, result, *, reference=None, **keywords):
 
     Parameters
     ----------
-    problem : OptimalControlProblem
-        The problem `result` solves, on N steps.
+    problem : OptimalControlProblem or GroupOptimalControlProblem
+        The problem `result` solves, on N steps. On SO(3) x R^n_x the order is the
+        midpoint/Cayley step's, 2, the coarse solve starts from the geodesic guess and the
+        final state is the entries of R_N and x_N, replayed with each control held over
+        its step's two halves.
     result : OptimizationResult
         Its optimum.
     reference : OptimizationResult, optional
@@ -118,7 +123,8 @@ def estimate_error(problem, result, *, reference=None, **keywords):
         default the problem is solved on M = N // 2 steps (2 when N = 1), started from
         `result`'s trajectory.
     **keywords
-        Passed to IPOPT's solve (`dmoc.optimal_control.solve`: ``options``, ...); the reference
+        Passed to IPOPT's solve (`dmoc.optimal_control.solve`, or `solve_on_group`:
+        ``options``, ...); the reference
         is not judged and does not raise: a failed one gives an infinite estimate.
 
     Returns
@@ -145,14 +151,15 @@ def estimate_error(problem, result, *, reference=None, **keywords):
     >>> estimate.reference_steps, f"{estimate.cost:.0e}"     # J* = 8.72240586430: 3.5e-06
     (10, '2e-06')
     """
-    checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+    checks.instance("problem", problem, (OptimalControlProblem, GroupOptimalControlProblem),
+                    "an OptimalControlProblem or a GroupOptimalControlProblem")
     checks.instance("result", result, OptimizationResult, "an OptimizationResult")
     _check_steps(problem, result)
     tic = time.perf_counter()
     if reference is None:
         keywords.update(check=False, throw=False)      # a failed reference: an infinite estimate
-        reference = judged_solve(problem.with_steps(problem.steps // 2 or 2),
-                                 guess=result.trajectory, **keywords)
+        reference = judged_level_solve(problem.with_steps(problem.steps // 2 or 2),
+                                       guess=result.trajectory, **keywords)
     checks.instance("reference", reference, OptimizationResult, "an OptimizationResult or None")
     if reference.trajectory.steps == problem.steps:
         raise InputError(f"`reference` must be an optimum on another number of steps than "
@@ -163,13 +170,15 @@ def estimate_error(problem, result, *, reference=None, **keywords):
 def richardson_estimate(problem, result, reference, tic):
     """The ErrorEstimate of `result` against `reference`, timed from `tic`."""
     p, N, M, traj = problem.disc.order, problem.steps, reference.trajectory.steps, result.trajectory
-    switching = switches(problem, traj)
+    on_group = isinstance(problem, GroupOptimalControlProblem)      # no control bounds
+    switching = not on_group and switches(problem, traj)
     path_active = p > 2 and not switching and touches(problem, traj)
     order = 1 if switching else 2 if path_active else p
     cost_error = _extrapolated(result.cost, reference.cost, N, M, order, reference.success)
     T, T_M = (run.steps * run.h for run in (traj, reference.trajectory))
     time_error = _extrapolated(T, T_M, N, M, order, reference.success) if problem.free_time else 0.0
-    state_error = (traj.q[-1] - _replayed_end(problem, traj)) / (1.0 - 2.0 ** -p)
+    replayed = _replayed_end_on_group(problem, traj) if on_group else _replayed_end(problem, traj)
+    state_error = (traj.q[-1] - replayed) / (1.0 - 2.0 ** -p)
     return ErrorEstimate(abs(cost_error) / (abs(result.cost) or 1.0),
                          float(np.max(np.abs(state_error) / coordinate_scales(traj.q))),
                          abs(time_error) / T, float(cost_error), float(time_error), state_error,
@@ -234,6 +243,16 @@ def _replayed_end(problem, traj):
     if not run.success:
         return np.full(traj.q.shape[1], np.inf)     # it does not replay
     return run.trajectory.q[-1]
+
+def _replayed_end_on_group(problem, traj):
+    """The end q_2N (the entries of R_2N, then x_2N) of `simulate` over 2N steps of h/2 from
+    the optimum's (R_0, x_0, p_0) with its controls, each held over its step's two halves."""
+    body = problem.disc.system
+    run = simulate(GroupDiscretization(body, traj.h / 2, problem.disc.rule),
+                   q0=(traj.R[0], traj.x[0]) if body.n_x else traj.R[0], p0=traj.p[0],
+                   steps=2 * traj.steps, controls=np.repeat(traj.u, 2, axis=0), throw=False)
+    return run.trajectory.q[-1] if run.success else np.full(traj.q.shape[1], np.inf)
+
 
 def with_estimate(result, estimate):
     """`result` with `estimate` (an ErrorEstimate) in ``stats["error_estimate"]`` (plain

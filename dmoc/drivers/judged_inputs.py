@@ -1,15 +1,15 @@
-"""What the verdict's public checks (`dmoc.drivers.verdict`) take: an OptimalControlProblem
-and a Trajectory, not their forms on SO(3), which are refused by name (a
-GroupOptimalControlProblem is judged by `dmoc.optimize` itself, by its replay:
-`dmoc.drivers.group_optimum`)."""
+"""What the verdict's checks on R^n (`dmoc.drivers.verdict`) take: an OptimalControlProblem
+and a Trajectory, not their forms on SO(3), which are refused by name where no check on
+the group stands in (`knot_velocity_bound_values`: a GroupOptimalControlProblem has no
+velocity bounds; `judge` and `knot_path_values` hand it to `dmoc.drivers.group_verdict`)."""
 
 from .._util import checks
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..principle.trajectory import Trajectory
 
-_PROBLEM = ("an OptimalControlProblem (a GroupOptimalControlProblem, on SO(3), is judged by "
-            "`dmoc.optimize` itself: its replay, stats['replay_deviation'])")
-_TRAJECTORY = "a Trajectory (a RotationTrajectory, on SO(3), has no verdict's checks)"
+_PROBLEM = ("an OptimalControlProblem (a GroupOptimalControlProblem, on SO(3), has no velocity "
+            "bounds; `judge` and `knot_path_values` take it)")
+_TRAJECTORY = "a Trajectory (a RotationTrajectory goes with a GroupOptimalControlProblem)"
 
 
 def check_judged(problem, traj, traj_name="traj"):

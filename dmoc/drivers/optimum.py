@@ -7,8 +7,7 @@ from ..errors import failure
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from .accuracy import optimize_to_accuracy
 from .error_estimate import estimate_error, with_estimate
-from .group_optimum import optimize_on_group
-from .high_order import started_solve
+from .group_optimum import group_keywords, judged_level_solve
 
 
 def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
@@ -20,8 +19,9 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     Parameters
     ----------
     problem : OptimalControlProblem or GroupOptimalControlProblem
-        A problem on SO(3) takes `options`, `throw` and `check` only (its verdict is the
-        replay; `dmoc.drivers.group_optimum`).
+        A problem on SO(3) takes `options`, `throw`, `check`, `estimate`, `accuracy` and
+        `max_steps` (the others are refused by name); its verdict is
+        `dmoc.drivers.group_verdict.judge_on_group` (docs/rigid_bodies.md).
     guess : Trajectory or OptimizationResult, optional
         Initial guess. A Trajectory is resampled in time if its number of steps differs.
         An OptimizationResult of a problem with the same `structure` (the same problem
@@ -77,7 +77,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         iterate or the judged optimum with its `verdict`.
     check : bool
         True (default): judge the optimum IPOPT converged to (`judge`): the replay by
-        `simulate`, the velocity jumps, the path constraints at the knots. False: IPOPT's
+        `simulate`, the velocity jumps, the path constraints at the knots, and on SO(3) the
+        last knot at the goal (`dmoc.drivers.group_verdict.judge_on_group`). False: IPOPT's
         verdict only, for callers that judge themselves (an MPC's re-solves); the same as
         the raw `dmoc.optimal_control.solve`.
     estimate : bool
@@ -128,20 +129,19 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     guess.
     """
     if isinstance(problem, GroupOptimalControlProblem):
-        return optimize_on_group(problem, options=options, throw=throw, check=check,
-                                 guess=(guess, None), reuse_solver=(reuse_solver, True),
-                                 expand=(expand, False), jit=(jit, False),
-                                 linear_solver_report=(linear_solver_report, False),
-                                 estimate=(estimate, False), accuracy=(accuracy, None),
-                                 max_steps=(max_steps, 100_000))
+        keywords = group_keywords(options=options, throw=throw, check=check, guess=(guess, None),
+                                  reuse_solver=(reuse_solver, True), expand=(expand, False),
+                                  jit=(jit, False),
+                                  linear_solver_report=(linear_solver_report, False))
+    else:
+        keywords = {"options": options, "reuse_solver": reuse_solver, "expand": expand,
+                    "linear_solver_report": linear_solver_report, "jit": jit, "throw": throw,
+                    "check": check}
     estimate = checks.boolean("estimate", estimate)
-    keywords = {"options": options, "reuse_solver": reuse_solver, "expand": expand,
-                "linear_solver_report": linear_solver_report, "jit": jit, "throw": throw,
-                "check": check}
     if accuracy is not None:
         return optimize_to_accuracy(problem, accuracy, guess=guess, max_steps=max_steps,
                                     **keywords)
-    result = started_solve(problem, guess=guess, **keywords)
+    result = judged_level_solve(problem, guess=guess, **keywords)
     if not (estimate and result.success):
         return result
     result = with_estimate(result, estimate_error(problem, result, **keywords))

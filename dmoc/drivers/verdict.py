@@ -17,34 +17,18 @@ from .._util.cache import BoundedCache
 from .._util.numeric import Evaluator
 from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
-from ..optimal_control.solver.verdict_record import STATUSES, Verdict
+from ..optimal_control.solver.verdict_record import Verdict
+from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..optimal_control.statement.parameters import row_texts
+from ..principle.rotation_trajectory import RotationTrajectory
 from ..results.diagnostics import compared_momenta, replays
 from ..discrete.knot_states import knot_velocities
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
+from .group_verdict import group_knot_path_values, judge_on_group
 from .judged_inputs import check_judged
-
-# Thresholds of the checks, relative to the optimum's own scale so that a problem in
-# millimetres or kilograms gets the verdict it gets in metres (docs/stages/drivers.md,
-# "Verdicts"). A replay on the root IPOPT converged to stays at the solvers' tolerances
-# (1e-16 .. 1e-13 of the scale on the built-in problems); one on a spurious root by O(1).
-REPLAY_TOLERANCE = 1e-6
-# A motion of frequency omega changes its step velocity by 2 sin(omega h / 2) of its peak
-# per step: more than its own peak (omega h > pi / 3, fewer than 6 steps a period) is not
-# resolved; 2 is a reversal every step (aliasing). The built-in problems measure 0.10 to
-# 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/drivers.md).
-JUMP_LIMIT = 1.0
-# Below this size an optimum's q or p gives no scale (it does not move from the origin).
-NO_SCALE = 1e-12
-# A knot violates a path constraint when g_k exceeds this part of the row's scale,
-# max(1, max_k |g_k|): the NLP imposes the path rows unscaled (`dmoc.optimal_control.nlp.
-# scaling`), so 1 in the row's own units is the size IPOPT holds it to; a row whose values
-# are larger is measured against them (the same figure in mm as in m).
-PATH_TOLERANCE = 1e-6
-# A coordinate whose excursion is below this part of its NLP scale (the motion's length
-# l_i, or the rest length where nothing moves: `dmoc.optimal_control.nlp.scaling.lengths`) is at rest
-# within IPOPT's tolerance; its velocity "jumps" are noise (a hold at the start: 7e-8 rad).
-REST_TOLERANCE = 1e-6
+from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE,  # noqa: F401 (re-exported)
+                             REPLAY_TOLERANCE, REST_TOLERANCE, largest_change, path_violation,
+                             q_scale, replay_departure, worst_status)
 
 # a path Function mapped over a number of knots, evaluated through its buffer: keyed by
 # (id of the path Function, knots), the value (that Function, its Evaluator) so that the
@@ -57,9 +41,10 @@ def judge(problem, result):
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem or GroupOptimalControlProblem
     result : OptimizationResult
-        An optimum of `problem` (finite q and p).
+        An optimum of `problem` (finite q and p). A problem on SO(3) is judged by
+        `dmoc.drivers.group_verdict.judge_on_group`.
 
     Returns
     -------
@@ -77,8 +62,9 @@ def judge(problem, result):
     those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
     path constraints and the velocity bounds are evaluated at every knot
     (`knot_path_values`, `knot_velocity_bound_values`). The one-optimum case of `verdicts`.
-    InputTypeError for a problem or trajectory on SO(3) (`judged_inputs`).
     """
+    if isinstance(problem, GroupOptimalControlProblem):
+        return judge_on_group(problem, result)
     check_judged(problem, result.trajectory, "result.trajectory")
     return verdicts([(problem, result)])[0]
 
@@ -104,13 +90,12 @@ def _verdict(problem, traj, simulated, ends, knot_values):
     """The Verdict on the optimum `traj` of `problem` from its replay `simulated`, its
     interpolant's end velocities `ends` and its path values at the knots (None without
     path constraints)."""
-    replay_q, replay_p, replay_step = _replay_departure(problem, traj, simulated)
+    replay_q, replay_p, replay_step = replay_departure(traj, simulated, compared_momenta(problem, traj))
     changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
     resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
     changes[:, resting] = 0.0
-    k, i = np.unravel_index(np.argmax(changes), changes.shape) if changes.size else (-1, 0)
-    jump = float(changes[k, i]) if changes.size else 0.0
+    jump, jump_step, jump_coordinate = largest_change(changes, problem.disc.system.names)
     bounds, bound_names = knot_velocity_bound_values(problem, traj, ends)
     rows = 0 if knot_values is None else knot_values.shape[1]
 
@@ -119,14 +104,14 @@ def _verdict(problem, traj, simulated, ends, knot_values):
             return bound_names[row - rows]
         text = row_texts(problem.path_constraints, problem.disc.system, problem.parameters.layout)[row]
         return f"path_constraints row {row} ({text} <= 0)"
-    path, path_step, row, limit = _path_violation(
+    path, path_step, row, limit = path_violation(
         np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
         name_of)
-    failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE, jump > JUMP_LIMIT)
-    status = next((s for s, f in zip(STATUSES, failed) if f), Status.PASSED)
-    return Verdict(status, replay_q, replay_p, replay_step, jump, int(k) + 1,
-                   problem.disc.system.names[i], path, path_step, row if row < rows else -1,
-                   path_limit=limit)
+    status = worst_status({Status.NOT_REPLAYABLE: max(replay_q, replay_p) > REPLAY_TOLERANCE,
+                           Status.PATH_VIOLATED: path > PATH_TOLERANCE,
+                           Status.UNDER_RESOLVED: jump > JUMP_LIMIT})
+    return Verdict(status, replay_q, replay_p, replay_step, jump, jump_step, jump_coordinate,
+                   path, path_step, row if row < rows else -1, path_limit=limit)
 
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
@@ -170,19 +155,22 @@ def verdict_message(verdict, result):
         Status.NOT_REPLAYABLE:
             f"it does not solve the step equations as `simulate` does: the replay from its "
             f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
-            f"configurations' span ({verdict.replay_q * _q_scale(traj):.3g} in "
+            f"configurations' span ({verdict.replay_q * q_scale(traj):.3g} in "
             f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
             f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
             f"equations have other roots where a step is large, and IPOPT found one of "
-            f"those. Bound the angles to their physical range (`state_bounds`), price "
-            f"every control in comparable units (`running_cost`), bound the per-step "
-            f"change of the fast coordinates, or start from a sound optimum (`guess=`)"
-            + _stage_rule_advice(traj),
+            f"those. " + _replay_remedy(traj),
+        Status.GOAL_MISSED:
+            f"its last knot misses the goal by {verdict.goal_error:.2e} (the angle of "
+            f"R_goal^T R_N in radians, or x_N - x_goal over the span of x; limit "
+            f"{GOAL_TOLERANCE:g}): IPOPT stopped at an acceptable level or on loosened "
+            f"tolerances, or the optimum is another goal's. Tighten IPOPT's `tol` and "
+            f"`constr_viol_tol`",
         Status.PATH_VIOLATED:
             f"{verdict.path_limit} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
             f"of the row's scale max(1, max |g|) (limit {PATH_TOLERANCE:g}), although the NLP "
-            f"imposes it at every knot with the same knot velocity: IPOPT's tolerance or a "
+            f"imposes it at every knot with the same arguments: IPOPT's tolerance or a "
             f"solve on another root. Tighten IPOPT's `tol` or keep a margin in the limit",
         Status.UNDER_RESOLVED:
             f"the grid does not resolve the motion: {jump} (limit {JUMP_LIMIT:g}). Use more "
@@ -192,39 +180,19 @@ def verdict_message(verdict, result):
             f"docs/stages/drivers.md, \"Verdicts\".")
 
 
-def _stage_rule_advice(traj):
-    """The remedy of a stage rule's optimum on another root (`dmoc.drivers.high_order`):
-    the midpoint rule's optimum on twice the steps as its guess; "" for the midpoint and
-    trapezoid rules."""
+def _replay_remedy(traj):
+    """What to do about an optimum on another root: on R^n, bounds, prices and a sound
+    guess, and for a stage rule (`dmoc.drivers.high_order`) the midpoint rule's optimum on
+    twice the steps as its guess; on SO(3), more steps (one rule, a geodesic guess)."""
+    if isinstance(traj, RotationTrajectory):
+        return "Use more steps, so that no step turns the body by a large angle"
+    advice = ("Bound the angles to their physical range (`state_bounds`), price every control "
+              "in comparable units (`running_cost`), bound the per-step change of the fast "
+              "coordinates, or start from a sound optimum (`guess=`)")
     if not len(traj.stage_nodes):
-        return ""
-    return (f"; for this stage rule, the midpoint rule's optimum on twice the steps: "
+        return advice
+    return (f"{advice}; for this stage rule, the midpoint rule's optimum on twice the steps: "
             f"`guess=dmoc.optimize(problem.with_rule(\"midpoint\").with_steps({2 * traj.steps}))`")
-
-
-def _replay_departure(problem, traj, simulated):
-    """(max |q - q_opt| / span of q, max |p - p_opt| / max |p_opt|, first step beyond
-    REPLAY_TOLERANCE or -1) of the optimum `traj` and its replay `simulated` (`replay`)."""
-    if simulated.steps < traj.steps:
-        return np.inf, np.inf, simulated.steps + 1
-    last = compared_momenta(problem, traj)
-    dq = np.abs(simulated.q - traj.q).max(axis=1) / _q_scale(traj)
-    dp = np.abs(simulated.p[:last] - traj.p[:last]).max(axis=1) / _scale(np.abs(traj.p).max())
-    beyond = np.flatnonzero((dq[:last] > REPLAY_TOLERANCE) | (dp > REPLAY_TOLERANCE))
-    return float(dq.max()), float(dp.max()), int(beyond[0]) if beyond.size else -1
-
-
-def _q_scale(traj):
-    """The unit of a departure in q: the span of the optimum's configurations (the largest
-    max_k q - min_k q), or their size where they do not move."""
-    return _scale(np.ptp(traj.q, axis=0).max(), np.abs(traj.q).max())
-
-
-def _scale(*sizes):
-    """The first of `sizes` above NO_SCALE, as the unit of a relative departure; 1 (the
-    system's units) for an optimum that neither moves nor leaves the origin: there the
-    data give no scale."""
-    return next((float(size) for size in sizes if size > NO_SCALE), 1.0)
 
 
 def knot_path_values(problem, traj):
@@ -233,7 +201,10 @@ def knot_path_values(problem, traj):
     both sides, one side at the ends: `dmoc.discrete.knot_states.knot_velocities`), u(t_k)
     `Trajectory.control` there, with the parameters at q_k (`_knot_arguments`); the values
     the NLP's knot rows impose (`dmoc.optimal_control.nlp.path_terms`). The one-optimum
-    case of `_knot_path_values_of`. InputTypeError on SO(3), as `judge`."""
+    case of `_knot_path_values_of`. On SO(3), g(R_k, x_k, u_k) (`group_knot_path_values`)."""
+    if isinstance(problem, GroupOptimalControlProblem):
+        return group_knot_path_values(problem, checks.instance("traj", traj, RotationTrajectory,
+                                                               "a RotationTrajectory"))
     check_judged(problem, traj)
     return _knot_path_values_of([(problem, traj, end_velocities(problem.disc, traj))])[0]
 
@@ -272,7 +243,7 @@ def knot_velocity_bound_values(problem, traj, ends=None):
     """The velocity bounds as rows g <= 0 at every knot, shape (N + 1, rows), and their
     names: lower_i - v_k,i and v_k,i - upper_i for each finite bound, v_k the knot velocity
     (`knot_path_values`; `ends` the interpolants' end velocities when computed already).
-    InputTypeError on SO(3), as `judge`."""
+    InputTypeError on SO(3), whose problems have no velocity bounds."""
     check_judged(problem, traj)
     v = knot_velocities(*(end_velocities(problem.disc, traj) if ends is None else ends))
     names, columns = problem.disc.system.names, []
@@ -283,18 +254,3 @@ def knot_velocity_bound_values(problem, traj, ends=None):
                             f"(v[{i}] {relation} {bound[i]:.6g})"))
     values = np.column_stack([c for c, _ in columns]) if columns else np.zeros((v.shape[0], 0))
     return values, [name for _, name in columns]
-
-
-def _path_violation(g, name_of):
-    """(largest g_k relative to its row's scale max(1, max_k |g_k|), knot, row, the row's
-    name ``name_of(row)``) of the values at the knots `g` (N + 1, rows: `knot_path_values`
-    then `knot_velocity_bound_values`); (0, -1, -1, "") without rows or violations. The 1
-    keeps a row that is held at zero everywhere (an equality written as the pair g, -g)
-    from being measured against its own round-off."""
-    if g.size == 0:
-        return 0.0, -1, -1, ""
-    relative = g / np.maximum(np.abs(g).max(axis=0), 1.0)
-    k, row = np.unravel_index(np.argmax(relative), relative.shape)
-    if relative[k, row] <= 0:
-        return 0.0, -1, -1, ""
-    return float(relative[k, row]), int(k), int(row), name_of(int(row))

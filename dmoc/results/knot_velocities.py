@@ -70,7 +70,16 @@ def velocity_changes(disc, traj, *, ends=None):
     """
     if not check_trajectory(disc, traj) or traj.steps < 2:
         return np.zeros((0, disc.system.n))
-    start, end = end_velocities(disc, traj) if ends is None else ends
+    return relative_changes(*(end_velocities(disc, traj) if ends is None else ends))
+
+
+def relative_changes(start, end):
+    """|start_k - end_{k-1}| / peak per coordinate at the interior knots k = 1 ... N - 1,
+    shape (N - 1, n), of the velocities `start` and `end` (N, n) of each step's
+    interpolant at its two ends, the peak max |start|, |end| of each coordinate; 0 for a
+    coordinate at rest (peak below 1e-9 of the largest coordinate's). The figure of
+    `velocity_changes`, and of the verdict on SO(3), whose velocities are the body angular
+    velocity and x' (`dmoc.drivers.group_verdict`)."""
     peak = np.maximum(np.abs(start).max(axis=0), np.abs(end).max(axis=0))
     moving = peak > 1e-9 * peak.max(initial=0.0)
     return np.where(moving, np.abs(start[1:] - end[:-1]) / np.where(moving, peak, 1.0), 0.0)

@@ -58,7 +58,7 @@ def test_a_result_on_the_group_round_trips_bit_for_bit(rolled, tmp_path):
     assert same(back.trajectory, rolled.trajectory)
     assert (back.cost, back.success, back.status, back.message, back.stats) == \
         (rolled.cost, rolled.success, rolled.status, rolled.message, rolled.stats)
-    assert np.array_equal(back.x, rolled.x) and back.verdict is None
+    assert np.array_equal(back.x, rolled.x) and back.verdict == rolled.verdict and back.verdict.passed
     # the trajectory of the result file reads alone too
     assert same(dmoc.RotationTrajectory.load(tmp_path / "r.npz"), rolled.trajectory)
 

@@ -84,7 +84,7 @@ def test_a_given_reference_is_used_as_it_is(monkeypatch):
 
     def no_solve(*args, **keywords):
         raise AssertionError("a given reference was solved again")
-    monkeypatch.setattr(error_estimate, "judged_solve", no_solve)
+    monkeypatch.setattr(error_estimate, "judged_level_solve", no_solve)
     given = estimate_error(problem, result, reference=reference)
     assert given.cost == pytest.approx(solved.cost, rel=1e-5) and given.reference_steps == 10
 
@@ -206,7 +206,7 @@ def test_a_ctrl_c_in_a_level_is_an_interrupt_not_a_failed_solve(monkeypatch, thr
             return result
         return dataclasses.replace(result, success=False, status=dmoc.Status.INTERRUPTED,
                                    message="IPOPT: interrupted (KeyboardInterrupt).")
-    monkeypatch.setattr("dmoc.drivers.accuracy.started_solve", second_level_interrupted)
+    monkeypatch.setattr("dmoc.drivers.accuracy.judged_level_solve", second_level_interrupted)
     problem = dmoc.problems.knife_edge_parking(10)
     if throw:
         with pytest.raises(dmoc.Interrupted) as info:

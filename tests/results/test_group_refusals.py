@@ -1,7 +1,7 @@
 """What does not take a rigid body on SO(3) yet refuses it by name, saying what it takes
-(issue 43), instead of an AttributeError from inside: the verdict's public checks, the
-accuracy target, MPC, the error estimate, the diagnostics the verdict reads, and the
-command line's SYSTEM factory."""
+(issue 43), instead of an AttributeError from inside: the verdict's velocity bounds, the
+keywords of `optimize` that the group does not take, MPC, the diagnostics the verdict on
+R^n reads, and the command line's SYSTEM factory."""
 
 import numpy as np
 import pytest
@@ -9,9 +9,8 @@ import pytest
 import dmoc
 from dmoc.cli import main
 from dmoc.drivers import verdict
-from dmoc.drivers.error_estimate import estimate_error
 
-ON_GROUP = "a GroupOptimalControlProblem, on SO(3), is judged by `dmoc.optimize` itself"
+ON_GROUP = "a GroupOptimalControlProblem, on SO(3), has no velocity bounds"
 
 
 @pytest.fixture(scope="module")
@@ -22,14 +21,10 @@ def slew():
     return problem, dmoc.optimize(problem)
 
 
-@pytest.mark.parametrize("call", [
-    lambda problem, result: verdict.judge(problem, result),
-    lambda problem, result: verdict.knot_path_values(problem, result.trajectory),
-    lambda problem, result: verdict.knot_velocity_bound_values(problem, result.trajectory),
-])
-def test_the_verdicts_checks_name_the_problem_on_the_group(slew, call):
+def test_the_velocity_bounds_name_the_problem_on_the_group(slew):
+    problem, result = slew
     with pytest.raises(dmoc.InputTypeError, match="`problem` must be an OptimalControlProblem") as info:
-        call(*slew)
+        verdict.knot_velocity_bound_values(problem, result.trajectory)
     assert ON_GROUP in str(info.value) and "got GroupOptimalControlProblem" in str(info.value)
 
 
@@ -50,15 +45,14 @@ def test_the_diagnostics_the_verdict_reads_name_the_discretization(slew):
         dmoc.diagnostics.compared_momenta(problem, result.trajectory)
 
 
-def test_accuracy_mpc_and_the_error_estimate_name_their_argument(slew):
+def test_a_guess_and_mpc_name_their_argument(slew):
     problem, result = slew
-    with pytest.raises(dmoc.InputError, match="takes only options, throw, check; got accuracy"):
-        dmoc.optimize(problem, accuracy=1e-3)
+    with pytest.raises(dmoc.InputError, match="takes only options, throw, check, estimate, "
+                                              "accuracy, max_steps; got guess, jit"):
+        dmoc.optimize(problem, guess=result, jit=True)
     with pytest.raises(dmoc.InputTypeError, match="`problem` must be an OptimalControlProblem; "
                                                   "got GroupOptimalControlProblem"):
         dmoc.MPC(problem)
-    with pytest.raises(dmoc.InputTypeError, match="`problem` must be an OptimalControlProblem"):
-        estimate_error(problem, result)
 
 
 def test_the_command_line_names_a_rigid_body_factory(tmp_path, capsys):

@@ -10,7 +10,7 @@ from dataclasses import asdict, dataclass, fields
 from ...errors import InputError, Status, status_of
 
 # The statuses of a verdict, worst first: a result takes the first check that fails.
-STATUSES = (Status.NOT_REPLAYABLE, Status.PATH_VIOLATED, Status.UNDER_RESOLVED)
+STATUSES = (Status.NOT_REPLAYABLE, Status.GOAL_MISSED, Status.PATH_VIOLATED, Status.UNDER_RESOLVED)
 
 
 @dataclass(frozen=True)
@@ -22,7 +22,8 @@ class Verdict:
     status : dmoc.Status
         ``"passed"``, or the worst check that failed, in the order of `STATUSES`:
         ``"not_replayable"`` (`simulate` from the optimum's initial state with its controls
-        departs from it), ``"path_violated"`` (a path constraint or a velocity bound fails
+        departs from it), ``"goal_missed"`` (on SO(3): the last knot is not at the goal,
+        `dmoc.drivers.group_verdict`), ``"path_violated"`` (a path constraint or a velocity bound fails
         at a knot q_k),
         ``"under_resolved"`` (a step velocity changes by a large part of its peak within
         one step).
@@ -58,6 +59,10 @@ class Verdict:
         The estimated distance of the optimum from the continuous one. This is where the
         estimate of ``dmoc.drivers.error_estimate.estimate_error`` joins the verdict; None:
         not estimated.
+    goal_error : float
+        On SO(3) (`dmoc.drivers.group_verdict`): the larger of the angle in radians of
+        R_goal^T R_N and max_i |x_N,i - x_goal,i| over the span of x; 0 on R^n, whose end
+        conditions are the NLP's rows alone (and in files written before).
     """
 
     status: str
@@ -72,6 +77,7 @@ class Verdict:
     path_row: int
     discretization_error: float = None
     path_limit: str = ""
+    goal_error: float = 0.0
 
     @property
     def passed(self):
@@ -91,11 +97,11 @@ class Verdict:
     @classmethod
     def checked(cls, values):
         """The Verdict of the dict `values` read from a file: its keys exactly the fields
-        (`discretization_error` and `path_limit` may be left out), each value of the
+        (`discretization_error`, `path_limit` and `goal_error` may be left out), each value of the
         field's type; else InputError saying which ("must ..." follows the caller's name of the dict)."""
         names = [f.name for f in fields(cls)]
         unknown = sorted(set(values) - set(names))
-        missing = sorted(set(names) - set(values) - {"discretization_error", "path_limit"})
+        missing = sorted(set(names) - set(values) - {"discretization_error", "path_limit", "goal_error"})
         if unknown or missing:
             raise InputError(f"must have the keys {names}; " + (
                 f"got the unknown keys {unknown}" if unknown else f"it lacks {missing}"))
@@ -113,5 +119,6 @@ class Verdict:
 _TYPES = {"status": str, "replay_q": (int, float), "replay_p": (int, float), "replay_step": int,
           "velocity_jump": (int, float), "jump_step": int, "jump_coordinate": str,
           "path_violation": (int, float), "path_step": int, "path_row": int,
-          "discretization_error": (int, float), "path_limit": str}
+          "discretization_error": (int, float), "path_limit": str,
+          "goal_error": (int, float)}
 _DESCRIBED = {str: "a string", int: "an integer", (int, float): "a number"}

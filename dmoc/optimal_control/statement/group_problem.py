@@ -5,6 +5,8 @@ IEEE T-RO 27 (2011)): minimize the discrete control effort sum_k h |u_k|^2 subje
 position and a velocity to others. Its NLP is `dmoc.optimal_control.nlp.group_transcription`.
 """
 
+import copy
+
 import casadi as ca
 import numpy as np
 
@@ -108,6 +110,22 @@ class GroupOptimalControlProblem:
     def duration(self):
         """N h."""
         return self.steps * self.disc.h
+
+    @property
+    def free_time(self):
+        """False: the final time N h is fixed (as `OptimalControlProblem.free_time`)."""
+        return False
+
+    def with_steps(self, steps):
+        """This problem on N = `steps` steps over the same time, h = N_old h_old / N: the
+        body discretized anew, the same ends, velocities and path constraints (the
+        refinement of `dmoc.drivers.accuracy`, the coarse solve of
+        `dmoc.drivers.error_estimate`)."""
+        new = copy.copy(self)
+        new.steps = checks.positive_int("steps", steps)
+        new.disc = GroupDiscretization(self.disc.system, self.duration / new.steps, self.disc.rule)
+        new.residual = group_step_residual(new.disc)
+        return new
 
     def geodesic(self):
         """The rotations R_start exp(s log(R_start^T R_goal)), s = k/N, along the shortest

@@ -186,13 +186,14 @@ def row_texts(path, system, layout, width=72):
         return ca.vertcat(*[ca.SX.sym(name) for name in names]) if names else ca.SX(0, 1)
     w = [name if layout.numel(name) == 1 else f"{name}_{j}"
          for name in layout.blocks for j in range(layout.numel(name))]
-    g = path(named(system.names), named([f"v_{name}" for name in system.names]),
-             named(system.control_names), named(w))
-    texts = []
-    for i in range(g.numel()):
-        text = " ".join(str(g[i]).split())
-        texts.append(text if len(text) <= width else text[:width - 3] + "...")
-    return tuple(texts)
+    return expression_texts(path(named(system.names), named([f"v_{name}" for name in system.names]),
+                                 named(system.control_names), named(w)), width)
+
+
+def expression_texts(g, width=72):
+    """Each entry of the SX expression `g` on one line, cut to `width` characters."""
+    texts = (" ".join(str(g[i]).split()) for i in range(g.numel()))
+    return tuple(text if len(text) <= width else text[:width - 3] + "..." for text in texts)
 
 
 def configuration_rows(path, q, w, free):
