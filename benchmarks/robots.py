@@ -40,7 +40,8 @@ baseline's, and the largest difference from it.
     python benchmarks/robots.py --alternatives --no-compile --joints 2 4 6 8 12 --shipped
     python benchmarks/robots.py --mobile --dmoc --joints 2 4 6   # the mobile manipulator
     python benchmarks/robots.py --breakdown --dmoc --no-compile --steps 2000   # where the cost goes
-    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile --alternatives --mobile --breakdown
+    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
+                                                #   --alternatives --mobile --breakdown
 """
 
 import argparse
