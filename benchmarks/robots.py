@@ -15,6 +15,14 @@ directions, a wheel's angle left free). Midpoint rule, h = 0.01, from q = 0.1 at
 under zero torques (a small swing about the hanging rest, for any number of steps). Then
 the log-log slope of each cost against n over the chains.
 
+With `--breakdown`, where the step's cost goes: the instructions of the step's rows g(y)
+(the residual the Newton iterations solve, y = (dq, nu, ds)), of their Jacobian dg/dy, of
+one Newton update (g, dg/dy and J^{-1} g: QR for more than 4 unknowns) and of the fast
+path's step (its 3 unrolled updates and the step's end after common-subexpression
+elimination: the compiled step); with `--dmoc`, the DMOC's IPOPT iterations and the
+seconds of one (IPOPT's time over its iterations). `--hessian limited-memory` solves the
+DMOC with IPOPT's quasi-Newton Hessian instead of the exact one.
+
 With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
 file as a fixed-base robot (the baseline: the wheels spin in the air) and on its wheels
 (`wheels=`: the base's pose x, y, theta added, three rolling rows), each cost of the wheeled
@@ -31,7 +39,9 @@ baseline's, and the largest difference from it.
     python benchmarks/robots.py                         # chains of 2-12 joints, compiled
     python benchmarks/robots.py --alternatives --no-compile --joints 2 4 6 8 12 --shipped
     python benchmarks/robots.py --mobile --dmoc --joints 2 4 6   # the mobile manipulator
-    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile --alternatives --mobile
+    python benchmarks/robots.py --breakdown --dmoc --no-compile --steps 2000   # where the cost goes
+    python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
+                                                #   --alternatives --mobile --breakdown
 """
 
 import argparse
@@ -49,6 +59,10 @@ import numpy as np  # noqa: E402
 
 import dmoc  # noqa: E402
 from dmoc.mechanics.robots import example_urdf  # noqa: E402
+from dmoc.principle.residual import step_residual  # noqa: E402
+from dmoc.simulation.fast_path import fast_step  # noqa: E402
+from dmoc.simulation.schur_complement import newton_update  # noqa: E402
+from dmoc.simulation.stepper import DiracStepper  # noqa: E402
 
 AXES = ("0 0 1", "0 1 0", "0 1 0", "1 0 0", "0 1 0", "0 0 1")
 LINK, RADIUS = 0.3, 0.04
@@ -86,9 +100,9 @@ def simulated(system, steps, jit):
                                          steps=steps, jit=jit))
 
 
-def rest_to_rest(system, steps=20):
-    """Seconds of a judged rest-to-rest DMOC over 1 s (problem built and solved), and its
-    verdict."""
+def rest_to_rest(system, steps=20, hessian="exact"):
+    """Seconds of a judged rest-to-rest DMOC over 1 s (problem built and solved), its
+    verdict and its stats; IPOPT's Hessian `hessian` ("exact" or "limited-memory")."""
     lower, upper = system.position_limits
     q_start = np.clip(0.3, lower + 0.6, upper - 0.6)       # 0.3 where the limits allow it
     q_goal = q_start + np.linspace(0.5, 0.2, system.n) * np.where(np.arange(system.n) % 2, -1, 1)
@@ -102,14 +116,30 @@ def rest_to_rest(system, steps=20):
             v_start=np.zeros(system.n), control_bounds=system.effort_limits,
             state_bounds=system.position_limits,
             running_cost=lambda q, v, u: ca.sumsqr(u) + weight * ca.sumsqr(v))
-        return dmoc.optimize(problem, throw=False)
+        return dmoc.optimize(problem, throw=False, options={"hessian_approximation": hessian})
 
     wall, result = seconds(solve)
-    return wall, result.verdict.status if result.verdict else result.status
+    return wall, result.verdict.status if result.verdict else result.status, result.stats
 
 
-def measure(name, path, steps, compile_, dmoc_, wheels=None):
+def newton_parts(system):
+    """Instructions of the parts of one simulation step (see `--breakdown`)."""
+    stepper = DiracStepper(step_residual(dmoc.discretize(system, H)), 1e-12, 50)
+    _, _, _, params, guess = stepper.symbols(ca.SX)
+    y = ca.SX.sym("y", guess.numel())
+    g = stepper.equations(y, params)[0]
+
+    def count(expression):
+        return ca.Function("part", [y, params], [expression]).n_instructions()
+
+    return {"g": count(g), "dg/dy": count(ca.jacobian(g, y)),
+            "update": count(newton_update(g, y, stepper.unknowns)),
+            "fast step": fast_step(stepper, eliminate=True).n_instructions()}
+
+
+def measure(name, path, args, wheels=None):
     """One row: the costs of the model at `path` (on its `wheels` when given)."""
+    steps, compile_, dmoc_ = args.steps, args.compile, args.dmoc
     build, system = seconds(lambda: dmoc.RobotSystem(path, wheels=wheels))
     row = {"model": name, "n": system.n, "build": build,
            "L nodes": system.lagrangian.n_instructions()}
@@ -123,7 +153,11 @@ def measure(name, path, steps, compile_, dmoc_, wheels=None):
         row["compiled step"] = wall / steps
         assert result.success and result.stats["native"], result.message
     if dmoc_:
-        row["dmoc"], row["verdict"] = rest_to_rest(system)
+        row["dmoc"], row["verdict"], stats = rest_to_rest(system, hessian=args.hessian)
+        row["iterations"] = stats["iterations"]
+        row["per iteration"] = stats["ipopt_time"] / max(stats["iterations"], 1)
+    if args.breakdown:
+        row.update(newton_parts(system))
     return row
 
 
@@ -195,13 +229,18 @@ def main(argv=None):
                         help="also mobile_arm with its base fixed and on its wheels")
     parser.add_argument("--alternatives", action="store_true",
                         help="also the Hessian of L built from adam's CRBA, expanded or called")
+    parser.add_argument("--breakdown", action="store_true",
+                        help="also the instructions of the step's rows, Jacobian, update and "
+                             "fast step")
+    parser.add_argument("--hessian", choices=("exact", "limited-memory"), default="exact",
+                        help="IPOPT's Hessian in the DMOC (default exact)")
     parser.add_argument("--smallest", action="store_true",
                         help="the smallest run: --joints 2 --steps 20 --no-compile "
-                             "--alternatives --mobile")
+                             "--alternatives --mobile --breakdown")
     args = parser.parse_args(argv)
     if args.smallest:
         args.joints, args.steps, args.compile = [2], 20, False
-        args.alternatives = args.mobile = True
+        args.alternatives = args.mobile = args.breakdown = True
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:
@@ -214,15 +253,15 @@ def main(argv=None):
             models.append((f"chain-{n}", path))
         models += [(name, example_urdf(name))
                    for name in (("double_pendulum", "arm6", "arm7") if args.shipped else ())]
-        rows = [measure(name, path, args.steps, args.compile, args.dmoc) for name, path in models]
+        rows = [measure(name, path, args) for name, path in models]
         if args.mobile:
-            rows += [measure(f"mobile_arm{label}", example_urdf("mobile_arm"), args.steps,
-                             args.compile, args.dmoc, wheels)
+            rows += [measure(f"mobile_arm{label}", example_urdf("mobile_arm"), args, wheels)
                      for label, wheels in ((" (fixed base)", None),
                                            (" (wheeled)", ("left_wheel", "right_wheel")))]
         ways = [row for name, path in models for row in alternatives(name, path)] \
             if args.alternatives else []
     report(rows, rows[:len(args.joints)], args)
+    report_parts(rows, rows[:len(args.joints)])
     if ways:
         report_alternatives(ways)
 
@@ -242,6 +281,25 @@ def report(rows, chains, args):
     if len(chains) >= 3:
         print("log-log slopes over the chains: " + ", ".join(
             f"{k} {slope(chains, k):.2f}" for k in ["L nodes", *keys]))
+
+
+def report_parts(rows, chains):
+    """The DMOC's iterations and the step's instructions (`--dmoc`, `--breakdown`), and their
+    slopes over the chains and over those of 6 joints or more."""
+    keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "update", "fast step")
+            if k in rows[0]]
+    if not keys:
+        return
+    print("| model | n | " + " | ".join(keys) + " |")
+    print("|---|---:|" + "---:|" * len(keys))
+    for r in rows:
+        cells = [f"{r[k] * 1e3:.2f} ms" if k == "per iteration" else str(r[k]) for k in keys]
+        print(f"| {r['model']} | {r['n']} | " + " | ".join(cells) + " |")
+    large = [r for r in chains if r["n"] >= 6]
+    for label, chosen in (("the chains", chains), ("the chains of 6+ joints", large)):
+        if len(chosen) >= 2:
+            print(f"log-log slopes over {label}: " + ", ".join(
+                f"{k} {slope(chosen, k):.2f}" for k in keys))
 
 
 if __name__ == "__main__":
