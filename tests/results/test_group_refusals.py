@@ -1,6 +1,6 @@
 """What does not take a rigid body on SO(3) yet refuses it by name, saying what it takes
 (issue 43), instead of an AttributeError from inside: the verdict's public checks, the
-accuracy target, MPC, the error estimate, the diagnostics the verdict reads, and the
+accuracy target, the error estimate, the diagnostics the verdict reads, and the
 command line's SYSTEM factory."""
 
 import numpy as np
@@ -50,13 +50,10 @@ def test_the_diagnostics_the_verdict_reads_name_the_discretization(slew):
         dmoc.diagnostics.compared_momenta(problem, result.trajectory)
 
 
-def test_accuracy_mpc_and_the_error_estimate_name_their_argument(slew):
+def test_accuracy_and_the_error_estimate_name_their_argument(slew):
     problem, result = slew
     with pytest.raises(dmoc.InputError, match="takes only options, throw, check; got accuracy"):
         dmoc.optimize(problem, accuracy=1e-3)
-    with pytest.raises(dmoc.InputTypeError, match="`problem` must be an OptimalControlProblem; "
-                                                  "got GroupOptimalControlProblem"):
-        dmoc.MPC(problem)
     with pytest.raises(dmoc.InputTypeError, match="`problem` must be an OptimalControlProblem"):
         estimate_error(problem, result)
 
