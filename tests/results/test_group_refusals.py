@@ -1,13 +1,11 @@
 """What does not take a rigid body on SO(3) yet refuses it by name, saying what it takes
 (issue 43), instead of an AttributeError from inside: the verdict's public checks, the
-accuracy target, the error estimate, the diagnostics the verdict reads, and the
-command line's SYSTEM factory."""
+accuracy target, the error estimate and the diagnostics the verdict reads."""
 
 import numpy as np
 import pytest
 
 import dmoc
-from dmoc.cli import main
 from dmoc.drivers import verdict
 from dmoc.drivers.error_estimate import estimate_error
 
@@ -56,15 +54,3 @@ def test_accuracy_and_the_error_estimate_name_their_argument(slew):
         dmoc.optimize(problem, accuracy=1e-3)
     with pytest.raises(dmoc.InputTypeError, match="`problem` must be an OptimalControlProblem"):
         estimate_error(problem, result)
-
-
-def test_the_command_line_names_a_rigid_body_factory(tmp_path, capsys):
-    (tmp_path / "bodies.py").write_text(
-        "import dmoc\n\ndef top():\n    return dmoc.systems.heavy_top((1.0, 1.2, 0.4), 1.0, "
-        "(0.0, 0.0, 0.5), 9.81)\n")
-    for command in ("simulate", "optimize"):
-        assert main([command, f"{tmp_path / 'bodies.py'}:top", "--steps", "3"]) == 2
-        err = capsys.readouterr().err
-        assert ("argument SYSTEM: the factory must return a MechanicalSystem or an "
-                "OptimalControlProblem; got RigidBody (the command line does not take rigid "
-                "bodies on SO(3) yet") in err and "Traceback" not in err
