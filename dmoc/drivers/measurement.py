@@ -32,7 +32,8 @@ class Start:
         The measurement as given (the one of v and p not given is None).
     corrected : tuple of str
         What the measurement violated and the policy corrected, among "state_bounds",
-        "holonomic" (g(q) = 0) and "velocity" (A(q) v = 0); empty when it was taken as is.
+        "holonomic" (g(q) = 0), "rotation" (R off SO(3), `GroupMeasurementPolicy`) and
+        "velocity" (A(q) v = 0); empty when it was taken as is.
     q_correction, v_correction : float
         Euclidean norms of q - q_measured and of v - v_measured (0 for a measured p), in
         the coordinates' units.

@@ -33,10 +33,14 @@ class MPC:
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem or GroupOptimalControlProblem
         The horizon (N steps of h), goal, costs and bounds; its start data are replaced by
         each measurement (as a start momentum: the problem is restated once with
-        ``with_boundary(p_start=...)``, so every step solves the same NLP structure).
+        ``with_boundary(p_start=...)``, so every step solves the same NLP structure). A
+        problem on SO(3) x R^n_x (`dmoc.drivers.group_horizon.GroupHorizon`) has its
+        NLP built once, its start (R_0, x_0, p_0) fixed by the bounds of each step; it
+        takes no `guess`, `references`, `parameters` or `jit` (`expand` has no effect:
+        its NLP is SX).
     guess : Trajectory or OptimizationResult, optional
         The first solve's guess (`optimize`); later solves start from the previous
         optimum shifted by one step.
@@ -66,7 +70,9 @@ class MPC:
         start within the box and on the constraints, in the metric of the mass matrix
         d2L/dv2 (q clipped to the box and put on g = 0, v projected onto ker A(q)); the
         record says what was corrected and by how much. "refuse": InputError naming the
-        step and each violated bound or constraint with its value.
+        step and each violated bound or constraint with its value. On the group
+        (`dmoc.drivers.group_measurement.GroupMeasurementPolicy`) a measured R off SO(3)
+        is replaced by the nearest rotation (the polar factor), recorded as "rotation".
     references : dict of str -> array_like of shape (M, k), optional
         For a tracking controller: the whole run's values of parameters of `problem` given
         per step or per knot (a planned trajectory, its controls as a feed-forward); step j
@@ -79,8 +85,9 @@ class MPC:
     ----------
     on_failure, measurement : str
         The `on_failure` and `measurement` policies.
-    problem : OptimalControlProblem
-        The problem of the last step (its start the last measurement).
+    problem : OptimalControlProblem or GroupOptimalControlProblem
+        The problem of the last step (its start the last measurement; on the group the
+        problem as given, its start in the NLP's bounds).
     plan : OptimizationResult or None
         The last optimum over the horizon (of the last step whose solve succeeded).
     log : list of MPCStep
@@ -94,7 +101,8 @@ class MPC:
     last step's repeated; the boundary blocks keep theirs. IPOPT starts from it with
     ``warm_start_init_point`` (x clipped into the new bounds: q_0 is the measurement).
     After k failed solves in a row (``on_failure="shift"``) it is the last optimum moved
-    k + 1 steps on.
+    k + 1 steps on. On the group the rotations move along the plan's own increments and
+    the plan is carried onto the measured start (`dmoc.drivers.horizon_shift.shifted_on_group`).
 
     Examples
     --------

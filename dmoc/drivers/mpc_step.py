@@ -14,7 +14,9 @@ class MPCStep:
     Attributes
     ----------
     q, p : ndarray, shape (n,)
-        The start the solve used: the measurement, or its projection (`corrected`).
+        The start the solve used: the measurement, or its projection (`corrected`). On
+        SO(3) x R^n_x q is the configuration (rows of R, then x), shape (9 + n_x,), and
+        p = (Pi, p_x), shape (3 + n_x,).
     u : ndarray, shape (len(control_nodes) * n_u,), or None
         The controls applied over the step, at the rule's control nodes; None when the
         step raised.
@@ -41,8 +43,9 @@ class MPCStep:
         The controller's measurement policy ("project").
     corrected : tuple of str
         What the measurement violated and the policy corrected, among "state_bounds",
-        "holonomic" (g(q) = 0) and "velocity" (A(q) v = 0); empty when it was used as is.
-    q_measured : ndarray, shape (n,)
+        "holonomic" (g(q) = 0), "rotation" (R off SO(3)) and "velocity" (A(q) v = 0);
+        empty when it was used as is.
+    q_measured : ndarray, shape (n,), or (9 + n_x,) on SO(3) x R^n_x
     v_measured, p_measured : ndarray, shape (n,), or None
         The measurement as given (of v and p, the one not given is None).
     q_correction, v_correction : float
