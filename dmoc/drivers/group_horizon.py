@@ -5,6 +5,8 @@ first, cold, solve's and the warm one's), each solve after the first from the pr
 optimum moved on along its own group increments (`dmoc.drivers.horizon_shift`).
 """
 
+import time
+
 import numpy as np
 
 from ..errors import InputError
@@ -54,16 +56,22 @@ class GroupHorizon:
 
     def solve(self, plan, by, start):
         """The solve from the geodesic (the first), or from `plan` moved `by` steps on
-        and carried onto the start (`shifted_on_group`), primal and dual."""
-        warm = plan is not None
+        and carried onto the start (`shifted_on_group`), primal and dual; its
+        ``stats["build_time"]`` the seconds spent creating the solver (0 when kept)."""
+        warm, tic = plan is not None, time.perf_counter()
         point = (shifted_on_group(plan, self._T, self.problem.steps, by, start.q) if warm
                  else {"x0": geodesic_guess(self.problem, self._T)})
         if warm not in self._solvers:
             self._solvers[warm] = group_solver(
                 self._T, {**DEFAULT_IPOPT_OPTIONS, **start_options(warm), **self._options})
-        return solve_with(self.problem, self._T, self._solvers[warm],
-                          {**point, "lbx": self._bounds[0], "ubx": self._bounds[1]},
-                          throw=False, warm_start=warm)
+            build_time = time.perf_counter() - tic
+        else:
+            build_time = 0.0
+        result = solve_with(self.problem, self._T, self._solvers[warm],
+                            {**point, "lbx": self._bounds[0], "ubx": self._bounds[1]},
+                            throw=False, warm_start=warm)
+        result.stats["build_time"] = build_time
+        return result
 
     def controls(self, plan, age):
         """The controls u_age of `plan`, shape (n_u,)."""

@@ -145,3 +145,31 @@ def test_the_warm_start_moves_each_rotation_by_its_increment_and_carries_the_pla
     for k in range(6):
         assert np.abs(R[k + 1] - R[k] @ cay(f[k, :3])).max() <= 1e-14
         assert np.abs(x[k + 1] - x[k] - f[k, 3:]).max() <= 1e-15
+
+
+def test_after_a_failed_solve_the_plan_is_followed_and_the_next_warm_start_moves_two_steps(monkeypatch):
+    """on_failure="shift" on the group: step 1's solve is made to fail, so its controls are
+    the step-0 plan's u_1 (plan_age 1), and step 2 starts from that plan moved 2 steps on
+    (its first knot free of the start: R_2, x_2 of the plan carried onto the measurement)."""
+    from dmoc.drivers import group_horizon
+
+    calls, real = [], group_horizon.solve_with
+
+    def failing_second(problem, T, solver, start, **keywords):
+        result = real(problem, T, solver, start, **keywords)
+        calls.append(start)
+        if len(calls) == 2:
+            result.success, result.status = False, "Maximum_Iterations_Exceeded"
+        return result
+    monkeypatch.setattr(group_horizon, "solve_with", failing_second)
+    controller = dmoc.MPC(rolling_problem(steps=6), on_failure="shift")
+    controller.step((np.eye(3), np.zeros(2)), v=np.zeros(5))
+    plan = controller.plan.trajectory
+    u = controller.step((plan.R[1], plan.x[1]), p=plan.p[1])
+    assert np.array_equal(u, plan.u[1]) and controller.log[1].plan_age == 1 and not controller.log[1].success
+    controller.step((plan.R[2], plan.x[2]), p=plan.p[2])
+    x0 = calls[2]["x0"]
+    q = x0[:11 * 7].reshape(7, 11)
+    np.testing.assert_allclose(q[:5, :9], plan.R[2:7].reshape(5, 9), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(q[:5, 9:], plan.x[2:7], rtol=0, atol=1e-15)
+    assert controller.log[2].success and controller.log[2].plan_age == 0
