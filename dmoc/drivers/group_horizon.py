@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from .._util import checks
 from ..errors import InputError
 from ..optimal_control.nlp.group_transcription import group_transcription
 from ..optimal_control.solver.group_solving import geodesic_guess, group_solver, solve_with
@@ -39,7 +40,8 @@ class GroupHorizon:
                                  f"already SX); leave it at {default!r}.")
         self.problem, self.measurement = problem, GroupMeasurementPolicy(problem, measurement)
         self._T = group_transcription(problem)
-        self._options, self._solvers = dict(options or {}), {}
+        self._options = {} if options is None else checks.ipopt_options("options", options)
+        self._solvers = {}
         self._bounds = (self._T.lbx.copy(), self._T.ubx.copy())
         layout = self._T.x_layout
         self._fixed = np.concatenate([layout.slice(name).start + np.arange(size)
