@@ -2,7 +2,8 @@
 factory returning a `RigidBody` or a `GroupOptimalControlProblem`): rotations given on the
 command line as rotation vectors (axis times angle), the run made by the public API with
 ``throw=False``, and its files written together: the RotationTrajectory (.npz), a JSON
-summary and the body's plots (`dmoc.plotting.plot_body`, `plot_body_rates`).
+summary and the body's plots (`dmoc.plotting.plot_body`, `plot_body_rates`), and with
+``--animate`` its GIF (`dmoc.animation.animate_body`).
 """
 
 import json
@@ -16,6 +17,7 @@ from ..errors import Status
 from ..mechanics.rigid_body import block_diagonal
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem, rotation_matrix
 from ..results._canvas import save_png
+from ..results.body_animation import animate_body
 from ..results.body_figure import plot_body, plot_body_rates
 from ..simulation.time_stepping import simulate
 from . import arguments, output
@@ -28,9 +30,8 @@ def run_body(args, made, prefix):
     returns the exit code."""
     _refuse(args, ("--rule", "--variant"), "its one rule is the midpoint rule on the group")
     _refuse(args, ("--heading",), "its heading is its rotation, drawn as the body's axes")
-    if args.animate:
-        raise UsageError("--animate", "is not taken for a rigid body on SO(3): it has no GIF "
-                         "yet (its plots are written with --out)")
+    if args.animate and args.out is None:
+        raise UsageError("--animate", "needs --out DIR to write the GIF into")
     out = arguments.output_folder("--out", args.out) if args.out is not None else None
     run = _simulated if args.command == "simulate" else _optimized
     summary, result = run(args, made)
@@ -134,15 +135,20 @@ def _stated_problem(args, body):
 
 def _written(stage, prefix, traj, summary, args):
     """Write the trajectory, the summary and, unless --no-plots or after a Ctrl-C, the
-    body's plots (its frames in space for x of 0, 2 or 3 entries) into `stage`; return
-    their paths."""
+    body's plots (its frames in space for x of 0, 2 or 3 entries) and with --animate its
+    GIF into `stage`; return their paths."""
     written = [stage / f"{prefix}.npz", stage / f"{prefix}_summary.json"]
     traj.save(written[0])
     write_text(written[1], json.dumps({k: output.json_value(v) for k, v in summary.items()},
                                       indent=2) + "\n")
-    if args.no_plots or summary["status"] == Status.INTERRUPTED or not np.isfinite(traj.q).all():
+    if summary["status"] == Status.INTERRUPTED or not np.isfinite(traj.q).all():
         return written
-    if traj.x.shape[1] in (0, 2, 3):
+    drawable = traj.x.shape[1] in (0, 2, 3)
+    if args.animate and drawable:
+        written.append(animate_body(traj, stage / f"{prefix}.gif", title=prefix))
+    if args.no_plots:
+        return written
+    if drawable:
         written.append(stage / f"{prefix}_path.png")
         save_png(plot_body(traj, title=f"{prefix}: the body"), written[-1])
     if traj.steps:

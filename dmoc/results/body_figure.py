@@ -31,6 +31,31 @@ def positions_3d(traj):
     return np.hstack([traj.x, np.zeros((traj.steps + 1, 3 - n_x))])
 
 
+def body_axes(traj, knots, length):
+    """The segments of the body's axes at `knots` (K,): from x_k to x_k + length R_k e_i,
+    shape (K, 3, 2, 3) (knot, axis i, end, coordinate), x_k in space (`positions_3d`)."""
+    x = positions_3d(traj)[knots]
+    tips = x[:, None, :] + length * np.transpose(traj.R[knots], (0, 2, 1))     # row i: R_k e_i
+    return np.stack([np.broadcast_to(x[:, None, :], tips.shape), tips], axis=2)
+
+
+def axes_length(traj, length):
+    """`length` checked, or by default a quarter of the extent of the path of x (1
+    without a motion)."""
+    if length is not None:
+        return checks.positive_float("length", length)
+    x = positions_3d(traj)
+    extent = float((x.max(axis=0) - x.min(axis=0)).max())
+    return 0.25 * extent if extent > 0 else 1.0
+
+
+def cube_limits(points):
+    """Equal limits on x, y and z holding `points` (K, 3): ((x0, x1), (y0, y1), (z0, z1))."""
+    low, high = points.min(axis=0), points.max(axis=0)
+    middle, half = (low + high) / 2, max((high - low).max() / 2, 1e-9)
+    return tuple((m - half, m + half) for m in middle)
+
+
 def plot_body(traj, *, frames=5, length=None, title=None):
     """The path of a body's position in 3-D with its frame drawn as three axes at `frames`
     knots: from x_k, the segments to x_k + length R_k e_i, i = 1, 2, 3 (red, green, blue;
@@ -58,27 +83,22 @@ def plot_body(traj, *, frames=5, length=None, title=None):
 
     checks.instance("traj", traj, RotationTrajectory, "a RotationTrajectory")
     frames = checks.positive_int("frames", frames)
-    x = positions_3d(traj)
-    extent = float((x.max(axis=0) - x.min(axis=0)).max())
-    length = (0.25 * extent if extent > 0 else 1.0) if length is None else checks.positive_float("length", length)
+    x, length = positions_3d(traj), axes_length(traj, length)
     fig = Figure(figsize=(6.4, 5.2), dpi=DPI)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(projection="3d")
     if traj.x.shape[1]:
         ax.plot(*x.T, color="0.3", lw=1.2, label="path of x")
     shown = frame_knots(traj.steps, frames)
+    segments = body_axes(traj, shown, length)
     for order, k in enumerate(shown):
         alpha = 0.3 + 0.7 * (order + 1) / len(shown)
         for i, color in enumerate(AXIS_COLORS):
-            tip = x[k] + length * traj.R[k][:, i]
-            line, = ax.plot(*np.array([x[k], tip]).T, color=color, alpha=alpha, lw=2,
+            line, = ax.plot(*segments[order, i].T, color=color, alpha=alpha, lw=2,
                             label=f"body axis e{i + 1}" if order == len(shown) - 1 else None)
             line.set_gid(f"axis {i} at knot {k}")
-    ends = np.vstack([x, x[shown] + length, x[shown] - length])
-    low, high = ends.min(axis=0), ends.max(axis=0)
-    middle, half = (low + high) / 2, (high - low).max() / 2
-    ax.set(xlim=(middle[0] - half, middle[0] + half), ylim=(middle[1] - half, middle[1] + half),
-           zlim=(middle[2] - half, middle[2] + half), xlabel="x", ylabel="y", zlabel="z")
+    limits = cube_limits(np.vstack([x, x[shown] + length, x[shown] - length]))
+    ax.set(xlim=limits[0], ylim=limits[1], zlim=limits[2], xlabel="x", ylabel="y", zlabel="z")
     ax.set_box_aspect((1, 1, 1))
     ax.legend(fontsize="small", loc="upper left")
     ax.set_title(title or f"the body at {len(shown)} knots from t = {traj.t[0]:.3g} to {traj.t[-1]:.3g}")

@@ -4,12 +4,13 @@ GroupOptimalControlProblem (``dmoc optimize``), through the real entry point. Or
 written here: the start rotation of --start from scipy's rotation vector, the rolling
 x_{k+1} - x_k = r P((R_k f_k) x e3) with f_k the Cayley coordinates of R_k^T R_{k+1}, the
 goal as the factory states it, |R^T R - I| of every knot, and the summary against the
-written trajectory."""
+written trajectory; with --animate a GIF of one frame per knot."""
 
 import json
 
 import numpy as np
 import pytest
+from PIL import Image
 from scipy.spatial.transform import Rotation
 
 import dmoc
@@ -69,7 +70,10 @@ def test_simulate_rolls_a_ball_from_a_rotation_vector_start(bodies, capsys):
 def test_optimize_rolls_the_ball_to_its_goal_from_a_problem_or_a_body(bodies, command):
     out = bodies / command[0]
     assert main(["optimize", f"{bodies / 'bodies.py'}:{command[0]}", *command[1:], "--no-plots",
-                 "--out", str(out)]) == 0
+                 "--animate", "--out", str(out)]) == 0
+    with Image.open(out / f"{command[0]}.gif") as gif:           # --animate: the GIF alone
+        assert gif.n_frames == 7
+    assert not (out / f"{command[0]}_path.png").exists()
     traj = dmoc.RotationTrajectory.load(out / f"{command[0]}.npz")
     assert np.abs(traj.R[-1] - GOAL).max() <= 1e-10 and np.abs(traj.x[-1] - [1.0, 0.5]).max() <= 1e-10
     assert np.abs(np.diff(traj.x, axis=0) - rolled(traj)).max() <= 1e-10
@@ -82,7 +86,7 @@ def test_optimize_rolls_the_ball_to_its_goal_from_a_problem_or_a_body(bodies, co
 @pytest.mark.parametrize("command, message", [
     (["simulate", "ball", "--rule", "lobatto3"], "argument --rule: is not taken for a rigid body on SO(3)"),
     (["simulate", "ball", "--controls", "u.npy"], "argument --controls: is not taken for a rigid body"),
-    (["simulate", "ball", "--animate", "--out", "x"], "argument --animate: is not taken for a rigid body"),
+    (["simulate", "ball", "--animate"], "argument --animate: needs --out DIR"),
     (["optimize", "roll", "--steps", "4"], "argument --steps: is stated by the problem"),
     (["optimize", "ball"], "argument --goal: is required for a rigid body"),
     (["optimize", "ball", "--goal", "0,0,1"], "argument --goal: must have 5 entries (phi1, phi2, phi3, x1, x2)"),

@@ -64,3 +64,23 @@ def test_bad_arguments_are_refused_by_name(roll):
         dmoc.plotting.plot_body(roll, length=-1.0)
     with pytest.raises(InputError, match="`control_names` must be 3 strings"):
         dmoc.plotting.plot_body_rates(roll, control_names=["only one"])
+
+
+def test_the_gif_has_a_frame_per_chosen_knot_and_the_body_moves(roll, tmp_path):
+    """`dmoc.animation.animate_body`: one frame per knot of `frame_knots` (3 of 9 knots),
+    the frames differ as the body turns and rolls, and the axes it draws are those of
+    `plot_body` (the same `body_axes`, checked above against R_k and x_k)."""
+    from PIL import Image
+
+    path = dmoc.animation.animate_body(roll, tmp_path / "roll.gif", frames=3, length=0.2)
+    with Image.open(path) as gif:
+        assert gif.n_frames == 3
+        shown = []
+        for i in range(3):
+            gif.seek(i)
+            shown.append(np.asarray(gif.convert("RGB"), dtype=int))
+    assert all(np.abs(a - b).sum() > 0 for a, b in zip(shown[:-1], shown[1:]))
+    with pytest.raises(InputTypeError, match="`traj` must be a RotationTrajectory"):
+        dmoc.animation.animate_body(roll.q, tmp_path / "x.gif")
+    with pytest.raises(InputError, match="`frames`"):
+        dmoc.animation.animate_body(roll, tmp_path / "x.gif", frames=0)
