@@ -173,3 +173,33 @@ def test_after_a_failed_solve_the_plan_is_followed_and_the_next_warm_start_moves
     np.testing.assert_allclose(q[:5, :9], plan.R[2:7].reshape(5, 9), rtol=0, atol=1e-15)
     np.testing.assert_allclose(q[:5, 9:], plan.x[2:7], rtol=0, atol=1e-15)
     assert controller.log[2].success and controller.log[2].plan_age == 0
+
+
+def test_a_spacecraft_slewed_on_a_finer_heavier_plant_ends_on_the_eigenaxis_goal():
+    """A body with a fixed point (n_x = 0; q is R alone): a spacecraft with I = 2 slewed by
+    1 rad about (1, 2, 2)/3 over a 2 s horizon of h = 0.2 s, the plant I = 2.3 stepped by
+    `dmoc.simulate` with its own h/4 (each control held over 4 of its steps), R measured
+    with noise and p exactly: after 40 steps the plant is within 1e-3 rad of the goal and
+    at rest to 1e-3 rad/s (the terminal constraint recedes with the horizon, so the loop
+    closes slowly: 1.3e-3 rad and 2.8e-3 rad/s after 25 steps), where the first plan run
+    open loop on the plant stops short by more than 0.05 rad; every start a rotation of 9
+    entries. A wrong shape names R."""
+    axis, I = np.array([1.0, 2.0, 2.0]) / 3, 2.0
+    goal = Rotation.from_rotvec(axis).as_matrix()
+    slew = dmoc.GroupOptimalControlProblem(dmoc.discretize(dmoc.systems.spacecraft((I, I, I)), 0.2), 10,
+                                           R_start=np.eye(3), R_goal=goal)
+    plant = dmoc.discretize(dmoc.systems.spacecraft((1.15 * I,) * 3), 0.05)
+    controller, rng = dmoc.MPC(slew), np.random.default_rng(7)
+    R, Pi = np.eye(3), np.zeros(3)
+    for _ in range(40):
+        u = controller.step(R + 1e-5 * rng.normal(size=(3, 3)), p=Pi)
+        run = dmoc.simulate(plant, q0=R, p0=Pi, steps=4, controls=np.repeat(u[None], 4, axis=0)).trajectory
+        R, Pi = run.R[-1], run.Pi[-1]
+    assert all(s.success and s.q.shape == (9,) and s.corrected == ("rotation",) for s in controller.log)
+    assert np.linalg.norm(Rotation.from_matrix(goal.T @ R).as_rotvec()) <= 1e-3
+    assert np.abs(Pi / (1.15 * I)).max() <= 1e-3
+    open_loop = dmoc.simulate(plant, q0=np.eye(3), p0=np.zeros(3), steps=40,
+                              controls=np.repeat(dmoc.optimize(slew).trajectory.u, 4, axis=0)).trajectory
+    assert np.linalg.norm(Rotation.from_matrix(goal.T @ open_loop.R[-1]).as_rotvec()) > 0.05
+    with pytest.raises(InputError, match=r"MPC step 40: `q` must have shape \(3, 3\)"):
+        controller.step(R.ravel(), p=Pi)
