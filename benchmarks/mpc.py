@@ -27,6 +27,12 @@ which one uncounted warmed-up process compiles the library first: the seconds it
 spent creating the solver (compiling and loading) are reported as the compile time, and
 every timed process finds the library in the cache (its step 0 loads it).
 
+With `--sphere` every checkout whose `dmoc.MPC` takes a `GroupOptimalControlProblem` also
+runs the Chaplygin sphere rolled to a quarter turn at (1, 0.5) over a horizon of
+`--horizon` steps of h = 0.2 s ("sphere" rows, issue 43), the plant the model itself (each
+step starts from the plan's knot 1: a rolling plant cannot restart `dmoc.simulate` from a
+momentum), a kick of 0.3 on Omega at step 10.
+
 With `--tracking` every checkout whose `dmoc.MPC` takes `references` also runs a tracking
 controller ("tracking" rows): the plan of knife-edge parking over 4 s (N = 40, solved
 before the clock starts) followed over the same horizon by a problem whose running and
@@ -34,7 +40,7 @@ terminal costs read the plan's configurations and controls as parameters per kno
 step, `dmoc.MPC(problem, references=...)` moving their windows on at every step (new
 entries of p, no new NLP), the plant and kick as above.
 
-    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3] [--mx] [--jit] [--tracking]
+    python benchmarks/mpc.py [--horizon 30] [--steps 40] [--repeat 3] [--mx] [--jit] [--tracking] [--sphere]
     python benchmarks/mpc.py --checkouts /work/main /path/to/branch     # before/after
 """
 
@@ -57,7 +63,7 @@ from dmoc.problems import knife_edge_parking  # noqa: E402
 from resolve import add_checkouts, imported_dmoc  # noqa: E402
 
 
-SWITCHES = {"default": {}, "mx": {"expand": False}, "jit": {"jit": True}, "tracking": {}}
+SWITCHES = {"default": {}, "mx": {"expand": False}, "jit": {"jit": True}, "tracking": {}, "sphere": {}}
 
 
 def controlled(horizon, mode):
@@ -77,9 +83,37 @@ def controlled(horizon, mode):
     return problem, {"references": {"q_ref": plan.q, "u_ref": np.vstack([plan.u, np.zeros((1, 2))])}}
 
 
+def rolled_sphere(horizon, steps, warm_up):
+    """The per-step records of the sphere's closed loop (`--sphere`), as `closed_loop`."""
+    from scipy.spatial.transform import Rotation
+    if warm_up:
+        dmoc.optimize(knife_edge_parking(20))
+        dmoc.clear_caches()
+    ball = dmoc.systems.chaplygin_sphere((1.0, 1.5, 2.5), 1.3, 0.7, torques=True)
+    problem = dmoc.GroupOptimalControlProblem(
+        dmoc.discretize(ball, 0.2), horizon, R_start=np.eye(3), x_start=[0, 0], x_goal=[1.0, 0.5],
+        R_goal=Rotation.from_rotvec([0, 0, np.pi / 2]).as_matrix())
+    wall, cpu = time.perf_counter(), time.process_time()
+    controller = dmoc.MPC(problem)
+    build = {"step": time.perf_counter() - wall, "cpu": time.process_time() - cpu}
+    q, p, cpu = (np.eye(3), np.zeros(2)), np.zeros(5), []
+    for k in range(steps):
+        tic = time.process_time()
+        controller.step(q, p=p)
+        cpu.append(time.process_time() - tic)
+        if k == 0:
+            build["solver"] = controller.plan.stats["build_time"]
+        traj = controller.plan.trajectory
+        q, p = (traj.R[1], traj.x[1]), traj.p[1] + (0.3 * np.array([1.0, 0, 0, 0, 0]) if k == 10 else 0)
+    return build, [{"step": r.step_time, "cpu": c, "ipopt": r.solve_time, "iterations": r.iterations,
+                    "status": r.status, "warm": r.warm_start} for r, c in zip(controller.log, cpu)]
+
+
 def closed_loop(horizon, steps, warm_up, mode="default"):
     """The per-step records (dicts) of one closed loop, in this process; `mode` a key of
     SWITCHES (the keywords of `dmoc.MPC`)."""
+    if mode == "sphere":
+        return rolled_sphere(horizon, steps, warm_up)
     if warm_up:
         dmoc.optimize(knife_edge_parking(20))       # load IPOPT and the plugins
         dmoc.clear_caches()
@@ -155,8 +189,11 @@ def medians(processes):
 
 
 def takes(checkout, switch):
-    """Whether the `dmoc.MPC` of `checkout` takes the keyword `switch`."""
-    code = f"import inspect, dmoc; print({switch!r} in inspect.signature(dmoc.MPC).parameters)"
+    """Whether the `dmoc.MPC` of `checkout` takes the keyword `switch` (for "group": a
+    problem on SO(3), its module `dmoc.drivers.group_horizon`)."""
+    code = (f"import inspect, dmoc; print({switch!r} in inspect.signature(dmoc.MPC).parameters)"
+            if switch != "group" else
+            "import importlib.util as u; print(u.find_spec('dmoc.drivers.group_horizon') is not None)")
     return subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": checkout},
                           cwd=tempfile.gettempdir(), capture_output=True, text=True,
                           check=True).stdout.strip() == "True"
@@ -173,6 +210,8 @@ def main(argv=None):
                         help="also run dmoc.MPC(problem, expand=False) (the MX graph)")
     parser.add_argument("--tracking", action="store_true",
                         help="also run a tracking controller (references moved at every step)")
+    parser.add_argument("--sphere", action="store_true",
+                        help="also run the Chaplygin sphere's controller (on SO(3) x R^2)")
     parser.add_argument("--child", choices=("warmed-up", "fresh"), help=argparse.SUPPRESS)
     parser.add_argument("--mode", choices=SWITCHES, default="default", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -189,7 +228,8 @@ def main(argv=None):
     print(f"# knife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps\n")
     variants = [(c, "default") for c in args.checkouts]
     variants += [(c, mode) for mode, switch, wanted in (("mx", "expand", args.mx), ("jit", "jit", args.jit),
-                                                        ("tracking", "references", args.tracking))
+                                                        ("tracking", "references", args.tracking),
+                                                        ("sphere", "group", args.sphere))
                  for c in args.checkouts if wanted and takes(c, switch)]
     for checkout, mode in variants:
         if mode == "jit":

@@ -23,7 +23,7 @@ SMALLEST = {
     "accuracy": ["--smallest"],
     "batch": ["--count", "8", "--sim-steps", "20", "--repeat", "1"],
     "dmoc_vs_collocation": ["--smallest"],
-    "mpc": ["--horizon", "10", "--steps", "3", "--repeat", "1", "--tracking"],
+    "mpc": ["--horizon", "10", "--steps", "3", "--repeat", "1", "--tracking", "--sphere"],
     "peers": ["first", "--smallest"],
     "resolve": ["--smallest", "--sensitivities"],
     "robots": ["--smallest"],

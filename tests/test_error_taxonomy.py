@@ -80,6 +80,27 @@ def _stepped(controller):
     return controller
 
 
+def sphere_roll():
+    """The Chaplygin sphere (r = 1) rolled from rest at (I, 0) along e1 by 1 m in 4 steps,
+    turning 1 rad about e2."""
+    disc = dmoc.discretize(dmoc.systems.chaplygin_sphere(torques=True), 0.25)
+    turned = np.array([[np.cos(1.0), 0.0, np.sin(1.0)], [0.0, 1.0, 0.0], [-np.sin(1.0), 0.0, np.cos(1.0)]])
+    return dmoc.GroupOptimalControlProblem(disc, 4, R_start=np.eye(3), R_goal=turned,
+                                           x_start=[0.0, 0.0], x_goal=[1.0, 0.0])
+
+
+def _rolled(controller):
+    """`controller` (of `sphere_roll`) after one step from its start at rest."""
+    controller.step((np.eye(3), [0.0, 0.0]), v=[0.0] * 5)
+    return controller
+
+
+def _nan_rotation():
+    R = np.eye(3)
+    R[1, 2] = np.nan
+    return R
+
+
 def trajectory(**changes):
     """Trajectory(...) of 2 steps, n = 1, with some fields replaced."""
     kwargs = dict(t=[0.0, 0.5, 1.0], q=[[0.0], [1.0], [2.0]], p=[[0.0]] * 3, lam=[[], []],
@@ -399,6 +420,15 @@ API_ROWS = [
      r"MPC step 1: .*q\[1\] \(y\) = 1.002 > its upper bound 1\b"),
     ("MPC(problem, measurement='clip')", lambda c: dmoc.MPC(problem(c), measurement="clip"), ValueError,
      "`measurement` must be one of 'project', 'refuse'; got 'clip'"),
+    ("MPC(group_problem).step((R, x), v=v) with a NaN in R",
+     lambda c: _rolled(dmoc.MPC(sphere_roll())).step((_nan_rotation(), [0.0, 0.0]), v=[0.0] * 5),
+     ValueError, r"MPC step 1: `q\[0\] \(R\)` must be finite; entry \(1, 2\) is nan"),
+    ("MPC(group_problem, measurement='refuse').step((R, x), v=v) with R off SO(3)",
+     lambda c: dmoc.MPC(sphere_roll(), measurement="refuse").step((np.diag([1.001, 1.0, 1.0]), [0.0, 0.0]),
+                                                                   v=[0.0] * 5),
+     ValueError, r"MPC step 0: .*rotation: \|R\^T R - I\| = 2\.001e-03"),
+    ("MPC(group_problem, guess=...)", lambda c: dmoc.MPC(sphere_roll(), guess=c.traj), ValueError,
+     "`guess` is not taken by MPC of a GroupOptimalControlProblem"),
     ("optimize_to_accuracy(problem, 0.0)", lambda c: optimize_to_accuracy(problem(c), 0.0), ValueError,
      "`accuracy` must be finite and positive"),
     ("optimize_to_accuracy(problem, 1.5)", lambda c: optimize_to_accuracy(problem(c), 1.5), ValueError,

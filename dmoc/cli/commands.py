@@ -5,9 +5,6 @@ exit code: 0 on success, 1 when the solver failed or its optimum failed the verd
 (`dmoc.drivers.verdict`), 130 when a Ctrl-C stopped it (what was computed is still written).
 """
 
-import contextlib
-import re
-import sys
 import time
 
 import numpy as np
@@ -16,53 +13,37 @@ from ..results import diagnostics
 from ..discrete import discretize
 from ..errors import Status
 from ..principle import step_residual
+from ..mechanics.rigid_body import RigidBody
+from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..optimal_control.statement.problem import OptimalControlProblem
+from .body_commands import run_body
 from ..drivers.optimum import optimize
 from ..simulation.time_stepping import simulate
-from .._util.files import staged_run
 from . import arguments, output, registry
 from .arguments import UsageError
+from .runs import log, options_named, refuse_stated, report, run_name, staged_files
 
 
-def log(message):
-    """Progress on stderr, so stdout keeps only the results."""
-    print(f"dmoc: {message}", file=sys.stderr, flush=True)
-
-
-@contextlib.contextmanager
-def options_named(mapping):
-    """Turn a ValueError/TypeError of the library into a UsageError naming the CLI option
-    that fed the argument the library names (its message quotes it in backticks)."""
-    try:
-        yield
-    except (ValueError, TypeError) as err:
-        message = str(err).splitlines()[0].rstrip(".")
-        quoted = re.search(r"`([^`]+)`", message)
-        name = quoted.group(1) if quoted else None
-        raise UsageError(mapping.get(name, "SYSTEM"), message) from None
-
-
-def _setup(args):
+def _setup(args, spec, made):
     """(spec, the factory's system or problem, its system, output folder or None, file
-    prefix) from the common options."""
-    spec = registry.resolve(args.system)
-    made = registry.build(spec, arguments.params(args.param))
+    prefix) from the common options, for the `made` of `spec` (`_built`)."""
     system = made.disc.system if isinstance(made, OptimalControlProblem) else made
     spec = registry.with_heading(spec, args.heading, system.names)
     if args.animate and args.out is None:
         raise UsageError("--animate", "needs --out DIR to write the GIF into")
     out = arguments.output_folder("--out", args.out) if args.out is not None else None
-    prefix = re.sub(r"\W+", "_", args.system.rpartition(":")[2] or args.system)
-    return spec, made, system, out, prefix
+    return spec, made, system, out, run_name(args)
 
 
-def _refuse_stated(args, options):
-    """A problem from a file states its discretization, final time and bounds: the
-    `options` that would change them are refused, naming the way to change them."""
-    for option in options:
-        if getattr(args, option[2:].replace("-", "_")) is not None:
-            raise UsageError(option, f"is stated by the problem that {args.system} returns; "
-                             f"change it there (its factory's parameters are --param NAME=VALUE)")
+def _built(args):
+    """(spec, what its factory made: a system or a problem, on R^n or on SO(3))."""
+    spec = registry.resolve(args.system)
+    return spec, registry.build(spec, arguments.params(args.param))
+
+
+def _on_group(made):
+    """Whether `made` is a rigid body on SO(3) or its problem (`body_commands`)."""
+    return isinstance(made, (RigidBody, GroupOptimalControlProblem))
 
 
 def _default(option, value, spec_value, names, *, free=False):
@@ -78,43 +59,14 @@ def _with_none(q):
     return None if q is None else [None if np.isnan(x) else float(x) for x in q]
 
 
-def _report(summary, success, status, message, files):
-    width = max(map(len, summary))
-    for key, value in summary.items():
-        shown = f"{value:.6g}" if isinstance(value, float) else value
-        print(f"{key:{width}s}  {shown}")
-    for path in files:
-        print(f"wrote {path}")
-    if status == Status.INTERRUPTED:
-        done = "wrote what was computed, without plots" if files else "nothing written (no --out)"
-        log(f"{message.partition(';')[0].rstrip('.')}; {done}")
-        return 130
-    if not success:
-        log(f"solver failed ({status}): {message}")
-    return 0 if success else 1
-
-
-
-
 def _write(out, prefix, disc, traj, summary, spec, goal, args, problem=None):
     """Write the run's files into `out` together, or none of them (an earlier run's set
     stays whole); an interrupted run's without plots and GIF, so that it ends at once."""
-    if out is None:
-        return []
     finished = summary["status"] != Status.INTERRUPTED
-    try:
-        with staged_run(out, prefix, output.run_files(prefix)) as stage:
-            written = output.write_all(stage, prefix, disc, traj, summary, spec,
-                                       names=disc.system.names,
-                                       control_names=spec.control_labels(disc.system), goal=goal,
-                                       gif=args.animate and finished,
-                                       plots=finished and not args.no_plots, problem=problem,
-                                       progress=log)
-    except OSError as err:  # disk full, file-size limit, folder removed
-        raise UsageError("--out", f"writing into {str(out)!r} failed: {err.strerror or err}; "
-                         f"nothing there was changed (an earlier run's files are as they "
-                         f"were, none of this run's was written)") from None
-    return [out / path.name for path in written]
+    return staged_files(out, prefix, lambda stage: output.write_all(
+        stage, prefix, disc, traj, summary, spec, names=disc.system.names,
+        control_names=spec.control_labels(disc.system), goal=goal, gif=args.animate and finished,
+        plots=finished and not args.no_plots, problem=problem, progress=log))
 
 
 def _discretization(system, rule, variant, h):
@@ -164,10 +116,13 @@ def _simulated_start(args, spec, problem, recorded, names):
 
 def run_simulate(args):
     """``dmoc simulate SYSTEM``; returns the exit code."""
-    spec, made, system, out, prefix = _setup(args)
+    spec, made = _built(args)
+    if _on_group(made):
+        return run_body(args, made, run_name(args))
+    spec, made, system, out, prefix = _setup(args, spec, made)
     problem = made if isinstance(made, OptimalControlProblem) else None
     if problem is not None:
-        _refuse_stated(args, ("--rule", "--variant"))
+        refuse_stated(args, ("--rule", "--variant"))
     variant = problem.variant if problem else args.variant or "+"
     recorded = (arguments.load_controls(args.controls, system.names, system.n_u)
                 if args.controls else None)
@@ -191,7 +146,7 @@ def run_simulate(args):
                "energy_drift": output.energy_drift(disc, traj),
                "max_residual": result.stats["max_residual"]}
     files = _write(out, prefix, disc, traj, summary, spec, None, args)
-    return _report(summary, result.success, result.status, result.message, files)
+    return report(summary, result.success, result.status, result.message, files)
 
 
 def _bounds(args, option, names):
@@ -230,7 +185,7 @@ def _stated_problem(args, spec, system):
 def _given_problem(args, problem):
     """The problem a file's factory returned, with the boundary data of --start, --goal
     and --velocity."""
-    _refuse_stated(args, ("--steps", "--rule", "--variant", "--duration", "--free-time",
+    refuse_stated(args, ("--steps", "--rule", "--variant", "--duration", "--free-time",
                           "--control-min", "--control-max", "--state-min", "--state-max",
                           "--velocity-min", "--velocity-max"))
     names = problem.disc.system.names
@@ -244,7 +199,10 @@ def _given_problem(args, problem):
 
 def run_optimize(args):
     """``dmoc optimize SYSTEM``; returns the exit code."""
-    spec, made, system, out, prefix = _setup(args)
+    spec, made = _built(args)
+    if _on_group(made):
+        return run_body(args, made, run_name(args))
+    spec, made, system, out, prefix = _setup(args, spec, made)
     problem = (_given_problem(args, made) if isinstance(made, OptimalControlProblem)
                else _stated_problem(args, spec, system))
     options = {"max_iter": args.max_iter, "print_level": 5 if args.verbose else 0}
@@ -263,7 +221,7 @@ def run_optimize(args):
     if result.verdict is not None:      # what the checks found, why a converged run failed
         summary.update(verdict=result.verdict.status, message=result.message)
     files = _write(out, prefix, problem.disc, traj, summary, spec, problem.q_goal, args, problem)
-    return _report(summary, result.success, result.status, result.message, files)
+    return report(summary, result.success, result.status, result.message, files)
 
 
 def _time_span(problem):

@@ -77,7 +77,7 @@ def write_table(file, header, table, progress, shown):
             progress(f"writing {shown}: {min(start + BLOCK, len(table))} of {len(table)} rows")
 
 
-def _json_value(value):
+def json_value(value):
     """JSON-safe values: non-finite floats become null (strict JSON has no inf or NaN)."""
     if isinstance(value, (float, np.floating)):
         return float(value) if math.isfinite(value) else None
@@ -111,7 +111,7 @@ def write_all(out, name, disc, traj, summary, spec, *, names, control_names, goa
     header, table = csv_columns(traj, names, control_names)
     with atomic_write(written[1], "w") as file:
         write_table(file, header, table, progress, f"{name}.csv")
-    write_text(written[2], json.dumps({k: _json_value(v) for k, v in summary.items()},
+    write_text(written[2], json.dumps({k: json_value(v) for k, v in summary.items()},
                                       indent=2) + "\n")
     if not np.isfinite(traj.q).all():
         return written

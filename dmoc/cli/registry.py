@@ -28,8 +28,8 @@ class SystemSpec:
     Attributes
     ----------
     factory : callable
-        Keyword parameters -> MechanicalSystem (the built-ins), or OptimalControlProblem
-        (a file's factory may return either).
+        Keyword parameters -> MechanicalSystem (the built-ins); a file's factory may
+        return an OptimalControlProblem, a RigidBody or a GroupOptimalControlProblem too.
     summary : str
         One line for ``dmoc systems``.
     start, velocity, goal : tuple of float or None
@@ -141,7 +141,8 @@ def _beside(path):
 
 def build(spec, params):
     """Call the factory of `spec` with the ``--param`` values; check that it gives a
-    MechanicalSystem or an OptimalControlProblem, and return that."""
+    MechanicalSystem or an OptimalControlProblem, or a RigidBody or a
+    GroupOptimalControlProblem on SO(3), and return that."""
     known = spec.parameters()
     for key in params:
         if key not in known and not spec.takes_any_parameter():
@@ -175,16 +176,13 @@ def _made(spec, params):
                          f"to return {_RETURNS}") from None
     except Exception as err:  # the user's factory: say what broke, in one line
         raise UsageError("SYSTEM", f"the factory raised {type(err).__name__}: {err}") from None
-    if not isinstance(made, (MechanicalSystem, OptimalControlProblem)):
-        on_group = isinstance(made, (RigidBody, GroupOptimalControlProblem))
-        raise UsageError("SYSTEM", f"the factory must return {_RETURNS}; got "
-                         f"{type(made).__name__}" + (_NOT_ON_GROUP if on_group else ""))
+    if not isinstance(made, (MechanicalSystem, OptimalControlProblem, RigidBody, GroupOptimalControlProblem)):
+        raise UsageError("SYSTEM", f"the factory must return {_RETURNS}; got {type(made).__name__}")
     return made
 
 
-_RETURNS = "a MechanicalSystem or an OptimalControlProblem"
-_NOT_ON_GROUP = (" (the command line does not take rigid bodies on SO(3) yet: simulate and "
-                 "optimize them from Python, docs/rigid_bodies.md)")
+_RETURNS = ("a MechanicalSystem, an OptimalControlProblem, a RigidBody or a "
+            "GroupOptimalControlProblem")
 
 
 def describe():
@@ -200,7 +198,8 @@ def describe():
                   f"  defaults: --start {','.join(f'{s:g}' for s in spec.start)} "
                   f"--velocity {','.join(f'{s:g}' for s in spec.velocity)} --goal {goal}", ""]
     lines.append("Your own system or problem: SYSTEM = path/to/file.py:factory, a function "
-                 "returning a dmoc.MechanicalSystem or a dmoc.OptimalControlProblem (its keyword "
+                 "returning a dmoc.MechanicalSystem or a dmoc.OptimalControlProblem, or a "
+                 "dmoc.RigidBody or a dmoc.GroupOptimalControlProblem on SO(3) (its keyword "
                  "arguments become --param names); the file is imported, which runs it.")
     return "\n".join(lines)
 

@@ -32,7 +32,8 @@ class Start:
         The measurement as given (the one of v and p not given is None).
     corrected : tuple of str
         What the measurement violated and the policy corrected, among "state_bounds",
-        "holonomic" (g(q) = 0) and "velocity" (A(q) v = 0); empty when it was taken as is.
+        "holonomic" (g(q) = 0), "rotation" (R off SO(3), `GroupMeasurementPolicy`) and
+        "velocity" (A(q) v = 0); empty when it was taken as is.
     q_correction, v_correction : float
         Euclidean norms of q - q_measured and of v - v_measured (0 for a measured p), in
         the coordinates' units.
@@ -109,7 +110,7 @@ class MeasurementPolicy:
         if v is not None and self._mass is None:
             raise InputError(f"MPC step {step}: give the measured momentum `p` for a "
                              f"HamiltonianSystem: `v` would need the inverse of v = dH/dp.")
-        q_m, v_m, p_m = (None if x is None else _measured(step, name, x, n)
+        q_m, v_m, p_m = (None if x is None else measured(step, name, x, (n,))
                          for name, x in (("q", q), ("v", v), ("p", p)))
         violations = self._configuration_violations(q_m)
         if violations:
@@ -122,7 +123,7 @@ class MeasurementPolicy:
             if off > constraint_violation_tolerance(float(np.abs(v_m).max())):
                 self._refuse(step, {"velocity": [f"max abs(A(q) v) = {off:.3e} (allowed: 0, "
                                                  f"v in ker A(q))"]})
-                v, corrected = self._velocity(q, v_m, A), corrected + ("velocity",)
+                v, corrected = projected_velocity(self._metric(q, v_m), A, v_m), corrected + ("velocity",)
             p = numeric(system, "momentum")(q, v)[0].ravel()
         return Start(q, p_m if v_m is None else p, q_m, v_m, p_m, corrected,
                      float(np.linalg.norm(q - q_m)),
@@ -146,12 +147,8 @@ class MeasurementPolicy:
 
     def _refuse(self, step, violations):
         """Raise the InputError of policy "refuse" for `violations` ({what: [words]});
-        nothing under "project"."""
-        if self.policy == "refuse":
-            listed = "; ".join(f"{what}: {', '.join(words)}" for what, words in violations.items())
-            raise InputError(f"MPC step {step}: the measurement is outside the box or off the "
-                             f"constraints ({listed}); with measurement='refuse' it is not "
-                             f"used (measurement='project' projects it).")
+        nothing under "project" (`refuse`)."""
+        refuse(self.policy, step, violations)
 
     def _metric(self, q, v):
         """M(q, v) = d2L/dv2, shape (n, n), or the identity where it is not positive
@@ -207,16 +204,29 @@ class MeasurementPolicy:
                          f"g(q) = 0 with the entries `state_bounds` leaves free (the "
                          f"closest-point iteration fails from there).")
 
-    def _velocity(self, q, v_m, A):
-        """The M-orthogonal projection of v_m onto ker A, shape (n,)."""
-        W_inv_AT = np.linalg.solve(self._metric(q, v_m), A.T)
-        return v_m - W_inv_AT @ np.linalg.solve(A @ W_inv_AT, A @ v_m)
 
 
-def _measured(step, name, value, n):
-    """The measured `name` as a float array (n,), or the InputError naming the step and
-    the entry that is wrong (shape, NaN or infinite)."""
+def refuse(policy, step, violations):
+    """Raise, under `policy` "refuse", the InputError of controller step `step` listing
+    `violations` ({what: [each violation in words]}); nothing under "project"."""
+    if policy == "refuse":
+        listed = "; ".join(f"{what}: {', '.join(words)}" for what, words in violations.items())
+        raise InputError(f"MPC step {step}: the measurement is outside the box or off the "
+                         f"constraints ({listed}); with measurement='refuse' it is not "
+                         f"used (measurement='project' projects it).")
+
+
+def projected_velocity(W, A, v_m):
+    """v_m - W^-1 A^T (A W^-1 A^T)^-1 A v_m, the W-orthogonal projection of v_m (n,) onto
+    ker A (A of shape (m, n), W (n, n) positive definite), shape (n,)."""
+    W_inv_AT = np.linalg.solve(W, A.T)
+    return v_m - W_inv_AT @ np.linalg.solve(A @ W_inv_AT, A @ v_m)
+
+
+def measured(step, name, value, shape):
+    """The measured `name` as a float array of `shape`, or the InputError naming the step
+    and the entry that is wrong (shape, NaN or infinite)."""
     try:
-        return checks.array(name, value, (n,))
+        return checks.array(name, value, shape)
     except (InputError, InputTypeError) as err:
         raise type(err)(f"MPC step {step}: {err}") from None

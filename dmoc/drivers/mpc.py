@@ -9,82 +9,22 @@ the first step's controls; a failed solve raises, or (``on_failure="shift"``) th
 optimum's plan is followed one more step.
 """
 
-import dataclasses
 import time
 
 import numpy as np
 
-from .._util import checks, deferred
+from .._util import checks
 from ..errors import InputError, Status, failure
+from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..optimal_control.statement.problem import OptimalControlProblem
 from ..optimal_control.solver.solving import solve        # the raw IPOPT solve of one problem
+from .group_horizon import GroupHorizon
+from .horizon_shift import shifted
 from .measurement import MeasurementPolicy
+from .mpc_step import MPCStep
 from .references import HorizonReferences
 
 ON_FAILURE = ("raise", "shift")
-
-
-@dataclasses.dataclass(frozen=True)
-class MPCStep:
-    """The record of one controller step (`MPC.log`).
-
-    Attributes
-    ----------
-    q, p : ndarray, shape (n,)
-        The start the solve used: the measurement, or its projection (`corrected`).
-    u : ndarray, shape (len(control_nodes) * n_u,), or None
-        The controls applied over the step, at the rule's control nodes; None when the
-        step raised.
-    success : bool
-        Whether this step's solve succeeded.
-    status : str
-        IPOPT's return status.
-    iterations : int
-    solve_time : float
-        Seconds in IPOPT.
-    step_time : float
-        Wall seconds of the whole `MPC.step` (boundary data, warm start, solve).
-    warm_start : bool
-        Whether IPOPT started from the shifted previous optimum's x and multipliers.
-    plan_age : int or None
-        Which optimum `u` comes from: 0 this step's, k > 0 (after failed solves, with
-        ``on_failure="shift"``) the plan of k steps before, at its step k; None when the
-        step raised.
-    h : float or None
-        The step over which `u` is to be applied: the discretization's, or with a free
-        final time the step of the plan `u` comes from (the plant is simulated over it);
-        None when the step raised.
-    measurement : str
-        The controller's measurement policy ("project").
-    corrected : tuple of str
-        What the measurement violated and the policy corrected, among "state_bounds",
-        "holonomic" (g(q) = 0) and "velocity" (A(q) v = 0); empty when it was used as is.
-    q_measured : ndarray, shape (n,)
-    v_measured, p_measured : ndarray, shape (n,), or None
-        The measurement as given (of v and p, the one not given is None).
-    q_correction, v_correction : float
-        Euclidean norms of q - q_measured and of the velocity's correction (0 for a
-        measured p), in the coordinates' units.
-    """
-
-    q: np.ndarray
-    p: np.ndarray
-    u: np.ndarray
-    success: bool
-    status: str
-    iterations: int
-    solve_time: float
-    step_time: float
-    warm_start: bool
-    plan_age: int
-    h: float
-    measurement: str
-    corrected: tuple
-    q_measured: np.ndarray
-    v_measured: np.ndarray
-    p_measured: np.ndarray
-    q_correction: float
-    v_correction: float
 
 
 class MPC:
@@ -93,10 +33,14 @@ class MPC:
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem or GroupOptimalControlProblem
         The horizon (N steps of h), goal, costs and bounds; its start data are replaced by
         each measurement (as a start momentum: the problem is restated once with
-        ``with_boundary(p_start=...)``, so every step solves the same NLP structure).
+        ``with_boundary(p_start=...)``, so every step solves the same NLP structure). A
+        problem on SO(3) x R^n_x (`dmoc.drivers.group_horizon.GroupHorizon`) has its
+        NLP built once, its start (R_0, x_0, p_0) fixed by the bounds of each step; it
+        takes no `guess`, `references`, `parameters` or `jit` (`expand` has no effect:
+        its NLP is SX).
     guess : Trajectory or OptimizationResult, optional
         The first solve's guess (`optimize`); later solves start from the previous
         optimum shifted by one step.
@@ -126,7 +70,9 @@ class MPC:
         start within the box and on the constraints, in the metric of the mass matrix
         d2L/dv2 (q clipped to the box and put on g = 0, v projected onto ker A(q)); the
         record says what was corrected and by how much. "refuse": InputError naming the
-        step and each violated bound or constraint with its value.
+        step and each violated bound or constraint with its value. On the group
+        (`dmoc.drivers.group_measurement.GroupMeasurementPolicy`) a measured R off SO(3)
+        is replaced by the nearest rotation (the polar factor), recorded as "rotation".
     references : dict of str -> array_like of shape (M, k), optional
         For a tracking controller: the whole run's values of parameters of `problem` given
         per step or per knot (a planned trajectory, its controls as a feed-forward); step j
@@ -139,8 +85,9 @@ class MPC:
     ----------
     on_failure, measurement : str
         The `on_failure` and `measurement` policies.
-    problem : OptimalControlProblem
-        The problem of the last step (its start the last measurement).
+    problem : OptimalControlProblem or GroupOptimalControlProblem
+        The problem of the last step (its start the last measurement; on the group the
+        problem as given, its start in the NLP's bounds).
     plan : OptimizationResult or None
         The last optimum over the horizon (of the last step whose solve succeeded).
     log : list of MPCStep
@@ -154,7 +101,8 @@ class MPC:
     last step's repeated; the boundary blocks keep theirs. IPOPT starts from it with
     ``warm_start_init_point`` (x clipped into the new bounds: q_0 is the measurement).
     After k failed solves in a row (``on_failure="shift"``) it is the last optimum moved
-    k + 1 steps on.
+    k + 1 steps on. On the group the rotations move along the plan's own increments and
+    the plan is carried onto the measured start (`dmoc.drivers.horizon_shift.shifted_on_group`).
 
     Examples
     --------
@@ -167,20 +115,19 @@ class MPC:
 
     def __init__(self, problem, *, guess=None, options=None, on_failure="raise",
                  measurement="project", references=None, expand=True, jit=False):
-        checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
+        checks.instance("problem", problem, (OptimalControlProblem, GroupOptimalControlProblem),
+                        "an OptimalControlProblem or a GroupOptimalControlProblem")
         self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
-        self._measurement = MeasurementPolicy(problem, measurement)
-        self.measurement = self._measurement.policy
-        self._switches = {"expand": checks.boolean("expand", expand), "jit": checks.boolean("jit", jit)}
-        if not np.isfinite(problem.q_start).all():
-            raise InputError("`problem` must have a fully given `q_start`: the controller's "
-                             "measurements replace it, and the NLP keeps its structure.")
-        n = problem.disc.system.n
-        start = problem.p_start if problem.p_start is not None else np.zeros(n)
-        self.problem = problem.with_boundary(p_start=start)
-        self._references = HorizonReferences(problem, references)
+        switches = {"expand": checks.boolean("expand", expand), "jit": checks.boolean("jit", jit)}
+        kind = GroupHorizon if isinstance(problem, GroupOptimalControlProblem) else VectorHorizon
+        self._horizon = kind(problem, guess, options, measurement, references, switches)
+        self.measurement = self._horizon.measurement.policy
         self.plan, self.log, self._age = None, [], 0
-        self._guess, self._options = guess, options
+
+    @property
+    def problem(self):
+        """The problem of the last step (its start the last measurement)."""
+        return self._horizon.problem
 
     def step(self, q, *, v=None, p=None, parameters=None):
         """Solve from the measured state and return the controls of the first step.
@@ -188,15 +135,17 @@ class MPC:
         Parameters
         ----------
         q : array_like, shape (n,)
+            On SO(3) x R^n_x: the rotation R (3, 3), or the pair (R, x), x shape (n_x,).
         v, p : array_like, shape (n,)
-            The measured velocity (then p = dL/dv(q, v)) or momentum: exactly one. A
-            measurement outside `state_bounds` or off the constraints is projected or
-            refused by the `measurement` policy.
+            The measured velocity (then p = dL/dv(q, v)) or momentum: exactly one; on the
+            group (Omega, x') or (Pi, p_x), shape (3 + n_x,). A measurement outside
+            `state_bounds` or off the constraints (or, on the group, R off SO(3)) is
+            projected or refused by the `measurement` policy.
         parameters : dict, optional
             New values of the problem's parameters from this step on
             (`OptimalControlProblem.with_parameters`: the same NLP), e.g. a reference
             window of your own; names in `references` and the clock are the
-            controller's.
+            controller's. Not on the group (it has no parameters).
 
         Returns
         -------
@@ -218,14 +167,10 @@ class MPC:
         Interrupted
             A Ctrl-C stopped IPOPT.
         """
-        tic = time.perf_counter()
-        start = self._measurement.start(len(self.log), q, v=v, p=p)
-        try:
-            self.problem = self._restated(start, parameters)
-        except InputError as err:       # e.g. a start in an obstacle (path constraints)
-            raise type(err)(f"MPC step {len(self.log)}: {err}") from None
-        guess = self._guess if self.plan is None else shifted(self.plan, self.problem, self._age + 1)
-        result = solve(self.problem, guess=guess, options=self._options, throw=False, **self._switches)
+        tic, k = time.perf_counter(), len(self.log)
+        start = self._horizon.measurement.start(k, q, v=v, p=p)
+        self._horizon.restate(k, start, parameters)
+        result = self._horizon.solve(self.plan, self._age + 1, start)
         if result.success:
             self.plan, self._age = result, 0
         elif result.status != Status.INTERRUPTED and self.on_failure == "shift" and self.plan is not None \
@@ -234,27 +179,13 @@ class MPC:
         else:
             self._record(start, None, result, tic, None)
             raise self._failure(result)
-        # read from x: the plan's Trajectory is made only when a caller asks for it
-        u = self.problem.transcription.x_layout.unpack(self.plan.x, "u")[:, self._age].copy()
+        u = self._horizon.controls(self.plan, self._age)
         self._record(start, u, result, tic, self._age)
-        self._references.advance(self.log[-1].h)
+        self._horizon.advance(self.log[-1].h)
         return u
 
-    def _restated(self, start, parameters):
-        """The problem of this step: the start, and the parameters (the windows of the
-        references, the clock, the caller's `parameters`) where any are to be set."""
-        values = dict(parameters or {})
-        mine = sorted(self._references.names & set(values))
-        if mine:
-            raise InputError(f"`parameters` must not set {mine}: the controller moves its references "
-                             f"and its clock on by itself.")
-        values.update(self._references.at(len(self.log)))
-        problem = self.problem.with_parameters(**values) if values else self.problem
-        return problem.with_boundary(q_start=start.q, p_start=start.p)
-
     def _record(self, start, u, result, tic, age):
-        h = None if age is None else self.problem.final_time.step(
-            self.problem.transcription.x_layout, self.plan.x)
+        h = None if age is None else self._horizon.step_length(self.plan)
         self.log.append(MPCStep(
             start.q, start.p, u, result.success, result.status, result.stats["iterations"],
             result.stats["solve_time"], time.perf_counter() - tic, result.stats["warm_start"],
@@ -274,24 +205,51 @@ class MPC:
                        f"the last iterate is in `.result`.", result)
 
 
-def shifted(result, problem, steps=1):
-    """`result` (an optimum of `problem`'s structure) moved `steps` steps on (0 < steps < N):
-    the blocks of x, lam_x and lam_g indexed by step take the values of `steps` steps
-    later, the last repeated."""
-    T, N = problem.transcription, problem.steps
-    # its trajectory, unread, stays unmade (a warm start reads x and the multipliers)
-    return deferred.replace(result, x=_shifted(result.x, T.x_layout, N, steps),
-                            lam_x=_shifted(result.lam_x, T.x_layout, N, steps),
-                            lam_g=_shifted(result.lam_g, T.g_layout, N, steps))
+class VectorHorizon:
+    """What `MPC` solves on R^n: `problem` restated from each start (its start momentum
+    given, so that every step solves the same NLP structure), its references' windows and
+    clock, the solve (`optimize` unjudged, warm from the shifted plan) and the plan's
+    controls; the arguments are `MPC`'s."""
 
+    def __init__(self, problem, guess, options, measurement, references, switches):
+        self.measurement = MeasurementPolicy(problem, measurement)
+        if not np.isfinite(problem.q_start).all():
+            raise InputError("`problem` must have a fully given `q_start`: the controller's "
+                             "measurements replace it, and the NLP keeps its structure.")
+        start = problem.p_start if problem.p_start is not None else np.zeros(problem.disc.system.n)
+        self.problem = problem.with_boundary(p_start=start)
+        self._references = HorizonReferences(problem, references)
+        self._guess, self._options, self._switches = guess, options, switches
 
-def _shifted(vector, layout, steps, by):
-    """`vector` with each block of N or N + 1 columns (one per step or knot; N > 1) moved
-    `by` columns to the left, its last column repeated."""
-    out = np.array(vector, dtype=float)
-    for offset, rows, cols in layout.blocks.values():
-        if cols > 1 and cols in (steps, steps + 1):
-            block = out[offset:offset + rows * cols].reshape(cols, rows)     # column-major
-            block[:-by] = block[by:].copy()
-            block[-by:] = block[-1]
-    return out
+    def restate(self, step, start, parameters):
+        """The problem of step `step`: the start, and the parameters (the windows of the
+        references, the clock, the caller's `parameters`) where any are to be set."""
+        try:
+            values = dict(parameters or {})
+            mine = sorted(self._references.names & set(values))
+            if mine:
+                raise InputError(f"`parameters` must not set {mine}: the controller moves its "
+                                 f"references and its clock on by itself.")
+            values.update(self._references.at(step))
+            problem = self.problem.with_parameters(**values) if values else self.problem
+            self.problem = problem.with_boundary(q_start=start.q, p_start=start.p)
+        except InputError as err:       # e.g. a start in an obstacle (path constraints)
+            raise type(err)(f"MPC step {step}: {err}") from None
+
+    def solve(self, plan, by, start):
+        """The solve from the guess, or from `plan` moved `by` steps on."""
+        guess = self._guess if plan is None else shifted(plan, self.problem, by)
+        return solve(self.problem, guess=guess, options=self._options, throw=False, **self._switches)
+
+    def controls(self, plan, age):
+        """The controls of `plan` at its step `age`, read from x (the plan's Trajectory is
+        made only when a caller asks for it)."""
+        return self.problem.transcription.x_layout.unpack(plan.x, "u")[:, age].copy()
+
+    def step_length(self, plan):
+        """The step h of `plan` (its own with a free final time)."""
+        return self.problem.final_time.step(self.problem.transcription.x_layout, plan.x)
+
+    def advance(self, h):
+        """The references' clock moved on by the applied step h."""
+        self._references.advance(h)

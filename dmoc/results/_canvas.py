@@ -148,3 +148,12 @@ def save_png(fig, path):
     """Write `fig` as a PNG file at `path`, atomically (an old file stays whole on failure)."""
     with atomic_write(path) as file:
         fig.savefig(file, format="png", dpi=DPI, pil_kwargs={"compress_level": 1})
+
+
+def palette_images(frames):
+    """The RGB frames as palette images (GIF frames) sharing the palette of the last one,
+    which shows every colour (the whole trail, the body), without dithering."""
+    from PIL import Image
+
+    palette = Image.fromarray(frames[-1]).quantize(colors=64, method=Image.Quantize.FASTOCTREE)
+    return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]

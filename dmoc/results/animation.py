@@ -1,13 +1,15 @@
 """Animations of computed trajectories as GIF files, the results stage of the pipeline:
 the bodies a system declares (`dmoc.Body`) at every frame, or one of three stock shapes
-(a blade, a coin with its rolling mark, a marker), over the obstacles and the goal. Drawn
+(a blade, a coin with its rolling mark, a marker), over the obstacles and the goal; a
+rigid body on SO(3) as its frame in 3-D (`animate_body`). Drawn
 on a bare Figure on the Agg canvas (never pyplot), the still parts once and the moving ones
 per frame, and written by Pillow (both imported lazily).
 """
 
 import numpy as np
 
-from ._canvas import label, not_to_scale_note, plane_limits, units_of
+from ._canvas import label, not_to_scale_note, palette_images, plane_limits, units_of
+from .body_animation import animate_body
 from ._drawn_bodies import DrawnBodies, body_values, outlines
 from ._obstacles import draw_obstacles, obstacle_extent, obstacle_values
 from .._util import checks
@@ -116,7 +118,7 @@ def animate(traj, path, *, bodies=None, shape=None, x=0, y=1, heading=None, roll
         for artist in (trail, *drawn.artists, clock):
             ax.draw_artist(artist)
         images.append(np.array(fig.canvas.buffer_rgba())[..., :3])
-    images = _palette_images(images)
+    images = palette_images(images)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as temporary:
         images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
@@ -181,15 +183,6 @@ def _fit(fig, ax):
                      area.width / width, area.height / height])
 
 
-def _palette_images(frames):
-    """The RGB frames as palette images (GIF frames) sharing the palette of the last one,
-    which shows every colour (the whole trail, the body), without dithering."""
-    from PIL import Image
-
-    palette = Image.fromarray(frames[-1]).quantize(colors=64, method=Image.Quantize.FASTOCTREE)
-    return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
-
-
 def _frame_axes(ax, goal, labels, title):
     """The goal ((x, y), drawn where both are given) and the labels."""
     if goal is not None and np.isfinite(goal).all():
@@ -233,3 +226,4 @@ def _stock_bodies(shape, x, y, heading, roll, size):
         return point
     return point + (Body("heading", lambda q: np.array([q[[x, y]], q[[x, y]] + r * ahead(q)]),
                          closed=False, color="C3"),)
+

@@ -12,6 +12,7 @@ import re
 import numpy as np
 
 from ._canvas import save_png
+from .body_figure import plot_body, plot_body_rates
 from .diagnostic_plots import (control_work, plot_constraint_violation, plot_convergence,
                                plot_cost_convergence, plot_energy_balance, plot_energy_error)
 from .kept_out import kept_out_region
@@ -27,7 +28,8 @@ from ..principle.trajectory import Trajectory
 
 __all__ = ["plot_path", "plot_states", "plot_controls", "plot_constraint_violation",
            "plot_energy_error", "plot_energy_balance", "control_work", "plot_convergence",
-           "plot_cost_convergence", "plot_robot", "planes", "save_trajectory_plots"]
+           "plot_cost_convergence", "plot_robot", "plot_body", "plot_body_rates", "planes",
+           "save_trajectory_plots"]
 
 
 def planes(names):

@@ -1,13 +1,12 @@
 """What does not take a rigid body on SO(3) yet refuses it by name, saying what it takes
 (issue 43), instead of an AttributeError from inside: the verdict's velocity bounds, the
-keywords of `optimize` that the group does not take, MPC, the diagnostics the verdict on
-R^n reads, and the command line's SYSTEM factory."""
+keywords of `optimize` that the group does not take, and the diagnostics the verdict on
+R^n reads."""
 
 import numpy as np
 import pytest
 
 import dmoc
-from dmoc.cli import main
 from dmoc.drivers import verdict
 
 ON_GROUP = "a GroupOptimalControlProblem, on SO(3), has no velocity bounds"
@@ -45,23 +44,8 @@ def test_the_diagnostics_the_verdict_reads_name_the_discretization(slew):
         dmoc.diagnostics.compared_momenta(problem, result.trajectory)
 
 
-def test_a_guess_and_mpc_name_their_argument(slew):
+def test_a_guess_and_jit_name_their_argument(slew):
     problem, result = slew
     with pytest.raises(dmoc.InputError, match="takes only options, throw, check, estimate, "
                                               "accuracy, max_steps; got guess, jit"):
         dmoc.optimize(problem, guess=result, jit=True)
-    with pytest.raises(dmoc.InputTypeError, match="`problem` must be an OptimalControlProblem; "
-                                                  "got GroupOptimalControlProblem"):
-        dmoc.MPC(problem)
-
-
-def test_the_command_line_names_a_rigid_body_factory(tmp_path, capsys):
-    (tmp_path / "bodies.py").write_text(
-        "import dmoc\n\ndef top():\n    return dmoc.systems.heavy_top((1.0, 1.2, 0.4), 1.0, "
-        "(0.0, 0.0, 0.5), 9.81)\n")
-    for command in ("simulate", "optimize"):
-        assert main([command, f"{tmp_path / 'bodies.py'}:top", "--steps", "3"]) == 2
-        err = capsys.readouterr().err
-        assert ("argument SYSTEM: the factory must return a MechanicalSystem or an "
-                "OptimalControlProblem; got RigidBody (the command line does not take rigid "
-                "bodies on SO(3) yet") in err and "Traceback" not in err

@@ -40,22 +40,38 @@ def solve_on_group(problem, *, options=None, throw=True):
         ``trajectory`` a RotationTrajectory; ``x`` the NLP vector (`GroupTranscription`);
         ``stats``: ``iterations``, ``return_status``, ``max_violation`` (of all rows'
         bounds), ``most_violated`` (that row named: "path constraint i at knot k", "dynamics
-        at step k (left row r)", ...; "none"), ``solve_time``.
+        at step k (left row r)", ...; "none"), ``solve_time``, ``warm_start`` (False).
     """
     checks.instance("problem", problem, GroupOptimalControlProblem, "a GroupOptimalControlProblem")
     throw = checks.boolean("throw", throw)
     T = group_transcription(problem)
-    opts = {**DEFAULT_IPOPT_OPTIONS, **(options or {})}
-    solver = ca.nlpsol("group_dmoc", "ipopt", T.nlp, {"ipopt": opts, "print_time": False})
+    solver = group_solver(T, {**DEFAULT_IPOPT_OPTIONS, **(options or {})})
+    start = {"x0": geodesic_guess(problem, T), "lbx": T.lbx, "ubx": T.ubx}
+    return solve_with(problem, T, solver, start, throw=throw)
+
+
+def group_solver(T, options):
+    """The IPOPT nlpsol of the GroupTranscription `T` with the IPOPT `options` (all of them:
+    `DEFAULT_IPOPT_OPTIONS` merged in by the caller)."""
+    return ca.nlpsol("group_dmoc", "ipopt", T.nlp, {"ipopt": options, "print_time": False})
+
+
+def solve_with(problem, T, solver, start, *, throw=True, warm_start=False):
+    """One solve of `problem`'s NLP `T` by its `solver` (`group_solver`) from `start`, the
+    nlpsol inputs that change between solves: ``x0``, ``lbx``, ``ubx`` (q_0 and p_0 fixed
+    there), and for a warm start ``lam_x0``, ``lam_g0``; the OptimizationResult of
+    `solve_on_group`, with ``lam_x``, ``lam_g`` and ``stats["warm_start"]`` (as given: a
+    receding-horizon controller re-solves one solver from the shifted previous optimum,
+    `dmoc.drivers.group_horizon`)."""
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
-        sol = solver(x0=geodesic_guess(problem, T), lbx=T.lbx, ubx=T.ubx, lbg=T.lbg, ubg=T.ubg)
+        sol = solver(lbg=T.lbg, ubg=T.ubg, **start)
     st = solver.stats()
     x = np.array(sol["x"]).ravel()
     largest, row = most_violated(T, np.array(sol["g"]).ravel())
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "max_violation": largest, "most_violated": row,
-             "solve_time": time.perf_counter() - tic}
+             "solve_time": time.perf_counter() - tic, "warm_start": warm_start}
     success, status = bool(st["success"]), st["return_status"]
     message = (f"IPOPT: {status} after {stats['iterations']} iterations; most violated: {row} "
                f"(|violation| = {largest:.2e}).")
@@ -63,8 +79,8 @@ def solve_on_group(problem, *, options=None, throw=True):
     if interrupted is not None:
         (status, message), success = interrupted, False
     result = OptimizationResult(trajectory=trajectory_of(problem, T, x), cost=float(sol["f"]),
-                                success=success, status=status, message=message,
-                                stats=stats, x=x)
+                                success=success, status=status, message=message, stats=stats, x=x,
+                                lam_x=np.array(sol["lam_x"]).ravel(), lam_g=np.array(sol["lam_g"]).ravel())
     if throw and not success:
         raise failure(message + " The last iterate is in `.result`.", result)
     return result
