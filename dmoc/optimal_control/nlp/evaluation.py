@@ -8,14 +8,22 @@ are loaded only when their bytes hash to their name and their Functions have the
 signatures asked for). All three perform the same operations in the same order, so IPOPT
 sees the same numbers; the flat and compiled forms cost less per evaluation and more to
 build (benchmarks/peers.py resolve: "raw", "raw SX", "raw C").
+
+By default (``jit=None``) a structure is compiled in the background once it is re-solved
+(`compiled_when_ready`): the solves go on in the virtual machine until the library is
+loaded, then on the compiled Functions, which give the same bits.
 """
+
+import threading
 
 from ..._util.cache import BoundedCache
 from ..._util.compiled import Library, compiler
-from ...errors import InputError
+from ...errors import CompiledCodeError, InputError
 
 _COMPILED = BoundedCache(16, "compiled_nlps")     # keyed by SeparableNLP.key: {name: Function}
 _EXPANDED = BoundedCache(16, "expanded_nlps")     # keyed by SeparableNLP.key: {name: Function}
+# keyed by SeparableNLP.key: the `_Background` compile of that NLP's library
+_BACKGROUND = BoundedCache(16, "background_compiles")
 
 
 def nlp_functions(separable, *, expand=False, jit=False):
@@ -48,3 +56,46 @@ def nlp_functions(separable, *, expand=False, jit=False):
         return _EXPANDED.get(separable.key,
                              lambda: {k: f.expand() for k, f in separable.functions().items()})
     return separable.derivatives()
+
+
+def compiled_when_ready(separable):
+    """True when `separable`'s compiled Functions are loaded in this process (then
+    ``nlp_functions(separable, jit=True)`` returns them at once), else False: the first
+    call starts compiling (or loading from the cache folder) the library of
+    `nlp_functions` with ``jit=True`` in a background thread, and a later call returns
+    True once that has finished. False for good without a C compiler or when the library
+    could not be compiled or loaded safely (`Library.load` says why; the virtual machine
+    computes the same bits).
+
+    The thread is a daemon: a process that ends while its compiler runs leaves the
+    compiler's temporary folder, which the next compile removes
+    (`dmoc._util.compiled.Library`)."""
+    if separable.key in _COMPILED:
+        return True
+    if compiler() is None:
+        return False
+    work = _BACKGROUND.get(separable.key, lambda: _Background(separable))
+    if not work.done.is_set() or work.functions is None:
+        return False
+    _COMPILED.get(separable.key, lambda: work.functions)
+    return True
+
+
+class _Background:
+    """The compile of `separable`'s library running in a daemon thread: `done` is set when
+    it has ended, `functions` then holds the loaded {name: Function} (None when it
+    failed)."""
+
+    def __init__(self, separable):
+        self.done, self.functions = threading.Event(), None
+        functions = list(separable.functions().values())     # made here: the graph is not shared
+        threading.Thread(target=self._run, args=(functions,), name="dmoc-nlp-compile",
+                         daemon=True).start()
+
+    def _run(self, functions):
+        try:
+            self.functions = Library(functions, "dmoc_nlp").load()
+        except (CompiledCodeError, OSError, RuntimeError):
+            self.functions = None
+        finally:
+            self.done.set()
