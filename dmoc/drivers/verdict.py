@@ -13,16 +13,16 @@ import time
 import numpy as np
 
 from .._util import checks
-from .._util.cache import BoundedCache
-from .._util.numeric import Evaluator
 from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
 from ..optimal_control.solver.verdict_record import STATUSES, Verdict
 from ..optimal_control.statement.parameters import row_texts
 from ..results.diagnostics import compared_momenta, replays
-from ..discrete.knot_states import knot_velocities
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 from .judged_inputs import check_judged
+from .knot_checks import (knot_path_values, knot_path_values_of,  # noqa: F401 (re-exported)
+                          knot_velocity_bound_values, path_violation)
+from .step_replay import applies, q_scale, scale, step_departure
 
 # Thresholds of the checks, relative to the optimum's own scale so that a problem in
 # millimetres or kilograms gets the verdict it gets in metres (docs/stages/drivers.md,
@@ -34,8 +34,6 @@ REPLAY_TOLERANCE = 1e-6
 # resolved; 2 is a reversal every step (aliasing). The built-in problems measure 0.10 to
 # 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/drivers.md).
 JUMP_LIMIT = 1.0
-# Below this size an optimum's q or p gives no scale (it does not move from the origin).
-NO_SCALE = 1e-12
 # A knot violates a path constraint when g_k exceeds this part of the row's scale,
 # max(1, max_k |g_k|): the NLP imposes the path rows unscaled (`dmoc.optimal_control.nlp.
 # scaling`), so 1 in the row's own units is the size IPOPT holds it to; a row whose values
@@ -46,10 +44,6 @@ PATH_TOLERANCE = 1e-6
 # within IPOPT's tolerance; its velocity "jumps" are noise (a hold at the start: 7e-8 rad).
 REST_TOLERANCE = 1e-6
 
-# a path Function mapped over a number of knots, evaluated through its buffer: keyed by
-# (id of the path Function, knots), the value (that Function, its Evaluator) so that the
-# id stays its own while the entry lives
-_PATH_MAPS = BoundedCache(16, "path_maps")
 
 
 def judge(problem, result):
@@ -88,23 +82,25 @@ def verdicts(pairs):
     bit as one by one, what the optima share done once: their replays in lockstep
     (`dmoc.diagnostics.replays`), the interpolants' end velocities of all of them in one
     call per rule (`end_velocities_of`), their path constraints at the knots in one call
-    per path Function (`_knot_path_values_of`). An error of any optimum (one `simulate`
+    per path Function (`knot_path_values_of`). An error of any optimum (one `simulate`
     refuses to replay) is raised for all: judge them one by one to tell whose it is."""
     trajs = [result.trajectory for _, result in pairs]
     replayed = replays([(problem, traj) for (problem, _), traj in zip(pairs, trajs)])
     ends = end_velocities_of([(problem.disc, traj) for (problem, _), traj in zip(pairs, trajs)])
     constrained = [i for i, (problem, _) in enumerate(pairs) if problem.path_constraints is not None]
-    knot_values = dict(zip(constrained, _knot_path_values_of(
+    knot_values = dict(zip(constrained, knot_path_values_of(
         [(pairs[i][0], trajs[i], ends[i]) for i in constrained])))
-    return [_verdict(problem, traj, simulated, ends[i], knot_values.get(i))
+    return [_verdict(problem, traj, _replay_departure(problem, traj, simulated), ends[i],
+                     knot_values.get(i))
             for i, ((problem, _), traj, simulated) in enumerate(zip(pairs, trajs, replayed))]
 
 
-def _verdict(problem, traj, simulated, ends, knot_values):
-    """The Verdict on the optimum `traj` of `problem` from its replay `simulated`, its
+def _verdict(problem, traj, departure, ends, knot_values):
+    """The Verdict on the optimum `traj` of `problem` from its replay's `departure` (q, p,
+    first step beyond REPLAY_TOLERANCE: `_replay_departure`'s or `light_judge`'s), its
     interpolant's end velocities `ends` and its path values at the knots (None without
     path constraints)."""
-    replay_q, replay_p, replay_step = _replay_departure(problem, traj, simulated)
+    replay_q, replay_p, replay_step = departure
     changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
     resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
@@ -119,7 +115,7 @@ def _verdict(problem, traj, simulated, ends, knot_values):
             return bound_names[row - rows]
         text = row_texts(problem.path_constraints, problem.disc.system, problem.parameters.layout)[row]
         return f"path_constraints row {row} ({text} <= 0)"
-    path, path_step, row, limit = _path_violation(
+    path, path_step, row, limit = path_violation(
         np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
         name_of)
     failed = (max(replay_q, replay_p) > REPLAY_TOLERANCE, path > PATH_TOLERANCE, jump > JUMP_LIMIT)
@@ -130,19 +126,44 @@ def _verdict(problem, traj, simulated, ends, knot_values):
 
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
-    """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`: the
-    result with its `verdict` and the verdict's wall seconds in ``stats["verdict_time"]``
-    (the result's trajectory, which the verdict reads, built before: it is the solve's),
-    ``success=False`` and the verdict's status when a check fails (SolverError with
-    `throw`). `dmoc.optimize` documents the keywords."""
+    """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`
+    (by `light_judge` when the solve was a warm start from an optimum whose verdict
+    passed: ``stats["light_verdict"]``): the result with its `verdict` and the verdict's
+    wall seconds in ``stats["verdict_time"]`` (the result's trajectory, which the verdict
+    reads, built before: it is the solve's), ``success=False`` and the verdict's status
+    when a check fails (SolverError with `throw`). `dmoc.optimize` documents the
+    keywords."""
     check = checks.boolean("check", check)
     result = solve(problem, throw=throw, **keywords)
     if not (check and result.success):
         return result
     result.trajectory           # the solve's product, built on first reading: not the verdict's cost
     tic = time.perf_counter()
-    verdict = judge(problem, result)
-    return judged(result, verdict, throw=throw, seconds=time.perf_counter() - tic)
+    guess = keywords.get("guess")
+    light = (light_judge(problem, result) if result.stats["warm_start"] and guess.verdict is not None
+             and guess.verdict.passed else None)
+    result.stats["light_verdict"] = light is not None
+    return judged(result, light or judge(problem, result), throw=throw, seconds=time.perf_counter() - tic)
+
+
+def light_judge(problem, result):
+    """The Verdict on an optimum of `problem` as `judge` makes it, but for the replay: the
+    simulator's compiled step from every knot of the optimum at once
+    (`step_replay.step_departure`), not one run from its start; replay_step the first knot
+    whose step departs beyond REPLAY_TOLERANCE. None where that does not apply or is not
+    compiled yet (`step_replay.applies`, `step_departure`): `judge` judges such an optimum
+    (docs/verification.md, "The light verdict of a re-solve")."""
+    traj = result.trajectory
+    check_judged(problem, traj, "result.trajectory")
+    departure = step_departure(problem, traj) if applies(problem, traj) else None
+    if departure is None:
+        return None
+    replay_q, replay_p, each = departure
+    beyond = np.flatnonzero(each > REPLAY_TOLERANCE)
+    ends = end_velocities(problem.disc, traj)
+    knots = None if problem.path_constraints is None else knot_path_values_of([(problem, traj, ends)])[0]
+    return _verdict(problem, traj, (replay_q, replay_p, int(beyond[0]) + 1 if beyond.size else -1),
+                    ends, knots)
 
 
 def judged(result, verdict, *, throw=True, seconds=None):
@@ -170,7 +191,7 @@ def verdict_message(verdict, result):
         Status.NOT_REPLAYABLE:
             f"it does not solve the step equations as `simulate` does: the replay from its "
             f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
-            f"configurations' span ({verdict.replay_q * _q_scale(traj):.3g} in "
+            f"configurations' span ({verdict.replay_q * q_scale(traj):.3g} in "
             f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
             f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
             f"equations have other roots where a step is large, and IPOPT found one of "
@@ -208,93 +229,7 @@ def _replay_departure(problem, traj, simulated):
     if simulated.steps < traj.steps:
         return np.inf, np.inf, simulated.steps + 1
     last = compared_momenta(problem, traj)
-    dq = np.abs(simulated.q - traj.q).max(axis=1) / _q_scale(traj)
-    dp = np.abs(simulated.p[:last] - traj.p[:last]).max(axis=1) / _scale(np.abs(traj.p).max())
+    dq = np.abs(simulated.q - traj.q).max(axis=1) / q_scale(traj)
+    dp = np.abs(simulated.p[:last] - traj.p[:last]).max(axis=1) / scale(np.abs(traj.p).max())
     beyond = np.flatnonzero((dq[:last] > REPLAY_TOLERANCE) | (dp > REPLAY_TOLERANCE))
     return float(dq.max()), float(dp.max()), int(beyond[0]) if beyond.size else -1
-
-
-def _q_scale(traj):
-    """The unit of a departure in q: the span of the optimum's configurations (the largest
-    max_k q - min_k q), or their size where they do not move."""
-    return _scale(np.ptp(traj.q, axis=0).max(), np.abs(traj.q).max())
-
-
-def _scale(*sizes):
-    """The first of `sizes` above NO_SCALE, as the unit of a relative departure; 1 (the
-    system's units) for an optimum that neither moves nor leaves the origin: there the
-    data give no scale."""
-    return next((float(size) for size in sizes if size > NO_SCALE), 1.0)
-
-
-def knot_path_values(problem, traj):
-    """The path constraints g evaluated at every knot, shape (N + 1, rows): at (q_k, v_k,
-    u(t_k)), v_k the knot velocity (the mean of the interpolants' velocities at q_k from
-    both sides, one side at the ends: `dmoc.discrete.knot_states.knot_velocities`), u(t_k)
-    `Trajectory.control` there, with the parameters at q_k (`_knot_arguments`); the values
-    the NLP's knot rows impose (`dmoc.optimal_control.nlp.path_terms`). The one-optimum
-    case of `_knot_path_values_of`. InputTypeError on SO(3), as `judge`."""
-    check_judged(problem, traj)
-    return _knot_path_values_of([(problem, traj, end_velocities(problem.disc, traj))])[0]
-
-
-def _knot_path_values_of(triples):
-    """`knot_path_values` of each (problem, traj, its `end_velocities`) of `triples`: those
-    of one path Function in one call of it mapped over all their knots, their columns
-    one optimum after another (a serial map: each optimum's values bit for bit those of
-    a call of its own). The mapped Function is kept per path Function and number of
-    knots and called through its buffer (`dmoc._util.numeric.Evaluator`)."""
-    found, values = {}, [None] * len(triples)
-    for i, (problem, _, _) in enumerate(triples):
-        found.setdefault(id(problem.path_constraints), []).append(i)
-    for members in found.values():
-        path = triples[members[0]][0].path_constraints
-        columns = [_knot_arguments(*triples[i]) for i in members]
-        total = sum(c[0].shape[1] for c in columns)
-        mapped = _PATH_MAPS.get((id(path), total), lambda: (path, Evaluator(path.map(total))))[1]
-        (g,) = mapped(*(np.hstack(parts) for parts in zip(*columns)))
-        knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
-        for i, block in zip(members, np.split(g.T, knots)):
-            values[i] = block
-    return values
-
-
-def _knot_arguments(problem, traj, ends):
-    """The arguments (q, v, u, w) of ``problem.path_constraints`` at the N + 1 knots of
-    `traj` (`knot_path_values`), one column per knot, from its interpolant's end
-    velocities `ends`; w the parameters at each knot (`ProblemParameters.knot_points`, the
-    clock with the optimum's step h)."""
-    w = problem.parameters.knot_points(traj.h)
-    return traj.q.T, knot_velocities(*ends).T, traj.control(traj.t).T, w
-
-
-def knot_velocity_bound_values(problem, traj, ends=None):
-    """The velocity bounds as rows g <= 0 at every knot, shape (N + 1, rows), and their
-    names: lower_i - v_k,i and v_k,i - upper_i for each finite bound, v_k the knot velocity
-    (`knot_path_values`; `ends` the interpolants' end velocities when computed already).
-    InputTypeError on SO(3), as `judge`."""
-    check_judged(problem, traj)
-    v = knot_velocities(*(end_velocities(problem.disc, traj) if ends is None else ends))
-    names, columns = problem.disc.system.names, []
-    for side, (bound, sign, relation) in enumerate(zip(problem.velocity_bounds, (-1.0, 1.0), (">=", "<="))):
-        for i in np.flatnonzero(np.isfinite(bound)):
-            columns.append((sign * (v[:, i] - bound[i]),
-                            f"velocity_bounds {('lower', 'upper')[side]} of {names[i]} "
-                            f"(v[{i}] {relation} {bound[i]:.6g})"))
-    values = np.column_stack([c for c, _ in columns]) if columns else np.zeros((v.shape[0], 0))
-    return values, [name for _, name in columns]
-
-
-def _path_violation(g, name_of):
-    """(largest g_k relative to its row's scale max(1, max_k |g_k|), knot, row, the row's
-    name ``name_of(row)``) of the values at the knots `g` (N + 1, rows: `knot_path_values`
-    then `knot_velocity_bound_values`); (0, -1, -1, "") without rows or violations. The 1
-    keeps a row that is held at zero everywhere (an equality written as the pair g, -g)
-    from being measured against its own round-off."""
-    if g.size == 0:
-        return 0.0, -1, -1, ""
-    relative = g / np.maximum(np.abs(g).max(axis=0), 1.0)
-    k, row = np.unravel_index(np.argmax(relative), relative.shape)
-    if relative[k, row] <= 0:
-        return 0.0, -1, -1, ""
-    return float(relative[k, row]), int(k), int(row), name_of(int(row))

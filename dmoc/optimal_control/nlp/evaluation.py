@@ -14,15 +14,13 @@ By default (``jit=None``) a structure is compiled in the background once it is r
 loaded, then on the compiled Functions, which give the same bits.
 """
 
-import threading
-
 from ..._util.cache import BoundedCache
-from ..._util.compiled import Library, compiler
-from ...errors import CompiledCodeError, InputError
+from ..._util.compiled import Background, Library, compiler
+from ...errors import InputError
 
 _COMPILED = BoundedCache(16, "compiled_nlps")     # keyed by SeparableNLP.key: {name: Function}
 _EXPANDED = BoundedCache(16, "expanded_nlps")     # keyed by SeparableNLP.key: {name: Function}
-# keyed by SeparableNLP.key: the `_Background` compile of that NLP's library
+# keyed by SeparableNLP.key: the `Background` compile of that NLP's library
 _BACKGROUND = BoundedCache(16, "background_compiles")
 
 
@@ -62,40 +60,23 @@ def compiled_when_ready(separable):
     """True when `separable`'s compiled Functions are loaded in this process (then
     ``nlp_functions(separable, jit=True)`` returns them at once), else False: the first
     call starts compiling (or loading from the cache folder) the library of
-    `nlp_functions` with ``jit=True`` in a background thread, and a later call returns
-    True once that has finished. False for good without a C compiler or when the library
-    could not be compiled or loaded safely (`Library.load` says why; the virtual machine
-    computes the same bits).
-
-    The thread is a daemon: a process that ends while its compiler runs leaves the
-    compiler's temporary folder, which the next compile removes
-    (`dmoc._util.compiled.Library`)."""
+    `nlp_functions` with ``jit=True`` in a background thread (`compiled.Background`), and
+    a later call returns True once that has ended. False for good without a C compiler
+    or when the library could not be compiled or loaded safely (the virtual machine
+    computes the same bits)."""
     if separable.key in _COMPILED:
         return True
     if compiler() is None:
         return False
-    work = _BACKGROUND.get(separable.key, lambda: _Background(separable))
-    if not work.done.is_set() or work.functions is None:
+    loaded = _BACKGROUND.get(separable.key, lambda: _started(separable)).functions
+    if loaded is None:
         return False
-    _COMPILED.get(separable.key, lambda: work.functions)
+    _COMPILED.get(separable.key, lambda: loaded)
     return True
 
 
-class _Background:
-    """The compile of `separable`'s library running in a daemon thread: `done` is set when
-    it has ended, `functions` then holds the loaded {name: Function} (None when it
-    failed)."""
-
-    def __init__(self, separable):
-        self.done, self.functions = threading.Event(), None
-        functions = list(separable.functions().values())     # made here: the graph is not shared
-        threading.Thread(target=self._run, args=(functions,), name="dmoc-nlp-compile",
-                         daemon=True).start()
-
-    def _run(self, functions):
-        try:
-            self.functions = Library(functions, "dmoc_nlp").load()
-        except (CompiledCodeError, OSError, RuntimeError):
-            self.functions = None
-        finally:
-            self.done.set()
+def _started(separable):
+    """The `Background` compile of `separable`'s library, its Functions made here (the
+    serialization of the cache key is the thread's work)."""
+    functions = list(separable.functions().values())
+    return Background(lambda: Library(functions, "dmoc_nlp").load())
