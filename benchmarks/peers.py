@@ -25,10 +25,14 @@ expanded to SX); IPOPT options as dmoc's defaults.
 - ``resolve``: each method solves the original goal (its solver is built), then re-solves
   `--goals` goals near it in a cycle, each from the previous optimum (primal and dual),
   `--repeat` times: median wall time per re-solve, IPOPT's iterations, its wall time
-  (CasADi's ``t_wall_total``, dmoc's ``stats["ipopt_time"]``) and the part in NLP function
-  evaluations. dmoc is timed from the new goal (``problem.with_boundary(q_goal=g)``):
+  (CasADi's ``t_wall_total``, dmoc's ``stats["ipopt_time"]``), the part in NLP function
+  evaluations, and dmoc's verdict (``stats["verdict_time"]``, "vrd ms", and its part of the
+  re-solve, "vrd/ms"). dmoc is timed from the new goal (``problem.with_boundary(q_goal=g)``):
   ``dmoc.optimize`` ("judged"), with ``check=False`` ("unjudged"), the raw solve ("raw"),
-  with ``expand=True`` ("raw SX") and ``jit=True`` ("raw C"). rockit re-solves by
+  with ``expand=True`` ("raw SX") and ``jit=True`` ("raw C"). The first three are the
+  defaults, which compile a re-solved structure (and the verdict's step) in background
+  threads: they are timed once they have switched ("settled": the re-solves and seconds
+  that took, in the same process, from a compiled-code cache that may hold the libraries). rockit re-solves by
   "solve" (``ocp.set_value``, the previous optimum set as the start of its Opti,
   ``ocp.solve()``) and "function" (``ocp.to_function`` of goal, start x and multipliers,
   rockit's advice for repeated solves); with `--rockit-jit` also "function C", compiled to
@@ -120,16 +124,32 @@ def moved(problem, name, goal):
 
 def cycle(step, targets, repeat):
     """Time `step(goal)` over `targets[1:]` then `targets[0]`, `repeat` times; step returns
-    (iterations, IPOPT s, function s, cost). Returns ([median s, iterations, IPOPT s,
-    function s], the first cycle's costs)."""
+    (iterations, IPOPT s, function s, verdict s, cost). Returns ([median s, iterations,
+    IPOPT s, function s, verdict s], the first cycle's costs)."""
     seconds, rows = [], []
     for _ in range(repeat):
         for goal in list(targets[1:]) + [targets[0]]:
             tic = time.perf_counter()
             rows.append(step(goal))
             seconds.append(time.perf_counter() - tic)
-    row = [float(np.median(seconds))] + np.median(np.array(rows)[:, :3], axis=0).tolist()
-    return row, [r[3] for r in rows[:len(targets)]]
+    row = [float(np.median(seconds))] + np.median(np.array(rows)[:, :4], axis=0).tolist()
+    return row, [r[4] for r in rows[:len(targets)]]
+
+
+def settled(call, problem, name, targets, previous, limit=120.0):
+    """(the last optimum, [re-solves, seconds]) of re-solving `problem` at `targets` in a
+    cycle from `previous` with `call` until dmoc's default has switched to what it does
+    for re-solves of a structure (``stats["compiled"]`` and, where it applies,
+    ``stats["light_verdict"]``: both made in background threads), at most `limit` s;
+    [0, 0] on checkouts from before (no ``stats["compiled"]``)."""
+    count, tic = 0, time.perf_counter()
+    while "compiled" in previous.stats and time.perf_counter() - tic < limit and not (
+            previous.stats["compiled"] and previous.stats.get("light_verdict", True)):
+        previous = call(moved(problem, name, targets[count % len(targets)]), guess=previous,
+                        options={"print_level": 0})
+        count += 1
+        time.sleep(0.01)        # the threads' turn
+    return previous, [count, time.perf_counter() - tic]
 
 
 def dmoc_resolve(name, rule, N, repeat, count):
@@ -147,6 +167,8 @@ def dmoc_resolve(name, rule, N, repeat, count):
     out = {"size": [problem.transcription.x_layout.size, problem.transcription.g_layout.size]}
     for run, call in calls.items():
         previous = call(problem, options={"print_level": 0})
+        if run in ("judged", "unjudged", "raw"):        # the defaults: steady state first
+            previous, out[run + " settled"] = settled(call, problem, name, targets, previous)
 
         def step(goal):
             nonlocal previous
@@ -156,7 +178,8 @@ def dmoc_resolve(name, rule, N, repeat, count):
                 raise RuntimeError(f"dmoc {rule} {run}: {previous.message}")
             st = previous.stats
             # IPOPT's time as CasADi records it, as for rockit (checkouts from before: the call's)
-            return st["iterations"], st.get("ipopt_time", st["solve_time"]), st["function_time"], previous.cost
+            return (st["iterations"], st.get("ipopt_time", st["solve_time"]), st["function_time"],
+                    st.get("verdict_time", 0.0), previous.cost)
         out[run], out["costs"] = cycle(step, targets, repeat)
     return out
 
@@ -256,7 +279,7 @@ def rockit_resolve(name, N, repeat, count, jit=False):
         nonlocal sol
         warm_start(ocp, sol)
         sol = rockit_solve(ocp, goal, value)
-        return (*ipopt_figures(sol.stats), float(sol.value(ocp.objective)))
+        return (*ipopt_figures(sol.stats), 0.0, float(sol.value(ocp.objective)))
     out = {"size": [opti.nx, opti.ng]}
     out["solve"], out["costs"] = cycle(solve_step, targets, repeat)
     out["function"], _ = cycle(function, targets, repeat)
@@ -277,7 +300,7 @@ def function_step(ocp, goal, sol):
     def step(value):
         nonlocal x, lam_g
         x, lam_g, cost = resolve(value, x, lam_g)
-        return (*ipopt_figures(resolve.stats()), float(cost))
+        return (*ipopt_figures(resolve.stats()), 0.0, float(cost))
     return step
 
 
@@ -375,21 +398,23 @@ def least_loaded(outs):
     best = dict(outs[0])
     for out in outs[1:]:
         for run, row in out.items():
-            if run not in ("size", "costs") and row[0] < best[run][0]:
+            if run not in ("size", "costs") and not run.endswith(" settled") and row[0] < best[run][0]:
                 best[run] = row
     return best
 
 
 def table(name, n_star, measured, checkouts, rules):
-    """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT
-    and function seconds, the NLP size; with rockit measured, the ratios to its re-solves
-    (solve, function, and function C when measured), of IPOPT's time to rockit's function
-    re-solve, and the largest cost difference from rockit's."""
+    """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT,
+    function and verdict seconds, the NLP size, and for dmoc's defaults the re-solves and
+    seconds until they settled (`settled`); with rockit measured, the ratios to its
+    re-solves (solve, function, and function C when measured), of IPOPT's time to rockit's
+    function re-solve, of the verdict to the re-solve, and the largest cost difference from
+    rockit's."""
     rock = measured.get("rockit")
     runs = [run for run in ("solve", "function", "function C") if rock and run in rock]
     head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'it':>5}"
-            f"{'IPOPT ms':>9}{'fun ms':>7}" + "".join(f"{'/' + run:>12}" for run in runs)
-            + (f"{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
+            f"{'IPOPT ms':>9}{'fun ms':>7}{'vrd ms':>7}{'vrd/ms':>7}{'settled':>11}"
+            + "".join(f"{'/' + run:>12}" for run in runs) + (f"{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
     print(f"\n{name}" + (f" (ratios: to rockit's {', '.join(runs)} re-solves; IPOPT's to rockit's "
                          "function)" if rock else "") + f"\n{head}\n" + "-" * len(head))
     rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in runs]
@@ -398,9 +423,11 @@ def table(name, n_star, measured, checkouts, rules):
     for method, checkout, N, out, run in rows:
         if run not in out:
             continue
-        s, it, ipopt, fun = out[run]
+        s, it, ipopt, fun, verdict = (out[run] + [0.0])[:5]     # outputs from before: no verdict
+        count, seconds = out.get(run + " settled", (0, 0.0))
         line = (f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>11}"
-                f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}")
+                f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}{verdict * 1e3:>7.2f}"
+                f"{verdict / s:>7.2f}{'%d, %.1fs' % (count, seconds) if count else '':>11}")
         if rock:
             gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
             line += "".join(f"{s / rock[r][0]:>12.2f}" for r in runs)

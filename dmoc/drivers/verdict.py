@@ -7,12 +7,11 @@ It is a driver because the replay needs both consumers of the step residual, whi
 import each other.
 """
 
-import dataclasses
 import time
 
 import numpy as np
 
-from .._util import checks
+from .._util import checks, deferred
 from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
 from ..optimal_control.solver.verdict_record import STATUSES, Verdict
@@ -171,12 +170,13 @@ def judged(result, verdict, *, throw=True, seconds=None):
     ``stats["verdict_time"]`` unless None): as it is when the verdict passed, else
     with ``success=False``, the verdict's status and its message (`verdict_message`),
     raised as a SolverError with `throw`."""
+    changes = {"verdict": verdict}      # the fields not made yet stay so (`deferred.replace`)
     if seconds is not None:
-        result = dataclasses.replace(result, stats={**result.stats, "verdict_time": seconds})
+        changes["stats"] = {**result.stats, "verdict_time": seconds}
     if verdict.passed:
-        return dataclasses.replace(result, verdict=verdict)
-    result = dataclasses.replace(result, success=False, status=verdict.status, verdict=verdict,
-                                 message=verdict_message(verdict, result))
+        return deferred.replace(result, **changes)
+    result = deferred.replace(result, success=False, status=verdict.status,
+                              message=verdict_message(verdict, result), **changes)
     if throw:
         raise SolverError(result.message + " The optimum is in `.result`.", result)
     return result
