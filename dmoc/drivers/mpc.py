@@ -110,7 +110,10 @@ class MPC:
         MX graph (``expand=False, jit=False``). `expand` is True by default, unlike
         `optimize`'s: a controller builds its solver once and solves on it at every step,
         so the expansion's cost (a few ms at step 0) buys a cheaper evaluation at every
-        warm step (benchmarks/mpc.py --mx). With `jit`, `expand` has no effect.
+        warm step (benchmarks/mpc.py --mx). `jit` None (default), as `optimize`'s: the
+        first warm step starts compiling the structure in a background thread, and the
+        steps after the library is loaded evaluate it (the same bits). With `jit`,
+        `expand` has no effect.
     on_failure : {"raise", "shift"}
         What a step does when IPOPT does not converge. "raise" (default): raise
         SolverError (the failed solve in `.result`); no control is returned. "shift":
@@ -166,12 +169,13 @@ class MPC:
     """
 
     def __init__(self, problem, *, guess=None, options=None, on_failure="raise",
-                 measurement="project", references=None, expand=True, jit=False):
+                 measurement="project", references=None, expand=True, jit=None):
         checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
         self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
         self._measurement = MeasurementPolicy(problem, measurement)
         self.measurement = self._measurement.policy
-        self._switches = {"expand": checks.boolean("expand", expand), "jit": checks.boolean("jit", jit)}
+        self._switches = {"expand": checks.boolean("expand", expand),
+                          "jit": None if jit is None else checks.boolean("jit", jit)}
         if not np.isfinite(problem.q_start).all():
             raise InputError("`problem` must have a fully given `q_start`: the controller's "
                              "measurements replace it, and the NLP keeps its structure.")
