@@ -111,9 +111,8 @@ class MPC:
         `optimize`'s: a controller builds its solver once and solves on it at every step,
         so the expansion's cost (a few ms at step 0) buys a cheaper evaluation at every
         warm step (benchmarks/mpc.py --mx). `jit` None (default), as `optimize`'s: the
-        first warm step starts compiling the structure in a background thread, and the
-        steps after the library is loaded evaluate it (the same bits). With `jit`,
-        `expand` has no effect.
+        first warm step starts compiling the structure in the background, the steps after
+        it is loaded evaluate it (the same bits). With `jit`, `expand` has no effect.
     on_failure : {"raise", "shift"}
         What a step does when IPOPT does not converge. "raise" (default): raise
         SolverError (the failed solve in `.result`); no control is returned. "shift":
