@@ -145,8 +145,6 @@ class Library:
         return loaded
 
     def _compile(self, where):
-        with open("/tmp/resolve41/bg.log", "a") as f:
-            f.write(f"{os.getpid()} COMPILE {self.prefix}\n")
         """Generate and compile the library in a private temporary folder inside the
         `cache_folder.Folder` `where` (removed on every way out), worked through its
         descriptor (`_build`), and publish it (`cache_folder.publish`); (its name, its
@@ -203,12 +201,8 @@ class Background:
         threading.Thread(target=self._run, args=(load,), name="dmoc-compile", daemon=True).start()
 
     def _run(self, load):
-        import time as _t
-        tic = _t.perf_counter()
         try:
             self._functions = load()
-            with open("/tmp/resolve41/bg.log", "a") as f:
-                f.write(f"{os.getpid()} {list(self._functions)[:1]} {_t.perf_counter() - tic:.3f}\n")
         except (CompiledCodeError, OSError, RuntimeError):
             self._functions = None
         finally:
