@@ -110,8 +110,8 @@ class MPC:
         MX graph (``expand=False, jit=False``). `expand` is True by default, unlike
         `optimize`'s: a controller builds its solver once and solves on it at every step,
         so the expansion's cost (a few ms at step 0) buys a cheaper evaluation at every
-        warm step (benchmarks/mpc.py --mx). `jit` None (default), as `optimize`'s: the
-        first warm step starts compiling the structure in the background, the steps after
+        warm step (benchmarks/mpc.py --mx). `jit` None (default), as `optimize`'s: after
+        0.1 s of warm steps the structure is compiled in the background, the steps after
         it is loaded evaluate it (the same bits). With `jit`, `expand` has no effect.
     on_failure : {"raise", "shift"}
         What a step does when IPOPT does not converge. "raise" (default): raise

@@ -68,11 +68,11 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         in CasADi's virtual machine, so the same optimum and iterations, 2-6 times
         faster per evaluation; compiling takes about 1-3 s the first time, loading the
         library tens of milliseconds once per process. None (default): the virtual
-        machine until the structure is re-solved (a warm start from an earlier optimum
-        of the same structure), which starts compiling it in a background thread; the
-        re-solves after the library is ready evaluate the C code (``stats["compiled"]``;
-        without a C compiler, never). False: never compile (docs/stages/optimize.md,
-        "Compiled re-solves").
+        machine until the structure's warm re-solves (starts from an earlier optimum of
+        the same structure) have spent 0.1 s in IPOPT, which starts compiling it in a
+        background thread; its solves after the library is loaded evaluate the C code
+        (``stats["compiled"]``; without a C compiler, never). False: never compile, nor
+        the light verdict's step (docs/stages/optimize.md, "Compiled re-solves").
     throw : bool
         Raise SolverError when IPOPT fails or its optimum fails the verdict, and
         `dmoc.Interrupted` when a Ctrl-C (SIGINT) stops it (default); else return the

@@ -19,7 +19,7 @@ import numpy as np
 from .._util.cache import BoundedCache
 from .._util.compiled import Background, compiler
 from .._util.numeric import Evaluator
-from ..principle.formulations import as_formulation
+from ..principle.formulations import LagrangianPlus, as_formulation
 from ..simulation.preparation import prepare_runs
 from ..simulation.stepper import DiracStepper
 
@@ -35,8 +35,7 @@ def applies(problem, traj):
     """True when `step_departure` can judge the optimum `traj` of `problem`: the (+) forms
     of the Lagrangian equations (37), whose knot momenta are the momenta a run carries and
     whose step multipliers are its Newton unknowns, with at least one step."""
-    formulation = as_formulation(traj.variant, problem.disc)
-    return formulation.name == "+" and formulation.explicit == "p1" and traj.steps > 0
+    return isinstance(as_formulation(traj.variant, problem.disc), LagrangianPlus) and traj.steps > 0
 
 
 def step_departure(problem, traj):

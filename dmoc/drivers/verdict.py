@@ -127,11 +127,11 @@ def _verdict(problem, traj, departure, ends, knot_values):
 def judged_solve(problem, *, check=True, throw=True, **keywords):
     """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`
     (by `light_judge` when the solve was a warm start from an optimum whose verdict
-    passed: ``stats["light_verdict"]``): the result with its `verdict` and the verdict's
-    wall seconds in ``stats["verdict_time"]`` (the result's trajectory, which the verdict
-    reads, built before: it is the solve's), ``success=False`` and the verdict's status
-    when a check fails (SolverError with `throw`). `dmoc.optimize` documents the
-    keywords."""
+    passed, on the compiled NLP: ``stats["light_verdict"]``): the result with its
+    `verdict` and the verdict's wall seconds in ``stats["verdict_time"]`` (the result's
+    trajectory, which the verdict reads, built before: it is the solve's),
+    ``success=False`` and the verdict's status when a check fails (SolverError with
+    `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
     result = solve(problem, throw=throw, **keywords)
     if not (check and result.success):
@@ -139,8 +139,8 @@ def judged_solve(problem, *, check=True, throw=True, **keywords):
     result.trajectory           # the solve's product, built on first reading: not the verdict's cost
     tic = time.perf_counter()
     guess = keywords.get("guess")
-    light = (light_judge(problem, result) if result.stats["warm_start"] and guess.verdict is not None
-             and guess.verdict.passed else None)
+    light = (light_judge(problem, result) if result.stats["compiled"] and result.stats["warm_start"]
+             and guess.verdict is not None and guess.verdict.passed else None)
     result.stats["light_verdict"] = light is not None
     return judged(result, light or judge(problem, result), throw=throw, seconds=time.perf_counter() - tic)
 

@@ -77,18 +77,22 @@ def test_an_optimum_moved_at_a_knot_is_refused_from_that_knot(parking, field, de
 
 
 def test_re_solves_of_a_judged_optimum_take_the_light_verdict(parking):
-    """The first solve takes the full verdict; a warm re-solve from an optimum whose verdict
-    passed takes the light one once the compiled step is loaded; one from an unjudged
-    optimum, or of the (-) form, the full one."""
+    """The first solve takes the full verdict; a warm re-solve on the compiled NLP from an
+    optimum whose verdict passed takes the light one once the compiled step is loaded;
+    one from an unjudged optimum, one in the virtual machine (``jit=False``), or of the
+    (-) form, the full one."""
     problem, first = parking
     assert first.stats["light_verdict"] is False
     light(problem, first)                       # loaded
-    again = dmoc.optimize(problem.with_boundary(q_goal=[0.0, 1.02, 0.0]), guess=first)
+    moved = problem.with_boundary(q_goal=[0.0, 1.02, 0.0])
+    again = dmoc.optimize(moved, guess=first, jit=True)
     assert again.stats["warm_start"] and again.stats["light_verdict"] and again.verdict.passed
+    assert not dmoc.optimize(moved, guess=first, jit=False).stats["light_verdict"]
     unjudged = dmoc.optimize(problem, check=False)
-    after = dmoc.optimize(problem.with_boundary(q_goal=[0.0, 1.02, 0.0]), guess=unjudged)
+    after = dmoc.optimize(moved, guess=unjudged, jit=True)
     assert after.stats["warm_start"] and not after.stats["light_verdict"]
     minus = knife_edge_parking(20, variant="-")
     judged = dmoc.optimize(minus)
     assert light_judge(minus, judged) is None
-    assert not dmoc.optimize(minus.with_boundary(q_goal=[0.0, 1.02, 0.0]), guess=judged).stats["light_verdict"]
+    assert not dmoc.optimize(minus.with_boundary(q_goal=[0.0, 1.02, 0.0]), guess=judged,
+                             jit=True).stats["light_verdict"]

@@ -20,7 +20,7 @@ from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
 from .linear_solver_choice import check_linear_solver
-from ..nlp.evaluation import compiled_when_ready
+from ..nlp.evaluation import compiled_when_ready, spent
 from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
@@ -60,8 +60,9 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     x0, lam_x0, lam_g0 = start_point(problem, guess, fixed)
     x0 = x0 / D        # scaled: IPOPT and the data's tolerances read it
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
-    if jit is None:     # compiled once the structure is re-solved, when the library is ready
-        jit = warm and compiled_when_ready(T.separable)
+    automatic = jit is None     # compiled once the structure is re-solved, when the library is ready
+    if automatic:
+        jit = compiled_when_ready(T.separable, warm)
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
         T, {**data_tolerances(T, x0, jit), **start_options(warm), **options},
@@ -78,6 +79,8 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     st = solver.stats()
     cost, worst = _values_at_x(T, sol, st["success"])
     stats = _statistics(st, times, worst)
+    if automatic and warm and not jit:
+        spent(T.separable, stats["ipopt_time"])
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
     status, message, success = _outcome(st, stats, cost, sigints)
