@@ -27,7 +27,9 @@ expanded to SX); IPOPT options as dmoc's defaults.
   `--repeat` times: median wall time per re-solve, IPOPT's iterations, its wall time
   (CasADi's ``t_wall_total``, dmoc's ``stats["ipopt_time"]``), the part in NLP function
   evaluations, and dmoc's verdict (``stats["verdict_time"]``, "vrd ms", and its part of the
-  re-solve, "vrd/ms"). dmoc is timed from the new goal (``problem.with_boundary(q_goal=g)``):
+  re-solve, "vrd/ms"), and the median CPU time of the process per re-solve ("CPU ms"; its
+  ratio to rockit's function re-solve, "CPU/fun", the figure to read on a loaded machine,
+  where wall times measure the scheduler). dmoc is timed from the new goal (``problem.with_boundary(q_goal=g)``):
   ``dmoc.optimize`` ("judged"), with ``check=False`` ("unjudged"), the raw solve ("raw"),
   with ``expand=True`` ("raw SX") and ``jit=True`` ("raw C"). The first three are the
   defaults, which compile a re-solved structure (and the verdict's step) in background
@@ -47,7 +49,8 @@ expanded to SX); IPOPT options as dmoc's defaults.
   controller on as many multiple-shooting intervals, ``ocp.to_function`` of the measured
   state, start x and multipliers (the previous optimum's, unshifted), each driving its
   own plant. Per controller, in children interleaved `--rounds` times: the median warm
-  step (wall), IPOPT's part, iterations; the least-loaded round is kept.
+  step (wall and CPU of the process), IPOPT's part, iterations; the least-loaded round is
+  kept.
 
 ``--smallest`` runs the rolling disk with lobatto4 only, once, in this process (and the
 controllers over 8 steps).
@@ -136,15 +139,17 @@ def moved(problem, name, goal):
 def cycle(step, targets, repeat):
     """Time `step(goal)` over `targets[1:]` then `targets[0]`, `repeat` times; step returns
     (iterations, IPOPT s, function s, verdict s, cost). Returns ([median s, iterations,
-    IPOPT s, function s, verdict s], the first cycle's costs)."""
-    seconds, rows = [], []
+    IPOPT s, function s, verdict s, median CPU s of this process], the first cycle's
+    costs)."""
+    seconds, cpu, rows = [], [], []
     for _ in range(repeat):
         for goal in list(targets[1:]) + [targets[0]]:
-            tic = time.perf_counter()
+            tic, tac = time.perf_counter(), time.process_time()
             rows.append(step(goal))
             seconds.append(time.perf_counter() - tic)
+            cpu.append(time.process_time() - tac)
     row = [float(np.median(seconds))] + np.median(np.array(rows)[:, :4], axis=0).tolist()
-    return row, [r[4] for r in rows[:len(targets)]]
+    return row + [float(np.median(cpu))], [r[4] for r in rows[:len(targets)]]
 
 
 def settled(call, problem, name, targets, previous, limit=120.0):
@@ -427,9 +432,10 @@ def table(name, n_star, measured, checkouts, rules):
     rockit's."""
     rock = measured.get("rockit")
     runs = [run for run in ("solve", "function", "function C") if rock and run in rock]
-    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'it':>5}"
+    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'CPU ms':>7}{'it':>5}"
             f"{'IPOPT ms':>9}{'fun ms':>7}{'vrd ms':>7}{'vrd/ms':>7}{'settled':>11}"
-            + "".join(f"{'/' + run:>12}" for run in runs) + (f"{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
+            + "".join(f"{'/' + run:>12}" for run in runs)
+            + (f"{'CPU/fun':>8}{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
     print(f"\n{name}" + (f" (ratios: to rockit's {', '.join(runs)} re-solves; IPOPT's to rockit's "
                          "function)" if rock else "") + f"\n{head}\n" + "-" * len(head))
     rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in runs]
@@ -438,15 +444,15 @@ def table(name, n_star, measured, checkouts, rules):
     for method, checkout, N, out, run in rows:
         if run not in out:
             continue
-        s, it, ipopt, fun, verdict = (out[run] + [0.0])[:5]     # outputs from before: no verdict
+        s, it, ipopt, fun, verdict, cpu = (out[run] + [0.0, np.nan])[:6]     # outputs from before
         count, seconds = out.get(run + " settled", (0, 0.0))
         line = (f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>11}"
-                f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}{verdict * 1e3:>7.2f}"
+                f"{s * 1e3:>8.2f}{cpu * 1e3:>7.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}{verdict * 1e3:>7.2f}"
                 f"{verdict / s:>7.2f}{'%d, %.1fs' % (count, seconds) if count else '':>11}")
         if rock:
             gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
             line += "".join(f"{s / rock[r][0]:>12.2f}" for r in runs)
-            line += f"{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}"
+            line += f"{cpu / rock['function'][5]:>8.2f}{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}"
         print(line)
 
 
@@ -479,7 +485,7 @@ KICK = (10, 0.3)              # at step 10, 0.3 of a unit momentum along the bla
 
 
 def closed_loop(controller, horizon, steps):
-    """(seconds of each controller step, IPOPT seconds, iterations) of a closed loop of
+    """(seconds of each controller step, IPOPT seconds, iterations, CPU seconds) of a closed loop of
     `steps` steps on the knife-edge plant (`PLANT`, `KICK`) from rest at the origin;
     ``controller(q, v) -> (u, IPOPT s, iterations)`` gives the control held over the step."""
     import dmoc
@@ -487,9 +493,9 @@ def closed_loop(controller, horizon, steps):
     q, p, rows = np.zeros(3), np.zeros(3), []
     for k in range(steps):
         v = p / np.array([PLANT["mass"], PLANT["mass"], 1.0])
-        tic = time.perf_counter()
+        tic, tac = time.perf_counter(), time.process_time()
         u, ipopt, iterations = controller(q, v)
-        rows.append((time.perf_counter() - tic, ipopt, iterations))
+        rows.append((time.perf_counter() - tic, ipopt, iterations, time.process_time() - tac))
         if k == KICK[0]:
             p = p + KICK[1] * np.array([np.cos(q[2]), np.sin(q[2]), 1.0])
         run = dmoc.simulate(plant, q0=q, p0=p, steps=1, controls=np.asarray(u)[None], jit=False)
@@ -498,7 +504,7 @@ def closed_loop(controller, horizon, steps):
 
 
 def dmoc_mpc(horizon, steps):
-    """(this process) [median warm step s, IPOPT s, iterations] of ``dmoc.MPC`` on
+    """(this process) [median warm step s, IPOPT s, iterations, CPU s] of ``dmoc.MPC`` on
     knife-edge parking over `horizon` steps, after closed loops of the same structure until
     its solves evaluate the compiled NLP (checkouts from before: one loop)."""
     import dmoc
@@ -521,7 +527,7 @@ def dmoc_mpc(horizon, steps):
 
 
 def rockit_mpc(horizon, steps):
-    """(this process) [median warm step s, IPOPT s, iterations] of rockit's controller:
+    """(this process) [median warm step s, IPOPT s, iterations, CPU s] of rockit's controller:
     `rockit_ocp`'s knife edge on `horizon` intervals over 0.1 `horizon` s, its start a
     parameter (x, y, heading, speed along the blade, turning rate), the goal (0, 1, 0) at
     rest, re-solved by ``ocp.to_function`` from the previous optimum; the control applied
@@ -579,12 +585,13 @@ def mpcs(args, peers):
             if method not in best or row[0] < best[method][0]:
                 best[method] = row
     print(f"\nknife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps: the median warm step")
-    print(f"{'controller':<24}{'step ms':>9}{'IPOPT ms':>10}{'it':>5}" + (f"{'/ rockit':>10}" if peers else ""))
+    print(f"{'controller':<24}{'step ms':>9}{'CPU ms':>8}{'IPOPT ms':>10}{'it':>5}"
+          + (f"{'/ rockit':>10}{'CPU /':>7}" if peers else ""))
     for method in methods:
-        s, ipopt, it = best[method]
+        s, ipopt, it, cpu = best[method]
         label = "rockit to_function" if method == "rockit" else f"dmoc.MPC {os.path.basename(method)}"
-        print(f"{label:<24}{s * 1e3:>9.2f}{ipopt * 1e3:>10.2f}{it:>5.1f}"
-              + (f"{s / best['rockit'][0]:>10.2f}" if peers else ""))
+        print(f"{label:<24}{s * 1e3:>9.2f}{cpu * 1e3:>8.2f}{ipopt * 1e3:>10.2f}{it:>5.1f}"
+              + (f"{s / best['rockit'][0]:>10.2f}{cpu / best['rockit'][3]:>7.2f}" if peers else ""))
 
 
 # ---- the run --------------------------------------------------------------------------
