@@ -27,10 +27,16 @@ controls; `drake_program`) and solves the one program with its IPOPT and with SN
 - ``resolve``: each method solves the original goal (its solver is built), then re-solves
   `--goals` goals near it in a cycle, each from the previous optimum (primal and dual),
   `--repeat` times: median wall time per re-solve, IPOPT's iterations, its wall time
-  (CasADi's ``t_wall_total``, dmoc's ``stats["ipopt_time"]``) and the part in NLP function
-  evaluations. dmoc is timed from the new goal (``problem.with_boundary(q_goal=g)``):
+  (CasADi's ``t_wall_total``, dmoc's ``stats["ipopt_time"]``), the part in NLP function
+  evaluations, and dmoc's verdict (``stats["verdict_time"]``, "vrd ms", and its part of the
+  re-solve, "vrd/ms"), and the median CPU time of the process per re-solve ("CPU ms"; its
+  ratio to rockit's function re-solve, "CPU/fun", the figure to read on a loaded machine,
+  where wall times measure the scheduler). dmoc is timed from the new goal (``problem.with_boundary(q_goal=g)``):
   ``dmoc.optimize`` ("judged"), with ``check=False`` ("unjudged"), the raw solve ("raw"),
-  with ``expand=True`` ("raw SX") and ``jit=True`` ("raw C"). rockit re-solves by
+  with ``expand=True`` ("raw SX") and ``jit=True`` ("raw C"). The first three are the
+  defaults, which compile a re-solved structure (and the verdict's step) in background
+  threads: they are timed once they have switched ("settled": the re-solves and seconds
+  that took, in the same process, from a compiled-code cache that may hold the libraries). rockit re-solves by
   "solve" (``ocp.set_value``, the previous optimum set as the start of its Opti,
   ``ocp.solve()``) and "function" (``ocp.to_function`` of goal, start x and multipliers,
   rockit's advice for repeated solves); with `--rockit-jit` also "function C", compiled to
@@ -38,10 +44,22 @@ controls; `drake_program`) and solves the one program with its IPOPT and with SN
   Each method runs in a child process per checkout (``--checkouts``), interleaved,
   `--rounds` times; the round of least time is kept.
 
-``--smallest`` runs the rolling disk with lobatto4 only, once, in this process.
+- ``mpc``: the knife edge's receding-horizon controller over `--horizon` steps of h =
+  0.1 s (the closed loop of benchmarks/mpc.py: a plant 10 % heavier, a kick at step 10,
+  `--steps` steps): dmoc's ``dmoc.MPC(problem)`` (the midpoint rule, its defaults; timed
+  once a first loop has compiled the structure in the background) and rockit's
+  controller on as many multiple-shooting intervals, ``ocp.to_function`` of the measured
+  state, start x and multipliers (the previous optimum's, unshifted), each driving its
+  own plant. Per controller, in children interleaved `--rounds` times: the median warm
+  step (wall and CPU of the process), IPOPT's part, iterations; the least-loaded round is
+  kept.
+
+``--smallest`` runs the rolling disk with lobatto4 only, once, in this process (and the
+controllers over 8 steps).
 
     venv-peers/bin/python benchmarks/peers.py first [--repeat 15] [--problem disk|knife|both]
     venv-peers/bin/python benchmarks/peers.py resolve [--repeat 5] [--rounds 3] [--checkouts DIR ...] [--rockit-jit]
+    venv-peers/bin/python benchmarks/peers.py mpc [--horizon 30] [--steps 40] [--rounds 3] [--checkouts DIR ...]
 """
 
 import argparse
@@ -125,16 +143,34 @@ def moved(problem, name, goal):
 
 def cycle(step, targets, repeat):
     """Time `step(goal)` over `targets[1:]` then `targets[0]`, `repeat` times; step returns
-    (iterations, IPOPT s, function s, cost). Returns ([median s, iterations, IPOPT s,
-    function s], the first cycle's costs)."""
-    seconds, rows = [], []
+    (iterations, IPOPT s, function s, verdict s, cost). Returns ([median s, iterations,
+    IPOPT s, function s, verdict s, median CPU s of this process], the first cycle's
+    costs)."""
+    seconds, cpu, rows = [], [], []
     for _ in range(repeat):
         for goal in list(targets[1:]) + [targets[0]]:
-            tic = time.perf_counter()
+            tic, tac = time.perf_counter(), time.process_time()
             rows.append(step(goal))
             seconds.append(time.perf_counter() - tic)
-    row = [float(np.median(seconds))] + np.median(np.array(rows)[:, :3], axis=0).tolist()
-    return row, [r[3] for r in rows[:len(targets)]]
+            cpu.append(time.process_time() - tac)
+    row = [float(np.median(seconds))] + np.median(np.array(rows)[:, :4], axis=0).tolist()
+    return row + [float(np.median(cpu))], [r[4] for r in rows[:len(targets)]]
+
+
+def settled(call, problem, name, targets, previous, limit=120.0):
+    """(the last optimum, [re-solves, seconds]) of re-solving `problem` at `targets` in a
+    cycle from `previous` with `call` until dmoc's default has switched to what it does
+    for re-solves of a structure (``stats["compiled"]`` and, where it applies,
+    ``stats["light_verdict"]``: both made in background threads), at most `limit` s;
+    [0, 0] on checkouts from before (no ``stats["compiled"]``)."""
+    count, tic = 0, time.perf_counter()
+    while "compiled" in previous.stats and time.perf_counter() - tic < limit and not (
+            previous.stats["compiled"] and previous.stats.get("light_verdict", True)):
+        previous = call(moved(problem, name, targets[count % len(targets)]), guess=previous,
+                        options={"print_level": 0})
+        count += 1
+        time.sleep(0.01)        # the threads' turn
+    return previous, [count, time.perf_counter() - tic]
 
 
 def dmoc_resolve(name, rule, N, repeat, count):
@@ -152,6 +188,8 @@ def dmoc_resolve(name, rule, N, repeat, count):
     out = {"size": [problem.transcription.x_layout.size, problem.transcription.g_layout.size]}
     for run, call in calls.items():
         previous = call(problem, options={"print_level": 0})
+        if run in ("judged", "unjudged", "raw"):        # the defaults: steady state first
+            previous, out[run + " settled"] = settled(call, problem, name, targets, previous)
 
         def step(goal):
             nonlocal previous
@@ -161,7 +199,8 @@ def dmoc_resolve(name, rule, N, repeat, count):
                 raise RuntimeError(f"dmoc {rule} {run}: {previous.message}")
             st = previous.stats
             # IPOPT's time as CasADi records it, as for rockit (checkouts from before: the call's)
-            return st["iterations"], st.get("ipopt_time", st["solve_time"]), st["function_time"], previous.cost
+            return (st["iterations"], st.get("ipopt_time", st["solve_time"]), st["function_time"],
+                    st.get("verdict_time", 0.0), previous.cost)
         out[run], out["costs"] = cycle(step, targets, repeat)
     return out
 
@@ -261,7 +300,7 @@ def rockit_resolve(name, N, repeat, count, jit=False):
         nonlocal sol
         warm_start(ocp, sol)
         sol = rockit_solve(ocp, goal, value)
-        return (*ipopt_figures(sol.stats), float(sol.value(ocp.objective)))
+        return (*ipopt_figures(sol.stats), 0.0, float(sol.value(ocp.objective)))
     out = {"size": [opti.nx, opti.ng]}
     out["solve"], out["costs"] = cycle(solve_step, targets, repeat)
     out["function"], _ = cycle(function, targets, repeat)
@@ -282,7 +321,7 @@ def function_step(ocp, goal, sol):
     def step(value):
         nonlocal x, lam_g
         x, lam_g, cost = resolve(value, x, lam_g)
-        return (*ipopt_figures(resolve.stats()), float(cost))
+        return (*ipopt_figures(resolve.stats()), 0.0, float(cost))
     return step
 
 
@@ -448,9 +487,13 @@ def child(checkout, *arguments):
 
 def one(argv):
     """(child) argv = [name, method, N, repeat, count]: print the re-solves as JSON; method
-    "rockit-jit" is "rockit" with its "function C" run."""
+    "rockit-jit" is "rockit" with its "function C" run; methods "rockit-mpc" and
+    "dmoc-mpc" print a controller's warm steps (`rockit_mpc`, `dmoc_mpc`: N the horizon,
+    repeat the steps)."""
     name, method, N, repeat, count = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4])
-    if method.startswith("rockit"):
+    if method.endswith("-mpc"):     # N the horizon, repeat the steps
+        print(json.dumps((rockit_mpc if method == "rockit-mpc" else dmoc_mpc)(N, repeat)))
+    elif method.startswith("rockit"):
         print(json.dumps(rockit_resolve(name, N, repeat, count, jit=method == "rockit-jit")))
     else:
         print(json.dumps(dmoc_resolve(name, method, N, repeat, count)))
@@ -475,21 +518,24 @@ def least_loaded(outs):
     best = dict(outs[0])
     for out in outs[1:]:
         for run, row in out.items():
-            if run not in ("size", "costs") and row[0] < best[run][0]:
+            if run not in ("size", "costs") and not run.endswith(" settled") and row[0] < best[run][0]:
                 best[run] = row
     return best
 
 
 def table(name, n_star, measured, checkouts, rules):
-    """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT
-    and function seconds, the NLP size; with rockit measured, the ratios to its re-solves
-    (solve, function, and function C when measured), of IPOPT's time to rockit's function
-    re-solve, and the largest cost difference from rockit's."""
+    """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT,
+    function and verdict seconds, the NLP size, and for dmoc's defaults the re-solves and
+    seconds until they settled (`settled`); with rockit measured, the ratios to its
+    re-solves (solve, function, and function C when measured), of IPOPT's time to rockit's
+    function re-solve, of the verdict to the re-solve, and the largest cost difference from
+    rockit's."""
     rock = measured.get("rockit")
     runs = [run for run in ("solve", "function", "function C") if rock and run in rock]
-    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'it':>5}"
-            f"{'IPOPT ms':>9}{'fun ms':>7}" + "".join(f"{'/' + run:>12}" for run in runs)
-            + (f"{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
+    head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'CPU ms':>7}{'it':>5}"
+            f"{'IPOPT ms':>9}{'fun ms':>7}{'vrd ms':>7}{'vrd/ms':>7}{'settled':>11}"
+            + "".join(f"{'/' + run:>12}" for run in runs)
+            + (f"{'CPU/fun':>8}{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
     print(f"\n{name}" + (f" (ratios: to rockit's {', '.join(runs)} re-solves; IPOPT's to rockit's "
                          "function)" if rock else "") + f"\n{head}\n" + "-" * len(head))
     rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in runs]
@@ -498,13 +544,15 @@ def table(name, n_star, measured, checkouts, rules):
     for method, checkout, N, out, run in rows:
         if run not in out:
             continue
-        s, it, ipopt, fun = out[run]
+        s, it, ipopt, fun, verdict, cpu = (out[run] + [0.0, np.nan])[:6]     # outputs from before
+        count, seconds = out.get(run + " settled", (0, 0.0))
         line = (f"{method:<10}{checkout:<17}{N:>4}{'%d, %d' % tuple(out['size']):>11}{run:>11}"
-                f"{s * 1e3:>8.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}")
+                f"{s * 1e3:>8.2f}{cpu * 1e3:>7.2f}{it:>5.1f}{ipopt * 1e3:>9.2f}{fun * 1e3:>7.2f}{verdict * 1e3:>7.2f}"
+                f"{verdict / s:>7.2f}{'%d, %.1fs' % (count, seconds) if count else '':>11}")
         if rock:
             gap = np.max(np.abs(np.subtract(out["costs"], rock["costs"])) / np.asarray(rock["costs"]))
             line += "".join(f"{s / rock[r][0]:>12.2f}" for r in runs)
-            line += f"{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}"
+            line += f"{cpu / rock['function'][5]:>8.2f}{ipopt / rock['function'][2]:>7.2f}{gap:>9.1e}"
         print(line)
 
 
@@ -530,6 +578,122 @@ def resolves(names, rules, n_star, args, peers):
         table(name, n_star, measured, args.checkouts, rules)
 
 
+# ---- MPC --------------------------------------------------------------------------------
+
+PLANT = {"mass": 1.1}         # benchmarks/mpc.py's plant: 10 % heavier than the model
+KICK = (10, 0.3)              # at step 10, 0.3 of a unit momentum along the blade and turning
+
+
+def closed_loop(controller, horizon, steps):
+    """(seconds of each controller step, IPOPT seconds, iterations, CPU seconds) of a closed loop of
+    `steps` steps on the knife-edge plant (`PLANT`, `KICK`) from rest at the origin;
+    ``controller(q, v) -> (u, IPOPT s, iterations)`` gives the control held over the step."""
+    import dmoc
+    plant = dmoc.discretize(dmoc.systems.knife_edge(**PLANT), 0.1)
+    q, p, rows = np.zeros(3), np.zeros(3), []
+    for k in range(steps):
+        v = p / np.array([PLANT["mass"], PLANT["mass"], 1.0])
+        tic, tac = time.perf_counter(), time.process_time()
+        u, ipopt, iterations = controller(q, v)
+        rows.append((time.perf_counter() - tic, ipopt, iterations, time.process_time() - tac))
+        if k == KICK[0]:
+            p = p + KICK[1] * np.array([np.cos(q[2]), np.sin(q[2]), 1.0])
+        run = dmoc.simulate(plant, q0=q, p0=p, steps=1, controls=np.asarray(u)[None], jit=False)
+        q, p = run.trajectory.q[-1], run.trajectory.p[-1]
+    return rows
+
+
+def dmoc_mpc(horizon, steps):
+    """(this process) [median warm step s, IPOPT s, iterations, CPU s] of ``dmoc.MPC`` on
+    knife-edge parking over `horizon` steps, after closed loops of the same structure until
+    its solves evaluate the compiled NLP (checkouts from before: one loop)."""
+    import dmoc
+    from dmoc.problems import knife_edge_parking
+    problem = knife_edge_parking(horizon, duration=0.1 * horizon)
+
+    def loop():
+        mpc = dmoc.MPC(problem)
+
+        def controller(q, v):
+            u = mpc.step(q, v=v)
+            return u, mpc.log[-1].solve_time, mpc.log[-1].iterations
+        return mpc, closed_loop(controller, horizon, steps)
+    mpc, rows = loop()
+    tic = time.perf_counter()
+    while "compiled" in mpc.plan.stats and not mpc.plan.stats["compiled"] and time.perf_counter() - tic < 120:
+        mpc, rows = loop()
+    mpc, rows = loop()
+    return np.median(np.array(rows[1:]), axis=0).tolist()
+
+
+def rockit_mpc(horizon, steps):
+    """(this process) [median warm step s, IPOPT s, iterations, CPU s] of rockit's controller:
+    `rockit_ocp`'s knife edge on `horizon` intervals over 0.1 `horizon` s, its start a
+    parameter (x, y, heading, speed along the blade, turning rate), the goal (0, 1, 0) at
+    rest, re-solved by ``ocp.to_function`` from the previous optimum; the control applied
+    is the first interval's mean of its piecewise-linear u."""
+    import rockit
+    ocp = rockit.Ocp(t0=0, T=0.1 * horizon)
+    x, y, heading, speed, turn = (ocp.state() for _ in range(5))
+    u = ocp.control(2, order=1)
+    ocp.set_der(x, speed * ca.cos(heading))
+    ocp.set_der(y, speed * ca.sin(heading))
+    ocp.set_der(speed, u[0])          # the model's m = J = 1
+    ocp.set_der(heading, turn)
+    ocp.set_der(turn, u[1])
+    start, states = ocp.parameter(5), ca.vertcat(x, y, heading, speed, turn)
+    ocp.subject_to(ocp.at_t0(states) == start)
+    ocp.subject_to(ocp.at_tf(states) == ca.vertcat(GOAL["knife edge"], 0, 0))
+    ocp.add_objective(ocp.integral(ca.sumsqr(u)))
+    bend = ca.sin(np.pi * ocp.t / (0.1 * horizon))
+    ocp.set_initial(heading, np.pi / 2 * bend)
+    ocp.set_initial(speed, 1.0 / (0.1 * horizon) * bend)
+    ocp.solver("ipopt", {"print_time": False, "record_time": True, "expand": True,
+                         "ipopt": {**IPOPT, "warm_start_init_point": "yes"}})
+    ocp.method(rockit.MultipleShooting(N=horizon, M=1, intg="rk"))
+    ocp.set_value(start, np.zeros(5))
+    sol = ocp.solve()
+    opti = ocp._method.opti
+    resolve = ocp.to_function("mpc", [start, opti.x, opti.lam_g],
+                              [opti.x, opti.lam_g, ocp.sample(u, grid="control")[1]])
+    found = {"x": sol.sol.sol.value(opti.x), "lam_g": sol.sol.sol.value(opti.lam_g)}
+
+    def controller(q, v):
+        along = v[0] * np.cos(q[2]) + v[1] * np.sin(q[2])
+        found["x"], found["lam_g"], controls = resolve([q[0], q[1], q[2], along, v[2]],
+                                                       found["x"], found["lam_g"])
+        _, ipopt, _ = ipopt_figures(resolve.stats())
+        return np.asarray(controls)[:, :2].mean(axis=1), ipopt, resolve.stats()["iter_count"]
+    rows = closed_loop(controller, horizon, steps)
+    return np.median(np.array(rows[1:]), axis=0).tolist()
+
+
+def mpcs(args, peers):
+    """Print the warm MPC steps of rockit (when `peers`) and of dmoc per checkout, measured
+    in children interleaved `args.rounds` times (in this process with `args.smallest`)."""
+    counts = [str(args.horizon), str(args.steps)]
+    methods = (["rockit"] if peers else []) + args.checkouts
+    best = {}
+    for _ in range(args.rounds):
+        for method in methods:
+            checkout = args.checkouts[0] if method == "rockit" else method
+            kind = "rockit-mpc" if method == "rockit" else "dmoc-mpc"
+            if args.smallest:
+                row = (rockit_mpc if method == "rockit" else dmoc_mpc)(args.horizon, args.steps)
+            else:
+                row = child(checkout, "knife edge", kind, *counts, "0")
+            if method not in best or row[0] < best[method][0]:
+                best[method] = row
+    print(f"\nknife-edge MPC, horizon {args.horizon}, {args.steps} closed-loop steps: the median warm step")
+    print(f"{'controller':<24}{'step ms':>9}{'CPU ms':>8}{'IPOPT ms':>10}{'it':>5}"
+          + (f"{'/ rockit':>10}{'CPU /':>7}" if peers else ""))
+    for method in methods:
+        s, ipopt, it, cpu = best[method]
+        label = "rockit to_function" if method == "rockit" else f"dmoc.MPC {os.path.basename(method)}"
+        print(f"{label:<24}{s * 1e3:>9.2f}{cpu * 1e3:>8.2f}{ipopt * 1e3:>10.2f}{it:>5.1f}"
+              + (f"{s / best['rockit'][0]:>10.2f}{cpu / best['rockit'][3]:>7.2f}" if peers else ""))
+
+
 # ---- the run --------------------------------------------------------------------------
 
 def main(argv=None):
@@ -538,7 +702,7 @@ def main(argv=None):
         one(argv[1:])
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("comparison", choices=("first", "resolve"))
+    parser.add_argument("comparison", choices=("first", "resolve", "mpc"))
     parser.add_argument("--repeat", type=int, help="rounds of first solves (default 15), "
                         "cycles of re-solves (default 5)")
     parser.add_argument("--problem", choices=PROBLEMS, default="both")
@@ -549,6 +713,8 @@ def main(argv=None):
                         help="re-solves: dmoc checkouts to time (default: the current directory)")
     parser.add_argument("--rockit-jit", action="store_true",
                         help="also rockit's function re-solve compiled to C (20-40 s per child)")
+    parser.add_argument("--horizon", type=int, default=30, help="mpc: the controllers' horizon (steps)")
+    parser.add_argument("--steps", type=int, default=40, help="mpc: closed-loop steps")
     parser.add_argument("--scan", action="store_true", help="find the least N within 1e-6 again")
     parser.add_argument("--smallest", action="store_true",
                         help="the rolling disk with lobatto4 only, once, in this process")
@@ -565,12 +731,15 @@ def main(argv=None):
     names, rules = PROBLEMS[args.problem], DMOC_RULES
     if args.smallest:
         names, rules, args.rounds, args.goals, args.repeat = ("rolling disk",), ("lobatto4",), 1, 1, 1
+        args.horizon, args.steps = 8, 4
     if args.scan:
         n_star = scans(peers)
         print("least N with |J_N - J*| / J* <= 1e-6:", {f"{k[0]}, {k[1]}": v for k, v in n_star.items()})
     else:
         n_star = {(name, method): N for name, row in LEAST_N.items() for method, N in row.items()}
-    if args.comparison == "first":
+    if args.comparison == "mpc":
+        mpcs(args, peers)
+    elif args.comparison == "first":
         first_solves(names, rules, n_star, args.repeat or 15, peers)
     else:
         args.repeat = args.repeat or 5

@@ -40,6 +40,9 @@ class BoundedCache:
     def __len__(self):
         return len(self._values)
 
+    def __contains__(self, key):
+        return key in self._values
+
 
 def cache_names():
     """The names of the caches `clear_caches` can empty, sorted."""

@@ -21,6 +21,7 @@ import platform
 import secrets
 import shutil
 import subprocess
+import threading
 
 import casadi as ca
 
@@ -185,6 +186,36 @@ class Library:
         if done.returncode:
             raise CompiledCodeError(f"compiling the generated C with {self.cc} failed"
                                     f"{_disk_full(work)}:\n{done.stderr}")
+
+
+class Background:
+    """``load()``, which returns {name: Function} loaded by `Library.load`, run in a daemon
+    thread, so that the caller goes on in CasADi's virtual machine meanwhile: `functions`
+    is None until it has ended, then what `load` returned, or None for good when no
+    library could be compiled or loaded safely (`Library.load`'s checks, in that thread).
+    A process that ends while the compiler runs leaves its temporary folder in the cache
+    folder, which the next compile removes (`Library._compile`)."""
+
+    def __init__(self, load):
+        self._done, self._functions = threading.Event(), None
+        threading.Thread(target=self._run, args=(load,), name="dmoc-compile", daemon=True).start()
+
+    def _run(self, load):
+        try:
+            self._functions = load()
+        except (CompiledCodeError, OSError, RuntimeError):
+            self._functions = None
+        finally:
+            self._done.set()
+
+    @property
+    def functions(self):
+        """The loaded {name: Function}; None while the thread runs or when it failed."""
+        return self._functions if self._done.is_set() else None
+
+    def wait(self, timeout=None):
+        """Wait until the thread has ended (at most `timeout` seconds); True if it has."""
+        return self._done.wait(timeout)
 
 
 def _read_text(folder, name):

@@ -20,7 +20,7 @@ from .horizon_shift import shifted_on_group
 
 class GroupHorizon:
     """`MPC`'s horizon on the group: the arguments are `MPC`'s, with `guess` and
-    `references` None and `jit` False (refused by name otherwise: a problem on the group
+    `references` None and `jit` None or False (refused by name otherwise: a problem on the group
     has no parameters, starts along the geodesic, and its NLP is already SX, so `expand`
     has no effect).
 
@@ -33,7 +33,7 @@ class GroupHorizon:
 
     def __init__(self, problem, guess, options, measurement, references, switches):
         for name, value, default in (("guess", guess, None), ("references", references, None),
-                                     ("jit", switches["jit"], False)):
+                                     ("jit", switches["jit"] or None, None)):
             if value is not default:
                 raise InputError(f"`{name}` is not taken by MPC of a GroupOptimalControlProblem "
                                  f"(it has no parameters and starts along the geodesic, its NLP "

@@ -54,7 +54,9 @@ class MPC:
         MX graph (``expand=False, jit=False``). `expand` is True by default, unlike
         `optimize`'s: a controller builds its solver once and solves on it at every step,
         so the expansion's cost (a few ms at step 0) buys a cheaper evaluation at every
-        warm step (benchmarks/mpc.py --mx). With `jit`, `expand` has no effect.
+        warm step (benchmarks/mpc.py --mx). `jit` None (default), as `optimize`'s: after
+        0.1 s of warm steps the structure is compiled in the background, the steps after
+        it is loaded evaluate it (the same bits). With `jit`, `expand` has no effect.
     on_failure : {"raise", "shift"}
         What a step does when IPOPT does not converge. "raise" (default): raise
         SolverError (the failed solve in `.result`); no control is returned. "shift":
@@ -114,11 +116,12 @@ class MPC:
     """
 
     def __init__(self, problem, *, guess=None, options=None, on_failure="raise",
-                 measurement="project", references=None, expand=True, jit=False):
+                 measurement="project", references=None, expand=True, jit=None):
         checks.instance("problem", problem, (OptimalControlProblem, GroupOptimalControlProblem),
                         "an OptimalControlProblem or a GroupOptimalControlProblem")
         self.on_failure = checks.choice("on_failure", on_failure, ON_FAILURE)
-        switches = {"expand": checks.boolean("expand", expand), "jit": checks.boolean("jit", jit)}
+        switches = {"expand": checks.boolean("expand", expand),
+                    "jit": None if jit is None else checks.boolean("jit", jit)}
         kind = GroupHorizon if isinstance(problem, GroupOptimalControlProblem) else VectorHorizon
         self._horizon = kind(problem, guess, options, measurement, references, switches)
         self.measurement = self._horizon.measurement.policy

@@ -11,7 +11,7 @@ from .group_optimum import group_keywords, judged_level_solve
 
 
 def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
-             linear_solver_report=False, jit=False, throw=True, check=True, estimate=False,
+             linear_solver_report=False, jit=None, throw=True, check=True, estimate=False,
              accuracy=None, max_steps=100_000):
     """Solve a DMOC problem with IPOPT and judge the optimum; optionally estimate its
     discretization error or refine the grid to an accuracy target.
@@ -60,15 +60,19 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         True adds ``stats["linear_solver"]``, what the KKT factorizations needed, read from
         IPOPT's detailed journal (`dmoc.optimal_control.solver.linear_solver`); writing it adds 10-30 %
         to the solve. Default False.
-    jit : bool
+    jit : bool or None
         True evaluates the NLP (objective, constraints and their derivatives) as C code,
         compiled once per NLP structure with the system's C compiler and kept on disk
         across processes in the private folder of the simulator's compiled steps
         (`dmoc.optimal_control.nlp.evaluation`; an error without a C compiler). The same operations as
         in CasADi's virtual machine, so the same optimum and iterations, 2-6 times
         faster per evaluation; compiling takes about 1-3 s the first time, loading the
-        library tens of milliseconds once per process: for re-solves of one structure
-        (docs/stages/optimize.md, "Compiled re-solves"). Default False.
+        library tens of milliseconds once per process. None (default): the virtual
+        machine until the structure's warm re-solves (starts from an earlier optimum of
+        the same structure) have spent 0.1 s in IPOPT, which starts compiling it in a
+        background thread; its solves after the library is loaded evaluate the C code
+        (``stats["compiled"]``; without a C compiler, never). False: never compile, nor
+        the light verdict's step (docs/stages/optimize.md, "Compiled re-solves").
     throw : bool
         Raise SolverError when IPOPT fails or its optimum fails the verdict, and
         `dmoc.Interrupted` when a Ctrl-C (SIGINT) stops it (default); else return the
@@ -131,7 +135,7 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
     if isinstance(problem, GroupOptimalControlProblem):
         keywords = group_keywords(options=options, throw=throw, check=check, guess=(guess, None),
                                   reuse_solver=(reuse_solver, True), expand=(expand, False),
-                                  jit=(jit, False),
+                                  jit=(jit, None),
                                   linear_solver_report=(linear_solver_report, False))
     else:
         keywords = {"options": options, "reuse_solver": reuse_solver, "expand": expand,

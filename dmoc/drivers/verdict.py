@@ -7,14 +7,11 @@ It is a driver because the replay needs both consumers of the step residual, whi
 import each other.
 """
 
-import dataclasses
 import time
 
 import numpy as np
 
-from .._util import checks
-from .._util.cache import BoundedCache
-from .._util.numeric import Evaluator
+from .._util import checks, deferred
 from ..errors import SolverError, Status
 from ..optimal_control.solver.solving import solve
 from ..optimal_control.solver.verdict_record import Verdict
@@ -22,18 +19,16 @@ from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..optimal_control.statement.parameters import row_texts
 from ..principle.rotation_trajectory import RotationTrajectory
 from ..results.diagnostics import compared_momenta, replays
-from ..discrete.knot_states import knot_velocities
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
-from .group_verdict import group_knot_path_values, judge_on_group
+from .group_verdict import judge_on_group
 from .judged_inputs import check_judged
+from .knot_checks import (knot_path_values, knot_path_values_of,  # noqa: F401 (re-exported)
+                          knot_velocity_bound_values)
+from .step_replay import applies, step_departure
 from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE,  # noqa: F401 (re-exported)
                              REPLAY_TOLERANCE, REST_TOLERANCE, largest_change, path_violation,
                              q_scale, replay_departure, worst_status)
 
-# a path Function mapped over a number of knots, evaluated through its buffer: keyed by
-# (id of the path Function, knots), the value (that Function, its Evaluator) so that the
-# id stays its own while the entry lives
-_PATH_MAPS = BoundedCache(16, "path_maps")
 
 
 def judge(problem, result):
@@ -74,23 +69,25 @@ def verdicts(pairs):
     bit as one by one, what the optima share done once: their replays in lockstep
     (`dmoc.diagnostics.replays`), the interpolants' end velocities of all of them in one
     call per rule (`end_velocities_of`), their path constraints at the knots in one call
-    per path Function (`_knot_path_values_of`). An error of any optimum (one `simulate`
+    per path Function (`knot_path_values_of`). An error of any optimum (one `simulate`
     refuses to replay) is raised for all: judge them one by one to tell whose it is."""
     trajs = [result.trajectory for _, result in pairs]
     replayed = replays([(problem, traj) for (problem, _), traj in zip(pairs, trajs)])
     ends = end_velocities_of([(problem.disc, traj) for (problem, _), traj in zip(pairs, trajs)])
     constrained = [i for i, (problem, _) in enumerate(pairs) if problem.path_constraints is not None]
-    knot_values = dict(zip(constrained, _knot_path_values_of(
+    knot_values = dict(zip(constrained, knot_path_values_of(
         [(pairs[i][0], trajs[i], ends[i]) for i in constrained])))
-    return [_verdict(problem, traj, simulated, ends[i], knot_values.get(i))
+    return [_verdict(problem, traj, replay_departure(traj, simulated, compared_momenta(problem, traj)),
+                     ends[i], knot_values.get(i))
             for i, ((problem, _), traj, simulated) in enumerate(zip(pairs, trajs, replayed))]
 
 
-def _verdict(problem, traj, simulated, ends, knot_values):
-    """The Verdict on the optimum `traj` of `problem` from its replay `simulated`, its
+def _verdict(problem, traj, departure, ends, knot_values):
+    """The Verdict on the optimum `traj` of `problem` from its replay's `departure` (q, p,
+    first step beyond REPLAY_TOLERANCE: `replay_departure`'s or `light_judge`'s), its
     interpolant's end velocities `ends` and its path values at the knots (None without
     path constraints)."""
-    replay_q, replay_p, replay_step = replay_departure(traj, simulated, compared_momenta(problem, traj))
+    replay_q, replay_p, replay_step = departure
     changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
     resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
@@ -115,9 +112,11 @@ def _verdict(problem, traj, simulated, ends, knot_values):
 
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
-    """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`: the
-    result with its `verdict` and the verdict's wall seconds in ``stats["verdict_time"]``
-    (the result's trajectory, which the verdict reads, built before: it is the solve's),
+    """IPOPT's solve (`dmoc.optimal_control.solve`, `keywords` its own) followed by `judge`
+    (by `light_judge` when the solve was a warm start from an optimum whose verdict
+    passed, on the compiled NLP: ``stats["light_verdict"]``): the result with its
+    `verdict` and the verdict's wall seconds in ``stats["verdict_time"]`` (the result's
+    trajectory, which the verdict reads, built before: it is the solve's),
     ``success=False`` and the verdict's status when a check fails (SolverError with
     `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
@@ -126,8 +125,31 @@ def judged_solve(problem, *, check=True, throw=True, **keywords):
         return result
     result.trajectory           # the solve's product, built on first reading: not the verdict's cost
     tic = time.perf_counter()
-    verdict = judge(problem, result)
-    return judged(result, verdict, throw=throw, seconds=time.perf_counter() - tic)
+    guess = keywords.get("guess")
+    light = (light_judge(problem, result) if result.stats["compiled"] and result.stats["warm_start"]
+             and guess.verdict is not None and guess.verdict.passed else None)
+    result.stats["light_verdict"] = light is not None
+    return judged(result, light or judge(problem, result), throw=throw, seconds=time.perf_counter() - tic)
+
+
+def light_judge(problem, result):
+    """The Verdict on an optimum of `problem` as `judge` makes it, but for the replay: the
+    simulator's compiled step from every knot of the optimum at once
+    (`step_replay.step_departure`), not one run from its start; replay_step the first knot
+    whose step departs beyond REPLAY_TOLERANCE. None where that does not apply or is not
+    compiled yet (`step_replay.applies`, `step_departure`): `judge` judges such an optimum
+    (docs/verification.md, "The light verdict of a re-solve")."""
+    traj = result.trajectory
+    check_judged(problem, traj, "result.trajectory")
+    departure = step_departure(problem, traj) if applies(problem, traj) else None
+    if departure is None:
+        return None
+    replay_q, replay_p, each = departure
+    beyond = np.flatnonzero(each > REPLAY_TOLERANCE)
+    ends = end_velocities(problem.disc, traj)
+    knots = None if problem.path_constraints is None else knot_path_values_of([(problem, traj, ends)])[0]
+    return _verdict(problem, traj, (replay_q, replay_p, int(beyond[0]) + 1 if beyond.size else -1),
+                    ends, knots)
 
 
 def judged(result, verdict, *, throw=True, seconds=None):
@@ -135,12 +157,13 @@ def judged(result, verdict, *, throw=True, seconds=None):
     ``stats["verdict_time"]`` unless None): as it is when the verdict passed, else
     with ``success=False``, the verdict's status and its message (`verdict_message`),
     raised as a SolverError with `throw`."""
+    changes = {"verdict": verdict}      # the fields not made yet stay so (`deferred.replace`)
     if seconds is not None:
-        result = dataclasses.replace(result, stats={**result.stats, "verdict_time": seconds})
+        changes["stats"] = {**result.stats, "verdict_time": seconds}
     if verdict.passed:
-        return dataclasses.replace(result, verdict=verdict)
-    result = dataclasses.replace(result, success=False, status=verdict.status, verdict=verdict,
-                                 message=verdict_message(verdict, result))
+        return deferred.replace(result, **changes)
+    result = deferred.replace(result, success=False, status=verdict.status,
+                              message=verdict_message(verdict, result), **changes)
     if throw:
         raise SolverError(result.message + " The optimum is in `.result`.", result)
     return result
@@ -193,64 +216,3 @@ def _replay_remedy(traj):
         return advice
     return (f"{advice}; for this stage rule, the midpoint rule's optimum on twice the steps: "
             f"`guess=dmoc.optimize(problem.with_rule(\"midpoint\").with_steps({2 * traj.steps}))`")
-
-
-def knot_path_values(problem, traj):
-    """The path constraints g evaluated at every knot, shape (N + 1, rows): at (q_k, v_k,
-    u(t_k)), v_k the knot velocity (the mean of the interpolants' velocities at q_k from
-    both sides, one side at the ends: `dmoc.discrete.knot_states.knot_velocities`), u(t_k)
-    `Trajectory.control` there, with the parameters at q_k (`_knot_arguments`); the values
-    the NLP's knot rows impose (`dmoc.optimal_control.nlp.path_terms`). The one-optimum
-    case of `_knot_path_values_of`. On SO(3), g(R_k, x_k, u_k) (`group_knot_path_values`)."""
-    if isinstance(problem, GroupOptimalControlProblem):
-        return group_knot_path_values(problem, checks.instance("traj", traj, RotationTrajectory,
-                                                               "a RotationTrajectory"))
-    check_judged(problem, traj)
-    return _knot_path_values_of([(problem, traj, end_velocities(problem.disc, traj))])[0]
-
-
-def _knot_path_values_of(triples):
-    """`knot_path_values` of each (problem, traj, its `end_velocities`) of `triples`: those
-    of one path Function in one call of it mapped over all their knots, their columns
-    one optimum after another (a serial map: each optimum's values bit for bit those of
-    a call of its own). The mapped Function is kept per path Function and number of
-    knots and called through its buffer (`dmoc._util.numeric.Evaluator`)."""
-    found, values = {}, [None] * len(triples)
-    for i, (problem, _, _) in enumerate(triples):
-        found.setdefault(id(problem.path_constraints), []).append(i)
-    for members in found.values():
-        path = triples[members[0]][0].path_constraints
-        columns = [_knot_arguments(*triples[i]) for i in members]
-        total = sum(c[0].shape[1] for c in columns)
-        mapped = _PATH_MAPS.get((id(path), total), lambda: (path, Evaluator(path.map(total))))[1]
-        (g,) = mapped(*(np.hstack(parts) for parts in zip(*columns)))
-        knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
-        for i, block in zip(members, np.split(g.T, knots)):
-            values[i] = block
-    return values
-
-
-def _knot_arguments(problem, traj, ends):
-    """The arguments (q, v, u, w) of ``problem.path_constraints`` at the N + 1 knots of
-    `traj` (`knot_path_values`), one column per knot, from its interpolant's end
-    velocities `ends`; w the parameters at each knot (`ProblemParameters.knot_points`, the
-    clock with the optimum's step h)."""
-    w = problem.parameters.knot_points(traj.h)
-    return traj.q.T, knot_velocities(*ends).T, traj.control(traj.t).T, w
-
-
-def knot_velocity_bound_values(problem, traj, ends=None):
-    """The velocity bounds as rows g <= 0 at every knot, shape (N + 1, rows), and their
-    names: lower_i - v_k,i and v_k,i - upper_i for each finite bound, v_k the knot velocity
-    (`knot_path_values`; `ends` the interpolants' end velocities when computed already).
-    InputTypeError on SO(3), whose problems have no velocity bounds."""
-    check_judged(problem, traj)
-    v = knot_velocities(*(end_velocities(problem.disc, traj) if ends is None else ends))
-    names, columns = problem.disc.system.names, []
-    for side, (bound, sign, relation) in enumerate(zip(problem.velocity_bounds, (-1.0, 1.0), (">=", "<="))):
-        for i in np.flatnonzero(np.isfinite(bound)):
-            columns.append((sign * (v[:, i] - bound[i]),
-                            f"velocity_bounds {('lower', 'upper')[side]} of {names[i]} "
-                            f"(v[{i}] {relation} {bound[i]:.6g})"))
-    values = np.column_stack([c for c, _ in columns]) if columns else np.zeros((v.shape[0], 0))
-    return values, [name for _, name in columns]

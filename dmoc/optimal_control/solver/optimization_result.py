@@ -44,7 +44,9 @@ class OptimizationResult:
         ``iterations``, ``return_status``, ``build_time`` (seconds to create the solver; 0
         when a solver of the same structure and options was reused), ``solver_reused``,
         ``warm_start`` (True when IPOPT started from a previous optimum's x and
-        multipliers), ``solve_time`` (wall seconds of the solver call), ``ipopt_time`` (of them
+        multipliers), ``compiled`` (True when IPOPT evaluated the NLP as compiled C: with
+        ``jit=True``, or by default once the structure's background compile had finished),
+        ``solve_time`` (wall seconds of the solver call), ``ipopt_time`` (of them
         the seconds in CasADi's IPOPT call itself, as CasADi records them: without the
         conversions of the inputs and outputs), ``function_time`` (the part
         of it spent evaluating the NLP functions and derivatives; the rest is mostly the

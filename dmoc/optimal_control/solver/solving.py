@@ -20,6 +20,7 @@ from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
 from .linear_solver_choice import check_linear_solver
+from ..nlp.evaluation import compiled_when_ready, spent
 from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
@@ -34,7 +35,7 @@ SWITCHES = {"reuse_solver": True, "expand": False, "linear_solver_report": False
 
 
 def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
-          linear_solver_report=False, jit=False, throw=True):
+          linear_solver_report=False, jit=None, throw=True):
     """Solve a DMOC problem with IPOPT, without judging the optimum: `dmoc.optimize` with
     ``check=False``, whose docstring gives the parameters.
 
@@ -44,7 +45,8 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
         Its `success` is IPOPT's; its `verdict` None.
     """
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
-    throw, jit = checks.boolean("throw", throw), checks.boolean("jit", jit)
+    throw = checks.boolean("throw", throw)
+    jit = None if jit is None else checks.boolean("jit", jit)
     checks.instance("guess", guess, (Trajectory, OptimizationResult, type(None)),
                     "a Trajectory, an OptimizationResult or None")
     options = None if options is None else checks.ipopt_options("options", options)
@@ -58,13 +60,16 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     x0, lam_x0, lam_g0 = start_point(problem, guess, fixed)
     x0 = x0 / D        # scaled: IPOPT and the data's tolerances read it
     warm = isinstance(guess, OptimizationResult) and lam_g0 is guess.lam_g
+    automatic = jit is None     # compiled once the structure is re-solved, when the library is ready
+    if automatic:
+        jit = compiled_when_ready(T.separable, warm)
     tic = time.perf_counter()
     solver, reused, journal = ipopt_solver(
         T, {**data_tolerances(T, x0, jit), **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
         report=switches["linear_solver_report"], jit=jit)
     times = {"build_time": 0.0 if reused else time.perf_counter() - tic, "solver_reused": reused,
-             "warm_start": warm}
+             "warm_start": warm, "compiled": jit}
     journal_start = linear_solver.journal_end(journal) if journal else 0
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
@@ -74,6 +79,8 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     st = solver.stats()
     cost, worst = _values_at_x(T, sol, st["success"])
     stats = _statistics(st, times, worst)
+    if automatic and warm and not jit:
+        spent(T.separable, stats["ipopt_time"])
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
     status, message, success = _outcome(st, stats, cost, sigints)
