@@ -18,7 +18,8 @@ from ..errors import InputError
 from ..optimal_control.nlp.evaluation import nlp_functions
 
 _SYSTEMS = BoundedCache(16, "kkt_systems")          # by NLP structure
-_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, fixed entries, number of parameters)
+_LAYOUTS = BoundedCache(16, "kkt_layouts")          # by (NLP structure, fixed entries)
+_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, fixed and bounded entries, k, method)
 _DIRECTIONS = BoundedCache(16, "kkt_directions")    # by (NLP structure, number of parameters)
 
 ACTIVE_MULTIPLIER = 1e-6    # |multiplier| above this times (1 + the largest) marks an active bound
@@ -28,6 +29,21 @@ ACTIVE_GAP = 1e-6           # and the row or entry within this (scaled, times 1 
 # velocity is their mean) leave the multipliers non-unique and the KKT matrix singular;
 # the shift picks one of them and moves dx by about DEPENDENT_ROWS |dlam|.
 DEPENDENT_ROWS = 1e-12
+# The symmetric matrix factored by LDL^T without pivoting is shifted by +REGULARIZATION on
+# the rows of x and -REGULARIZATION on those of g (quasi-definite: every pivot away from
+# zero, Vanderbei 1995), and its solution refined against the exact matrix, REFINEMENTS
+# solves in all; accepted when each column's normwise backward error is at most
+# BACKWARD_ERROR, else the exact matrix's sparse QR.
+REGULARIZATION = 1e-6
+REFINEMENTS = 3
+BACKWARD_ERROR = 1e-13
+# a nonzero of the QR's factors costs about QR_COST times one of the LDL^T's matrix or factor
+# per solve (CasADi 3.8's "qr" and "ldl" on the knife edge and the rolling disk, N = 1000)
+QR_COST = 2.0
+# the KKT matrix is singular when its solution for the probe (entries of modulus 1 to 2 in
+# the free stationarity rows) exceeds SINGULAR over the matrix's largest entry: a condition
+# number near 1 / eps
+SINGULAR = 1e13
 
 
 @dataclass(frozen=True)
@@ -93,20 +109,17 @@ def _gathered(rows, cols, source, diagonal, shape):
     return sparsity, merged[0], keys % shape[0], merged[1]
 
 
-def kkt_solution(transcription, k, fixed):
-    """The Evaluator of ``(values, active_x, active_g, d_bound, r) -> dx``: `solve_kkt`'s
-    system for k parameters without the entries `fixed` (lbx == ubx, int array), whose dx
-    is their bound's change, its matrix gathered from the `KKTSystem`'s values and factored
-    by CasADi's sparse QR ("qr"); built once per NLP `structure`, `fixed` and k.
-
-    Inputs: `values` of `KKTSystem.blocks`; the 0/1 masks active_x (n_x,) and active_g
-    (n_g,) of the entries and rows held at a bound; the change of the bound of each entry
-    of x (n_x, k) and minus the change of (grad L, g) in p, (n_x + n_g, k), per unit of
-    each parameter (`kkt_directions`). Output: dx/dtheta (n_x, k).
-    """
+def kkt_layout(transcription, fixed):
+    """(kept, position, K, F, method) of `solve_kkt`'s matrix without the entries `fixed`
+    (int array): the mask (n_x + n_g,) of the rows and columns kept, their positions (the
+    fixed ones numbered n_x + n_g + i), the `_gathered` matrix of the kept ones and of the
+    fixed columns in the kept rows, and the cheaper method by the nonzeros each handles:
+    "ldl", REFINEMENTS solves each through the matrix twice (the solve, the residual) and
+    its factor once, or "qr", its factors V and R, weighted by QR_COST. Built once per NLP
+    `structure` and `fixed`."""
     def build():
-        nlp, (rows, cols, source, diagonal) = transcription.separable, kkt_system(transcription).entries
-        n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
+        n, (rows, cols, source, diagonal) = transcription.separable.n_x + transcription.separable.n_g, \
+            kkt_system(transcription).entries
         kept = np.ones(n, bool)
         kept[fixed] = False
         m, position = int(kept.sum()), np.where(kept, np.cumsum(kept) - 1, -1)
@@ -114,21 +127,86 @@ def kkt_solution(transcription, k, fixed):
         square, side = kept[rows] & kept[cols], kept[rows] & ~kept[cols]
         K = _gathered(position[rows[square]], position[cols[square]], source[square], diagonal[square], (m, m))
         F = _gathered(position[rows[side]], position[cols[side]] - n, source[side], diagonal[side], (m, fixed.size))
+        v, r, _, _ = K[0].qr_sparse(True)
+        factor, _ = K[0].ldl(True)
+        ldl = REFINEMENTS * (2 * K[0].nnz() + factor.nnz()) < QR_COST * (v.nnz() + r.nnz())
+        return kept, position, K, F, "ldl" if ldl else "qr"
+    return _LAYOUTS.get((transcription.structure, fixed.tobytes()), build)
+
+
+def kkt_solution(transcription, k, fixed, bounded, method):
+    """The Evaluator of ``(values, active_x, active_g, d_bound, r) -> (dx, error)``:
+    `solve_kkt`'s system for k parameters and a probe, without the entries `fixed` (lbx ==
+    ubx, int array), whose dx is their bound's change; its matrix gathered from the
+    `KKTSystem`'s values. `method` "ldl": the symmetric matrix shifted by
+    +-REGULARIZATION, factored by CasADi's sparse LDL^T ("ldl", no pivoting) and refined
+    against the exact matrix, REFINEMENTS solves; "qr": the exact matrix by its sparse QR.
+    Built once per NLP `structure`, `fixed`, `bounded` (the entries of x with a finite
+    bound that are not fixed, int array), k and `method`.
+
+    Inputs: `values` of `KKTSystem.blocks`; the 0/1 masks active_x (n_x,) and active_g
+    (n_g,) of the entries and rows held at a bound; the change of the bound of each entry
+    of x (n_x, k) and minus the change of (grad L, g) in p, (n_x + n_g, k), per unit of
+    each parameter (`kkt_directions`). Outputs: dx/dtheta and the probe's solution, (n_x,
+    k + 1); the normwise backward error of each column, (1, k + 1).
+    """
+    def build():
+        nlp, (rows, cols, source, diagonal) = transcription.separable, kkt_system(transcription).entries
+        n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
+        kept, position, K, F, _ = kkt_layout(transcription, fixed)
+        m = K[0].size1()
         values = ca.MX.sym("values", int(source.max(initial=0)) + 1)
         a_x, a_g = ca.MX.sym("active_x", n_x), ca.MX.sym("active_g", n_g)
         d_bound, r = ca.MX.sym("d_bound", n_x, k), ca.MX.sym("r", n, k)
         kept_rows = np.flatnonzero(kept).tolist()
         masks = ca.vertcat(1 - a_x, a_g)[kept_rows]      # the stationarity rows of the free entries, the held rows
         diagonal_terms = ca.vertcat(0, a_x, 1 - (1 + DEPENDENT_ROWS) * a_g)
-        matrix = ca.MX(K[0], values[K[1].tolist()] * masks[K[2].tolist()] + diagonal_terms[K[3].tolist()])
+        entries = values[K[1].tolist()] * masks[K[2].tolist()]
         d_fixed = d_bound[fixed.tolist(), :]
         moved = ca.mtimes(ca.MX(F[0], values[F[1].tolist()] * masks[F[2].tolist()]), d_fixed)
         held = ca.vertcat(ca.repmat(a_x, 1, k) * d_bound, ca.MX(n_g, k))[kept_rows, :]
-        solution = ca.solve(matrix, held + ca.repmat(masks, 1, k) * r[kept_rows, :] - moved, "qr")
-        dx = ca.vertcat(solution, d_fixed)[np.where(kept, position, position - n + m)[:n_x].tolist(), :]
-        return Evaluator(ca.Function("kkt_solution", [values, a_x, a_g, d_bound, r], [dx],
-                                     ["values", "active_x", "active_g", "d_bound", "r"], ["dx"]))
-    return _SOLUTIONS.get((transcription.structure, fixed.tobytes(), k), build)
+        b = held + ca.repmat(masks, 1, k) * r[kept_rows, :] - moved
+        probe = masks * ca.DM(_probe(n_x - fixed.size, m))
+        scale = ca.fmax(1, ca.mmax(ca.fabs(values)))      # of the matrix: its entries, its identity rows
+        if method == "qr":
+            solution = ca.solve(ca.MX(K[0], entries + diagonal_terms[K[3].tolist()]), ca.horzcat(b, probe), "qr")
+            checks = []
+        else:
+            # the held entries' columns to the right side: the matrix symmetric (rows and
+            # columns masked), the held rows and entries identities
+            inside = np.zeros(n, bool)
+            inside[bounded] = True
+            near = kept[rows] & inside[cols] & kept[cols]
+            B = _gathered(position[rows[near]], np.searchsorted(bounded, cols[near]), source[near],
+                          diagonal[near], (m, bounded.size))
+            d_held = (a_x * d_bound)[bounded.tolist(), :] if bounded.size else ca.MX(0, k)
+            right = ca.horzcat(b - ca.mtimes(ca.MX(B[0], values[B[1].tolist()] * masks[B[2].tolist()]), d_held),
+                               probe)
+            shift = ca.DM(np.concatenate([[0.0], np.full(n_x, REGULARIZATION), np.full(n_g, -REGULARIZATION)]))
+            column_masks = masks[np.repeat(np.arange(m), np.diff(K[0].colind())).tolist()]
+            matrix = ca.MX(K[0], entries * column_masks + diagonal_terms[K[3].tolist()] + shift[K[3].tolist()])
+            regularization = ca.repmat(shift[(1 + np.flatnonzero(kept)).tolist()], 1, k + 1)
+            solution, residual = ca.MX(m, k + 1), right
+            for _ in range(REFINEMENTS):
+                solution = solution + ca.solve(matrix, residual, "ldl")
+                residual = right - ca.mtimes(matrix, solution) + regularization * solution
+            checks = [ca.mmax(ca.vertcat(*(ca.mmax(ca.fabs(residual[:, j])) / (scale * ca.mmax(ca.fabs(
+                solution[:, j])) + ca.mmax(ca.fabs(right[:, j]))) for j in range(k + 1))))]
+        condition = scale * ca.mmax(ca.fabs(solution[:, k]))
+        dx = ca.vertcat(solution, ca.horzcat(d_fixed, ca.MX.zeros(fixed.size, 1)))
+        dx = dx[np.where(kept, position, position - n + m)[:n_x].tolist(), :]
+        return Evaluator(ca.Function("kkt_solution", [values, a_x, a_g, d_bound, r], [dx, condition, *checks],
+                                     ["values", "active_x", "active_g", "d_bound", "r"],
+                                     ["dx", "condition", "error"][:2 + len(checks)]))
+    return _SOLUTIONS.get((transcription.structure, fixed.tobytes(), bounded.tobytes(), k, method), build)
+
+
+def _probe(free, m):
+    """The probe right side, shape (m, 1): entries of modulus in [1, 2] and random signs in
+    the `free` stationarity rows, zero in the rows of g (dependent active rows leave it
+    consistent), fixed by a seed."""
+    rng = np.random.default_rng(0)
+    return np.concatenate([rng.uniform(1.0, 2.0, free) * rng.choice([-1.0, 1.0], free), np.zeros(m - free)])
 
 
 def kkt_directions(transcription, k):
@@ -212,19 +290,43 @@ def solve_kkt(transcription, x, lam_g, lam_x, d_p, d_lower, d_upper):
     g, grad, values = kkt_system(T).blocks(x, T.p, lam_g)
     lbg, ubg = T.scaled_g_bounds
     g_rows, _ = active_sets(g[:, 0], lbg, ubg, lam_g)
-    x_rows, at_upper = active_sets(x, T.lbx / T.x_scale, T.ubx / T.x_scale, lam_x)
+    lbx, ubx = T.lbx / T.x_scale, T.ubx / T.x_scale
+    x_rows, at_upper = active_sets(x, lbx, ubx, lam_x)
     active_x, active_g, d_bound = np.zeros(x.size), np.zeros(lam_g.size), np.zeros((x.size, k))
     active_x[x_rows], active_g[g_rows] = 1.0, 1.0
     d_bound[x_rows] = np.where(at_upper[:, None], d_upper[x_rows], d_lower[x_rows])
+    moving = d_bound.any(axis=0)            # the columns to solve for; the others' dx is 0
     if d_p.any():
         r, d_f = kkt_directions(T, k)(x, T.p, lam_g, d_p)
+        moving |= r.any(axis=0)
     else:
         r, d_f = np.zeros((x.size + lam_g.size, k)), np.zeros((1, k))
-    try:
-        dx, = kkt_solution(T, k, np.flatnonzero(T.lbx == T.ubx))(values, active_x, active_g, d_bound, r)
-    except RuntimeError:
-        dx = np.full((x.size, k), np.nan)
-    if not np.isfinite(dx).all():
-        raise InputError("the optimum's KKT matrix is singular: the active constraints are "
-                         "dependent or the optimum is not strict; no sensitivities there.")
+    moving = np.flatnonzero(moving)
+    fixed = np.flatnonzero(lbx == ubx)
+    bounded = np.flatnonzero((np.isfinite(lbx) | np.isfinite(ubx)) & (lbx != ubx))
+    args = (values, active_x, active_g, d_bound[:, moving], r[:, moving])
+    solution = None
+    for method in dict.fromkeys((kkt_layout(T, fixed)[-1], "qr")):
+        try:
+            solution, condition, *error = kkt_solution(T, moving.size, fixed, bounded, method)(*args)
+        except RuntimeError:            # the QR's factorization failed: a zero on R's diagonal
+            condition = np.nan
+            break
+        if method == "qr" or error[0] <= BACKWARD_ERROR:
+            break
+    if not condition <= SINGULAR:
+        where = "" if solution is None else f" (largest in {_named(T.x_layout, solution[:, -1])})"
+        raise InputError("the optimum's KKT matrix (the Lagrangian's Hessian with the active constraints' "
+                         "Jacobian) is singular: the active constraints are dependent or the optimum is not "
+                         "strict, as along a direction of x in which neither the cost nor the constraints "
+                         f"change{where}; no sensitivities there.")
+    dx = np.zeros((x.size, k))
+    dx[:, moving] = solution[:, :-1]
     return dx, grad[:, 0] @ dx + d_f[0], g_rows, x_rows
+
+
+def _named(layout, direction):
+    """The entries of x where `direction` (n_x,) is largest (or not finite), three at
+    most, as 'block[row, column]' of `layout`."""
+    largest = np.argsort(-np.nan_to_num(np.abs(direction), nan=np.inf))[:3]
+    return ", ".join("{}[{}, {}]".format(*layout.locate(i)) for i in largest)
