@@ -19,7 +19,7 @@ from ..optimal_control.nlp.evaluation import nlp_functions
 
 _SYSTEMS = BoundedCache(16, "kkt_systems")          # by NLP structure
 _LAYOUTS = BoundedCache(16, "kkt_layouts")          # by (NLP structure, fixed entries)
-_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, fixed and bounded entries, k, method)
+_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, fixed and bounded entries, ..., method)
 _DIRECTIONS = BoundedCache(16, "kkt_directions")    # by (NLP structure, number of parameters)
 
 ACTIVE_MULTIPLIER = 1e-6    # |multiplier| above this times (1 + the largest) marks an active bound
@@ -30,20 +30,17 @@ ACTIVE_GAP = 1e-6           # and the row or entry within this (scaled, times 1 
 # the shift picks one of them and moves dx by about DEPENDENT_ROWS |dlam|.
 DEPENDENT_ROWS = 1e-12
 # The symmetric matrix factored by LDL^T without pivoting is shifted by +REGULARIZATION on
-# the rows of x and -REGULARIZATION on those of g (quasi-definite: every pivot away from
-# zero, Vanderbei 1995), and its solution refined against the exact matrix, REFINEMENTS
-# solves in all; accepted when each column's normwise backward error is at most
-# BACKWARD_ERROR, else the exact matrix's sparse QR.
+# the rows of x and -REGULARIZATION on those of g (quasi-definite where the Hessian is
+# positive: no pivot near zero, Vanderbei 1995), and its solution refined against the exact
+# matrix, REFINEMENTS solves in all; accepted when the normwise backward error of each
+# column and of a probe's (a generic right side, whose refinement stalls on a singular
+# matrix) is at most BACKWARD_ERROR, else the exact matrix's sparse QR.
 REGULARIZATION = 1e-6
 REFINEMENTS = 3
 BACKWARD_ERROR = 1e-13
 # a nonzero of the QR's factors costs about QR_COST times one of the LDL^T's matrix or factor
 # per solve (CasADi 3.8's "qr" and "ldl" on the knife edge and the rolling disk, N = 1000)
 QR_COST = 2.0
-# the KKT matrix is singular when its solution for the probe (entries of modulus 1 to 2 in
-# the free stationarity rows) exceeds SINGULAR over the matrix's largest entry: a condition
-# number near 1 / eps
-SINGULAR = 1e13
 
 
 @dataclass(frozen=True)
@@ -134,21 +131,27 @@ def kkt_layout(transcription, fixed):
     return _LAYOUTS.get((transcription.structure, fixed.tobytes()), build)
 
 
-def kkt_solution(transcription, k, fixed, bounded, method):
-    """The Evaluator of ``(values, active_x, active_g, d_bound, r) -> (dx, error)``:
-    `solve_kkt`'s system for k parameters and a probe, without the entries `fixed` (lbx ==
-    ubx, int array), whose dx is their bound's change; its matrix gathered from the
-    `KKTSystem`'s values. `method` "ldl": the symmetric matrix shifted by
-    +-REGULARIZATION, factored by CasADi's sparse LDL^T ("ldl", no pivoting) and refined
-    against the exact matrix, REFINEMENTS solves; "qr": the exact matrix by its sparse QR.
+def kkt_solution(transcription, k, fixed, bounded, equalities, method):
+    """The Evaluator of ``(values, active_x, active_g, d_bound, r) -> dx`` (method "qr") or
+    ``-> (dx, error)`` ("ldl"): `solve_kkt`'s system for k parameters without the entries
+    `fixed` (lbx == ubx, int array), whose dx is their bound's change; its matrix gathered
+    from the `KKTSystem`'s values. "ldl": the entries held at a bound moved to the right
+    side too, the matrix symmetric, shifted by +-REGULARIZATION, factored by CasADi's sparse
+    LDL^T ("ldl", no pivoting; AMD ordering) and its solution refined against the exact
+    matrix, REFINEMENTS solves, for the k columns and the probe (`_probe`); "qr": the exact
+    matrix by its sparse QR (CasADi's "qr", which fails on a diagonal entry of R below
+    1e-12).
     Built once per NLP `structure`, `fixed`, `bounded` (the entries of x with a finite
-    bound that are not fixed, int array), k and `method`.
+    bound that are not fixed, int array), `equalities` (whether every row of g is an
+    equality and `bounded` empty: every row of g held, no entry of x, whatever the
+    multipliers), k and `method`.
 
     Inputs: `values` of `KKTSystem.blocks`; the 0/1 masks active_x (n_x,) and active_g
     (n_g,) of the entries and rows held at a bound; the change of the bound of each entry
     of x (n_x, k) and minus the change of (grad L, g) in p, (n_x + n_g, k), per unit of
-    each parameter (`kkt_directions`). Outputs: dx/dtheta and the probe's solution, (n_x,
-    k + 1); the normwise backward error of each column, (1, k + 1).
+    each parameter (`kkt_directions`). Outputs: dx/dtheta, (n_x, k), and for "ldl" the
+    probe's solution as a last column, (n_x, k + 1), and the largest normwise backward
+    error of the columns, (1, 1).
     """
     def build():
         nlp, (rows, cols, source, diagonal) = transcription.separable, kkt_system(transcription).entries
@@ -159,18 +162,18 @@ def kkt_solution(transcription, k, fixed, bounded, method):
         a_x, a_g = ca.MX.sym("active_x", n_x), ca.MX.sym("active_g", n_g)
         d_bound, r = ca.MX.sym("d_bound", n_x, k), ca.MX.sym("r", n, k)
         kept_rows = np.flatnonzero(kept).tolist()
-        masks = ca.vertcat(1 - a_x, a_g)[kept_rows]      # the stationarity rows of the free entries, the held rows
-        diagonal_terms = ca.vertcat(0, a_x, 1 - (1 + DEPENDENT_ROWS) * a_g)
+        # with `equalities` the masks are constants (CasADi folds their products away)
+        held_x, held_g = (ca.DM.zeros(n_x), ca.DM.ones(n_g)) if equalities else (a_x, a_g)
+        masks = ca.vertcat(1 - held_x, held_g)[kept_rows]      # the stationarity rows of the free entries, the held rows
+        diagonal_terms = ca.vertcat(0, held_x, 1 - (1 + DEPENDENT_ROWS) * held_g)
         entries = values[K[1].tolist()] * masks[K[2].tolist()]
         d_fixed = d_bound[fixed.tolist(), :]
         moved = ca.mtimes(ca.MX(F[0], values[F[1].tolist()] * masks[F[2].tolist()]), d_fixed)
-        held = ca.vertcat(ca.repmat(a_x, 1, k) * d_bound, ca.MX(n_g, k))[kept_rows, :]
+        held = ca.vertcat(ca.repmat(held_x, 1, k) * d_bound, ca.MX(n_g, k))[kept_rows, :]
         b = held + ca.repmat(masks, 1, k) * r[kept_rows, :] - moved
-        probe = masks * ca.DM(_probe(n_x - fixed.size, m))
-        scale = ca.fmax(1, ca.mmax(ca.fabs(values)))      # of the matrix: its entries, its identity rows
         if method == "qr":
-            solution = ca.solve(ca.MX(K[0], entries + diagonal_terms[K[3].tolist()]), ca.horzcat(b, probe), "qr")
-            checks = []
+            solution = ca.solve(ca.MX(K[0], entries + diagonal_terms[K[3].tolist()]), b, "qr")
+            checks, columns = [], k
         else:
             # the held entries' columns to the right side: the matrix symmetric (rows and
             # columns masked), the held rows and entries identities
@@ -179,7 +182,8 @@ def kkt_solution(transcription, k, fixed, bounded, method):
             near = kept[rows] & inside[cols] & kept[cols]
             B = _gathered(position[rows[near]], np.searchsorted(bounded, cols[near]), source[near],
                           diagonal[near], (m, bounded.size))
-            d_held = (a_x * d_bound)[bounded.tolist(), :] if bounded.size else ca.MX(0, k)
+            d_held = (held_x * d_bound)[bounded.tolist(), :] if bounded.size else ca.MX(0, k)
+            probe = masks * ca.DM(_probe(n_x - fixed.size, m))
             right = ca.horzcat(b - ca.mtimes(ca.MX(B[0], values[B[1].tolist()] * masks[B[2].tolist()]), d_held),
                                probe)
             shift = ca.DM(np.concatenate([[0.0], np.full(n_x, REGULARIZATION), np.full(n_g, -REGULARIZATION)]))
@@ -190,15 +194,15 @@ def kkt_solution(transcription, k, fixed, bounded, method):
             for _ in range(REFINEMENTS):
                 solution = solution + ca.solve(matrix, residual, "ldl")
                 residual = right - ca.mtimes(matrix, solution) + regularization * solution
-            checks = [ca.mmax(ca.vertcat(*(ca.mmax(ca.fabs(residual[:, j])) / (scale * ca.mmax(ca.fabs(
-                solution[:, j])) + ca.mmax(ca.fabs(right[:, j]))) for j in range(k + 1))))]
-        condition = scale * ca.mmax(ca.fabs(solution[:, k]))
-        dx = ca.vertcat(solution, ca.horzcat(d_fixed, ca.MX.zeros(fixed.size, 1)))
+            scale = ca.fmax(1, ca.mmax(ca.fabs(values)))      # of the matrix: its entries, its identity rows
+            checks, columns = [ca.mmax(ca.vertcat(*(ca.mmax(ca.fabs(residual[:, j])) / (
+                scale * ca.mmax(ca.fabs(solution[:, j])) + ca.mmax(ca.fabs(right[:, j]))) for j in range(k + 1))))], k + 1
+        dx = ca.vertcat(solution, ca.horzcat(d_fixed, ca.MX.zeros(fixed.size, columns - k)))
         dx = dx[np.where(kept, position, position - n + m)[:n_x].tolist(), :]
-        return Evaluator(ca.Function("kkt_solution", [values, a_x, a_g, d_bound, r], [dx, condition, *checks],
-                                     ["values", "active_x", "active_g", "d_bound", "r"],
-                                     ["dx", "condition", "error"][:2 + len(checks)]))
-    return _SOLUTIONS.get((transcription.structure, fixed.tobytes(), bounded.tobytes(), k, method), build)
+        return Evaluator(ca.Function("kkt_solution", [values, a_x, a_g, d_bound, r], [dx, *checks],
+                                     ["values", "active_x", "active_g", "d_bound", "r"], ["dx", "error"][:1 + len(checks)]))
+    return _SOLUTIONS.get((transcription.structure, fixed.tobytes(), bounded.tobytes(), equalities, k, method),
+                          build)
 
 
 def _probe(free, m):
@@ -304,24 +308,29 @@ def solve_kkt(transcription, x, lam_g, lam_x, d_p, d_lower, d_upper):
     moving = np.flatnonzero(moving)
     fixed = np.flatnonzero(lbx == ubx)
     bounded = np.flatnonzero((np.isfinite(lbx) | np.isfinite(ubx)) & (lbx != ubx))
+    equalities = bounded.size == 0 and bool(np.all(lbg == ubg))
     args = (values, active_x, active_g, d_bound[:, moving], r[:, moving])
-    solution = None
+    solution = direction = None
     for method in dict.fromkeys((kkt_layout(T, fixed)[-1], "qr")):
         try:
-            solution, condition, *error = kkt_solution(T, moving.size, fixed, bounded, method)(*args)
-        except RuntimeError:            # the QR's factorization failed: a zero on R's diagonal
-            condition = np.nan
+            solution, *error = kkt_solution(T, moving.size, fixed, bounded, equalities, method)(*args)
+        except RuntimeError:            # the QR's R has a diagonal entry below CasADi's eps
+            solution = None
             break
-        if method == "qr" or error[0] <= BACKWARD_ERROR:
+        if method == "qr":
             break
-    if not condition <= SINGULAR:
-        where = "" if solution is None else f" (largest in {_named(T.x_layout, solution[:, -1])})"
+        direction = solution[:, -1]     # the probe's, along a null direction when singular
+        if error[0] <= BACKWARD_ERROR:
+            solution = solution[:, :-1]
+            break
+    if solution is None or not np.isfinite(solution).all():
+        where = "" if direction is None else f" (largest in {_named(T.x_layout, direction)})"
         raise InputError("the optimum's KKT matrix (the Lagrangian's Hessian with the active constraints' "
                          "Jacobian) is singular: the active constraints are dependent or the optimum is not "
                          "strict, as along a direction of x in which neither the cost nor the constraints "
                          f"change{where}; no sensitivities there.")
     dx = np.zeros((x.size, k))
-    dx[:, moving] = solution[:, :-1]
+    dx[:, moving] = solution
     return dx, grad[:, 0] @ dx + d_f[0], g_rows, x_rows
 
 
