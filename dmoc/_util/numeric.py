@@ -60,7 +60,7 @@ class Evaluator:
         nonzeros = [np.empty(len(rows)) for _, rows, _ in self._outputs]
         for i, values in enumerate(nonzeros):
             buffer.set_res(i, memoryview(values))
-        _run(run)
+        _run(buffer, run)
         return [_dense(values, *output) for values, output in zip(nonzeros, self._outputs)]
 
     def vector(self, z):
@@ -77,7 +77,7 @@ class Evaluator:
         out = np.empty(len(self._outputs[0][1]))
         buffer.set_arg(0, memoryview(z))
         buffer.set_res(0, memoryview(out))
-        _run(run)
+        _run(buffer, run)
         return out
 
     def stats(self):
@@ -144,18 +144,23 @@ def _mapped(function):
     return Evaluator(function.map(CHUNK))
 
 
-def _run(run):
+def _run(buffer, run):
     """Evaluate a buffer's Function (`run`, the buffer's own call). A KeyboardInterrupt
     raised inside the Function (by CasADi's check of Python's signals in IPOPT's callbacks:
     IPOPT stops and returns its last iterate) is left set when the call returns, which
     Python reports as a SystemError caused by it; the outputs are written, and they are
     kept, the interrupt swallowed as CasADi's ordinary call swallows it
-    (`dmoc.optimal_control.solver.interrupt`)."""
+    (`dmoc.optimal_control.solver.interrupt`). An evaluation that fails (a nonzero return
+    code: a linear solver's failed factorization) raises a RuntimeError, as CasADi's
+    ordinary call does; its outputs are not written."""
     try:
         run()
     except SystemError as err:
         if not isinstance(err.__cause__, KeyboardInterrupt):
             raise
+        return
+    if buffer.ret() != 0:
+        raise RuntimeError("Evaluation failed (its Function returned a nonzero code).")
 
 
 def _scatter(sparsity):

@@ -1,13 +1,9 @@
 """The KKT system of an optimum of the transcribed NLP, and its solution for the derivatives
 of the optimum in the NLP's parameter vector p and bounds lbx, ubx (a driver: sensitivities
-of an optimum, `dmoc.drivers.parametric_sensitivity`). The blocks are the exact derivatives
-the solver uses (`SeparableNLP.derivatives`, expanded to SX), in the scaled NLP IPOPT
-solves, and their derivatives in p; the active set is read from the optimum's multipliers.
-Per NLP `structure` the evaluation of the blocks, the matrix's sparsity and the solution
-are built once; each call passes float arrays through the Functions' buffers.
+of an optimum, `dmoc.drivers.parametric_sensitivity`): the active set read from the
+optimum's multipliers, the derivatives of the KKT conditions in p, the matrix's solution
+(`dmoc.drivers.kkt_factorization`).
 """
-
-from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -16,119 +12,12 @@ from .._util.cache import BoundedCache
 from .._util.numeric import Evaluator
 from ..errors import InputError
 from ..optimal_control.nlp.evaluation import nlp_functions
+from .kkt_factorization import BACKWARD_ERROR, kkt_layout, kkt_solution, kkt_system
 
-_SYSTEMS = BoundedCache(16, "kkt_systems")          # by NLP structure
-_SOLUTIONS = BoundedCache(16, "kkt_solutions")      # by (NLP structure, fixed entries, number of parameters)
 _DIRECTIONS = BoundedCache(16, "kkt_directions")    # by (NLP structure, number of parameters)
 
 ACTIVE_MULTIPLIER = 1e-6    # |multiplier| above this times (1 + the largest) marks an active bound
 ACTIVE_GAP = 1e-6           # and the row or entry within this (scaled, times 1 + |bound|) of it
-# -DEPENDENT_ROWS on the diagonal of the active rows' multiplier block: active rows that
-# are dependent (a path row held at a knot and at the two stage points beside it, whose
-# velocity is their mean) leave the multipliers non-unique and the KKT matrix singular;
-# the shift picks one of them and moves dx by about DEPENDENT_ROWS |dlam|.
-DEPENDENT_ROWS = 1e-12
-
-
-@dataclass(frozen=True)
-class KKTSystem:
-    """The KKT matrix of `solve_kkt` of one NLP structure, as the gather of its entries.
-
-    Attributes
-    ----------
-    blocks : Evaluator
-        ``(x (n_x,), p (n_p,), lam_g (n_g,)) -> (g (n_g, 1), grad_f (n_x, 1), values
-        (1 + nnz_H + nnz_J, 1))``: the rows, the gradient of f and the values the matrix
-        is gathered from, 0 then the nonzeros of the upper triangle of the Lagrangian's
-        Hessian and of the Jacobian of g (`SeparableNLP.derivatives`, expanded).
-    entries : tuple of ndarray of int
-        (row, column, source, diagonal) of the entries of the (n_x + n_g) square matrix:
-        the Hessian, J^T, J and the diagonal, one pattern whatever the active set. Entry i
-        is values[source[i]] times the mask of its row plus the diagonal term diagonal[i]
-        (0: none; else 1 + the index of the diagonal entry); an entry may be listed twice
-        (a Hessian diagonal entry and the diagonal term), its terms summed.
-    """
-
-    blocks: Evaluator
-    entries: tuple
-
-
-def kkt_system(transcription):
-    """The `KKTSystem` of the scaled NLP of `transcription`, built once per `structure`."""
-    return _SYSTEMS.get(transcription.structure, lambda: _system(transcription.separable))
-
-
-def _system(nlp):
-    """The `KKTSystem` of the SeparableNLP `nlp`: its entries' sources by numpy, once."""
-    functions = nlp_functions(nlp, expand=True)
-    n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
-    hess_rows, hess_cols = (np.array(i) for i in functions["nlp_hess_l"].sparsity_out(0).get_triplet())
-    jac_rows, jac_cols = (np.array(i) for i in functions["nlp_jac_g"].sparsity_out(1).get_triplet())
-    in_hess, in_jac = 1 + np.arange(hess_rows.size), 1 + hess_rows.size + np.arange(jac_rows.size)
-    strict = hess_rows != hess_cols
-    # the triangle, its mirror, J^T, J, the diagonal
-    rows = np.concatenate([hess_rows, hess_cols[strict], jac_cols, n_x + jac_rows, np.arange(n)])
-    cols = np.concatenate([hess_cols, hess_rows[strict], n_x + jac_rows, jac_cols, np.arange(n)])
-    source = np.concatenate([in_hess, in_hess[strict], in_jac, in_jac, np.zeros(n, int)])
-    diagonal = np.concatenate([np.zeros(rows.size - n, int), 1 + np.arange(n)])
-    x, p, lam = nlp.x, nlp.p, ca.MX.sym("lam_g", n_g)
-    grad = functions["nlp_grad_f"](x, p)[1]
-    g, jac = functions["nlp_jac_g"](x, p)
-    hess = functions["nlp_hess_l"](x, p, 1, lam)
-    values = ca.vertcat(0, *(ca.sparsity_cast(m, ca.Sparsity.dense(m.nnz(), 1)) for m in (hess, jac)))
-    blocks = ca.Function("kkt_blocks", [x, p, lam], [g, grad, values], ["x", "p", "lam_g"],
-                         ["g", "grad_f", "values"])
-    return KKTSystem(Evaluator(blocks), (rows, cols, source, diagonal))
-
-
-def _gathered(rows, cols, source, diagonal, shape):
-    """(sparsity, source, row, diagonal) per nonzero of the matrix of `shape` whose entries
-    are listed (`KKTSystem.entries`, renumbered): duplicates merged, column-major."""
-    keys, slot = np.unique(cols * shape[0] + rows, return_inverse=True)
-    merged = [np.zeros(keys.size, int), np.zeros(keys.size, int)]
-    for into, values in zip(merged, (source, diagonal)):        # one of each per entry at most
-        np.add.at(into, slot, values)
-    sparsity = ca.Sparsity(*shape, np.searchsorted(keys // shape[0], np.arange(shape[1] + 1)).tolist(),
-                           (keys % shape[0]).tolist())
-    return sparsity, merged[0], keys % shape[0], merged[1]
-
-
-def kkt_solution(transcription, k, fixed):
-    """The Evaluator of ``(values, active_x, active_g, d_bound, r) -> dx``: `solve_kkt`'s
-    system for k parameters without the entries `fixed` (lbx == ubx, int array), whose dx
-    is their bound's change, its matrix gathered from the `KKTSystem`'s values and factored
-    by CasADi's sparse QR ("qr"); built once per NLP `structure`, `fixed` and k.
-
-    Inputs: `values` of `KKTSystem.blocks`; the 0/1 masks active_x (n_x,) and active_g
-    (n_g,) of the entries and rows held at a bound; the change of the bound of each entry
-    of x (n_x, k) and minus the change of (grad L, g) in p, (n_x + n_g, k), per unit of
-    each parameter (`kkt_directions`). Output: dx/dtheta (n_x, k).
-    """
-    def build():
-        nlp, (rows, cols, source, diagonal) = transcription.separable, kkt_system(transcription).entries
-        n_x, n_g, n = nlp.n_x, nlp.n_g, nlp.n_x + nlp.n_g
-        kept = np.ones(n, bool)
-        kept[fixed] = False
-        m, position = int(kept.sum()), np.where(kept, np.cumsum(kept) - 1, -1)
-        position[fixed] = n + np.arange(fixed.size)       # beyond the kept ones: columns moved to the right side
-        square, side = kept[rows] & kept[cols], kept[rows] & ~kept[cols]
-        K = _gathered(position[rows[square]], position[cols[square]], source[square], diagonal[square], (m, m))
-        F = _gathered(position[rows[side]], position[cols[side]] - n, source[side], diagonal[side], (m, fixed.size))
-        values = ca.MX.sym("values", int(source.max(initial=0)) + 1)
-        a_x, a_g = ca.MX.sym("active_x", n_x), ca.MX.sym("active_g", n_g)
-        d_bound, r = ca.MX.sym("d_bound", n_x, k), ca.MX.sym("r", n, k)
-        kept_rows = np.flatnonzero(kept).tolist()
-        masks = ca.vertcat(1 - a_x, a_g)[kept_rows]      # the stationarity rows of the free entries, the held rows
-        diagonal_terms = ca.vertcat(0, a_x, 1 - (1 + DEPENDENT_ROWS) * a_g)
-        matrix = ca.MX(K[0], values[K[1].tolist()] * masks[K[2].tolist()] + diagonal_terms[K[3].tolist()])
-        d_fixed = d_bound[fixed.tolist(), :]
-        moved = ca.mtimes(ca.MX(F[0], values[F[1].tolist()] * masks[F[2].tolist()]), d_fixed)
-        held = ca.vertcat(ca.repmat(a_x, 1, k) * d_bound, ca.MX(n_g, k))[kept_rows, :]
-        solution = ca.solve(matrix, held + ca.repmat(masks, 1, k) * r[kept_rows, :] - moved, "qr")
-        dx = ca.vertcat(solution, d_fixed)[np.where(kept, position, position - n + m)[:n_x].tolist(), :]
-        return Evaluator(ca.Function("kkt_solution", [values, a_x, a_g, d_bound, r], [dx],
-                                     ["values", "active_x", "active_g", "d_bound", "r"], ["dx"]))
-    return _SOLUTIONS.get((transcription.structure, fixed.tobytes(), k), build)
 
 
 def kkt_directions(transcription, k):
@@ -199,32 +88,74 @@ def solve_kkt(transcription, x, lam_g, lam_x, d_p, d_lower, d_upper):
     stationarity row alone, so that row and nu are dropped and dx_i = d(bound)_i written in
     its place; the multipliers of the inactive rows of g stay zero, written as rows
     dlam_i = 0. The matrix so keeps one sparsity pattern whatever the active set
-    (`KKTSystem`), and its sparse QR one symbolic analysis; the entries fixed by lbx ==
-    ubx (the boundary data) are left out of it, their columns times their bounds' change
-    moved to the right side (a quarter less fill in the rolling disk's QR). The zero block
-    of the active rows is shifted to -DEPENDENT_ROWS I, so that dependent active rows (a
-    path row held at a knot and at the stage points beside it) leave the matrix regular;
-    dx moves by about DEPENDENT_ROWS |dlam|. The derivatives in p (forward mode,
-    `kkt_directions`) are formed only when d_p is not zero (boundary data other than
-    q_start and p_start fix bounds alone).
+    (`dmoc.drivers.kkt_factorization.KKTSystem`), and its factorization one symbolic
+    analysis; the entries fixed by lbx == ubx (the boundary data) are left out of it, their
+    columns times their bounds' change moved to the right side. The zero block of the
+    active rows is shifted to -DEPENDENT_ROWS I (`dmoc.drivers.kkt_factorization`), so that
+    dependent active rows (a path row held at a knot and at the stage points beside it)
+    leave the matrix regular; dx moves by about DEPENDENT_ROWS
+    |dlam|. Of the two methods of `kkt_solution` the one whose factors hold fewer nonzeros
+    (`kkt_layout`) goes first: the LDL^T of the symmetric matrix shifted to quasi-definite,
+    refined against the exact one (the rolling disk: its QR's factors hold 7 times as many
+    nonzeros as its LDL^T's), accepted when the backward error of every column and of a
+    probe is at most BACKWARD_ERROR, else the sparse QR (the knife edge). A singular matrix
+    stalls the probe's refinement and fails the QR (a diagonal entry of R below 1e-12): it
+    is refused, naming the entries of x largest along the probe's solution. The
+    derivatives in p (forward mode, `kkt_directions`) are formed only when d_p is not zero
+    (boundary data other than q_start and p_start fix bounds alone), and columns whose
+    right side is zero (a free entry) are not solved.
+
+    Raises
+    ------
+    InputError
+        The KKT matrix is singular.
     """
     T, k = transcription, d_p.shape[1]
     g, grad, values = kkt_system(T).blocks(x, T.p, lam_g)
     lbg, ubg = T.scaled_g_bounds
     g_rows, _ = active_sets(g[:, 0], lbg, ubg, lam_g)
-    x_rows, at_upper = active_sets(x, T.lbx / T.x_scale, T.ubx / T.x_scale, lam_x)
+    lbx, ubx = T.lbx / T.x_scale, T.ubx / T.x_scale
+    x_rows, at_upper = active_sets(x, lbx, ubx, lam_x)
     active_x, active_g, d_bound = np.zeros(x.size), np.zeros(lam_g.size), np.zeros((x.size, k))
     active_x[x_rows], active_g[g_rows] = 1.0, 1.0
     d_bound[x_rows] = np.where(at_upper[:, None], d_upper[x_rows], d_lower[x_rows])
     if d_p.any():
         r, d_f = kkt_directions(T, k)(x, T.p, lam_g, d_p)
+        moving = np.flatnonzero(d_bound.any(axis=0) | r.any(axis=0))   # the columns to solve for
+        r = r[:, moving]
     else:
-        r, d_f = np.zeros((x.size + lam_g.size, k)), np.zeros((1, k))
-    try:
-        dx, = kkt_solution(T, k, np.flatnonzero(T.lbx == T.ubx))(values, active_x, active_g, d_bound, r)
-    except RuntimeError:
-        dx = np.full((x.size, k), np.nan)
-    if not np.isfinite(dx).all():
-        raise InputError("the optimum's KKT matrix is singular: the active constraints are "
-                         "dependent or the optimum is not strict; no sensitivities there.")
+        moving = np.flatnonzero(d_bound.any(axis=0))                    # the others' dx is 0
+        r, d_f = np.zeros((x.size + lam_g.size, moving.size)), np.zeros((1, k))
+    fixed = np.flatnonzero(lbx == ubx)
+    bounded = np.flatnonzero((np.isfinite(lbx) | np.isfinite(ubx)) & (lbx != ubx))
+    equalities = bounded.size == 0 and bool(np.all(lbg == ubg))
+    args = (values, active_x, active_g, d_bound[:, moving], r)
+    solution = direction = None
+    for method in dict.fromkeys((kkt_layout(T, fixed)[-1], "qr")):
+        try:
+            solution, *error = kkt_solution(T, moving.size, fixed, bounded, equalities, method)(*args)
+        except RuntimeError:            # the QR's R has a diagonal entry below CasADi's eps
+            solution = None
+            break
+        if method == "qr":
+            break
+        direction = solution[:, -1]     # the probe's, along a null direction when singular
+        if error[0] <= BACKWARD_ERROR:
+            solution = solution[:, :-1]
+            break
+    if solution is None or not np.isfinite(solution).all():
+        where = "" if direction is None else f" (largest in {_named(T.x_layout, direction)})"
+        raise InputError("the optimum's KKT matrix (the Lagrangian's Hessian with the active constraints' "
+                         "Jacobian) is singular: the active constraints are dependent or the optimum is not "
+                         "strict, as along a direction of x in which neither the cost nor the constraints "
+                         f"change{where}; no sensitivities there.")
+    dx = np.zeros((x.size, k))
+    dx[:, moving] = solution
     return dx, grad[:, 0] @ dx + d_f[0], g_rows, x_rows
+
+
+def _named(layout, direction):
+    """The entries of x where `direction` (n_x,) is largest (or not finite), three at
+    most, as 'block[row, column]' of `layout`."""
+    largest = np.argsort(-np.nan_to_num(np.abs(direction), nan=np.inf))[:3]
+    return ", ".join("{}[{}, {}]".format(*layout.locate(i)) for i in largest)

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import dmoc
+from dmoc.drivers import kkt_factorization, kkt_sensitivity
 from dmoc.errors import InputError
 
 OPTIONS = {"tol": 1e-12}
@@ -27,6 +28,20 @@ def problem(control_bounds=None, path_constraints=None):
         disc, 10, q_start=[0, 0, 0], q_goal=[0.5, 1.0, 0.3], parameters={"r": 2.0},
         running_cost=lambda q, v, u, w: u[0] ** 2 + w["r"] * u[1] ** 2, control_bounds=control_bounds,
         path_constraints=path_constraints)
+
+
+@pytest.fixture(params=["ldl", "qr"])
+def method(request, monkeypatch):
+    """(name, methods used) of each way of solving the KKT system first: the regularized
+    LDL^T refined against the exact matrix (QR_COST infinite), or the exact matrix's sparse
+    QR (QR_COST 0); the layouts, which hold the choice, made anew before and after; the
+    methods `solve_kkt` called, in order, recorded in the list."""
+    monkeypatch.setattr(kkt_factorization, "QR_COST", np.inf if request.param == "ldl" else 0.0)
+    used, solution = [], kkt_sensitivity.kkt_solution
+    monkeypatch.setattr(kkt_sensitivity, "kkt_solution", lambda *args: used.append(args[-1]) or solution(*args))
+    dmoc.clear_caches("kkt_layouts")
+    yield request.param, used
+    dmoc.clear_caches("kkt_layouts")
 
 
 def moved(problem, name, value):
@@ -54,7 +69,7 @@ def assert_relative(actual, expected, rtol=1e-6):
 
 
 @pytest.mark.parametrize("case", ["inactive bounds", "active control bound", "active path constraint"])
-def test_sensitivities_equal_differences_of_re_solves(case):
+def test_sensitivities_equal_differences_of_re_solves(case, method):
     bounded, path = case == "active control bound", case == "active path constraint"
     p = problem(([-10, -3], [10, 10]) if bounded else None,
                 (lambda q, v, u, w: v[2] - 1.2) if path else None)      # turning rate <= 1.2
@@ -74,6 +89,7 @@ def test_sensitivities_equal_differences_of_re_solves(case):
         assert_relative(d.q[name].reshape(11, 3, -1), q)
         assert_relative(d.u[name].reshape(10, 2, -1), u)
         np.testing.assert_allclose(d.u[name].reshape(10, 2, -1)[on_bound, 1], 0.0, atol=1e-12)
+    assert method[1] == [method[0]]
 
 
 def test_cost_derivatives_are_the_multiplier_identities():
@@ -120,8 +136,9 @@ def test_a_free_goal_entry_has_zero_derivatives_and_the_others_match_re_solves()
 
 
 @pytest.mark.parametrize("case", ["active control bound", "dependent active rows"])
-def test_the_kkt_solution_equals_a_dense_solve_of_the_kkt_system(case):
-    """The matrix gathered from the solver's derivatives and its sparse QR, against the KKT
+def test_the_kkt_solution_equals_a_dense_solve_of_the_kkt_system(case, method):
+    """The matrix gathered from the solver's derivatives, its refined LDL^T (accepted: each
+    column's backward error within BACKWARD_ERROR) or its sparse QR, against the KKT
     system written here from the NLP's expressions (CasADi's hessian and jacobian of
     `transcription.nlp`, the active set read off the bounds) and solved densely by least
     squares: its minimum-norm multipliers of the dependent rows (the turning rate held at
@@ -148,3 +165,18 @@ def test_the_kkt_solution_equals_a_dense_solve_of_the_kkt_system(case):
     rhs[x_value.size + rows.size + np.searchsorted(held, q_N), range(3)] = 1 / T.x_scale[q_N]
     dx = np.linalg.lstsq(K, rhs, rcond=None)[0][:x_value.size]
     assert_relative(d.x["q_goal"] / T.x_scale[:, None], dx, rtol=1e-8)
+    assert method[1] == [method[0]]
+
+
+def test_a_singular_kkt_matrix_is_refused_naming_it(method):
+    """Without a running cost every feasible trajectory is optimal: the Lagrangian's Hessian
+    is zero (so are the multipliers) and the controls left free by the dynamics are a null
+    direction of the KKT matrix, which is refused by name, not solved into numbers."""
+    p = dmoc.OptimalControlProblem(dmoc.discretize(dmoc.systems.knife_edge(), 0.2), 10, q_start=[0, 0, 0],
+                                   q_goal=[0.5, 1.0, 0.3], running_cost=lambda q, v, u: 0 * u[0])
+    result = dmoc.optimize(p)
+    assert result.cost == 0 and np.abs(result.lam_g).max() < 1e-8
+    with pytest.raises(InputError, match=r"the optimum's KKT matrix \(the Lagrangian's Hessian with the active "
+                                         r"constraints' Jacobian\) is singular: .* not strict"):
+        dmoc.sensitivities(p, result, wrt="q_goal")
+    assert method[1] == (["ldl", "qr"] if method[0] == "ldl" else ["qr"])     # the LDL^T's refinement stalls

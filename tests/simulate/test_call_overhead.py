@@ -94,6 +94,20 @@ def test_the_evaluator_equals_casadis_call_with_structural_zeros_and_shapes():
         Evaluator(sparse)
 
 
+def test_a_failed_evaluation_raises_as_casadis_call_does():
+    """A Function whose evaluation fails (the sparse QR of a singular matrix) raises through
+    the Evaluator as CasADi's ordinary call does, instead of returning the unwritten
+    buffers."""
+    A = ca.MX.sym("A", 3, 3)
+    f = ca.Function("f", [A], [ca.solve(ca.mtimes(A, A.T), ca.DM.ones(3), "qr")])
+    singular = np.array([[1.0, 2.0, 3.0]] * 3).ravel()
+    with pytest.raises(RuntimeError, match="Evaluation failed"):
+        f(singular.reshape(3, 3))
+    with pytest.raises(RuntimeError, match="Evaluation failed"):
+        Evaluator(f)(singular)
+    np.testing.assert_allclose(Evaluator(f)(np.eye(3).ravel())[0], np.ones((3, 1)))
+
+
 def test_the_evaluators_vector_call_equals_casadis_call_and_refuses_other_arrays():
     """`Evaluator.vector` (one input, one dense output, no conversions; the packed IPOPT
     call and the data's row sums use it): CasADi's own call gives the same bits, every
@@ -129,11 +143,12 @@ def test_only_an_interrupt_left_set_by_the_call_is_swallowed():
         def run():
             raise error from cause
         return run
-    assert _run(raising(SystemError("left set"), KeyboardInterrupt())) is None
+    failed = type("Buffer", (), {"ret": lambda self: 1})()     # a failed evaluation's return code
+    assert _run(failed, raising(SystemError("left set"), KeyboardInterrupt())) is None
     for error, cause in ((SystemError("no cause"), None), (SystemError("other"), ValueError("v")),
                          (RuntimeError("casadi"), KeyboardInterrupt())):
         with pytest.raises(type(error)) as info:
-            _run(raising(error, cause))
+            _run(failed, raising(error, cause))
         assert info.value is error
 
 
