@@ -141,11 +141,13 @@ def _basis(nodes, c):
 
 def linear_combination(coefficients, terms):
     """sum_i a_i x_i with zero coefficients dropped and unit ones not multiplied (exact
-    expressions for linear interpolation: q0 + (q1 - q0), not q0 + 1.0 * (q1 - q0))."""
+    expressions for linear interpolation: q0 + (q1 - q0), not q0 + 1.0 * (q1 - q0)). A
+    NumPy coefficient enters as the Python float of the same value (NumPy's product with
+    an SX first tries an array conversion: slower, the same expression)."""
     total = 0
     for a, x in zip(coefficients, terms):
         if a != 0.0:
-            total = total + (x if a == 1.0 else a * x)
+            total = total + (x if a == 1.0 else float(a) * x)
     return total if not isinstance(total, int) else ca.SX.zeros(terms[0].shape)
 
 
