@@ -23,7 +23,10 @@ controls; `drake_program`) and solves the one program with its IPOPT and with SN
   ``dmoc.optimize(problem, accuracy=1e-6)`` from N = 10 ("accuracy"); rockit's
   ``ocp.solve()``; Drake's program built and solved by IPOPT and by SNOPT. Nothing is compiled to C. The methods run in turn, the one that goes
   first turning round by round; per method the median and least wall time over
-  `--repeat` rounds and the ratio of the medians to rockit's.
+  `--repeat` rounds and the ratio of the medians to rockit's. With two or more
+  ``--checkouts``, dmoc's methods alone, in a child process per checkout and round (3
+  solves of each per child after an untimed one; `--repeat` rounds, default 5), and the
+  ratio of each checkout's median to the first checkout's.
 - ``resolve``: each method solves the original goal (its solver is built), then re-solves
   `--goals` goals near it in a cycle, each from the previous optimum (primal and dual),
   `--repeat` times: median wall time per re-solve, IPOPT's iterations, its wall time
@@ -57,7 +60,7 @@ controls; `drake_program`) and solves the one program with its IPOPT and with SN
 ``--smallest`` runs the rolling disk with lobatto4 only, once, in this process (and the
 controllers over 8 steps).
 
-    venv-peers/bin/python benchmarks/peers.py first [--repeat 15] [--problem disk|knife|both]
+    venv-peers/bin/python benchmarks/peers.py first [--repeat 15] [--problem disk|knife|both] [--checkouts DIR ...]
     venv-peers/bin/python benchmarks/peers.py resolve [--repeat 5] [--rounds 3] [--checkouts DIR ...] [--rockit-jit]
     venv-peers/bin/python benchmarks/peers.py mpc [--horizon 30] [--steps 40] [--rounds 3] [--checkouts DIR ...]
 """
@@ -446,11 +449,7 @@ def first_solves(names, rules, n_star, repeat, peers):
     for peer in peers:
         importlib.import_module(PEER_MODULES[peer])
     for name in names:
-        methods = {}
-        for rule in rules:
-            for how in ("judged", "raw", "accuracy"):
-                N = 10 if how == "accuracy" else n_star[name, rule]
-                methods[f"dmoc {rule} {how}, N = {N}"] = dmoc_first(name, rule, N, how)
+        methods = dmoc_methods(name, rules, n_star)
         if "rockit" in peers:
             methods[f"rockit, N = {n_star[name, 'rockit']}"] = rockit_first(name, n_star[name, "rockit"])
         for solver in ("ipopt", "snopt") if "drake" in peers else ():
@@ -474,6 +473,56 @@ def first_solves(names, rules, n_star, repeat, peers):
                   + "".join(f"{medians[method] / medians[b]:>14.3f}" for b in bases))
 
 
+def dmoc_methods(name, rules, n_star):
+    """{label: first()} of dmoc's first solves of `name` with `rules`: judged and raw at the
+    least N of `n_star`, and with ``accuracy=1e-6`` from N = 10 (`dmoc_first`)."""
+    methods = {}
+    for rule in rules:
+        for how in ("judged", "raw", "accuracy"):
+            N = 10 if how == "accuracy" else n_star[name, rule]
+            methods[f"dmoc {rule} {how}, N = {N}"] = dmoc_first(name, rule, N, how)
+    return methods
+
+
+def dmoc_firsts(name, count):
+    """(child) {label: [[seconds, iterations, cost], ...]}: `count` first solves of each of
+    `dmoc_methods` (at `LEAST_N`) after one untimed, in turn."""
+    n_star = {(name, method): N for method, N in LEAST_N[name].items()}
+    methods = dmoc_methods(name, DMOC_RULES, n_star)
+    for first in methods.values():
+        first()
+    rows = {label: [] for label in methods}
+    for _ in range(count):
+        for label, first in methods.items():
+            rows[label].append(list(first()))
+    return rows
+
+
+def checkout_firsts(names, checkouts, repeat, count=3):
+    """Print dmoc's first solves of `names` per checkout: `repeat` rounds, each a child
+    process per checkout (`dmoc_firsts`, `count` solves per method; the order of the
+    checkouts turning round by round); per method the median and least wall time and the
+    ratio of each checkout's median to the first checkout's."""
+    for name in names:
+        rows = {c: {} for c in checkouts}
+        for k in range(repeat):
+            for c in checkouts[k % len(checkouts):] + checkouts[:k % len(checkouts)]:
+                for label, runs in child(c, name, "first", str(count)).items():
+                    rows[c].setdefault(label, []).extend(runs)
+        print(f"\n{name}, J* = {J_STAR[name]}: dmoc's first solves by checkout "
+              f"({repeat} rounds of {count}; ratio: median / {os.path.basename(checkouts[0])}'s)")
+        print(f"{'method':<36}{'checkout':<17}{'median ms':>10}{'least ms':>10}{'it':>4}"
+              f"{'|J - J*| / J*':>15}{'ratio':>8}")
+        for label in rows[checkouts[0]]:
+            base = np.median([r[0] for r in rows[checkouts[0]][label]])
+            for c in checkouts:
+                seconds = np.array([r[0] for r in rows[c][label]])
+                _, iterations, cost = rows[c][label][-1]
+                print(f"{label:<36}{os.path.basename(c):<17}{np.median(seconds) * 1e3:>10.1f}"
+                      f"{seconds.min() * 1e3:>10.1f}{iterations:>4}"
+                      f"{abs(cost - J_STAR[name]) / J_STAR[name]:>15.2e}{np.median(seconds) / base:>8.3f}")
+
+
 # ---- re-solves --------------------------------------------------------------------------
 
 def child(checkout, *arguments):
@@ -489,7 +538,10 @@ def one(argv):
     """(child) argv = [name, method, N, repeat, count]: print the re-solves as JSON; method
     "rockit-jit" is "rockit" with its "function C" run; methods "rockit-mpc" and
     "dmoc-mpc" print a controller's warm steps (`rockit_mpc`, `dmoc_mpc`: N the horizon,
-    repeat the steps)."""
+    repeat the steps). argv = [name, "first", count]: dmoc's first solves (`dmoc_firsts`)."""
+    if argv[1] == "first":
+        print(json.dumps(dmoc_firsts(argv[0], int(argv[2]))))
+        return
     name, method, N, repeat, count = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4])
     if method.endswith("-mpc"):     # N the horizon, repeat the steps
         print(json.dumps((rockit_mpc if method == "rockit-mpc" else dmoc_mpc)(N, repeat)))
@@ -710,7 +762,8 @@ def main(argv=None):
                         help="re-solves: child processes per method and checkout; the least time is kept")
     parser.add_argument("--goals", type=int, default=5, help="re-solves: goals near the original (<= 6)")
     parser.add_argument("--checkouts", nargs="+", default=[os.getcwd()],
-                        help="re-solves: dmoc checkouts to time (default: the current directory)")
+                        help="dmoc checkouts to time (default: the current directory); first "
+                        "solves of two or more: dmoc's alone, in child processes")
     parser.add_argument("--rockit-jit", action="store_true",
                         help="also rockit's function re-solve compiled to C (20-40 s per child)")
     parser.add_argument("--horizon", type=int, default=30, help="mpc: the controllers' horizon (steps)")
@@ -739,6 +792,8 @@ def main(argv=None):
         n_star = {(name, method): N for name, row in LEAST_N.items() for method, N in row.items()}
     if args.comparison == "mpc":
         mpcs(args, peers)
+    elif args.comparison == "first" and len(args.checkouts) > 1:
+        checkout_firsts(names, args.checkouts, args.repeat or 5)
     elif args.comparison == "first":
         first_solves(names, rules, n_star, args.repeat or 15, peers)
     else:

@@ -64,7 +64,8 @@ class Discretization:
     step_energy : casadi.Function
         ``(q0, p0, q1, p1, s, h) -> E`` (p unused): the energy v . dL/dv - L averaged over the step by the
         rule's quadrature, sum_i b_i E(q(c_i), q'(c_i)); for the midpoint rule E at the
-        midpoint. It needs no Legendre transform.
+        midpoint. It needs no Legendre transform. This and `midpoint_state` are read by
+        diagnostics, not by a solve: built on first use.
     family : str
         ``"lagrangian"``: the principle differentiates the sums (46)/(47) of L_d, and
         `variant` names the forms (37)/(41) (a HamiltonianDiscretization says
@@ -78,8 +79,12 @@ class Discretization:
     family = "lagrangian"       # the forms (37)/(41) of the sums (46)/(47)
     system_type = MechanicalSystem
     system_described = "a MechanicalSystem or a HamiltonianSystem"
-    function_names = ("discrete_lagrangian", "discrete_constraint", "discrete_force",
-                      "midpoint_state", "step_energy")
+    function_names = ("discrete_lagrangian", "discrete_constraint", "discrete_force")
+    # read by diagnostics, not by a solve or its verdict: built on first use (`_state`)
+    midpoint_state = property(lambda self: self._state("midpoint_state"),
+                              doc="``(q0, q1, s, h) -> (q, v)``, built on first use.")
+    step_energy = property(lambda self: self._state("step_energy"),
+                           doc="``(q0, p0, q1, p1, s, h) -> E``, built on first use.")
 
     def __init__(self, system, h, rule="midpoint"):
         checks.instance("system", system, self.system_type, self.system_described)
@@ -117,7 +122,13 @@ class Discretization:
                 "discrete_force": ca.Function("f_d", [q0, q1, s, u, h], list(forces),
                                               ["q0", "q1", "s", "u", "h"],
                                               ["f_minus", "f_plus", "f_stage"]),
-                **state_functions(system, rule, x)}
+                "discrete_constraint": constraint_function(system, rule, x)}
+
+    def _state(self, name):
+        """`name` of `state_functions` ("midpoint_state" or "step_energy"), built once per
+        system key and rule on first use, as the Functions of `_functions`."""
+        return _DISCRETE_DATA.get((self.key, "state"), lambda: state_functions(
+            self.system, self.rule, step_symbols(self.system.n, self.n_stages, self.n_controls)))[name]
 
     def with_step(self, h):
         """The same discretization at the step `h` (sharing every Function: h is an input),
@@ -166,29 +177,37 @@ def running_integrand(system, running_cost):
                        ["running_cost"])
 
 
-def state_functions(system, rule, x):
-    """omega_d, midpoint_state and step_energy of a discretization of `system` by `rule`
-    (either family), as named Functions of the step symbols `x` (`step_symbols`).
-
-    omega_d and the midpoint state are taken on the rule's interpolant through q0, the
-    stage configurations and q1 (`Rule.interpolant`, `Rule.stage_configurations`): the
-    nonholonomic rows (28) (midpoint retraction on the chord, Legendre moments on a stage
-    rule's polynomial) and the holonomic rows g at its nodes after q0. The step energy of a
-    MechanicalSystem is the quadrature of E(q, q') = q' . dL/dv - L along it divided by h
-    (no Legendre transform needed); that of a HamiltonianSystem (H(q0, p0) + H(q1, p1))/2.
-    """
+def constraint_function(system, rule, x):
+    """omega_d of a discretization of `system` by `rule` (either family), the Function
+    "omega_d" of the step symbols `x` (`step_symbols`), taken on the rule's interpolant
+    through q0, the stage configurations and q1 (`Rule.interpolant`,
+    `Rule.stage_configurations`): the nonholonomic rows (28) (midpoint retraction on the
+    chord, Legendre moments on a stage rule's polynomial) and the holonomic rows g at its
+    nodes after q0."""
     q0, q1, s, h = x["q0"], x["q1"], x["s"], x["h"]
     shape, sigma = rule.interpolant, rule.stage_configurations(s, system.n)
     omega_d = ca.vertcat(shape.discrete_constraint(system.nonholonomic_matrix, q0, q1, sigma, h),
                          shape.holonomic_constraint(system.holonomic, q0, q1, sigma))
+    return ca.Function("omega_d", [q0, q1, s, h], [omega_d], ["q0", "q1", "s", "h"], ["omega_d"])
+
+
+def state_functions(system, rule, x):
+    """{"midpoint_state", "step_energy"} of a discretization of `system` by `rule` (either
+    family), named Functions of the step symbols `x` (`step_symbols`).
+
+    The midpoint state is taken on the rule's interpolant, as omega_d
+    (`constraint_function`). The step energy of a MechanicalSystem is the quadrature of
+    E(q, q') = q' . dL/dv - L along it divided by h (no Legendre transform needed); that of
+    a HamiltonianSystem (H(q0, p0) + H(q1, p1))/2.
+    """
+    q0, q1, s, h = x["q0"], x["q1"], x["s"], x["h"]
+    shape, sigma = rule.interpolant, rule.stage_configurations(s, system.n)
     (_, q_mid, v_mid, _), = shape.samples(q0, q1, sigma, h, ((0.5, 1.0),))
     if isinstance(system, HamiltonianSystem):
         E = (system.hamiltonian(q0, x["p0"]) + system.hamiltonian(q1, x["p1"])) / 2
     else:
         E = quadrature(rule, lambda q, v, *_: system.energy(q, v), q0, q1, s, ca.SX(0, 1), h) / h
-    return {"discrete_constraint": ca.Function("omega_d", [q0, q1, s, h], [omega_d],
-                                               ["q0", "q1", "s", "h"], ["omega_d"]),
-            "midpoint_state": ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],
+    return {"midpoint_state": ca.Function("midpoint_state", [q0, q1, s, h], [q_mid, v_mid],
                                           ["q0", "q1", "s", "h"], ["q", "v"]),
             "step_energy": ca.Function("step_energy", [q0, x["p0"], q1, x["p1"], s, h], [E],
                                        ["q0", "p0", "q1", "p1", "s", "h"], ["E"])}

@@ -17,7 +17,7 @@ import numpy as np
 from .._util import checks
 from .._util.layout import step_symbols
 from ..mechanics.system import HamiltonianSystem
-from .discretization import Discretization, state_functions
+from .discretization import Discretization, constraint_function
 from .quadrature_rules import Midpoint
 from .rules import Rule, virtual_work
 
@@ -155,7 +155,7 @@ class HamiltonianDiscretization(Discretization):
     system_type = HamiltonianSystem
     system_described = "a HamiltonianSystem"
     function_names = ("right_hamiltonian", "left_hamiltonian", "right_force", "left_force",
-                      "discrete_constraint", "midpoint_state", "step_energy")
+                      "discrete_constraint")
 
     def _as_rule(self, rule):
         return as_hamiltonian_rule(rule)
@@ -171,7 +171,8 @@ class HamiltonianDiscretization(Discretization):
         Hm, left_samples = rule.left(system.hamiltonian, x["p0"], x["q1"], x["s"], x["h"])
         fp = virtual_work(rule, system.force, right_samples, x["u"], (x["q0"], x["s"]))
         fm = virtual_work(rule, system.force, left_samples, x["u"], (x["q1"], x["s"]))
-        return {**end_functions(x, Hp, Hm, fp, fm), **state_functions(system, rule, x)}
+        return {**end_functions(x, Hp, Hm, fp, fm),
+                "discrete_constraint": constraint_function(system, rule, x)}
 
     def __repr__(self):
         return f"HamiltonianDiscretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"

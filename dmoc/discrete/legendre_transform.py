@@ -15,7 +15,7 @@ import numpy as np
 from .._util.layout import step_symbols
 from ..errors import InputError, InputTypeError
 from ..mechanics.system import MechanicalSystem
-from .discretization import Discretization, state_functions
+from .discretization import Discretization, constraint_function
 from .hamiltonian import HamiltonianDiscretization, end_functions
 from .quadrature_rules import QuadratureRule
 from .rules import Rule
@@ -124,7 +124,8 @@ class LegendreDiscretization(HamiltonianDiscretization):
         g_minus, g_plus, g_sigma = disc.discrete_force(Q, x["q1"], sigma, x["u"], x["h"])
         fp = (f_minus, ca.vertcat(f_plus, f_sigma))
         fm = (g_plus, ca.vertcat(g_minus, g_sigma))
-        return {**end_functions(x, Hp, Hm, fp, fm), **state_functions(self.system, self.rule, x)}
+        return {**end_functions(x, Hp, Hm, fp, fm),
+                "discrete_constraint": constraint_function(self.system, self.rule, x)}
 
 
 __all__ = ["LegendreRule", "LegendreDiscretization", "discrete_legendre"]

@@ -15,6 +15,8 @@ from abc import ABC, abstractmethod
 import casadi as ca
 import numpy as np
 
+from .._util.cache import BoundedCache
+
 
 class Rule(ABC):
     """The interface of every rule, Lagrangian (`QuadratureRule`) or Hamiltonian
@@ -101,9 +103,29 @@ class Rule(ABC):
         return np.hstack(chords) if chords else np.zeros((q.shape[0] - 1, 0))
 
 
+_BASES = BoundedCache(256, "lagrange_bases")     # keyed by (nodes, c): `lagrange_basis` at a number c
+
+
 def lagrange_basis(nodes, c):
     """Values l_i(c) and derivatives l_i'(c) of the Lagrange basis on `nodes`, each of
-    shape c.shape + (len(nodes),) (c a number or an array of step times in [0, 1])."""
+    shape c.shape + (len(nodes),) (c a number or an array of step times in [0, 1]). For a
+    number c the pair is computed once per (nodes, c) and shared, read-only (a rule's
+    quadrature asks for the same points at every build)."""
+    if np.ndim(c) == 0:
+        nodes = tuple(float(ci) for ci in np.ravel(nodes))
+        return _BASES.get((nodes, float(c)), lambda: _read_only(*_basis(nodes, c)))
+    return _basis(nodes, c)
+
+
+def _read_only(*arrays):
+    """`arrays`, flagged read-only (shared by `_BASES`)."""
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+def _basis(nodes, c):
+    """`lagrange_basis`, computed."""
     nodes, c = np.asarray(nodes, dtype=float), np.asarray(c, dtype=float)
     value = np.ones(c.shape + (len(nodes),))
     slope = np.zeros_like(value)
@@ -119,11 +141,13 @@ def lagrange_basis(nodes, c):
 
 def linear_combination(coefficients, terms):
     """sum_i a_i x_i with zero coefficients dropped and unit ones not multiplied (exact
-    expressions for linear interpolation: q0 + (q1 - q0), not q0 + 1.0 * (q1 - q0))."""
+    expressions for linear interpolation: q0 + (q1 - q0), not q0 + 1.0 * (q1 - q0)). A
+    NumPy coefficient enters as the Python float of the same value (NumPy's product with
+    an SX first tries an array conversion: slower, the same expression)."""
     total = 0
     for a, x in zip(coefficients, terms):
         if a != 0.0:
-            total = total + (x if a == 1.0 else a * x)
+            total = total + (x if a == 1.0 else float(a) * x)
     return total if not isinstance(total, int) else ca.SX.zeros(terms[0].shape)
 
 

@@ -10,6 +10,7 @@ from scipy.integrate import solve_ivp
 
 import dmoc
 from dmoc.discrete import Midpoint, QuadratureRule, Trapezoid
+from dmoc.discrete.rules import lagrange_basis
 
 SQRT5 = 5 ** 0.5
 LOBATTO3 = QuadratureRule("lobatto-3", 4, (0.0, 0.5, 1.0), ((0.0, 1 / 6), (0.5, 2 / 3), (1.0, 1 / 6)))
@@ -68,3 +69,18 @@ def test_linear_rules_are_the_two_node_case():
 def test_rule_data_is_validated(kwargs, match):
     with pytest.raises(ValueError, match=match):
         QuadratureRule(**{"name": "x", "order": 2, "nodes": (0.0, 1.0), "points": ((0.5, 1.0),), **kwargs})
+
+
+def test_lagrange_basis_at_a_number_is_shared_and_exact():
+    """The basis at a number c is the closed form l_i(c), l_i'(c) (quadratic on 0, 1/2, 1),
+    the same as at an array of that c, and shared read-only between calls."""
+    c = 0.3
+    value, slope = lagrange_basis((0.0, 0.5, 1.0), c)
+    closed = ([2 * (c - 0.5) * (c - 1), -4 * c * (c - 1), 2 * c * (c - 0.5)],
+              [4 * c - 3, 4 - 8 * c, 4 * c - 1])
+    np.testing.assert_allclose(value, closed[0], rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(slope, closed[1], rtol=1e-15, atol=1e-15)
+    array = lagrange_basis(np.array([0.0, 0.5, 1.0]), np.array([c]))
+    assert np.array_equal(array[0][0], value) and np.array_equal(array[1][0], slope)
+    again = lagrange_basis([0, 0.5, 1], c)
+    assert again[0] is value and not value.flags.writeable

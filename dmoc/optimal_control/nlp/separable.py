@@ -220,7 +220,9 @@ def _local(function):
 
 
 def _nonzeros(matrix):
-    return ca.vertcat(*matrix.nonzeros()) if matrix.nnz() else ca.SX(0, 1)
+    """The structural nonzeros of `matrix` as a column, in CasADi's order (``nz[:]``, one
+    call: the entries themselves, not rebuilt one by one from Python)."""
+    return matrix.nz[:] if matrix.nnz() else ca.SX(0, 1)
 
 
 def _pattern(matrix):

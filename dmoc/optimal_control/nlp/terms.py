@@ -18,6 +18,7 @@ from .control_hull import hull_terms
 from .path_terms import path_terms
 from .separable import SeparableNLP, Term, function_key
 
+_SCALES = BoundedCache(64, "scale_vectors")       # the DM of a scale vector (n,), by its dtype and bytes
 _FUNCTIONS = BoundedCache(128, "term_functions")   # term Functions by (`_functions_key`, term name): not per N
 
 
@@ -197,8 +198,11 @@ def broadcast(index, M):
 
 
 def _scaled(symbol, scale):
-    """symbol * scale (entrywise), symbol itself where every factor is 1."""
-    return symbol if (scale == 1).all() else symbol * ca.DM(scale)
+    """symbol * scale (entrywise), symbol itself where every factor is 1; the DM of `scale`
+    made once per value (`_SCALES`: a problem's terms share a few scale vectors)."""
+    if (scale == 1).all():
+        return symbol
+    return ca.times(symbol, _SCALES.get((scale.dtype.str, scale.tobytes()), lambda: ca.DM(scale)))
 
 
 def _stack(symbols):
