@@ -6,7 +6,7 @@ and the axis labels with the units a system declares (`dmoc.mechanics.units`).
 
 import numpy as np
 
-from .._util.files import atomic_write
+from .._util.files import atomic_path, atomic_write
 from ..errors import InputError
 from ..mechanics.units import system_units
 
@@ -157,3 +157,14 @@ def palette_images(frames):
 
     palette = Image.fromarray(frames[-1]).quantize(colors=64, method=Image.Quantize.FASTOCTREE)
     return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+
+
+def save_gif(frames, path, fps):
+    """Write the RGB `frames` (each (height, width, 3) uint8) as a looping GIF at `path`
+    (a pathlib.Path), `fps` frames a second, atomically (`palette_images`); returns `path`."""
+    images = palette_images(frames)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as temporary:
+        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
+                       duration=round(1000 / fps), loop=0)
+    return path

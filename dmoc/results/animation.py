@@ -8,12 +8,11 @@ per frame, and written by Pillow (both imported lazily).
 
 import numpy as np
 
-from ._canvas import label, not_to_scale_note, palette_images, plane_limits, units_of
+from ._canvas import label, not_to_scale_note, plane_limits, save_gif, units_of
 from .body_animation import animate_body
 from ._drawn_bodies import DrawnBodies, body_values, outlines
 from ._obstacles import draw_obstacles, obstacle_extent, obstacle_values
 from .._util import checks
-from .._util.files import atomic_path
 from ..errors import InputError
 from ..mechanics.bodies import Body, heading_axes, segment
 from ..principle.trajectory import Trajectory
@@ -118,12 +117,7 @@ def animate(traj, path, *, bodies=None, shape=None, x=0, y=1, heading=None, roll
         for artist in (trail, *drawn.artists, clock):
             ax.draw_artist(artist)
         images.append(np.array(fig.canvas.buffer_rgba())[..., :3])
-    images = palette_images(images)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as temporary:
-        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
-                       duration=round(1000 / fps), loop=0)
-    return path
+    return save_gif(images, path, fps)
 
 
 _HEIGHT = 4.0                                  # inches of the longer side of the plot

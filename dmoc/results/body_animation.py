@@ -7,10 +7,9 @@ parts once and the moving ones per frame, written by Pillow (both imported lazil
 
 import numpy as np
 
-from ._canvas import DPI, palette_images
+from ._canvas import DPI, save_gif
 from .body_figure import AXIS_COLORS, axes_length, body_axes, cube_limits, frame_knots, positions_3d
 from .._util import checks
-from .._util.files import atomic_path
 from ..principle.rotation_trajectory import RotationTrajectory
 
 def animate_body(traj, path, *, frames=40, fps=12, length=None, title=None):
@@ -72,9 +71,4 @@ def animate_body(traj, path, *, frames=40, fps=12, length=None, title=None):
         for artist in (trail, *axes, clock):
             ax.draw_artist(artist)
         images.append(np.array(fig.canvas.buffer_rgba())[..., :3])
-    images = palette_images(images)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as temporary:
-        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
-                       duration=round(1000 / fps), loop=0)
-    return path
+    return save_gif(images, path, fps)
