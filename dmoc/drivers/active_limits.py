@@ -6,6 +6,7 @@ bound held with equality at the points where the NLP imposes it (`touches`)."""
 import numpy as np
 
 from ..discrete.knot_states import interior_points
+from .interpolant_path import interpolant_path_values
 from .verdict import PATH_TOLERANCE, knot_path_values, knot_velocity_bound_values
 
 
@@ -65,24 +66,19 @@ def touches(problem, traj):
     `knot_velocity_bound_values`); at the interior points t_k + c h
     (`dmoc.discrete.knot_states.interior_points`: the stage nodes, or the midpoint) they
     are read on the rule's interpolant (`Trajectory.sample`: q, q' and u there), with the
-    parameters at c as the NLP reads them (`ParameterSchedule.point_function`). An
+    parameters at c as the NLP reads them (`interpolant_path_values`). An
     interior point holds the limit where a keep-out disc is touched between knots (the
     rolling disk of `ErrorEstimate.path_active`: no knot on the disc).
     """
     nodes = np.asarray(interior_points(problem.disc.rule))
-    times = (traj.t[:-1, None] + traj.h * nodes[None, :]).ravel()
-    inside = traj.sample(times)
+    inside = traj.sample((traj.t[:-1, None] + traj.h * nodes[None, :]).ravel())
     knot_bounds, _ = knot_velocity_bound_values(problem, traj)
     lower, upper = problem.velocity_bounds
     rows = [np.vstack([knot_bounds, np.hstack([(lower - inside.v)[:, np.isfinite(lower)],
                                                (inside.v - upper)[:, np.isfinite(upper)]])])]
     if problem.path_constraints is not None:
-        w = np.repeat(problem.parameters.knot_values()[:, :-1], len(nodes), axis=1)
-        at = problem.parameters.schedule.point_function()
-        if at is not None:
-            w = np.array(at.map(times.size)(w, np.tile(nodes, traj.steps)[None, :], traj.h))
-        g = problem.path_constraints.map(times.size)(inside.q.T, inside.v.T, inside.u.T, w)
-        rows.append(np.vstack([knot_path_values(problem, traj), np.array(g).T]))
+        between = interpolant_path_values(problem, traj, nodes)[1]
+        rows.append(np.vstack([knot_path_values(problem, traj), between]))
     g = np.hstack(rows)
     return bool(g.size and np.any(g >= -PATH_TOLERANCE * np.maximum(np.abs(g).max(axis=0), 1.0)))
 

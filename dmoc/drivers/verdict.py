@@ -21,6 +21,7 @@ from ..principle.rotation_trajectory import RotationTrajectory
 from ..results.diagnostics import compared_momenta, replays
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 from .group_verdict import judge_on_group
+from .interpolant_path import BETWEEN_KNOTS, CUT_LIMIT, cut_message, interpolant_path_values
 from .judged_inputs import check_judged
 from .knot_checks import (knot_path_values, knot_path_values_of,  # noqa: F401 (re-exported)
                           knot_velocity_bound_values)
@@ -86,7 +87,7 @@ def _verdict(problem, traj, departure, ends, knot_values):
     """The Verdict on the optimum `traj` of `problem` from its replay's `departure` (q, p,
     first step beyond REPLAY_TOLERANCE: `replay_departure`'s or `light_judge`'s), its
     interpolant's end velocities `ends` and its path values at the knots (None without
-    path constraints)."""
+    path constraints), which are read between the knots too (`interpolant_path_values`)."""
     replay_q, replay_p, replay_step = departure
     changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
@@ -104,11 +105,16 @@ def _verdict(problem, traj, departure, ends, knot_values):
     path, path_step, row, limit = path_violation(
         np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
         name_of)
+    # the rows between the knots: named only where they fail (`row_texts` builds text)
+    cut, at, cut_row, _ = (0.0, -1, -1, "") if knot_values is None else path_violation(
+        np.vstack([knot_values, interpolant_path_values(problem, traj)[1]]), str, traj.steps + 1)
     status = worst_status({Status.NOT_REPLAYABLE: max(replay_q, replay_p) > REPLAY_TOLERANCE,
-                           Status.PATH_VIOLATED: path > PATH_TOLERANCE,
+                           Status.PATH_VIOLATED: path > PATH_TOLERANCE or cut > CUT_LIMIT,
                            Status.UNDER_RESOLVED: jump > JUMP_LIMIT})
     return Verdict(status, replay_q, replay_p, replay_step, jump, jump_step, jump_coordinate,
-                   path, path_step, row if row < rows else -1, path_limit=limit)
+                   path, path_step, row if row < rows else -1, path_limit=limit, path_cut=cut,
+                   path_cut_step=at // len(BETWEEN_KNOTS) if cut > 0 else -1,
+                   path_cut_limit=name_of(cut_row) if cut > CUT_LIMIT else "")
 
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
@@ -189,7 +195,7 @@ def verdict_message(verdict, result):
             f"{GOAL_TOLERANCE:g}): IPOPT stopped at an acceptable level or on loosened "
             f"tolerances, or the optimum is another goal's. Tighten IPOPT's `tol` and "
             f"`constr_viol_tol`",
-        Status.PATH_VIOLATED:
+        Status.PATH_VIOLATED: cut_message(verdict, traj) if verdict.path_violation <= PATH_TOLERANCE else
             f"{verdict.path_limit} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
             f"of the row's scale max(1, max |g|) (limit {PATH_TOLERANCE:g}), although the NLP "
