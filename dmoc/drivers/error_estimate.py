@@ -171,7 +171,7 @@ def richardson_estimate(problem, result, reference, tic):
     """The ErrorEstimate of `result` against `reference`, timed from `tic`."""
     p, N, M, traj = problem.disc.order, problem.steps, reference.trajectory.steps, result.trajectory
     on_group = isinstance(problem, GroupOptimalControlProblem)      # no control bounds
-    switching = not on_group and switches(problem, traj)
+    switching = not on_group and switches(problem, result)
     path_active = p > 2 and not switching and touches(problem, traj)
     order = 1 if switching else 2 if path_active else p
     cost_error = _extrapolated(result.cost, reference.cost, N, M, order, reference.success)

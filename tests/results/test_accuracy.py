@@ -376,14 +376,15 @@ def test_the_loop_goes_on_while_the_final_time_is_off(tmp_path):
     assert loaded.stats["error_estimate"]["final_time"] > 0
 
 
-def minimum_time(steps):
-    """The knife edge (m = J = 1) driven 1 m straight ahead from rest to rest in least time
-    with |u| <= 1 (lobatto4): bang-bang, u0 = 1 then -1, switching at T*/2, T* = 2
-    sqrt(d m / F) = 2 s, J = T."""
+def minimum_time(steps, brake=1.0, weight=1.0):
+    """The knife edge (m = J = 1) driven d = 1 m straight ahead from rest to rest in least
+    time with -`brake` <= u0 <= 1, |u1| <= 1 (lobatto4), the cost `weight` per second:
+    bang-bang, u0 = 1 then -brake, T* = sqrt(2 d (1 + brake) / brake) (2 s for brake 1,
+    switching at T*/2), J = weight T."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 2.0 / steps, "lobatto4")
     return dmoc.OptimalControlProblem(disc, steps, q_start=[0, 0, 0], q_goal=[1, 0, 0],
-                                      duration=(0.5, 10), running_cost=lambda q, v, u: 1,
-                                      control_bounds=([-1, -1], [1, 1]))
+                                      duration=(0.5, 10), running_cost=lambda q, v, u: weight,
+                                      control_bounds=([-brake, -1], [1, 1]))
 
 
 def test_a_switching_control_bound_is_extrapolated_with_order_1():
@@ -401,3 +402,21 @@ def test_a_switching_control_bound_is_extrapolated_with_order_1():
     result = dmoc.optimize(problem, accuracy=1e-6, options=QUIET)
     assert result.success and "a conservative guess" in result.message
     assert abs(final_time(result) / 2.0 - 1) <= 1e-6 and abs(result.cost / 2.0 - 1) <= 1e-6
+
+
+def test_a_switch_is_seen_however_far_the_interior_point_stays_off_the_bound():
+    """-0.5 <= u0 <= 1 and a cost of 1e-4 per second, lobatto4 on 52 steps: T* = sqrt(6)
+    (accelerate for T*/3, brake for 2 T*/3), T_52 is 5.8e-5 off. The interior point
+    stays mu / lambda off an active bound, 1e-5 of the control's range here (the
+    multipliers are 1e-4 times those of a cost of 1), so no node was within 1e-6 of a
+    bound: the switch went unseen and order 6 estimated 2.1e-6. The bounds' multipliers
+    show it; order 1 estimates within a factor 10 of the truth."""
+    problem = minimum_time(52, brake=0.5, weight=1e-4)
+    result = dmoc.optimize(problem, options=QUIET)
+    u0 = result.trajectory.u[:, ::2]
+    assert np.min(1.0 - u0) > 2e-6 and np.min(u0 + 0.5) > 1.5e-6      # none within 1e-6 (|b| + 1)
+    true = abs(final_time(result) / np.sqrt(6.0) - 1)
+    estimate = estimate_error(problem, result, options=QUIET)
+    assert estimate.switching and estimate.order == 1 and true > 1e-5
+    assert 0.1 <= estimate.final_time / true <= 10
+
