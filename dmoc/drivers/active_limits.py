@@ -22,7 +22,7 @@ def switches(problem, result):
     result : OptimizationResult
         Its trajectory's controls `u`, shape (N, len(control_nodes) * n_u), and the
         multipliers of the NLP's bounds `lam_x` (positive at an upper bound, negative at a
-        lower one).
+        lower one; None, as in a file written without them: the distance alone).
 
     Returns
     -------
@@ -45,7 +45,8 @@ def switches(problem, result):
     lower, upper = problem.control_bounds
     traj, layout = result.trajectory, problem.transcription.x_layout
     u = np.asarray(traj.u, dtype=float).reshape(-1, len(lower))         # (N k, n_u), in time
-    lam = layout.unpack(np.asarray(result.lam_x, dtype=float), "u").T.reshape(u.shape)
+    lam = np.zeros_like(u) if result.lam_x is None else \
+        layout.unpack(np.asarray(result.lam_x, dtype=float), "u").T.reshape(u.shape)
     size = np.max(np.abs(u), axis=0)
     for bound, sign in ((lower, -1.0), (upper, 1.0)):
         finite = np.isfinite(bound)
@@ -121,8 +122,10 @@ def barrier_offset(problem, result):
     <= 1 and a cost of 1e-4 per second, lobatto4 on 52 steps, 7.7e-6, where T_52 moves by
     1.15e-5 of T* when IPOPT's tol goes from 1e-10 to 1e-13 (offset 7.7e-9); with a cost of
     1 per second, 7.7e-10. Bounds fixed to a value (lbx = ubx, the boundary data) hold
-    nothing here.
+    nothing here. 0 for a result without `x` or `lam_x` (a file written without them).
     """
+    if result.lam_x is None or result.x is None:
+        return 0.0
     T = problem.transcription
     lam, x = np.asarray(result.lam_x, dtype=float), np.asarray(result.x, dtype=float)
     distance = np.where(lam > 0, T.ubx - x, x - T.lbx)

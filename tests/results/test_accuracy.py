@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 import dmoc
 import dmoc.problems
 from dmoc.drivers import error_estimate
-from dmoc.drivers.active_limits import barrier_offset
+from dmoc.drivers.active_limits import barrier_offset, switches
 from dmoc.drivers.accuracy import GROWTH, optimize_to_accuracy
 from dmoc.drivers.high_order import started_solve
 from dmoc.drivers.error_estimate import estimate_error
@@ -420,6 +420,9 @@ def test_a_switch_is_seen_however_far_the_interior_point_stays_off_the_bound():
     estimate = estimate_error(problem, result, options=QUIET)
     assert estimate.switching and estimate.order == 1 and true > 1e-5
     assert 0.1 <= estimate.final_time / true <= 10
+    # without its multipliers (a file written without them) the distance alone misses it
+    without = dataclasses.replace(result, lam_x=None)
+    assert not switches(problem, without) and barrier_offset(problem, without) == 0.0
 
 
 def test_ipopts_own_offset_from_the_bounds_is_part_of_the_target():
