@@ -11,6 +11,7 @@ import numpy as np
 
 from .._util.cache import BoundedCache
 from .._util.numeric import Evaluator
+from ..principle import dense
 
 # The step times c = (j + 1/2) / 8, j = 0 ... 7, where the verdict reads the path rows
 # between the knots: every gap between the points where the NLP imposes them (the knots
@@ -58,12 +59,14 @@ def interpolant_path_values(problem, traj, nodes=BETWEEN_KNOTS):
     """
     nodes = np.asarray(nodes, dtype=float)
     times = (traj.t[:-1, None] + traj.h * nodes[None, :]).ravel()
-    inside = traj.sample(times)
+    k, c = np.repeat(np.arange(traj.steps), nodes.size), np.tile(nodes, traj.steps)
+    q, v = dense.configurations(traj, k, c)         # `Trajectory.sample` without p
+    u = dense.controls(traj, k, c)
     w = np.repeat(problem.parameters.knot_values()[:, :-1], nodes.size, axis=1)
     at = problem.parameters.schedule.point_function()
     if at is not None:
-        (w,) = _mapped(at, times.size)(w, np.tile(nodes, traj.steps), np.full(times.size, traj.h))
-    (g,) = _mapped(problem.path_constraints, times.size)(inside.q.T, inside.v.T, inside.u.T, w)
+        (w,) = _mapped(at, times.size)(w, c, np.full(times.size, traj.h))
+    (g,) = _mapped(problem.path_constraints, times.size)(q.T, v.T, u.T, w)
     return times, g.T
 
 
