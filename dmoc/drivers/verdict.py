@@ -182,13 +182,8 @@ def verdict_message(verdict, result):
             f"of its peak at knot {verdict.jump_step} (t = {traj.t[verdict.jump_step]:.4g})")
     found = {
         Status.NOT_REPLAYABLE:
-            f"it does not solve the step equations as `simulate` does: the replay from its "
-            f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
-            f"configurations' span ({verdict.replay_q * q_scale(traj):.3g} in "
-            f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
-            f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
-            f"equations have other roots where a step is large, and IPOPT found one of "
-            f"those. " + _replay_remedy(traj),
+            f"it does not solve the step equations as `simulate` does: {_departure(verdict, traj, jump)} "
+            + _replay_remedy(traj),
         Status.GOAL_MISSED:
             f"its last knot misses the goal by {verdict.goal_error:.2e} (the angle of "
             f"R_goal^T R_N in radians, or x_N - x_goal over the span of x; limit "
@@ -207,6 +202,24 @@ def verdict_message(verdict, result):
     return (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), "
             f"but the optimum fails its verdict ({verdict.status}): {found}; "
             f"docs/stages/drivers.md, \"Verdicts\".")
+
+
+def _departure(verdict, traj, jump):
+    """How the replay of a not_replayable `verdict` on `traj` left the optimum (its
+    departures, or the step where `simulate` found no root: infinite departures), the
+    velocity `jump`, and the likely cause."""
+    if not np.isfinite(verdict.replay_q):
+        k = verdict.replay_step
+        return (f"the replay from its initial state with its controls stops on the step from "
+                f"knot {k - 1} to knot {k} (t = {traj.t[k - 1]:.4g} to {traj.t[k]:.4g}), where "
+                f"`simulate`'s Newton iteration finds no root of the step equations; {jump}. "
+                f"The step equations have other roots where a step is large: IPOPT found one "
+                f"of those, or the simulator's iteration cannot follow a step this large.")
+    return (f"the replay from its initial state with its controls departs by "
+            f"{verdict.replay_q:.2e} of the configurations' span ({verdict.replay_q * q_scale(traj):.3g} "
+            f"in their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
+            f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
+            f"equations have other roots where a step is large, and IPOPT found one of those.")
 
 
 def _replay_remedy(traj):

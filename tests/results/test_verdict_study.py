@@ -100,3 +100,22 @@ def test_an_estimated_end_far_off_refuses_the_optimum():
     assert caught.value.result.verdict.status == dmoc.Status.UNDER_RESOLVED
     departure, _ = replay(case, result.trajectory)
     assert departure > 0.2
+
+
+def test_a_replay_that_finds_no_root_says_where_and_not_inf():
+    """Problem 22 of the study (seed 41): the car, lobatto3 on 4 steps with a free final
+    time. `simulate`'s Newton iteration finds no root on the first step (departures
+    infinite), while DOP853 under the optimum's controls stays within 0.03 of the span of
+    its knots (a false refusal of the study). The message said "departs by inf of the
+    configurations' span"; it names the step and both causes."""
+    case, = random_problems(23, seed=41, only={22})
+    result = dmoc.optimize(case.problem, throw=False)
+    verdict = result.verdict
+    assert verdict.status == "not_replayable" and np.isinf(verdict.replay_q) and verdict.replay_step == 1
+    t = result.trajectory.t
+    assert (f"stops on the step from knot 0 to knot 1 (t = 0 to {t[1]:.4g}), where `simulate`'s Newton "
+            f"iteration finds no root of the step equations") in result.message
+    assert "or the simulator's iteration cannot follow a step this large" in result.message
+    assert "inf" not in result.message.replace("infinite", "")
+    departure, _ = replay(case, result.trajectory)
+    assert departure < 0.05
