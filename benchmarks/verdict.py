@@ -3,7 +3,8 @@ re-solve with new boundary data, both by `dmoc.optimize` as a user calls it (jud
 extra flags).
 
 For knife-edge parking and rolling-disk steering (dmoc.problems) with lobatto3 and
-lobatto4, each at its least N within 1e-6 of the continuous optimum (benchmarks/peers.py):
+lobatto4, each at its least N within 1e-6 of the continuous optimum (benchmarks/peers.py),
+and knife-edge parking past a keep-out disc (a path row, read between the knots too):
 "first" is a solve after `dmoc.clear_caches` (everything built as in a new process: the
 solver, the midpoint rule's start, the replay's step); "re-solve" the problem moved to a
 goal near the last (``problem.with_boundary(q_goal=...)``) solved from the last optimum
@@ -76,11 +77,22 @@ import dmoc.problems  # noqa: E402
 from dmoc.drivers.verdict import judged_solve  # noqa: E402
 from resolve import add_checkouts, imported_dmoc  # noqa: E402
 
+def parking_past_a_disc(steps, rule):
+    """Knife-edge parking with a keep-out disc of radius 0.2 at (0.05, 0.5), which its
+    path touches: the verdict reads the row at the knots and between them."""
+    disc = dmoc.problems.knife_edge_parking(steps, rule=rule).disc
+    return dmoc.OptimalControlProblem(disc, steps, q_start=[0.0, 0.0, 0.0], q_goal=[0.0, 1.0, 0.0],
+                                      path_constraints=lambda q, v, u: 0.04 - (q[0] - 0.05) ** 2
+                                      - (q[1] - 0.5) ** 2)
+
+
 CASES = {"knife edge": dmoc.problems.knife_edge_parking,
-         "rolling disk": dmoc.problems.rolling_disk_steering}
-# the least N within 1e-6 of J* (benchmarks/peers.py, LEAST_N)
+         "rolling disk": dmoc.problems.rolling_disk_steering,
+         "disc parking": parking_past_a_disc}
+# the least N within 1e-6 of J* (benchmarks/peers.py, LEAST_N); the knife edge's past the disc
 LEAST_N = {"knife edge": {"lobatto3": 28, "lobatto4": 14},
-           "rolling disk": {"lobatto3": 31, "lobatto4": 11}}
+           "rolling disk": {"lobatto3": 31, "lobatto4": 11},
+           "disc parking": {"lobatto3": 28, "lobatto4": 14}}
 RULES = ("lobatto3", "lobatto4")
 # goals near the problems' own, (x, y, heading), as in benchmarks/peers.py
 OFFSETS = np.array([[0.05, 0.0, 0.0], [0.0, 0.05, 0.05], [-0.05, 0.05, 0.0],
@@ -90,7 +102,7 @@ OFFSETS = np.array([[0.05, 0.0, 0.0], [0.0, 0.05, 0.05], [-0.05, 0.05, 0.0],
 def goal(name, offset):
     """The q_goal of `name` moved by `offset` = (dx, dy, dheading); the disk's rolling
     angle stays free."""
-    if name == "knife edge":
+    if name != "rolling disk":
         return list(np.array([0.0, 1.0, 0.0]) + offset)
     x, y, heading = np.array([1.0, 1.0, np.pi / 2]) + offset
     return [x, y, None, heading]

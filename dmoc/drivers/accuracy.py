@@ -99,6 +99,8 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
         tic = time.perf_counter()
         if not (result.success or coarse) or (estimate is not None and estimate.largest <= accuracy):
             return _finished(level, result, levels, estimate, accuracy, keywords)
+        if estimate is not None and estimate.solver > accuracy / 2:     # more steps make it larger
+            return _finished(level, result, levels, estimate, accuracy, keywords, level.steps)
         steps = 2 * level.steps if estimate is None else _next_steps(level.steps, estimate, accuracy)
         if steps > max_steps:
             return _finished(level, result, levels, estimate, accuracy, keywords, max_steps)
@@ -139,8 +141,9 @@ def _rule_name(problem):
 
 def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=None):
     """The last level's (of `problem`) result with the levels and the estimate in its stats; status
-    ``"accuracy_not_reached"`` when `max_steps` stopped the loop; SolverError with throw
-    when it failed."""
+    ``"accuracy_not_reached"`` when `max_steps` stopped the loop (or IPOPT's own offset,
+    `ErrorEstimate.solver`, exceeds half the target: `max_steps` the level's steps then);
+    SolverError with throw when it failed."""
     result = replace(result, stats={**result.stats, "levels": levels})
     if estimate is not None:
         result = with_estimate(result, estimate)
@@ -166,6 +169,12 @@ def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=N
                f"would need more than `max_steps` = {max_steps}; raise `max_steps`"
                + ("." if isinstance(problem, GroupOptimalControlProblem) else
                   " or use a rule of higher order (lobatto3, lobatto4)."))
+    if estimate is not None and estimate.solver > accuracy / 2:
+        message = (f"Accuracy {accuracy:g} not reached: on {levels[-1]['steps']} steps IPOPT's "
+                   f"interior point stays off the bounds it holds by {estimate.solver:.1e} of "
+                   f"the cost (`ErrorEstimate.solver`), more than half the target, and more "
+                   f"steps make that larger; pass a smaller IPOPT tolerance "
+                   f"(`options={{\"tol\": ...}}`: the offset shrinks in proportion).")
     result = replace(result, success=False, status=Status.ACCURACY_NOT_REACHED, message=message,
                      stats=stats)
     if keywords.get("throw", True):

@@ -21,6 +21,7 @@ from ..principle.rotation_trajectory import RotationTrajectory
 from ..results.diagnostics import compared_momenta, replays
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 from .group_verdict import judge_on_group
+from .interpolant_path import BETWEEN_KNOTS, CUT_LIMIT, cut_message, interpolant_path_values
 from .judged_inputs import check_judged
 from .knot_checks import (knot_path_values, knot_path_values_of,  # noqa: F401 (re-exported)
                           knot_velocity_bound_values)
@@ -86,7 +87,7 @@ def _verdict(problem, traj, departure, ends, knot_values):
     """The Verdict on the optimum `traj` of `problem` from its replay's `departure` (q, p,
     first step beyond REPLAY_TOLERANCE: `replay_departure`'s or `light_judge`'s), its
     interpolant's end velocities `ends` and its path values at the knots (None without
-    path constraints)."""
+    path constraints), which are read between the knots too (`interpolant_path_values`)."""
     replay_q, replay_p, replay_step = departure
     changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
@@ -104,11 +105,16 @@ def _verdict(problem, traj, departure, ends, knot_values):
     path, path_step, row, limit = path_violation(
         np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
         name_of)
+    # the rows between the knots: named only where they fail (`row_texts` builds text)
+    cut, at, cut_row, _ = (0.0, -1, -1, "") if knot_values is None else path_violation(
+        np.vstack([knot_values, interpolant_path_values(problem, traj)[1]]), str, traj.steps + 1)
     status = worst_status({Status.NOT_REPLAYABLE: max(replay_q, replay_p) > REPLAY_TOLERANCE,
-                           Status.PATH_VIOLATED: path > PATH_TOLERANCE,
+                           Status.PATH_VIOLATED: path > PATH_TOLERANCE or cut > CUT_LIMIT,
                            Status.UNDER_RESOLVED: jump > JUMP_LIMIT})
     return Verdict(status, replay_q, replay_p, replay_step, jump, jump_step, jump_coordinate,
-                   path, path_step, row if row < rows else -1, path_limit=limit)
+                   path, path_step, row if row < rows else -1, path_limit=limit, path_cut=cut,
+                   path_cut_step=at // len(BETWEEN_KNOTS) if cut > 0 else -1,
+                   path_cut_limit=name_of(cut_row) if cut > CUT_LIMIT else "")
 
 
 def judged_solve(problem, *, check=True, throw=True, **keywords):
@@ -176,20 +182,15 @@ def verdict_message(verdict, result):
             f"of its peak at knot {verdict.jump_step} (t = {traj.t[verdict.jump_step]:.4g})")
     found = {
         Status.NOT_REPLAYABLE:
-            f"it does not solve the step equations as `simulate` does: the replay from its "
-            f"initial state with its controls departs by {verdict.replay_q:.2e} of the "
-            f"configurations' span ({verdict.replay_q * q_scale(traj):.3g} in "
-            f"their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
-            f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
-            f"equations have other roots where a step is large, and IPOPT found one of "
-            f"those. " + _replay_remedy(traj),
+            f"it does not solve the step equations as `simulate` does: {_departure(verdict, traj, jump)} "
+            + _replay_remedy(traj),
         Status.GOAL_MISSED:
             f"its last knot misses the goal by {verdict.goal_error:.2e} (the angle of "
             f"R_goal^T R_N in radians, or x_N - x_goal over the span of x; limit "
             f"{GOAL_TOLERANCE:g}): IPOPT stopped at an acceptable level or on loosened "
             f"tolerances, or the optimum is another goal's. Tighten IPOPT's `tol` and "
             f"`constr_viol_tol`",
-        Status.PATH_VIOLATED:
+        Status.PATH_VIOLATED: cut_message(verdict, traj) if verdict.path_violation <= PATH_TOLERANCE else
             f"{verdict.path_limit} is violated at knot {verdict.path_step} "
             f"(t = {traj.t[max(verdict.path_step, 0)]:.4g}) by {verdict.path_violation:.2e} "
             f"of the row's scale max(1, max |g|) (limit {PATH_TOLERANCE:g}), although the NLP "
@@ -201,6 +202,24 @@ def verdict_message(verdict, result):
     return (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), "
             f"but the optimum fails its verdict ({verdict.status}): {found}; "
             f"docs/stages/drivers.md, \"Verdicts\".")
+
+
+def _departure(verdict, traj, jump):
+    """How the replay of a not_replayable `verdict` on `traj` left the optimum (its
+    departures, or the step where `simulate` found no root: infinite departures), the
+    velocity `jump`, and the likely cause."""
+    if not np.isfinite(verdict.replay_q):
+        k = verdict.replay_step
+        return (f"the replay from its initial state with its controls stops on the step from "
+                f"knot {k - 1} to knot {k} (t = {traj.t[k - 1]:.4g} to {traj.t[k]:.4g}), where "
+                f"`simulate`'s Newton iteration finds no root of the step equations; {jump}. "
+                f"The step equations have other roots where a step is large: IPOPT found one "
+                f"of those, or the simulator's iteration cannot follow a step this large.")
+    return (f"the replay from its initial state with its controls departs by "
+            f"{verdict.replay_q:.2e} of the configurations' span ({verdict.replay_q * q_scale(traj):.3g} "
+            f"in their units) and {verdict.replay_p:.2e} of the momenta's size (limit "
+            f"{REPLAY_TOLERANCE:g}), first at step {verdict.replay_step}; {jump}. The step "
+            f"equations have other roots where a step is large, and IPOPT found one of those.")
 
 
 def _replay_remedy(traj):

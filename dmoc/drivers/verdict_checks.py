@@ -67,15 +67,17 @@ def scale(*sizes):
     return next((float(size) for size in sizes if size > NO_SCALE), 1.0)
 
 
-def path_violation(g, name_of):
+def path_violation(g, name_of, first=0):
     """(largest g_k relative to its row's scale max(1, max_k |g_k|), knot, row, the row's
     name ``name_of(row)``) of the values at the knots `g` (N + 1, rows: path constraints,
-    then velocity bounds on R^n); (0, -1, -1, "") without rows or violations. The 1 keeps
-    a row that is held at zero everywhere (an equality written as the pair g, -g) from
-    being measured against its own round-off."""
-    if g.size == 0:
+    then velocity bounds on R^n), or of its points from `first` on (the point counted from
+    there: the rows between the knots, `dmoc.drivers.interpolant_path`) against the scale
+    of all of them; (0, -1, -1, "") without rows or violations. The 1 keeps a row that is
+    held at zero everywhere (an equality written as the pair g, -g) from being measured
+    against its own round-off."""
+    if g[first:].size == 0:
         return 0.0, -1, -1, ""
-    relative = g / np.maximum(np.abs(g).max(axis=0), 1.0)
+    relative = g[first:] / np.maximum(np.abs(g).max(axis=0), 1.0)
     k, row = np.unravel_index(np.argmax(relative), relative.shape)
     if relative[k, row] <= 0:
         return 0.0, -1, -1, ""

@@ -25,6 +25,7 @@ from scipy.integrate import solve_ivp
 import dmoc
 import dmoc.problems
 from dmoc.drivers import error_estimate
+from dmoc.drivers.active_limits import barrier_offset, switches
 from dmoc.drivers.accuracy import GROWTH, optimize_to_accuracy
 from dmoc.drivers.high_order import started_solve
 from dmoc.drivers.error_estimate import estimate_error
@@ -353,7 +354,7 @@ def test_a_free_final_time_is_part_of_the_target():
     assert 0.1 <= estimate["cost"] / true_cost <= 10
     assert np.sign(estimate["final_time_error"]) == np.sign(T - T_STRAIGHT)
     assert result.verdict.discretization_error == max(estimate["cost"], estimate["final_state"],
-                                                      estimate["final_time"])
+                                                      estimate["final_time"]) + estimate["solver"]
 
 
 def test_the_loop_goes_on_while_the_final_time_is_off(tmp_path):
@@ -365,7 +366,7 @@ def test_the_loop_goes_on_while_the_final_time_is_off(tmp_path):
     coarse, finer = (dmoc.optimize(straight_ahead(N, fee), options=QUIET) for N in (10, 20))
     at_20 = estimate_error(straight_ahead(20, fee), finer, reference=coarse)
     assert max(at_20.cost, at_20.final_state) < accuracy < 1e-4 < abs(final_time(finer) / T_STRAIGHT - 1)
-    assert at_20.largest == at_20.final_time
+    assert at_20.largest == at_20.final_time + at_20.solver and at_20.solver < 1e-9
     result = dmoc.optimize(straight_ahead(10, fee), accuracy=accuracy, options=QUIET)
     assert result.stats["levels"][-1]["steps"] > 20
     assert abs(final_time(result) / T_STRAIGHT - 1) <= accuracy
@@ -376,14 +377,15 @@ def test_the_loop_goes_on_while_the_final_time_is_off(tmp_path):
     assert loaded.stats["error_estimate"]["final_time"] > 0
 
 
-def minimum_time(steps):
-    """The knife edge (m = J = 1) driven 1 m straight ahead from rest to rest in least time
-    with |u| <= 1 (lobatto4): bang-bang, u0 = 1 then -1, switching at T*/2, T* = 2
-    sqrt(d m / F) = 2 s, J = T."""
+def minimum_time(steps, brake=1.0, weight=1.0):
+    """The knife edge (m = J = 1) driven d = 1 m straight ahead from rest to rest in least
+    time with -`brake` <= u0 <= 1, |u1| <= 1 (lobatto4), the cost `weight` per second:
+    bang-bang, u0 = 1 then -brake, T* = sqrt(2 d (1 + brake) / brake) (2 s for brake 1,
+    switching at T*/2), J = weight T."""
     disc = dmoc.discretize(dmoc.systems.knife_edge(mass=1.0, inertia=1.0), 2.0 / steps, "lobatto4")
     return dmoc.OptimalControlProblem(disc, steps, q_start=[0, 0, 0], q_goal=[1, 0, 0],
-                                      duration=(0.5, 10), running_cost=lambda q, v, u: 1,
-                                      control_bounds=([-1, -1], [1, 1]))
+                                      duration=(0.5, 10), running_cost=lambda q, v, u: weight,
+                                      control_bounds=([-brake, -1], [1, 1]))
 
 
 def test_a_switching_control_bound_is_extrapolated_with_order_1():
@@ -401,3 +403,47 @@ def test_a_switching_control_bound_is_extrapolated_with_order_1():
     result = dmoc.optimize(problem, accuracy=1e-6, options=QUIET)
     assert result.success and "a conservative guess" in result.message
     assert abs(final_time(result) / 2.0 - 1) <= 1e-6 and abs(result.cost / 2.0 - 1) <= 1e-6
+
+
+def test_a_switch_is_seen_however_far_the_interior_point_stays_off_the_bound():
+    """-0.5 <= u0 <= 1 and a cost of 1e-4 per second, lobatto4 on 52 steps: T* = sqrt(6)
+    (accelerate for T*/3, brake for 2 T*/3), T_52 is 5.8e-5 off. The interior point
+    stays mu / lambda off an active bound, 1e-5 of the control's range here (the
+    multipliers are 1e-4 times those of a cost of 1), so no node was within 1e-6 of a
+    bound: the switch went unseen and order 6 estimated 2.1e-6. The bounds' multipliers
+    show it; order 1 estimates within a factor 10 of the truth."""
+    problem = minimum_time(52, brake=0.5, weight=1e-4)
+    result = dmoc.optimize(problem, options=QUIET)
+    u0 = result.trajectory.u[:, ::2]
+    assert np.min(1.0 - u0) > 2e-6 and np.min(u0 + 0.5) > 1.5e-6      # none within 1e-6 (|b| + 1)
+    true = abs(final_time(result) / np.sqrt(6.0) - 1)
+    estimate = estimate_error(problem, result, options=QUIET)
+    assert estimate.switching and estimate.order == 1 and true > 1e-5
+    assert 0.1 <= estimate.final_time / true <= 10
+    # without its multipliers (a file written without them) the distance alone misses it
+    without = dataclasses.replace(result, lam_x=None)
+    assert not switches(problem, without) and barrier_offset(problem, without) == 0.0
+
+
+def test_ipopts_own_offset_from_the_bounds_is_part_of_the_target():
+    """-0.5 <= u0 <= 1 and a cost of 1e-5 per second (lobatto4): the interior point stays
+    mu / lambda off the active bounds, and T_N with it. On 52 steps T is 1.6e-4 off T* =
+    sqrt(6) while the grid's error is 4.6e-5 (tol 1e-13, where the offset is 1000 times
+    smaller): the offset's estimate (`ErrorEstimate.solver`) is within a factor 2 of that
+    shift. accuracy=1e-4 from 26 steps reported success on 52 with the order-1 estimate
+    8.1e-5; now the offset, 7.7e-5, adds to it, the loop stops (more steps make it larger)
+    and says to lower IPOPT's tol, which then meets the target (on 145 steps)."""
+    problem = minimum_time(52, brake=0.5, weight=1e-5)
+    loose, tight = (dmoc.optimize(problem, options={**QUIET, "tol": tol}) for tol in (1e-10, 1e-13))
+    shift = abs(final_time(loose) - final_time(tight)) / np.sqrt(6.0)
+    solver = [barrier_offset(problem, result) for result in (loose, tight)]
+    assert 0.5 <= solver[0] / shift <= 2 and solver[1] / solver[0] == pytest.approx(1e-3, rel=0.1)
+    result = dmoc.optimize(minimum_time(26, brake=0.5, weight=1e-5), accuracy=1e-4, options=QUIET,
+                           throw=False)
+    assert (result.success, result.status) == (False, "accuracy_not_reached")
+    assert abs(final_time(result) / np.sqrt(6.0) - 1) > 1e-4
+    assert "IPOPT's interior point stays off the bounds it holds by 7.7e-05 of the cost" in result.message
+    assert "pass a smaller IPOPT tolerance" in result.message
+    result = dmoc.optimize(minimum_time(26, brake=0.5, weight=1e-5), accuracy=1e-4,
+                           options={**QUIET, "tol": 1e-13})
+    assert result.success and abs(final_time(result) / np.sqrt(6.0) - 1) <= 1e-4

@@ -11,6 +11,8 @@ from ...errors import InputError, Status, status_of
 
 # The statuses of a verdict, worst first: a result takes the first check that fails.
 STATUSES = (Status.NOT_REPLAYABLE, Status.GOAL_MISSED, Status.PATH_VIOLATED, Status.UNDER_RESOLVED)
+# the fields a file may lack: written before they were measured
+OPTIONAL = {"discretization_error", "path_limit", "goal_error", "path_cut", "path_cut_step", "path_cut_limit"}
 
 
 @dataclass(frozen=True)
@@ -24,7 +26,8 @@ class Verdict:
         ``"not_replayable"`` (`simulate` from the optimum's initial state with its controls
         departs from it), ``"goal_missed"`` (on SO(3): the last knot is not at the goal,
         `dmoc.drivers.group_verdict`), ``"path_violated"`` (a path constraint or a velocity bound fails
-        at a knot q_k),
+        at a knot q_k, or the rule's interpolant exceeds a path constraint between the
+        knots by more than `dmoc.drivers.interpolant_path.CUT_LIMIT` of its scale),
         ``"under_resolved"`` (a step velocity changes by a large part of its peak within
         one step).
     replay_q, replay_p : float
@@ -55,6 +58,16 @@ class Verdict:
         The limit found violated, by name: ``"path_constraints row 2"`` or
         ``"velocity_bounds upper of delta (v[3] <= 0.4)"``; "" if none (and in files
         written before velocity bounds).
+    path_cut : float
+        The largest value of a path-constraint row on the rule's interpolant between the
+        knots (`Trajectory.sample` at `dmoc.drivers.interpolant_path.BETWEEN_KNOTS` of every
+        step) relative to the row's scale (max(1, max |g|) of that row at the knots and
+        those points); 0 without path constraints or where the interpolant keeps every
+        row (and in files written before it was measured).
+    path_cut_step : int
+        The step k (between knots k and k + 1) where it is found; -1 if none.
+    path_cut_limit : str
+        The row's name (as `path_limit`) where `path_cut` exceeds the limit, else "".
     discretization_error : float or None
         The estimated distance of the optimum from the continuous one. This is where the
         estimate of ``dmoc.drivers.error_estimate.estimate_error`` joins the verdict; None:
@@ -78,6 +91,9 @@ class Verdict:
     discretization_error: float = None
     path_limit: str = ""
     goal_error: float = 0.0
+    path_cut: float = 0.0
+    path_cut_step: int = -1
+    path_cut_limit: str = ""
 
     @property
     def passed(self):
@@ -97,11 +113,11 @@ class Verdict:
     @classmethod
     def checked(cls, values):
         """The Verdict of the dict `values` read from a file: its keys exactly the fields
-        (`discretization_error`, `path_limit` and `goal_error` may be left out), each value of the
+        (those of `OPTIONAL` may be left out), each value of the
         field's type; else InputError saying which ("must ..." follows the caller's name of the dict)."""
         names = [f.name for f in fields(cls)]
         unknown = sorted(set(values) - set(names))
-        missing = sorted(set(names) - set(values) - {"discretization_error", "path_limit", "goal_error"})
+        missing = sorted(set(names) - set(values) - OPTIONAL)
         if unknown or missing:
             raise InputError(f"must have the keys {names}; " + (
                 f"got the unknown keys {unknown}" if unknown else f"it lacks {missing}"))
@@ -120,5 +136,6 @@ _TYPES = {"status": str, "replay_q": (int, float), "replay_p": (int, float), "re
           "velocity_jump": (int, float), "jump_step": int, "jump_coordinate": str,
           "path_violation": (int, float), "path_step": int, "path_row": int,
           "discretization_error": (int, float), "path_limit": str,
-          "goal_error": (int, float)}
+          "goal_error": (int, float), "path_cut": (int, float), "path_cut_step": int,
+          "path_cut_limit": str}
 _DESCRIBED = {str: "a string", int: "an integer", (int, float): "a number"}
