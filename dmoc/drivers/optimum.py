@@ -30,7 +30,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         (resampled), IPOPT then estimating the multipliers by least squares there. By
         default the configurations interpolate linearly between the boundary data, bent
         by a small sine bump so the guess avoids points where the constraint Jacobian is
-        singular (e.g. the knife edge sliding straight sideways). A stage rule (lobatto3,
+        singular (e.g. the knife edge sliding straight sideways); a free goal entry is
+        where the given start velocity carries it over N h (held without one). A stage rule (lobatto3,
         lobatto4) starts instead from the midpoint rule's optimum on the same grid, solved
         from that default guess (`dmoc.drivers.high_order`; ``stats["start"]``).
     options : dict, optional

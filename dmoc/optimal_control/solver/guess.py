@@ -44,7 +44,7 @@ def initial_guess(problem, guess=None):
     # the step within the final time's range (h itself when fixed); x has no "h" then
     h = float(np.clip(problem.disc.h if guess is None else guess.h, *problem.final_time.step_range(N)))
     if guess is None:
-        q = _default_path(problem, tau)
+        q = _default_path(problem, tau, h)
         v = np.gradient(q, h, axis=0)
         p = np.array(sys.momentum.map(N + 1)(q.T, v.T)).T
         blocks = {"q": q, "p": p, "s": problem.disc.rule.stage_guess(q, p)}
@@ -72,13 +72,18 @@ def _check_guess(problem, guess):
                          f"problem; got {guess.u.shape[1]} for {len(guess.control_nodes)} nodes.")
 
 
-def _default_path(problem, tau):
-    """Configurations (N+1, n) on the chord from the start to the goal (free entries held
-    at q_ref) bent by 0.1 l_i sin(pi tau), l the coordinates' lengths in the motion
-    (`scaling.lengths`): a bump in the units of each coordinate, the same path whatever
-    the units of length and mass."""
+def _default_path(problem, tau, h):
+    """Configurations (N+1, n) on the chord from the start to the goal bent by 0.1 l_i
+    sin(pi tau), l the coordinates' lengths in the motion (`scaling.lengths`): a bump in
+    the units of each coordinate, the same path whatever the units of length and mass.
+    A free goal entry is where the given start velocity carries its start over the guess's
+    duration N h (held at q_ref without one): a car started at 10 m/s towards a free goal
+    x is guessed driving on, not standing while the other coordinates move (the lane
+    change's midpoint solve from x held at 0 ended `Infeasible_Problem_Detected` from
+    N = 90 on)."""
     start = problem.transcription.q_ref        # the given start, else goal, entries
-    goal = np.where(np.isfinite(problem.q_goal), problem.q_goal, start)
+    drift = np.nan_to_num(problem.v_start) * h * (len(tau) - 1)
+    goal = np.where(np.isfinite(problem.q_goal), problem.q_goal, start + drift)
     bump = 0.1 * lengths(problem.disc.system, start, problem.q_goal - problem.q_start)
     return start + np.outer(tau, goal - start) + np.outer(np.sin(np.pi * tau), bump)
 
