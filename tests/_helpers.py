@@ -1,6 +1,6 @@
 """Helpers shared by test modules of several stages (fixtures live in conftest.py)."""
 
-from dataclasses import fields
+from dataclasses import fields, replace
 
 import numpy as np
 
@@ -18,3 +18,17 @@ def same(a, b):
 def problem(disc, **kwargs):
     """A 10-step problem on `disc` from the origin to (0, 0.1, 0), with `kwargs` added."""
     return dmoc.OptimalControlProblem(disc, 10, q_start=[0, 0, 0], q_goal=[0, 0.1, 0], **kwargs)
+
+
+def moved_at_knot(result, field, departure, knot=10):
+    """`result` with its trajectory's y at `knot` moved by `departure` of the span of q
+    (`field` "q"), or p_y by `departure` of max |p| ("p"): an optimum that departs from the
+    step equations there by that much."""
+    traj = result.trajectory
+    q, p = traj.q.copy(), traj.p.copy()
+    if field == "q":
+        q[knot, 1] += departure * np.ptp(traj.q, axis=0).max()
+    else:
+        p[knot, 1] += departure * np.abs(traj.p).max()
+    moved = dmoc.Trajectory(traj.t, q, p, traj.lam, traj.u, traj.h, traj.variant)
+    return replace(result, trajectory=moved)

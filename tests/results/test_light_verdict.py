@@ -11,7 +11,6 @@ Oracles, none taken from the light verdict's code:
   1e-6, passed below.
 """
 
-import dataclasses
 import time
 
 import numpy as np
@@ -21,6 +20,7 @@ import dmoc
 from dmoc._util import compiled
 from dmoc.drivers.verdict import REPLAY_TOLERANCE, judge, light_judge
 from dmoc.problems import knife_edge_parking
+from tests._helpers import moved_at_knot
 
 pytestmark = pytest.mark.skipif(compiled.compiler() is None, reason="no C compiler")
 
@@ -62,14 +62,7 @@ def test_an_optimum_moved_at_a_knot_is_refused_from_that_knot(parking, field, de
     the step from knot 9 lands that far from it (and the step from it as far or farther
     from knot 11)."""
     problem, result = parking
-    traj = result.trajectory
-    q, p = traj.q.copy(), traj.p.copy()
-    if field == "q":
-        q[10, 1] += departure * np.ptp(traj.q, axis=0).max()
-    else:
-        p[10, 1] += departure * np.abs(traj.p).max()
-    moved = dmoc.Trajectory(traj.t, q, p, traj.lam, traj.u, traj.h, traj.variant)
-    verdict = light(problem, dataclasses.replace(result, trajectory=moved))
+    verdict = light(problem, moved_at_knot(result, field, departure))
     figure = {"q": verdict.replay_q, "p": verdict.replay_p}[field]
     assert departure * (1 - 1e-3) <= figure
     assert (figure < REPLAY_TOLERANCE) == (status == "passed")

@@ -14,7 +14,6 @@ Oracles, none taken from the verdict's code:
   rolling-disk J* = 1.02891883211 within the rule's discretization error.
 """
 
-import dataclasses
 
 import casadi as ca
 import numpy as np
@@ -23,6 +22,7 @@ import pytest
 import dmoc
 from dmoc.problems import knife_edge_parking, rolling_disk_steering
 from dmoc.drivers.verdict import JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE, REST_TOLERANCE, judge, verdict_message
+from tests._helpers import moved_at_knot
 
 KNIFE_EDGE_J = 8.72240586430
 ROLLING_DISK_J = 1.02891883211
@@ -171,14 +171,7 @@ def test_a_replay_departure_is_judged_at_1e_6_in_q_and_in_p_alone(field, departu
     "Verdicts") it passes, above it is not replayable from step 10."""
     problem = knife_edge_parking(20)
     result = dmoc.optimize(problem)
-    traj = result.trajectory
-    q, p = traj.q.copy(), traj.p.copy()
-    if field == "q":
-        q[10, 1] += departure * np.ptp(traj.q, axis=0).max()
-    else:
-        p[10, 1] += departure * np.abs(traj.p).max()
-    moved = dmoc.Trajectory(traj.t, q, p, traj.lam, traj.u, traj.h, traj.variant)
-    verdict = judge(problem, dataclasses.replace(result, trajectory=moved))
+    verdict = judge(problem, moved_at_knot(result, field, departure))
     figures = {"q": verdict.replay_q, "p": verdict.replay_p}
     assert figures[field] == pytest.approx(departure, rel=1e-3)
     assert figures["p" if field == "q" else "q"] < 1e-10
