@@ -4,12 +4,12 @@ conversions to and from ``casadi.DM`` of an ordinary call, a fraction of its tim
 small Functions of a system; the same evaluation, so the same bits.
 """
 
-import functools
 import threading
 
 import numpy as np
 
 from ..errors import InputError
+from .cache import BoundedCache
 
 
 class Evaluator:
@@ -94,6 +94,7 @@ class Evaluator:
 
 
 CHUNK = 4096      # steps per call of `per_step`'s mapped Function
+_MAPPED = BoundedCache(32, "mapped_functions")      # (id of a Function, count) -> (it, its `mapped`)
 
 
 def per_step(function, steps, *args):
@@ -107,13 +108,13 @@ def per_step(function, steps, *args):
     if steps < CHUNK:
         columns = [_rows(a, 0, steps).T if isinstance(a, np.ndarray) else a for a in args]
         return [np.array(out).T for out in _as_list(function.map(steps)(*columns))]
-    mapped = _mapped(function)
-    rows = [mapped.function.size1_out(i) for i in range(function.n_out())]
+    chunked = mapped(function, CHUNK)
+    rows = [chunked.function.size1_out(i) for i in range(function.n_out())]
     outs = [np.empty((steps, r)) for r in rows]
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
         chunk = [_padded(a, start, end) for a in args]
-        for out, value in zip(outs, mapped(*chunk)):
+        for out, value in zip(outs, chunked(*chunk)):
             out[start:end] = value.T[:end - start]
     return outs
 
@@ -138,10 +139,11 @@ def _rows(arg, start, end):
     return arg[start:end].reshape(end - start, int(np.prod(arg.shape[1:])))
 
 
-@functools.lru_cache(maxsize=32)
-def _mapped(function):
-    """The Evaluator of `function` mapped over CHUNK steps."""
-    return Evaluator(function.map(CHUNK))
+def mapped(function, count):
+    """The Evaluator of `function` mapped over `count` columns (a serial map: each column the
+    bits of a call of its own), made once per Function and count: keyed by the Function's
+    id, the entry holding the Function so that the id stays its own while it lives."""
+    return _MAPPED.get((id(function), count), lambda: (function, Evaluator(function.map(count))))[1]
 
 
 def _run(buffer, run):

@@ -9,8 +9,7 @@ rule's interior points, where the NLP does impose them.
 
 import numpy as np
 
-from .._util.cache import BoundedCache
-from .._util.numeric import Evaluator
+from .._util.numeric import mapped
 from ..principle import dense
 
 # The step times c = (j + 1/2) / 8, j = 0 ... 7, where the verdict reads the path rows
@@ -28,11 +27,6 @@ BETWEEN_KNOTS = tuple((j + 0.5) / 8 for j in range(8))
 # Chaplygin sleigh past a disc on 3 lobatto3 steps cuts it by 0.25 (its cost 71 % off,
 # DOP853 under its controls 0.32 of the span away; velocity jump 0.44, replay 1e-15).
 CUT_LIMIT = 0.1
-
-# a Function mapped over a number of points, evaluated through its buffer: keyed by (id of
-# the Function, points), the value (that Function, its Evaluator) so that the id stays its
-# own while the entry lives
-_MAPS = BoundedCache(16, "interpolant_path_maps")
 
 
 def interpolant_path_values(problem, traj, nodes=BETWEEN_KNOTS):
@@ -65,14 +59,9 @@ def interpolant_path_values(problem, traj, nodes=BETWEEN_KNOTS):
     w = np.repeat(problem.parameters.knot_values()[:, :-1], nodes.size, axis=1)
     at = problem.parameters.schedule.point_function()
     if at is not None:
-        (w,) = _mapped(at, times.size)(w, c, np.full(times.size, traj.h))
-    (g,) = _mapped(problem.path_constraints, times.size)(q.T, v.T, u.T, w)
+        (w,) = mapped(at, times.size)(w, c, np.full(times.size, traj.h))
+    (g,) = mapped(problem.path_constraints, times.size)(q.T, v.T, u.T, w)
     return times, g.T
-
-
-def _mapped(function, points):
-    """The Evaluator of `function` mapped over `points` columns, kept (`_MAPS`)."""
-    return _MAPS.get((id(function), points), lambda: (function, Evaluator(function.map(points))))[1]
 
 
 def cut_message(verdict, traj):

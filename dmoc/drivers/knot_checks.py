@@ -6,8 +6,7 @@ velocity, as the NLP's knot rows impose them (their largest violation:
 import numpy as np
 
 from .._util import checks
-from .._util.cache import BoundedCache
-from .._util.numeric import Evaluator
+from .._util.numeric import mapped
 from ..discrete.knot_states import knot_velocities
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..principle.rotation_trajectory import RotationTrajectory
@@ -15,10 +14,6 @@ from ..results.knot_velocities import end_velocities
 from .group_verdict import group_knot_path_values
 from .judged_inputs import check_judged
 
-# a path Function mapped over a number of knots, evaluated through its buffer: keyed by
-# (id of the path Function, knots), the value (that Function, its Evaluator) so that the
-# id stays its own while the entry lives
-_PATH_MAPS = BoundedCache(16, "path_maps")
 
 
 def knot_path_values(problem, traj):
@@ -40,7 +35,7 @@ def knot_path_values_of(triples):
     of one path Function in one call of it mapped over all their knots, their columns
     one optimum after another (a serial map: each optimum's values bit for bit those of
     a call of its own). The mapped Function is kept per path Function and number of
-    knots and called through its buffer (`dmoc._util.numeric.Evaluator`)."""
+    knots and called through its buffer (`dmoc._util.numeric.mapped`)."""
     found, values = {}, [None] * len(triples)
     for i, (problem, _, _) in enumerate(triples):
         found.setdefault(id(problem.path_constraints), []).append(i)
@@ -48,8 +43,7 @@ def knot_path_values_of(triples):
         path = triples[members[0]][0].path_constraints
         columns = [_knot_arguments(*triples[i]) for i in members]
         total = sum(c[0].shape[1] for c in columns)
-        mapped = _PATH_MAPS.get((id(path), total), lambda: (path, Evaluator(path.map(total))))[1]
-        (g,) = mapped(*(np.hstack(parts) for parts in zip(*columns)))
+        (g,) = mapped(path, total)(*(np.hstack(parts) for parts in zip(*columns)))
         knots = np.cumsum([c[0].shape[1] for c in columns])[:-1]
         for i, block in zip(members, np.split(g.T, knots)):
             values[i] = block
