@@ -2,6 +2,8 @@
 
 from dataclasses import fields, replace
 
+import casadi as ca
+
 import numpy as np
 
 import dmoc
@@ -32,3 +34,13 @@ def moved_at_knot(result, field, departure, knot=10):
         p[knot, 1] += departure * np.abs(traj.p).max()
     moved = dmoc.Trajectory(traj.t, q, p, traj.lam, traj.u, traj.h, traj.variant)
     return replace(result, trajectory=moved)
+
+
+def lagrangian_gradient(transcription):
+    """Function ``(x, p, lam_g) -> grad f + J^T lam_g`` of the scaled NLP of `transcription`,
+    from CasADi's dense Jacobian of the NLP's expressions (not the Functions IPOPT or
+    dmoc's KKT matrix evaluate): the stationarity an optimum's multipliers must give."""
+    x, p = transcription.nlp["x"], transcription.nlp["p"]
+    lam = type(x).sym("lam", transcription.g_layout.size)
+    return ca.Function("lagrangian_gradient", [x, p, lam], [
+        ca.gradient(transcription.nlp["f"], x) + ca.mtimes(ca.jacobian(transcription.nlp["g"], x).T, lam)])

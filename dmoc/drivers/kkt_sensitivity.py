@@ -2,7 +2,7 @@
 of the optimum in the NLP's parameter vector p and bounds lbx, ubx (a driver: sensitivities
 of an optimum, `dmoc.drivers.parametric_sensitivity`): the active set read from the
 optimum's multipliers, the derivatives of the KKT conditions in p, the matrix's solution
-(`dmoc.drivers.kkt_factorization`).
+(`dmoc.optimal_control.nlp.kkt_matrix`).
 """
 
 import casadi as ca
@@ -12,7 +12,7 @@ from .._util.cache import BoundedCache
 from .._util.numeric import Evaluator
 from ..errors import InputError
 from ..optimal_control.nlp.evaluation import nlp_functions
-from .kkt_factorization import BACKWARD_ERROR, kkt_layout, kkt_solution, kkt_system
+from ..optimal_control.nlp.kkt_matrix import BACKWARD_ERROR, kkt_layout, kkt_solution, kkt_system
 
 _DIRECTIONS = BoundedCache(16, "kkt_directions")    # by (NLP structure, number of parameters)
 
@@ -88,10 +88,10 @@ def solve_kkt(transcription, x, lam_g, lam_x, d_p, d_lower, d_upper):
     stationarity row alone, so that row and nu are dropped and dx_i = d(bound)_i written in
     its place; the multipliers of the inactive rows of g stay zero, written as rows
     dlam_i = 0. The matrix so keeps one sparsity pattern whatever the active set
-    (`dmoc.drivers.kkt_factorization.KKTSystem`), and its factorization one symbolic
+    (`dmoc.optimal_control.nlp.kkt_matrix.KKTSystem`), and its factorization one symbolic
     analysis; the entries fixed by lbx == ubx (the boundary data) are left out of it, their
     columns times their bounds' change moved to the right side. The zero block of the
-    active rows is shifted to -DEPENDENT_ROWS I (`dmoc.drivers.kkt_factorization`), so that
+    active rows is shifted to -DEPENDENT_ROWS I (`dmoc.optimal_control.nlp.kkt_matrix`), so that
     dependent active rows (a path row held at a knot and at the stage points beside it)
     leave the matrix regular; dx moves by about DEPENDENT_ROWS
     |dlam|. Of the two methods of `kkt_solution` the one whose factors hold fewer nonzeros

@@ -36,6 +36,11 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         from that default guess (`dmoc.drivers.high_order`; ``stats["start"]``).
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``).
+        Without them, a warm re-solve (`guess` an optimum of the same structure) of a
+        problem whose rows are all equalities and whose only bounded entries are the given
+        boundary data is solved by Newton's method on its KKT conditions when it converges
+        to a strict local minimum, else by IPOPT (``stats["nlp_solver"]``,
+        `dmoc.optimal_control.solver.newton_kkt`); with them, always by IPOPT.
         Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
         floor of the rows where the data put it higher (configurations far from the
         origin, docs/stages/optimize.md). Both apply to the scaled NLP

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import dmoc
-from dmoc.drivers import kkt_factorization, kkt_sensitivity
+from dmoc.drivers import kkt_sensitivity
+from dmoc.optimal_control.nlp import kkt_matrix
 from dmoc.errors import InputError
 
 OPTIONS = {"tol": 1e-12}
@@ -36,7 +37,7 @@ def method(request, monkeypatch):
     LDL^T refined against the exact matrix (QR_COST infinite), or the exact matrix's sparse
     QR (QR_COST 0); the layouts, which hold the choice, made anew before and after; the
     methods `solve_kkt` called, in order, recorded in the list."""
-    monkeypatch.setattr(kkt_factorization, "QR_COST", np.inf if request.param == "ldl" else 0.0)
+    monkeypatch.setattr(kkt_matrix, "QR_COST", np.inf if request.param == "ldl" else 0.0)
     used, solution = [], kkt_sensitivity.kkt_solution
     monkeypatch.setattr(kkt_sensitivity, "kkt_solution", lambda *args: used.append(args[-1]) or solution(*args))
     dmoc.clear_caches("kkt_layouts")

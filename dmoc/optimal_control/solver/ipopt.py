@@ -213,18 +213,7 @@ class PackedSolver:
                                 ("result_lam_x", n_x), ("result_lam_g", n_g), ("x_norm1", 1)])
         z = ca.MX.sym("z", self._inputs.size)
         inputs = self._inputs.split(z)
-        sol = nlpsol(**inputs)
-        sol["on_bound"] = on_bound(sol["x"], inputs["lbx"], inputs["ubx"])
-        # the result's vectors unscaled: the products and quotients NumPy formed of the
-        # outputs before, the same bits; and the 1-norm of x, finite when x is
-        D, R = ca.DM(transcription.x_scale), ca.DM(transcription.g_scale)
-        sol["result_x"], sol["result_lam_x"] = D * sol["x"], sol["lam_x"] / D
-        sol["result_lam_g"] = R * sol["lam_g"]
-        sol["x_norm1"] = ca.sum1(ca.fabs(sol["result_x"]))
-        if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
-            sol["largest"], sol["row"] = largest_violation(n_g)(sol["g"] / R, inputs["lbg"] / R, inputs["ubg"] / R)
-        else:
-            sol["largest"] = sol["row"] = ca.MX(0)
+        sol = packed_outputs(transcription, nlpsol(**inputs), inputs)
         self._function = Evaluator(ca.Function("ipopt_packed", [z], [self._outputs.join(sol)], ["z"], ["sol"]))
 
     def __call__(self, **inputs):
@@ -245,6 +234,27 @@ class PackedSolver:
         """IPOPT's statistics of the last solve: the packed Function's, which are
         those of the nlpsol it calls (the nlpsol's own `stats()` are of its direct calls)."""
         return self._function.stats()
+
+
+def packed_outputs(transcription, sol, inputs):
+    """`sol` (MX: nlpsol's outputs x, f, g, lam_x, lam_g of `transcription`'s scaled NLP)
+    with what a result needs of them (`PackedSolver.__call__`): on_bound, the largest
+    violation of the unscaled rows and its row, result_x, result_lam_x, result_lam_g and
+    x_norm1; `inputs` gives lbx, ubx, lbg and ubg (MX)."""
+    sol = dict(sol)
+    sol["on_bound"] = on_bound(sol["x"], inputs["lbx"], inputs["ubx"])
+    # the result's vectors unscaled: the products and quotients NumPy formed of the
+    # outputs before, the same bits; and the 1-norm of x, finite when x is
+    D, R = ca.DM(transcription.x_scale), ca.DM(transcription.g_scale)
+    sol["result_x"], sol["result_lam_x"] = D * sol["x"], sol["lam_x"] / D
+    sol["result_lam_g"] = R * sol["lam_g"]
+    sol["x_norm1"] = ca.sum1(ca.fabs(sol["result_x"]))
+    n_g = transcription.g_layout.size
+    if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
+        sol["largest"], sol["row"] = largest_violation(n_g)(sol["g"] / R, inputs["lbg"] / R, inputs["ubg"] / R)
+    else:
+        sol["largest"] = sol["row"] = ca.MX(0)
+    return sol
 
 
 def _rejected_option(options):

@@ -20,8 +20,9 @@ from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
 from .linear_solver_choice import check_linear_solver
+from .newton_kkt import applies, newton_resolve
 from ..nlp.evaluation import compiled_when_ready, spent
-from .ipopt import data_tolerances, iteration_count, linear_algebra, start_options
+from .ipopt import DEFAULT_IPOPT_OPTIONS, data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
 from . import linear_solver
 from .optimization_result import OptimizationResult
@@ -64,6 +65,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     if automatic:
         jit = compiled_when_ready(T.separable, warm)
     tic = time.perf_counter()
+    tolerances = {**DEFAULT_IPOPT_OPTIONS, **data_tolerances(T, x0, jit), **options}
     solver, reused, journal = ipopt_solver(
         T, {**data_tolerances(T, x0, jit), **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
@@ -71,16 +73,27 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     times = {"build_time": 0.0 if reused else time.perf_counter() - tic, "solver_reused": reused,
              "warm_start": warm, "compiled": jit}
     journal_start = linear_solver.journal_end(journal) if journal else 0
+    bounds = (lbx, ubx, *T.scaled_g_bounds)
     tic = time.perf_counter()
-    with interrupt.watch() as sigints:
-        sol = solver(x0=x0, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
-                     lbx=lbx, ubx=ubx, lbg=T.scaled_g_bounds[0], ubg=T.scaled_g_bounds[1])
+    newton = (newton_resolve(T, x0, lam_g0 / R, bounds, (tolerances["tol"], tolerances["constr_viol_tol"]))
+              if warm and not options and not journal and applies(T, *bounds) else None)
+    if newton is None:
+        with interrupt.watch() as sigints:
+            sol = solver(x0=x0, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
+                         lbx=lbx, ubx=ubx, lbg=bounds[2], ubg=bounds[3])
+        st = solver.stats()
+    else:
+        sol, iterations, seconds = newton
+        sigints, st = [], {"success": True, "return_status": "Solve_Succeeded", "iter_count": iterations,
+                           "iterations": {"regularization_size": [0.0] * iterations}, "t_wall_total": 0.0}
     times["solve_time"] = time.perf_counter() - tic
-    st = solver.stats()
+    times["nlp_solver"] = "ipopt" if newton is None else "newton"
+    if newton is not None:
+        times["newton_time"] = newton[2]
     cost, worst = _values_at_x(T, sol, st["success"])
     stats = _statistics(st, times, worst)
     if automatic and warm and not jit:
-        spent(T.separable, stats["ipopt_time"])
+        spent(T.separable, stats["ipopt_time"] if newton is None else stats["newton_time"])
     if journal:
         stats["linear_solver"] = linear_solver.linear_solver_report(journal, journal_start)
     status, message, success = _outcome(st, stats, cost, sigints)
@@ -114,7 +127,8 @@ def _outcome(st, stats, cost, sigints):
     stopped = interrupt.verdict(sigints, iterations, cost)
     if stopped:
         return stopped + (False,)
-    return (st["return_status"], f"IPOPT: {st['return_status']} after {iterations} iterations, "
+    solver = "IPOPT" if stats["nlp_solver"] == "ipopt" else "Newton's method on the KKT conditions"
+    return (st["return_status"], f"{solver}: {st['return_status']} after {iterations} iterations, "
             f"cost {cost:.10g}{where}.", bool(st["success"]))
 
 

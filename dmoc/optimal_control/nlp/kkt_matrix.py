@@ -1,5 +1,6 @@
-"""The KKT matrix of an optimum of the transcribed NLP and its factorization (a driver's
-part: `dmoc.drivers.kkt_sensitivity` solves it for sensitivities). The blocks are the exact
+"""The KKT matrix of the transcribed NLP and its factorization: `dmoc.drivers.kkt_sensitivity`
+solves it at an optimum for sensitivities, `dmoc.optimal_control.solver.newton_kkt` at the
+iterates of a warm re-solve. The blocks are the exact
 derivatives the solver uses (`SeparableNLP.derivatives`, expanded to SX), in the scaled NLP
 IPOPT solves; per NLP `structure` their evaluation, the matrix's sparsity, the choice of
 factorization and the solution are built once, and each call passes float arrays through
@@ -11,9 +12,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .._util.cache import BoundedCache
-from .._util.numeric import Evaluator
-from ..optimal_control.nlp.evaluation import nlp_functions
+from ..._util.cache import BoundedCache
+from ..._util.numeric import Evaluator
+from .evaluation import nlp_functions
 
 _SYSTEMS = BoundedCache(16, "kkt_systems")          # by NLP structure
 _LAYOUTS = BoundedCache(16, "kkt_layouts")          # by (NLP structure, fixed entries)
