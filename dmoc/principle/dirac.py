@@ -5,6 +5,7 @@ Lagrangian system must satisfy (36)/(40).
 
 Coordinates: z = (q0, p0), z+ = (q1, p1) in T*Q x T*Q with Q = R^n; a point of T*(Q x Q)
 is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, a_p, a_q).
+On SO(3) x R^n_x the (+) membership is checked in the left trivialization by `group_dirac`.
 """
 
 import numpy as np
