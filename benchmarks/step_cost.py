@@ -28,7 +28,10 @@ step of ``dmoc.simulate`` (three Cayley coordinates per step, "group" the defaul
 "group-vm" with ``jit=False``) against "rk4-euler", classical RK4 on Euler's equations
 (R' = R Omega^, Pi' = Pi x Omega, 12 states) in ``mapaccum``; besides the cost per step, the
 energy error, the spatial-angular-momentum error and |R^T R - I| after the run, which RK4
-lets drift and the group step keeps at round-off.
+lets drift and the group step keeps at round-off; "se3" the same body in space on SE(3)
+(`free_rigid_body(J, mass=1.7)`, its centre of mass from x_0 = (0.4, -1, 2) with
+x' = (0.5, -1, 0.2)), its momentum error that of the angular momentum about the origin
+x x p_x + R Pi, and the error of its linear momentum p_x.
 
 Then the Chaplygin sphere (J = diag(1, 2, 2.5), m = 1.3, r = 0.7, Omega_0 = (1, -0.5, 2)),
 its two forms side by side: "group", `dmoc.systems.chaplygin_sphere` on SO(3) x R^2 (5
@@ -202,6 +205,7 @@ def one_run(name, steps):
 
 
 RIGID_INERTIA, RIGID_OMEGA = np.array([1.0, 2.0, 3.0]), np.array([1.0, 0.3, -0.7])
+RIGID_MASS, RIGID_X0, RIGID_V0 = 1.7, np.array([0.4, -1.0, 2.0]), np.array([0.5, -1.0, 0.2])
 
 
 def rk4_euler_step():
@@ -231,6 +235,25 @@ def time_group(disc, steps, **jit):
     return res.stats["wall_time"], total, rigid_errors(res.trajectory.R[-1], res.trajectory.Pi[-1])
 
 
+def time_in_space(disc, steps):
+    """(evaluation seconds, total seconds, errors) of one simulate of the free body in space
+    (SE(3), x its centre of mass, from RIGID_X0 with RIGID_V0); the errors are those of its
+    energy, of its angular momentum about the origin x x p_x + R Pi, |R^T R - I|, and of its
+    linear momentum p_x, at the end."""
+    tic = time.perf_counter()
+    res = dmoc.simulate(disc, q0=(np.eye(3), RIGID_X0), v0=np.r_[RIGID_OMEGA, RIGID_V0],
+                        steps=steps)
+    total, traj = time.perf_counter() - tic, res.trajectory
+    m = disc.system.mass_matrix[0, 0]
+
+    def energy(k):
+        return 0.5 * traj.Pi[k] @ (traj.Pi[k] / RIGID_INERTIA) + 0.5 * traj.p_x[k] @ traj.p_x[k] / m
+    L = np.cross(traj.x[[0, -1]], traj.p_x[[0, -1]]) + traj.spatial_momentum[[0, -1]]
+    return res.stats["wall_time"], total, (abs(energy(-1) - energy(0)), np.abs(L[1] - L[0]).max(),
+                                           traj.orthogonality_defect[-1],
+                                           np.abs(traj.p_x[-1] - traj.p_x[0]).max())
+
+
 def time_rk4_euler(step, steps):
     """(evaluation seconds, total seconds, errors) of RK4 on Euler's equations."""
     tic = time.perf_counter()
@@ -244,12 +267,15 @@ def time_rk4_euler(step, steps):
 
 def rigid_body_table(repeat, horizons):
     disc, rk = dmoc.discretize(dmoc.systems.free_rigid_body(RIGID_INERTIA), H), rk4_euler_step()
+    in_space = dmoc.discretize(dmoc.systems.free_rigid_body(RIGID_INERTIA, mass=RIGID_MASS), H)
     funs = {"group": lambda steps: time_group(disc, steps),
             "group-vm": lambda steps: time_group(disc, steps, jit=False),
-            "rk4-euler": lambda steps: time_rk4_euler(rk, steps)}
+            "rk4-euler": lambda steps: time_rk4_euler(rk, steps),
+            "se3": lambda steps: time_in_space(in_space, steps)}
     for fun in funs.values():
         fun(10)
-    print("\nfree rigid body on SO(3)")
+    print("\nfree rigid body on SO(3); se3: the free body in space (m = 1.7, its momentum error"
+          " that of x x p_x + R Pi, last column |p_x - p_x0|)")
     head = (f"{'steps':>7}  {'method':<10}{'eval us/step':>14}{'eval ratio':>12}"
             f"{'|E - E0|':>11}{'|R Pi - m0|':>13}{'|R^T R - I|':>13}")
     print(head + "\n" + "-" * len(head))
@@ -257,9 +283,9 @@ def rigid_body_table(repeat, horizons):
         runs = {method: [fun(steps) for _ in range(repeat)] for method, fun in funs.items()}
         rk_eval = min(r[0] for r in runs["rk4-euler"])
         for method, results in runs.items():
-            ev, (dE, dm, dR) = min(r[0] for r in results), results[-1][2]
+            ev, (dE, dm, dR, *dP) = min(r[0] for r in results), results[-1][2]
             print(f"{steps:>7}  {method:<10}{1e6 * ev / steps:>14.2f}{ev / rk_eval:>12.2f}"
-                  f"{dE:>11.1e}{dm:>13.1e}{dR:>13.1e}")
+                  f"{dE:>11.1e}{dm:>13.1e}{dR:>13.1e}" + "".join(f"{d:>13.1e}" for d in dP))
 
 
 SPHERE = dict(inertia=np.array([1.0, 2.0, 2.5]), mass=1.3, radius=0.7)

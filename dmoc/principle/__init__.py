@@ -1,10 +1,11 @@
 """The principle stage: the discrete action sums (46)-(49) and the ONE step residual obtained
 from them (`residual`), the forms it takes (`formulations`), the end variable a step gives
 explicitly (`explicit`), the one-step-map test (`one_step`), the discrete Tulczyjew maps and
-Dirac structures (34)-(42) (`tulczyjew`, `dirac`), and the Trajectory, the discrete curve
+Dirac structures (34)-(42) (`tulczyjew`, `dirac`, the annihilator `annihilator`), and the Trajectory, the discrete curve
 whose steps solve the residual (`trajectory`, its fields `trajectory_fields`, its file
 `trajectory_file`); on the rotation group, the step residual of a rigid body
-(`group_residual`) and its discrete curve (`rotation_trajectory`)."""
+(`group_residual`), its discrete curve (`rotation_trajectory`) and its left-trivialized
+discrete Dirac structure (`group_dirac`)."""
 
 from . import dirac, formulations
 from .group_residual import GroupStepResidual, group_step_residual

@@ -5,16 +5,20 @@ Lagrangian system must satisfy (36)/(40).
 
 Coordinates: z = (q0, p0), z+ = (q1, p1) in T*Q x T*Q with Q = R^n; a point of T*(Q x Q)
 is (q0, q1, a0, a1), of T*(Q x Q*) is (q, p, a_q, a_p), of T*(Q* x Q) is (p, q, a_p, a_q).
+On SO(3) x R^n_x the (+) membership is checked in the left trivialization by `group_dirac`.
 """
 
 import numpy as np
 
 from .._util import checks
 from .._util.cache import BoundedCache
+from .annihilator import distance_to_range
 from .trajectory import check_trajectory, constraint_violation
 from ..discrete import Discretization
+from ..discrete.group_discretization import GroupDiscretization
 from ..errors import InputError
 from .formulations import as_formulation
+from .group_dirac import dirac_defect_on_group
 from .tulczyjew import kappa, kappa_inverse, omega_flat_minus, omega_flat_plus  # noqa: F401 (re-exported)
 
 __all__ = ["kappa", "kappa_inverse", "omega_flat_plus", "omega_flat_minus",
@@ -53,7 +57,13 @@ def dirac_defect(disc, traj, tol_rank=1e-12):
     max-norm of all those mismatches, the annihilator part measured as the distance to
     range A(q)^T. (In these coordinates the q-components of D+-L_d and Omega_d+-^flat agree
     identically; the content is the p-component, the annihilator and omega_d.)
+
+    A `GroupDiscretization` with a `RotationTrajectory` is checked against the
+    left-trivialized (+) structure on SO(3) x R^n_x by
+    `dmoc.principle.group_dirac.dirac_defect_on_group`.
     """
+    if isinstance(disc, GroupDiscretization):
+        return dirac_defect_on_group(disc, traj, tol_rank)
     tol_rank = checks.positive_float("tol_rank", tol_rank)
     if not check_trajectory(disc, traj):
         return np.zeros(0)
@@ -69,14 +79,6 @@ def dirac_defect(disc, traj, tol_rank=1e-12):
     q_ann = (traj.q[:-1], traj.q[1:])[formulation.multiplier_node]
     A = disc.system.constraint_matrix.map(N)(q_ann.T)
     omega = constraint_violation(disc, traj)
-    off = [_distance_to_range(np.array(A[:, k * disc.system.n:(k + 1) * disc.system.n]).T,
-                              diff[free][k], tol_rank) for k in range(N)]
+    off = [distance_to_range(np.array(A[:, k * disc.system.n:(k + 1) * disc.system.n]).T,
+                             diff[free][k], tol_rank) for k in range(N)]
     return np.max(np.column_stack([vanish, off, omega]), axis=1)
-
-
-def _distance_to_range(B, x, tol_rank):
-    """max-norm of x minus its least-squares projection on the column space of B."""
-    if B.size == 0:
-        return float(np.abs(x).max())
-    coeff, *_ = np.linalg.lstsq(B, x, rcond=tol_rank)
-    return float(np.abs(x - B @ coeff).max())

@@ -88,21 +88,12 @@ class GroupStepResidual:
 
     def _build(self, disc):
         x = {name: ca.SX.sym(name, self.inputs.numel(name)) for name in self.inputs.blocks}
-        (R0, x0), F, h = split_configuration(x["q0"]), cayley(x["f"][:3]), x["h"]
-        R1, x1 = ca.mtimes(R0, F), x0 + x["f"][3:]
-        q0, q1 = x["q0"], joined_configuration(R1, x1)
-        eta0, eta1 = ca.SX.sym("eta0", self.n), ca.SX.sym("eta1", self.n)
-        C0, C1 = cayley(eta0[:3]), cayley(eta1[:3])
-        varied = disc.discrete_lagrangian(joined_configuration(ca.mtimes(R0, C0), x0 + eta0[3:]),
-                                          joined_configuration(ca.mtimes(R1, C1), x1 + eta1[3:]),
-                                          vector_of(ca.mtimes([C0.T, F, C1])), h)
-        eta = ca.vertcat(eta0, eta1)
-        D = ca.substitute(ca.gradient(varied, eta), eta, ca.SX.zeros(2 * self.n))
-        F9 = vector_of(F)
+        q0, h = x["q0"], x["h"]
+        q1, F9, D1, D2 = trivialized_derivatives(disc, q0, x["f"], h)
         f_minus, f_plus = disc.discrete_force(q0, q1, F9, x["u"], h)
         A0 = self.system.constraint_matrix(q0)
-        r = ca.cse(ca.vertcat(x["p0"] + D[:self.n] + f_minus - ca.mtimes(A0.T, x["lam"]),
-                              D[self.n:] + f_plus - x["p1"],
+        r = ca.cse(ca.vertcat(x["p0"] + D1 + f_minus - ca.mtimes(A0.T, x["lam"]),
+                              D2 + f_plus - x["p1"],
                               disc.discrete_constraint(q0, q1, F9, h)))
         names = list(self.inputs.blocks)
         function = ca.Function("group_step_residual", [x[k] for k in names], [r], names, ["r"])
@@ -118,6 +109,28 @@ class GroupStepResidual:
 
     def __repr__(self):
         return f"GroupStepResidual({self.system!r})"
+
+
+def trivialized_derivatives(disc, q0, f, h):
+    """The step from q0 by the increment f and the left-trivialized derivatives of its
+    discrete Lagrangian, as CasADi expressions of the symbols `q0` (9 + n_x), `f` (3 + n_x)
+    and `h`: (q1, F9, D1, D2) with q1 = (the rows of R_0 cay(f_{1:3}), x_0 + f_{4:}), F9 the
+    9 entries of F = cay(f_{1:3}), and D1, D2 (3 + n_x each) the derivatives of
+    L_d(q0, q1, F) along R_0 -> R_0 cay(eps eta_0), x_0 -> x_0 + eps dx_0 and along
+    R_1 -> R_1 cay(eps eta_1), x_1 -> x_1 + eps dx_1 at eps = 0 (F varying with them as
+    cay(-eps eta_0) F cay(eps eta_1)): D_i L_d = (T_e L_{R_i})^* d_i L_d on the rotation,
+    the ordinary gradient on x."""
+    n = disc.system.n
+    (R0, x0), F = split_configuration(q0), cayley(f[:3])
+    R1, x1 = ca.mtimes(R0, F), x0 + f[3:]
+    eta0, eta1 = ca.SX.sym("eta0", n), ca.SX.sym("eta1", n)
+    C0, C1 = cayley(eta0[:3]), cayley(eta1[:3])
+    varied = disc.discrete_lagrangian(joined_configuration(ca.mtimes(R0, C0), x0 + eta0[3:]),
+                                      joined_configuration(ca.mtimes(R1, C1), x1 + eta1[3:]),
+                                      vector_of(ca.mtimes([C0.T, F, C1])), h)
+    eta = ca.vertcat(eta0, eta1)
+    D = ca.substitute(ca.gradient(varied, eta), eta, ca.SX.zeros(2 * n))
+    return joined_configuration(R1, x1), vector_of(F), D[:n], D[n:]
 
 
 _RESIDUALS = BoundedCache(16, "group_residuals")

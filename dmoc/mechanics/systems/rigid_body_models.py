@@ -1,11 +1,14 @@
 """Rigid bodies on SO(3) x R^n_x (`dmoc.RigidBody`): the free rigid body (Euler's equations
-Pi' = Pi x Omega, R' = R Omega^), the heavy top (a body in gravity, pivoted at a point other
-than its centre of mass), a spacecraft turned by three body torques, and the Chaplygin
-sphere (a ball with an anisotropic inertia rolling without slipping on a plane, its contact
-point (x, y) the vector coordinates), and a quadrotor (a thrust along its body axis and three
-body torques, its centre of mass the vector coordinates). Their oracles are the conserved quantities (energy;
-the spatial angular momentum R Pi, or its vertical component for the heavy top; the
-rolling constraints) and the reduced equations integrated by DOP853 in the tests.
+Pi' = Pi x Omega, R' = R Omega^), alone or in space on SE(3) with its centre of mass as the
+vector coordinates, the heavy top (a body in gravity, pivoted at a point other than its
+centre of mass), a spacecraft turned by three body torques (and moved by body-fixed
+thrusters when it has a mass), the Chaplygin sphere (a ball with an anisotropic inertia
+rolling without slipping on a plane, its contact point (x, y) the vector coordinates), and
+a quadrotor (a thrust along its body axis and three body torques, its centre of mass the
+vector coordinates). Their oracles are the conserved quantities (energy; the spatial
+angular momentum R Pi, or its vertical component for the heavy top; the linear and
+angular momenta of the body in space; the rolling constraints) and the reduced equations
+integrated by DOP853 in the tests.
 """
 
 import casadi as ca
@@ -14,19 +17,32 @@ from ..._util import checks
 from ..rigid_body import RigidBody
 
 
-def free_rigid_body(inertia=(1.0, 2.0, 3.0)):
-    """The free rigid body: L = 1/2 Omega^T J Omega, no potential, no torque.
+def free_rigid_body(inertia=(1.0, 2.0, 3.0), mass=None):
+    """The free rigid body: L = 1/2 Omega^T J Omega, no potential, no torque; with a `mass`,
+    the free body in space on SE(3) = SO(3) x| R^3, x its centre of mass (spatial frame):
+
+        L = 1/2 Omega^T J Omega + 1/2 m |x'|^2,
+
+    the product Lagrangian on SO(3) x R^3 (docs/theory.md, "SE(3): a free body in space").
+    Its momentum maps are the linear momentum m x' and the angular momentum about the
+    origin x x m x' + R J Omega, both conserved.
 
     Parameters
     ----------
     inertia : array_like, shape (3,) or (3, 3)
-        Principal moments or the inertia tensor J (body frame).
+        Principal moments or the inertia tensor J (body frame, about the centre of mass).
+    mass : float, optional
+        m > 0. None: the body with a fixed point, on SO(3).
 
     Returns
     -------
     RigidBody
+        n_x = 0, or n_x = 3 (x) with a mass.
     """
-    return RigidBody(inertia, name="free rigid body")
+    if mass is None:
+        return RigidBody(inertia, name="free rigid body")
+    m = checks.positive_float("mass", mass)
+    return RigidBody(inertia, coordinates=(m, m, m), name="free rigid body in space")
 
 
 def heavy_top(inertia=(1.0, 1.0, 0.4), mass=1.0, centre=(0.0, 0.0, 0.5), gravity=9.81):
@@ -55,21 +71,42 @@ def heavy_top(inertia=(1.0, 1.0, 0.4), mass=1.0, centre=(0.0, 0.0, 0.5), gravity
                      name="heavy top")
 
 
-def spacecraft(inertia=(1.0, 1.0, 1.0)):
+def spacecraft(inertia=(1.0, 1.0, 1.0), mass=None):
     """A spacecraft turned by three body torques, the controls: L = 1/2 Omega^T J Omega,
     tau = u (n_u = 3, body frame). With equal principal moments I, the rest-to-rest slew
     through an angle theta in time T that minimizes the integral of |u|^2 is the eigenaxis
     rotation with theta(t) cubic, of cost 12 I^2 theta^2 / T^3.
 
+    With a `mass`, the spacecraft moves in space as well (the free body on SE(3) of
+    `free_rigid_body`, x its centre of mass) under body-fixed thrusters: the controls are
+    u = (tau, F) (n_u = 6), the body torque tau and the force F, both in the body frame,
+    and the generalized force is (tau, R F) (the force on x in the spatial frame). Its
+    reduced equations are J Omega' = J Omega x Omega + tau, R' = R Omega^, m x'' = R F.
+    Since |R F| = |F|, the rest-to-rest move by d and turn by theta (equal moments I)
+    minimizing the integral of |u|^2 splits into the eigenaxis slew and the straight move
+    with x(t) cubic: its cost is 12 (I^2 theta^2 + m^2 |d|^2) / T^3.
+
     Parameters
     ----------
     inertia : array_like, shape (3,) or (3, 3)
+        J about the centre of mass (body frame).
+    mass : float, optional
+        m > 0. None: the spacecraft turns about its fixed centre, on SO(3).
 
     Returns
     -------
     RigidBody
+        n_x = 0, n_u = 3; or n_x = 3 (x), n_u = 6 with a mass.
     """
-    return RigidBody(inertia, torque=lambda R, omega, u: u, n_u=3, name="spacecraft")
+    if mass is None:
+        return RigidBody(inertia, torque=lambda R, omega, u: u, n_u=3, name="spacecraft")
+    m = checks.positive_float("mass", mass)
+
+    def torque_and_thrust(R, omega, x, v, u):
+        return ca.vertcat(u[:3], ca.mtimes(R, u[3:]))
+
+    return RigidBody(inertia, coordinates=(m, m, m), torque=torque_and_thrust, n_u=6,
+                     name="spacecraft in space")
 
 
 def chaplygin_sphere(inertia=(1.0, 2.0, 3.0), mass=1.0, radius=1.0, torques=False):
