@@ -29,8 +29,9 @@ controls; `drake_program`) and solves the one program with its IPOPT and with SN
   ratio of each checkout's median to the first checkout's.
 - ``resolve``: each method solves the original goal (its solver is built), then re-solves
   `--goals` goals near it in a cycle, each from the previous optimum (primal and dual),
-  `--repeat` times: median wall time per re-solve, IPOPT's iterations, its wall time
-  (CasADi's ``t_wall_total``, dmoc's ``stats["ipopt_time"]``), the part in NLP function
+  `--repeat` times: median wall time per re-solve, the iterations, the NLP solver's wall
+  time ("NLP ms": IPOPT's, CasADi's ``t_wall_total`` and dmoc's ``stats["ipopt_time"]``, or
+  on dmoc's Newton re-solves of these equality-constrained problems ``stats["newton_time"]``), the part in NLP function
   evaluations, and dmoc's verdict (``stats["verdict_time"]``, "vrd ms", and its part of the
   re-solve, "vrd/ms"), and the median CPU time of the process per re-solve ("CPU ms"; its
   ratio to rockit's function re-solve, "CPU/fun", the figure to read on a loaded machine,
@@ -201,8 +202,10 @@ def dmoc_resolve(name, rule, N, repeat, count):
             if not previous.success:
                 raise RuntimeError(f"dmoc {rule} {run}: {previous.message}")
             st = previous.stats
-            # IPOPT's time as CasADi records it, as for rockit (checkouts from before: the call's)
-            return (st["iterations"], st.get("ipopt_time", st["solve_time"]), st["function_time"],
+            # the NLP solver's own time: IPOPT's as CasADi records it, as for rockit, or
+            # Newton's on a Newton re-solve (checkouts from before: the call's)
+            solver = st["newton_time"] if st.get("nlp_solver") == "newton" else st.get("ipopt_time", st["solve_time"])
+            return (st["iterations"], solver, st["function_time"],
                     st.get("verdict_time", 0.0), previous.cost)
         out[run], out["costs"] = cycle(step, targets, repeat)
     return out
@@ -579,17 +582,17 @@ def table(name, n_star, measured, checkouts, rules):
     """Print one problem's rows: per method (and checkout) and run, time, iterations, IPOPT,
     function and verdict seconds, the NLP size, and for dmoc's defaults the re-solves and
     seconds until they settled (`settled`); with rockit measured, the ratios to its
-    re-solves (solve, function, and function C when measured), of IPOPT's time to rockit's
+    re-solves (solve, function, and function C when measured), of the NLP solver's time to rockit's
     function re-solve, of the verdict to the re-solve, and the largest cost difference from
     rockit's."""
     rock = measured.get("rockit")
     runs = [run for run in ("solve", "function", "function C") if rock and run in rock]
     head = (f"{'method':<10}{'checkout':<17}{'N':>4}{'x, g':>11}{'run':>11}{'ms':>8}{'CPU ms':>7}{'it':>5}"
-            f"{'IPOPT ms':>9}{'fun ms':>7}{'vrd ms':>7}{'vrd/ms':>7}{'settled':>11}"
+            f"{'NLP ms':>9}{'fun ms':>7}{'vrd ms':>7}{'vrd/ms':>7}{'settled':>11}"
             + "".join(f"{'/' + run:>12}" for run in runs)
-            + (f"{'CPU/fun':>8}{'IPOPT/':>7}{'max dJ/J':>9}" if rock else ""))
-    print(f"\n{name}" + (f" (ratios: to rockit's {', '.join(runs)} re-solves; IPOPT's to rockit's "
-                         "function)" if rock else "") + f"\n{head}\n" + "-" * len(head))
+            + (f"{'CPU/fun':>8}{'NLP/':>7}{'max dJ/J':>9}" if rock else ""))
+    print(f"\n{name}" + (f" (ratios: to rockit's {', '.join(runs)} re-solves; the NLP solver's to "
+                         "rockit's function's IPOPT)" if rock else "") + f"\n{head}\n" + "-" * len(head))
     rows = [("rockit", "", n_star[name, "rockit"], rock, run) for run in runs]
     rows += [(rule, os.path.basename(c), n_star[name, rule], measured[rule, c], run)
              for rule in rules for c in checkouts for run in DMOC_RUNS]

@@ -40,7 +40,8 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         problem whose rows are all equalities and whose only bounded entries are the given
         boundary data is solved by Newton's method on its KKT conditions when it converges
         to a strict local minimum, else by IPOPT (``stats["nlp_solver"]``,
-        `dmoc.optimal_control.solver.newton_kkt`); with them, always by IPOPT.
+        `dmoc.optimal_control.solver.newton_kkt`); given options other than ``tol``,
+        ``constr_viol_tol`` and ``print_level``, always by IPOPT.
         Unless given, ``tol`` and ``constr_viol_tol`` are raised from 1e-10 to the rounding
         floor of the rows where the data put it higher (configurations far from the
         origin, docs/stages/optimize.md). Both apply to the scaled NLP

@@ -94,12 +94,14 @@ def test_a_stationary_point_that_is_not_a_minimum_is_left_to_ipopt():
 
 def test_bounds_options_and_cold_starts_stay_with_ipopt():
     """Newton applies to warm re-solves of problems whose rows are all equalities and whose
-    only bounded entries are fixed, without IPOPT `options`."""
+    only bounded entries are fixed, with no IPOPT `options` but its tolerances and
+    print_level."""
     problem, _ = _problems()["knife edge, lobatto3"]
     first = solve(problem)
     assert first.stats["nlp_solver"] == "ipopt"                                    # cold
     assert solve(problem, guess=first, options=IPOPT).stats["nlp_solver"] == "ipopt"  # options
     assert solve(problem, guess=first).stats["nlp_solver"] == "newton"
+    assert solve(problem, guess=first, options={"print_level": 0, "tol": 1e-9}).stats["nlp_solver"] == "newton"
     bounded = dmoc.OptimalControlProblem(problem.disc, problem.steps, q_start=problem.q_start,
                                          q_goal=problem.q_goal, control_bounds=([-5.0, -5.0], [5.0, 5.0]))
     assert not newton_kkt.applies(bounded.transcription, bounded.transcription.lbx / bounded.transcription.x_scale,

@@ -36,6 +36,9 @@ from .ipopt import packed_outputs
 # Newton steps before a re-solve is handed to IPOPT: a start in the region of Newton's
 # quadratic convergence needs 2-4 (the peer problems of benchmarks/peers.py resolve)
 MAX_ITERATIONS = 6
+# the IPOPT options a Newton re-solve takes (its tolerances) or that mean nothing to it;
+# given any other, a re-solve is IPOPT's
+NEWTON_OPTIONS = frozenset({"tol", "constr_viol_tol", "print_level"})
 _STEPS = BoundedCache(16, "newton_steps")        # by (NLP structure, fixed entries)
 _PACKINGS = BoundedCache(16, "newton_packings")  # by NLP structure
 

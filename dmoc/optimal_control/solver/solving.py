@@ -20,7 +20,7 @@ from . import interrupt
 from .fixed_multipliers import deferred as deferred_lam_x, fixed_entries
 from .guess import start_point
 from .linear_solver_choice import check_linear_solver
-from .newton_kkt import applies, newton_resolve
+from .newton_kkt import NEWTON_OPTIONS, applies, newton_resolve
 from ..nlp.evaluation import compiled_when_ready, spent
 from .ipopt import DEFAULT_IPOPT_OPTIONS, data_tolerances, iteration_count, linear_algebra, start_options
 from .ipopt import solver as ipopt_solver
@@ -76,7 +76,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     bounds = (lbx, ubx, *T.scaled_g_bounds)
     tic = time.perf_counter()
     newton = (newton_resolve(T, x0, lam_g0 / R, bounds, (tolerances["tol"], tolerances["constr_viol_tol"]))
-              if warm and not options and not journal and applies(T, *bounds) else None)
+              if warm and options.keys() <= NEWTON_OPTIONS and not journal and applies(T, *bounds) else None)
     if newton is None:
         with interrupt.watch() as sigints:
             sol = solver(x0=x0, p=T.p, lam_x0=lam_x0 * D, lam_g0=lam_g0 / R,
