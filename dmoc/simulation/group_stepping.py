@@ -57,8 +57,9 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
                       throw=True, tol=1e-12, max_iter=50, jit=None):
     """`dmoc.simulate` of a `GroupDiscretization`: the arguments as there, with q0 the
     rotation R_0 (3, 3), or the pair (R_0, x_0) of a body with coordinates; v0 the
-    velocity (Omega_0, x'_0) (3 + n_x,) (then p_0 = (J Omega_0, M x'_0)) or p0 the
-    momentum (Pi_0, p_x,0) (3 + n_x,), whose velocity must satisfy the constraints.
+    velocity (Omega_0, x'_0) (3 + n_x,) (then p_0 = M(q_0) (Omega_0, x'_0), M the body's
+    `generalized_mass`) or p0 the momentum (Pi_0, p_x,0) (3 + n_x,), whose velocity must
+    satisfy the constraints.
     ``variant`` "+" and "-" give the same steps without constraints; with constraints
     only "+" (the multiplier at q_k) is built. Returns a SimulationResult whose
     trajectory is a RotationTrajectory."""
