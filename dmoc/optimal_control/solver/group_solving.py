@@ -99,8 +99,8 @@ def geodesic_guess(problem, T):
     f = np.hstack([[np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])],
                    np.diff(x, axis=0)])
     q = np.hstack([R.reshape(-1, 9), x])
-    p = np.array([np.array(body.generalized_mass(q_k)) @ f_k for q_k, f_k in zip(q, np.vstack([f, f[-1:]]))]) \
-        / problem.disc.h
+    rates = np.vstack([f, f[-1:]]) / problem.disc.h
+    p = np.array([np.array(body.generalized_mass(q_k)) @ v_k for q_k, v_k in zip(q, rates)])
     blocks = {"q": q.T, "p": p.T, "f": f.T,
               "lam": np.zeros((body.m, N)), "u": np.zeros((problem.residual.n_controls, N)),
               "nu": np.zeros(body.m)}

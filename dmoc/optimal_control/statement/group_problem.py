@@ -30,7 +30,8 @@ class GroupOptimalControlProblem:
     ----------
     disc : GroupDiscretization
         Of a RigidBody with controls (e.g. `dmoc.systems.spacecraft`, or
-        `dmoc.systems.chaplygin_sphere(torques=True)`); its h fixes the duration steps * h.
+        `dmoc.systems.chaplygin_sphere(torques=True)`) or of a FloatingBaseRobot; its h
+        fixes the duration steps * h.
     steps : int
         N.
     R_start, R_goal : array_like, shape (3, 3)
@@ -56,7 +57,8 @@ class GroupOptimalControlProblem:
     R_start, R_goal : numpy.ndarray, shape (3, 3)
     x_start, x_goal : numpy.ndarray, shape (n_x,)
     p_start, p_goal : numpy.ndarray, shape (3 + n_x,)
-        The momenta (J omega, M x') the ends impose.
+        The momenta M(q) (omega, x') the ends impose (M the body's `generalized_mass`,
+        diag(J, M_x) for a RigidBody).
     path_constraints : casadi.Function or None
         ``(R, x, u) -> g`` (`group_path_function`), None without path constraints.
 
