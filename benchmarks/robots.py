@@ -191,8 +191,8 @@ def measure_floating(args):
         assert result.success, result.message
     if args.dmoc:
         row["dmoc"], row["verdict"], stats = falling_cat()
-        row["iterations"] = stats["iterations"]
-        row["per iteration"] = stats["ipopt_time"] / max(stats["iterations"], 1)
+        row["iterations"] = stats["iterations"]      # the group's solve: solve_time is IPOPT's
+        row["per iteration"] = stats["solve_time"] / max(stats["iterations"], 1)
     return row
 
 
