@@ -1,7 +1,7 @@
 """A robot on a floating base from its URDF (`dmoc.FloatingBaseRobot`) against Pinocchio,
 which reads the same file under a free-flyer root joint with its own parser and algorithms:
-the mass matrix, the gravity and the centre of mass equal Pinocchio's to 1e-12 at random
-configurations (its velocity nu = (R^T p', Omega, s'), dmoc's step velocity (Omega, p',
+the mass matrix, the gravity, the bias C(s, nu) nu + G and the centre of mass equal
+Pinocchio's to 1e-12 at random states (its velocity nu = (R^T p', Omega, s'), dmoc's step velocity (Omega, p',
 s')); the discrete flow keeps the total linear and angular momentum, read off Pinocchio's
 centroidal momentum, to round-off over many steps, joint torques and friction acting
 (internal forces: discrete Noether); it converges at order 2 to DOP853 on Pinocchio's
@@ -65,10 +65,24 @@ def potential_gradient(robot):
     return ca.Function("dU", [R, x], [ca.substitute(ca.gradient(varied, e), e, 0 * e)])
 
 
-def test_mass_matrix_gravity_and_center_of_mass_equal_pinocchio_free_flyer():
+def velocity_bias(robot):
+    """C(s, nu) nu, a Function of (s, nu), from T = 1/2 nu^T M(s) nu by the Kirchhoff
+    (Boltzmann-Hamel) equations in the body twist (v_B, Omega) of the base: with mu = M nu,
+    mu_v' + Omega x mu_v and mu_w' + Omega x mu_w + v_B x mu_v for the base, d/dt dT/ds' -
+    dT/ds for the joints, the bias the terms without nu'."""
+    s, nu = ca.SX.sym("s", robot.n_u), ca.SX.sym("nu", robot.n)
+    mu = ca.mtimes(robot.mass_matrix(s), nu)
+    T = 0.5 * ca.dot(nu, mu)
+    v, w = nu[:3], nu[3:6]
+    coadjoint = ca.vertcat(ca.cross(w, mu[:3]), ca.cross(w, mu[3:6]) + ca.cross(v, mu[:3]),
+                           -ca.gradient(T, s))
+    return ca.Function("b", [s, nu], [ca.jtimes(mu, s, nu[6:]) + coadjoint])
+
+
+def test_mass_matrix_gravity_bias_and_center_of_mass_equal_pinocchio_free_flyer():
     robot = dmoc.FloatingBaseRobot(PATH)
     model, data = free_flyer(GRAVITY)
-    dU, rng = potential_gradient(robot), np.random.default_rng(3)
+    dU, bias, rng = potential_gradient(robot), velocity_bias(robot), np.random.default_rng(3)
     assert robot.mass == pytest.approx(pin.computeTotalMass(model), abs=1e-12)
     for _ in range(30):
         R, x = random_configuration(rng, robot.n_u)
@@ -79,9 +93,12 @@ def test_mass_matrix_gravity_and_center_of_mass_equal_pinocchio_free_flyer():
         assert close(robot.mass_matrix(x[3:]), M)
         assert close(robot.generalized_mass(q), P.T @ M @ P)
         assert close(robot.potential(R, x), pin.computePotentialEnergy(model, data, q_pin))
-        G = pin.computeGeneralizedGravity(model, data, q_pin)
-        assert close(dU(R, x), np.concatenate([G[3:6], R @ G[:3], G[6:]]))
+        dU_q = np.array(dU(R, x)).ravel()
+        G = np.concatenate([R.T @ dU_q[3:6], dU_q[:3], dU_q[6:]])     # in Pinocchio's nu
+        assert close(G, pin.computeGeneralizedGravity(model, data, q_pin))
         assert close(robot.center_of_mass(q), pin.centerOfMass(model, data, q_pin))
+        nu = rng.uniform(-2, 2, robot.n)
+        assert close(np.array(bias(x[3:], nu)).ravel() + G, pin.nonLinearEffects(model, data, q_pin, nu))
 
 
 def momentum_about_origin(model, data, R, x, p):
