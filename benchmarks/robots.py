@@ -28,6 +28,13 @@ file as a fixed-base robot (the baseline: the wheels spin in the air) and on its
 (`wheels=`: the base's pose x, y, theta added, three rolling rows), each cost of the wheeled
 one also as a ratio over the fixed one's.
 
+With `--floating` (and in `--smallest`), the shipped satellite `space_arm` twice: its file as
+a fixed-base robot (the baseline: the satellite bolted down) and on its floating base
+(`dmoc.FloatingBaseRobot`: the base's rotation R on SO(3) and position p added, stepped on
+the group, from R = I, x = 0.1), each cost also as a ratio over the fixed one's; its DMOC
+is the zero-momentum turn of the satellite by 0.15 rad (the falling cat of docs/robots.md,
+N = 20 over 6 s, no gravity), not comparable with the fixed base's rest-to-rest one.
+
 With `--alternatives`, the Hessian of L in (q, v) (what the step's Newton Jacobian is made
 of) three ways for each model: dmoc's L from the links' recursion (the baseline), and
 L = 1/2 v^T M(q) v - V(q) with adam's composite rigid body algorithm M(q) and centre of
@@ -39,9 +46,11 @@ baseline's, and the largest difference from it.
     python benchmarks/robots.py                         # chains of 2-12 joints, compiled
     python benchmarks/robots.py --alternatives --no-compile --joints 2 4 6 8 12 --shipped
     python benchmarks/robots.py --mobile --dmoc --joints 2 4 6   # the mobile manipulator
+    python benchmarks/robots.py --floating --dmoc --joints 2     # the floating satellite
     python benchmarks/robots.py --breakdown --dmoc --no-compile --steps 2000   # where the cost goes
     python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
-                                                #   --alternatives --mobile --breakdown
+                                                #   --alternatives --mobile --floating
+                                                #   --breakdown
 """
 
 import argparse
@@ -161,6 +170,52 @@ def measure(name, path, args, wheels=None):
     return row
 
 
+def measure_floating(args):
+    """One row: the costs of `space_arm` on its floating base (see `--floating`)."""
+    path = example_urdf("space_arm")
+    build, robot = seconds(lambda: dmoc.FloatingBaseRobot(path))
+    row = {"model": "space_arm (floating)", "n": robot.n, "build": build,
+           "L nodes": robot.kinetic_energy.n_instructions() + robot.potential.n_instructions()}
+
+    def run(steps, jit):
+        disc = dmoc.discretize(robot, H)
+        return seconds(lambda: dmoc.simulate(disc, q0=(np.eye(3), np.full(robot.n_x, 0.1)),
+                                             v0=np.zeros(robot.n), steps=steps, jit=jit))
+
+    for first, step, jit in (("first vm", "vm step", False), ("first compiled", "compiled step", True)):
+        if jit and not args.compile:
+            break
+        row[first], _ = run(10, jit)
+        wall, result = run(args.steps, jit)
+        row[step] = wall / args.steps
+        assert result.success, result.message
+    if args.dmoc:
+        row["dmoc"], row["verdict"], stats = falling_cat()
+        row["iterations"] = stats["iterations"]      # the group's solve: solve_time is IPOPT's
+        row["per iteration"] = stats["solve_time"] / max(stats["iterations"], 1)
+    return row
+
+
+def falling_cat(steps=20, duration=6.0, angle=0.15):
+    """Seconds, verdict and stats of the judged zero-momentum turn of `space_arm`'s
+    satellite by `angle` about its z axis (docs/robots.md, "A floating base")."""
+    robot = dmoc.FloatingBaseRobot(example_urdf("space_arm"), gravity=0.0)
+    c, s = np.cos(angle), np.sin(angle)
+    R_goal = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    c0 = np.array(robot.center_of_mass(np.concatenate([np.eye(3).ravel(), np.zeros(robot.n_x)]))).ravel()
+    lower, upper = robot.position_limits
+
+    def solve():
+        problem = dmoc.GroupOptimalControlProblem(
+            dmoc.discretize(robot, duration / steps), steps, R_start=np.eye(3), R_goal=R_goal,
+            x_start=np.zeros(robot.n_x), x_goal=np.concatenate([c0 - R_goal @ c0, np.zeros(robot.n_u)]),
+            path_constraints=lambda R, x, u: ca.vertcat(x[3:] - upper, lower - x[3:]))
+        return dmoc.optimize(problem, throw=False)
+
+    wall, result = seconds(solve)
+    return wall, result.verdict.status if result.verdict else result.status, result.stats
+
+
 def crba_lagrangian(path, gravity=9.81):
     """L(q, v) = 1/2 v^T M(q) v - V(q) with M(q) of adam's composite rigid body algorithm
     and V(q) = g m z_com(q) of its centre of mass, both as SX Functions of q: what
@@ -227,6 +282,8 @@ def main(argv=None):
                         help="also the shipped double_pendulum, arm6 and arm7")
     parser.add_argument("--mobile", action="store_true",
                         help="also mobile_arm with its base fixed and on its wheels")
+    parser.add_argument("--floating", action="store_true",
+                        help="also space_arm with its base fixed and floating")
     parser.add_argument("--alternatives", action="store_true",
                         help="also the Hessian of L built from adam's CRBA, expanded or called")
     parser.add_argument("--breakdown", action="store_true",
@@ -236,11 +293,11 @@ def main(argv=None):
                         help="IPOPT's Hessian in the DMOC (default exact)")
     parser.add_argument("--smallest", action="store_true",
                         help="the smallest run: --joints 2 --steps 20 --no-compile "
-                             "--alternatives --mobile --breakdown")
+                             "--alternatives --mobile --floating --breakdown")
     args = parser.parse_args(argv)
     if args.smallest:
         args.joints, args.steps, args.compile = [2], 20, False
-        args.alternatives = args.mobile = args.breakdown = True
+        args.alternatives = args.mobile = args.floating = args.breakdown = True
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:
@@ -258,6 +315,9 @@ def main(argv=None):
             rows += [measure(f"mobile_arm{label}", example_urdf("mobile_arm"), args, wheels)
                      for label, wheels in ((" (fixed base)", None),
                                            (" (wheeled)", ("left_wheel", "right_wheel")))]
+        if args.floating:
+            rows.append(measure("space_arm (fixed base)", example_urdf("space_arm"), args))
+            rows.append({**measure_floating(args), "over": rows[-1]})
         ways = [row for name, path in models for row in alternatives(name, path)] \
             if args.alternatives else []
     report(rows, rows[:len(args.joints)], args)
@@ -275,7 +335,10 @@ def report(rows, chains, args):
     for r in rows:
         cells = [f"{r[k] * 1e3:.3f} ms" if k.endswith("step") else f"{r[k]:.3f} s" for k in keys]
         if r["model"] == "mobile_arm (wheeled)":       # ratios over the fixed base's row
-            cells = [f"{c} ({r[k] / rows[-2][k]:.2f}x)" for c, k in zip(cells, keys)]
+            r = {**r, "over": next(b for b in rows if b["model"] == "mobile_arm (fixed base)")}
+        if "over" in r:      # the floating DMOC is another problem: no ratio
+            cells = [c if k == "dmoc" and "floating" in r["model"] else f"{c} ({r[k] / r['over'][k]:.2f}x)"
+                     for c, k in zip(cells, keys)]
         print(f"| {r['model']} | {r['n']} | {r['L nodes']} | " + " | ".join(cells)
               + (f" | {r['verdict']} |" if args.dmoc else " |"))
     if len(chains) >= 3:
@@ -293,7 +356,8 @@ def report_parts(rows, chains):
     print("| model | n | " + " | ".join(keys) + " |")
     print("|---|---:|" + "---:|" * len(keys))
     for r in rows:
-        cells = [f"{r[k] * 1e3:.2f} ms" if k == "per iteration" else str(r[k]) for k in keys]
+        cells = ["–" if k not in r else f"{r[k] * 1e3:.2f} ms" if k == "per iteration" else str(r[k])
+                 for k in keys]      # no breakdown of the step on the group
         print(f"| {r['model']} | {r['n']} | " + " | ".join(cells) + " |")
     large = [r for r in chains if r["n"] >= 6]
     for label, chosen in (("the chains", chains), ("the chains of 6+ joints", large)):

@@ -14,7 +14,7 @@ from .discrete import (Discretization, GroupDiscretization, HamiltonianDiscretiz
                        Trapezoid, discrete_legendre, discretize)
 from .errors import (CompiledCodeError, DmocError, InputError, InputTypeError, Interrupted,
                      MissingFileError, SolverError, Status, TrajectoryFileError)
-from .mechanics import Body, HamiltonianSystem, MechanicalSystem, RigidBody, RobotSystem, systems
+from .mechanics import Body, FloatingBaseRobot, HamiltonianSystem, MechanicalSystem, RigidBody, RobotSystem, systems
 from .optimal_control import (GroupOptimalControlProblem, OptimalControlProblem, OptimizationResult, Verdict,
                               from_waypoints)
 from .optimal_control.statement import examples as problems
@@ -38,6 +38,7 @@ __all__ = [
     "MechanicalSystem",
     "HamiltonianSystem",
     "RobotSystem",
+    "FloatingBaseRobot",
     "RigidBody",
     "Body",
     "Discretization",

@@ -14,7 +14,6 @@ from .._util.files import write_text
 from ..discrete.group_discretization import GroupDiscretization
 from ..drivers.optimum import optimize
 from ..errors import Status
-from ..mechanics.rigid_body import block_diagonal
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem, rotation_matrix
 from ..results._canvas import save_png
 from ..results.body_animation import animate_body
@@ -76,7 +75,8 @@ def _simulated(args, made):
     disc = GroupDiscretization(body, duration / steps)
     R0, x0 = _configuration("--start", args.start, body, (made.R_start, made.x_start) if given
                             else (np.eye(3), np.zeros(body.n_x)))
-    v0 = (np.linalg.solve(block_diagonal(body.inertia, body.mass_matrix), made.p_start) if given
+    mass = np.array(body.generalized_mass(np.concatenate([R0.ravel(), x0])))
+    v0 = (np.linalg.solve(mass, made.p_start) if given
           else np.zeros(body.n)) if args.velocity is None else _velocity(args, body)
     log(f"simulating {steps} steps of {args.system} (h = {disc.h:.4g}, on SO(3))")
     with options_named({"q0": "--start", "v0": "--velocity"}):

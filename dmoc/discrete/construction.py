@@ -2,11 +2,10 @@
 takes (discrete Lagrangian or discrete Hamiltonians) and builds it."""
 
 from ..errors import InputTypeError
-from ..mechanics.rigid_body import RigidBody
 from ..mechanics.system import HamiltonianSystem, MechanicalSystem
 from .degenerate import warn_order_reduction
 from .discretization import Discretization
-from .group_discretization import GroupDiscretization
+from .group_discretization import GROUP_SYSTEMS, GroupDiscretization
 from .hamiltonian import HamiltonianDiscretization
 
 
@@ -16,15 +15,16 @@ def discretize(system, h, rule="midpoint"):
 
     Parameters
     ----------
-    system : MechanicalSystem or HamiltonianSystem or RigidBody
+    system : MechanicalSystem or HamiltonianSystem or RigidBody or FloatingBaseRobot
     h : float
         Step size, > 0.
     rule : str or QuadratureRule or HamiltonianRule
         For a MechanicalSystem a name in `dmoc.discrete.RULES` (``"midpoint"``, the
         default, ``"trapezoid"``, ``"lobatto3"``, ``"lobatto4"``) or a rule instance; for a
         HamiltonianSystem a name in `dmoc.discrete.HAMILTONIAN_RULES` (``"midpoint"``,
-        ``"symplectic-euler"``) or a HamiltonianRule; for a RigidBody ``"midpoint"``, the
-        Lie group variational integrator on SO(3) (`GroupDiscretization`).
+        ``"symplectic-euler"``) or a HamiltonianRule; for a RigidBody or a
+        FloatingBaseRobot ``"midpoint"``, the Lie group variational integrator on SO(3)
+        (`GroupDiscretization`).
 
     Returns
     -------
@@ -57,11 +57,11 @@ def discretize(system, h, rule="midpoint"):
     """
     if isinstance(system, HamiltonianSystem):
         return HamiltonianDiscretization(system, h, rule)
-    if isinstance(system, RigidBody):
+    if isinstance(system, GROUP_SYSTEMS):
         return GroupDiscretization(system, h, rule)
     if not isinstance(system, MechanicalSystem):
-        raise InputTypeError(f"`system` must be a MechanicalSystem, a HamiltonianSystem or a "
-                             f"RigidBody; got {type(system).__name__}.")
+        raise InputTypeError(f"`system` must be a MechanicalSystem, a HamiltonianSystem, a "
+                             f"RigidBody or a FloatingBaseRobot; got {type(system).__name__}.")
     disc = Discretization(system, h, rule)
     warn_order_reduction(disc)
     return disc

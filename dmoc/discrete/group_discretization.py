@@ -1,8 +1,10 @@
 """Discretization on SO(3) x R^n_x (second stage of the pipeline): for a `RigidBody`, the
 discrete Lagrangian of the Lie group variational integrator written in the step's group
-increment F_k = R_k^T R_{k+1} and the vector increment x_{k+1} - x_k, its discrete forces
-and its discrete constraint one-forms, as named CasADi Functions whose last input is the
-step h (one Function for every h).
+increment F_k = R_k^T R_{k+1} and the vector increment x_{k+1} - x_k; for a system whose
+kinetic energy depends on the configuration and couples Omega and x' (a
+`FloatingBaseRobot`), its generalization at the midpoint on the group; their discrete forces
+and discrete constraint one-forms, as named CasADi Functions whose last input is the step h
+(one Function for every h).
 """
 
 import casadi as ca
@@ -11,18 +13,20 @@ import numpy as np
 from .._util import checks
 from .._util.cache import BoundedCache
 from ..mechanics.rigid_body import RigidBody
-from ..mechanics.rotations import cayley_inverse, matrix_of, split_configuration
+from ..mechanics.robots.floating_base import FloatingBaseRobot
+from ..mechanics.rotations import cayley, cayley_half, cayley_inverse, matrix_of, split_configuration
 
 GROUP_RULES = ("midpoint",)
+GROUP_SYSTEMS = (RigidBody, FloatingBaseRobot)
 
 
 class GroupDiscretization:
-    """Discrete data of a `RigidBody` on a uniform grid of step `h`; build it with
-    `dmoc.discretize`.
+    """Discrete data of a `RigidBody` or a `FloatingBaseRobot` on a uniform grid of step
+    `h`; build it with `dmoc.discretize`.
 
     Attributes
     ----------
-    system : RigidBody
+    system : RigidBody or FloatingBaseRobot
     h : float
     rule : str
         ``"midpoint"``, the one rule on the group: the kinetic energy of the chords
@@ -42,7 +46,18 @@ class GroupDiscretization:
             J_d = tr(J)/2 I - J,  dx_k = x_{k+1} - x_k
 
         (Lee, Leok & McClamroch [1]_, whose full body carries its position the same way;
-        for U = 0 and n_x = 0 the Moser-Veselov Lagrangian).
+        for U = 0 and n_x = 0 the Moser-Veselov Lagrangian). For a kinetic energy
+        T(R, x, Omega, x') that depends on the configuration (a `FloatingBaseRobot`), the
+        kinetic term is T at the step's midpoint on the group (`midpoint_kinetic_term`)::
+
+            L_d = h T(R_k cay(g_k), (x_k + x_{k+1})/2, w_k/h, dx_k/h)
+                  - (h/2) (U(R_k, x_k) + U(R_{k+1}, x_{k+1})),
+            f_k = cay^{-1}(F_k),  g_k = f_k / (1 + c_k),  w_k = f_k / c_k,
+            c_k = sqrt(1 + |f_k|^2/4),
+
+        cay(g_k)^2 = F_k (g_k halves the rotation of F_k) and |w_k| = 2 sin(phi_k/2) the
+        chord of the rotation by phi_k of F_k; for T = 1/2 Omega^T J Omega + 1/2 x'^T M x'
+        it is the form above term by term (h T(w_k/h) = (1/h) tr((I - F_k) J_d)).
     discrete_force : casadi.Function
         ``f_d(q0, q1, F, u, h) -> (f_minus, f_plus)``, each (3 + n_x,): the generalized
         forces at the two ends, (h/2) tau(R_k, xi_k, x_k, v_k, u_k) and (h/2)
@@ -69,7 +84,7 @@ class GroupDiscretization:
     order = 2
 
     def __init__(self, system, h, rule="midpoint"):
-        checks.instance("system", system, RigidBody, "a RigidBody")
+        checks.instance("system", system, GROUP_SYSTEMS, "a RigidBody or a FloatingBaseRobot")
         self.system = system
         self.h = checks.step_size("h", h)
         self.rule = checks.choice("rule", rule, GROUP_RULES)
@@ -85,11 +100,10 @@ class GroupDiscretization:
         q0, q1, F9 = ca.SX.sym("q0", n_q), ca.SX.sym("q1", n_q), ca.SX.sym("F", 9)
         u, h = ca.SX.sym("u", body.n_u), ca.SX.sym("h")
         (R0, x0), (R1, x1), F = split_configuration(q0), split_configuration(q1), matrix_of(F9)
-        J, dx = body.inertia, x1 - x0
-        J_d = ca.DM(0.5 * np.trace(J) * np.eye(3) - J)
-        L_d = ca.trace(ca.mtimes(ca.DM.eye(3) - F, J_d)) / h \
-            + 0.5 * ca.dot(dx, ca.mtimes(ca.DM(body.mass_matrix), dx)) / h \
-            - h / 2 * (body.potential(R0, x0) + body.potential(R1, x1))
+        dx = x1 - x0
+        kinetic = (_chord_kinetic_term(body, dx, F, h) if isinstance(body, RigidBody)
+                   else midpoint_kinetic_term(body.kinetic_energy, R0, x0, x1, F, h))
+        L_d = kinetic - h / 2 * (body.potential(R0, x0) + body.potential(R1, x1))
         xi, v = cayley_inverse(F) / h, dx / h
         f_minus, f_plus = (h / 2 * body.torque(R, xi, x, v, u) for R, x in ((R0, x0), (R1, x1)))
         A = 0.5 * (body.constraint_matrix(q0) + body.constraint_matrix(q1))
@@ -102,6 +116,52 @@ class GroupDiscretization:
 
     def __repr__(self):
         return f"GroupDiscretization({self.system!r}, h={self.h!r}, rule={self.rule!r})"
+
+
+def _chord_kinetic_term(body, dx, F, h):
+    """(1/h) tr((I - F) J_d) + (1/2h) dx^T M dx of a RigidBody, J_d = tr(J)/2 I - J [1]."""
+    J = body.inertia
+    J_d = ca.DM(0.5 * np.trace(J) * np.eye(3) - J)
+    return (ca.trace(ca.mtimes(ca.DM.eye(3) - F, J_d))
+            + 0.5 * ca.dot(dx, ca.mtimes(ca.DM(body.mass_matrix), dx))) / h
+
+
+def midpoint_kinetic_term(kinetic_energy, R0, x0, x1, F, h):
+    """h T(R_k cay(g_k), (x_k + x_{k+1})/2, w_k/h, (x_{k+1} - x_k)/h), the kinetic part of
+    the discrete Lagrangian of a configuration-dependent kinetic energy on SO(3) x R^n_x.
+
+    Parameters
+    ----------
+    kinetic_energy : casadi.Function
+        ``T(R, x, omega, v)``, R (3, 3), x and v (n_x,), omega the body angular velocity (3,).
+    R0 : casadi.SX, shape (3, 3)
+    x0, x1 : casadi.SX, shape (n_x, 1)
+    F : casadi.SX, shape (3, 3)
+        The increment R_k^T R_{k+1}.
+    h : casadi.SX
+
+    Returns
+    -------
+    casadi.SX
+        The scalar term.
+
+    Notes
+    -----
+    With f = cay^{-1}(F) and c = sqrt(1 + |f|^2/4) (F turns by phi = 2 atan(|f|/2)), the
+    midpoint rotation is R_k cay(f/(1 + c)), the square root of F applied to R_k
+    (`dmoc.mechanics.rotations.cayley_half`), equal to R_{k+1} cay(-f/(1 + c)), and the
+    angular velocity w/h = f/(c h), |w| = 2 sin(phi/2): the two ends enter alike, so L_d is
+    symmetric (L_d(q_{k+1}, q_k, -h) = -L_d(q_k, q_{k+1}, h)) and its local error O(h^3)
+    makes the integrator of order 2. The midpoint, w and dx turn with the configuration as
+    R, Omega and x' do (R_k -> Q R_k gives R_mid -> Q R_mid, F unchanged), so every symmetry
+    of L passes to L_d and its discrete momentum maps are kept exactly (discrete Noether):
+    for a floating base, translations p -> p + c and, without gravity, rotations (R, p) ->
+    (Q R, Q p).
+    """
+    f = cayley_inverse(F)
+    c = ca.sqrt(1 + ca.dot(f, f) / 4)
+    R_mid = ca.mtimes(R0, cayley(cayley_half(f)))
+    return h * kinetic_energy(R_mid, (x0 + x1) / 2, f / (c * h), (x1 - x0) / h)
 
 
 _GROUP_DATA = BoundedCache(16, "group_discrete_data")

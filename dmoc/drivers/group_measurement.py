@@ -11,7 +11,6 @@ import numpy as np
 from .._util import checks
 from ..errors import InputError
 from ..mechanics.given import constraint_violation_tolerance
-from ..mechanics.rigid_body import block_diagonal
 from ..mechanics.rotations import ORTHOGONALITY_TOLERANCE
 from .measurement import MEASUREMENT, Start, measured, projected_velocity, refuse
 
@@ -50,7 +49,6 @@ class GroupMeasurementPolicy:
     def __init__(self, problem, policy):
         self.policy = checks.choice("measurement", policy, MEASUREMENT)
         self.body = problem.disc.system
-        self._mass = block_diagonal(self.body.inertia, self.body.mass_matrix)
 
     def start(self, step, q, v=None, p=None):
         """The start (a `dmoc.drivers.measurement.Start`, q the configuration (rows of R,
@@ -76,15 +74,15 @@ class GroupMeasurementPolicy:
                                                     f"{np.linalg.det(R_m):.6g} (allowed: R in SO(3))"]})
             R, corrected = nearest_rotation(R_m), ("rotation",)
         q, q_m = np.concatenate([R.ravel(), x_m]), np.concatenate([R_m.ravel(), x_m])
-        velocity = v_m
+        velocity, mass = v_m, np.array(body.generalized_mass(q))
         if v_m is not None:
             A = np.array(body.constraint_matrix(q))
             off = float(np.abs(A @ v_m).max(initial=0.0))
             if off > constraint_violation_tolerance(float(np.abs(v_m).max())):
                 refuse(self.policy, step, {"velocity": [f"max abs(A(q) v) = {off:.3e} (allowed: 0, "
                                                         f"v in ker A(q))"]})
-                velocity, corrected = projected_velocity(self._mass, A, v_m), corrected + ("velocity",)
-        return Start(q, p_m if v_m is None else self._mass @ velocity, q_m, v_m, p_m, corrected,
+                velocity, corrected = projected_velocity(mass, A, v_m), corrected + ("velocity",)
+        return Start(q, p_m if v_m is None else mass @ velocity, q_m, v_m, p_m, corrected,
                      float(np.linalg.norm(q - q_m)),
                      0.0 if v_m is None else float(np.linalg.norm(velocity - v_m)))
 

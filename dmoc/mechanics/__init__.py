@@ -2,12 +2,12 @@
 one-forms A(q) of (27), holonomic constraints g(q), a control force f) or a HamiltonianSystem,
 a RigidBody on the rotation group SO(3) (`rigid_body`, its group maps `rotations`),
 the checks of given data (`given`), the built-in systems with their oracles (`systems`) and
-robots from their URDF files (`robots`)."""
+robots from their URDF files (`robots`), on a fixed, wheeled or floating base."""
 
 from . import robots, systems
 from .bodies import Body
 from .rigid_body import RigidBody
-from .robots import RobotSystem
+from .robots import FloatingBaseRobot, RobotSystem
 from .system import HamiltonianSystem, MechanicalSystem
 
-__all__ = ["MechanicalSystem", "HamiltonianSystem", "Body", "RobotSystem", "RigidBody", "robots", "systems"]
+__all__ = ["MechanicalSystem", "HamiltonianSystem", "Body", "RobotSystem", "FloatingBaseRobot", "RigidBody", "robots", "systems"]

@@ -63,6 +63,11 @@ class RigidBody:
         ``tau(R, omega, x, v, u) -> tau``, shape (3 + n_x,).
     constraint_matrix : casadi.Function
         ``A(q) -> A``, shape (m, 3 + n_x), q (9 + n_x,) the rows of R then x.
+    kinetic_energy : casadi.Function
+        ``T(R, x, omega, v) -> T``: 1/2 omega^T J omega + 1/2 v^T M v.
+    generalized_mass : casadi.Function
+        ``M(q) -> M``, shape (n, n): the mass matrix diag(J, M) of the velocity (Omega, x'),
+        constant (a `FloatingBaseRobot`'s depends on q).
     energy : casadi.Function
         ``energy(q, p) -> E``: 1/2 Pi^T J^{-1} Pi + 1/2 p_x^T M^{-1} p_x + U(R, x) of
         q = (rows of R, x) (9 + n_x,) and the momentum p = (Pi, p_x) (3 + n_x,), Pi = J
@@ -114,6 +119,11 @@ class RigidBody:
         if problems:
             raise InputError(" ".join(problems))
         mass = ca.DM(np.asarray(block_diagonal(self.inertia, self.mass_matrix)))
+        velocity = ca.vertcat(sym["omega"], sym["v"])
+        self.kinetic_energy = ca.Function("T", [sym[k] for k in ("R", "x", "omega", "v")],
+                                          [0.5 * ca.bilin(mass, velocity, velocity)],
+                                          ["R", "x", "omega", "v"], ["T"])
+        self.generalized_mass = ca.Function("M", [q], [mass], ["q"], ["M"])
         kinetic = 0.5 * ca.dot(p, ca.solve(mass, p))
         self.energy = ca.Function("energy", [q, p], [kinetic + self.potential(on_q["R"], on_q["x"])],
                                   ["q", "p"], ["E"])

@@ -1,7 +1,7 @@
 """The rotation group SO(3), the configuration space of a rigid body (first stage of the
 pipeline): the hat map R^3 -> so(3) and its inverse vee, the Cayley map cay: R^3 -> SO(3)
 that writes a step's group increment F_k = R_k^T R_{k+1} in three coordinates [1]_, its
-inverse, the Bjorck-Bowie step that keeps products of rotations orthogonal [2]_, and the
+inverse and its half (the square root of cay(f)), the Bjorck-Bowie step that keeps products of rotations orthogonal [2]_, and the
 row-major layout that carries a rotation matrix as a vector of 9 entries. The maps take and
 return CasADi expressions (they evaluate numerically on DM or numpy input).
 
@@ -45,6 +45,14 @@ def cayley_inverse(F):
     """cay^{-1}(F) = 2 vee(F - F^T) / (1 + tr F), shape (3, 3) -> (3,); defined for
     rotations by less than pi."""
     return 4 * vee(F) / (1 + ca.trace(F))
+
+
+def cayley_half(f):
+    """g = f / (1 + sqrt(1 + |f|^2/4)), shape (3,) -> (3,): the Cayley coordinates of the
+    square root of cay(f), cay(g)^2 = cay(f), the rotation halfway along the geodesic from
+    I to cay(f) (cay(f) turns by 2 atan(|f|/2) about f, so g turns by half of it about the
+    same axis: |g|/2 = tan(atan(|f|/2)/2)); smooth in f."""
+    return f / (1 + ca.sqrt(1 + ca.dot(f, f) / 4))
 
 
 def orthogonalized(R):

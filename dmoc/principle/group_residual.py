@@ -34,7 +34,7 @@ class GroupStepResidual:
 
     Attributes
     ----------
-    system : RigidBody
+    system : RigidBody or FloatingBaseRobot
     n, m, n_controls : int
         3 + n_x (momenta and increments), constraint rows, controls per step.
     inputs, row_layout : Layout

@@ -14,7 +14,7 @@ import numpy as np
 from .._util import checks
 from .._util.cache import BoundedCache
 from ..errors import InputError
-from ..mechanics.rigid_body import block_diagonal, check_allowed_velocity
+from ..mechanics.rigid_body import check_allowed_velocity
 from ..mechanics.rotations import as_rotation, joined_configuration, orthogonalized, split_configuration
 from ..principle.group_residual import group_step_residual
 from ..principle.rotation_trajectory import RotationTrajectory
@@ -57,8 +57,9 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
                       throw=True, tol=1e-12, max_iter=50, jit=None):
     """`dmoc.simulate` of a `GroupDiscretization`: the arguments as there, with q0 the
     rotation R_0 (3, 3), or the pair (R_0, x_0) of a body with coordinates; v0 the
-    velocity (Omega_0, x'_0) (3 + n_x,) (then p_0 = (J Omega_0, M x'_0)) or p0 the
-    momentum (Pi_0, p_x,0) (3 + n_x,), whose velocity must satisfy the constraints.
+    velocity (Omega_0, x'_0) (3 + n_x,) (then p_0 = M(q_0) (Omega_0, x'_0), M the body's
+    `generalized_mass`) or p0 the momentum (Pi_0, p_x,0) (3 + n_x,), whose velocity must
+    satisfy the constraints.
     ``variant`` "+" and "-" give the same steps without constraints; with constraints
     only "+" (the multiplier at q_k) is built. Returns a SimulationResult whose
     trajectory is a RotationTrajectory."""
@@ -99,7 +100,7 @@ def _start(disc, q0, v0, p0):
     if (v0 is None) == (p0 is None):
         raise InputError(f"give exactly one of `v0` (the velocity (Omega_0, x'_0), shape "
                          f"({body.n},)) and `p0` (the momentum (Pi_0, p_x,0), shape ({body.n},)).")
-    mass = block_diagonal(body.inertia, body.mass_matrix)
+    mass = np.array(body.generalized_mass(q))
     v = checks.array("v0", v0, (body.n,)) if p0 is None else \
         np.linalg.solve(mass, checks.array("p0", p0, (body.n,)))
     check_allowed_velocity(body, q, v, "`v0` (or of `p0`) at `q0`")

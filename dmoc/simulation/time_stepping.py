@@ -24,10 +24,11 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, feedback=None,
     Parameters
     ----------
     disc : Discretization or GroupDiscretization
-        A GroupDiscretization (a `RigidBody` on SO(3)) is simulated on the group
-        (`dmoc.simulation.group_stepping.simulate_on_group`): q0 is then the rotation
-        R_0, shape (3, 3), v0 the body angular velocity and p0 the body angular momentum,
-        shape (3,), and the trajectory a RotationTrajectory.
+        A GroupDiscretization (a `RigidBody` or a `FloatingBaseRobot` on SO(3) x R^n_x)
+        is simulated on the group (`dmoc.simulation.group_stepping.simulate_on_group`):
+        q0 is then the rotation R_0, shape (3, 3), or the pair (R_0, x_0), v0 the body
+        angular velocity then x'_0 and p0 the momentum (Pi_0, p_x,0), shape (3 + n_x,),
+        and the trajectory a RotationTrajectory.
     q0 : array_like, shape (n,)
         Initial configuration.
     v0, p0 : array_like, shape (n,)

@@ -1,7 +1,8 @@
 """The URDF files shipped with dmoc (package data of the mechanics stage): a double
 pendulum, a six-joint arm with the dimensions and masses of a UR5-class industrial arm and
-a seven-joint arm with the joint frames and limits of a Panda-class collaborative arm and a
-differential-drive base carrying a three-joint arm, all written for dmoc.
+a seven-joint arm with the joint frames and limits of a Panda-class collaborative arm, a
+differential-drive base carrying a three-joint arm and a floating satellite carrying a
+two-joint arm, all written for dmoc.
 """
 
 import pathlib
@@ -15,6 +16,8 @@ EXAMPLE_MODELS = {
     "arm7": "seven revolute joints, 19.8 kg with its base, a fixed hand; Panda-class joint frames and limits",
     "mobile_arm": "a differential-drive base (wheel joints left_wheel and right_wheel, a caster) "
                   "carrying a three-joint arm and a fixed tool, 16.6 kg",
+    "space_arm": "a floating satellite (10 kg) carrying a two-joint arm and a fixed tool, 13.3 kg "
+                 "(`FloatingBaseRobot`)",
 }
 
 
@@ -24,7 +27,8 @@ def example_urdf(name):
     Parameters
     ----------
     name : str
-        One of ``EXAMPLE_MODELS``: "double_pendulum", "arm6", "arm7" or "mobile_arm".
+        One of ``EXAMPLE_MODELS``: "double_pendulum", "arm6", "arm7", "mobile_arm" or
+        "space_arm".
 
     Returns
     -------

@@ -83,7 +83,7 @@ def axis_rotation(axis, angle):
     return ca.SX(along) + ca.cos(angle) * ca.SX(np.eye(3) - along) + ca.sin(angle) * ca.SX(K)
 
 
-def energies(links, q, v, gravity, base=None):
+def energies(links, q, v, gravity, base=None, height=None):
     """The kinetic and gravitational energies of the tree `links` at (q, v).
 
     Parameters
@@ -93,18 +93,23 @@ def energies(links, q, v, gravity, base=None):
     q, v : casadi.SX, shape (n, 1)
         Joint positions and velocities, in the order of the links' ``index``.
     gravity : float
-        g, along -z of the base's frame.
+        g, along -z of the base's frame (of the world's with `height`).
     base : pair of casadi.SX of shape (3, 1), optional
         (w_0, v_0), the base's angular velocity and the velocity of its origin, in its own
         frame, for a base moving in the horizontal plane (its z axis stays vertical, so
-        heights are still measured along its z); default at rest.
+        heights are still measured along its z) or floating; default at rest.
+    height : pair of casadi.SX of shapes (1, 3) and (1, 1), optional
+        (z_row_0, z_0): the third row of the base's orientation in the world's frame and the
+        height of its origin, for a floating base; default (e_z^T, 0), heights measured
+        along the base's z.
 
     Returns
     -------
     T, V : casadi.SX
         T(q, v) = sum_i 1/2 m_i |v_ci|^2 + 1/2 w_i^T I_i w_i and V(q) = g sum_i m_i z_ci,
         w_i the link's angular velocity and v_ci its centre of mass's velocity, both in the
-        link's frame, z_ci the height of its centre of mass in the base's frame.
+        link's frame, z_ci the height of its centre of mass (in the base's frame, or the
+        world's with `height`).
 
     Notes
     -----
@@ -125,7 +130,8 @@ def energies(links, q, v, gravity, base=None):
     for link in links:
         if link.parent is None:
             w0, v0 = base if base is not None else (ca.SX.zeros(3), ca.SX.zeros(3))
-            frame = (w0, v0, ca.SX(np.array([[0.0, 0.0, 1.0]])), ca.SX(0))
+            z_row0, z0 = height if height is not None else (ca.SX(np.array([[0.0, 0.0, 1.0]])), ca.SX(0))
+            frame = (w0, v0, z_row0, z0)
         else:
             frame = _child_frame(link, frames[link.parent], q, v)
         frames.append(frame)

@@ -72,9 +72,9 @@ def read_urdf(path):
     MissingFileError
         No file at `path`.
     InputError
-        Not a URDF (no <robot> root), a joint of a type dmoc cannot take yet (floating,
-        planar), a zero axis or malformed numbers; the message names the file and the
-        joint.
+        Not a URDF (no <robot> root), a joint of a type dmoc cannot take (floating,
+        planar: dmoc adds the base's pose itself), a zero axis or malformed numbers; the
+        message names the file and the joint.
     """
     readable_file("path", path)
     try:
@@ -94,8 +94,9 @@ def read_urdf(path):
                              f"dmoc takes joints of type {sorted(MOVABLE)} or 'fixed'. The "
                              f"file's root link is the base: fixed, or rolling on its wheels "
                              f"with `wheels=` (dmoc adds its planar pose x, y, theta), so "
-                             f"remove a planar joint to a world link; floating bases are not "
-                             f"supported yet.")
+                             f"remove a planar joint to a world link; for a floating base, "
+                             f"remove the floating joint and read the file with "
+                             f"dmoc.FloatingBaseRobot, which adds the base's pose.")
         joints.append(_joint(element, kind, path))
     if not joints:
         raise InputError(f"`path` must describe a robot with movable joints; {str(path)!r} has none.")

@@ -11,7 +11,6 @@ import numpy as np
 
 from ..._util import checks
 from ...errors import failure
-from ...mechanics.rigid_body import block_diagonal
 from ...mechanics.rotations import cayley_inverse
 from ...principle.rotation_trajectory import RotationTrajectory
 from ..nlp.group_transcription import group_transcription
@@ -89,17 +88,20 @@ def solve_with(problem, T, solver, start, *, throw=True, warm_start=False):
 def geodesic_guess(problem, T):
     """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`) and x_k on the
     segment between the ends bent by `bump`, f_k = (cay^{-1}(R_k^T R_{k+1}), x_{k+1} -
-    x_k), p_k = M f_k / h with M = diag(J, M_x) (the last step's at N), zero multipliers
-    and controls."""
+    x_k), p_k = M(q_k) f_k / h with M the body's `generalized_mass` (diag(J, M_x) of a
+    rigid body; the last step's f at N), zero multipliers and controls."""
     R, N = problem.geodesic(), problem.steps
     body = problem.disc.system
     tau = np.linspace(0.0, 1.0, N + 1)
+    M_x = np.array(body.generalized_mass(np.concatenate([problem.R_start.ravel(), problem.x_start])))[3:, 3:]
     x = (problem.x_start + np.outer(tau, problem.x_goal - problem.x_start)
-         + np.outer(np.sin(np.pi * tau), bump(body.mass_matrix, problem.x_goal - problem.x_start)))
+         + np.outer(np.sin(np.pi * tau), bump(M_x, problem.x_goal - problem.x_start)))
     f = np.hstack([[np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])],
                    np.diff(x, axis=0)])
-    p = np.vstack([f, f[-1:]]) @ block_diagonal(body.inertia, body.mass_matrix) / problem.disc.h
-    blocks = {"q": np.hstack([R.reshape(-1, 9), x]).T, "p": p.T, "f": f.T,
+    q = np.hstack([R.reshape(-1, 9), x])
+    rates = np.vstack([f, f[-1:]]) / problem.disc.h
+    p = np.array([np.array(body.generalized_mass(q_k)) @ v_k for q_k, v_k in zip(q, rates)])
+    blocks = {"q": q.T, "p": p.T, "f": f.T,
               "lam": np.zeros((body.m, N)), "u": np.zeros((problem.residual.n_controls, N)),
               "nu": np.zeros(body.m)}
     return np.concatenate([blocks[name].ravel(order="F") for name in T.x_layout.blocks])

@@ -14,7 +14,7 @@ from ..._util import checks
 from ..._util.symbolic import checked_function
 from ...discrete.group_discretization import GroupDiscretization
 from ...errors import InputError
-from ...mechanics.rigid_body import block_diagonal, check_allowed_velocity
+from ...mechanics.rigid_body import check_allowed_velocity
 from ...mechanics.rotations import as_rotation
 from ...principle.group_residual import group_step_residual
 from ..solver.ipopt import DEFAULT_IPOPT_OPTIONS
@@ -30,7 +30,8 @@ class GroupOptimalControlProblem:
     ----------
     disc : GroupDiscretization
         Of a RigidBody with controls (e.g. `dmoc.systems.spacecraft`, or
-        `dmoc.systems.chaplygin_sphere(torques=True)`); its h fixes the duration steps * h.
+        `dmoc.systems.chaplygin_sphere(torques=True)`) or of a FloatingBaseRobot; its h
+        fixes the duration steps * h.
     steps : int
         N.
     R_start, R_goal : array_like, shape (3, 3)
@@ -56,7 +57,8 @@ class GroupOptimalControlProblem:
     R_start, R_goal : numpy.ndarray, shape (3, 3)
     x_start, x_goal : numpy.ndarray, shape (n_x,)
     p_start, p_goal : numpy.ndarray, shape (3 + n_x,)
-        The momenta (J omega, M x') the ends impose.
+        The momenta M(q) (omega, x') the ends impose (M the body's `generalized_mass`,
+        diag(J, M_x) for a RigidBody).
     path_constraints : casadi.Function or None
         ``(R, x, u) -> g`` (`group_path_function`), None without path constraints.
 
@@ -89,17 +91,16 @@ class GroupOptimalControlProblem:
         self.R_start, self.R_goal = as_rotation("R_start", R_start), as_rotation("R_goal", R_goal)
         self.x_start, self.x_goal = (_coordinates(body, name, value) for name, value in
                                      (("x_start", x_start), ("x_goal", x_goal)))
-        mass = block_diagonal(body.inertia, body.mass_matrix)
-        self.p_start, self.p_goal = (
-            mass @ np.concatenate([checks.array(f"omega_{end}", omega, (3,)),
-                                   np.zeros(body.n_x) if rate is None
-                                   else checks.array(f"x_velocity_{end}", rate, (body.n_x,))])
-            for end, omega, rate in (("start", omega_start, x_velocity_start),
-                                     ("goal", omega_goal, x_velocity_goal)))
-        for end, R, x, p in (("start", self.R_start, self.x_start, self.p_start),
-                             ("goal", self.R_goal, self.x_goal, self.p_goal)):
-            check_allowed_velocity(body, np.concatenate([R.ravel(), x]), np.linalg.solve(mass, p),
-                                   f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
+        momenta = []
+        for end, R, x, omega, rate in (("start", self.R_start, self.x_start, omega_start, x_velocity_start),
+                                       ("goal", self.R_goal, self.x_goal, omega_goal, x_velocity_goal)):
+            q = np.concatenate([R.ravel(), x])
+            v = np.concatenate([checks.array(f"omega_{end}", omega, (3,)),
+                                np.zeros(body.n_x) if rate is None
+                                else checks.array(f"x_velocity_{end}", rate, (body.n_x,))])
+            check_allowed_velocity(body, q, v, f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
+            momenta.append(np.array(body.generalized_mass(q)) @ v)
+        self.p_start, self.p_goal = momenta
         self.path_constraints = (None if path_constraints is None
                                  else group_path_function(path_constraints, disc))
         if self.path_constraints is not None:
