@@ -14,12 +14,14 @@ from ...errors import failure
 from ...mechanics.rigid_body import block_diagonal
 from ...mechanics.rotations import cayley_inverse
 from ...principle.rotation_trajectory import RotationTrajectory
+from ..nlp.evaluation import compiled_when_ready, spent
 from ..nlp.group_transcription import group_transcription
 from ..statement.group_problem import GroupOptimalControlProblem
 from . import interrupt
-from .ipopt import DEFAULT_IPOPT_OPTIONS, iteration_count
+from .ipopt import iteration_count, start_options
+from .ipopt import solver as ipopt_solver
 from .optimization_result import OptimizationResult
-from .violation import most_violated
+from .solving import values_at_x
 
 
 def solve_on_group(problem, *, options=None, throw=True):
@@ -40,47 +42,61 @@ def solve_on_group(problem, *, options=None, throw=True):
         ``trajectory`` a RotationTrajectory; ``x`` the NLP vector (`GroupTranscription`);
         ``stats``: ``iterations``, ``return_status``, ``max_violation`` (of all rows'
         bounds), ``most_violated`` (that row named: "path constraint i at knot k", "dynamics
-        at step k (left row r)", ...; "none"), ``solve_time``, ``warm_start`` (False).
+        at step k (left row r)", ...; "none"), ``solve_time``, ``warm_start`` (False),
+        ``build_time`` (seconds creating the solver, 0 when kept from an earlier solve of
+        the structure) and ``compiled`` (whether IPOPT evaluated compiled Functions).
     """
     checks.instance("problem", problem, GroupOptimalControlProblem, "a GroupOptimalControlProblem")
     throw = checks.boolean("throw", throw)
     T = group_transcription(problem)
-    solver = group_solver(T, {**DEFAULT_IPOPT_OPTIONS, **(options or {})})
     start = {"x0": geodesic_guess(problem, T), "lbx": T.lbx, "ubx": T.ubx}
-    return solve_with(problem, T, solver, start, throw=throw)
+    return solve_with(problem, T, options or {}, start, throw=throw)
 
 
-def group_solver(T, options):
-    """The IPOPT nlpsol of the GroupTranscription `T` with the IPOPT `options` (all of them:
-    `DEFAULT_IPOPT_OPTIONS` merged in by the caller)."""
-    return ca.nlpsol("group_dmoc", "ipopt", T.nlp, {"ipopt": options, "print_time": False})
+def solve_with(problem, T, options, start, *, throw=True, warm_start=False, expand=False, jit=None):
+    """One solve of `problem`'s NLP `T` (`group_transcription`) with the IPOPT `options`
+    (over DEFAULT_IPOPT_OPTIONS and `start_options`) from `start`, the nlpsol inputs that
+    change between solves: ``x0``, ``lbx``, ``ubx`` (q_0 and p_0 fixed there), and for a
+    warm start ``lam_x0``, ``lam_g0``; the OptimizationResult of `solve_on_group`, with
+    ``lam_x``, ``lam_g`` and ``stats["warm_start"]`` (as given: a receding-horizon
+    controller re-solves one structure from the shifted previous optimum,
+    `dmoc.drivers.group_horizon`).
 
-
-def solve_with(problem, T, solver, start, *, throw=True, warm_start=False):
-    """One solve of `problem`'s NLP `T` by its `solver` (`group_solver`) from `start`, the
-    nlpsol inputs that change between solves: ``x0``, ``lbx``, ``ubx`` (q_0 and p_0 fixed
-    there), and for a warm start ``lam_x0``, ``lam_g0``; the OptimizationResult of
-    `solve_on_group`, with ``lam_x``, ``lam_g`` and ``stats["warm_start"]`` (as given: a
-    receding-horizon controller re-solves one solver from the shifted previous optimum,
-    `dmoc.drivers.group_horizon`)."""
+    The solver is the one a problem on R^n gets (`dmoc.optimal_control.solver.ipopt.solver`):
+    kept per structure and options, evaluating the terms' Functions as `expand` and `jit`
+    say (`jit` None: compiled once warm re-solves of the structure have spent
+    `COMPILE_AFTER_SECONDS` in IPOPT, `dmoc.optimal_control.nlp.evaluation`)."""
+    automatic = jit is None
+    if automatic:
+        jit = compiled_when_ready(T.separable, warm_start)
+    tic = time.perf_counter()
+    solver, reused, _ = ipopt_solver(T, {**start_options(warm_start), **options}, expand=expand,
+                                     reuse=True, report=False, jit=jit)
+    build_time = 0.0 if reused else time.perf_counter() - tic
+    zeros_x, zeros_g = np.zeros(T.x_layout.size), np.zeros(T.g_layout.size)
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
-        sol = solver(lbg=T.lbg, ubg=T.ubg, **start)
+        sol = solver(x0=start["x0"], p=T.p, lam_x0=start.get("lam_x0", zeros_x),
+                     lam_g0=start.get("lam_g0", zeros_g), lbx=start["lbx"], ubx=start["ubx"],
+                     lbg=T.lbg, ubg=T.ubg)
     st = solver.stats()
-    x = np.array(sol["x"]).ravel()
-    largest, row = most_violated(T, np.array(sol["g"]).ravel())
+    cost, (largest, row) = values_at_x(T, sol, st["success"])
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "max_violation": largest, "most_violated": row,
-             "solve_time": time.perf_counter() - tic, "warm_start": warm_start}
+             "solve_time": time.perf_counter() - tic, "warm_start": warm_start,
+             "build_time": build_time, "compiled": jit}
+    if automatic and warm_start and not jit:
+        spent(T.separable, st.get("t_wall_total", stats["solve_time"]))
     success, status = bool(st["success"]), st["return_status"]
     message = (f"IPOPT: {status} after {stats['iterations']} iterations; most violated: {row} "
                f"(|violation| = {largest:.2e}).")
-    interrupted = interrupt.verdict(sigints, stats["iterations"], float(sol["f"]))
+    interrupted = interrupt.verdict(sigints, stats["iterations"], cost)
     if interrupted is not None:
         (status, message), success = interrupted, False
-    result = OptimizationResult(trajectory=trajectory_of(problem, T, x), cost=float(sol["f"]),
-                                success=success, status=status, message=message, stats=stats, x=x,
-                                lam_x=np.array(sol["lam_x"]).ravel(), lam_g=np.array(sol["lam_g"]).ravel())
+    x = sol["result_x"]
+    result = OptimizationResult(trajectory=trajectory_of(problem, T, x), cost=cost, success=success,
+                                status=status, message=message, stats=stats, x=x,
+                                lam_x=sol["result_lam_x"], lam_g=sol["result_lam_g"])
     if throw and not success:
         raise failure(message + " The last iterate is in `.result`.", result)
     return result

@@ -77,7 +77,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
                      lbx=lbx, ubx=ubx, lbg=T.scaled_g_bounds[0], ubg=T.scaled_g_bounds[1])
     times["solve_time"] = time.perf_counter() - tic
     st = solver.stats()
-    cost, worst = _values_at_x(T, sol, st["success"])
+    cost, worst = values_at_x(T, sol, st["success"])
     stats = _statistics(st, times, worst)
     if automatic and warm and not jit:
         spent(T.separable, stats["ipopt_time"])
@@ -135,7 +135,7 @@ def _result(problem, solver, sol, fixed, outcome):
     return OptimizationResult(traj, *outcome, x, lam_x, sol["result_lam_g"], T.structure, T.q_ref.copy())
 
 
-def _values_at_x(transcription, sol, converged):
+def values_at_x(transcription, sol, converged):
     """(f, (largest violation, its row described)) of the NLP at the x IPOPT returned in
     `sol` (`ipopt.PackedSolver`'s outputs): IPOPT's own last f, and the largest violation
     at its last g that the packed call found, when they were evaluated at that x, else f
