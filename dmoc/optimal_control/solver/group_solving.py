@@ -104,16 +104,17 @@ def solve_with(problem, T, options, start, *, throw=True, warm_start=False, expa
 
 def geodesic_guess(problem, T):
     """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`) and x_k on the
-    segment between the ends bent by `bump`, f_k = (cay^{-1}(R_k^T R_{k+1}), x_{k+1} -
-    x_k), p_k = M f_k / h with M = diag(J, M_x) (the last step's at N), zero multipliers
-    and controls."""
+    segment between the ends bent by `bump`, f_k = (cay^{-1}(R_0^T R_1), x_{k+1} - x_k)
+    (the geodesic's increments R_k^T R_{k+1} are all the one rotation exp(log(R_start^T
+    R_goal) / N)), p_k = M f_k / h with M = diag(J, M_x) (the last step's at N), zero
+    multipliers and controls."""
     R, N = problem.geodesic(), problem.steps
     body = problem.disc.system
     tau = np.linspace(0.0, 1.0, N + 1)
     x = (problem.x_start + np.outer(tau, problem.x_goal - problem.x_start)
          + np.outer(np.sin(np.pi * tau), bump(body.mass_matrix, problem.x_goal - problem.x_start)))
-    f = np.hstack([[np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])],
-                   np.diff(x, axis=0)])
+    turn = np.array(cayley_inverse(ca.DM(R[0].T @ R[1]))).ravel()
+    f = np.hstack([np.tile(turn, (N, 1)), np.diff(x, axis=0)])
     p = np.vstack([f, f[-1:]]) @ block_diagonal(body.inertia, body.mass_matrix) / problem.disc.h
     blocks = {"q": np.hstack([R.reshape(-1, 9), x]).T, "p": p.T, "f": f.T,
               "lam": np.zeros((body.m, N)), "u": np.zeros((problem.residual.n_controls, N)),
