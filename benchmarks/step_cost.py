@@ -43,9 +43,12 @@ its momenta, R Pi + r e3 x (p_x, 0)).
 Then the DMOC of tests/optimize/test_sphere_roll.py on both forms, with body torques (the
 embedded force 1/2 R u^ on the entries of R): rest to rest from (I, 0) to a quarter turn
 about e3 at (1, 0.5) in 4 s, N = 20, min sum h |u|^2, each built and solved by
-``dmoc.optimize`` after ``dmoc.clear_caches`` (wall and CPU seconds); "embedded" from its
-default guess, "embedded-geo" from the group form's geodesic guess written entry by entry;
-their costs differ by the two discretizations' O(h^2) errors.
+``dmoc.optimize`` after ``dmoc.clear_caches`` (wall and CPU seconds, best of `--repeat`, the
+forms taking turns); "embedded" from its default guess, "embedded-geo" from the group
+form's geodesic guess written entry by entry (the baseline of the printed ratio group /
+embedded-geo); their costs differ by the two discretizations' O(h^2) errors. Then the same
+build and solve as the first of a fresh process with an empty cache folder (after the
+imports), group and embedded-geo, best of `--repeat`.
 
     python benchmarks/step_cost.py
     python benchmarks/step_cost.py --smallest     # 10^3 steps once, DMOC at N = 4: a smoke run
