@@ -46,9 +46,12 @@ its momenta, R Pi + r e3 x (p_x, 0)).
 Then the DMOC of tests/optimize/test_sphere_roll.py on both forms, with body torques (the
 embedded force 1/2 R u^ on the entries of R): rest to rest from (I, 0) to a quarter turn
 about e3 at (1, 0.5) in 4 s, N = 20, min sum h |u|^2, each built and solved by
-``dmoc.optimize`` after ``dmoc.clear_caches`` (wall and CPU seconds); "embedded" from its
-default guess, "embedded-geo" from the group form's geodesic guess written entry by entry;
-their costs differ by the two discretizations' O(h^2) errors.
+``dmoc.optimize`` after ``dmoc.clear_caches`` (wall and CPU seconds, best of `--repeat`, the
+forms taking turns); "embedded" from its default guess, "embedded-geo" from the group
+form's geodesic guess written entry by entry (the baseline of the printed ratio group /
+embedded-geo); their costs differ by the two discretizations' O(h^2) errors. Then the same
+build and solve as the first of a fresh process with an empty cache folder (after the
+imports), group and embedded-geo, best of `--repeat`.
 
     python benchmarks/step_cost.py
     python benchmarks/step_cost.py --smallest     # 10^3 steps once, DMOC at N = 4: a smoke run
@@ -363,7 +366,7 @@ def one_sphere(form):
     print(f"{time.perf_counter() - tic:.2f}")
 
 
-def sphere_roll(form, steps=20):
+def sphere_roll(form, steps=20, estimate=False):
     """The DMOC of tests/optimize/test_sphere_roll.py in `form` ("group", "embedded",
     "embedded-geo"), as a user builds and solves it: rest to rest from (I, 0) to a quarter
     turn about e3 at (1, 0.5) in 4 s, h = 4 / steps, cost sum h |u|^2 (u the body torques).
@@ -372,8 +375,8 @@ def sphere_roll(form, steps=20):
     "embedded" from its default guess, "embedded-geo" from the group form's default guess
     written entry by entry (R_k = exp(k/N pi/2 e3^), x_k linear). After `dmoc.clear_caches`:
     (wall s, CPU s of this process and its children, both of build + solve; cost; IPOPT
-    iterations; success; the verdict's status; max |R_N - R_goal|; for the group form the
-    result of ``optimize(problem, estimate=True)`` solved again, else None)."""
+    iterations; success; the verdict's status; max |R_N - R_goal|; with `estimate`, for the
+    group form the result of ``optimize(problem, estimate=True)`` solved again, else None)."""
     goal, share = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), np.linspace(0, 1, steps + 1)
     dmoc.clear_caches()
     tic, cpu = time.perf_counter(), os.times()
@@ -398,7 +401,7 @@ def sphere_roll(form, steps=20):
     wall, cpu_end = time.perf_counter() - tic, os.times()
     R_N = result.trajectory.R[-1] if form == "group" else result.trajectory.q[-1, :9].reshape(3, 3)
     verdict = str(getattr(result.verdict, "status", None))
-    estimated = dmoc.optimize(problem, estimate=True, throw=False) if form == "group" else None
+    estimated = dmoc.optimize(problem, estimate=True, throw=False) if estimate and form == "group" else None
     return (wall, sum(cpu_end[:4]) - sum(cpu[:4]), result.cost, result.stats["iterations"],
             result.success, verdict, np.abs(R_N - goal).max(), estimated)
 
@@ -425,20 +428,35 @@ def sphere_table(repeat, steps, fresh, roll_steps=20):
         ratio = wall / rows["embedded"][1]
         print(f"{form:<10}{first:>16.2f}{wall:>16.3f}{ratio:>8.2f}{dR:>13.1e}{dK:>11.1e}")
     print(f"first compile ratio group / embedded: {rows['group'][0] / rows['embedded'][0]:.2f}")
-    print(f"\nDMOC, roll from rest to (1, 0.5) and a quarter turn in 4 s, N = {roll_steps} (first "
-          "solve, build + solve)")
+    print(f"\nDMOC, roll from rest to (1, 0.5) and a quarter turn in 4 s, N = {roll_steps} (build + "
+          f"solve after clear_caches, best of {repeat}, the forms taking turns)")
     head = (f"{'form':<14}{'wall s':>8}{'CPU s':>8}{'ratio':>12}{'cost':>12}{'iter':>6}{'success':>9}"
             f"{'verdict':>16}{'|R_N - goal|':>14}")
     print(head + "\n" + "-" * len(head))
-    solves = {form: sphere_roll(form, roll_steps) for form in ("embedded", "embedded-geo", "group")}
+    forms, runs = ("embedded", "embedded-geo", "group"), []
+    for _ in range(repeat):
+        runs.append({form: sphere_roll(form, roll_steps) for form in forms})
+    solves = {form: (min(r[form][0] for r in runs), min(r[form][1] for r in runs), *runs[-1][form][2:])
+              for form in forms}
     for form, (wall, cpu, cost, iterations, success, verdict, dR, _) in solves.items():
         ratio = f"{wall / solves['embedded'][0]:.2f}/{cpu / solves['embedded'][1]:.2f}"
-        print(f"{form:<14}{wall:>8.2f}{cpu:>8.2f}{ratio:>12}{cost:>12.6f}{iterations:>6}"
+        print(f"{form:<14}{wall:>8.3f}{cpu:>8.3f}{ratio:>12}{cost:>12.6f}{iterations:>6}"
               f"{str(success):>9}{verdict:>16}{dR:>14.1e}")
     print(f"ratios wall/CPU against embedded; group against embedded-geo: "
           f"{solves['group'][0] / solves['embedded-geo'][0]:.2f}/"
           f"{solves['group'][1] / solves['embedded-geo'][1]:.2f}; cost group - embedded-geo: "
           f"{solves['group'][2] - solves['embedded-geo'][2]:.2e} (two discretizations, O(h^2))")
+    if fresh:
+        first = {"embedded-geo": [], "group": []}
+        for _ in range(repeat):
+            for form, walls in first.items():
+                with tempfile.TemporaryDirectory() as empty:
+                    walls.append(float(fresh_process("--one-roll", form, str(roll_steps),
+                                                     env={"DMOC_CACHE_DIR": empty})))
+        print(f"fresh processes, empty cache folder (the process's first build + solve, after "
+              f"import), best of {repeat}: group {min(first['group']):.3f} s, embedded-geo "
+              f"{min(first['embedded-geo']):.3f} s, ratio {min(first['group']) / min(first['embedded-geo']):.2f}")
+    solves["group"] = sphere_roll("group", roll_steps, estimate=True)
     estimate = solves["group"][-1].stats.get("error_estimate")
     if estimate is None:                # the optimum failed its verdict: nothing estimated
         print(f"group, estimate=True: {solves['group'][-1].status}, no estimate")
@@ -475,6 +493,9 @@ def main(argv=None):
         return
     if argv and argv[0] == "--one-sphere":
         one_sphere(argv[1])
+        return
+    if argv and argv[0] == "--one-roll":
+        print(f"{sphere_roll(argv[1], int(argv[2]))[0]:.4f}")
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs per case; best is kept (default 5)")

@@ -5,15 +5,12 @@ first, cold, solve's and the warm one's), each solve after the first from the pr
 optimum moved on along its own group increments (`dmoc.drivers.horizon_shift`).
 """
 
-import time
-
 import numpy as np
 
 from .._util import checks
 from ..errors import InputError
 from ..optimal_control.nlp.group_transcription import group_transcription
-from ..optimal_control.solver.group_solving import geodesic_guess, group_solver, solve_with
-from ..optimal_control.solver.ipopt import DEFAULT_IPOPT_OPTIONS, start_options
+from ..optimal_control.solver.group_solving import geodesic_guess, solve_with
 from .group_measurement import GroupMeasurementPolicy
 from .horizon_shift import shifted_on_group
 
@@ -21,8 +18,9 @@ from .horizon_shift import shifted_on_group
 class GroupHorizon:
     """`MPC`'s horizon on the group: the arguments are `MPC`'s, with `guess` and
     `references` None and `jit` None or False (refused by name otherwise: a problem on the group
-    has no parameters, starts along the geodesic, and its NLP is already SX, so `expand`
-    has no effect).
+    has no parameters and starts along the geodesic; with `jit` None its NLP is compiled in
+    the background once its warm steps have spent `COMPILE_AFTER_SECONDS` in IPOPT, as on
+    R^n, `dmoc.optimal_control.nlp.evaluation`). `expand` as on R^n.
 
     Attributes
     ----------
@@ -37,11 +35,11 @@ class GroupHorizon:
             if value is not default:
                 raise InputError(f"`{name}` is not taken by MPC of a GroupOptimalControlProblem "
                                  f"(it has no parameters and starts along the geodesic, its NLP "
-                                 f"already SX); leave it at {default!r}.")
+                                 f"compiled on its own with jit=None); leave it at {default!r}.")
         self.problem, self.measurement = problem, GroupMeasurementPolicy(problem, measurement)
         self._T = group_transcription(problem)
         self._options = {} if options is None else checks.ipopt_options("options", options)
-        self._solvers = {}
+        self._switches = switches
         self._bounds = (self._T.lbx.copy(), self._T.ubx.copy())
         layout = self._T.x_layout
         self._fixed = np.concatenate([layout.slice(name).start + np.arange(size)
@@ -59,21 +57,14 @@ class GroupHorizon:
     def solve(self, plan, by, start):
         """The solve from the geodesic (the first), or from `plan` moved `by` steps on
         and carried onto the start (`shifted_on_group`), primal and dual; its
-        ``stats["build_time"]`` the seconds spent creating the solver (0 when kept)."""
-        warm, tic = plan is not None, time.perf_counter()
+        ``stats["build_time"]`` the seconds spent creating the solver (0 when kept,
+        `solve_with`)."""
+        warm = plan is not None
         point = (shifted_on_group(plan, self._T, self.problem.steps, by, start.q) if warm
                  else {"x0": geodesic_guess(self.problem, self._T)})
-        if warm not in self._solvers:
-            self._solvers[warm] = group_solver(
-                self._T, {**DEFAULT_IPOPT_OPTIONS, **start_options(warm), **self._options})
-            build_time = time.perf_counter() - tic
-        else:
-            build_time = 0.0
-        result = solve_with(self.problem, self._T, self._solvers[warm],
-                            {**point, "lbx": self._bounds[0], "ubx": self._bounds[1]},
-                            throw=False, warm_start=warm)
-        result.stats["build_time"] = build_time
-        return result
+        return solve_with(self.problem, self._T, self._options,
+                          {**point, "lbx": self._bounds[0], "ubx": self._bounds[1]},
+                          throw=False, warm_start=warm, **self._switches)
 
     def controls(self, plan, age):
         """The controls u_age of `plan`, shape (n_u,)."""

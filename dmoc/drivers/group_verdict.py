@@ -40,7 +40,9 @@ def judge_on_group(problem, result):
     Notes
     -----
     The replay runs `dmoc.simulate` from (R_0, x_0, p_0) with the optimum's controls, held
-    on each step, and compares every q_k (the entries of R_k, then x_k) and p_k = (Pi_k,
+    on each step, in CasADi's virtual machine (``jit=False``, as on R^n,
+    `dmoc.diagnostics.replay`: preparing the compiled step costs more than the N steps of
+    an optimum), and compares every q_k (the entries of R_k, then x_k) and p_k = (Pi_k,
     p_x,k) (the end momentum included: the end impulse enters no step). The goal error is
     the larger of the angle 2 arcsin(|R_N - R_goal|_F / sqrt(8)) of R_goal^T R_N, accurate
     near 0 where arccos((tr - 1)/2) is not, and max_i |x_N,i - x_goal,i| over the span of
@@ -62,7 +64,7 @@ def judge_on_group(problem, result):
                          f"got one on {traj.steps} steps.")
     q0 = (traj.R[0], traj.x[0]) if problem.disc.system.n_x else traj.R[0]
     replay = simulate(problem.disc, q0=q0, p0=traj.p[0], steps=problem.steps, controls=traj.u,
-                      throw=False).trajectory
+                      throw=False, jit=False).trajectory
     replay_q, replay_p, replay_step = replay_departure(traj, replay, traj.steps + 1)
     goal = goal_error(problem, traj)
     path, path_step, row, limit = path_violation(

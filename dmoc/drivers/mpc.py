@@ -39,8 +39,8 @@ class MPC:
         ``with_boundary(p_start=...)``, so every step solves the same NLP structure). A
         problem on SO(3) x R^n_x (`dmoc.drivers.group_horizon.GroupHorizon`) has its
         NLP built once, its start (R_0, x_0, p_0) fixed by the bounds of each step; it
-        takes no `guess`, `references`, `parameters` or `jit` (`expand` has no effect:
-        its NLP is SX).
+        takes no `guess`, `references`, `parameters` or ``jit=True`` (`expand` and
+        ``jit=None`` act as on R^n).
     guess : Trajectory or OptimizationResult, optional
         The first solve's guess (`optimize`); later solves start from the previous
         optimum shifted by one step.

@@ -86,13 +86,20 @@ class SigintCallback(ca.Callback):
 
 def test_a_ctrl_c_during_the_group_solve_raises_interrupted_with_the_last_iterate(monkeypatch):
     """A SIGINT while IPOPT iterates (sent from its iteration callback) ends the solve with
-    status "interrupted", raised as dmoc.Interrupted (not a SolverError) with throw."""
+    status "interrupted", raised as dmoc.Interrupted (not a SolverError) with throw. The
+    solvers are kept per structure: the cache is emptied before, so that the solve builds
+    one with the callback, and after, so that no later solve finds it."""
     nlpsol, callbacks = ca.nlpsol, []
 
     def with_sigint(name, plugin, nlp, options):
         callbacks.append(SigintCallback(nlp["x"].numel(), nlp["g"].numel()))
         return nlpsol(name, plugin, nlp, {**options, "iteration_callback": callbacks[-1]})
     monkeypatch.setattr(ca, "nlpsol", with_sigint)
-    with pytest.raises(dmoc.Interrupted) as info:
-        slew(10)
+    dmoc.clear_caches("solvers")
+    try:
+        with pytest.raises(dmoc.Interrupted) as info:
+            slew(10)
+    finally:
+        dmoc.clear_caches("solvers")
+    assert callbacks
     assert (info.value.result.status, info.value.result.success) == ("interrupted", False)

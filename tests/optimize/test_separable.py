@@ -6,7 +6,10 @@ Oracles, none taken from the code under test:
   triangle of the Hessian of sigma f + lam^T g), compared as dense arrays at random
   points, with the assembled sparsity patterns required to contain the oracle's;
 - for hand-made terms: f, g, the gradient, the Jacobian and the Hessian of the Lagrangian
-  written out in closed form below.
+  written out in closed form below;
+- for the NLP of a problem on SO(3) x R^n_x: its rows written out below (the residual and
+  the group product mapped over the steps, cay^{-1} of the goal in NumPy, the end momentum,
+  the path rows knot by knot) and CasADi's AD of the whole NLP.
 """
 
 import casadi as ca
@@ -507,3 +510,70 @@ def test_a_problem_without_cost_builds_and_solves():
     result = dmoc.optimize(problem)
     assert result.success and result.cost == 0.0
     assert result.stats["max_violation"] < 1e-9
+
+
+# --- the NLP of a problem on SO(3) x R^n_x -------------------------------------------------
+
+
+def _group_problem(body):
+    """N = 3 steps of the rolling sphere (constraint rows, the end impulse nu) or of the
+    quadrotor past a cylinder (path rows at the knots)."""
+    goal = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    if body == "sphere":
+        disc = dmoc.discretize(dmoc.systems.chaplygin_sphere((1.0, 2.0, 2.5), 1.3, 0.7, torques=True), 0.4)
+        return dmoc.GroupOptimalControlProblem(disc, 3, R_start=np.eye(3), R_goal=goal,
+                                               x_start=[0.0, 0.0], x_goal=[1.0, 0.5])
+    disc = dmoc.discretize(dmoc.systems.quadrotor(1.0, (0.5, 0.6, 0.9)), 0.4)
+    return dmoc.GroupOptimalControlProblem(
+        disc, 3, R_start=np.eye(3), R_goal=goal, x_start=[0.0, 0.0, 1.0], x_goal=[2.0, 0.0, 1.0],
+        path_constraints=lambda R, x, u: ca.vertcat(0.09 - ca.sumsqr(x[:2] - [1.0, 0.0]), R[2, 2] * u[0] - 20))
+
+
+def _cayley_inverse(F):
+    """cay^{-1}(F) = 4 vee(F) / (1 + tr F), vee the vector of the skew part (written here)."""
+    vee = 0.5 * np.array([F[2, 1] - F[1, 2], F[0, 2] - F[2, 0], F[1, 0] - F[0, 1]])
+    return 4 * vee / (1 + np.trace(F))
+
+
+def _group_rows(problem, T, x):
+    """f and g of the group NLP at x, stated row by row here: the residual and the group
+    product at every step (mapped over the steps), the goal, the end momentum and the path
+    rows at every knot, in the blocks of `T.g_layout`."""
+    N, R, h = problem.steps, problem.residual, problem.disc.h
+    q, p, f, lam, u, nu = (T.x_layout.unpack(x, k) for k in ("q", "p", "f", "lam", "u", "nu"))
+    dynamics = np.array(R.function.map(N)(q[:, :-1], p[:, :-1], f, p[:, 1:], lam, u, h))
+    group = q[:, 1:] - np.array(R.reconstruction.map(N)(q[:, :-1], f))
+    R_N, x_N = q[:9, -1].reshape(3, 3), q[9:, -1]
+    A = np.array(problem.disc.system.constraint_matrix(q[:, -1])).reshape(-1, R.n)
+    end = p[:, -1] - problem.p_goal - A.T @ nu[:, 0]
+    knots = [np.array(problem.path_constraints(q[:9, k].reshape(3, 3), q[9:, k], u[:, min(k, N - 1)])).ravel()
+             for k in range(N + 1)] if problem.path_constraints is not None else []
+    g = np.concatenate([dynamics.ravel(order="F"), group.ravel(order="F"),
+                        _cayley_inverse(problem.R_goal.T @ R_N), x_N - problem.x_goal, end, *knots])
+    return h * np.sum(u ** 2), g
+
+
+@pytest.mark.parametrize("body", ["sphere", "quadrotor"])
+def test_the_group_terms_state_the_group_nlp_with_exact_derivatives(body):
+    """The NLP of a GroupOptimalControlProblem stated as terms (`group_transcription`): at a
+    random point its f and g are the rows written in the test, and its assembled gradient,
+    Jacobian and Hessian of the Lagrangian equal CasADi's AD of the whole NLP."""
+    from dmoc.optimal_control.nlp.group_transcription import group_transcription
+
+    problem = _group_problem(body)
+    T = group_transcription(problem)
+    rng = np.random.default_rng(43)
+    x, lam, sigma = rng.normal(scale=0.5, size=T.x_layout.size), rng.normal(size=T.g_layout.size), 1.3
+    f, g = T.separable.values(x, T.p)
+    f_written, g_written = _group_rows(problem, T, x)
+    assert g.size == g_written.size and T.g_layout.numel("path_knots") == (8 if body == "quadrotor" else 0)
+    _assert_exact(f, f_written, "f")
+    _assert_exact(g, g_written, "g")
+
+    oracle, assembled = _oracle(T), T.separable.derivatives()
+    grad, jac = _dense(oracle["grad"](x, T.p)), _dense(oracle["jac"](x, T.p))
+    hess = _dense(oracle["hess"](x, T.p, sigma, lam))
+    assert np.abs(hess).max() > 0
+    _assert_exact(_dense(assembled["nlp_grad_f"](x, T.p)[1]), grad, "grad f")
+    _assert_exact(_dense(assembled["nlp_jac_g"](x, T.p)[1]), jac, "jac g")
+    _assert_exact(_dense(assembled["nlp_hess_l"](x, T.p, sigma, lam)), hess, "triu hess L")

@@ -41,7 +41,7 @@ def transcribe(problem, layouts, scales):
         ``momenta(x, p) -> P``, x and p numpy vectors, P of shape (n, N+1): p_0 ... p_N
         (`momenta_function` of the problem's momentum treatment).
     """
-    X, P, G = (_indices(lay) for lay in layouts)
+    X, P, G = (block_indices(lay) for lay in layouts)
     step = _StepSlots(problem, X, P, G, scales, (layouts[0].size, layouts[1].size))
     terms = problem.momentum_treatment.dynamics_terms(step, G["dynamics"]) + [step.start(), step.goal()]
     terms += path_terms(step, G) + hull_terms(step, G)
@@ -82,10 +82,10 @@ class _StepSlots:
         return {**{k + suffix: v for k, v in slots.items()}, "h": self.h}
 
     def term(self, name, slots, body, g_index):
-        """`_term` with q_ref added to the slots of source "q" and the problem's scales, its
+        """`slot_term` with q_ref added to the slots of source "q" and the problem's scales, its
         Function built once per `_functions_key` and scales (the index arrays are this
         problem's)."""
-        return _term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name),
+        return slot_term(name, {**slots, "q_ref": ("p", self.q_ref)}, body, g_index, (self.key, name),
                      self.scales)
 
     def step_cost(self, s):
@@ -134,7 +134,7 @@ class _StepSlots:
         return ca.vertcat(*rows)
 
 
-def _term(name, slots, body, g_index, key, scales):
+def slot_term(name, slots, body, g_index, key, scales):
     """A Term from named slots {name: (source, index array (size, M), or (size, 1) shared
     by every instance)} and ``body(symbols) -> (f, g)``, its Function cached under `key`,
     the slots' aliasing and their scales. Source "x" or "p": entries of x or p; "q":
@@ -186,7 +186,7 @@ def _functions_key(problem, G):
             problem.parameters.schedule.key, tuple(problem.velocity_bounded), digest.hexdigest())
 
 
-def _indices(layout):
+def block_indices(layout):
     """{block: its flat indices as a (rows, cols) int array}."""
     every = np.arange(layout.size)
     return {name: layout.unpack(every, name) for name in layout.blocks}

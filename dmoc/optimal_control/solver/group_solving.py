@@ -13,12 +13,14 @@ from ..._util import checks
 from ...errors import failure
 from ...mechanics.rotations import cayley_inverse
 from ...principle.rotation_trajectory import RotationTrajectory
+from ..nlp.evaluation import compiled_when_ready, spent
 from ..nlp.group_transcription import group_transcription
 from ..statement.group_problem import GroupOptimalControlProblem
 from . import interrupt
-from .ipopt import DEFAULT_IPOPT_OPTIONS, iteration_count
+from .ipopt import iteration_count, start_options
+from .ipopt import solver as ipopt_solver
 from .optimization_result import OptimizationResult
-from .violation import most_violated
+from .solving import values_at_x
 
 
 def solve_on_group(problem, *, options=None, throw=True):
@@ -39,47 +41,61 @@ def solve_on_group(problem, *, options=None, throw=True):
         ``trajectory`` a RotationTrajectory; ``x`` the NLP vector (`GroupTranscription`);
         ``stats``: ``iterations``, ``return_status``, ``max_violation`` (of all rows'
         bounds), ``most_violated`` (that row named: "path constraint i at knot k", "dynamics
-        at step k (left row r)", ...; "none"), ``solve_time``, ``warm_start`` (False).
+        at step k (left row r)", ...; "none"), ``solve_time``, ``warm_start`` (False),
+        ``build_time`` (seconds creating the solver, 0 when kept from an earlier solve of
+        the structure) and ``compiled`` (whether IPOPT evaluated compiled Functions).
     """
     checks.instance("problem", problem, GroupOptimalControlProblem, "a GroupOptimalControlProblem")
     throw = checks.boolean("throw", throw)
     T = group_transcription(problem)
-    solver = group_solver(T, {**DEFAULT_IPOPT_OPTIONS, **(options or {})})
     start = {"x0": geodesic_guess(problem, T), "lbx": T.lbx, "ubx": T.ubx}
-    return solve_with(problem, T, solver, start, throw=throw)
+    return solve_with(problem, T, options or {}, start, throw=throw)
 
 
-def group_solver(T, options):
-    """The IPOPT nlpsol of the GroupTranscription `T` with the IPOPT `options` (all of them:
-    `DEFAULT_IPOPT_OPTIONS` merged in by the caller)."""
-    return ca.nlpsol("group_dmoc", "ipopt", T.nlp, {"ipopt": options, "print_time": False})
+def solve_with(problem, T, options, start, *, throw=True, warm_start=False, expand=False, jit=None):
+    """One solve of `problem`'s NLP `T` (`group_transcription`) with the IPOPT `options`
+    (over DEFAULT_IPOPT_OPTIONS and `start_options`) from `start`, the nlpsol inputs that
+    change between solves: ``x0``, ``lbx``, ``ubx`` (q_0 and p_0 fixed there), and for a
+    warm start ``lam_x0``, ``lam_g0``; the OptimizationResult of `solve_on_group`, with
+    ``lam_x``, ``lam_g`` and ``stats["warm_start"]`` (as given: a receding-horizon
+    controller re-solves one structure from the shifted previous optimum,
+    `dmoc.drivers.group_horizon`).
 
-
-def solve_with(problem, T, solver, start, *, throw=True, warm_start=False):
-    """One solve of `problem`'s NLP `T` by its `solver` (`group_solver`) from `start`, the
-    nlpsol inputs that change between solves: ``x0``, ``lbx``, ``ubx`` (q_0 and p_0 fixed
-    there), and for a warm start ``lam_x0``, ``lam_g0``; the OptimizationResult of
-    `solve_on_group`, with ``lam_x``, ``lam_g`` and ``stats["warm_start"]`` (as given: a
-    receding-horizon controller re-solves one solver from the shifted previous optimum,
-    `dmoc.drivers.group_horizon`)."""
+    The solver is the one a problem on R^n gets (`dmoc.optimal_control.solver.ipopt.solver`):
+    kept per structure and options, evaluating the terms' Functions as `expand` and `jit`
+    say (`jit` None: compiled once warm re-solves of the structure have spent
+    `COMPILE_AFTER_SECONDS` in IPOPT, `dmoc.optimal_control.nlp.evaluation`)."""
+    automatic = jit is None
+    if automatic:
+        jit = compiled_when_ready(T.separable, warm_start)
+    tic = time.perf_counter()
+    solver, reused, _ = ipopt_solver(T, {**start_options(warm_start), **options}, expand=expand,
+                                     reuse=True, report=False, jit=jit)
+    build_time = 0.0 if reused else time.perf_counter() - tic
+    zeros_x, zeros_g = np.zeros(T.x_layout.size), np.zeros(T.g_layout.size)
     tic = time.perf_counter()
     with interrupt.watch() as sigints:
-        sol = solver(lbg=T.lbg, ubg=T.ubg, **start)
+        sol = solver(x0=start["x0"], p=T.p, lam_x0=start.get("lam_x0", zeros_x),
+                     lam_g0=start.get("lam_g0", zeros_g), lbx=start["lbx"], ubx=start["ubx"],
+                     lbg=T.lbg, ubg=T.ubg)
     st = solver.stats()
-    x = np.array(sol["x"]).ravel()
-    largest, row = most_violated(T, np.array(sol["g"]).ravel())
+    cost, (largest, row) = values_at_x(T, sol, st["success"])
     stats = {"iterations": iteration_count(st), "return_status": st["return_status"],
              "max_violation": largest, "most_violated": row,
-             "solve_time": time.perf_counter() - tic, "warm_start": warm_start}
+             "solve_time": time.perf_counter() - tic, "warm_start": warm_start,
+             "build_time": build_time, "compiled": jit}
+    if automatic and warm_start and not jit:
+        spent(T.separable, st.get("t_wall_total", stats["solve_time"]))
     success, status = bool(st["success"]), st["return_status"]
     message = (f"IPOPT: {status} after {stats['iterations']} iterations; most violated: {row} "
                f"(|violation| = {largest:.2e}).")
-    interrupted = interrupt.verdict(sigints, stats["iterations"], float(sol["f"]))
+    interrupted = interrupt.verdict(sigints, stats["iterations"], cost)
     if interrupted is not None:
         (status, message), success = interrupted, False
-    result = OptimizationResult(trajectory=trajectory_of(problem, T, x), cost=float(sol["f"]),
-                                success=success, status=status, message=message, stats=stats, x=x,
-                                lam_x=np.array(sol["lam_x"]).ravel(), lam_g=np.array(sol["lam_g"]).ravel())
+    x = sol["result_x"]
+    result = OptimizationResult(trajectory=trajectory_of(problem, T, x), cost=cost, success=success,
+                                status=status, message=message, stats=stats, x=x,
+                                lam_x=sol["result_lam_x"], lam_g=sol["result_lam_g"])
     if throw and not success:
         raise failure(message + " The last iterate is in `.result`.", result)
     return result
@@ -87,20 +103,22 @@ def solve_with(problem, T, solver, start, *, throw=True, warm_start=False):
 
 def geodesic_guess(problem, T):
     """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`) and x_k on the
-    segment between the ends bent by `bump`, f_k = (cay^{-1}(R_k^T R_{k+1}), x_{k+1} -
-    x_k), p_k = M(q_k) f_k / h with M the body's `generalized_mass` (diag(J, M_x) of a
-    rigid body; the last step's f at N), zero multipliers and controls."""
+    segment between the ends bent by `bump`, f_k = (cay^{-1}(R_0^T R_1), x_{k+1} - x_k)
+    (the geodesic's increments R_k^T R_{k+1} are all the one rotation exp(log(R_start^T
+    R_goal) / N)), p_k = M(q_k) f_k / h with M the body's `generalized_mass` (diag(J, M_x)
+    of a rigid body; the last step's f at N), zero multipliers and controls."""
     R, N = problem.geodesic(), problem.steps
     body = problem.disc.system
     tau = np.linspace(0.0, 1.0, N + 1)
     M_x = np.array(body.generalized_mass(np.concatenate([problem.R_start.ravel(), problem.x_start])))[3:, 3:]
     x = (problem.x_start + np.outer(tau, problem.x_goal - problem.x_start)
          + np.outer(np.sin(np.pi * tau), bump(M_x, problem.x_goal - problem.x_start)))
-    f = np.hstack([[np.array(cayley_inverse(ca.DM(R0.T @ R1))).ravel() for R0, R1 in zip(R[:-1], R[1:])],
-                   np.diff(x, axis=0)])
+    turn = np.array(cayley_inverse(ca.DM(R[0].T @ R[1]))).ravel()
+    f = np.hstack([np.tile(turn, (N, 1)), np.diff(x, axis=0)])
     q = np.hstack([R.reshape(-1, 9), x])
-    rates = np.vstack([f, f[-1:]]) / problem.disc.h
-    p = np.array([np.array(body.generalized_mass(q_k)) @ v_k for q_k, v_k in zip(q, rates)])
+    n = f.shape[1]
+    M = np.array(body.generalized_mass.map(N + 1)(q.T)).reshape(n, N + 1, n).transpose(1, 0, 2)
+    p = np.einsum("kij,kj->ki", M, np.vstack([f, f[-1:]]) / problem.disc.h)
     blocks = {"q": q.T, "p": p.T, "f": f.T,
               "lam": np.zeros((body.m, N)), "u": np.zeros((problem.residual.n_controls, N)),
               "nu": np.zeros(body.m)}

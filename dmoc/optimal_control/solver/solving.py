@@ -90,7 +90,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     times["nlp_solver"] = "ipopt" if newton is None else "newton"
     if newton is not None:
         times["newton_time"] = newton[2]
-    cost, worst = _values_at_x(T, sol, st["success"])
+    cost, worst = values_at_x(T, sol, st["success"])
     stats = _statistics(st, times, worst)
     if automatic and warm and not jit:
         spent(T.separable, stats["ipopt_time"] if newton is None else stats["newton_time"])
@@ -149,7 +149,7 @@ def _result(problem, solver, sol, fixed, outcome):
     return OptimizationResult(traj, *outcome, x, lam_x, sol["result_lam_g"], T.structure, T.q_ref.copy())
 
 
-def _values_at_x(transcription, sol, converged):
+def values_at_x(transcription, sol, converged):
     """(f, (largest violation, its row described)) of the NLP at the x IPOPT returned in
     `sol` (`ipopt.PackedSolver`'s outputs): IPOPT's own last f, and the largest violation
     at its last g that the packed call found, when they were evaluated at that x, else f
