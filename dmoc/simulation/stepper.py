@@ -26,6 +26,7 @@ from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
+from .continuation import continued_step
 from .fast_path import fast_step
 
 NATIVE_AFTER_SECONDS = 0.5
@@ -231,7 +232,9 @@ class DiracStepper:
 
         Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
         the failed step (NaN when it turned non-finite) or None, number of steps redone by
-        the robust path, whether a KeyboardInterrupt stopped the run). An interrupt arrives
+        the robust path, whether a KeyboardInterrupt stopped the run, the list of the steps
+        k whose root was found by continuation in h, `dmoc.simulation.continuation`; they
+        count among the redone). An interrupt arrives
         between chunks or inside CasADi's evaluation of one; the k steps counted so far are
         accepted ones, so the chunk it cut short is dropped and the rest kept.
         """
@@ -245,20 +248,21 @@ class DiracStepper:
         are done, redoing step k with the line-search Newton first when `redo` (the fast
         path did not converge it): how a run that leaves the lockstep goes on
         (`dmoc.simulation.lockstep`) as `run` would have gone on at that step."""
-        done = [k, 0]           # steps accepted, steps redone: what an interrupt keeps
+        done = [k, 0, []]       # steps accepted, redone, continued: what an interrupt keeps
         try:
             rnorm = self._redo(acc, out, controls, h, done) if redo else None
             if rnorm is None:
                 rnorm = self._steps(acc, out, controls, h, done, law)
         except KeyboardInterrupt:
-            k, redone = done
-            return acc[:k + 1], out[:k], None, redone, True
-        k, redone = done
-        return acc[:k + 1], out[:k], rnorm, redone, False
+            k, redone, continued = done
+            return acc[:k + 1], out[:k], None, redone, True, continued
+        k, redone, continued = done
+        return acc[:k + 1], out[:k], rnorm, redone, False, continued
 
     def _steps(self, acc, out, controls, h, done, law=None):
         """Fill `acc` and `out` chunk by chunk (by steps under a `law`: controls[k] = law(k,
-        acc[k]) first), counting in `done` = [steps accepted, steps redone]; return the
+        acc[k]) first), counting in `done` = [steps accepted, steps redone, the steps continued];
+        return the
         rnorm of a failed step (NaN when non-finite), or None."""
         N = controls.shape[0]
         steps = np.full(min(N, CHUNK), float(h))
@@ -283,14 +287,19 @@ class DiracStepper:
 
     def _redo(self, acc, out, controls, h, done):
         """Redo step k = done[0], which the fast path did not converge, with the line-search
-        Newton; None when it converges (then counted in `done`), else its rnorm (NaN when
-        non-finite)."""
+        Newton from the previous step's root, and where that fails by continuation in h
+        (`continued_step`); None when either converges (then counted in `done`), else the
+        rnorm of the first (NaN when non-finite)."""
         k = done[0]
-        acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
-        if not self.accepted(out1)[0]:
-            finite = out1[0, self.out.slice("nonfinite").start] == 0
-            return float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
-        acc[k + 1], out[k] = acc1[0], out1[0]
+        acc1, out1 = (np.array(x).T[0] for x in self.robust(acc[k], controls[k], h))
+        if not self.accepted(out1[None, :])[0]:
+            continued = continued_step(self, acc[k], controls[k], h)
+            if continued is None:
+                finite = out1[self.out.slice("nonfinite").start] == 0
+                return float(out1[self.out.slice("rnorm").start]) if finite else np.nan
+            acc1, out1 = continued
+            done[2].append(k)
+        acc[k + 1], out[k] = acc1, out1
         done[0] = k + 1
         done[1] += 1
         return None
