@@ -16,7 +16,7 @@ from dmoc.drivers.active_limits import touches
 from dmoc.drivers.error_estimate import UNRESOLVED_END, estimate_error
 from dmoc.drivers.verdict import verdict_message
 
-from .verdict_study import (Case, keep_out, running_cost, knife_edge_plant, random_problems, replay,
+from .verdict_study import (CAP, Case, keep_out, running_cost, knife_edge_plant, random_problems, replay,
                             rolling_disk_plant, truth, vector_field)
 
 J_PARKING = 8.72240586430       # knife-edge parking, m = J = 1, T = 4 (issue 23)
@@ -110,7 +110,8 @@ def test_a_large_first_step_replays_by_continuation():
     final time. From rest, `simulate`'s Newton iteration finds no root of the first step
     (it was refused, "no root", a false refusal of the study); followed in h from a small
     step (`dmoc.simulation.continuation`) the root is IPOPT's, to round-off. Its truth:
-    DOP853 under the optimum's controls stays within 0.03 of the span of its knots."""
+    DOP853 under the optimum's controls stays within 0.11 of each coordinate's excursion
+    (0.03 of the largest), below the study's CAP (its cost is 3.9e-3 off)."""
     case, = random_problems(23, seed=41, only={22})
     result = dmoc.optimize(case.problem, throw=False)
     assert result.success and result.verdict.passed
@@ -120,7 +121,7 @@ def test_a_large_first_step_replays_by_continuation():
                         steps=traj.steps, controls=traj.u, throw=False, jit=False)
     assert run.stats["continued_steps"] == [0]
     departure, _ = replay(case, traj)
-    assert departure < 0.05
+    assert departure < 0.11 < CAP
 
 
 def test_a_replay_that_finds_no_root_says_where_and_not_inf():
