@@ -50,7 +50,8 @@ def continued_step(stepper, state, u, h):
         The next state, shape (state.size,), and the step's outputs, shape
         (stepper.out.size,), of the root at t = 1, as the robust step gives them.
     """
-    unknowns = slice(state.size - stepper.unknowns.size, state.size)
+    blocks = [stepper.state.slice(name) for name in stepper.unknowns.blocks]
+    unknowns = slice(blocks[0].start, blocks[-1].stop)      # the warm start y: dq, nu, ds in a row
     roots, warm = [(0.0, np.zeros(stepper.unknowns.size))], state[unknowns]
     fraction = increment = 0.5
     seed = fraction * warm
