@@ -13,6 +13,7 @@ from .._util import checks
 from ..errors import InputError, SolverError, Status, failure
 from ..optimal_control import OptimalControlProblem
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
+from .active_limits import barrier_offset
 from .error_estimate import richardson_estimate, with_estimate
 from .group_optimum import judged_level_solve
 
@@ -21,6 +22,8 @@ from .group_optimum import judged_level_solve
 SMALLEST_ACCURACY = 1e-9
 # A level multiplies N by at most this, whatever a pre-asymptotic estimate predicts.
 GROWTH = 16
+# what to do where IPOPT's own offset from the bounds it holds is too large
+_SMALLER_TOL = "a smaller IPOPT tolerance (`options={\"tol\": ...}`: the offset shrinks in proportion)"
 
 
 def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **keywords):
@@ -83,12 +86,17 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
     and N grows by up to GROWTH a level. One the verdict finds under-resolved is refined
     to 2N like the first, any other failure ends the loop. The rule stays the problem's:
     a higher order reaches small targets on far fewer steps (benchmarks/accuracy.py).
+    IPOPT's own offset from the bounds it holds (`ErrorEstimate.solver`) grows with N:
+    where it exceeds half the target the loop stops ("accuracy_not_reached"), and it
+    stops before a level whose offset, predicted from the levels so far
+    (`_predicted_offset`), would, rather than solve that level to refuse it.
     """
     checks.instance("problem", problem, (OptimalControlProblem, GroupOptimalControlProblem),
                     "an OptimalControlProblem or a GroupOptimalControlProblem")
     accuracy = _accuracy(accuracy)
     max_steps = checks.positive_int("max_steps", max_steps)
     levels, level, previous, tic = [], problem, None, time.perf_counter()
+    offsets = []            # (N, IPOPT's offset from the bounds) of each level
     while True:
         result = judged_level_solve(level, guess=guess if previous is None else previous.trajectory,
                                     **{**keywords, "throw": False})
@@ -104,7 +112,40 @@ def optimize_to_accuracy(problem, accuracy, *, guess=None, max_steps=100_000, **
         steps = 2 * level.steps if estimate is None else _next_steps(level.steps, estimate, accuracy)
         if steps > max_steps:
             return _finished(level, result, levels, estimate, accuracy, keywords, max_steps)
+        offsets.append((level.steps, _offset(level, result, estimate)))
+        predicted = _predicted_offset(offsets, steps)
+        if predicted > accuracy / 2:            # the next level would end so: stop before it
+            return _finished(level, result, levels, estimate, accuracy, keywords, level.steps,
+                             (steps, predicted))
         level, previous = level.with_steps(steps), result
+
+
+def _offset(problem, result, estimate):
+    """IPOPT's offset from the bounds it holds (`ErrorEstimate.solver`) of the level
+    `problem`'s `result`, computed where the level has no `estimate` (the first); 0 on
+    SO(3), whose NLP bounds only the boundary data."""
+    if estimate is not None:
+        return estimate.solver
+    return 0.0 if isinstance(problem, GroupOptimalControlProblem) else barrier_offset(problem, result)
+
+
+def _predicted_offset(offsets, steps):
+    """IPOPT's offset from the bounds it holds (`ErrorEstimate.solver`) predicted on
+    `steps` steps from the levels' (N, offset) pairs `offsets`, the last the latest:
+    s (steps / N)^g from the last level's s on N steps, g the growth measured between the
+    last two levels (log(s / s') / log(N / N')), at least 1.
+
+    The interior point stays mu / |lam_i| off each bound it holds, and the cost of that
+    shift, sum |lam_i| mu / |lam_i| over the bounds held, grows at least in proportion to
+    their number, so to N; where IPOPT's last barrier parameter or the multipliers change
+    with N it grows faster (the knife edge's minimum time with -0.5 <= u0 <= 1, lobatto4:
+    doubling from 13 to 104 steps, times 4 per doubling from 104 to 416), which the
+    measured growth follows."""
+    N, offset = offsets[-1]
+    growth = 1.0
+    if len(offsets) > 1 and offsets[-2][1] > 0 and offset > 0:
+        growth = max(1.0, math.log(offset / offsets[-2][1]) / math.log(N / offsets[-2][0]))
+    return offset * (steps / N) ** growth
 
 
 def _accuracy(value):
@@ -139,11 +180,12 @@ def _rule_name(problem):
     return rule if isinstance(rule, str) else rule.name
 
 
-def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=None):
+def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=None, predicted=None):
     """The last level's (of `problem`) result with the levels and the estimate in its stats; status
     ``"accuracy_not_reached"`` when `max_steps` stopped the loop (or IPOPT's own offset,
-    `ErrorEstimate.solver`, exceeds half the target: `max_steps` the level's steps then);
-    SolverError with throw when it failed."""
+    `ErrorEstimate.solver`, exceeds half the target, or is `predicted` to on the next
+    level, (steps, offset): `max_steps` the level's steps then); SolverError with throw
+    when it failed."""
     result = replace(result, stats={**result.stats, "levels": levels})
     if estimate is not None:
         result = with_estimate(result, estimate)
@@ -173,8 +215,14 @@ def _finished(problem, result, levels, estimate, accuracy, keywords, max_steps=N
         message = (f"Accuracy {accuracy:g} not reached: on {levels[-1]['steps']} steps IPOPT's "
                    f"interior point stays off the bounds it holds by {estimate.solver:.1e} of "
                    f"the cost (`ErrorEstimate.solver`), more than half the target, and more "
-                   f"steps make that larger; pass a smaller IPOPT tolerance "
-                   f"(`options={{\"tol\": ...}}`: the offset shrinks in proportion).")
+                   f"steps make that larger; pass {_SMALLER_TOL}.")
+    elif predicted is not None:
+        message = (f"Accuracy {accuracy:g} not reached: the next level would have {predicted[0]} "
+                   f"steps, where IPOPT's interior point would stay off the bounds it holds by "
+                   f"about {predicted[1]:.1e} of the cost (`ErrorEstimate.solver`, "
+                   f"{_offset(problem, result, estimate):.1e} on {levels[-1]['steps']} steps, "
+                   f"growing with N), more than half the target, so it was not solved. "
+                   f"Pass {_SMALLER_TOL}.")
     result = replace(result, success=False, status=Status.ACCURACY_NOT_REACHED, message=message,
                      stats=stats)
     if keywords.get("throw", True):

@@ -52,7 +52,9 @@ def judge(problem, result):
     -----
     The replay solves the step equations (37) (variant "+") or (41) (variant "-") step by
     step with Newton's method from (q_0, p_0) and the optimal controls (`dmoc.simulate`),
-    which follows the root that continues the previous step; the optimum satisfies the
+    which follows the root that continues the previous step (where it finds none, the
+    root followed in h from a small step: `dmoc.simulation.continuation`, the branch
+    that tends to the continuous flow as h -> 0); the optimum satisfies the
     same equations as NLP rows, at whatever root IPOPT reached. Their agreement to
     `REPLAY_TOLERANCE` says that IPOPT's root is the simulator's. The velocity jumps are
     those of the rule's interpolant at the knots (`dmoc.diagnostics.velocity_changes`), the
@@ -212,9 +214,11 @@ def _departure(verdict, traj, jump):
         k = verdict.replay_step
         return (f"the replay from its initial state with its controls stops on the step from "
                 f"knot {k - 1} to knot {k} (t = {traj.t[k - 1]:.4g} to {traj.t[k]:.4g}), where "
-                f"`simulate`'s Newton iteration finds no root of the step equations; {jump}. "
-                f"The step equations have other roots where a step is large: IPOPT found one "
-                f"of those, or the simulator's iteration cannot follow a step this large.")
+                f"`simulate`'s Newton iteration finds no root of the step equations, neither "
+                f"from the previous step's root nor followed from a small step up to this one "
+                f"(continuation in h); {jump}. The step equations have other roots where a step "
+                f"is large: IPOPT found one of those, or the physical root does not reach a "
+                f"step this large (use more steps).")
     return (f"the replay from its initial state with its controls departs by "
             f"{verdict.replay_q:.2e} of the configurations' span ({verdict.replay_q * q_scale(traj):.3g} "
             f"in their units) and {verdict.replay_p:.2e} of the momenta's size (limit "

@@ -76,7 +76,7 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
     residual, native = group_step_residual(disc), native_choice(jit)
     stepper = _STEPPERS.get((residual.key, tol, max_iter, native),
                             lambda: GroupStepper(residual, tol, max_iter, native))
-    acc, out, failed_rnorm, redone, stopped = stepper.run(start, controls, disc.h)
+    acc, out, failed_rnorm, redone, stopped, continued = stepper.run(start, controls, disc.h)
     k = out.shape[0]
     state = stepper.state.split(acc)
     q, p = state["q"], state["p"]
@@ -84,7 +84,7 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
                                         p[:, :3], state["dq"][1:], controls[:k].copy(), disc.h,
                                         q[:, 9:], p[:, 3:], out[:, stepper.out.slice("nu")])
     rnorm = out[:, stepper.out.slice("rnorm")]
-    stats = run_stats(steps, k, redone, float(rnorm.max()) if k else 0.0, stepper.native,
+    stats = run_stats(steps, k, redone, continued, float(rnorm.max()) if k else 0.0, stepper.native,
                       time.perf_counter() - tic)
     if stopped:
         return interrupted_result(traj, stats, throw)

@@ -149,10 +149,10 @@ def run_lockstep(stepper, starts, controls, h):
     except KeyboardInterrupt:
         for i in active:
             if outcomes[i] is None:
-                outcomes[i] = (acc[i, :k + 1], out[i, :k], None, 0, True)
+                outcomes[i] = (acc[i, :k + 1], out[i, :k], None, 0, True, [])
         return acc, out, outcomes
     for i in active:
-        outcomes[i] = (acc[i], out[i], None, 0, False)
+        outcomes[i] = (acc[i], out[i], None, 0, False, [])
     return acc, out, outcomes
 
 

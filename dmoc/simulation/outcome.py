@@ -28,7 +28,9 @@ class SimulationResult:
     message : str
     stats : dict
         ``steps`` requested, ``completed_steps``, ``robust_steps`` (steps the line-search
-        Newton redid), ``max_residual`` (max-norm of R over the completed steps, checked
+        Newton redid), ``continued_steps`` (the list of the steps k among those whose root
+        Newton found only by continuation in h, from a small step up:
+        `dmoc.simulation.continuation`), ``max_residual`` (max-norm of R over the completed steps, checked
         at every step on both paths), ``native`` (True when the fast path ended the run as
         compiled C), ``wall_time`` in seconds (building or loading the compiled step included).
     """
@@ -45,11 +47,11 @@ class SimulationResult:
 ROUNDOFF_FLOOR = 100 * np.finfo(float).eps
 
 
-def run_stats(steps, k, redone, max_residual, native, wall):
+def run_stats(steps, k, redone, continued, max_residual, native, wall):
     """A run's ``stats``: of `steps` asked, `k` completed, `redone` of them by the
-    line-search Newton, the largest residual, whether the step ran compiled, the wall
-    seconds."""
-    return {"steps": steps, "completed_steps": k, "robust_steps": redone,
+    line-search Newton, the list of those `continued` (their root found by continuation in
+    h), the largest residual, whether the step ran compiled, the wall seconds."""
+    return {"steps": steps, "completed_steps": k, "robust_steps": redone, "continued_steps": continued,
             "max_residual": max_residual, "native": native, "wall_time": wall}
 
 

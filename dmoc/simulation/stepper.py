@@ -6,14 +6,14 @@ multiplier it solves for enter the step (`Formulation.step_momentum`).
 Each step solves every residual row but "right" for y = (dq, nu, ds): the increment of
 the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
-(-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton
-iterations (`dmoc.simulation.fast_path`, optionally compiled to C; each update through the
-Schur complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
-converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
-horizons of 1, 2, 4, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on
-disk (`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate the
-same horizons mapped over up to LOCKSTEP runs (`horizons_of`), and a run that leaves them
-goes on with `resume`.
+(-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton iterations
+(`dmoc.simulation.fast_path`, optionally compiled to C; each update through the Schur
+complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
+converge is redone by CasADi's line-search Newton rootfinder, and where that fails by
+continuation in h (`dmoc.simulation.continuation`). Compiled, the fast path's horizons of
+1, 2, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on disk
+(`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate them
+mapped over up to LOCKSTEP runs (`horizons_of`); a run that leaves goes on with `resume`.
 """
 
 import time
@@ -26,6 +26,7 @@ from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
+from .continuation import continued_step
 from .fast_path import fast_step
 
 NATIVE_AFTER_SECONDS = 0.5
@@ -231,9 +232,9 @@ class DiracStepper:
 
         Returns (states (k + 1, state.size), `start` first, outputs (k, out.size), rnorm of
         the failed step (NaN when it turned non-finite) or None, number of steps redone by
-        the robust path, whether a KeyboardInterrupt stopped the run). An interrupt arrives
-        between chunks or inside CasADi's evaluation of one; the k steps counted so far are
-        accepted ones, so the chunk it cut short is dropped and the rest kept.
+        the robust path, whether a KeyboardInterrupt stopped the run, the steps k of those
+        found by continuation in h). An interrupt arrives between chunks or inside one's
+        evaluation; the k steps counted so far are accepted, the chunk it cut short dropped.
         """
         N = controls.shape[0]
         acc, out = np.empty((N + 1, self.state.size)), np.empty((N, self.out.size))
@@ -245,20 +246,19 @@ class DiracStepper:
         are done, redoing step k with the line-search Newton first when `redo` (the fast
         path did not converge it): how a run that leaves the lockstep goes on
         (`dmoc.simulation.lockstep`) as `run` would have gone on at that step."""
-        done = [k, 0]           # steps accepted, steps redone: what an interrupt keeps
+        done, interrupted = [k, 0, []], False   # steps accepted, redone, continued: kept on Ctrl-C
         try:
             rnorm = self._redo(acc, out, controls, h, done) if redo else None
             if rnorm is None:
                 rnorm = self._steps(acc, out, controls, h, done, law)
         except KeyboardInterrupt:
-            k, redone = done
-            return acc[:k + 1], out[:k], None, redone, True
-        k, redone = done
-        return acc[:k + 1], out[:k], rnorm, redone, False
+            rnorm, interrupted = None, True
+        k, redone, continued = done
+        return acc[:k + 1], out[:k], rnorm, redone, interrupted, continued
 
     def _steps(self, acc, out, controls, h, done, law=None):
         """Fill `acc` and `out` chunk by chunk (by steps under a `law`: controls[k] = law(k,
-        acc[k]) first), counting in `done` = [steps accepted, steps redone]; return the
+        acc[k]) first), counting in `done` = [steps accepted, redone, continued]; return the
         rnorm of a failed step (NaN when non-finite), or None."""
         N = controls.shape[0]
         steps = np.full(min(N, CHUNK), float(h))
@@ -283,15 +283,18 @@ class DiracStepper:
 
     def _redo(self, acc, out, controls, h, done):
         """Redo step k = done[0], which the fast path did not converge, with the line-search
-        Newton; None when it converges (then counted in `done`), else its rnorm (NaN when
-        non-finite)."""
+        Newton, where that fails by continuation in h (`continued_step`); None when either
+        converges (counted in `done`), else the first's rnorm (NaN when non-finite)."""
         k = done[0]
-        acc1, out1 = (np.array(x).T for x in self.robust(acc[k], controls[k], h))
-        if not self.accepted(out1)[0]:
-            finite = out1[0, self.out.slice("nonfinite").start] == 0
-            return float(out1[0, self.out.slice("rnorm").start]) if finite else np.nan
-        acc[k + 1], out[k] = acc1[0], out1[0]
-        done[0] = k + 1
-        done[1] += 1
+        acc1, out1 = (np.array(x).T[0] for x in self.robust(acc[k], controls[k], h))
+        if not self.accepted(out1[None, :])[0]:
+            continued = continued_step(self, acc[k], controls[k], h)
+            if continued is None:
+                finite = out1[self.out.slice("nonfinite").start] == 0
+                return float(out1[self.out.slice("rnorm").start]) if finite else np.nan
+            acc1, out1 = continued
+            done[2].append(k)
+        acc[k + 1], out[k] = acc1, out1
+        done[:2] = k + 1, done[1] + 1
         return None
 

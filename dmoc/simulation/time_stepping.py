@@ -127,12 +127,12 @@ def conclude(run, stepped, *, final=False):
     """The SimulationResult of `run` from what its stepper returned (`DiracStepper.run`):
     the trajectory of the steps kept (of its last knot only when `final`, as
     `Trajectory.assembled` cuts it), the stats, and the verdict (raised with `throw`)."""
-    acc, out, failed_rnorm, redone, interrupted = stepped
+    acc, out, failed_rnorm, redone, interrupted, continued = stepped
     wall = time.perf_counter() - run.tic
     stepper, k = run.stepper, out.shape[0]
     traj = _assemble(stepper, run.formulation, run.disc, run.controls[:k], acc, out, final)
     rnorm = out[:, stepper.out.slice("rnorm")]
-    stats = _stats(run, k, redone, float(rnorm.max()) if k else 0.0, wall)
+    stats = _stats(run, k, redone, continued, float(rnorm.max()) if k else 0.0, wall)
     if interrupted:
         return interrupted_result(traj, stats, run.throw)
     explain = getattr(run.disc.system, "step_failure_hint", None)
@@ -150,7 +150,7 @@ def conclude_group(runs, controls, acc, out, stepped, *, final=False, memory=np.
     trajectory's arrays are views."""
     N = acc.shape[1] - 1
     results, whole = [None] * len(runs), []
-    for i, (_, o, _, _, cut) in enumerate(stepped):
+    for i, (_, o, _, _, cut, _) in enumerate(stepped):
         if o.shape[0] == N and not cut:
             whole.append(i)
         else:                                               # failed or interrupted
@@ -163,14 +163,14 @@ def conclude_group(runs, controls, acc, out, stepped, *, final=False, memory=np.
                                  acc[rows], out[rows], final, memory)
         largest = out[rows, :, first.stepper.out.slice("rnorm")].max(axis=(1, 2))
         for i, traj, rnorm in zip(whole, trajectories, largest):
-            stats = _stats(runs[i], N, stepped[i][3], float(rnorm), now - runs[i].tic)
+            stats = _stats(runs[i], N, stepped[i][3], stepped[i][5], float(rnorm), now - runs[i].tic)
             results[i] = finished_result(traj, stats, None, runs[i].tol, runs[i].throw)
     return results
 
 
-def _stats(run, k, redone, max_residual, wall):
+def _stats(run, k, redone, continued, max_residual, wall):
     """`run_stats` of `run` after `k` completed steps, `wall` seconds after its `tic`."""
-    return run_stats(run.controls.shape[0], k, redone, max_residual, run.stepper.native, wall)
+    return run_stats(run.controls.shape[0], k, redone, continued, max_residual, run.stepper.native, wall)
 
 
 def _assemble(stepper, formulation, disc, controls, acc, out, final, memory=np.empty):

@@ -26,7 +26,7 @@ import dmoc
 import dmoc.problems
 from dmoc.drivers import error_estimate
 from dmoc.drivers.active_limits import barrier_offset, switches
-from dmoc.drivers.accuracy import GROWTH, optimize_to_accuracy
+from dmoc.drivers.accuracy import GROWTH, _predicted_offset, optimize_to_accuracy
 from dmoc.drivers.high_order import started_solve
 from dmoc.drivers.error_estimate import estimate_error
 
@@ -431,8 +431,10 @@ def test_ipopts_own_offset_from_the_bounds_is_part_of_the_target():
     sqrt(6) while the grid's error is 4.6e-5 (tol 1e-13, where the offset is 1000 times
     smaller): the offset's estimate (`ErrorEstimate.solver`) is within a factor 2 of that
     shift. accuracy=1e-4 from 26 steps reported success on 52 with the order-1 estimate
-    8.1e-5; now the offset, 7.7e-5, adds to it, the loop stops (more steps make it larger)
-    and says to lower IPOPT's tol, which then meets the target (on 145 steps)."""
+    8.1e-5; now the offset adds to it and more steps make it larger: the loop stops on 26
+    steps, the offset predicted on 52 (from 3.8e-5 on 26) within 10 % of the one measured
+    there (7.7e-5), more than half the target, and says to lower IPOPT's tol, which then
+    meets the target (on 145 steps)."""
     problem = minimum_time(52, brake=0.5, weight=1e-5)
     loose, tight = (dmoc.optimize(problem, options={**QUIET, "tol": tol}) for tol in (1e-10, 1e-13))
     shift = abs(final_time(loose) - final_time(tight)) / np.sqrt(6.0)
@@ -441,9 +443,29 @@ def test_ipopts_own_offset_from_the_bounds_is_part_of_the_target():
     result = dmoc.optimize(minimum_time(26, brake=0.5, weight=1e-5), accuracy=1e-4, options=QUIET,
                            throw=False)
     assert (result.success, result.status) == (False, "accuracy_not_reached")
+    assert [level["steps"] for level in result.stats["levels"]] == [26]       # 52 not solved
     assert abs(final_time(result) / np.sqrt(6.0) - 1) > 1e-4
-    assert "IPOPT's interior point stays off the bounds it holds by 7.7e-05 of the cost" in result.message
-    assert "pass a smaller IPOPT tolerance" in result.message
+    predicted = float(result.message.split("bounds it holds by about ")[1].split()[0])
+    assert predicted == pytest.approx(solver[0], rel=0.1) and predicted > 1e-4 / 2
+    assert ("the next level would have 52 steps, where IPOPT's interior point would stay off the "
+            "bounds it holds by about 7.7e-05 of the cost") in result.message
+    assert "3.8e-05 on 26 steps" in result.message and "Pass a smaller IPOPT tolerance" in result.message
     result = dmoc.optimize(minimum_time(26, brake=0.5, weight=1e-5), accuracy=1e-4,
                            options={**QUIET, "tol": 1e-13})
     assert result.success and abs(final_time(result) / np.sqrt(6.0) - 1) <= 1e-4
+
+
+def test_a_level_whose_offset_would_refuse_it_is_not_solved():
+    """-0.5 <= u0 <= 1, a cost of 1 per second, lobatto4 from 13 steps, accuracy=1e-6: the
+    loop went 13, 26, 416, then solved 6656 steps only to find IPOPT's offset there, 7e-6,
+    above half the target. The offset measured on 26 and 416 steps (growing as N^1.5)
+    predicts 1.7e-6 on 6656: the loop stops on 416 and says so. The growth is the measured
+    one, at least linear: doubling from 13 to 104 steps (1.9e-10 ... 1.6e-9), times 4 per
+    doubling beyond (6.4e-9 on 208, 2.6e-8 on 416)."""
+    result = dmoc.optimize(minimum_time(13, brake=0.5), accuracy=1e-6, options=QUIET, throw=False)
+    assert (result.success, result.status) == (False, "accuracy_not_reached")
+    assert [level["steps"] for level in result.stats["levels"]] == [13, 26, 416]
+    assert "the next level would have 6656 steps" in result.message
+    assert _predicted_offset([(104, 1.6e-9), (208, 6.4e-9)], 416) == pytest.approx(2.56e-8)
+    assert _predicted_offset([(13, 2e-10), (26, 3e-10)], 52) == pytest.approx(6e-10)   # at least N
+    assert _predicted_offset([(26, 3.85e-5)], 52) == pytest.approx(7.7e-5)

@@ -56,6 +56,22 @@ def test_the_car_of_the_issue_is_not_replayable(car):
         assert words in result.message
 
 
+def test_a_spurious_root_stays_refused_where_the_replay_continues_in_h():
+    """The car of the issue on 6 steps: IPOPT's optimum undercuts the continuous lower bound
+    (no car motion), and the replay takes its fifth step only by continuation in h from a
+    small step (`dmoc.simulation.continuation`), whose root is the physical one, not
+    IPOPT's: a finite departure, still `not_replayable`."""
+    problem = car_problem(6)
+    result = dmoc.optimize(problem, throw=False)
+    lower_bound = 12 * CAR_MASS ** 2 * np.hypot(*CAR_GOAL[:2]) ** 2 / CAR_T ** 3
+    assert result.stats["return_status"] == "Solve_Succeeded" and result.cost < 0.2 * lower_bound
+    traj = result.trajectory
+    run = dmoc.simulate(problem.disc, q0=traj.q[0], p0=traj.p[0], steps=6, controls=traj.u,
+                        throw=False, jit=False)
+    assert run.success and run.stats["continued_steps"] == [4]
+    assert result.status == "not_replayable" and 0.1 < result.verdict.replay_q < np.inf
+
+
 def test_a_failed_verdict_raises_with_throw_and_keeps_the_optimum(car):
     problem, judged = car
     with pytest.raises(dmoc.SolverError, match="not_replayable") as info:

@@ -30,8 +30,8 @@ declares, DECLARED = 10 times dmoc's own Richardson estimate with its order
 infinite, its coarser solve failed) plus three times the truth's uncertainty: the
 relative cost error |J_N - J*| / |J*|, the final time's |T_N - T*| / T*, the path rows'
 largest value along the replay over their scale max(1, max |g|), and the replay's largest
-departure from the knots over the configurations' span, which must also be below CAP (a
-motion a quarter of its span away is not the motion it claims). A passed verdict on a
+departure from the knots, each coordinate's over its own excursion, which must also be
+below CAP (a motion a quarter of its excursion away is not the motion it claims). A passed verdict on a
 right optimum is a true success, on a wrong one a false success; a refusal of a right one
 a false refusal, of a wrong one a true refusal. IPOPT's own failures are counted apart (no
 optimum to judge), as are truths whose two grids differ by more than TRUTH_SPREAD of J*.
@@ -287,10 +287,13 @@ def _shooting(case, guess_traj, K):
 
 
 def replay(case, traj, per_step=20):
-    """(largest |q(t_k) - q_k| over the span of the optimum's configurations, the path
+    """(largest |q_i(t_k) - q_k,i| over coordinate i's excursion in the optimum, the path
     rows' largest value along the replay over their scale max(1, max |g|) (0 without
     rows)): the continuous plant driven by `traj`'s controls from the start, DOP853 step
-    by step (each step's control polynomial on its own)."""
+    by step (each step's control polynomial on its own). Each coordinate is measured in
+    its own units, so that x off by 1.8 m is not measured against the 12 rad a rolling
+    disk's rolling angle turns through; a coordinate that moves by no more than sqrt(eps)
+    of the largest excursion (one held at rest, moved by round-off) against the largest."""
     n, field = case.plant.n, vector_field(case.plant)
     x = np.concatenate([case.problem.q_start, np.zeros(n)])
     knots, dense = [x[:n]], []
@@ -305,8 +308,10 @@ def replay(case, traj, per_step=20):
         x = run.y[:, -1]
         knots.append(x[:n])
         dense.append(run.y[:n].T)
-    span = np.ptp(traj.q, axis=0).max()
-    departure = float(np.abs(np.array(knots) - traj.q).max() / span)
+    excursion = np.ptp(traj.q, axis=0)
+    largest = excursion.max()
+    scales = np.where(excursion > np.sqrt(np.finfo(float).eps) * largest, excursion, largest)
+    departure = float((np.abs(np.array(knots) - traj.q) / scales).max())
     if case.disc is None:
         return departure, 0.0
     (cx, cy), r = case.disc
