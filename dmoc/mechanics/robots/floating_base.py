@@ -11,12 +11,10 @@ base").
 import casadi as ca
 import numpy as np
 
-from ..._util import checks
 from ..rotations import matrix_of
 from ..system import _fingerprint
 from .link_recursion import energies, placement
-from .robot_system import _chosen_joints, _friction, _tree
-from .urdf_file import read_urdf
+from .robot_system import read_model
 
 
 class FloatingBaseRobot:
@@ -112,12 +110,7 @@ class FloatingBaseRobot:
     m = 0
 
     def __init__(self, path, joints=None, *, friction=None, gravity=9.81):
-        self.path = checks.file_path("path", path)
-        movable, text = read_urdf(self.path)
-        self.joints = _chosen_joints(movable, joints)
-        g = checks.finite_float("gravity", gravity)
-        self.friction = _friction(friction, self.joints)
-        self.links = _tree(text, self.joints)
+        _, g = read_model(self, path, joints, friction, gravity)
         n_s = len(self.joints)
         self.n_x, self.n, self.n_u = 3 + n_s, 6 + n_s, n_s
         self.names = tuple(j.name for j in self.joints)

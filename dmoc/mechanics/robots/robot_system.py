@@ -114,12 +114,7 @@ class RobotSystem(MechanicalSystem):
     """
 
     def __init__(self, path, joints=None, *, wheels=None, friction=None, gravity=9.81):
-        self.path = checks.file_path("path", path)
-        movable, text = read_urdf(self.path)
-        self.joints = _chosen_joints(movable, joints)
-        g = checks.finite_float("gravity", gravity)
-        self.friction = _friction(friction, self.joints)
-        self.links = _tree(text, self.joints)
+        text, g = read_model(self, path, joints, friction, gravity)
         self.wheels = () if wheels is None else read_wheels(wheels, self.joints, self.links,
                                                             text, self.path)
         self.wheel_rows, constraints = (), None
@@ -204,6 +199,19 @@ class RobotSystem(MechanicalSystem):
     def __repr__(self):
         wheels = f", wheels={tuple(w.joint for w in self.wheels)}" if self.wheels else ""
         return f"RobotSystem({str(self.path)!r}{wheels}, n={self.n}, names={self.names})"
+
+
+def read_model(robot, path, joints, friction, gravity):
+    """Set `robot`'s path, joints, friction and links from the URDF file `path` (the
+    `joints` chosen among its movable ones, `friction` per joint); return (the file's
+    text, the checked `gravity`)."""
+    robot.path = checks.file_path("path", path)
+    movable, text = read_urdf(robot.path)
+    robot.joints = _chosen_joints(movable, joints)
+    g = checks.finite_float("gravity", gravity)
+    robot.friction = _friction(friction, robot.joints)
+    robot.links = _tree(text, robot.joints)
+    return text, g
 
 
 def _chosen_joints(movable, joints):
