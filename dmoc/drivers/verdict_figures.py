@@ -1,0 +1,270 @@
+"""The light verdict's figures in one compiled evaluation (a driver, issue 41): the replay
+of every step from its knot (`dmoc.drivers.step_replay`), the departures from the next
+knot, the velocity jumps of the rule's interpolant, the velocity bounds and the path
+constraints at the knots and between them, as one CasADi Function of an optimum's stacked
+arrays per structure and N, compiled to C in the background (`dmoc._util.compiled`) and
+returning every figure `dmoc.drivers.verdict.light_judge` reads, with the knot and the
+row of each maximum (docs/verification.md, "The light verdict of a re-solve").
+
+It computes the numbers the NumPy path computes (`step_replay.step_departure`,
+`dmoc.results.knot_velocities.velocity_changes`, `dmoc.drivers.knot_checks`,
+`dmoc.drivers.interpolant_path`, `dmoc.drivers.verdict_checks`) with the same operations
+in the same order, so the Verdict is the same; while the library is not loaded, or where a
+figure is not finite, the NumPy path judges.
+"""
+
+import casadi as ca
+import numpy as np
+
+from .._util.cache import BoundedCache
+from .._util.compiled import Background, Library, compiler
+from .._util.numeric import Evaluator
+from ..discrete.knot_states import end_velocity_function
+from ..discrete.rules import lagrange_basis
+from ..simulation.stepper import DiracStepper
+from .interpolant_path import BETWEEN_KNOTS
+from .verdict_checks import NO_SCALE, REPLAY_TOLERANCE, REST_TOLERANCE
+
+# keyed by the structure and N (`_key`): its `_Figures`, which keeps the objects whose ids
+# are in the key
+_FIGURES = BoundedCache(16, "verdict_figures")
+# the figures' entries, in the order of the Function's one output
+FIELDS = ("accepted", "finite", "replay_q", "replay_p", "replay_step", "jump", "jump_at",
+          "path", "path_at", "cut", "cut_at")
+_NONE = 2.0 ** 60      # an index above every index: no entry found
+
+
+def figures(problem, traj, step):
+    """{field of `FIELDS`: value} of the optimum `traj` of `problem` by the compiled
+    evaluation (the module notes), `step` the verdict's replay stepper
+    (`step_replay._CompiledStep`); None while its library is not loaded (the first call
+    starts compiling or loading it in the background; never without a C compiler).
+
+    ``accepted``: the fast path accepted every step (`DiracStepper.accepted`);
+    ``finite``: every figure is finite; ``replay_step``: the first knot k = 1 ... N whose
+    step departs beyond REPLAY_TOLERANCE, or -1; ``jump_at``: the index k (n) + i of the
+    largest velocity change at knot k + 1 and coordinate i (-1 for N < 2); ``path_at``: k
+    rows + row of the largest relative value of the knot rows (path constraints, then the
+    velocity bounds), -1 where none exceeds 0; ``cut_at``: the same of the rows between
+    the knots, the point j of step k at k len(BETWEEN_KNOTS) + j.
+    """
+    entry = _FIGURES.get(_key(problem, traj), lambda: _Figures(problem, traj, step))
+    evaluate = entry.evaluator()
+    if evaluate is None:
+        return None
+    arrays = [traj.q.ravel(), traj.p.ravel(), traj.lam.ravel(), traj.s.ravel(), traj.u.ravel(),
+              [traj.h], entry.data(problem)]
+    (out,) = evaluate(np.concatenate(arrays))
+    return dict(zip(FIELDS, out.ravel().tolist()))
+
+
+def _key(problem, traj):
+    """What the Function depends on besides the optimum's values: the discretization (its
+    system, rule and residual), the variant, the shapes, the path constraints and the
+    parameters' schedule, which velocity bounds are finite."""
+    schedule = problem.parameters.schedule
+    return (id(problem.disc), traj.variant, traj.q.shape, traj.lam.shape[1], traj.s.shape[1],
+            traj.u.shape[1], tuple(traj.control_nodes), id(problem.path_constraints), id(schedule),
+            *(tuple(np.isfinite(b)) for b in problem.velocity_bounds))
+
+
+class _Figures:
+    """The figures' Function of one structure and N, built and compiled (or loaded from the
+    cache folder) in the background."""
+
+    def __init__(self, problem, traj, step):
+        self.kept = (problem.disc, problem.path_constraints, problem.parameters.schedule)
+        self.finite = [np.isfinite(b) for b in problem.velocity_bounds]
+        shapes = dict(N=traj.steps, n=traj.q.shape[1], m=traj.lam.shape[1], ns=traj.s.shape[1],
+                      nu=traj.u.shape[1], control_nodes=tuple(traj.control_nodes),
+                      stage_nodes=tuple(traj.stage_nodes))
+        stepper, rule, paths = step.stepper, problem.disc.rule, problem.path_constraints
+        at, size = problem.parameters.schedule.point_function(), problem.parameters.knot_values().shape[0]
+
+        def load():
+            fast = DiracStepper(stepper.residual, stepper.tol, stepper.max_iter, native=None).fast
+            built = _function(fast, stepper, rule, paths, at, size, self.finite, **shapes)
+            return Library([built], "verdict_figures").load()
+        self.loading = None if compiler() is None else Background(load)
+        self._evaluator = None
+
+    def evaluator(self):
+        """The Evaluator of the loaded Function, or None while it is not loaded."""
+        if self._evaluator is None and self.loading is not None and self.loading.functions:
+            self._evaluator = Evaluator(self.loading.functions["verdict_figures"])
+        return self._evaluator
+
+    def data(self, problem):
+        """The problem's values the figures read: the finite velocity bounds (lower, then
+        upper), the rest threshold of each coordinate, the parameters' step vectors at the
+        knots (with path constraints)."""
+        T = problem.transcription
+        rest = REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
+        parts = [b[f] for b, f in zip(problem.velocity_bounds, self.finite)] + [rest]
+        if problem.path_constraints is not None:
+            parts.append(problem.parameters.knot_values().ravel(order="F"))
+        return np.concatenate(parts)
+
+
+def _function(fast, stepper, rule, paths, at, size, finite, *, N, n, m, ns, nu, control_nodes,
+              stage_nodes):
+    """The Function ``z -> figures`` (`figures`), z the optimum's q, p, lam, s, u (each
+    time-major, flat), h and the problem's data (`_Figures.data`)."""
+    counts = [(N + 1) * n, (N + 1) * n, N * m, N * ns, N * nu, 1, int(sum(f.sum() for f in finite)) + n
+              + (0 if paths is None else size * (N + 1))]
+    z = ca.MX.sym("z", sum(counts))
+    q, p, lam, s, u, h, data = ca.vertsplit(z, np.cumsum([0, *counts]).tolist())
+    Q, P, L, S, U = (ca.reshape(x, -1, cols) for x, cols in ((q, N + 1), (p, N + 1), (lam, N), (s, N), (u, N)))
+    following, out = fast.map(N)(_states(stepper, Q, P, L, S, n, N), U, ca.repmat(h, 1, N))
+    start, end = end_velocity_function(rule, n, ns).map(N)(Q[:, :N], Q[:, 1:], S, ca.repmat(h, 1, N))
+    V = ca.horzcat(start[:, 0], (end[:, :N - 1] + start[:, 1:]) / 2, end[:, N - 1])
+    bounds = []
+    nb = [int(f.sum()) for f in finite]
+    lower, upper, rest, w = ca.vertsplit(data, np.cumsum([0, *nb, n, data.numel() - sum(nb) - n]).tolist())
+    for b, f, sign in ((lower, finite[0], -1.0), (upper, finite[1], 1.0)):
+        for j, i in enumerate(np.flatnonzero(f)):
+            bounds.append(sign * (V[i, :] - b[j]))
+    knots = ca.vertcat(*bounds) if bounds else ca.MX(0, N + 1)
+    cut = ca.MX(0, N * len(BETWEEN_KNOTS))
+    if paths is not None:
+        W = ca.reshape(w, size, N + 1)
+        g_knots, cut = _path_rows(paths, at, Q, S, U, V, W, h, n, N, control_nodes, stage_nodes)
+        knots = ca.vertcat(g_knots, knots)
+    follow = {name: following[stepper.state.slice(name), :] for name in ("q", "p")}
+    figures = _figure_function(stepper, n, N, knots.shape[0], cut.shape[0], out.shape[0], paths is not None)
+    return ca.Function("verdict_figures", [z], [figures(Q, P, follow["q"], follow["p"], out, start, end,
+                                                        rest, knots, cut)], ["z"], ["figures"])
+
+
+def _states(stepper, Q, P, L, S, n, N):
+    """The replay's start state at every knot k < N (`step_replay.step_departure`): q_k,
+    p_k and step k - 1 (zero increments at k = 0), as columns."""
+    blocks = dict(q=Q[:, :N], p=P[:, :N], dq=Q[:, 1:N] - Q[:, :N - 1], nu=L[:, :N - 1],
+                  ds=S[:, :N - 1] - ca.repmat(Q[:, :N - 1], S.shape[0] // n, 1))
+    rows = []
+    for name in stepper.state.blocks:
+        x = blocks[name]
+        rows.append(x if name in ("q", "p") else ca.horzcat(ca.MX(x.shape[0], 1), x))
+    return ca.densify(ca.vertcat(*rows))
+
+
+def _path_rows(paths, at, Q, S, U, V, W, h, n, N, control_nodes, stage_nodes):
+    """The path constraints at the knots (q_k, v_k, u(t_k), w at q_k) and at
+    `BETWEEN_KNOTS` of every step on the rule's interpolant (`dmoc.principle.dense`), rows
+    by points."""
+    blocks = len(control_nodes)
+    u_knots = ca.horzcat(_combination(lagrange_basis(control_nodes, 0.0)[0], U, blocks),
+                         _combination(lagrange_basis(control_nodes, 1.0)[0], U[:, N - 1], blocks))
+    w_knots = W if at is None else at.map(N + 1)(W, 0.0, h)
+    g_knots = paths.map(N + 1)(Q, V, u_knots, w_knots)
+    nodes = (0.0, *stage_nodes, 1.0)
+    values = [Q[:, :N], *(S[S.shape[0] - (len(stage_nodes) - j) * n:S.shape[0] - (len(stage_nodes) - j - 1) * n, :]
+                          for j in range(len(stage_nodes))), Q[:, 1:]]
+    qs, vs, us, ws = [], [], [], []
+    for c in BETWEEN_KNOTS:
+        basis, slope = lagrange_basis(nodes, c)
+        qs.append(_sum(basis, values))
+        vs.append(_sum(slope, values) / h)
+        us.append(_combination(lagrange_basis(control_nodes, c)[0], U, blocks))
+        ws.append(W[:, :N] if at is None else at.map(N)(W[:, :N], c, h))
+    K = len(BETWEEN_KNOTS)
+    points = [ca.reshape(ca.vertcat(*x), -1, N * K) for x in (qs, vs, us, ws)]
+    return g_knots, paths.map(N * K)(*points)
+
+
+def _sum(coefficients, terms):
+    """sum_j a_j x_j from 0 term by term, as NumPy's einsum adds them."""
+    total = 0.0 * terms[0]
+    for a, x in zip(coefficients, terms):
+        total = total + float(a) * x
+    return total
+
+
+def _combination(basis, U, blocks):
+    """The control at a step time from the step's values at the control nodes (rows of U
+    block by block), `dmoc.principle.dense.controls`."""
+    rows = U.shape[0] // blocks
+    return _sum(basis, [U[j * rows:(j + 1) * rows, :] for j in range(blocks)])
+
+
+def _figure_function(stepper, n, N, rows, cut_rows, out_rows, paths):
+    """The SX Function of the figures from the arrays of `_function` (one column per knot,
+    step or point)."""
+    sym = ca.SX.sym
+    Q, P, Fq, Fp, out = sym("Q", n, N + 1), sym("P", n, N + 1), sym("Fq", n, N), sym("Fp", n, N), sym("out", out_rows, N)
+    start, end, rest = sym("start", n, N), sym("end", n, N), sym("rest", n)
+    knots, cut = sym("knots", rows, N + 1), sym("cut", cut_rows, N * len(BETWEEN_KNOTS))
+    at = {name: stepper.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
+    accepted = 1
+    for k in range(N):
+        accepted = ca.logic_and(accepted, ca.logic_and(ca.logic_and(
+            out[at["nonfinite"], k] == 0, out[at["update"], k] <= 1e-6),
+            out[at["rnorm"], k] <= 1e3 * stepper.tol * out[at["scale"], k]))
+    ptp = [_max(Q[i, :]) - _min(Q[i, :]) for i in range(n)]
+    q_unit = _scale(_max(ptp), _max(ca.fabs(Q)))
+    p_unit = _scale(_max(ca.fabs(P)))
+    dq = [_max(ca.fabs(Fq[:, k] - Q[:, k + 1])) / q_unit for k in range(N)]
+    dp = [_max(ca.fabs(Fp[:, k] - P[:, k + 1])) / p_unit for k in range(N)]
+    each = [ca.fmax(a, b) for a, b in zip(dq, dp)]
+    replay_step = _first([e > REPLAY_TOLERANCE for e in each])
+    replay_step = ca.if_else(replay_step < 0, -1, replay_step + 1)
+    peak = [ca.fmax(_max(ca.fabs(start[i, :])), _max(ca.fabs(end[i, :]))) for i in range(n)]
+    top = _max([ca.SX(0.0), *peak])
+    changes = []
+    for k in range(N - 1):
+        for i in range(n):
+            moving = peak[i] > 1e-9 * top
+            change = ca.if_else(moving, ca.fabs(start[i, k + 1] - end[i, k]) / ca.if_else(moving, peak[i], 1.0), 0.0)
+            changes.append(ca.if_else(ptp[i] <= rest[i], 0.0, change))
+    jump, jump_at = _largest(changes) if changes else (0.0, -1)
+    path, path_at, cut_value, cut_at = 0.0, -1, 0.0, -1
+    if rows:
+        unit = [ca.fmax(_max(ca.fabs(knots[r, :])), 1.0) for r in range(rows)]
+        path, path_at = _violation([knots[r, k] / unit[r] for k in range(N + 1) for r in range(rows)])
+    if paths and cut_rows:      # the rows between the knots against the scale of all points
+        unit = [ca.fmax(_max(ca.fabs(ca.horzcat(knots[r, :], cut[r, :]))), 1.0) for r in range(cut_rows)]
+        cut_value, cut_at = _violation([cut[r, j] / unit[r] for j in range(cut.shape[1]) for r in range(cut_rows)])
+    replay_q, replay_p = _max(dq), _max(dp)
+    figures = [replay_q, replay_p, replay_step, jump, jump_at, path, path_at, cut_value, cut_at]
+    finite = ca.sum1(ca.vertcat(*[1 - (ca.fabs(x) < ca.inf) for x in (*figures, *changes)])) == 0
+    return ca.Function("figures", [Q, P, Fq, Fp, out, start, end, rest, knots, cut],
+                       [ca.vertcat(accepted, finite, *figures)])
+
+
+def _max(x):
+    """The largest entry of `x` (an SX matrix or a list of SX scalars)."""
+    return ca.mmax(ca.densify(ca.vertcat(*x) if isinstance(x, list) else x))
+
+
+def _min(x):
+    """The smallest entry of `x` (an SX matrix)."""
+    return ca.mmin(ca.densify(x))
+
+
+def _scale(*sizes):
+    """`verdict_checks.scale`: the first of `sizes` above NO_SCALE, else 1."""
+    unit = 1.0
+    for size in reversed(sizes):
+        unit = ca.if_else(size > NO_SCALE, size, unit)
+    return unit
+
+
+def _first(conditions):
+    """The index of the first true entry of `conditions`, -1 if none."""
+    index = -1
+    for j in reversed(range(len(conditions))):
+        index = ca.if_else(conditions[j], j, index)
+    return index
+
+
+def _largest(values):
+    """(the largest of `values`, the index of its first occurrence: NumPy's argmax)."""
+    top = _max(values)
+    return top, _first([v == top for v in values])
+
+
+def _violation(relative):
+    """(the largest of `relative`, its index) where it exceeds 0, else (0, -1):
+    `verdict_checks.path_violation`."""
+    top, index = _largest(relative)
+    return ca.if_else(top > 0, top, 0.0), ca.if_else(top > 0, index, -1)
