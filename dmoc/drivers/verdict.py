@@ -26,7 +26,7 @@ from .judged_inputs import check_judged
 from .knot_checks import (knot_path_values, knot_path_values_of,  # noqa: F401 (re-exported)
                           knot_velocity_bound_values, velocity_bound_names)
 from .step_replay import applies, replay_stepper, step_departure
-from .verdict_figures import figures
+from .verdict_figures import INDICES, figures
 from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE,  # noqa: F401 (re-exported)
                              REPLAY_TOLERANCE, REST_TOLERANCE, largest_change, path_violation,
                              q_scale, replay_departure, worst_status)
@@ -169,13 +169,12 @@ def light_judge(problem, result):
     if found is not None and not found["accepted"]:
         return None
     if found is not None and found["finite"]:
-        n = traj.q.shape[1]
         rows = 0 if problem.path_constraints is None else problem.path_constraints.size1_out(0)
-        jump_at, path_at, cut_at = (int(found[k]) for k in ("jump_at", "path_at", "cut_at"))
-        return _record(problem, traj, (found["replay_q"], found["replay_p"], int(found["replay_step"])),
-                       (found["jump"], jump_at // n + 1 if jump_at >= 0 else 0, max(jump_at, 0) % n),
-                       (found["path"], *_position(path_at, rows + len(velocity_bound_names(problem)))),
-                       (found["cut"], *_position(cut_at, rows)), rows)
+        figure = {name: int(value) if name.endswith(INDICES) else value for name, value in found.items()}
+        return _record(problem, traj, (figure["replay_q"], figure["replay_p"], figure["replay_step"]),
+                       (figure["jump"], figure["jump_step"], figure["jump_coordinate"]),
+                       (figure["path"], figure["path_step"], figure["path_row"]),
+                       (figure["cut"], figure["cut_point"], figure["cut_row"]), rows)
     departure = step_departure(problem, traj)
     if departure is None:
         return None
@@ -185,11 +184,6 @@ def light_judge(problem, result):
     knots = None if problem.path_constraints is None else knot_path_values_of([(problem, traj, ends)])[0]
     return _verdict(problem, traj, (replay_q, replay_p, int(beyond[0]) + 1 if beyond.size else -1),
                     ends, knots)
-
-
-def _position(index, rows):
-    """(k, row) of the flat index k rows + row, (-1, -1) for -1."""
-    return divmod(index, rows) if index >= 0 else (-1, -1)
 
 
 def judged(result, verdict, *, throw=True, seconds=None):

@@ -29,9 +29,10 @@ from .verdict_checks import NO_SCALE, REPLAY_TOLERANCE, REST_TOLERANCE
 # are in the key
 _FIGURES = BoundedCache(16, "verdict_figures")
 # the figures' entries, in the order of the Function's one output
-FIELDS = ("accepted", "finite", "replay_q", "replay_p", "replay_step", "jump", "jump_at",
-          "path", "path_at", "cut", "cut_at")
-_NONE = 2.0 ** 60      # an index above every index: no entry found
+FIELDS = ("accepted", "finite", "replay_q", "replay_p", "replay_step", "jump", "jump_step",
+          "jump_coordinate", "path", "path_step", "path_row", "cut", "cut_point", "cut_row")
+# the endings of the fields that hold indices
+INDICES = ("_step", "_coordinate", "_row", "_point")
 
 
 def figures(problem, traj, step):
@@ -42,11 +43,14 @@ def figures(problem, traj, step):
 
     ``accepted``: the fast path accepted every step (`DiracStepper.accepted`);
     ``finite``: every figure is finite; ``replay_step``: the first knot k = 1 ... N whose
-    step departs beyond REPLAY_TOLERANCE, or -1; ``jump_at``: the index k (n) + i of the
-    largest velocity change at knot k + 1 and coordinate i (-1 for N < 2); ``path_at``: k
-    rows + row of the largest relative value of the knot rows (path constraints, then the
-    velocity bounds), -1 where none exceeds 0; ``cut_at``: the same of the rows between
-    the knots, the point j of step k at k len(BETWEEN_KNOTS) + j.
+    step departs beyond REPLAY_TOLERANCE, or -1; ``jump``, ``jump_step``,
+    ``jump_coordinate``: the largest velocity change, its knot and the index of its
+    coordinate (0, 0, 0 for N < 2: `largest_change`); ``path``, ``path_step``,
+    ``path_row``: the largest relative value of the knot rows (path constraints, then the
+    velocity bounds), its knot and row, (0, -1, -1) where none exceeds 0
+    (`path_violation`); ``cut``, ``cut_point``, ``cut_row``: the same of the path rows
+    between the knots, the point j of step k counted k len(BETWEEN_KNOTS) + j. Indices are
+    floats holding integers.
     """
     entry = _FIGURES.get(_key(problem, traj), lambda: _Figures(problem, traj, step))
     evaluate = entry.evaluator()
@@ -216,16 +220,19 @@ def _figure_function(stepper, n, N, rows, cut_rows, out_rows, paths):
             moving = peak[i] > 1e-9 * top
             change = ca.if_else(moving, ca.fabs(start[i, k + 1] - end[i, k]) / ca.if_else(moving, peak[i], 1.0), 0.0)
             changes.append(ca.if_else(ptp[i] <= rest[i], 0.0, change))
-    jump, jump_at = _largest(changes) if changes else (0.0, -1)
-    path, path_at, cut_value, cut_at = 0.0, -1, 0.0, -1
+    jump = (0.0, 0.0, 0.0)
+    if changes:
+        top, k, i = _largest(changes, n)
+        jump = (top, k + 1, i)
+    path, cut_value = (0.0, -1.0, -1.0), (0.0, -1.0, -1.0)
     if rows:
         unit = [ca.fmax(_max(ca.fabs(knots[r, :])), 1.0) for r in range(rows)]
-        path, path_at = _violation([knots[r, k] / unit[r] for k in range(N + 1) for r in range(rows)])
+        path = _violation([knots[r, k] / unit[r] for k in range(N + 1) for r in range(rows)], rows)
     if paths and cut_rows:      # the rows between the knots against the scale of all points
         unit = [ca.fmax(_max(ca.fabs(ca.horzcat(knots[r, :], cut[r, :]))), 1.0) for r in range(cut_rows)]
-        cut_value, cut_at = _violation([cut[r, j] / unit[r] for j in range(cut.shape[1]) for r in range(cut_rows)])
-    replay_q, replay_p = _max(dq), _max(dp)
-    figures = [replay_q, replay_p, replay_step, jump, jump_at, path, path_at, cut_value, cut_at]
+        cut_value = _violation([cut[r, j] / unit[r] for j in range(cut.shape[1]) for r in range(cut_rows)],
+                               cut_rows)
+    figures = [_max(dq), _max(dp), replay_step, *jump, *path, *cut_value]
     finite = ca.sum1(ca.vertcat(*[1 - (ca.fabs(x) < ca.inf) for x in (*figures, *changes)])) == 0
     return ca.Function("figures", [Q, P, Fq, Fp, out, start, end, rest, knots, cut],
                        [ca.vertcat(accepted, finite, *figures)])
@@ -257,14 +264,18 @@ def _first(conditions):
     return index
 
 
-def _largest(values):
-    """(the largest of `values`, the index of its first occurrence: NumPy's argmax)."""
+def _largest(values, columns):
+    """(the largest of `values`, the row and the column of its first occurrence, NumPy's
+    argmax, in the matrix of `columns` columns whose rows `values` holds one after
+    another)."""
     top = _max(values)
-    return top, _first([v == top for v in values])
+    index = _first([v == top for v in values])
+    row = ca.floor(index / columns)
+    return top, row, index - row * columns
 
 
-def _violation(relative):
-    """(the largest of `relative`, its index) where it exceeds 0, else (0, -1):
-    `verdict_checks.path_violation`."""
-    top, index = _largest(relative)
-    return ca.if_else(top > 0, top, 0.0), ca.if_else(top > 0, index, -1)
+def _violation(relative, columns):
+    """(the largest of `relative`, its row, its column: `_largest`) where it exceeds 0,
+    else (0, -1, -1): `verdict_checks.path_violation`."""
+    top, row, column = _largest(relative, columns)
+    return tuple(ca.if_else(top > 0, x, fallback) for x, fallback in ((top, 0.0), (row, -1), (column, -1)))
