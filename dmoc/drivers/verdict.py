@@ -32,7 +32,6 @@ from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE,  # noqa
                              q_scale, replay_departure, worst_status)
 
 
-
 def judge(problem, result):
     """The Verdict on an optimum of `problem`: replay, velocity jumps, path at the knots.
 
@@ -136,7 +135,8 @@ def judged_solve(problem, *, check=True, throw=True, **keywords):
     (by `light_judge` when the solve was a warm start from an optimum whose verdict
     passed, on the compiled NLP: ``stats["light_verdict"]``): the result with its
     `verdict` and the verdict's wall seconds in ``stats["verdict_time"]`` (the result's
-    trajectory, which the verdict reads, built before: it is the solve's),
+    trajectory, which the verdict reads, built before: it is the solve's), whether its
+    figures were the compiled evaluation's in ``stats["verdict_compiled"]``,
     ``success=False`` and the verdict's status when a check fails (SolverError with
     `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
@@ -146,9 +146,9 @@ def judged_solve(problem, *, check=True, throw=True, **keywords):
     result.trajectory           # the solve's product, built on first reading: not the verdict's cost
     tic = time.perf_counter()
     guess = keywords.get("guess")
-    light = (light_judge(problem, result) if result.stats["compiled"] and result.stats["warm_start"]
-             and guess.verdict is not None and guess.verdict.passed else None)
-    result.stats["light_verdict"] = light is not None
+    light, compiled = (_light(problem, result) if result.stats["compiled"] and result.stats["warm_start"]
+                       and guess.verdict is not None and guess.verdict.passed else (None, False))
+    result.stats["light_verdict"], result.stats["verdict_compiled"] = light is not None, compiled
     return judged(result, light or judge(problem, result), throw=throw, seconds=time.perf_counter() - tic)
 
 
@@ -161,29 +161,34 @@ def light_judge(problem, result):
     NumPy checks. None where the step replay does not apply, is not compiled yet, or does
     not accept a step (`step_replay.applies`, `step_departure`): `judge` judges such an
     optimum (docs/verification.md, "The light verdict of a re-solve")."""
+    return _light(problem, result)[0]
+
+
+def _light(problem, result):
+    """(`light_judge`'s Verdict or None, whether the compiled evaluation made it)."""
     traj = result.trajectory
     check_judged(problem, traj, "result.trajectory")
     if not applies(problem, traj):
-        return None
+        return None, False
     found = figures(problem, traj, replay_stepper(problem, traj))
     if found is not None and not found["accepted"]:
-        return None
+        return None, False
     if found is not None and found["finite"]:
         rows = 0 if problem.path_constraints is None else problem.path_constraints.size1_out(0)
         figure = {name: int(value) if name.endswith(INDICES) else value for name, value in found.items()}
         return _record(problem, traj, (figure["replay_q"], figure["replay_p"], figure["replay_step"]),
                        (figure["jump"], figure["jump_step"], figure["jump_coordinate"]),
                        (figure["path"], figure["path_step"], figure["path_row"]),
-                       (figure["cut"], figure["cut_point"], figure["cut_row"]), rows)
+                       (figure["cut"], figure["cut_point"], figure["cut_row"]), rows), True
     departure = step_departure(problem, traj)
     if departure is None:
-        return None
+        return None, False
     replay_q, replay_p, each = departure
     beyond = np.flatnonzero(each > REPLAY_TOLERANCE)
     ends = end_velocities(problem.disc, traj)
     knots = None if problem.path_constraints is None else knot_path_values_of([(problem, traj, ends)])[0]
     return _verdict(problem, traj, (replay_q, replay_p, int(beyond[0]) + 1 if beyond.size else -1),
-                    ends, knots)
+                    ends, knots), False
 
 
 def judged(result, verdict, *, throw=True, seconds=None):
