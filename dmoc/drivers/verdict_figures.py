@@ -114,16 +114,17 @@ def _function(fast, stepper, rule, paths, at, size, finite, *, N, n, m, ns, nu, 
               stage_nodes):
     """The Function ``z -> figures`` (`figures`), z the optimum's q, p, lam, s, u (each
     time-major, flat), h and the problem's data (`_Figures.data`)."""
-    counts = [(N + 1) * n, (N + 1) * n, N * m, N * ns, N * nu, 1, int(sum(f.sum() for f in finite)) + n
-              + (0 if paths is None else size * (N + 1))]
+    nb = [int(f.sum()) for f in finite]
+    counts = [(N + 1) * n, (N + 1) * n, N * m, N * ns, N * nu, 1,
+              sum(nb) + n + (0 if paths is None else size * (N + 1))]
     z = ca.MX.sym("z", sum(counts))
     q, p, lam, s, u, h, data = ca.vertsplit(z, np.cumsum([0, *counts]).tolist())
-    Q, P, L, S, U = (ca.reshape(x, -1, cols) for x, cols in ((q, N + 1), (p, N + 1), (lam, N), (s, N), (u, N)))
+    Q, P, L, S, U = (ca.reshape(x, -1, cols)
+                     for x, cols in ((q, N + 1), (p, N + 1), (lam, N), (s, N), (u, N)))
     following, out = fast.map(N)(_states(stepper, Q, P, L, S, n, N), U, ca.repmat(h, 1, N))
     start, end = end_velocity_function(rule, n, ns).map(N)(Q[:, :N], Q[:, 1:], S, ca.repmat(h, 1, N))
     V = ca.horzcat(start[:, 0], (end[:, :N - 1] + start[:, 1:]) / 2, end[:, N - 1])
     bounds = []
-    nb = [int(f.sum()) for f in finite]
     lower, upper, rest, w = ca.vertsplit(data, np.cumsum([0, *nb, n, data.numel() - sum(nb) - n]).tolist())
     for b, f, sign in ((lower, finite[0], -1.0), (upper, finite[1], 1.0)):
         for j, i in enumerate(np.flatnonzero(f)):
@@ -135,9 +136,10 @@ def _function(fast, stepper, rule, paths, at, size, finite, *, N, n, m, ns, nu, 
         g_knots, cut = _path_rows(paths, at, Q, S, U, V, W, h, n, N, control_nodes, stage_nodes)
         knots = ca.vertcat(g_knots, knots)
     follow = {name: following[stepper.state.slice(name), :] for name in ("q", "p")}
-    figures = _figure_function(stepper, n, N, knots.shape[0], cut.shape[0], out.shape[0], paths is not None)
-    return ca.Function("verdict_figures", [z], [figures(Q, P, follow["q"], follow["p"], out, start, end,
-                                                        rest, knots, cut)], ["z"], ["figures"])
+    figures = _figure_function(stepper, n, N, knots.shape[0], cut.shape[0], out.shape[0],
+                               paths is not None)
+    return ca.Function("verdict_figures", [z], [figures(Q, P, follow["q"], follow["p"], out, start,
+                                                        end, rest, knots, cut)], ["z"], ["figures"])
 
 
 def _states(stepper, Q, P, L, S, n, N):
@@ -162,8 +164,8 @@ def _path_rows(paths, at, Q, S, U, V, W, h, n, N, control_nodes, stage_nodes):
     w_knots = W if at is None else at.map(N + 1)(W, 0.0, h)
     g_knots = paths.map(N + 1)(Q, V, u_knots, w_knots)
     nodes = (0.0, *stage_nodes, 1.0)
-    values = [Q[:, :N], *(S[S.shape[0] - (len(stage_nodes) - j) * n:S.shape[0] - (len(stage_nodes) - j - 1) * n, :]
-                          for j in range(len(stage_nodes))), Q[:, 1:]]
+    first = S.shape[0] - len(stage_nodes) * n       # the stage configurations: the last rows
+    values = [Q[:, :N], *(S[first + j * n:first + (j + 1) * n, :] for j in range(len(stage_nodes))), Q[:, 1:]]
     qs, vs, us, ws = [], [], [], []
     for c in BETWEEN_KNOTS:
         basis, slope = lagrange_basis(nodes, c)
@@ -193,37 +195,21 @@ def _combination(basis, U, blocks):
 
 def _figure_function(stepper, n, N, rows, cut_rows, out_rows, paths):
     """The SX Function of the figures from the arrays of `_function` (one column per knot,
-    step or point)."""
+    step or point): ``accepted``, ``finite`` (of every value the figures are read from)
+    and the figures of `FIELDS` after them."""
     sym = ca.SX.sym
-    Q, P, Fq, Fp, out = sym("Q", n, N + 1), sym("P", n, N + 1), sym("Fq", n, N), sym("Fp", n, N), sym("out", out_rows, N)
-    start, end, rest = sym("start", n, N), sym("end", n, N), sym("rest", n)
+    Q, P, Fq, Fp = sym("Q", n, N + 1), sym("P", n, N + 1), sym("Fq", n, N), sym("Fp", n, N)
+    out, start, end, rest = sym("out", out_rows, N), sym("start", n, N), sym("end", n, N), sym("rest", n)
     knots, cut = sym("knots", rows, N + 1), sym("cut", cut_rows, N * len(BETWEEN_KNOTS))
     at = {name: stepper.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
     accepted = 1
-    for k in range(N):
+    for k in range(N):          # `DiracStepper.accepted`
         accepted = ca.logic_and(accepted, ca.logic_and(ca.logic_and(
             out[at["nonfinite"], k] == 0, out[at["update"], k] <= 1e-6),
             out[at["rnorm"], k] <= 1e3 * stepper.tol * out[at["scale"], k]))
     ptp = [_max(Q[i, :]) - _min(Q[i, :]) for i in range(n)]
-    q_unit = _scale(_max(ptp), _max(ca.fabs(Q)))
-    p_unit = _scale(_max(ca.fabs(P)))
-    dq = [_max(ca.fabs(Fq[:, k] - Q[:, k + 1])) / q_unit for k in range(N)]
-    dp = [_max(ca.fabs(Fp[:, k] - P[:, k + 1])) / p_unit for k in range(N)]
-    each = [ca.fmax(a, b) for a, b in zip(dq, dp)]
-    replay_step = _first([e > REPLAY_TOLERANCE for e in each])
-    replay_step = ca.if_else(replay_step < 0, -1, replay_step + 1)
-    peak = [ca.fmax(_max(ca.fabs(start[i, :])), _max(ca.fabs(end[i, :]))) for i in range(n)]
-    top = _max([ca.SX(0.0), *peak])
-    changes = []
-    for k in range(N - 1):
-        for i in range(n):
-            moving = peak[i] > 1e-9 * top
-            change = ca.if_else(moving, ca.fabs(start[i, k + 1] - end[i, k]) / ca.if_else(moving, peak[i], 1.0), 0.0)
-            changes.append(ca.if_else(ptp[i] <= rest[i], 0.0, change))
-    jump = (0.0, 0.0, 0.0)
-    if changes:
-        top, k, i = _largest(changes, n)
-        jump = (top, k + 1, i)
+    each, replay = _replay(Q, P, Fq, Fp, ptp)
+    changes, jump = _jump(start, end, ptp, rest)
     path, cut_value = (0.0, -1.0, -1.0), (0.0, -1.0, -1.0)
     if rows:
         unit = [ca.fmax(_max(ca.fabs(knots[r, :])), 1.0) for r in range(rows)]
@@ -232,10 +218,43 @@ def _figure_function(stepper, n, N, rows, cut_rows, out_rows, paths):
         unit = [ca.fmax(_max(ca.fabs(ca.horzcat(knots[r, :], cut[r, :]))), 1.0) for r in range(cut_rows)]
         cut_value = _violation([cut[r, j] / unit[r] for j in range(cut.shape[1]) for r in range(cut_rows)],
                                cut_rows)
-    figures = [_max(dq), _max(dp), replay_step, *jump, *path, *cut_value]
-    finite = ca.sum1(ca.vertcat(*[1 - (ca.fabs(x) < ca.inf) for x in (*figures, *changes)])) == 0
+    figures = [*replay, *jump, *path, *cut_value]
+    read = ca.vertcat(*figures, *each, *changes, ca.vec(knots), ca.vec(cut))
+    finite = ca.sum1(1 - (ca.fabs(read) < ca.inf)) == 0
     return ca.Function("figures", [Q, P, Fq, Fp, out, start, end, rest, knots, cut],
                        [ca.vertcat(accepted, finite, *figures)])
+
+
+def _replay(Q, P, Fq, Fp, ptp):
+    """(each step's departure, (replay_q, replay_p, replay_step)) of the steps landing at
+    `Fq`, `Fp` from the optimum's knots `Q`, `P` (`step_replay.step_departure`), `ptp` the
+    span of each coordinate."""
+    N = Fq.shape[1]
+    q_unit = _scale(_max(ptp), _max(ca.fabs(Q)))        # `verdict_checks.q_scale`
+    p_unit = _scale(_max(ca.fabs(P)))
+    dq = [_max(ca.fabs(Fq[:, k] - Q[:, k + 1])) / q_unit for k in range(N)]
+    dp = [_max(ca.fabs(Fp[:, k] - P[:, k + 1])) / p_unit for k in range(N)]
+    each = [ca.fmax(a, b) for a, b in zip(dq, dp)]
+    first = _first([e > REPLAY_TOLERANCE for e in each])
+    return each, (_max(dq), _max(dp), ca.if_else(first < 0, -1, first + 1))
+
+
+def _jump(start, end, ptp, rest):
+    """(the relative velocity changes at the interior knots, knot by knot, (the largest, its
+    knot, its coordinate)) of the interpolants' end velocities `start`, `end` (n, N)
+    (`dmoc.results.knot_velocities.relative_changes`), 0 for a coordinate whose span `ptp`
+    is at most its `rest` threshold, (0, 0, 0) for N < 2 (`verdict_checks.largest_change`)."""
+    n, N = start.shape
+    peak = [ca.fmax(_max(ca.fabs(start[i, :])), _max(ca.fabs(end[i, :]))) for i in range(n)]
+    top = _max([ca.SX(0.0), *peak])
+    moving = [peak[i] > 1e-9 * top for i in range(n)]
+    changes = [ca.if_else(ptp[i] <= rest[i], 0.0, ca.if_else(
+        moving[i], ca.fabs(start[i, k + 1] - end[i, k]) / ca.if_else(moving[i], peak[i], 1.0), 0.0))
+        for k in range(N - 1) for i in range(n)]
+    if not changes:
+        return changes, (0.0, 0.0, 0.0)
+    largest, k, i = _largest(changes, n)
+    return changes, (largest, k + 1, i)
 
 
 def _max(x):
