@@ -10,7 +10,7 @@ It computes the numbers the NumPy path computes (`step_replay.step_departure`,
 `dmoc.results.knot_velocities.velocity_changes`, `dmoc.drivers.knot_checks`,
 `dmoc.drivers.interpolant_path`, `dmoc.drivers.verdict_checks`) with the same operations
 in the same order, so the Verdict is the same; while the library is not loaded, or where a
-figure is not finite, the NumPy path judges.
+value it reads is not finite, the NumPy path judges.
 """
 
 import casadi as ca
@@ -42,7 +42,7 @@ def figures(problem, traj, step):
     starts compiling or loading it in the background; never without a C compiler).
 
     ``accepted``: the fast path accepted every step (`DiracStepper.accepted`);
-    ``finite``: every figure is finite; ``replay_step``: the first knot k = 1 ... N whose
+    ``finite``: every value the figures are read from is finite; ``replay_step``: the first knot k = 1 ... N whose
     step departs beyond REPLAY_TOLERANCE, or -1; ``jump``, ``jump_step``,
     ``jump_coordinate``: the largest velocity change, its knot and the index of its
     coordinate (0, 0, 0 for N < 2: `largest_change`); ``path``, ``path_step``,
