@@ -165,11 +165,13 @@ def settled(call, problem, name, targets, previous, limit=120.0):
     """(the last optimum, [re-solves, seconds]) of re-solving `problem` at `targets` in a
     cycle from `previous` with `call` until dmoc's default has switched to what it does
     for re-solves of a structure (``stats["compiled"]`` and, where it applies,
-    ``stats["light_verdict"]``: both made in background threads), at most `limit` s;
+    ``stats["light_verdict"]`` and ``stats["verdict_compiled"]``: made in background
+    threads), at most `limit` s;
     [0, 0] on checkouts from before (no ``stats["compiled"]``)."""
     count, tic = 0, time.perf_counter()
     while "compiled" in previous.stats and time.perf_counter() - tic < limit and not (
-            previous.stats["compiled"] and previous.stats.get("light_verdict", True)):
+            previous.stats["compiled"] and previous.stats.get("light_verdict", True)
+            and previous.stats.get("verdict_compiled", True)):
         previous = call(moved(problem, name, targets[count % len(targets)]), guess=previous,
                         options={"print_level": 0})
         count += 1

@@ -66,11 +66,17 @@ def knot_velocity_bound_values(problem, traj, ends=None):
     InputTypeError on SO(3), as `judge`."""
     check_judged(problem, traj)
     v = knot_velocities(*(end_velocities(problem.disc, traj) if ends is None else ends))
-    names, columns = problem.disc.system.names, []
-    for side, (bound, sign, relation) in enumerate(zip(problem.velocity_bounds, (-1.0, 1.0), (">=", "<="))):
-        for i in np.flatnonzero(np.isfinite(bound)):
-            columns.append((sign * (v[:, i] - bound[i]),
-                            f"velocity_bounds {('lower', 'upper')[side]} of {names[i]} "
-                            f"(v[{i}] {relation} {bound[i]:.6g})"))
-    values = np.column_stack([c for c, _ in columns]) if columns else np.zeros((v.shape[0], 0))
-    return values, [name for _, name in columns]
+    columns = [sign * (v[:, i] - bound[i])
+               for bound, sign in zip(problem.velocity_bounds, (-1.0, 1.0))
+               for i in np.flatnonzero(np.isfinite(bound))]
+    values = np.column_stack(columns) if columns else np.zeros((v.shape[0], 0))
+    return values, velocity_bound_names(problem)
+
+
+def velocity_bound_names(problem):
+    """The names of the velocity bounds' rows of `knot_velocity_bound_values`, in its
+    order: the finite lower bounds, then the finite upper ones."""
+    names = problem.disc.system.names
+    return [f"velocity_bounds {side} of {names[i]} (v[{i}] {relation} {bound[i]:.6g})"
+            for bound, side, relation in zip(problem.velocity_bounds, ("lower", "upper"), (">=", "<="))
+            for i in np.flatnonzero(np.isfinite(bound))]

@@ -57,7 +57,7 @@ def step_departure(problem, traj):
         same of p over max |p_opt| (`dmoc.drivers.verdict` measures a replay's so), and
         the larger of the two at each knot 1 ... N, shape (N,).
     """
-    step = _STEPS.get((id(problem.disc), traj.variant), lambda: _CompiledStep(problem, traj))
+    step = replay_stepper(problem, traj)
     N = traj.steps
     mapped = step.mapped(N)
     if mapped is None:
@@ -75,6 +75,12 @@ def step_departure(problem, traj):
     dq = np.abs(following[layout.slice("q")].T - traj.q[1:]).max(axis=1) / q_scale(traj)
     dp = np.abs(following[layout.slice("p")].T - traj.p[1:]).max(axis=1) / scale(np.abs(traj.p).max())
     return float(dq.max()), float(dp.max()), np.maximum(dq, dp)
+
+
+def replay_stepper(problem, traj):
+    """The `_CompiledStep` of `problem`'s discretization and `traj`'s variant, made (and
+    its compile started) on first use and kept."""
+    return _STEPS.get((id(problem.disc), traj.variant), lambda: _CompiledStep(problem, traj))
 
 
 class _CompiledStep:

@@ -24,12 +24,12 @@ from .group_verdict import judge_on_group
 from .interpolant_path import BETWEEN_KNOTS, CUT_LIMIT, cut_message, interpolant_path_values
 from .judged_inputs import check_judged
 from .knot_checks import (knot_path_values, knot_path_values_of,  # noqa: F401 (re-exported)
-                          knot_velocity_bound_values)
-from .step_replay import applies, step_departure
+                          knot_velocity_bound_values, velocity_bound_names)
+from .step_replay import applies, replay_stepper, step_departure
+from .verdict_figures import INDICES, figures
 from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE,  # noqa: F401 (re-exported)
                              REPLAY_TOLERANCE, REST_TOLERANCE, largest_change, path_violation,
                              q_scale, replay_departure, worst_status)
-
 
 
 def judge(problem, result):
@@ -90,31 +90,44 @@ def _verdict(problem, traj, departure, ends, knot_values):
     first step beyond REPLAY_TOLERANCE: `replay_departure`'s or `light_judge`'s), its
     interpolant's end velocities `ends` and its path values at the knots (None without
     path constraints), which are read between the knots too (`interpolant_path_values`)."""
-    replay_q, replay_p, replay_step = departure
     changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
     resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
     changes[:, resting] = 0.0
-    jump, jump_step, jump_coordinate = largest_change(changes, problem.disc.system.names)
-    bounds, bound_names = knot_velocity_bound_values(problem, traj, ends)
+    jump, jump_step, i = largest_change(changes, range(traj.q.shape[1]))
+    bounds, _ = knot_velocity_bound_values(problem, traj, ends)
     rows = 0 if knot_values is None else knot_values.shape[1]
-
-    def name_of(row):
-        if row >= rows:
-            return bound_names[row - rows]
-        text = row_texts(problem.path_constraints, problem.disc.system, problem.parameters.layout)[row]
-        return f"path_constraints row {row} ({text} <= 0)"
-    path, path_step, row, limit = path_violation(
+    path, path_step, row, _ = path_violation(
         np.hstack([np.zeros((traj.steps + 1, 0)) if knot_values is None else knot_values, bounds]),
-        name_of)
+        str)
     # the rows between the knots: named only where they fail (`row_texts` builds text)
     cut, at, cut_row, _ = (0.0, -1, -1, "") if knot_values is None else path_violation(
         np.vstack([knot_values, interpolant_path_values(problem, traj)[1]]), str, traj.steps + 1)
+    return _record(problem, traj, departure, (jump, jump_step, i), (path, path_step, row),
+                   (cut, at, cut_row), rows)
+
+
+def _record(problem, traj, departure, jump, path, cut, rows):
+    """The Verdict of the figures `_verdict` or `light_judge` measured: the replay's
+    `departure` (q, p, step), the largest velocity change `jump` (value, knot,
+    coordinate index), the largest knot row `path` and the largest row between the knots
+    `cut` (value, knot or point, row: `path_violation`'s without the name), `rows` path
+    constraint rows (the velocity bounds' rows after them)."""
+    replay_q, replay_p, replay_step = departure
+    path, path_step, row = path
+    cut, at, cut_row = cut
+
+    def name_of(row):
+        if row >= rows:
+            return velocity_bound_names(problem)[row - rows]
+        text = row_texts(problem.path_constraints, problem.disc.system, problem.parameters.layout)[row]
+        return f"path_constraints row {row} ({text} <= 0)"
     status = worst_status({Status.NOT_REPLAYABLE: max(replay_q, replay_p) > REPLAY_TOLERANCE,
                            Status.PATH_VIOLATED: path > PATH_TOLERANCE or cut > CUT_LIMIT,
-                           Status.UNDER_RESOLVED: jump > JUMP_LIMIT})
-    return Verdict(status, replay_q, replay_p, replay_step, jump, jump_step, jump_coordinate,
-                   path, path_step, row if row < rows else -1, path_limit=limit, path_cut=cut,
+                           Status.UNDER_RESOLVED: jump[0] > JUMP_LIMIT})
+    return Verdict(status, replay_q, replay_p, replay_step, jump[0], jump[1],
+                   problem.disc.system.names[jump[2]], path, path_step, row if row < rows else -1,
+                   path_limit=name_of(row) if row >= 0 else "", path_cut=cut,
                    path_cut_step=at // len(BETWEEN_KNOTS) if cut > 0 else -1,
                    path_cut_limit=name_of(cut_row) if cut > CUT_LIMIT else "")
 
@@ -124,7 +137,8 @@ def judged_solve(problem, *, check=True, throw=True, **keywords):
     (by `light_judge` when the solve was a warm start from an optimum whose verdict
     passed, on the compiled NLP: ``stats["light_verdict"]``): the result with its
     `verdict` and the verdict's wall seconds in ``stats["verdict_time"]`` (the result's
-    trajectory, which the verdict reads, built before: it is the solve's),
+    trajectory, which the verdict reads, built before: it is the solve's), whether its
+    figures were the compiled evaluation's in ``stats["verdict_compiled"]``,
     ``success=False`` and the verdict's status when a check fails (SolverError with
     `throw`). `dmoc.optimize` documents the keywords."""
     check = checks.boolean("check", check)
@@ -134,30 +148,49 @@ def judged_solve(problem, *, check=True, throw=True, **keywords):
     result.trajectory           # the solve's product, built on first reading: not the verdict's cost
     tic = time.perf_counter()
     guess = keywords.get("guess")
-    light = (light_judge(problem, result) if result.stats["compiled"] and result.stats["warm_start"]
-             and guess.verdict is not None and guess.verdict.passed else None)
-    result.stats["light_verdict"] = light is not None
+    light, compiled = (_light(problem, result) if result.stats["compiled"] and result.stats["warm_start"]
+                       and guess.verdict is not None and guess.verdict.passed else (None, False))
+    result.stats["light_verdict"], result.stats["verdict_compiled"] = light is not None, compiled
     return judged(result, light or judge(problem, result), throw=throw, seconds=time.perf_counter() - tic)
 
 
 def light_judge(problem, result):
     """The Verdict on an optimum of `problem` as `judge` makes it, but for the replay: the
-    simulator's compiled step from every knot of the optimum at once
-    (`step_replay.step_departure`), not one run from its start; replay_step the first knot
-    whose step departs beyond REPLAY_TOLERANCE. None where that does not apply or is not
-    compiled yet (`step_replay.applies`, `step_departure`): `judge` judges such an optimum
-    (docs/verification.md, "The light verdict of a re-solve")."""
+    simulator's compiled step from every knot of the optimum at once, not one run from its
+    start; replay_step the first knot whose step departs beyond REPLAY_TOLERANCE. Its
+    figures in one compiled evaluation (`dmoc.drivers.verdict_figures`), or, while that is
+    not loaded or where a figure is not finite, by `step_replay.step_departure` and the
+    NumPy checks. None where the step replay does not apply, is not compiled yet, or does
+    not accept a step (`step_replay.applies`, `step_departure`): `judge` judges such an
+    optimum (docs/verification.md, "The light verdict of a re-solve")."""
+    return _light(problem, result)[0]
+
+
+def _light(problem, result):
+    """(`light_judge`'s Verdict or None, whether the compiled evaluation made it)."""
     traj = result.trajectory
     check_judged(problem, traj, "result.trajectory")
-    departure = step_departure(problem, traj) if applies(problem, traj) else None
+    if not applies(problem, traj):
+        return None, False
+    found = figures(problem, traj, replay_stepper(problem, traj))
+    if found is not None and not found["accepted"]:
+        return None, False
+    if found is not None and found["finite"]:
+        rows = 0 if problem.path_constraints is None else problem.path_constraints.size1_out(0)
+        figure = {name: int(value) if name.endswith(INDICES) else value for name, value in found.items()}
+        return _record(problem, traj, (figure["replay_q"], figure["replay_p"], figure["replay_step"]),
+                       (figure["jump"], figure["jump_step"], figure["jump_coordinate"]),
+                       (figure["path"], figure["path_step"], figure["path_row"]),
+                       (figure["cut"], figure["cut_point"], figure["cut_row"]), rows), True
+    departure = step_departure(problem, traj)
     if departure is None:
-        return None
+        return None, False
     replay_q, replay_p, each = departure
     beyond = np.flatnonzero(each > REPLAY_TOLERANCE)
     ends = end_velocities(problem.disc, traj)
     knots = None if problem.path_constraints is None else knot_path_values_of([(problem, traj, ends)])[0]
     return _verdict(problem, traj, (replay_q, replay_p, int(beyond[0]) + 1 if beyond.size else -1),
-                    ends, knots)
+                    ends, knots), False
 
 
 def judged(result, verdict, *, throw=True, seconds=None):

@@ -55,7 +55,9 @@ class OptimizationResult:
         added), ``max_violation`` (of all constraints), ``most_violated`` (group, step, row),
         ``verdict_time`` (wall seconds of the verdict when `dmoc.optimize` judged the
         optimum: the replay and the checks at the knots, `dmoc.drivers.verdict.judge`),
-        and with ``linear_solver_report=True`` ``linear_solver``
+        ``light_verdict`` (the verdict of a warm re-solve, `dmoc.drivers.verdict.light_judge`)
+        and ``verdict_compiled`` (its figures in one compiled evaluation,
+        `dmoc.drivers.verdict_figures`), and with ``linear_solver_report=True`` ``linear_solver``
         (`dmoc.optimal_control.solver.linear_solver.linear_solver_report`).
     x : ndarray, shape (problem.x_layout.size,)
         The NLP vector in the system's units (IPOPT's iterate times ``problem.x_scale``);
