@@ -2,14 +2,18 @@
 lobatto4) from the default guess is first solved with the midpoint rule on the same grid,
 and its solve starts from that optimum, resampled (`dmoc.optimal_control.solver.guess`),
 instead of from the default guess (docs/stages/drivers.md, "High-order rules from the
-default guess").
+default guess"). A problem without inequalities (every row an equality, no bound but the
+boundary data, a fixed final time) is solved from the default guess first, and by way of
+the midpoint optimum only when that optimum fails (its verdict or IPOPT).
 
 From the default guess the stage rule's NLP can converge to an optimum whose steps sit on
 another root of the step equations (37)/(41) at large h, with stage values far from the
 rule's interpolant of the motion; the replay then fails (verdict ``"not_replayable"``).
 The midpoint rule has no stage values and one root near the chord; its optimum puts the
 stage rule's start on the physical branch, where Newton's method of the replay finds the
-same root."""
+same root. With inequalities the start also chooses the active set (the bounded disk's
+lobatto3 at N = 60 from the default guess passes its verdict on a worse optimum); without
+them the verdict catches the other root, so the midpoint solve is spent only then."""
 
 import dataclasses
 import time
@@ -17,6 +21,7 @@ import time
 from .._util import checks
 from ..errors import Status, failure
 from ..optimal_control import OptimalControlProblem
+from ..optimal_control.solver.newton_kkt import applies
 from ..optimal_control.solver.solving import solve
 from .verdict import judged_solve
 
@@ -36,6 +41,14 @@ def starts_robustly(problem, guess):
     return guess is None and problem.disc.rule.order > 2
 
 
+def equality_constrained(problem):
+    """True when `problem`'s NLP has no inequality: every row an equality and no entry of
+    x bounded but the fixed ones (the boundary data), so no free final time
+    (`dmoc.optimal_control.solver.newton_kkt.applies`)."""
+    T = problem.transcription
+    return applies(T, T.lbx / T.x_scale, T.ubx / T.x_scale, *T.scaled_g_bounds)
+
+
 def robust_start(problem, *, options=None, reuse_solver=True, expand=False, jit=False):
     """(the ROBUST_RULE's optimum of `problem` on its grid, or None when that solve failed;
     the record of the start for ``stats["start"]``: rule, status, iterations, time)."""
@@ -52,12 +65,22 @@ def started_solve(problem, *, guess=None, throw=True, options=None, **keywords):
     the default guess when `starts_robustly` (with STARTED_OPTIONS under the user's
     `options`): that start's record in ``stats["start"]`` (None otherwise), its iterations
     not counted in ``stats["iterations"]``; a failed start falls back to the default guess
-    and `options`. `dmoc.optimize` documents the keywords."""
+    and `options`. An `equality_constrained` problem is solved from the default guess
+    first, and so only when that fails (the failure's status in the record, "after").
+    `dmoc.optimize` documents the keywords."""
     checks.instance("problem", problem, OptimalControlProblem, "an OptimalControlProblem")
     if not starts_robustly(problem, guess):
         return judged_solve(problem, guess=guess, throw=throw, options=options, **keywords)
+    after = None
+    if equality_constrained(problem):
+        plain = judged_solve(problem, throw=False, options=options, **keywords)
+        if plain.success or plain.status == Status.INTERRUPTED:
+            return _thrown(plain, throw)
+        after = str(plain.status)
     same = {k: keywords[k] for k in ("reuse_solver", "expand", "jit") if k in keywords}
     start, record = robust_start(problem, options=options, **same)
+    if after is not None:
+        record["after"] = after
     if start is not None and start.status == Status.INTERRUPTED:
         result = start
     elif start is not None:
@@ -65,10 +88,15 @@ def started_solve(problem, *, guess=None, throw=True, options=None, **keywords):
                               options={**STARTED_OPTIONS, **(options or {})}, **keywords)
     else:
         result = judged_solve(problem, throw=False, options=options, **keywords)
-    result = dataclasses.replace(result, stats={**result.stats, "start": record})
+    return _thrown(dataclasses.replace(result, stats={**result.stats, "start": record}), throw)
+
+
+def _thrown(result, throw):
+    """`result`, raised as its failure with `throw` when it did not succeed."""
     if throw and not result.success:
         raise failure(result.message + " The result is in `.result`.", result)
     return result
 
 
-__all__ = ["started_solve", "robust_start", "starts_robustly", "ROBUST_RULE", "STARTED_OPTIONS"]
+__all__ = ["started_solve", "robust_start", "starts_robustly", "equality_constrained", "ROBUST_RULE",
+           "STARTED_OPTIONS"]

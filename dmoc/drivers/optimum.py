@@ -33,7 +33,9 @@ def optimize(problem, *, guess=None, options=None, reuse_solver=True, expand=Fal
         singular (e.g. the knife edge sliding straight sideways); a free goal entry is
         where the given start velocity carries it over N h (held without one). A stage rule (lobatto3,
         lobatto4) starts instead from the midpoint rule's optimum on the same grid, solved
-        from that default guess (`dmoc.drivers.high_order`; ``stats["start"]``).
+        from that default guess (`dmoc.drivers.high_order`; ``stats["start"]``); without
+        inequalities (bounds, inequality rows, a free final time) only when its solve from
+        the default guess fails.
     options : dict, optional
         IPOPT options overriding ``DEFAULT_IPOPT_OPTIONS`` (e.g. ``{"print_level": 5}``).
         Without them, a warm re-solve (`guess` an optimum of the same structure) of a

@@ -10,6 +10,8 @@ import pytest
 import dmoc
 import dmoc.problems as P
 
+from dmoc.drivers import high_order
+from dmoc.drivers.high_order import equality_constrained
 from dmoc.drivers.verdict import judged_solve, verdict_message
 from dmoc.errors import Status
 
@@ -92,3 +94,40 @@ def test_accuracy_target_starts_its_first_level_so():
     levels = result.stats["levels"]
     assert levels[0]["start"]["rule"] == "midpoint"
     assert all(level["start"] is None for level in levels[1:])
+
+
+@pytest.mark.parametrize("make, rule, steps", [(P.knife_edge_parking, "lobatto4", 14),
+                                               (P.rolling_disk_steering, "lobatto3", 31)])
+def test_an_equality_constrained_stage_rule_starts_from_the_default_guess(make, rule, steps):
+    """Without inequalities the verdict is what catches another root of the step
+    equations: the stage rule is solved from the default guess, no midpoint solve spent,
+    and lands on the optimum the midpoint start reaches."""
+    problem = make(steps, rule=rule)
+    assert equality_constrained(problem)
+    result = dmoc.optimize(problem)
+    assert result.verdict.passed and result.stats.get("start") is None
+    midpoint = dmoc.optimize(problem.with_rule("midpoint"))
+    started = judged_solve(problem, guess=midpoint.trajectory)
+    assert abs(result.cost - started.cost) <= 1e-9 * started.cost
+    np.testing.assert_allclose(result.trajectory.q, started.trajectory.q, rtol=0, atol=1e-7)
+    assert not equality_constrained(bounded_disk(10, rule))                 # bounds, free time
+    assert not equality_constrained(dmoc.OptimalControlProblem(             # free time alone
+        problem.disc, steps, q_start=problem.q_start, duration=(1.0, 8.0),
+        q_goal=[None if np.isnan(g) else g for g in problem.q_goal]))
+
+
+def test_an_equality_constrained_stage_rule_that_fails_takes_the_midpoint_start(monkeypatch):
+    """When the solve from the default guess fails (here made to: its verdict replaced by
+    not_replayable), the midpoint optimum starts a second solve, and the record says why."""
+    calls = []
+
+    def refused_once(problem, **keywords):
+        result = judged_solve(problem, **keywords)
+        calls.append(keywords.get("guess"))
+        if len(calls) == 1:
+            return dataclasses.replace(result, success=False, status=Status.NOT_REPLAYABLE)
+        return result
+    monkeypatch.setattr(high_order, "judged_solve", refused_once)
+    result = high_order.started_solve(P.knife_edge_parking(14, rule="lobatto4"))
+    assert result.success and calls[0] is None and calls[1] is not None
+    assert (result.stats["start"]["rule"], result.stats["start"]["after"]) == ("midpoint", "not_replayable")
