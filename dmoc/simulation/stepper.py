@@ -26,9 +26,11 @@ from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
-from .fast_path import fast_step
+from .chord_update import CHORD_UPDATE_TOL
+from .fast_path import fast_step, uses_chord
 
 NATIVE_AFTER_SECONDS = 0.5
+NEWTON_UPDATE_TOL = 1e-6   # the last relative update of an accepted Newton step (quadratic: error ~ its square)
 
 
 def step_layouts(n_q, n, m, ns):
@@ -47,10 +49,14 @@ class DiracStepper:
     Blocks (``state``, carried from step to step): q (q_k), p (p_k', the momentum carried
     in), and the Newton warm start dq (the previous increment), nu, ds. Blocks of the
     per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
-    solved rows), update (relative size of the last Newton update), scale (1 + max abs of
-    p_k and p_{k+1}, what rnorm is measured against) and nonfinite (how many entries of
-    the rows, the next state and the outputs are NaN or infinite). The step h is an
-    input, so one stepper serves every h.
+    solved rows), update (relative size of the fast path's last update), scale (1 + max
+    abs of p_k and p_{k+1}, what rnorm is measured against) and nonfinite (how many
+    entries of the rows, the next state and the outputs are NaN or infinite). The step h
+    is an input, so one stepper serves every h.
+
+    `chord` says whether the fast path takes chord updates (the Jacobian factorized once a
+    step: many unknowns, a dense Jacobian, `dmoc.simulation.chord_update`) rather than
+    Newton's, and `update_tol` the largest last update of an accepted step.
 
     `native` picks how the fast path's horizons run: True, as the compiled C `library`
     (`dmoc._util.compiled.Library`, compiled at once unless cached on disk); False, in
@@ -65,6 +71,8 @@ class DiracStepper:
         self.residual, self.tol = residual, tol
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
+        self.chord = uses_chord(self)
+        self.update_tol = CHORD_UPDATE_TOL if self.chord else NEWTON_UPDATE_TOL
         self.fast = fast_step(self, eliminate=native is not False)
         self.max_iter, self._robust = max_iter, None
         self._use({})
@@ -205,9 +213,11 @@ class DiracStepper:
     def accepted(self, out):
         """Which steps count as converged, from their outputs (rows of `out`): every entry of
         the step finite, the residual below 1000 tol relative to the size of the momenta
-        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last Newton update small."""
+        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last update small: at most
+        `update_tol` relative (NEWTON_UPDATE_TOL after Newton's quadratic convergence,
+        CHORD_UPDATE_TOL after the chord's linear one)."""
         at = {name: self.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
-        return ((out[:, at["nonfinite"]] == 0) & (out[:, at["update"]] <= 1e-6)
+        return ((out[:, at["nonfinite"]] == 0) & (out[:, at["update"]] <= self.update_tol)
                 & (out[:, at["rnorm"]] <= 1e3 * self.tol * out[:, at["scale"]]))
 
     def _chunk(self, state, controls, steps, acc, out):
