@@ -18,8 +18,11 @@ the log-log slope of each cost against n over the chains.
 With `--breakdown`, where the step's cost goes: the instructions of the step's rows g(y)
 (the residual the Newton iterations solve, y = (dq, nu, ds)), of their Jacobian dg/dy, of
 one Newton update (g, dg/dy and J^{-1} g: QR for more than 4 unknowns) and of the fast
-path's step (its 3 unrolled updates and the step's end after common-subexpression
-elimination: the compiled step); with `--dmoc`, the DMOC's IPOPT iterations and the
+path's step (its unrolled updates and the step's end after common-subexpression
+elimination: the compiled step; 8 chord updates with dg/dy factorized once for more than
+4 unknowns, `dmoc.simulation.chord_update`), and of the fast step with Newton's 3 updates
+instead (the fast path before the chord, the baseline: the same for 4 unknowns or fewer;
+the fast step's instructions over it in brackets); with `--dmoc`, the DMOC's IPOPT iterations and the
 seconds of one (IPOPT's time over its iterations). `--hessian limited-memory` solves the
 DMOC with IPOPT's quasi-Newton Hessian instead of the exact one.
 
@@ -141,9 +144,11 @@ def newton_parts(system):
     def count(expression):
         return ca.Function("part", [y, params], [expression]).n_instructions()
 
-    return {"g": count(g), "dg/dy": count(ca.jacobian(g, y)),
-            "update": count(newton_update(g, y, stepper.unknowns)),
-            "fast step": fast_step(stepper, eliminate=True).n_instructions()}
+    parts = {"g": count(g), "dg/dy": count(ca.jacobian(g, y)),
+             "update": count(newton_update(g, y, stepper.unknowns)),
+             "fast step": fast_step(stepper, eliminate=True).n_instructions()}
+    stepper.chord = False          # the fast path's updates are read from the stepper
+    return {**parts, "Newton fast step": fast_step(stepper, eliminate=True).n_instructions()}
 
 
 def measure(name, path, args, wheels=None):
@@ -349,15 +354,16 @@ def report(rows, chains, args):
 def report_parts(rows, chains):
     """The DMOC's iterations and the step's instructions (`--dmoc`, `--breakdown`), and their
     slopes over the chains and over those of 6 joints or more."""
-    keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "update", "fast step")
-            if k in rows[0]]
+    keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "update", "fast step",
+                        "Newton fast step") if k in rows[0]]
     if not keys:
         return
     print("| model | n | " + " | ".join(keys) + " |")
     print("|---|---:|" + "---:|" * len(keys))
     for r in rows:
-        cells = ["–" if k not in r else f"{r[k] * 1e3:.2f} ms" if k == "per iteration" else str(r[k])
-                 for k in keys]      # no breakdown of the step on the group
+        cells = ["–" if k not in r else f"{r[k] * 1e3:.2f} ms" if k == "per iteration"
+                 else f"{r[k]} ({r['fast step'] / r[k]:.2f}x)" if k == "Newton fast step"
+                 else str(r[k]) for k in keys]      # no breakdown of the step on the group
         print(f"| {r['model']} | {r['n']} | " + " | ".join(cells) + " |")
     large = [r for r in chains if r["n"] >= 6]
     for label, chosen in (("the chains", chains), ("the chains of 6+ joints", large)):

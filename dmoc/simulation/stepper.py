@@ -8,8 +8,9 @@ the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multip
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
 (-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton
 iterations (`dmoc.simulation.fast_path`, optionally compiled to C; each update through the
-Schur complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
-converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
+Schur complement of the multipliers, `dmoc.simulation.schur_complement`), or chord updates
+with the Jacobian factorized once for a dense step of many unknowns without multipliers
+(`dmoc.simulation.chord_update`, a robot's); a step it does not converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
 horizons of 1, 2, 4, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on
 disk (`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate the
 same horizons mapped over up to LOCKSTEP runs (`horizons_of`), and a run that leaves them
