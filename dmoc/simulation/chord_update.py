@@ -14,7 +14,6 @@ from .schur_complement import DENSE_MINOR
 
 CHORD_ITERATIONS = 8      # from the previous step's solution: as few steps left unconverged as Newton's three updates
 CHORD_UPDATE_TOL = 1e-12  # the error an accepted chord step leaves, relative (`remaining_error`)
-ROUND_OFF = 1e-14         # relative updates this small are round-off: their ratio is no rate
 
 
 def chord_suited(J, unknowns):
@@ -44,9 +43,10 @@ def chord_delta(Q, R, g):
 
 def remaining_error(last, before):
     """The error the chord's iterates leave after an update of relative size `last` that
-    followed one of size `before`, at the observed linear rate r = last / (before +
-    ROUND_OFF): last r / (1 - r) (the geometric tail), infinite when r >= 1. Newton's error after an
-    update of size d is O(d^2) instead, hence the different thresholds of an accepted step
-    (`dmoc.simulation.stepper.DiracStepper.update_tol`)."""
-    rate = last / (before + ROUND_OFF)
-    return ca.if_else(rate < 1, last * rate / (1 - rate), ca.inf)
+    followed one of size `before`, at the observed linear rate r = last / before: last r /
+    (1 - r), the geometric tail; `last` itself when r >= 1 (updates at the round-off floor,
+    or diverging ones: the rate does not tell their tail, and `DiracStepper.accepted` asks
+    the residual instead). Newton's error after an update of size d is O(d^2), hence the
+    different thresholds of an accepted step."""
+    rate = last / before
+    return ca.if_else(rate < 1, last * rate / (1 - rate), last)

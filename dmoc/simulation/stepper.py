@@ -57,7 +57,8 @@ class DiracStepper:
 
     `chord` says whether the fast path takes chord updates (the Jacobian factorized once a
     step: many unknowns, a dense Jacobian, `dmoc.simulation.chord_update`) rather than
-    Newton's, and `update_tol` the largest last update of an accepted step.
+    Newton's; its ``update`` output is then the error the updates leave
+    (`chord_update.remaining_error`).
 
     `native` picks how the fast path's horizons run: True, as the compiled C `library`
     (`dmoc._util.compiled.Library`, compiled at once unless cached on disk); False, in
@@ -73,7 +74,6 @@ class DiracStepper:
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
         self.chord = uses_chord(self)
-        self.update_tol = CHORD_UPDATE_TOL if self.chord else NEWTON_UPDATE_TOL
         self.fast = fast_step(self, eliminate=native is not False)
         self.max_iter, self._robust = max_iter, None
         self._use({})
@@ -214,12 +214,16 @@ class DiracStepper:
     def accepted(self, out):
         """Which steps count as converged, from their outputs (rows of `out`): every entry of
         the step finite, the residual below 1000 tol relative to the size of the momenta
-        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last update small: at most
-        `update_tol` relative (NEWTON_UPDATE_TOL after Newton's quadratic convergence,
-        CHORD_UPDATE_TOL after the chord's linear one)."""
+        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last update at most
+        NEWTON_UPDATE_TOL relative (Newton's error is about its square); after chord updates,
+        which converge linearly, also the error they leave at most CHORD_UPDATE_TOL or the
+        residual below tol itself (updates stalled at round-off)."""
         at = {name: self.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
-        return ((out[:, at["nonfinite"]] == 0) & (out[:, at["update"]] <= self.update_tol)
-                & (out[:, at["rnorm"]] <= 1e3 * self.tol * out[:, at["scale"]]))
+        update, rows, scale = out[:, at["update"]], out[:, at["rnorm"]], out[:, at["scale"]]
+        converged = update <= NEWTON_UPDATE_TOL
+        if self.chord:
+            converged &= (update <= CHORD_UPDATE_TOL) | (rows <= self.tol * scale)
+        return (out[:, at["nonfinite"]] == 0) & converged & (rows <= 1e3 * self.tol * scale)
 
     def _chunk(self, state, controls, steps, acc, out):
         """len(steps) fast steps from `state` as one mapaccum call, evaluated through

@@ -79,6 +79,15 @@ def test_remaining_error_is_the_geometric_tail():
     def value(last, before):
         return float(remaining_error(ca.DM(last), ca.DM(before)))
     assert value(1e-9, 1e-7) == pytest.approx(1e-9 * 0.01 / 0.99, rel=1e-6)   # rate 0.01
-    assert value(1e-6, 1e-7) == np.inf                                        # diverging
-    assert value(1e-16, 3e-17) < CHORD_UPDATE_TOL      # round-off: the ratio is no rate
+    assert value(1e-6, 1e-7) == 1e-6                   # diverging (or stalled): the update
     assert value(1e-10, 2e-10) > CHORD_UPDATE_TOL      # rate 1/2: 1e-10 left
+
+
+def test_a_chord_step_stalled_at_round_off_is_accepted_by_its_residual():
+    stepper = DiracStepper(step_residual(dmoc.discretize(_coupled_pendulums(), H)), 1e-12, 50)
+    out = np.zeros((3, stepper.out.size))
+    at = {name: stepper.out.slice(name).start for name in ("rnorm", "update", "scale")}
+    out[:, at["scale"]] = 10.0
+    out[:, at["update"]] = [1e-13, 1e-11, 1e-11]          # its tail, or a stalled update
+    out[:, at["rnorm"]] = [1e-9, 1e-12, 1e-9]             # rows relative 1e-10, 1e-13, 1e-10
+    assert stepper.accepted(out).tolist() == [True, True, False]
