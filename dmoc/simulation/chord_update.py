@@ -1,17 +1,18 @@
 """The chord (simplified Newton) updates of a step with many unknowns and a dense Jacobian
-(`dmoc.simulation.fast_path`): J = dg/dy is evaluated and factorized once, at the warm
-start y_0, as J_0 = Q R (`ca.qr`), and every update is J_0^{-1} g(y) = R^{-1} Q^T g(y), a
-product and a back substitution, O(n^2) on top of the rows g, O(n) for a robot's link
-recursion. Newton's method evaluates J, O(n^2), and solves with it, O(n^3), at every
-update; the chord does both once a step, and spends the difference on more updates, which
-converge linearly at the rate |J_0^{-1} (J(y*) - J_0)| = O(|y_0 - y*|) (the warm start is
-the previous step's solution).
+(`dmoc.simulation.fast_path`), and when the fast path's updates count as converged. J =
+dg/dy is evaluated and factorized once, at the warm start y_0, as J_0 = Q R (`ca.qr`), and
+every update is J_0^{-1} g(y) = R^{-1} Q^T g(y), a product and a back substitution, O(n^2)
+on top of the rows g, O(n) for a robot's link recursion. Newton's method evaluates J,
+O(n^2), and solves with it, O(n^3), at every update; the chord does both once a step, and
+spends the difference on more updates, which converge linearly at the rate
+|J_0^{-1} (J(y*) - J_0)| = O(|y_0 - y*|) (the warm start is the previous step's solution).
 """
 
 import casadi as ca
 
 from .schur_complement import DENSE_MINOR
 
+NEWTON_UPDATE_TOL = 1e-6  # Newton's last relative update in an accepted step (its error ~ its square)
 CHORD_ITERATIONS = 8      # from the previous step's solution: as few steps left unconverged as Newton's three updates
 CHORD_UPDATE_TOL = 1e-12  # the error an accepted chord step leaves, relative (`remaining_error`)
 
@@ -50,3 +51,12 @@ def remaining_error(last, before):
     different thresholds of an accepted step."""
     rate = last / before
     return ca.if_else(rate < 1, last * rate / (1 - rate), last)
+
+
+def updates_converged(update, rows_at_tol, chord):
+    """Whether the fast path's updates converged, elementwise over steps: the last relative
+    `update` at most NEWTON_UPDATE_TOL; with `chord` updates, which converge linearly (their
+    `update` output is `remaining_error`), also the error they leave at most
+    CHORD_UPDATE_TOL, or, stalled at round-off, the rows below tol (`rows_at_tol`)."""
+    converged = update <= NEWTON_UPDATE_TOL
+    return converged & ((update <= CHORD_UPDATE_TOL) | rows_at_tol) if chord else converged

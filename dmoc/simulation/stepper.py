@@ -6,15 +6,13 @@ multiplier it solves for enter the step (`Formulation.step_momentum`).
 Each step solves every residual row but "right" for y = (dq, nu, ds): the increment of
 the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
-(-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton
-iterations (`dmoc.simulation.fast_path`, optionally compiled to C; each update through the
-Schur complement of the multipliers, `dmoc.simulation.schur_complement`), or chord updates
-with the Jacobian factorized once for a dense step of many unknowns without multipliers
-(`dmoc.simulation.chord_update`, a robot's); a step it does not converge is redone by CasADi's line-search Newton rootfinder. Compiled, the fast path's
-horizons of 1, 2, 4, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on
-disk (`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate the
-same horizons mapped over up to LOCKSTEP runs (`horizons_of`), and a run that leaves them
-goes on with `resume`.
+(-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton updates
+(`dmoc.simulation.fast_path`, optionally compiled to C; each through the Schur complement of
+the multipliers, `dmoc.simulation.schur_complement`; chord updates for a robot's dense step,
+`dmoc.simulation.chord_update`); a step it does not converge is redone by CasADi's
+line-search Newton rootfinder. Compiled, the fast path's horizons of 1, 2, ..., CHUNK steps
+(`dmoc.simulation.step_blocks`) are one C library cached on disk (`dmoc._util.compiled`), which
+runs in lockstep (`dmoc.simulation.lockstep`) map over up to LOCKSTEP runs (`horizons_of`).
 """
 
 import time
@@ -27,11 +25,10 @@ from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
-from .chord_update import CHORD_UPDATE_TOL
+from .chord_update import updates_converged
 from .fast_path import fast_step, uses_chord
 
 NATIVE_AFTER_SECONDS = 0.5
-NEWTON_UPDATE_TOL = 1e-6   # the last relative update of an accepted Newton step (quadratic: error ~ its square)
 
 
 def step_layouts(n_q, n, m, ns):
@@ -50,15 +47,10 @@ class DiracStepper:
     Blocks (``state``, carried from step to step): q (q_k), p (p_k', the momentum carried
     in), and the Newton warm start dq (the previous increment), nu, ds. Blocks of the
     per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
-    solved rows), update (relative size of the fast path's last update), scale (1 + max
-    abs of p_k and p_{k+1}, what rnorm is measured against) and nonfinite (how many
-    entries of the rows, the next state and the outputs are NaN or infinite). The step h
-    is an input, so one stepper serves every h.
-
-    `chord` says whether the fast path takes chord updates (the Jacobian factorized once a
-    step: many unknowns, a dense Jacobian, `dmoc.simulation.chord_update`) rather than
-    Newton's; its ``update`` output is then the error the updates leave
-    (`chord_update.remaining_error`).
+    solved rows), update (relative size of the last update; with `chord` updates, the error
+    they leave), scale (1 + max abs of p_k and p_{k+1}, what rnorm is measured against) and
+    nonfinite (how many entries of the rows, the next state and the outputs are NaN or
+    infinite). The step h is an input, so one stepper serves every h.
 
     `native` picks how the fast path's horizons run: True, as the compiled C `library`
     (`dmoc._util.compiled.Library`, compiled at once unless cached on disk); False, in
@@ -214,16 +206,12 @@ class DiracStepper:
     def accepted(self, out):
         """Which steps count as converged, from their outputs (rows of `out`): every entry of
         the step finite, the residual below 1000 tol relative to the size of the momenta
-        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last update at most
-        NEWTON_UPDATE_TOL relative (Newton's error is about its square); after chord updates,
-        which converge linearly, also the error they leave at most CHORD_UPDATE_TOL or the
-        residual below tol itself (updates stalled at round-off)."""
+        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the updates converged
+        (`chord_update.updates_converged`)."""
         at = {name: self.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
-        update, rows, scale = out[:, at["update"]], out[:, at["rnorm"]], out[:, at["scale"]]
-        converged = update <= NEWTON_UPDATE_TOL
-        if self.chord:
-            converged &= (update <= CHORD_UPDATE_TOL) | (rows <= self.tol * scale)
-        return (out[:, at["nonfinite"]] == 0) & converged & (rows <= 1e3 * self.tol * scale)
+        rows, scale = out[:, at["rnorm"]], out[:, at["scale"]]
+        return ((out[:, at["nonfinite"]] == 0) & (rows <= 1e3 * self.tol * scale)
+                & updates_converged(out[:, at["update"]], rows <= self.tol * scale, self.chord))
 
     def _chunk(self, state, controls, steps, acc, out):
         """len(steps) fast steps from `state` as one mapaccum call, evaluated through
