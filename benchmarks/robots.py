@@ -18,10 +18,20 @@ the log-log slope of each cost against n over the chains.
 With `--breakdown`, where the step's cost goes: the instructions of the step's rows g(y)
 (the residual the Newton iterations solve, y = (dq, nu, ds)), of their Jacobian dg/dy, of
 one Newton update (g, dg/dy and J^{-1} g: QR for more than 4 unknowns) and of the fast
-path's step (its 3 unrolled updates and the step's end after common-subexpression
-elimination: the compiled step); with `--dmoc`, the DMOC's IPOPT iterations and the
+path's step (its unrolled updates and the step's end after common-subexpression
+elimination: the compiled step; 8 chord updates with dg/dy factorized once for more than
+4 unknowns, `dmoc.simulation.chord_update`), and of the fast step with Newton's 3 updates
+instead (the fast path before the chord, the baseline: the same for 4 unknowns or fewer;
+the fast step's instructions over it in brackets); with `--dmoc`, the DMOC's IPOPT iterations and the
 seconds of one (IPOPT's time over its iterations). `--hessian limited-memory` solves the
 DMOC with IPOPT's quasi-Newton Hessian instead of the exact one.
+
+With `--versus-newton`, the compiled fast step's CPU time with the chord and with Newton's 3
+updates (the baseline: the fast path before the chord, its stepper built with the chord
+switched off), interleaved, the best of `--repeat` runs of `--steps` steps each from the
+same state as the timed runs, as a ratio, with the largest difference of the two runs'
+final states and the log-log slope of each over the chains (`--no-compile`: in the virtual
+machine; `--smallest` also runs it so, at --repeat 1).
 
 With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
 file as a fixed-base robot (the baseline: the wheels spin in the air) and on its wheels
@@ -48,9 +58,11 @@ baseline's, and the largest difference from it.
     python benchmarks/robots.py --mobile --dmoc --joints 2 4 6   # the mobile manipulator
     python benchmarks/robots.py --floating --dmoc --joints 2     # the floating satellite
     python benchmarks/robots.py --breakdown --dmoc --no-compile --steps 2000   # where the cost goes
+    python benchmarks/robots.py --versus-newton --steps 20000   # the chord against Newton, CPU
     python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
                                                 #   --alternatives --mobile --floating
-                                                #   --breakdown
+                                                #   --breakdown, then --versus-newton
+                                                #   --no-compile --joints 2 6 --steps 20
 """
 
 import argparse
@@ -71,6 +83,7 @@ from dmoc.mechanics.robots import example_urdf  # noqa: E402
 from dmoc.principle.residual import step_residual  # noqa: E402
 from dmoc.simulation.fast_path import fast_step  # noqa: E402
 from dmoc.simulation.schur_complement import newton_update  # noqa: E402
+from dmoc.simulation import stepper as stepper_module  # noqa: E402
 from dmoc.simulation.stepper import DiracStepper  # noqa: E402
 
 AXES = ("0 0 1", "0 1 0", "0 1 0", "1 0 0", "0 1 0", "0 0 1")
@@ -141,9 +154,52 @@ def newton_parts(system):
     def count(expression):
         return ca.Function("part", [y, params], [expression]).n_instructions()
 
-    return {"g": count(g), "dg/dy": count(ca.jacobian(g, y)),
-            "update": count(newton_update(g, y, stepper.unknowns)),
-            "fast step": fast_step(stepper, eliminate=True).n_instructions()}
+    parts = {"g": count(g), "dg/dy": count(ca.jacobian(g, y)),
+             "update": count(newton_update(g, y, stepper.unknowns)),
+             "fast step": fast_step(stepper, eliminate=True).n_instructions()}
+    stepper.chord = False          # the fast path's updates are read from the stepper
+    return {**parts, "Newton fast step": fast_step(stepper, eliminate=True).n_instructions()}
+
+
+def versus_newton(system, steps, repeat, compile_):
+    """{"chord", "Newton": the best CPU seconds of one fast step (compiled with `compile_`,
+    else in the virtual machine) over `repeat` interleaved runs of `steps` steps from q =
+    0.1 at rest, "difference": of the final states}, the Newton stepper built with
+    `uses_chord` switched off."""
+    disc = dmoc.discretize(system, H)
+    residual, chord = step_residual(disc), stepper_module.uses_chord
+    steppers = {"chord": DiracStepper(residual, 1e-12, 50, native=compile_)}
+    try:
+        stepper_module.uses_chord = lambda stepper: False
+        steppers["Newton"] = DiracStepper(residual, 1e-12, 50, native=compile_)
+    finally:
+        stepper_module.uses_chord = chord
+    n = system.n
+    p0 = dmoc.simulate(disc, q0=np.full(n, 0.1), v0=np.zeros(n), steps=1, jit=False).trajectory.p[0]
+    start = np.concatenate([np.full(n, 0.1), p0, np.zeros(steppers["chord"].state.size - 2 * n)])
+    best, final = {k: np.inf for k in steppers}, {}
+    for _ in range(repeat):
+        for k, stepper in steppers.items():
+            tic = time.process_time()
+            acc, _, failed, _, _ = stepper.run(start, np.zeros((steps, system.n_u)), H)
+            best[k] = min(best[k], (time.process_time() - tic) / steps)
+            assert failed is None and len(acc) == steps + 1
+            final[k] = acc[-1, :2 * n]
+    return {**best, "difference": np.abs(final["chord"] - final["Newton"]).max()}
+
+
+def report_versus_newton(rows, compiled):
+    print(f"Fast step, {'compiled' if compiled else 'virtual machine'}, CPU (best of interleaved runs):")
+    print("| model | n | chord | Newton (3 updates) | ratio | final states differ by |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for r in rows:
+        v = r["versus"]
+        print(f"| {r['model']} | {r['n']} | {v['chord'] * 1e6:.3f} us | {v['Newton'] * 1e6:.3f} us | "
+              f"{v['chord'] / v['Newton']:.2f} | {v['difference']:.1e} |")
+    if len(rows) >= 3:
+        print("log-log slopes: " + ", ".join(
+            f"{k} {slope([{'n': r['n'], k: r['versus'][k]} for r in rows], k):.2f}"
+            for k in ("chord", "Newton")))
 
 
 def measure(name, path, args, wheels=None):
@@ -152,6 +208,8 @@ def measure(name, path, args, wheels=None):
     build, system = seconds(lambda: dmoc.RobotSystem(path, wheels=wheels))
     row = {"model": name, "n": system.n, "build": build,
            "L nodes": system.lagrangian.n_instructions()}
+    if args.versus_newton:
+        return {**row, "versus": versus_newton(system, steps, args.repeat, compile_)}
     row["first vm"], _ = simulated(system, 10, False)
     wall, result = simulated(system, steps, False)
     row["vm step"] = wall / steps
@@ -289,6 +347,11 @@ def main(argv=None):
     parser.add_argument("--breakdown", action="store_true",
                         help="also the instructions of the step's rows, Jacobian, update and "
                              "fast step")
+    parser.add_argument("--versus-newton", action="store_true",
+                        help="only the fast step's CPU time with the chord and with Newton's 3 "
+                             "updates, over the chains (compiled unless --no-compile)")
+    parser.add_argument("--repeat", type=int, default=7,
+                        help="interleaved runs of --versus-newton (default 7; the best counts)")
     parser.add_argument("--hessian", choices=("exact", "limited-memory"), default="exact",
                         help="IPOPT's Hessian in the DMOC (default exact)")
     parser.add_argument("--smallest", action="store_true",
@@ -298,7 +361,10 @@ def main(argv=None):
     if args.smallest:
         args.joints, args.steps, args.compile = [2], 20, False
         args.alternatives = args.mobile = args.floating = args.breakdown = True
+        main(["--versus-newton", "--no-compile", "--joints", "2", "6", "--steps", "20", "--repeat", "1"])
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
+    if args.versus_newton:
+        args.shipped = args.mobile = args.floating = args.alternatives = False
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:
         os.environ["DMOC_CACHE_DIR"] = os.path.join(folder, "cache")   # an empty cache
@@ -320,6 +386,8 @@ def main(argv=None):
             rows.append({**measure_floating(args), "over": rows[-1]})
         ways = [row for name, path in models for row in alternatives(name, path)] \
             if args.alternatives else []
+    if args.versus_newton:
+        return report_versus_newton(rows, args.compile)
     report(rows, rows[:len(args.joints)], args)
     report_parts(rows, rows[:len(args.joints)])
     if ways:
@@ -349,15 +417,16 @@ def report(rows, chains, args):
 def report_parts(rows, chains):
     """The DMOC's iterations and the step's instructions (`--dmoc`, `--breakdown`), and their
     slopes over the chains and over those of 6 joints or more."""
-    keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "update", "fast step")
-            if k in rows[0]]
+    keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "update", "fast step",
+                        "Newton fast step") if k in rows[0]]
     if not keys:
         return
     print("| model | n | " + " | ".join(keys) + " |")
     print("|---|---:|" + "---:|" * len(keys))
     for r in rows:
-        cells = ["–" if k not in r else f"{r[k] * 1e3:.2f} ms" if k == "per iteration" else str(r[k])
-                 for k in keys]      # no breakdown of the step on the group
+        cells = ["–" if k not in r else f"{r[k] * 1e3:.2f} ms" if k == "per iteration"
+                 else f"{r[k]} ({r['fast step'] / r[k]:.2f}x)" if k == "Newton fast step"
+                 else str(r[k]) for k in keys]      # no breakdown of the step on the group
         print(f"| {r['model']} | {r['n']} | " + " | ".join(cells) + " |")
     large = [r for r in chains if r["n"] >= 6]
     for label, chosen in (("the chains", chains), ("the chains of 6+ joints", large)):

@@ -1,7 +1,8 @@
 """The fast path of the simulator's step (`dmoc.simulation.stepper`): FAST_ITERATIONS
 Newton updates unrolled from the warm start (each through the Schur complement of the
-multipliers, `dmoc.simulation.schur_complement`), then the step's end: the next state and
-the outputs that decide whether the step is accepted. As one SX Function after
+multipliers, `dmoc.simulation.schur_complement`), or for many unknowns and a dense Jacobian
+CHORD_ITERATIONS chord updates with the Jacobian factorized once (`dmoc.simulation.chord_update`),
+then the step's end: the next state and the outputs that decide whether the step is accepted. As one SX Function after
 common-subexpression elimination, which the compiled library is generated from; or, for a
 stepper that never compiles, as an MX Function calling the update's SX Function, which is
 built in a fraction of the time for the same numbers.
@@ -9,6 +10,8 @@ built in a fraction of the time for the same numbers.
 
 import casadi as ca
 
+from .chord_update import (CHORD_ITERATIONS, chord_delta, chord_factors, chord_suited,
+                           remaining_error)
 from .schur_complement import newton_update
 
 FAST_ITERATIONS = 3
@@ -30,11 +33,9 @@ def fast_step(stepper, eliminate):
     more to build there than it saves over a run (benchmarks/step_cost.py, "dirac-vm").
     """
     state, u, h, params, guess = stepper.symbols(ca.SX)
-    ys = ca.SX.sym("y", guess.numel())
-    newton = ca.Function("newton_update", [ys, params],
-                         [newton_update(stepper.equations(ys, params)[0], ys, stepper.unknowns)])
+    updates = _updates(stepper, params)
     if eliminate:
-        solved = stepper.wrap(state, params, *_iterated(newton, guess, params))
+        solved = stepper.wrap(state, params, *updates(guess, params))
         outputs = [ca.densify(o) for o in ca.cse(list(solved))]
         return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"],
                            ["next", "out"])
@@ -44,14 +45,46 @@ def fast_step(stepper, eliminate):
                        [ca.densify(o) for o in stepper.wrap(state, params, solved, update)])
     state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
     params, guess = start(state, u, h)
-    outputs = ends(state, u, h, *_iterated(newton, guess, params))
+    outputs = ends(state, u, h, *updates(guess, params))
     return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
 
-def _iterated(newton, y, params):
-    """(y after FAST_ITERATIONS Newton updates ``y - newton(y, params)`` from `y`, the
-    last update's size relative to y: |delta|_inf / (1 + |y|_inf))."""
-    for _ in range(FAST_ITERATIONS):
-        delta = newton(y, params)
+def uses_chord(stepper):
+    """Whether the fast path of `stepper` (a `DiracStepper`) is to take chord updates
+    (`dmoc.simulation.chord_update.chord_suited` of its step Jacobian)."""
+    ys, params = ca.SX.sym("y", stepper.unknowns.size), stepper.symbols(ca.SX)[3]
+    return chord_suited(ca.jacobian(stepper.equations(ys, params)[0], ys), stepper.unknowns)
+
+
+def _updates(stepper, params):
+    """``(y, params) -> (y after the fast path's updates from y, the size of the last
+    update relative to y, |delta|_inf / (1 + |y|_inf), or for the chord the error it
+    leaves, `chord_update.remaining_error`)``, through SX Functions of one update (and
+    of the chord's factorization, when `stepper.chord`), which take SX and MX arguments
+    alike."""
+    ys = ca.SX.sym("y", stepper.unknowns.size)
+    g = stepper.equations(ys, params)[0]
+    J = ca.jacobian(g, ys)
+    if not stepper.chord:
+        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns)])
+        return lambda y, p: _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
+    factors = ca.Function("chord_factors", [ys, params], list(chord_factors(J)))
+    Q, R = (ca.SX.sym(name, J.size1(), J.size1()) for name in "QR")
+    chord = ca.Function("chord_update", [ys, params, Q, R], [chord_delta(Q, R, g)])
+
+    def chord_iterated(y, p):
+        QR = factors(y, p)        # J at the warm start, factorized once
+        y, before = _iterated(lambda y: chord(y, p, *QR), y, CHORD_ITERATIONS - 1)
+        delta = chord(y, p, *QR)
+        y = y - delta
+        return y, remaining_error(ca.norm_inf(delta) / (1 + ca.norm_inf(y)), before)
+    return chord_iterated
+
+
+def _iterated(update, y, iterations):
+    """(y after `iterations` updates ``y - update(y)`` from `y`, the last update's size
+    relative to y: |delta|_inf / (1 + |y|_inf))."""
+    for _ in range(iterations):
+        delta = update(y)
         y = y - delta
     return y, ca.norm_inf(delta) / (1 + ca.norm_inf(y))

@@ -6,14 +6,12 @@ multiplier it solves for enter the step (`Formulation.step_momentum`).
 Each step solves every residual row but "right" for y = (dq, nu, ds): the increment of
 the implicit end variable (q_{k+1} - q_k, or p_{k+1} - p_k for (39)), the multiplier nu at
 q_k and the stage values less q_k; the other end variable enters the "right" rows linearly
-(-p1 or -q1), so it follows explicitly. A fast path runs a few unrolled Newton iterations
-(`dmoc.simulation.fast_path`, optionally compiled to C; each update through the Schur
-complement of the multipliers, `dmoc.simulation.schur_complement`); a step it does not
-converge is redone by CasADi's line-search Newton rootfinder, and where that fails by
-continuation in h (`dmoc.simulation.continuation`). Compiled, the fast path's horizons of
-1, 2, ..., CHUNK steps (`dmoc.simulation.step_blocks`) are one C library cached on disk
-(`dmoc._util.compiled`). Runs in lockstep (`dmoc.simulation.lockstep`) evaluate them
-mapped over up to LOCKSTEP runs (`horizons_of`); a run that leaves goes on with `resume`.
+(-p1 or -q1), so it follows explicitly. The fast path (`fast_path`, compiled to C or not)
+unrolls Newton updates (through `schur_complement`) or a robot's chord updates
+(`chord_update`); a step it does not converge is redone by CasADi's line-search Newton, and
+where that fails by `continuation` in h. Compiled, its horizons of 1 ... CHUNK steps
+(`step_blocks`) are one C library cached on disk, mapped over up to LOCKSTEP runs in
+`lockstep` (`horizons_of`); a run that leaves goes on with `resume`.
 """
 
 import time
@@ -26,8 +24,9 @@ from .._util import compiled
 from ..principle.explicit import explicit_end
 from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
+from .chord_update import updates_converged
 from .continuation import continued_step
-from .fast_path import fast_step
+from .fast_path import fast_step, uses_chord
 
 NATIVE_AFTER_SECONDS = 0.5
 
@@ -48,24 +47,24 @@ class DiracStepper:
     Blocks (``state``, carried from step to step): q (q_k), p (p_k', the momentum carried
     in), and the Newton warm start dq (the previous increment), nu, ds. Blocks of the
     per-step output (``out``): p0 (the p_k the step used), nu, s, rnorm (max-norm of the
-    solved rows), update (relative size of the last Newton update), scale (1 + max abs of
-    p_k and p_{k+1}, what rnorm is measured against) and nonfinite (how many entries of
-    the rows, the next state and the outputs are NaN or infinite). The step h is an
-    input, so one stepper serves every h.
+    solved rows), update (relative size of the last update; with `chord` updates, the error
+    they leave), scale (1 + max abs of p_k and p_{k+1}, what rnorm is measured against) and
+    nonfinite (how many entries of the rows, the next state and the outputs are NaN or
+    infinite). The step h is an input, so one stepper serves every h.
 
     `native` picks how the fast path's horizons run: True, as the compiled C `library`
-    (`dmoc._util.compiled.Library`, compiled at once unless cached on disk); False, in
-    CasADi's virtual machine; None, compiled if the library is cached, else as soon as this
-    stepper has spent NATIVE_AFTER_SECONDS in the virtual machine (about what compiling
-    costs, so a run never costs more than about twice the better choice; also mid-run;
-    without a C compiler it stays in the virtual machine). `native` says how the horizons
-    run now; both ways compute the same thing, so switching changes no result.
+    (`dmoc._util.compiled.Library`, compiled at once unless cached on disk); False, in the
+    virtual machine; None, compiled if cached, else once this stepper has spent
+    NATIVE_AFTER_SECONDS in the virtual machine (about a compile, so a run costs at most
+    about twice the better choice; also mid-run; never without a C compiler). `native` says
+    how they run now; both compute the same, so switching changes no result.
     """
 
     def __init__(self, residual, tol, max_iter, native=False):
         self.residual, self.tol = residual, tol
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
+        self.chord = uses_chord(self)
         self.fast = fast_step(self, eliminate=native is not False)
         self.max_iter, self._robust = max_iter, None
         self._use({})
@@ -206,10 +205,12 @@ class DiracStepper:
     def accepted(self, out):
         """Which steps count as converged, from their outputs (rows of `out`): every entry of
         the step finite, the residual below 1000 tol relative to the size of the momenta
-        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the last Newton update small."""
+        (`scale`: 1 + max abs(p_k), max abs(p_{k+1})), the updates converged
+        (`chord_update.updates_converged`)."""
         at = {name: self.out.slice(name).start for name in ("rnorm", "update", "scale", "nonfinite")}
-        return ((out[:, at["nonfinite"]] == 0) & (out[:, at["update"]] <= 1e-6)
-                & (out[:, at["rnorm"]] <= 1e3 * self.tol * out[:, at["scale"]]))
+        rows, scale = out[:, at["rnorm"]], out[:, at["scale"]]
+        return ((out[:, at["nonfinite"]] == 0) & (rows <= 1e3 * self.tol * scale)
+                & updates_converged(out[:, at["update"]], rows <= self.tol * scale, self.chord))
 
     def _chunk(self, state, controls, steps, acc, out):
         """len(steps) fast steps from `state` as one mapaccum call, evaluated through
@@ -282,9 +283,8 @@ class DiracStepper:
         return None
 
     def _redo(self, acc, out, controls, h, done):
-        """Redo step k = done[0], which the fast path did not converge, with the line-search
-        Newton, where that fails by continuation in h (`continued_step`); None when either
-        converges (counted in `done`), else the first's rnorm (NaN when non-finite)."""
+        """Redo step k = done[0] with the line-search Newton, where that fails by continuation
+        in h (`continued_step`); None when one converges, else the first's rnorm (or NaN)."""
         k = done[0]
         acc1, out1 = (np.array(x).T[0] for x in self.robust(acc[k], controls[k], h))
         if not self.accepted(out1[None, :])[0]:

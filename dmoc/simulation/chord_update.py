@@ -1,0 +1,62 @@
+"""The chord (simplified Newton) updates of a step with many unknowns and a dense Jacobian
+(`dmoc.simulation.fast_path`), and when the fast path's updates count as converged. J =
+dg/dy is evaluated and factorized once, at the warm start y_0, as J_0 = Q R (`ca.qr`), and
+every update is J_0^{-1} g(y) = R^{-1} Q^T g(y), a product and a back substitution, O(n^2)
+on top of the rows g, O(n) for a robot's link recursion. Newton's method evaluates J,
+O(n^2), and solves with it, O(n^3), at every update; the chord does both once a step, and
+spends the difference on more updates, which converge linearly at the rate
+|J_0^{-1} (J(y*) - J_0)| = O(|y_0 - y*|) (the warm start is the previous step's solution).
+"""
+
+import casadi as ca
+
+from .schur_complement import DENSE_MINOR
+
+NEWTON_UPDATE_TOL = 1e-6  # Newton's last relative update in an accepted step (its error ~ its square)
+CHORD_ITERATIONS = 8      # from the previous step's solution: as few steps left unconverged as Newton's three updates
+CHORD_UPDATE_TOL = 1e-12  # the error an accepted chord step leaves, relative (`remaining_error`)
+
+
+def chord_suited(J, unknowns):
+    """Whether the fast path takes chord updates for the step Jacobian `J` (SX, the step
+    equations' dg/dy) over `unknowns` (a Layout of dq, nu and ds): no multipliers and no
+    stage values (the rows are the "left" rows of a two-point rule), more than DENSE_MINOR
+    unknowns (where Newton's update goes through QR) and a dense J, as a robot's."""
+    return (unknowns.numel("nu") == 0 and unknowns.numel("ds") == 0
+            and J.size1() > DENSE_MINOR and J.nnz() == J.numel())
+
+
+def chord_factors(J):
+    """(Q, R) of J = Q R, Q orthogonal and R upper triangular (n, n), dense SX."""
+    Q, R = ca.qr(J)
+    return ca.densify(Q), ca.densify(R)
+
+
+def chord_delta(Q, R, g):
+    """J_0^{-1} g = R^{-1} Q^T g by back substitution over the rows of R, shape (n, 1)."""
+    b, n = ca.mtimes(Q.T, g), R.size1()
+    x = [None] * n
+    for i in reversed(range(n)):
+        known = sum((R[i, j] * x[j] for j in range(i + 1, n)), ca.SX(0))
+        x[i] = (b[i] - known) / R[i, i]
+    return ca.vertcat(*x)
+
+
+def remaining_error(last, before):
+    """The error the chord's iterates leave after an update of relative size `last` that
+    followed one of size `before`, at the observed linear rate r = last / before: last r /
+    (1 - r), the geometric tail; `last` itself when r >= 1 (updates at the round-off floor,
+    or diverging ones: the rate does not tell their tail, and `DiracStepper.accepted` asks
+    the residual instead). Newton's error after an update of size d is O(d^2), hence the
+    different thresholds of an accepted step."""
+    rate = last / before
+    return ca.if_else(rate < 1, last * rate / (1 - rate), last)
+
+
+def updates_converged(update, rows_at_tol, chord):
+    """Whether the fast path's updates converged, elementwise over steps: the last relative
+    `update` at most NEWTON_UPDATE_TOL; with `chord` updates, which converge linearly (their
+    `update` output is `remaining_error`), also the error they leave at most
+    CHORD_UPDATE_TOL, or, stalled at round-off, the rows below tol (`rows_at_tol`)."""
+    converged = update <= NEWTON_UPDATE_TOL
+    return converged & ((update <= CHORD_UPDATE_TOL) | rows_at_tol) if chord else converged

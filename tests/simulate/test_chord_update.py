@@ -1,0 +1,93 @@
+"""The chord updates of the simulator's fast path (dmoc.simulation.chord_update): a step of
+more than four unknowns with a dense Jacobian and no multipliers is solved with the
+Jacobian factorized once, and gives the solution of the step equations solved by scipy."""
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy.optimize import root
+
+import dmoc
+from dmoc.principle.residual import step_residual
+from dmoc.simulation.chord_update import CHORD_UPDATE_TOL, remaining_error
+from dmoc.simulation.stepper import DiracStepper
+
+N, H, KAPPA = 5, 0.1, 0.7
+
+
+def _coupled_pendulums():
+    """L = |v|^2/2 - V(q), V = -sum_i cos q_i - KAPPA sum_{i<j} cos(q_i - q_j): n = 5, the
+    step's Jacobian -I/h - h/4 V''(q) is dense and depends on q."""
+    def lagrangian(q, v):
+        pairs = sum(ca.cos(q[i] - q[j]) for i in range(N) for j in range(i + 1, N))
+        return 0.5 * ca.dot(v, v) + ca.sum1(ca.cos(q)) + KAPPA * pairs
+    return dmoc.MechanicalSystem(lagrangian, N, force=lambda q, v, u: u, n_u=N)
+
+
+def _gradient_V(q):
+    difference = q[:, None] - q[None, :]
+    return np.sin(q) + KAPPA * np.sin(difference).sum(axis=1)
+
+
+def _by_hand(q0, p0, controls, h=H):
+    """(+) midpoint steps solved with scipy's root (oracle): with v = (q1 - q0)/h and
+    qm = q0 + h v/2, p0 - v - h/2 V'(qm) + h/2 u = 0, then p1 = v - h/2 V'(qm) + h/2 u."""
+    q, p = [np.asarray(q0, float)], [np.asarray(p0, float)]
+    for u in controls:
+        def left(v):
+            return p[-1] - v - h / 2 * _gradient_V(q[-1] + h * v / 2) + h / 2 * u
+        v = root(left, p[-1], tol=1e-15).x
+        q.append(q[-1] + h * v)
+        p.append(v - h / 2 * _gradient_V(q[-2] + h * v / 2) + h / 2 * u)
+    return np.array(q), np.array(p)
+
+
+def test_dense_step_takes_the_chord_and_a_small_one_newton():
+    disc = dmoc.discretize(_coupled_pendulums(), H)
+    assert DiracStepper(step_residual(disc), 1e-12, 50).chord
+    knife = dmoc.discretize(dmoc.systems.knife_edge(), H)     # 4 unknowns, a multiplier
+    assert not DiracStepper(step_residual(knife), 1e-12, 50).chord
+
+
+@pytest.mark.parametrize("jit", [False, True])
+def test_chord_steps_solve_the_step_equations(jit):
+    controls = np.tile(np.linspace(-0.5, 0.5, N), (30, 1))
+    q0, v0 = np.linspace(-1.0, 1.0, N), np.linspace(1.5, -0.5, N)
+    res = dmoc.simulate(dmoc.discretize(_coupled_pendulums(), H), q0=q0, v0=v0, steps=30,
+                        controls=controls, jit=jit)
+    assert res.success and res.stats["robust_steps"] == 0       # every step by the chord
+    q, p = _by_hand(q0, v0, controls)
+    assert np.abs(res.trajectory.q - q).max() < 1e-13
+    assert np.abs(res.trajectory.p - p).max() < 1e-12
+
+
+def test_a_kick_the_chord_does_not_converge_is_redone_by_newton():
+    h, controls = 0.5, np.zeros((10, N))
+    controls[5] = 8.0 * np.linspace(-1.0, 1.0, N)     # the warm start is far off, J(q) too
+    q0, v0 = np.zeros(N), np.linspace(1.0, -1.0, N)
+    res = dmoc.simulate(dmoc.discretize(_coupled_pendulums(), h), q0=q0, v0=v0, steps=10,
+                        controls=controls, jit=False)
+    assert res.success and res.stats["robust_steps"] > 0
+    traj = res.trajectory       # each step against the oracle's from the same state
+    for k in range(10):
+        q, p = _by_hand(traj.q[k], traj.p[k], controls[k:k + 1], h)
+        assert np.abs(traj.q[k + 1] - q[1]).max() < 1e-12
+        assert np.abs(traj.p[k + 1] - p[1]).max() < 1e-12
+
+
+def test_remaining_error_is_the_geometric_tail():
+    def value(last, before):
+        return float(remaining_error(ca.DM(last), ca.DM(before)))
+    assert value(1e-9, 1e-7) == pytest.approx(1e-9 * 0.01 / 0.99, rel=1e-6)   # rate 0.01
+    assert value(1e-6, 1e-7) == 1e-6                   # diverging (or stalled): the update
+    assert value(1e-10, 2e-10) > CHORD_UPDATE_TOL      # rate 1/2: 1e-10 left
+
+
+def test_a_chord_step_stalled_at_round_off_is_accepted_by_its_residual():
+    stepper = DiracStepper(step_residual(dmoc.discretize(_coupled_pendulums(), H)), 1e-12, 50)
+    out = np.zeros((3, stepper.out.size))
+    at = {name: stepper.out.slice(name).start for name in ("rnorm", "update", "scale")}
+    out[:, at["scale"]] = 10.0
+    out[:, at["update"]] = [1e-13, 1e-11, 1e-11]          # its tail, or a stalled update
+    out[:, at["rnorm"]] = [1e-9, 1e-12, 1e-9]             # rows relative 1e-10, 1e-13, 1e-10
+    assert stepper.accepted(out).tolist() == [True, True, False]
