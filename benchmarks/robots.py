@@ -181,7 +181,7 @@ def versus_newton(system, steps, repeat, compile_):
     for _ in range(repeat):
         for k, stepper in steppers.items():
             tic = time.process_time()
-            acc, _, failed, _, _ = stepper.run(start, np.zeros((steps, system.n_u)), H)
+            acc, _, failed, *_ = stepper.run(start, np.zeros((steps, system.n_u)), H)
             best[k] = min(best[k], (time.process_time() - tic) / steps)
             assert failed is None and len(acc) == steps + 1
             final[k] = acc[-1, :2 * n]
