@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
+from ..._util import sx_ops
 from ..._util.layout import step_symbols
 from ..tulczyjew import kappa_inverse
 from .base import MinusForm, PlusForm
@@ -83,8 +84,9 @@ class LagrangianPlus(LagrangianForm, PlusForm):
 
     def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
         """(46): sum_k L_d(q_k, q_k^+) + p_{k+1} . (q_{k+1} - q_k^+)."""
-        return sum(discrete_lagrangian(q[k], q_aux[k], s[k], h) + ca.dot(p[k], q[k + 1] - q_aux[k])
-                   for k in range(len(q_aux)))
+        return sx_ops.total(sx_ops.plus(discrete_lagrangian(q[k], q_aux[k], s[k], h),
+                                        ca.dot(p[k], sx_ops.minus(q[k + 1], q_aux[k])))
+                            for k in range(len(q_aux)))
 
     def window(self, discrete_lagrangian, sym):
         # steps k-1 and k; a = q_{k-1}, b = q_{k-1}^+, aux = q_k^+
@@ -100,8 +102,9 @@ class LagrangianMinus(LagrangianForm, MinusForm):
 
     def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
         """(47): sum_k L_d(q_{k+1}^-, q_{k+1}) - p_k . (q_k - q_{k+1}^-)."""
-        return sum(discrete_lagrangian(q_aux[k], q[k + 1], s[k], h) - ca.dot(p[k], q[k] - q_aux[k])
-                   for k in range(len(q_aux)))
+        return sx_ops.total(sx_ops.minus(discrete_lagrangian(q_aux[k], q[k + 1], s[k], h),
+                                         ca.dot(p[k], sx_ops.minus(q[k], q_aux[k])))
+                            for k in range(len(q_aux)))
 
     def window(self, discrete_lagrangian, sym):
         # steps k and k+1; aux = q_{k+1}^-, b = q_{k+2}^-, c = q_{k+2}
