@@ -9,6 +9,7 @@ built in a fraction of the time for the same numbers.
 
 import casadi as ca
 
+from .._util import typed_ops
 from .schur_complement import newton_update
 
 FAST_ITERATIONS = 3
@@ -53,5 +54,5 @@ def _iterated(newton, y, params):
     last update's size relative to y: |delta|_inf / (1 + |y|_inf))."""
     for _ in range(FAST_ITERATIONS):
         delta = newton(y, params)
-        y = y - delta
-    return y, ca.norm_inf(delta) / (1 + ca.norm_inf(y))
+        y = typed_ops.minus(y, delta)
+    return y, typed_ops.divide(ca.norm_inf(delta), typed_ops.plus(1.0, ca.norm_inf(y)))

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from ..._util import sx_ops
+from ..._util import typed_ops
 from ..._util.layout import step_symbols
 from ..tulczyjew import kappa_inverse
 from .base import MinusForm, PlusForm
@@ -84,8 +84,8 @@ class LagrangianPlus(LagrangianForm, PlusForm):
 
     def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
         """(46): sum_k L_d(q_k, q_k^+) + p_{k+1} . (q_{k+1} - q_k^+)."""
-        return sx_ops.total(sx_ops.plus(discrete_lagrangian(q[k], q_aux[k], s[k], h),
-                                        ca.dot(p[k], sx_ops.minus(q[k + 1], q_aux[k])))
+        return typed_ops.total(typed_ops.plus(discrete_lagrangian(q[k], q_aux[k], s[k], h),
+                                        ca.dot(p[k], typed_ops.minus(q[k + 1], q_aux[k])))
                             for k in range(len(q_aux)))
 
     def window(self, discrete_lagrangian, sym):
@@ -102,8 +102,8 @@ class LagrangianMinus(LagrangianForm, MinusForm):
 
     def action_sum(self, discrete_lagrangian, q, q_aux, p, s, h):
         """(47): sum_k L_d(q_{k+1}^-, q_{k+1}) - p_k . (q_k - q_{k+1}^-)."""
-        return sx_ops.total(sx_ops.minus(discrete_lagrangian(q_aux[k], q[k + 1], s[k], h),
-                                         ca.dot(p[k], sx_ops.minus(q[k], q_aux[k])))
+        return typed_ops.total(typed_ops.minus(discrete_lagrangian(q_aux[k], q[k + 1], s[k], h),
+                                         ca.dot(p[k], typed_ops.minus(q[k], q_aux[k])))
                             for k in range(len(q_aux)))
 
     def window(self, discrete_lagrangian, sym):
