@@ -62,9 +62,10 @@ class LagrangianForm:
         x_minus, x_plus = window.ends
         f_minus, f_plus, f_stage = disc.discrete_force(x_minus, x_plus, x["s"], x["u"], x["h"])
         S = window.action
-        rows = (ca.gradient(S, x_minus) + f_minus, ca.gradient(S, x_plus) + f_plus,
-                ca.gradient(S, x["s"]) + f_stage if ns else ca.SX(0, 1))
-        rows = [ca.substitute(r, window.aux, window.solved) for r in rows]
+        # one reverse sweep for the three gradients, one substitution for the three rows
+        gradients = ca.vertsplit(ca.gradient(S, ca.vertcat(x_minus, x_plus, x["s"])), [0, n, 2 * n, 2 * n + ns])
+        rows = [typed_ops.plus(d, f) for d, f in zip(gradients, (f_minus, f_plus, f_stage))]
+        rows = ca.substitute(rows, [window.aux], [window.solved])
         _check_window(ca.vertcat(*rows), ca.gradient(S, window.curve), window)
         return rows
 
