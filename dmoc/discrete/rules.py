@@ -170,5 +170,5 @@ def virtual_work(rule, force, samples, u, variables):
     the forces of H_d+ or H_d-.
     """
     frozen = [(typed_ops.times(w, force(q, y, rule.control_at(u, c))), q) for w, q, y, c in samples]
-    return tuple(sum(ca.mtimes(ca.jacobian(q, x).T, fw) for fw, q in frozen) if x.numel()
+    return tuple(typed_ops.total(ca.mtimes(ca.jacobian(q, x).T, fw) for fw, q in frozen) if x.numel()
                  else ca.SX(0, 1) for x in variables)
