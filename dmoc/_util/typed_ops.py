@@ -79,3 +79,19 @@ def total(terms):
 def column(x):
     """``ca.vec(x)``: an SX or MX column itself (vec returns its node), else vec."""
     return x if type(x) in _SYMBOLIC and x.size2() == 1 else ca.vec(x)
+
+
+def fabs(x):
+    """|x| entrywise."""
+    return type(x).unary(ca.OP_FABS, x) if type(x) in _SYMBOLIC else ca.fabs(x)
+
+
+def less_equal(a, b):
+    """a <= b entrywise (1 or 0)."""
+    out = _binary(ca.OP_LE, a, b)
+    return a <= b if out is None else out
+
+
+def logic_not(x):
+    """not x entrywise (1 or 0)."""
+    return type(x).unary(ca.OP_NOT, x) if type(x) in _SYMBOLIC else ca.logic_not(x)

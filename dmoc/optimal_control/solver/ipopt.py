@@ -109,7 +109,7 @@ def _largest_row_sum(transcription, jit):
     q_ref = p[transcription.p_layout.slice("q_ref")]
     shift = ca.vertcat(ca.MX(q.start, 1), ca.repmat(q_ref, lay.blocks["q"][2], 1), ca.MX(n_x - q.stop, 1))
     jacobian = nlp_functions(separable, jit=jit)["nlp_jac_g"](x, p)[1]
-    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x + shift))
+    rows = ca.mtimes(typed_ops.fabs(jacobian), typed_ops.fabs(typed_ops.plus(x, shift)))
     return ca.Function("largest_row_sum", [z], [ca.mmax(rows) if separable.n_g else ca.MX(0)],
                        ["z"], ["largest"])
 
@@ -250,7 +250,7 @@ def packed_outputs(transcription, sol, inputs):
     D, R = ca.MX(ca.DM(transcription.x_scale)), ca.MX(ca.DM(transcription.g_scale))
     sol["result_x"], sol["result_lam_x"] = typed_ops.times(D, sol["x"]), typed_ops.divide(sol["lam_x"], D)
     sol["result_lam_g"] = typed_ops.times(R, sol["lam_g"])
-    sol["x_norm1"] = ca.sum1(ca.fabs(sol["result_x"]))
+    sol["x_norm1"] = ca.sum1(typed_ops.fabs(sol["result_x"]))
     n_g = transcription.g_layout.size
     if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
         sol["largest"], sol["row"] = largest_violation(n_g)(*(typed_ops.divide(v, R) for v in (

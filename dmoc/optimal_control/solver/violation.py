@@ -33,7 +33,7 @@ def largest_violation(n_g):
 def _is_nan(v):
     """MX: 1 where v is NaN, else 0 (``v != v`` would be simplified to 0 symbolically;
     NaN <= inf is false, every other value's true)."""
-    return ca.logic_not(v <= ca.inf)
+    return typed_ops.logic_not(typed_ops.less_equal(v, ca.inf))
 
 
 def most_violated(transcription, g):
