@@ -61,8 +61,9 @@ def less(a, b):
 
 
 def equal(a, b):
-    """a == b entrywise (1 or 0)."""
-    out = _binary(ca.OP_EQ, a, b)
+    """a == b entrywise (1 or 0), a and b both SX or both MX (a float on the left takes
+    the operator, which Python reflects: ``2.5 == x`` is ``x == 2.5``)."""
+    out = _binary(ca.OP_EQ, a, b) if type(a) is not float else None
     return a == b if out is None else out
 
 

@@ -155,7 +155,8 @@ def quadrature(rule, integrand, q0, q1, s, u, h):
     step integral of it on q(t)."""
     shape = rule.interpolant
     points = shape.samples(q0, q1, rule.stage_configurations(s, q0.shape[0]), h)
-    return typed_ops.total(typed_ops.times(w, integrand(q, v, rule.control_at(u, c), c)) for w, q, v, c in points)
+    return typed_ops.total(typed_ops.times(w, integrand(q, v, rule.control_at(u, c), c))
+                           for w, q, v, c in points)
 
 
 def virtual_work(rule, force, samples, u, variables):

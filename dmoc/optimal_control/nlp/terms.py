@@ -205,7 +205,8 @@ def _scaled(symbol, scale):
     generic product converts a DM anew at every call, 30 us of the 40)."""
     if (scale == 1).all():
         return symbol
-    return typed_ops.times(symbol, _SCALES.get((scale.dtype.str, scale.tobytes()), lambda: ca.SX(ca.DM(scale))))
+    constant = _SCALES.get((scale.dtype.str, scale.tobytes()), lambda: ca.SX(ca.DM(scale)))
+    return typed_ops.times(symbol, constant)
 
 
 def _stack(symbols):
