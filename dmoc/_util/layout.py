@@ -6,6 +6,8 @@ no module packs or unpacks by raw offsets.
 import casadi as ca
 import numpy as np
 
+from . import typed_ops
+
 
 class Layout:
     """Named blocks of a flat vector: name -> (offset, rows, cols), column-major blocks.
@@ -67,7 +69,7 @@ class Layout:
 
     def join(self, values):
         """The flat CasADi column of `values` {name: column}, blocks in order."""
-        return ca.vertcat(*[ca.vec(values[name]) for name in self.blocks])
+        return ca.vertcat(*[typed_ops.column(values[name]) for name in self.blocks])
 
     def locate(self, index):
         """(block name, row, column) of a flat index."""

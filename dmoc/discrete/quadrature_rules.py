@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 from numpy.polynomial import legendre
 
-from .._util import checks
+from .._util import checks, typed_ops
 from ..errors import InputError
 from .rules import Rule, lagrange_basis, linear_combination
 
@@ -122,11 +122,12 @@ class QuadratureRule(Rule):
         stage. `points` defaults to the rule's quadrature points.
         """
         nodes = self.node_values(q0, q1, s)
-        ends = [Q - q0 for Q in nodes[1:]]
+        ends = [typed_ops.minus(Q, q0) for Q in nodes[1:]]
         out = []
         for c, b in self.points if points is None else points:
             value, slope = lagrange_basis(self.nodes, c)
-            out.append((b * h, linear_combination(value, nodes), linear_combination(slope[1:], ends) / h, c))
+            out.append((typed_ops.times(float(b), h), linear_combination(value, nodes),
+                        typed_ops.divide(linear_combination(slope[1:], ends), h), c))
         return out
 
     def stage_guess(self, q, p):

@@ -15,6 +15,7 @@ from abc import ABC, abstractmethod
 import casadi as ca
 import numpy as np
 
+from .._util import typed_ops
 from .._util.cache import BoundedCache
 
 
@@ -144,11 +145,8 @@ def linear_combination(coefficients, terms):
     expressions for linear interpolation: q0 + (q1 - q0), not q0 + 1.0 * (q1 - q0)). A
     NumPy coefficient enters as the Python float of the same value (NumPy's product with
     an SX first tries an array conversion: slower, the same expression)."""
-    total = 0
-    for a, x in zip(coefficients, terms):
-        if a != 0.0:
-            total = total + (x if a == 1.0 else float(a) * x)
-    return total if not isinstance(total, int) else ca.SX.zeros(terms[0].shape)
+    kept = [x if a == 1.0 else typed_ops.times(float(a), x) for a, x in zip(coefficients, terms) if a != 0.0]
+    return typed_ops.total(kept) if kept else ca.SX.zeros(terms[0].shape)
 
 
 def quadrature(rule, integrand, q0, q1, s, u, h):
@@ -157,7 +155,8 @@ def quadrature(rule, integrand, q0, q1, s, u, h):
     step integral of it on q(t)."""
     shape = rule.interpolant
     points = shape.samples(q0, q1, rule.stage_configurations(s, q0.shape[0]), h)
-    return sum(w * integrand(q, v, rule.control_at(u, c), c) for w, q, v, c in points)
+    return typed_ops.total(typed_ops.times(w, integrand(q, v, rule.control_at(u, c), c))
+                           for w, q, v, c in points)
 
 
 def virtual_work(rule, force, samples, u, variables):
@@ -171,6 +170,6 @@ def virtual_work(rule, force, samples, u, variables):
     and f_d^s (midpoint rule: both h/2 f(midpoint)); with a Hamiltonian rule's and (end, s),
     the forces of H_d+ or H_d-.
     """
-    frozen = [(w * force(q, y, rule.control_at(u, c)), q) for w, q, y, c in samples]
-    return tuple(sum(ca.mtimes(ca.jacobian(q, x).T, fw) for fw, q in frozen) if x.numel()
+    frozen = [(typed_ops.times(w, force(q, y, rule.control_at(u, c))), q) for w, q, y, c in samples]
+    return tuple(typed_ops.total(ca.mtimes(ca.jacobian(q, x).T, fw) for fw, q in frozen) if x.numel()
                  else ca.SX(0, 1) for x in variables)

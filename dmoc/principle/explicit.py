@@ -33,17 +33,19 @@ def substitutable(residual):
     if residual.formulation.explicit != "p1":
         return False
     split = explicit_end(residual)
-    return not ca.depends_on(split(*split.sx_in())[1], split.sx_in(split.index_in("p0")))
+    return not split.jac_sparsity(split.index_out("p1"), split.index_in("p0")).nnz()
 
 
 def single_output(residual, name):
     """Output `name` ("rows" or the explicit end) of `explicit_end` alone, as an SX
-    Function of the inputs it uses."""
+    Function of the inputs it uses (those its dependency pattern, ``jac_sparsity``, reaches:
+    what ``ca.depends_on`` tests, without a symbolic call per input)."""
     def build():
         split = explicit_end(residual)
         inputs = dict(zip(split.name_in(), split.sx_in()))
         out = split(**inputs)[name]
-        used = [k for k, x in inputs.items() if ca.depends_on(out, x)]
+        index = split.index_out(name)
+        used = [k for i, k in enumerate(split.name_in()) if split.jac_sparsity(index, i).nnz()]
         return ca.Function(name, [inputs[k] for k in used], [out], used, [name])
     return _SPLITS.get((residual.key, name), build)
 

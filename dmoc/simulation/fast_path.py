@@ -10,6 +10,7 @@ built in a fraction of the time for the same numbers.
 
 import casadi as ca
 
+from .._util import typed_ops
 from .chord_update import (CHORD_ITERATIONS, chord_delta, chord_factors, chord_suited,
                            remaining_error)
 from .schur_complement import newton_update
@@ -86,5 +87,5 @@ def _iterated(update, y, iterations):
     relative to y: |delta|_inf / (1 + |y|_inf))."""
     for _ in range(iterations):
         delta = update(y)
-        y = y - delta
-    return y, ca.norm_inf(delta) / (1 + ca.norm_inf(y))
+        y = typed_ops.minus(y, delta)
+    return y, typed_ops.divide(ca.norm_inf(delta), typed_ops.plus(1.0, ca.norm_inf(y)))

@@ -13,12 +13,13 @@ import hashlib
 import casadi as ca
 import numpy as np
 
+from ..._util import typed_ops
 from ..._util.cache import BoundedCache
 from .control_hull import hull_terms
 from .path_terms import path_terms
 from .separable import SeparableNLP, Term, function_key
 
-_SCALES = BoundedCache(64, "scale_vectors")       # the DM of a scale vector (n,), by its dtype and bytes
+_SCALES = BoundedCache(64, "scale_vectors")       # the SX of a scale vector (n,), by its dtype and bytes
 _FUNCTIONS = BoundedCache(128, "term_functions")   # term Functions by (`_functions_key`, term name): not per N
 
 
@@ -160,7 +161,7 @@ def slot_term(name, slots, body, g_index, key, scales):
     def build():
         symbols = {k: ca.SX.sym(k, index.shape[0]) for k, (_, index) in slots.items() if owner[k] == k}
         values = {k: _scaled(symbols[owner[k]], scale[k]) for k in slots}
-        f, g = body({k: values[k] + values["q_ref"] if src == "q" else values[k]
+        f, g = body({k: typed_ops.plus(values[k], values["q_ref"]) if src == "q" else values[k]
                      for k, (src, _) in slots.items()})
         g = _scaled(ca.SX(g), row_scale)
         z, w = (_stack([symbols[k] for k in parts[src]]) for src in ("x", "p"))
@@ -198,11 +199,14 @@ def broadcast(index, M):
 
 
 def _scaled(symbol, scale):
-    """symbol * scale (entrywise), symbol itself where every factor is 1; the DM of `scale`
-    made once per value (`_SCALES`: a problem's terms share a few scale vectors)."""
+    """symbol * scale (entrywise), symbol itself where every factor is 1; the SX constant of
+    `scale` made once per value (`_SCALES`: a problem's terms share a few scale vectors)
+    and multiplied in through `typed_ops` (the product's nodes are the same; CasADi's
+    generic product converts a DM anew at every call, 30 us of the 40)."""
     if (scale == 1).all():
         return symbol
-    return ca.times(symbol, _SCALES.get((scale.dtype.str, scale.tobytes()), lambda: ca.DM(scale)))
+    constant = _SCALES.get((scale.dtype.str, scale.tobytes()), lambda: ca.SX(ca.DM(scale)))
+    return typed_ops.times(symbol, constant)
 
 
 def _stack(symbols):

@@ -9,6 +9,7 @@ import weakref
 import casadi as ca
 import numpy as np
 
+from ..._util import typed_ops
 from ..._util.cache import BoundedCache
 from ..._util.layout import Layout
 from ..._util.numeric import Evaluator
@@ -108,7 +109,7 @@ def _largest_row_sum(transcription, jit):
     q_ref = p[transcription.p_layout.slice("q_ref")]
     shift = ca.vertcat(ca.MX(q.start, 1), ca.repmat(q_ref, lay.blocks["q"][2], 1), ca.MX(n_x - q.stop, 1))
     jacobian = nlp_functions(separable, jit=jit)["nlp_jac_g"](x, p)[1]
-    rows = ca.mtimes(ca.fabs(jacobian), ca.fabs(x + shift))
+    rows = ca.mtimes(typed_ops.fabs(jacobian), typed_ops.fabs(typed_ops.plus(x, shift)))
     return ca.Function("largest_row_sum", [z], [ca.mmax(rows) if separable.n_g else ca.MX(0)],
                        ["z"], ["largest"])
 
@@ -245,13 +246,15 @@ def packed_outputs(transcription, sol, inputs):
     sol["on_bound"] = on_bound(sol["x"], inputs["lbx"], inputs["ubx"])
     # the result's vectors unscaled: the products and quotients NumPy formed of the
     # outputs before, the same bits; and the 1-norm of x, finite when x is
-    D, R = ca.DM(transcription.x_scale), ca.DM(transcription.g_scale)
-    sol["result_x"], sol["result_lam_x"] = D * sol["x"], sol["lam_x"] / D
-    sol["result_lam_g"] = R * sol["lam_g"]
-    sol["x_norm1"] = ca.sum1(ca.fabs(sol["result_x"]))
+    # (as MX constants, each product through `typed_ops`: the nodes of D * x)
+    D, R = ca.MX(ca.DM(transcription.x_scale)), ca.MX(ca.DM(transcription.g_scale))
+    sol["result_x"], sol["result_lam_x"] = typed_ops.times(D, sol["x"]), typed_ops.divide(sol["lam_x"], D)
+    sol["result_lam_g"] = typed_ops.times(R, sol["lam_g"])
+    sol["x_norm1"] = ca.sum1(typed_ops.fabs(sol["result_x"]))
     n_g = transcription.g_layout.size
     if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
-        sol["largest"], sol["row"] = largest_violation(n_g)(sol["g"] / R, inputs["lbg"] / R, inputs["ubg"] / R)
+        sol["largest"], sol["row"] = largest_violation(n_g)(*(typed_ops.divide(v, R) for v in (
+            sol["g"], inputs["lbg"], inputs["ubg"])))
     else:
         sol["largest"] = sol["row"] = ca.MX(0)
     return sol

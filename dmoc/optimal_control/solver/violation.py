@@ -7,6 +7,7 @@ its group (dynamics at step k, boundary, path).
 
 import casadi as ca
 
+from ..._util import typed_ops
 from ..._util.cache import BoundedCache
 from ..._util.numeric import Evaluator
 
@@ -20,8 +21,8 @@ def largest_violation(n_g):
     row that has it; (0, 0) when no row is violated. ``row`` is a float holding an
     integer."""
     g, lbg, ubg = (ca.MX.sym(name, n_g) for name in ("g", "lbg", "ubg"))
-    below, above = lbg - g, g - ubg
-    violation = ca.if_else(_is_nan(below) + _is_nan(above), ca.inf, ca.fmax(below, above))
+    below, above = typed_ops.minus(lbg, g), typed_ops.minus(g, ubg)
+    violation = ca.if_else(typed_ops.plus(_is_nan(below), _is_nan(above)), ca.inf, ca.fmax(below, above))
     worst = ca.mmax(violation)
     violated = worst > 0
     return ca.Function("largest_violation", [g, lbg, ubg],
@@ -32,7 +33,7 @@ def largest_violation(n_g):
 def _is_nan(v):
     """MX: 1 where v is NaN, else 0 (``v != v`` would be simplified to 0 symbolically;
     NaN <= inf is false, every other value's true)."""
-    return ca.logic_not(v <= ca.inf)
+    return typed_ops.logic_not(typed_ops.less_equal(v, ca.inf))
 
 
 def most_violated(transcription, g):
@@ -87,5 +88,6 @@ def described(transcription, row):
 
 def on_bound(x, lbx, ubx):
     """MX: the number of entries of x with lbx < ubx that sit on one of their bounds."""
-    return ca.sum1((lbx < ubx) * ((x == lbx) + (x == ubx)))
+    return ca.sum1(typed_ops.times(typed_ops.less(lbx, ubx),
+                                   typed_ops.plus(typed_ops.equal(x, lbx), typed_ops.equal(x, ubx))))
 
