@@ -50,7 +50,7 @@ def applies(transcription, lbx, ubx, lbg, ubg):
     return bool(np.all(lbg == ubg) and np.all(np.isinf(lbx[free])) and np.all(np.isinf(ubx[free])))
 
 
-def newton_resolve(transcription, x0, lam_g0, bounds, tolerances):
+def newton_resolve(transcription, x0, lam_g0, bounds, fixed, tolerances):
     """The optimum of the scaled NLP of `transcription` from the warm start (x0, lam_g0)
     by Newton's method on its KKT conditions, or None when it is not reached as the module
     says.
@@ -64,6 +64,8 @@ def newton_resolve(transcription, x0, lam_g0, bounds, tolerances):
         The start's multipliers of g, scaled (lam_g / g_scale).
     bounds : tuple of ndarray
         (lbx, ubx, lbg, ubg), scaled, such that `applies`.
+    fixed : ndarray of int
+        The entries with lbx == ubx (`fixed_multipliers.fixed_entries`).
     tolerances : tuple of float
         (tol, constr_viol_tol) of the solve.
 
@@ -78,7 +80,6 @@ def newton_resolve(transcription, x0, lam_g0, bounds, tolerances):
     tic = time.perf_counter()
     T = transcription
     lbx, ubx, lbg, ubg = bounds
-    fixed = np.flatnonzero(lbx == ubx)
     step, signs = _STEPS.get((T.structure, fixed.tobytes()), lambda: _newton_step(T, fixed))
     n_x, n_g = x0.size, lam_g0.size
     z = np.concatenate([x0, T.p, lam_g0])

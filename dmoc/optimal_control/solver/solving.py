@@ -65,9 +65,10 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     if automatic:
         jit = compiled_when_ready(T.separable, warm)
     tic = time.perf_counter()
-    tolerances = {**DEFAULT_IPOPT_OPTIONS, **data_tolerances(T, x0, jit), **options}
+    raised = data_tolerances(T, x0, jit)
+    tolerances = {**DEFAULT_IPOPT_OPTIONS, **raised, **options}
     solver, reused, journal = ipopt_solver(
-        T, {**data_tolerances(T, x0, jit), **start_options(warm), **options},
+        T, {**raised, **start_options(warm), **options},
         expand=switches["expand"], reuse=switches["reuse_solver"],
         report=switches["linear_solver_report"], jit=jit)
     times = {"build_time": 0.0 if reused else time.perf_counter() - tic, "solver_reused": reused,
@@ -75,7 +76,7 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
     journal_start = linear_solver.journal_end(journal) if journal else 0
     bounds = (lbx, ubx, *T.scaled_g_bounds)
     tic = time.perf_counter()
-    newton = (newton_resolve(T, x0, lam_g0 / R, bounds, (tolerances["tol"], tolerances["constr_viol_tol"]))
+    newton = (newton_resolve(T, x0, lam_g0 / R, bounds, fixed, (tolerances["tol"], tolerances["constr_viol_tol"]))
               if warm and options.keys() <= NEWTON_OPTIONS and not journal and applies(T, *bounds) else None)
     if newton is None:
         with interrupt.watch() as sigints:
@@ -83,13 +84,11 @@ def solve(problem, *, guess=None, options=None, reuse_solver=True, expand=False,
                          lbx=lbx, ubx=ubx, lbg=bounds[2], ubg=bounds[3])
         st = solver.stats()
     else:
-        sol, iterations, seconds = newton
+        sol, iterations, times["newton_time"] = newton
         sigints, st = [], {"success": True, "return_status": "Solve_Succeeded", "iter_count": iterations,
                            "iterations": {"regularization_size": [0.0] * iterations}, "t_wall_total": 0.0}
     times["solve_time"] = time.perf_counter() - tic
     times["nlp_solver"] = "ipopt" if newton is None else "newton"
-    if newton is not None:
-        times["newton_time"] = newton[2]
     cost, worst = values_at_x(T, sol, st["success"])
     stats = _statistics(st, times, worst)
     if automatic and warm and not jit:
