@@ -20,6 +20,13 @@ from .._helpers import lagrangian_gradient
 IPOPT = {"fixed_variable_treatment": "make_parameter_nodual"}   # dmoc's default, given: IPOPT
 
 
+@pytest.fixture(autouse=True)
+def no_refusals_yet():
+    """Each test starts with no structure's Newton refusals counted (other tests' re-solves
+    in this process may have counted some)."""
+    dmoc.clear_caches("newton_refusals")
+
+
 def _problems():
     sphere = dmoc.discretize(dmoc.systems.spherical_pendulum(), 0.1)
     return {
@@ -109,3 +116,24 @@ def test_bounds_options_and_cold_starts_stay_with_ipopt():
                                   *bounded.transcription.scaled_g_bounds)
     again = solve(bounded, guess=solve(bounded))
     assert again.stats["warm_start"] and again.stats["nlp_solver"] == "ipopt"
+
+
+def test_a_structure_newton_keeps_refusing_goes_to_ipopt_at_once(monkeypatch):
+    """A car in SI units (1500 kg, 2500 kg m², 60 m at 10 m/s): its scaled NLP spans 1e9 and
+    Newton's iteration stalls above tol, so every attempt is refused (IPOPT re-solves, the
+    verdict passes); after REFUSALS_BEFORE_IPOPT refusals in a row the structure's
+    re-solves no longer try it (its steps are not even looked up)."""
+    car = dmoc.systems.car(mass=1500.0, yaw_inertia=2500.0, com_offset=0.4)
+    problem = dmoc.OptimalControlProblem(dmoc.discretize(car, 0.2, "lobatto3"), 30, q_start=[0, 0, 0, 0],
+                                         v_start=[10, 0, 0, 0], q_goal=[60, 3.5, 0, 0], v_goal=[10, 0, 0, 0])
+    result = dmoc.optimize(problem)
+    for dy in range(newton_kkt.REFUSALS_BEFORE_IPOPT):
+        result = dmoc.optimize(problem.with_boundary(q_goal=[60, 3.6 + 0.1 * dy, 0, 0]), guess=result)
+        assert result.stats["nlp_solver"] == "ipopt" and result.verdict.passed
+
+    class Untouched:
+        def get(self, *args):
+            raise AssertionError("Newton's steps looked up after the refusals")
+    monkeypatch.setattr(newton_kkt, "_STEPS", Untouched())
+    again = dmoc.optimize(problem.with_boundary(q_goal=[60, 3.3, 0, 0]), guess=result)
+    assert again.stats["nlp_solver"] == "ipopt" and again.verdict.passed

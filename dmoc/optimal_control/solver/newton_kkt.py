@@ -18,7 +18,11 @@ demand it), the error falling at every iteration, and the KKT matrix there of in
 definite on the constraints' tangent space and the Jacobian of full rank: a strict local
 minimum, not a saddle or a maximum (Nocedal & Wright, Numerical Optimization, 2nd ed.,
 Thm. 12.6 and Sec. 16.2). Otherwise `newton_resolve` returns None and IPOPT solves from
-the same start.
+the same start. A structure on which Newton's method was refused REFUSALS_BEFORE_IPOPT
+times in a row is left to IPOPT from then on (until `dmoc.clear_caches`): on a car in SI
+units (1500 kg, its scaled NLP's entries spanning 1e9) the iteration stalls above `tol`
+and the LDL^T pivots of the shifted matrix do not give its inertia, and each attempt cost
+0.7-1.1 ms before IPOPT's 7-9 ms re-solve.
 """
 
 import time
@@ -39,7 +43,10 @@ MAX_ITERATIONS = 6
 # the IPOPT options a Newton re-solve takes (its tolerances) or that mean nothing to it;
 # given any other, a re-solve is IPOPT's
 NEWTON_OPTIONS = frozenset({"tol", "constr_viol_tol", "print_level"})
+# refusals in a row on one structure after which its re-solves go to IPOPT at once
+REFUSALS_BEFORE_IPOPT = 2
 _STEPS = BoundedCache(16, "newton_steps")        # by (NLP structure, fixed entries)
+_REFUSALS = BoundedCache(64, "newton_refusals")  # by NLP structure: [refusals in a row]
 _PACKINGS = BoundedCache(16, "newton_packings")  # by NLP structure
 
 
@@ -79,7 +86,23 @@ def newton_resolve(transcription, x0, lam_g0, bounds, fixed, tolerances):
     """
     tic = time.perf_counter()
     T = transcription
+    refusals = _REFUSALS.get(T.structure, lambda: [0])
+    if refusals[0] >= REFUSALS_BEFORE_IPOPT:
+        return None
+    solved = _iterate(T, x0, lam_g0, fixed, tolerances)
+    refusals[0] = 0 if solved is not None else refusals[0] + 1
+    if solved is None:
+        return None
+    x, lam_g, iterations = solved
     lbx, ubx, lbg, ubg = bounds
+    packing, layout = _PACKINGS.get(T.structure, lambda: _packing(T))
+    sol = layout.split(packing.vector(np.concatenate([x, T.p, lam_g, lbx, ubx, lbg, ubg])))
+    return sol, iterations, time.perf_counter() - tic
+
+
+def _iterate(T, x0, lam_g0, fixed, tolerances):
+    """(x, lam_g, iterations) of Newton's method on the KKT conditions from (x0, lam_g0)
+    when it is accepted as the module says, else None."""
     step, signs = _STEPS.get((T.structure, fixed.tobytes()), lambda: _newton_step(T, fixed))
     n_x, n_g = x0.size, lam_g0.size
     z = np.concatenate([x0, T.p, lam_g0])
@@ -98,10 +121,7 @@ def newton_resolve(transcription, x0, lam_g0, bounds, fixed, tolerances):
     negative, positive = signs.vector(z)
     if negative != n_g or positive != n_x - fixed.size:
         return None
-    x, lam_g = z[:n_x], z[-n_g:]
-    packing, layout = _PACKINGS.get(T.structure, lambda: _packing(T))
-    sol = layout.split(packing.vector(np.concatenate([x, T.p, lam_g, lbx, ubx, lbg, ubg])))
-    return sol, iterations, time.perf_counter() - tic
+    return z[:n_x], z[-n_g:], iterations
 
 
 def _newton_step(transcription, fixed):
