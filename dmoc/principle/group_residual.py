@@ -14,7 +14,7 @@ from .._util import checks
 from .._util.cache import BoundedCache
 from .._util.layout import Layout
 from ..discrete.group_discretization import GroupDiscretization
-from ..mechanics.rotations import cayley, joined_configuration, split_configuration, vector_of
+from ..mechanics.rotations import cayley, hat, joined_configuration, split_configuration, vector_of
 
 
 class GroupStepResidual:
@@ -92,9 +92,9 @@ class GroupStepResidual:
         q1, F9, D1, D2 = trivialized_derivatives(disc, q0, x["f"], h)
         f_minus, f_plus = disc.discrete_force(q0, q1, F9, x["u"], h)
         A0 = self.system.constraint_matrix(q0)
-        r = ca.cse(ca.vertcat(x["p0"] + D1 + f_minus - ca.mtimes(A0.T, x["lam"]),
-                              D2 + f_plus - x["p1"],
-                              disc.discrete_constraint(q0, q1, F9, h)))
+        r = ca.vertcat(x["p0"] + D1 + f_minus - ca.mtimes(A0.T, x["lam"]),
+                       D2 + f_plus - x["p1"],
+                       disc.discrete_constraint(q0, q1, F9, h))
         names = list(self.inputs.blocks)
         function = ca.Function("group_step_residual", [x[k] for k in names], [r], names, ["r"])
         reconstruction = ca.Function("reconstruction", [x["q0"], x["f"]], [q1],
@@ -124,7 +124,7 @@ def trivialized_derivatives(disc, q0, f, h):
     (R0, x0), F = split_configuration(q0), cayley(f[:3])
     R1, x1 = ca.mtimes(R0, F), x0 + f[3:]
     eta0, eta1 = ca.SX.sym("eta0", n), ca.SX.sym("eta1", n)
-    C0, C1 = cayley(eta0[:3]), cayley(eta1[:3])
+    C0, C1 = (ca.DM.eye(3) + hat(eta[:3]) for eta in (eta0, eta1))
     varied = disc.discrete_lagrangian(joined_configuration(ca.mtimes(R0, C0), x0 + eta0[3:]),
                                       joined_configuration(ca.mtimes(R1, C1), x1 + eta1[3:]),
                                       vector_of(ca.mtimes([C0.T, F, C1])), h)
