@@ -82,14 +82,15 @@ def judge_on_group(problem, result):
 
 
 def goal_error(problem, traj):
-    """max(angle of R_goal^T R_N in radians, max_i |x_N,i - x_goal,i| / span of x) of the
-    optimum `traj` (`judge_on_group`)."""
+    """max(angle of R_goal^T R_N in radians, max_i |x_N,i - x_goal,i| / span of x over the
+    given entries of x_goal) of the optimum `traj` (`judge_on_group`)."""
     chord = np.linalg.norm(traj.R[-1] - problem.R_goal) / np.sqrt(8.0)
     angle = 2.0 * np.arcsin(min(chord, 1.0))
     if not problem.disc.system.n_x:
         return float(angle)
     span = scale(np.ptp(traj.x, axis=0).max(), np.abs(traj.x).max())
-    return max(float(angle), float(np.abs(traj.x[-1] - problem.x_goal).max() / span))
+    given = np.isfinite(problem.x_goal)
+    return max(float(angle), float(np.abs(traj.x[-1] - problem.x_goal)[given].max(initial=0.0) / span))
 
 
 def group_knot_path_values(problem, traj):

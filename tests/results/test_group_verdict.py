@@ -52,6 +52,16 @@ def test_a_missed_goal_is_named_by_its_angle(optimum):
     assert "fails its verdict (goal_missed): its last knot misses the goal by 5.00e-02" in failed.message
 
 
+def test_a_failed_verdict_after_an_acceptable_stop_says_so(optimum):
+    """IPOPT's acceptable level is no optimum to `tol`: the message says so beside what the
+    verdict found, and does not when IPOPT met `tol`."""
+    _, result = optimum
+    verdict = judge_on_group(slew(THETA + 0.05), result)
+    stopped = dataclasses.replace(result, stats={**result.stats, "return_status": "Solved_To_Acceptable_Level"})
+    assert "stopped at its acceptable level" in judged(stopped, verdict, throw=False).message
+    assert "acceptable level, not" not in judged(result, verdict, throw=False).message
+
+
 def test_a_path_row_at_the_knots_is_checked_and_named(optimum):
     """The row u_0 <= 0.4 max u_0: violated where u_0 peaks, by 0.6 max u_0 relative to the
     row's scale max(1, max_k |g_k|)."""

@@ -78,6 +78,14 @@ class FloatingBaseRobot:
     energy : casadi.Function
         ``energy(q, p) -> E``: 1/2 p^T M(q)^{-1} p + U of q (9 + n_x,) and the momentum p
         = M(q) (Omega, p', s') (n,).
+    momentum_map, momentum_rate : casadi.Function, ndarray
+        ``J(q, p) -> J``, linear in p, and dJ/dt: the momenta that the discrete flow changes
+        at a constant rate whatever the controls (Notes), exactly, J_k = J_0 + k h
+        momentum_rate. Shape (6,) without gravity (the total linear momentum p_p, then the
+        total angular momentum about the world's origin R Pi + p x p_p, all kept), shape
+        (4,) with it (p_p, whose z changes at the rate -m g, and the angular momentum's z).
+        A DMOC problem states the goal's momentum without them
+        (`dmoc.optimal_control.statement.group_boundary.end_rows`).
     key : str
         Identifies the robot's data (the discretization, the step residual and the compiled
         steps are shared between equal robots).
@@ -91,11 +99,14 @@ class FloatingBaseRobot:
 
         L(R, p, s, Omega, p', s') = 1/2 nu^T M(s) nu - g sum_i m_i (p + R r_i(s))_z,
 
-    r_i(s) the centre of mass of link i in the base's frame. L is invariant under
-    translations p -> p + c and, without gravity, under rotations (R, p) -> (Q R, Q p): the
-    momentum maps are the total linear momentum p_p and the total angular momentum about
-    the world's origin R Pi + p x p_p (Pi the body angular momentum conjugate to Omega),
-    which the discrete flow keeps exactly (discrete Noether). The equations of motion are
+    r_i(s) the centre of mass of link i in the base's frame. Without gravity L is invariant
+    under translations p -> p + c and rotations (R, p) -> (Q R, Q p): the momentum maps
+    are the total linear momentum p_p and the total angular momentum about the world's
+    origin R Pi + p x p_p (Pi the body angular momentum conjugate to Omega), which the
+    discrete flow keeps exactly (discrete Noether); with gravity only under horizontal
+    translations and rotations about the vertical, which keep p_p's x and y and the
+    angular momentum's z, while the weight changes p_p's z by -m g h per step
+    (`momentum_map`). The equations of motion are
     M(s) nu' + C(s, nu) nu + G(R, s) = (0, 0, u - D s'); the tests compare M and G with
     Pinocchio's on a free-flyer root joint.
 
@@ -145,6 +156,10 @@ class FloatingBaseRobot:
         T_body = self.kinetic_energy(ca.SX.eye(3), body, nu[3:6], ca.vertcat(nu[:3], nu[6:]))
         self.mass_matrix = ca.Function("M_body", [s], [ca.hessian(T_body, nu)[0]], ["s"], ["M"])
         self.center_of_mass = ca.Function("c", [q], [self._center(*on_q)], ["q"], ["c"])
+        angular = ca.mtimes(on_q[0], p[:3]) + ca.cross(q[9:12], p[3:6])
+        kept = ca.vertcat(p[3:6], angular) if g == 0 else ca.vertcat(p[3:6], angular[2])
+        self.momentum_map = ca.Function("J", [q, p], [kept], ["q", "p"], ["J"])
+        self.momentum_rate = np.zeros(6) if g == 0 else np.array([0.0, 0.0, -self.mass * g, 0.0])
         kinetic = 0.5 * ca.dot(p, ca.solve(M, p))
         self.energy = ca.Function("energy", [q, p], [kinetic + self.potential(*on_q)], ["q", "p"], ["E"])
         self.key = _fingerprint(self.kinetic_energy, self.potential, self.torque, self.energy)

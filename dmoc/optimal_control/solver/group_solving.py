@@ -103,16 +103,16 @@ def solve_with(problem, T, options, start, *, throw=True, warm_start=False, expa
 
 def geodesic_guess(problem, T):
     """x along the geodesic: R_k (`GroupOptimalControlProblem.geodesic`) and x_k on the
-    segment between the ends bent by `bump`, f_k = (cay^{-1}(R_0^T R_1), x_{k+1} - x_k)
-    (the geodesic's increments R_k^T R_{k+1} are all the one rotation exp(log(R_start^T
+    segment between the ends bent by `bump` (a free goal entry held at its start value),
+    f_k = (cay^{-1}(R_0^T R_1), x_{k+1} - x_k) (the geodesic's increments R_k^T R_{k+1} are all the one rotation exp(log(R_start^T
     R_goal) / N)), p_k = M(q_k) f_k / h with M the body's `generalized_mass` (diag(J, M_x)
     of a rigid body; the last step's f at N), zero multipliers and controls."""
     R, N = problem.geodesic(), problem.steps
     body = problem.disc.system
     tau = np.linspace(0.0, 1.0, N + 1)
     M_x = np.array(body.generalized_mass(np.concatenate([problem.R_start.ravel(), problem.x_start])))[3:, 3:]
-    x = (problem.x_start + np.outer(tau, problem.x_goal - problem.x_start)
-         + np.outer(np.sin(np.pi * tau), bump(M_x, problem.x_goal - problem.x_start)))
+    motion = np.nan_to_num(problem.x_goal - problem.x_start)          # free goal entries stay
+    x = (problem.x_start + np.outer(tau, motion) + np.outer(np.sin(np.pi * tau), bump(M_x, motion)))
     turn = np.array(cayley_inverse(ca.DM(R[0].T @ R[1]))).ravel()
     f = np.hstack([np.tile(turn, (N, 1)), np.diff(x, axis=0)])
     q = np.hstack([R.reshape(-1, 9), x])

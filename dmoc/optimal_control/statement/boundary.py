@@ -73,7 +73,7 @@ def check_holonomic_boundary(system, q_start, q_goal):
     if len(given) <= n - k:
         return
     jacobian = np.array(system.constraint_matrix(np.nan_to_num(q_goal)))[system.m - k:]
-    free = sorted(int(i) for i in given[_pivot_columns(jacobian[:, given], len(given) - (n - k))])
+    free = sorted(int(i) for i in given[pivot_columns(jacobian[:, given], len(given) - (n - k))])
     raise InputError(
         f"`q_goal` over-determines the holonomic constraints: the step rows impose the k = {k} "
         f"equations g(q_N) = 0, so at most n - k = {n - k} of its entries can be given; it gives "
@@ -81,7 +81,7 @@ def check_holonomic_boundary(system, q_start, q_goal):
         f"(None): the goal set is the same, and the NLP stays regular.")
 
 
-def _pivot_columns(matrix, count):
+def pivot_columns(matrix, count):
     """Indices of `count` columns of `matrix` chosen as QR with column pivoting chooses
     them: each the column of largest norm after removing the span of those chosen."""
     rest, chosen = np.array(matrix, dtype=float), []

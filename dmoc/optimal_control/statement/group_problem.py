@@ -18,6 +18,7 @@ from ...mechanics.rigid_body import check_allowed_velocity
 from ...mechanics.rotations import as_rotation
 from ...principle.group_residual import group_step_residual
 from ..solver.ipopt import DEFAULT_IPOPT_OPTIONS
+from .group_boundary import end_rows, free_goal_momentum, goal_coordinates
 from .parameters import refuse_comparisons
 
 
@@ -40,6 +41,10 @@ class GroupOptimalControlProblem:
         Body angular velocities at the ends (default: at rest).
     x_start, x_goal : array_like, shape (n_x,), optional
         The vector coordinates at the ends, for a body with coordinates (required then).
+        Entries of `x_goal` may be None: that coordinate is free at the goal (the NLP has
+        no row for it), e.g. the base position of a free-floating robot, which its
+        conserved momentum decides. A moving goal (velocity not zero) refuses free entries
+        its mass matrix or constraint rows depend on.
     x_velocity_start, x_velocity_goal : array_like, shape (n_x,), optional
         Their velocities at the ends (default: at rest). The velocity (omega, x') at each
         end must satisfy the constraints there.
@@ -56,9 +61,14 @@ class GroupOptimalControlProblem:
     disc, steps, residual : GroupDiscretization, int, GroupStepResidual
     R_start, R_goal : numpy.ndarray, shape (3, 3)
     x_start, x_goal : numpy.ndarray, shape (n_x,)
+        x_goal NaN where free.
     p_start, p_goal : numpy.ndarray, shape (3 + n_x,)
         The momenta M(q) (omega, x') the ends impose (M the body's `generalized_mass`,
         diag(J, M_x) for a RigidBody).
+    end_rows : numpy.ndarray of int
+        The rows of p_N = p_goal + A(q_N)^T nu the NLP imposes: all n, but for a body that
+        has momenta the controls do not change (a FloatingBaseRobot's `momentum_map`) as
+        many fewer, which p_0 fixes (`dmoc.optimal_control.statement.group_boundary.end_rows`).
     path_constraints : casadi.Function or None
         ``(R, x, u) -> g`` (`group_path_function`), None without path constraints.
 
@@ -71,8 +81,9 @@ class GroupOptimalControlProblem:
     `reconstruction`), so every R_k is an exact group product of the start and the
     increments to the solver's tolerance. q_0 and p_0 are fixed by bounds; the goal is the
     3 rows cay^{-1}(R_goal^T R_N) = 0 (the 9 entries of R_N = R_goal would be 6 rows too
-    many) and x_N = x_goal, and the end momentum the (+) form's p_N = p_goal + A(q_N)^T nu
-    (an impulse nu at q_N, as `Formulation.momentum_conditions` on R^n). The path
+    many) and x_N,i = x_goal,i for the given entries, and the end momentum the (+) form's
+    p_N = p_goal + A(q_N)^T nu (an impulse nu at q_N, as `Formulation.momentum_conditions`
+    on R^n), its `end_rows`. The path
     constraints are the rows g(R_k, x_k, u_k) <= 0, k = 0 ... N, as the knot rows of a
     problem on R^n (`dmoc.optimal_control.nlp.path_terms`); between knots nothing is
     imposed.
@@ -89,18 +100,21 @@ class GroupOptimalControlProblem:
         self.residual = group_step_residual(disc)
         body = disc.system
         self.R_start, self.R_goal = as_rotation("R_start", R_start), as_rotation("R_goal", R_goal)
-        self.x_start, self.x_goal = (_coordinates(body, name, value) for name, value in
-                                     (("x_start", x_start), ("x_goal", x_goal)))
-        momenta = []
+        self.x_start = _coordinates(body, x_start)
+        self.x_goal = goal_coordinates(body, x_goal)
+        ends = []
         for end, R, x, omega, rate in (("start", self.R_start, self.x_start, omega_start, x_velocity_start),
                                        ("goal", self.R_goal, self.x_goal, omega_goal, x_velocity_goal)):
-            q = np.concatenate([R.ravel(), x])
             v = np.concatenate([checks.array(f"omega_{end}", omega, (3,)),
                                 np.zeros(body.n_x) if rate is None
                                 else checks.array(f"x_velocity_{end}", rate, (body.n_x,))])
-            check_allowed_velocity(body, q, v, f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
-            momenta.append(np.array(body.generalized_mass(q)) @ v)
-        self.p_start, self.p_goal = momenta
+            q = np.concatenate([R.ravel(), x])
+            filled = np.concatenate([R.ravel(), np.where(np.isnan(x), self.x_start, x)])
+            p = free_goal_momentum(body, q, v, filled)
+            check_allowed_velocity(body, filled, v, f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
+            ends.append((q, p))
+        (_, self.p_start), (_, self.p_goal) = ends
+        self.end_rows = end_rows(body, *ends, self.duration)
         self.path_constraints = (None if path_constraints is None
                                  else group_path_function(path_constraints, disc))
         if self.path_constraints is not None:
@@ -139,14 +153,14 @@ class GroupOptimalControlProblem:
         return f"GroupOptimalControlProblem({self.disc!r}, steps={self.steps})"
 
 
-def _coordinates(body, name, value):
-    """`value` as the body's vector coordinates (n_x,), required when it has them."""
-    if body.n_x == 0 and value is None:
+def _coordinates(body, x_start):
+    """`x_start` as the body's vector coordinates (n_x,), required when it has them."""
+    if body.n_x == 0 and x_start is None:
         return np.zeros(0)
-    if value is None:
-        raise InputError(f"`{name}` is required for {body.name!r}: its coordinates, shape "
+    if x_start is None:
+        raise InputError(f"`x_start` is required for {body!r}: its coordinates, shape "
                          f"({body.n_x},).")
-    return checks.array(name, value, (body.n_x,))
+    return checks.array("x_start", x_start, (body.n_x,))
 
 
 def group_path_function(path, disc):
@@ -162,11 +176,14 @@ def group_path_function(path, disc):
 
 
 def _refuse_violated_end(path, end, R, x):
-    """InputError when the given end (R, x) violates a row of `path` that reads R and x
-    alone (not u): every row holds at q_0 and q_N, so the problem would have no solution."""
-    u = ca.SX.sym("u", path.size1_in("u"))
-    g = path(ca.DM(R), ca.DM(x), u)
-    rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], u)]
+    """InputError when the given end (R, x) violates a row of `path` that reads R and the
+    given entries of x alone (not u, nor a free entry of x, NaN): every row holds at q_0
+    and q_N, so the problem would have no solution."""
+    u, free = ca.SX.sym("u", path.size1_in("u")), ca.SX.sym("x", x.size)
+    given = ca.DM(np.nan_to_num(x))
+    g = path(ca.DM(R), ca.if_else(ca.DM(np.isnan(x).astype(float)), free, given), u)
+    unknown = ca.vertcat(u, free)
+    rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], unknown)]
     values = [float(ca.evalf(g[i])) for i in rows]
     if values and max(values) > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
         worst = int(np.argmax(values))
