@@ -54,7 +54,8 @@ def uses_chord(stepper):
     """Whether the fast path of `stepper` (a `DiracStepper`) is to take chord updates
     (`dmoc.simulation.chord_update.chord_suited` of its step Jacobian)."""
     ys, params = ca.SX.sym("y", stepper.unknowns.size), stepper.symbols(ca.SX)[3]
-    return chord_suited(ca.jacobian(stepper.equations(ys, params)[0], ys), stepper.unknowns)
+    return chord_suited(lambda: ca.jacobian_sparsity(stepper.equations(ys, params)[0], ys),
+                        stepper.unknowns)
 
 
 def _updates(stepper, params):
@@ -65,10 +66,10 @@ def _updates(stepper, params):
     alike."""
     ys = ca.SX.sym("y", stepper.unknowns.size)
     g = stepper.equations(ys, params)[0]
-    J = ca.jacobian(g, ys)
     if not stepper.chord:
         newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns)])
         return lambda y, p: _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
+    J = ca.jacobian(g, ys)
     factors = ca.Function("chord_factors", [ys, params], list(chord_factors(J)))
     Q, R = (ca.SX.sym(name, J.size1(), J.size1()) for name in "QR")
     chord = ca.Function("chord_update", [ys, params, Q, R], [chord_delta(Q, R, g)])
