@@ -82,9 +82,10 @@ def judge_on_group(problem, result):
 
 
 def goal_error(problem, traj):
-    """max(angle of R_goal^T R_N in radians, max_i |x_N,i - x_goal,i| / span of x over the
-    given entries of x_goal) of the optimum `traj` (`judge_on_group`)."""
-    chord = np.linalg.norm(traj.R[-1] - problem.R_goal) / np.sqrt(8.0)
+    """max(angle of R_goal^T R_N in radians (0 when R_goal is free), max_i |x_N,i -
+    x_goal,i| / span of x over the given entries of x_goal) of the optimum `traj`
+    (`judge_on_group`)."""
+    chord = 0.0 if problem.R_goal is None else np.linalg.norm(traj.R[-1] - problem.R_goal) / np.sqrt(8.0)
     angle = 2.0 * np.arcsin(min(chord, 1.0))
     if not problem.disc.system.n_x:
         return float(angle)

@@ -32,12 +32,12 @@ class GroupTranscription:
         Blocks ``q`` (9 + n_x, N+1: the rows of R_k then x_k, column k), ``p`` (n, N+1),
         ``f`` (n, N), ``lam`` (m, N), ``u`` (n_u, N), ``nu`` (m: the end impulse).
     p_layout : Layout
-        Blocks ``h`` (1), ``R_goal`` (9, its rows), ``x_goal`` (its given entries),
+        Blocks ``h`` (1), ``R_goal`` (9, its rows; 0 when free), ``x_goal`` (its given entries),
         ``p_goal`` (its `end_rows`).
     g_layout : Layout
         Blocks ``dynamics`` (2n + m, N: the residual's rows), ``group`` (9 + n_x, N:
-        q_{k+1} - (R_k cay(f_k), x_k + dx_k)), ``goal`` (3 + the given entries of x_goal:
-        cay^{-1}(R_goal^T R_N), x_N - x_goal), ``end`` (the problem's `end_rows` of p_N -
+        q_{k+1} - (R_k cay(f_k), x_k + dx_k)), ``goal`` (cay^{-1}(R_goal^T R_N), 3 rows
+        unless R_goal is free; x_N - x_goal at its given entries), ``end`` (the problem's `end_rows` of p_N -
         p_goal - A(q_N)^T nu) and ``path_knots`` (rows
         of the path constraints, N + 1: g(R_k, x_k, u_k) at knot k, u_{N-1} at q_N).
     p : numpy.ndarray, shape (p_layout.size,)
@@ -88,8 +88,9 @@ def group_transcription(problem):
     x_layout = Layout([("q", (n_q, N + 1)), ("p", (n, N + 1)), ("f", (n, N)), ("lam", (m, N)),
                        ("u", (n_u, N)), ("nu", m)])
     given, ends = np.flatnonzero(np.isfinite(problem.x_goal)), problem.end_rows
-    p_layout = Layout([("h", 1), ("R_goal", 9), ("x_goal", given.size), ("p_goal", ends.size)])
-    g_layout = Layout([("dynamics", (2 * n + m, N)), ("group", (n_q, N)), ("goal", 3 + given.size),
+    turn = 0 if problem.R_goal is None else 3          # the rotation's goal rows
+    p_layout = Layout([("h", 1), ("R_goal", 3 * turn), ("x_goal", given.size), ("p_goal", ends.size)])
+    g_layout = Layout([("dynamics", (2 * n + m, N)), ("group", (n_q, N)), ("goal", turn + given.size),
                        ("end", ends.size), ("path_knots", (0 if path is None else path.numel_out(0), N + 1))])
     layouts = (x_layout, p_layout, g_layout)
     scales = (np.ones(x_layout.size), np.ones(g_layout.size))
@@ -104,8 +105,8 @@ def group_transcription(problem):
     for name, value in (("q", start), ("p", problem.p_start)):
         at = x_layout.slice(name).start + np.arange(value.size)      # column 0
         lbx[at] = ubx[at] = value
-    p = np.concatenate([[problem.disc.h], problem.R_goal.ravel(), problem.x_goal[given],
-                        problem.p_goal[ends]])
+    p = np.concatenate([[problem.disc.h], [] if problem.R_goal is None else problem.R_goal.ravel(),
+                        problem.x_goal[given], problem.p_goal[ends]])
     return GroupTranscription(separable, x_layout, p_layout, g_layout, p, lbx, ubx, lbg, ubg,
                               R.row_layout, *scales)
 
@@ -132,17 +133,18 @@ def _goal_term(problem, layouts, scales):
     read from p."""
     A = problem.residual.system.constraint_matrix
     given, ends = np.flatnonzero(np.isfinite(problem.x_goal)).tolist(), problem.end_rows.tolist()
+    turned = problem.R_goal is not None
     (X, P, G) = (block_indices(lay) for lay in layouts)
     slots = {"q": ("x", X["q"][:, -1:]), "p": ("x", X["p"][:, -1:]), "nu": ("x", X["nu"]),
              **{name: ("p", P[name]) for name in ("R_goal", "x_goal", "p_goal")}}
 
     def body(s):
         R_N, x_N = split_configuration(s["q"])
-        goal = cayley_inverse(ca.mtimes(matrix_of(s["R_goal"]).T, R_N))
+        goal = cayley_inverse(ca.mtimes(matrix_of(s["R_goal"]).T, R_N)) if turned else ca.SX(0, 1)
         end = s["p"] - ca.mtimes(A(s["q"]).T, s["nu"])
         return 0, ca.vertcat(goal, x_N[given] - s["x_goal"], end[ends] - s["p_goal"])
     return slot_term("group_goal", slots, body, np.vstack([G["goal"], G["end"]]),
-                     ("group_goal", problem.residual.key, tuple(given), tuple(ends)), scales)
+                     ("group_goal", problem.residual.key, turned, tuple(given), tuple(ends)), scales)
 
 
 def _path_term(problem, layouts, scales):

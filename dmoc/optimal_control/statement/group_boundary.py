@@ -1,5 +1,5 @@
 """The ends of a `GroupOptimalControlProblem`, each row stated once: its goal coordinates
-with free entries (None in ``x_goal``) and the rows of its end momentum p_N = p_goal that
+with free entries (None in ``x_goal``, or ``R_goal`` None) and the rows of its end momentum p_N = p_goal that
 the body's momentum maps leave to impose. A free-floating robot keeps its total momentum
 exactly (discrete Noether; under gravity all but the vertical linear momentum, which its
 weight changes at a fixed rate), so p_0 already fixes those combinations of p_N;
@@ -30,21 +30,28 @@ def goal_coordinates(body, x_goal):
 
 
 def free_goal_momentum(body, q_goal, v_goal, filled):
-    """The goal's momentum M(q_goal) v_goal (n,) with the free (NaN) entries of `q_goal`
-    (rows of R, then x) at the values of `filled` (9 + n_x,). InputError when a moving
-    goal's momentum would depend on a free entry (through M or the constraint rows A), so
-    that no single p_goal exists."""
+    """The goal's momentum M(q) v_goal (n,) at `filled` (9 + n_x,), `q_goal` (rows of R,
+    then x) with its free (NaN) entries filled. InputError when a moving goal's momentum
+    would depend on a free entry (through M or the constraint rows A), so that no single
+    p_goal exists."""
     free = np.flatnonzero(np.isnan(q_goal))
-    q = np.where(np.isnan(q_goal), filled, q_goal)
     if free.size and np.any(v_goal):
-        z = ca.SX.sym("q", q.size)
+        z = ca.SX.sym("q", q_goal.size)
         moving = ca.vertcat(ca.vec(body.generalized_mass(z)), ca.vec(body.constraint_matrix(z)))
-        which = [int(i) - 9 for i in free if ca.depends_on(moving, z[int(i)])]
+        which = [int(i) for i in free if ca.depends_on(moving, z[int(i)])]
         if which:
-            raise InputError(f"`x_goal` entries {which} are free (None) but the goal's velocity "
-                             f"is not zero, and the body's mass matrix or constraint rows depend "
-                             f"on them: give them, or bring the goal to rest.")
-    return np.array(body.generalized_mass(q)) @ v_goal
+            raise InputError(f"{free_entries(which)} free (None) but the goal's velocity is not "
+                             f"zero, and the body's mass matrix or constraint rows depend on "
+                             f"them: give them, or bring the goal to rest.")
+    return np.array(body.generalized_mass(filled)) @ v_goal
+
+
+def free_entries(indices):
+    """The free entries of q = (rows of R, x) at `indices` as a user gave them: "`R_goal`
+    is" (any of the first 9) and "`x_goal` entries [i, ...] are" (i counted in x)."""
+    rotation, x = [i for i in indices if i < 9], [int(i) - 9 for i in indices if i >= 9]
+    named = (["`R_goal`"] if rotation else []) + ([f"`x_goal` entries {x}"] if x else [])
+    return " and ".join(named) + (" is" if named == ["`R_goal`"] else " are")
 
 
 def end_rows(body, start, goal, duration):
@@ -71,10 +78,10 @@ def end_rows(body, start, goal, duration):
     z = ca.SX.sym("q", q_goal.size)
     at_goal = momentum_map(ca.if_else(ca.DM(free.astype(float)), z, ca.DM(np.nan_to_num(q_goal))), p_goal)
     if ca.depends_on(at_goal, z):
-        raise InputError(f"`x_goal` entries {(np.flatnonzero(free) - 9).tolist()} are free (None), "
-                         f"but the goal's momenta J (`momentum_map`), which the start fixes, depend "
-                         f"on them at its velocity: give them, or the goal's velocity that J "
-                         f"does not read them at (e.g. at rest).")
+        raise InputError(f"{free_entries(np.flatnonzero(free))} free (None), but the goal's "
+                         f"momenta J (`momentum_map`), which the start fixes, depend on them at "
+                         f"its velocity: give them, or a goal velocity at which J does not read "
+                         f"them (e.g. at rest).")
     J_start, J_goal = np.array(momentum_map(*start)).ravel(), np.array(ca.evalf(at_goal)).ravel()
     reached = J_start + duration * body.momentum_rate
     size = max(1.0, np.abs(reached).max(), np.abs(J_goal).max())

@@ -36,7 +36,8 @@ class GroupOptimalControlProblem:
     steps : int
         N.
     R_start, R_goal : array_like, shape (3, 3)
-        The rotations at t = 0 and t = N h.
+        The rotations at t = 0 and t = N h; `R_goal` None leaves the rotation at the goal
+        free (no rotation rows: any orientation), as a whole (no entries of it alone).
     omega_start, omega_goal : array_like, shape (3,), optional
         Body angular velocities at the ends (default: at rest).
     x_start, x_goal : array_like, shape (n_x,), optional
@@ -60,6 +61,7 @@ class GroupOptimalControlProblem:
     ----------
     disc, steps, residual : GroupDiscretization, int, GroupStepResidual
     R_start, R_goal : numpy.ndarray, shape (3, 3)
+        R_goal None when free.
     x_start, x_goal : numpy.ndarray, shape (n_x,)
         x_goal NaN where free.
     p_start, p_goal : numpy.ndarray, shape (3 + n_x,)
@@ -81,7 +83,7 @@ class GroupOptimalControlProblem:
     `reconstruction`), so every R_k is an exact group product of the start and the
     increments to the solver's tolerance. q_0 and p_0 are fixed by bounds; the goal is the
     3 rows cay^{-1}(R_goal^T R_N) = 0 (the 9 entries of R_N = R_goal would be 6 rows too
-    many) and x_N,i = x_goal,i for the given entries, and the end momentum the (+) form's
+    many; none when R_goal is free) and x_N,i = x_goal,i for the given entries, and the end momentum the (+) form's
     p_N = p_goal + A(q_N)^T nu (an impulse nu at q_N, as `Formulation.momentum_conditions`
     on R^n), its `end_rows`. The path
     constraints are the rows g(R_k, x_k, u_k) <= 0, k = 0 ... N, as the knot rows of a
@@ -99,7 +101,8 @@ class GroupOptimalControlProblem:
         self.disc, self.steps = disc, checks.positive_int("steps", steps)
         self.residual = group_step_residual(disc)
         body = disc.system
-        self.R_start, self.R_goal = as_rotation("R_start", R_start), as_rotation("R_goal", R_goal)
+        self.R_start = as_rotation("R_start", R_start)
+        self.R_goal = None if R_goal is None else as_rotation("R_goal", R_goal)
         self.x_start = _coordinates(body, x_start)
         self.x_goal = goal_coordinates(body, x_goal)
         ends = []
@@ -108,8 +111,8 @@ class GroupOptimalControlProblem:
             v = np.concatenate([checks.array(f"omega_{end}", omega, (3,)),
                                 np.zeros(body.n_x) if rate is None
                                 else checks.array(f"x_velocity_{end}", rate, (body.n_x,))])
-            q = np.concatenate([R.ravel(), x])
-            filled = np.concatenate([R.ravel(), np.where(np.isnan(x), self.x_start, x)])
+            q = np.concatenate([np.full(9, np.nan) if R is None else R.ravel(), x])
+            filled = np.where(np.isnan(q), np.concatenate([self.R_start.ravel(), self.x_start]), q)
             p = free_goal_momentum(body, q, v, filled)
             check_allowed_velocity(body, filled, v, f"`omega_{end}`, `x_velocity_{end}` at `R_{end}`, `x_{end}`")
             ends.append((q, p))
@@ -144,8 +147,9 @@ class GroupOptimalControlProblem:
 
     def geodesic(self):
         """The rotations R_start exp(s log(R_start^T R_goal)), s = k/N, along the shortest
-        rotation between the ends, shape (N+1, 3, 3): the default guess."""
-        phi = rotation_vector(self.R_start.T @ self.R_goal)
+        rotation between the ends, shape (N+1, 3, 3): the default guess (R_start at every
+        knot when the goal's rotation is free)."""
+        phi = np.zeros(3) if self.R_goal is None else rotation_vector(self.R_start.T @ self.R_goal)
         return np.array([self.R_start @ rotation_matrix(s * phi)
                          for s in np.linspace(0.0, 1.0, self.steps + 1)])
 
@@ -176,13 +180,13 @@ def group_path_function(path, disc):
 
 
 def _refuse_violated_end(path, end, R, x):
-    """InputError when the given end (R, x) violates a row of `path` that reads R and the
-    given entries of x alone (not u, nor a free entry of x, NaN): every row holds at q_0
-    and q_N, so the problem would have no solution."""
-    u, free = ca.SX.sym("u", path.size1_in("u")), ca.SX.sym("x", x.size)
+    """InputError when the given end (R, x) violates a row of `path` that reads the given
+    R and entries of x alone (not u, nor R None or a free entry of x, NaN): every row holds
+    at q_0 and q_N, so the problem would have no solution."""
+    u, free, turn = ca.SX.sym("u", path.size1_in("u")), ca.SX.sym("x", x.size), ca.SX.sym("R", 3, 3)
     given = ca.DM(np.nan_to_num(x))
-    g = path(ca.DM(R), ca.if_else(ca.DM(np.isnan(x).astype(float)), free, given), u)
-    unknown = ca.vertcat(u, free)
+    g = path(turn if R is None else ca.DM(R), ca.if_else(ca.DM(np.isnan(x).astype(float)), free, given), u)
+    unknown = ca.vertcat(u, free, ca.vec(turn))
     rows = [i for i in range(g.numel()) if not ca.depends_on(g[i], unknown)]
     values = [float(ca.evalf(g[i])) for i in rows]
     if values and max(values) > DEFAULT_IPOPT_OPTIONS["constr_viol_tol"]:
