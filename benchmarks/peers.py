@@ -1,5 +1,6 @@
-"""Benchmark: dmoc against rockit and Drake at equal accuracy, a first solve and a re-solve
-with new boundary data, on rolling-disk steering and knife-edge parking (J* of `J_STAR`).
+"""Benchmark: dmoc against rockit and Drake at equal accuracy, a first solve, a re-solve
+with new boundary data and IPOPT's solve alone, on rolling-disk steering and knife-edge
+parking (J* of `J_STAR`).
 
 The environment: rockit is not a dependency of dmoc. Run this script with the python of a
 separate virtual environment holding dmoc and the peers, installed from PyPI::
@@ -58,12 +59,22 @@ controls; `drake_program`) and solves the one program with its IPOPT and with SN
   step (wall and CPU of the process), IPOPT's part, iterations; the least-loaded round is
   kept.
 
-``--smallest`` runs the rolling disk with lobatto4 only, once, in this process (and the
-controllers over 8 steps).
+- ``nlp``: IPOPT's solve alone, the nlpsol call's CPU time (CasADi's ``t_proc_total``;
+  dmoc's ``stats["ipopt_cpu_time"]``), each method's problem built and solved once
+  untimed, then solved `--repeat` times from its default start (least and median):
+  dmoc's raw solve with midpoint, lobatto3 and lobatto4, per checkout, and rockit's
+  ``ocp.solve()``, (a) at each method's least N for 1e-6 (`LEAST_N`), with the ratio to
+  rockit's, and (b) at N = `--sizes` (default 100, 200, 400, 800), with the exponent p
+  of N^p fitted by least squares to the times and to the times per iteration. A child
+  process per method and checkout.
+
+``--smallest`` runs the rolling disk with lobatto4 only, once, in this process (the
+controllers over 8 steps; ``nlp`` at N = 8 and 16).
 
     venv-peers/bin/python benchmarks/peers.py first [--repeat 15] [--problem disk|knife|both] [--checkouts DIR ...]
     venv-peers/bin/python benchmarks/peers.py resolve [--repeat 5] [--rounds 3] [--checkouts DIR ...] [--rockit-jit]
     venv-peers/bin/python benchmarks/peers.py mpc [--horizon 30] [--steps 40] [--rounds 3] [--checkouts DIR ...]
+    venv-peers/bin/python benchmarks/peers.py nlp [--repeat 5] [--sizes N ...] [--checkouts DIR ...]
 """
 
 import argparse
