@@ -556,7 +556,8 @@ def one(argv):
     """(child) argv = [name, method, N, repeat, count]: print the re-solves as JSON; method
     "rockit-jit" is "rockit" with its "function C" run; methods "rockit-mpc" and
     "dmoc-mpc" print a controller's warm steps (`rockit_mpc`, `dmoc_mpc`: N the horizon,
-    repeat the steps). argv = [name, "first", count]: dmoc's first solves (`dmoc_firsts`)."""
+    repeat the steps). argv = [name, "first", count]: dmoc's first solves (`dmoc_firsts`);
+    [name, "nlp", method, repeat, N ...]: IPOPT's solve alone (`nlp_rows`)."""
     if argv[1] == "first":
         print(json.dumps(dmoc_firsts(argv[0], int(argv[2]))))
         return
