@@ -1,5 +1,6 @@
-"""Benchmark: dmoc against rockit and Drake at equal accuracy, a first solve and a re-solve
-with new boundary data, on rolling-disk steering and knife-edge parking (J* of `J_STAR`).
+"""Benchmark: dmoc against rockit and Drake at equal accuracy, a first solve, a re-solve
+with new boundary data and IPOPT's solve alone, on rolling-disk steering and knife-edge
+parking (J* of `J_STAR`).
 
 The environment: rockit is not a dependency of dmoc. Run this script with the python of a
 separate virtual environment holding dmoc and the peers, installed from PyPI::
@@ -58,12 +59,22 @@ controls; `drake_program`) and solves the one program with its IPOPT and with SN
   step (wall and CPU of the process), IPOPT's part, iterations; the least-loaded round is
   kept.
 
-``--smallest`` runs the rolling disk with lobatto4 only, once, in this process (and the
-controllers over 8 steps).
+- ``nlp``: IPOPT's solve alone, the nlpsol call's CPU time (CasADi's ``t_proc_total``;
+  dmoc's ``stats["ipopt_cpu_time"]``), each method's problem built and solved once
+  untimed, then solved `--repeat` times from its default start (least and median):
+  dmoc's raw solve with midpoint, lobatto3 and lobatto4, per checkout, and rockit's
+  ``ocp.solve()``, (a) at each method's least N for 1e-6 (`LEAST_N`), with the ratio to
+  rockit's, and (b) at N = `--sizes` (default 100, 200, 400, 800), with the exponent p
+  of N^p fitted by least squares to the times and to the times per iteration. A child
+  process per method and checkout.
+
+``--smallest`` runs the rolling disk with lobatto4 only, once, in this process (the
+controllers over 8 steps; ``nlp`` at N = 8 and 16).
 
     venv-peers/bin/python benchmarks/peers.py first [--repeat 15] [--problem disk|knife|both] [--checkouts DIR ...]
     venv-peers/bin/python benchmarks/peers.py resolve [--repeat 5] [--rounds 3] [--checkouts DIR ...] [--rockit-jit]
     venv-peers/bin/python benchmarks/peers.py mpc [--horizon 30] [--steps 40] [--rounds 3] [--checkouts DIR ...]
+    venv-peers/bin/python benchmarks/peers.py nlp [--repeat 5] [--sizes N ...] [--checkouts DIR ...]
 """
 
 import argparse
@@ -100,9 +111,11 @@ DURATION = 4.0
 REDUCED_INERTIA = {"knife edge": (1.0, 1.0), "rolling disk": (1.5, 0.25)}
 DMOC_RULES = ("lobatto3", "lobatto4")
 DMOC_RUNS = ("judged", "unjudged", "raw", "raw SX", "raw C")
+NLP_RULES = ("midpoint",) + DMOC_RULES      # the rules of ``nlp``, IPOPT's solve alone
+SIZES = (100, 200, 400, 800)                # ``nlp``'s N by default
 # the least N within 1e-6 of J* (``--scan`` finds them again)
-LEAST_N = {"rolling disk": {"lobatto3": 31, "lobatto4": 11, "rockit": 42, "drake": 28},
-           "knife edge": {"lobatto3": 28, "lobatto4": 14, "rockit": 62, "drake": 32}}
+LEAST_N = {"rolling disk": {"midpoint": 921, "lobatto3": 31, "lobatto4": 11, "rockit": 42, "drake": 28},
+           "knife edge": {"midpoint": 3290, "lobatto3": 28, "lobatto4": 14, "rockit": 62, "drake": 32}}
 # the peers this script compares when their modules import, and their PyPI distributions
 PEER_MODULES = {"rockit": "rockit", "drake": "pydrake.planning"}
 PEER_DISTRIBUTIONS = {"rockit": "rockit-meco", "drake": "drake"}
@@ -543,9 +556,13 @@ def one(argv):
     """(child) argv = [name, method, N, repeat, count]: print the re-solves as JSON; method
     "rockit-jit" is "rockit" with its "function C" run; methods "rockit-mpc" and
     "dmoc-mpc" print a controller's warm steps (`rockit_mpc`, `dmoc_mpc`: N the horizon,
-    repeat the steps). argv = [name, "first", count]: dmoc's first solves (`dmoc_firsts`)."""
+    repeat the steps). argv = [name, "first", count]: dmoc's first solves (`dmoc_firsts`);
+    [name, "nlp", method, repeat, N ...]: IPOPT's solve alone (`nlp_rows`)."""
     if argv[1] == "first":
         print(json.dumps(dmoc_firsts(argv[0], int(argv[2]))))
+        return
+    if argv[1] == "nlp":        # [name, "nlp", method, repeat, N ...]
+        print(json.dumps(nlp_rows(argv[0], argv[2], [int(N) for N in argv[4:]], int(argv[3]))))
         return
     name, method, N, repeat, count = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4])
     if method.endswith("-mpc"):     # N the horizon, repeat the steps
@@ -560,7 +577,7 @@ def scans(peers):
     """{(name, method): N*} for every problem and method (the peers' of `peers`)."""
     found = {}
     for name, j_star in J_STAR.items():
-        for rule in DMOC_RULES:
+        for rule in NLP_RULES:
             found[name, rule] = least_n(dmoc_cost(name, rule), j_star, 8)
         if "rockit" in peers:
             found[name, "rockit"] = least_n(rockit_cost(name), j_star, 16)
@@ -751,6 +768,114 @@ def mpcs(args, peers):
               + (f"{s / best['rockit'][0]:>10.2f}{cpu / best['rockit'][3]:>7.2f}" if peers else ""))
 
 
+# ---- IPOPT's solve alone ------------------------------------------------------------------
+
+def dmoc_nlp(name, rule, N):
+    """(again, [n_x, n_g]): ``again() -> (CPU s, iterations, cost)`` of IPOPT's solve alone
+    (``stats["ipopt_cpu_time"]``, CasADi's ``t_proc_total`` of the nlpsol call; the wall
+    ``ipopt_time`` on checkouts from before) of dmoc's raw solve of `name` at N steps with
+    `rule` from its default guess, the solver built by an untimed solve first."""
+    from dmoc.optimal_control import solve
+    problem = dmoc_problem(name, N, rule, GOAL[name])
+    solve(problem)
+
+    def again():
+        result = solve(problem)
+        if not result.success:
+            raise RuntimeError(f"dmoc {rule} at N = {N}: {result.message}")
+        st = result.stats
+        return st.get("ipopt_cpu_time", st["ipopt_time"]), st["iterations"], result.cost
+    T = problem.transcription
+    return again, [T.x_layout.size, T.g_layout.size]
+
+
+def rockit_nlp(name, N):
+    """(again, [n_x, n_g]) as `dmoc_nlp` of rockit's multiple shooting (`rockit_ocp`): IPOPT's
+    solve alone (``t_proc_total``) of ``ocp.solve()`` from rockit's start point, its
+    transcription made by an untimed solve first."""
+    ocp, goal = rockit_ocp(name, N)
+    rockit_solve(ocp, goal, GOAL[name])
+    opti = ocp._method.opti
+
+    def again():
+        sol = ocp.solve()
+        iterations, _, _ = ipopt_figures(sol.stats)
+        return sol.stats["t_proc_total"], iterations, float(sol.value(ocp.objective))
+    return again, [opti.nx, opti.ng]
+
+
+def nlp_rows(name, method, sizes, repeat):
+    """(this process) {N: [least CPU s, median CPU s, iterations, cost, n_x, n_g]} of IPOPT's
+    solve alone for `method` (a rule of NLP_RULES or "rockit") at each N of `sizes`,
+    `repeat` solves each."""
+    rows = {}
+    for N in sizes:
+        again, size = rockit_nlp(name, N) if method == "rockit" else dmoc_nlp(name, method, N)
+        runs = [again() for _ in range(repeat)]
+        seconds = [r[0] for r in runs]
+        rows[N] = [min(seconds), float(np.median(seconds)), runs[-1][1], runs[-1][2], *size]
+    return rows
+
+
+def slope(sizes, seconds):
+    """The least-squares slope of log(seconds) against log(sizes): the exponent p of
+    seconds ~ N^p."""
+    return float(np.polyfit(np.log(sizes), np.log(seconds), 1)[0])
+
+
+def nlp_solves(names, n_star, args, peers):
+    """Print IPOPT's solve alone (CPU, least of `args.repeat`; median; iterations; per
+    iteration) of dmoc's rules (`NLP_RULES`, per checkout) and rockit's multiple shooting
+    (when in `peers`): (a) at each method's least N for 1e-6 (`n_star`), with the ratio to
+    rockit's; (b) at each N of `args.sizes`, with the exponent of N (`slope`) of the
+    time and of the time per iteration. In a child process per method and checkout (in this
+    process with `args.smallest`); with several checkouts, the ratio to the first's."""
+    rules = ("lobatto4",) if args.smallest else NLP_RULES
+    methods = [(rule, c) for rule in rules for c in args.checkouts]
+    methods += [("rockit", args.checkouts[0])] if "rockit" in peers else []
+    for name in names:
+        measured = {}
+        for method, checkout in methods:
+            for part, sizes in (("least", [n_star[name, method]]), ("sizes", args.sizes)):
+                counts = [str(args.repeat), *map(str, sizes)]
+                rows = (nlp_rows(name, method, sizes, args.repeat) if args.smallest
+                        else {int(k): v for k, v in child(checkout, name, "nlp", method, *counts).items()})
+                measured[method, checkout, part] = rows
+        print(f"\n{name}: IPOPT's solve alone, CPU (least of {args.repeat}; median), at the least N "
+              f"for 1e-6" + ("; ratios of the least to rockit's" if "rockit" in peers else ""))
+        print(f"{'method':<10}{'checkout':<14}{'N':>6}{'x, g':>14}{'it':>4}{'CPU ms':>9}{'median':>9}"
+              f"{'ms/it':>8}{'|J - J*| / J*':>15}" + (f"{'/ rockit':>10}" if "rockit" in peers else "")
+              + (f"{'/ first':>9}" if len(args.checkouts) > 1 else ""))
+        for method, checkout in methods:
+            (N, row), = measured[method, checkout, "least"].items()
+            least, median, it, cost, n_x, n_g = row
+            line = (f"{method:<10}{os.path.basename(checkout) if method != 'rockit' else '':<14}{N:>6}"
+                    f"{'%d, %d' % (n_x, n_g):>14}{it:>4}{least * 1e3:>9.2f}{median * 1e3:>9.2f}"
+                    f"{least / it * 1e3:>8.3f}{abs(cost - J_STAR[name]) / J_STAR[name]:>15.2e}")
+            if "rockit" in peers:
+                rock = measured["rockit", args.checkouts[0], "least"]
+                line += f"{least / next(iter(rock.values()))[0]:>10.2f}"
+            if len(args.checkouts) > 1 and method != "rockit":
+                first = measured[method, args.checkouts[0], "least"][N][0]
+                line += f"{least / first:>9.2f}"
+            print(line)
+        print(f"\n{name}: IPOPT's solve alone over N, CPU ms (least of {args.repeat}) [iterations]; "
+              "the exponent p of N^p by least squares, of the time and of the time per iteration")
+        print(f"{'method':<10}{'checkout':<14}" + "".join(f"{'N = %d' % N:>16}" for N in args.sizes)
+              + f"{'p':>7}{'p per it':>9}" + (f"{'/ first':>9}" if len(args.checkouts) > 1 else ""))
+        for method, checkout in methods:
+            rows = measured[method, checkout, "sizes"]
+            seconds = np.array([rows[N][0] for N in args.sizes])
+            its = np.array([rows[N][2] for N in args.sizes])
+            line = (f"{method:<10}{os.path.basename(checkout) if method != 'rockit' else '':<14}"
+                    + "".join(f"{'%.2f [%d]' % (s * 1e3, it):>16}" for s, it in zip(seconds, its))
+                    + f"{slope(args.sizes, seconds):>7.2f}{slope(args.sizes, seconds / its):>9.2f}")
+            if len(args.checkouts) > 1 and method != "rockit":
+                first = measured[method, args.checkouts[0], "sizes"]
+                line += f"{seconds[-1] / first[args.sizes[-1]][0]:>9.2f}"
+            print(line)
+
+
 # ---- the run --------------------------------------------------------------------------
 
 def main(argv=None):
@@ -759,9 +884,11 @@ def main(argv=None):
         one(argv[1:])
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("comparison", choices=("first", "resolve", "mpc"))
+    parser.add_argument("comparison", choices=("first", "resolve", "mpc", "nlp"))
     parser.add_argument("--repeat", type=int, help="rounds of first solves (default 15), "
-                        "cycles of re-solves (default 5)")
+                        "cycles of re-solves, solves per size of nlp (default 5)")
+    parser.add_argument("--sizes", type=int, nargs="+", default=list(SIZES),
+                        help="nlp: the N over which the exponent is fitted")
     parser.add_argument("--problem", choices=PROBLEMS, default="both")
     parser.add_argument("--rounds", type=int, default=3,
                         help="re-solves: child processes per method and checkout; the least time is kept")
@@ -789,7 +916,7 @@ def main(argv=None):
     names, rules = PROBLEMS[args.problem], DMOC_RULES
     if args.smallest:
         names, rules, args.rounds, args.goals, args.repeat = ("rolling disk",), ("lobatto4",), 1, 1, 1
-        args.horizon, args.steps = 8, 4
+        args.horizon, args.steps, args.sizes = 8, 4, [8, 16]
     if args.scan:
         n_star = scans(peers)
         print("least N with |J_N - J*| / J* <= 1e-6:", {f"{k[0]}, {k[1]}": v for k, v in n_star.items()})
@@ -797,6 +924,9 @@ def main(argv=None):
         n_star = {(name, method): N for name, row in LEAST_N.items() for method, N in row.items()}
     if args.comparison == "mpc":
         mpcs(args, peers)
+    elif args.comparison == "nlp":
+        args.repeat = args.repeat or 5
+        nlp_solves(names, n_star, args, peers)
     elif args.comparison == "first" and len(args.checkouts) > 1:
         checkout_firsts(names, args.checkouts, args.repeat or 5)
     elif args.comparison == "first":

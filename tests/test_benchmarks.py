@@ -92,10 +92,11 @@ def test_verdict_study_slice(capsys):
 def test_peers_says_when_the_peer_side_is_skipped(capsys):
     importlib.import_module("peers").main(["resolve", "--smallest"])
     importlib.import_module("peers").main(["mpc", "--smallest"])
+    importlib.import_module("peers").main(["nlp", "--smallest"])
     out = capsys.readouterr().out
     if importlib.util.find_spec("rockit") is None:
         assert "the peer side is skipped" in out
-    assert "lobatto4" in out and "dmoc.MPC" in out
+    assert "lobatto4" in out and "dmoc.MPC" in out and "IPOPT's solve alone over N" in out
 
 
 def test_peer_side():

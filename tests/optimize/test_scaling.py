@@ -154,14 +154,18 @@ def test_mixed_inertia_parking_converges_and_replays(mass, yaw, resolved):
     """Parallel parking with inertias 1e3 apart (before the scaling IPOPT stopped at 1000
     iterations on both): solved, and the simulator replays the optimum to 1e-8 of the size
     of q and p (the bound of the unit-inertia replay tests). The heavy blade's optimum is
-    resolved by the grid (velocity jumps below 0.5); the light rotor's spins by about pi per
-    step (docs/verification.md, "Known shortfalls"), which its verdict reports."""
+    resolved by the grid (velocity jumps below 0.5). Which optimum the light rotor reaches
+    depends on rounding (docs/verification.md, "Known shortfalls"): one that spins by about
+    pi per step, which its verdict reports, or a resolved one (with MUMPS's pivot tolerance
+    1e-6 the first, with dmoc's 1e-4 the second); never a spinning optimum passed."""
     problem = parking(mass, yaw, goal=(0.0, 1.0, 0.3))
     result = dmoc.optimize(problem, throw=False)
-    if resolved:
-        assert result.success and diagnostics.velocity_jumps(result.trajectory).max() < 0.5
+    jumps = diagnostics.velocity_jumps(result.trajectory).max()
+    if resolved or result.success:
+        assert result.success and jumps < 0.5
     else:
         assert result.status == "under_resolved" and result.stats["return_status"] == "Solve_Succeeded"
+        assert jumps > 0.5
     replay_q, replay_p = diagnostics.replay_error(problem, result)
     assert replay_q <= 1e-8 * max(1.0, np.abs(result.trajectory.q).max())
     assert replay_p <= 1e-8 * np.abs(result.trajectory.p).max()

@@ -48,7 +48,9 @@ class OptimizationResult:
         ``jit=True``, or by default once the structure's background compile had finished),
         ``solve_time`` (wall seconds of the solver call), ``ipopt_time`` (of them
         the seconds in CasADi's IPOPT call itself, as CasADi records them: without the
-        conversions of the inputs and outputs), ``function_time`` (the part
+        conversions of the inputs and outputs), ``ipopt_cpu_time`` (the same call's CPU
+        seconds of this process, CasADi's ``t_proc_total``; 0 on a Newton re-solve),
+        ``function_time`` (the part
         of it spent evaluating the NLP functions and derivatives; the rest is mostly the
         linear solver), ``regularized_iterations`` and ``max_regularization`` (iterations
         whose KKT matrix had the wrong inertia and the largest Hessian shift delta_w IPOPT

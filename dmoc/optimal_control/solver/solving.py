@@ -107,7 +107,8 @@ def _statistics(st, times, worst):
     ({"build_time", "solver_reused", "warm_start", "solve_time"}) and the most violated
     row `worst` (`most_violated`)."""
     return {"iterations": iteration_count(st), "return_status": st["return_status"], **times,
-            "ipopt_time": st.get("t_wall_total", times["solve_time"]), **linear_algebra(st),
+            "ipopt_time": st.get("t_wall_total", times["solve_time"]),
+            "ipopt_cpu_time": st.get("t_proc_total", 0.0), **linear_algebra(st),
             "max_violation": worst[0], "most_violated": worst[1]}
 
 
