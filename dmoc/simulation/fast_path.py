@@ -14,6 +14,7 @@ from .._util import typed_ops
 from .chord_update import (CHORD_ITERATIONS, chord_delta, chord_factors, chord_suited,
                            remaining_error)
 from .schur_complement import newton_update
+from .step_jacobian import step_jacobian
 
 FAST_ITERATIONS = 3
 
@@ -65,12 +66,12 @@ def _updates(stepper, params):
     alike."""
     ys = ca.SX.sym("y", stepper.unknowns.size)
     g = stepper.equations(ys, params)[0]
-    J = ca.jacobian(g, ys)
     if not stepper.chord:
         newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns)])
         return lambda y, p: _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
-    factors = ca.Function("chord_factors", [ys, params], list(chord_factors(J)))
-    Q, R = (ca.SX.sym(name, J.size1(), J.size1()) for name in "QR")
+    factors = ca.Function("chord_factors", [ys, params],
+                          list(chord_factors(step_jacobian(stepper, g, ys, params))))
+    Q, R = (ca.SX.sym(name, ys.numel(), ys.numel()) for name in "QR")
     chord = ca.Function("chord_update", [ys, params, Q, R], [chord_delta(Q, R, g)])
 
     def chord_iterated(y, p):

@@ -16,6 +16,7 @@ from ..._util import checks
 from ...errors import InputError, InputTypeError
 from ..system import MechanicalSystem
 from .link_recursion import Link, energies, placement, rpy_rotation
+from .spatial_hessian import second_variation
 from .step_failure import step_failure_hint
 from .urdf_file import read_urdf
 from .wheeled_base import (BASE_NAMES, BASE_UNITS, base_velocity, read_wheels, rolling_constraints,
@@ -115,6 +116,7 @@ class RobotSystem(MechanicalSystem):
 
     def __init__(self, path, joints=None, *, wheels=None, friction=None, gravity=9.81):
         text, g = read_model(self, path, joints, friction, gravity)
+        self.gravity = g
         self.wheels = () if wheels is None else read_wheels(wheels, self.joints, self.links,
                                                             text, self.path)
         self.wheel_rows, constraints = (), None
@@ -172,6 +174,25 @@ class RobotSystem(MechanicalSystem):
         q = ca.SX.sym("q", self.n)
         _, p = placement(self.links, names.index(name), q[k:])
         return ca.Function(name, [q], [world_position(q, p) if k else p], ["q"], ["position"])
+
+    def second_variation(self, q, v, a, b):
+        """The second variation of L along the directions a and b, W[i, j] = (a_q d/dq_i +
+        a_v d/dv_i)(b_q d/dq_j + b_v d/dv_j) L at (q, v), (n, n) SX, by the spatial
+        formulas of `dmoc.mechanics.robots.spatial_hessian` (O(1) operations per entry;
+        the step's Jacobian takes it, `dmoc.simulation.step_jacobian`); None on wheels,
+        whose base's pose those formulas do not cover.
+
+        Parameters
+        ----------
+        q, v : casadi.SX, shape (n, 1)
+        a, b : pair of float or casadi.SX
+            (a_q, a_v) and (b_q, b_v).
+
+        Returns
+        -------
+        casadi.SX of shape (n, n), or None
+        """
+        return None if self.wheels else second_variation(self.links, q, v, self.gravity, a, b)
 
     @functools.cached_property
     def stiffness(self):
