@@ -62,7 +62,9 @@ def second_variation(links, q, v, gravity, a, b):
 
     e.g. a = b = (0, 1) gives M(q), a = (1, 0), b = (0, 1) the block d^2L/dq dv, and
     h (1/2, -1/h), (1/2, 1/h) the midpoint rule's D2 D1 L_d (`dmoc.simulation.step_jacobian`).
-    Per pair of joints j <= i, four dot products of 6-vectors give W[i, j] and W[j, i].
+    Per pair of joints j <= i, four dot products of 6-vectors give W[i, j] and W[j, i]:
+    F_i . beta_j, psi_j . gamma_i, S_j . gamma_i and psi_j . F_i, beta_j = a_q b_q alpha_j
+    + a_v b_v S_j.
 
     Parameters
     ----------
@@ -84,26 +86,25 @@ def second_variation(links, q, v, gravity, a, b):
     composite = _composite(links, frames)
     a0 = ca.SX([0.0, 0.0, 0.0, 0.0, 0.0, gravity])
     (a_q, a_v), (b_q, b_v) = a, b
-    rows, columns = {}, {}      # joint index -> (F, gamma) and the four vectors it is dotted with
+    w_qq, w_qv, w_vq, w_vv = a_q * b_q, a_q * b_v, a_v * b_q, a_v * b_v
+    rows, columns = {}, {}      # joint index -> (F, gamma) and (beta, psi, S) it is dotted with
     for k, S in joints.items():
         inertia, momentum = composite[k]
         psi = motion_cross(S, frames[links[k].parent][2])
         gamma = force_cross(S, momentum) - inertia_times(inertia, psi)
         rows[links[k].index] = (inertia_times(inertia, S), gamma)
-        alpha = motion_cross(S, a0)
-        columns[links[k].index] = (a_q * b_q * alpha - a_v * b_q * psi + a_v * b_v * S,
-                                   a_q * b_v * S - a_q * b_q * psi,
-                                   a_q * b_q * alpha - a_q * b_v * psi + a_v * b_v * S,
-                                   a_v * b_q * S - a_q * b_q * psi)
+        columns[links[k].index] = (w_qq * motion_cross(S, a0) + w_vv * S, psi, S)
     W = ca.SX.zeros(q.numel(), q.numel())
     for k in joints:
         i = links[k].index
         F_i, gamma_i = rows[i]
         for j in _moving_ancestors(links, k):
-            lower_F, lower_gamma, upper_F, upper_gamma = columns[j]
-            W[i, j] = ca.dot(F_i, lower_F) + ca.dot(gamma_i, lower_gamma)
+            beta_j, psi_j, S_j = columns[j]
+            common = ca.dot(F_i, beta_j) - w_qq * ca.dot(psi_j, gamma_i)
+            d3, d4 = ca.dot(S_j, gamma_i), ca.dot(psi_j, F_i)
+            W[i, j] = common + w_qv * d3 - w_vq * d4
             if j != i:
-                W[j, i] = ca.dot(F_i, upper_F) + ca.dot(gamma_i, upper_gamma)
+                W[j, i] = common + w_vq * d3 - w_qv * d4
     return W
 
 
@@ -134,9 +135,10 @@ def _composite(links, frames):
     inertias, momenta = [], []
     for link, (R, p, V) in zip(links, frames):
         c = p + ca.mtimes(R, ca.SX(link.center))
-        rotational = _symmetric(ca.mtimes(R, ca.SX(link.inertia)), R) + link.mass * _symmetric(
-            ca.skew(c), ca.skew(c))
-        inertia = (ca.SX(link.mass), link.mass * c, rotational)
+        moment = link.mass * c          # I_O = R I_c R^T + m (|c|^2 1 - c c^T)
+        rotational = (_symmetric(ca.mtimes(R, ca.SX(link.inertia)), R) - _symmetric(moment, c)
+                      + ca.dot(moment, c) * ca.SX.eye(3))
+        inertia = (ca.SX(link.mass), moment, rotational)
         inertias.append(inertia)
         momenta.append(inertia_times(inertia, V))
     for k in reversed(range(1, len(links))):
@@ -147,8 +149,8 @@ def _composite(links, frames):
 
 
 def _symmetric(A, B):
-    """A B^T (3, 3) for a product known to be symmetric: its 6 distinct entries computed
-    once, SX."""
+    """A B^T (3, 3) for a product known to be symmetric (A and B of shape (3, 3), or (3, 1)
+    for an outer product a b^T): its 6 distinct entries computed once, SX."""
     P = ca.SX(3, 3)
     for i in range(3):
         for j in range(i, 3):
