@@ -1,7 +1,8 @@
 """The fast path of the simulator's step (`dmoc.simulation.stepper`): FAST_ITERATIONS
 Newton updates unrolled from the warm start (each through the Schur complement of the
 multipliers, `dmoc.simulation.schur_complement`), or for many unknowns and a dense Jacobian
-CHORD_ITERATIONS chord updates with the Jacobian factorized once (`dmoc.simulation.chord_update`),
+CHORD_ITERATIONS chord updates with the Jacobian (`dmoc.simulation.step_jacobian`) factorized
+once (`dmoc.simulation.chord_update`),
 then the step's end: the next state and the outputs that decide whether the step is accepted. As one SX Function after
 common-subexpression elimination, which the compiled library is generated from; or, for a
 stepper that never compiles, as an MX Function calling the update's SX Function, which is

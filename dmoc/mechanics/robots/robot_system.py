@@ -67,6 +67,8 @@ class RobotSystem(MechanicalSystem):
     velocity_limits : ndarray, shape (n,)
     friction : ndarray, shape (n_u,)
         The joints' friction coefficients.
+    gravity : float
+        g (m/s^2), along -z of the base's frame.
     links : tuple of dmoc.mechanics.robots.link_recursion.Link
         The kinematic tree, parents before children, the base first.
     wheels : tuple of dmoc.mechanics.robots.wheeled_base.Wheel

@@ -1,17 +1,20 @@
-"""The second derivatives of a fixed-base robot's Lagrangian, for the mechanics stage: the
-mass matrix M(q) = d^2L/dv^2 and the blocks d^2L/dq^2 and d^2L/dq dv, each entry a few dot
-products of spatial vectors (O(1) operations) after two O(n) passes over the kinematic tree,
-so O(n^2) for the n x n blocks with a small constant, where automatic differentiation of the
-links' recursion (`link_recursion`) costs about 0.7 n sweeps through the gradient of L. The
-step's Newton iteration needs them (`dmoc.simulation.step_jacobian`).
+"""The second derivatives of a fixed-base robot's Lagrangian, for the mechanics stage, as
+its second variation along two directions in (q, v) (`second_variation`: the mass matrix,
+d^2L/dq^2, d^2L/dq dv, or a combination of them, such as the midpoint step's Jacobian):
+after two O(n) passes over the kinematic tree, four dot products of spatial vectors per pair
+of joints, so O(n^2) for the n x n matrix with a small constant, where automatic
+differentiation of the links' recursion (`link_recursion`) costs about 0.7 n sweeps through
+the gradient of L. The step's chord takes it (`dmoc.simulation.step_jacobian`).
 
 Spatial vectors in the base's frame at its origin (Featherstone [1]_): a motion m = (w, v),
 v the velocity of the body point at the origin, a force f = (n, f), n the moment about the
-origin; m1 x m2 = (w1 x w2, w1 x v2 + v1 x w2) and m x* f = (w x n + v x f, w x f). The
-first-order terms are the recursive Newton-Euler ones; the second-order ones follow the
-derivation of Carpentier and Mansard [2]_ (the derivatives of the joint motion subspaces
-S_i and of the inertias under a joint's motion), worked out here for L itself: for joints
-j and i with j an ancestor of i or i itself (j <= i),
+origin; m1 x m2 = (w1 x w2, w1 x v2 + v1 x w2) and m x* f = (w x n + v x f, w x f). A
+joint's motion subspace S_i (a unit twist: (a, p x a) for a revolute joint of axis a
+through p, (0, a) for a prismatic one) turns with its ancestors, dS_i/dq_j = S_j x S_i,
+and an inertia with the joints below it, dI/dq_j = S_j x* I - I S_j x (Carpentier and
+Mansard [2]_, who differentiate the recursive Newton-Euler algorithm so). Differentiating
+L_v_i = S_i . h^C_i and L_q_i = -psi_i . h^C_i - S_i . I^C_i a_0 once more with them gives,
+for joints j and i with j an ancestor of i or i itself (j <= i),
 
     M_ij      = S_j . F_i,                          F_i = I^C_i S_i,
     L_q_i q_j = -psi_j . gamma_i + alpha_j . F_i,    psi_i = S_i x V_lambda(i),
@@ -20,8 +23,8 @@ j and i with j an ancestor of i or i itself (j <= i),
 
 and 0 for joints on different branches; I^C_i is the composite inertia of the subtree carried
 by joint i, h^C_i its spatial momentum, V_lambda(i) the velocity of joint i's parent link
-and a_0 = (0, 0, 0, 0, 0, g) gravity as an acceleration of the base. The first-order ones
-are L_v_i = S_i . h^C_i and L_q_i = -psi_i . h^C_i - S_i . I^C_i a_0.
+and a_0 = (0, 0, 0, 0, 0, g) gravity as an acceleration of the base. The tests check them
+against Pinocchio's CRBA, RNEA and gravity derivatives and the Hessian of L.
 
 References
 ----------
