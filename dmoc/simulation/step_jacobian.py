@@ -43,7 +43,8 @@ def step_jacobian(stepper, g, y, params):
     W = None
     if (variation is not None and isinstance(R.rule, Midpoint) and isinstance(R.formulation, LagrangianForm)
             and not R.n_lam and y.numel() == n):
-        W = variation(q0 + y / 2, y / h, (h / 2, -1.0), (0.5, 1 / h))
+        (_, q_bar, v_bar, _), = R.rule.samples(q0, q0 + y, ca.SX(0, 1), h)   # L_d's own midpoint
+        W = variation(q_bar, v_bar, (h / 2, -1.0), (0.5, 1 / h))
     if W is None:
         return ca.jacobian(g, y)
     return W + ca.jacobian(R.discrete_force(q0, q0 + y, ca.SX(0, 1), u, h)[0], y)
