@@ -13,12 +13,12 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ...errors import InputError, InputTypeError
+from ...errors import InputError
 from ..system import MechanicalSystem
 from .link_recursion import Link, energies, placement, rpy_rotation
 from .spatial_hessian import second_variation
 from .step_failure import step_failure_hint
-from .urdf_file import read_urdf
+from .urdf_file import chosen_joints, joint_friction, read_urdf
 from .wheeled_base import (BASE_NAMES, BASE_UNITS, base_velocity, read_wheels, rolling_constraints,
                            rolling_rows, world_position)
 
@@ -230,41 +230,11 @@ def read_model(robot, path, joints, friction, gravity):
     text, the checked `gravity`)."""
     robot.path = checks.file_path("path", path)
     movable, text = read_urdf(robot.path)
-    robot.joints = _chosen_joints(movable, joints)
+    robot.joints = chosen_joints(movable, joints)
     g = checks.finite_float("gravity", gravity)
-    robot.friction = _friction(friction, robot.joints)
+    robot.friction = joint_friction(friction, robot.joints)
     robot.links = _tree(text, robot.joints)
     return text, g
-
-
-def _chosen_joints(movable, joints):
-    """The Joints named in `joints` (all of `movable` when None), in that order."""
-    if joints is None:
-        return movable
-    by_name = {j.name: j for j in movable}
-    if isinstance(joints, str) or not hasattr(joints, "__iter__"):
-        raise InputTypeError(f"`joints` must be a sequence of joint names; got "
-                             f"{type(joints).__name__}.")
-    chosen = tuple(joints)
-    unknown = [s for s in chosen if s not in by_name]
-    if unknown or not chosen or len(set(chosen)) < len(chosen):
-        raise InputError(f"`joints` must be distinct names of movable joints of the file, "
-                         f"among {list(by_name)}; got {list(chosen)}"
-                         + (f" ({unknown} not among them)." if unknown else "."))
-    return tuple(by_name[s] for s in chosen)
-
-
-def _friction(friction, joints):
-    """The friction coefficients, shape (n,): the file's damping when `friction` is None."""
-    n = len(joints)
-    if friction is None:
-        return np.array([j.damping for j in joints])
-    if np.ndim(friction) == 0:
-        return np.full(n, checks.nonnegative_float("friction", friction))
-    d = checks.vector("friction", friction, n)
-    if (d < 0).any():
-        raise InputError(f"`friction` must be >= 0 at every joint; got {d}.")
-    return d
 
 
 def _tree(text, joints):
