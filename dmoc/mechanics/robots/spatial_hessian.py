@@ -98,16 +98,14 @@ def second_variation(links, q, v, gravity, a, b):
         rows[links[k].index] = (inertia_times(inertia, S), gamma)
         columns[links[k].index] = (w_qq * motion_cross(S, a0) + w_vv * S, psi, S)
     W = ca.SX.zeros(q.numel(), q.numel())
-    for k in joints:
-        i = links[k].index
-        F_i, gamma_i = rows[i]
-        for j in _moving_ancestors(links, k):
-            beta_j, psi_j, S_j = columns[j]
-            common = ca.dot(F_i, beta_j) - w_qq * ca.dot(psi_j, gamma_i)
-            d3, d4 = ca.dot(S_j, gamma_i), ca.dot(psi_j, F_i)
-            W[i, j] = common + w_qv * d3 - w_vq * d4
-            if j != i:
-                W[j, i] = common + w_vq * d3 - w_qv * d4
+    for k in joints:            # row i and column i over the ancestors j, as 1 x k products
+        i, js = links[k].index, _moving_ancestors(links, k)
+        F_i, gamma_i = (x.T for x in rows[i])
+        beta, psi, S = (ca.horzcat(*[columns[j][m] for j in js]) for m in range(3))
+        common = ca.mtimes(F_i, beta) - w_qq * ca.mtimes(gamma_i, psi)
+        d3, d4 = ca.mtimes(gamma_i, S), ca.mtimes(F_i, psi)
+        W[js, i] = (common + w_vq * d3 - w_qv * d4).T
+        W[i, js] = common + w_qv * d3 - w_vq * d4       # the diagonal entry from this row
     return W
 
 
@@ -153,12 +151,10 @@ def _composite(links, frames):
 
 def _symmetric(A, B):
     """A B^T (3, 3) for a product known to be symmetric (A and B of shape (3, 3), or (3, 1)
-    for an outer product a b^T): its 6 distinct entries computed once, SX."""
-    P = ca.SX(3, 3)
-    for i in range(3):
-        for j in range(i, 3):
-            P[i, j] = P[j, i] = ca.dot(A[i, :].T, B[j, :].T)
-    return P
+    for an outer product a b^T), SX: its upper triangle mirrored, so that only its 6
+    distinct entries are computed."""
+    product = ca.mtimes(A, B.T)
+    return ca.triu(product) + ca.triu(product, False).T
 
 
 def _moving_ancestors(links, k):
