@@ -16,8 +16,9 @@ under zero torques (a small swing about the hanging rest, for any number of step
 the log-log slope of each cost against n over the chains.
 
 With `--breakdown`, where the step's cost goes: the instructions of the step's rows g(y)
-(the residual the Newton iterations solve, y = (dq, nu, ds)), of their Jacobian dg/dy, of
-one Newton update (g, dg/dy and J^{-1} g: QR for more than 4 unknowns) and of the fast
+(the residual the Newton iterations solve, y = (dq, nu, ds)), of their Jacobian dg/dy by
+automatic differentiation and from the spatial second variation of L (the chord's, for a
+fixed base under the midpoint rule: `dmoc.simulation.step_jacobian`), of one Newton update (g, dg/dy and J^{-1} g: QR for more than 4 unknowns) and of the fast
 path's step (its unrolled updates and the step's end after common-subexpression
 elimination: the compiled step; 8 chord updates with dg/dy factorized once for more than
 4 unknowns, `dmoc.simulation.chord_update`), and of the fast step with Newton's 3 updates
@@ -26,11 +27,12 @@ the fast step's instructions over it in brackets); with `--dmoc`, the DMOC's IPO
 seconds of one (IPOPT's time over its iterations). `--hessian limited-memory` solves the
 DMOC with IPOPT's quasi-Newton Hessian instead of the exact one.
 
-With `--versus-newton`, the compiled fast step's CPU time with the chord and with Newton's 3
-updates (the baseline: the fast path before the chord, its stepper built with the chord
-switched off), interleaved, the best of `--repeat` runs of `--steps` steps each from the
-same state as the timed runs, as a ratio, with the largest difference of the two runs'
-final states and the log-log slope of each over the chains (`--no-compile`: in the virtual
+With `--versus-newton`, the compiled fast step's CPU time with the chord, with the chord
+whose Jacobian is CasADi's automatic one (the baseline: the chord before the spatial
+Jacobian) and with Newton's 3 updates (the fast path before the chord, its stepper built
+with the chord switched off), interleaved, the best of `--repeat` runs of `--steps` steps
+each from the same state as the timed runs, as ratios, with the largest difference of the
+runs' final states and the log-log slope of each over the chains (and over 6+ joints) (`--no-compile`: in the virtual
 machine; `--smallest` also runs it so, at --repeat 1).
 
 With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
@@ -81,7 +83,9 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc.mechanics.robots import example_urdf  # noqa: E402
 from dmoc.principle.residual import step_residual  # noqa: E402
+from dmoc.simulation import fast_path  # noqa: E402
 from dmoc.simulation.fast_path import fast_step  # noqa: E402
+from dmoc.simulation.step_jacobian import step_jacobian  # noqa: E402
 from dmoc.simulation.schur_complement import newton_update  # noqa: E402
 from dmoc.simulation import stepper as stepper_module  # noqa: E402
 from dmoc.simulation.stepper import DiracStepper  # noqa: E402
@@ -155,6 +159,7 @@ def newton_parts(system):
         return ca.Function("part", [y, params], [expression]).n_instructions()
 
     parts = {"g": count(g), "dg/dy": count(ca.jacobian(g, y)),
+             "dg/dy spatial": count(ca.cse(ca.densify(step_jacobian(stepper, g, y, params)))),
              "update": count(newton_update(g, y, stepper.unknowns)),
              "fast step": fast_step(stepper, eliminate=True).n_instructions()}
     stepper.chord = False          # the fast path's updates are read from the stepper
@@ -162,18 +167,22 @@ def newton_parts(system):
 
 
 def versus_newton(system, steps, repeat, compile_):
-    """{"chord", "Newton": the best CPU seconds of one fast step (compiled with `compile_`,
-    else in the virtual machine) over `repeat` interleaved runs of `steps` steps from q =
-    0.1 at rest, "difference": of the final states}, the Newton stepper built with
-    `uses_chord` switched off."""
+    """{"chord", "chord, AD", "Newton": the best CPU seconds of one fast step (compiled with
+    `compile_`, else in the virtual machine) over `repeat` interleaved runs of `steps` steps
+    from q = 0.1 at rest, "difference": the largest of the final states' from the chord's},
+    the "chord, AD" stepper's Jacobian by ``ca.jacobian`` instead of the spatial second
+    variation (`step_jacobian`), the Newton stepper built with `uses_chord` switched off."""
     disc = dmoc.discretize(system, H)
-    residual, chord = step_residual(disc), stepper_module.uses_chord
+    residual, chord, jacobian = step_residual(disc), stepper_module.uses_chord, fast_path.step_jacobian
     steppers = {"chord": DiracStepper(residual, 1e-12, 50, native=compile_)}
     try:
+        fast_path.step_jacobian = lambda stepper, g, y, params: ca.jacobian(g, y)
+        steppers["chord, AD"] = DiracStepper(residual, 1e-12, 50, native=compile_)
+        fast_path.step_jacobian = jacobian
         stepper_module.uses_chord = lambda stepper: False
         steppers["Newton"] = DiracStepper(residual, 1e-12, 50, native=compile_)
     finally:
-        stepper_module.uses_chord = chord
+        stepper_module.uses_chord, fast_path.step_jacobian = chord, jacobian
     n = system.n
     p0 = dmoc.simulate(disc, q0=np.full(n, 0.1), v0=np.zeros(n), steps=1, jit=False).trajectory.p[0]
     start = np.concatenate([np.full(n, 0.1), p0, np.zeros(steppers["chord"].state.size - 2 * n)])
@@ -185,21 +194,23 @@ def versus_newton(system, steps, repeat, compile_):
             best[k] = min(best[k], (time.process_time() - tic) / steps)
             assert failed is None and len(acc) == steps + 1
             final[k] = acc[-1, :2 * n]
-    return {**best, "difference": np.abs(final["chord"] - final["Newton"]).max()}
+    return {**best, "difference": max(np.abs(final["chord"] - final[k]).max() for k in final)}
 
 
 def report_versus_newton(rows, compiled):
     print(f"Fast step, {'compiled' if compiled else 'virtual machine'}, CPU (best of interleaved runs):")
-    print("| model | n | chord | Newton (3 updates) | ratio | final states differ by |")
-    print("|---|---:|---:|---:|---:|---:|")
+    print("| model | n | chord | chord, AD Jacobian | Newton (3 updates) | ratios | final states differ by |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         v = r["versus"]
-        print(f"| {r['model']} | {r['n']} | {v['chord'] * 1e6:.3f} us | {v['Newton'] * 1e6:.3f} us | "
-              f"{v['chord'] / v['Newton']:.2f} | {v['difference']:.1e} |")
-    if len(rows) >= 3:
-        print("log-log slopes: " + ", ".join(
-            f"{k} {slope([{'n': r['n'], k: r['versus'][k]} for r in rows], k):.2f}"
-            for k in ("chord", "Newton")))
+        print(f"| {r['model']} | {r['n']} | {v['chord'] * 1e6:.3f} us | {v['chord, AD'] * 1e6:.3f} us | "
+              f"{v['Newton'] * 1e6:.3f} us | {v['chord'] / v['chord, AD']:.2f}, {v['chord'] / v['Newton']:.2f} | "
+              f"{v['difference']:.1e} |")
+    for label, chosen in (("", rows), (" over 6+ joints", [r for r in rows if r["n"] >= 6])):
+        if len(chosen) >= 2:
+            print(f"log-log slopes{label}: " + ", ".join(
+                f"{k} {slope([{'n': r['n'], k: r['versus'][k]} for r in chosen], k):.2f}"
+                for k in ("chord", "chord, AD", "Newton")))
 
 
 def measure(name, path, args, wheels=None):
@@ -417,7 +428,7 @@ def report(rows, chains, args):
 def report_parts(rows, chains):
     """The DMOC's iterations and the step's instructions (`--dmoc`, `--breakdown`), and their
     slopes over the chains and over those of 6 joints or more."""
-    keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "update", "fast step",
+    keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "dg/dy spatial", "update", "fast step",
                         "Newton fast step") if k in rows[0]]
     if not keys:
         return

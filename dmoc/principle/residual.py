@@ -68,6 +68,9 @@ class StepResidual:
     inputs, row_layout : Layout
         Named blocks of the inputs and of r; ``rows`` is ``row_layout.slices()``.
     function : casadi.Function
+    discrete_force : casadi.Function or None
+        A Lagrangian discretization's f_d, ``(q0, q1, s, u, h) -> (f_minus, f_plus,
+        f_stage)``; None for a Hamiltonian one.
 
     Notes
     -----
@@ -97,6 +100,7 @@ class StepResidual:
         checks.instance("disc", disc, Discretization, "a Discretization")
         self.formulation = as_formulation(variant, disc)
         self.system, self.rule = disc.system, disc.rule
+        self.discrete_force = getattr(disc, "discrete_force", None)     # None: Hamiltonian
         self.key = (disc.key, self.formulation)
         sys = disc.system
         self.n, self.m, self.n_stages = sys.n, sys.m, disc.n_stages

@@ -1,7 +1,8 @@
 """The fast path of the simulator's step (`dmoc.simulation.stepper`): FAST_ITERATIONS
 Newton updates unrolled from the warm start (each through the Schur complement of the
 multipliers, `dmoc.simulation.schur_complement`), or for many unknowns and a dense Jacobian
-CHORD_ITERATIONS chord updates with the Jacobian factorized once (`dmoc.simulation.chord_update`),
+CHORD_ITERATIONS chord updates with the Jacobian (`dmoc.simulation.step_jacobian`) factorized
+once (`dmoc.simulation.chord_update`),
 then the step's end: the next state and the outputs that decide whether the step is accepted. As one SX Function after
 common-subexpression elimination, which the compiled library is generated from; or, for a
 stepper that never compiles, as an MX Function calling the update's SX Function, which is
@@ -14,6 +15,7 @@ from .._util import typed_ops
 from .chord_update import (CHORD_ITERATIONS, chord_delta, chord_factors, chord_suited,
                            remaining_error)
 from .schur_complement import newton_update
+from .step_jacobian import step_jacobian
 
 FAST_ITERATIONS = 3
 
@@ -69,9 +71,9 @@ def _updates(stepper, params):
     if not stepper.chord:
         newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns)])
         return lambda y, p: _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
-    J = ca.jacobian(g, ys)
-    factors = ca.Function("chord_factors", [ys, params], list(chord_factors(J)))
-    Q, R = (ca.SX.sym(name, J.size1(), J.size1()) for name in "QR")
+    factors = ca.Function("chord_factors", [ys, params],
+                          list(chord_factors(step_jacobian(stepper, g, ys, params))))
+    Q, R = (ca.SX.sym(name, ys.numel(), ys.numel()) for name in "QR")
     chord = ca.Function("chord_update", [ys, params, Q, R], [chord_delta(Q, R, g)])
 
     def chord_iterated(y, p):

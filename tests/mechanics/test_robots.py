@@ -388,3 +388,89 @@ def test_without_adam_the_message_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "adam.casadi", None)
     with pytest.raises(ModuleNotFoundError, match=r"dmoc\[robots\]"):
         dmoc.RobotSystem(example_urdf("double_pendulum"))
+
+
+# ---------------------------------------------------------------------------------------
+# The second variation of L by spatial algebra, and the step's Jacobian from it
+
+
+def second_variation_blocks(system):
+    """(L_qq, L_qv, M) from the system's `second_variation` along unit directions, as one
+    Function of (q, v)."""
+    q, v = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n)
+    blocks = [system.second_variation(q, v, a, b) for a, b in (((1, 0), (1, 0)), ((1, 0), (0, 1)),
+                                                               ((0, 1), (0, 1)))]
+    return ca.Function("blocks", [q, v], blocks)
+
+
+def test_the_second_variation_equals_pinocchio_and_the_hessian_of_l(tmp_path):
+    """On the branched tree of prismatic and revolute joints (every term of the formulas:
+    tilted axes, rotated frames, products of inertia, a fixed joint, a massless link): M
+    equals Pinocchio's CRBA, d^2L/dv dq = d(M(q) a)/dq at a = v Pinocchio's RNEA derivative
+    (no gravity, zero velocity), d^2V/dq^2 its gravity derivative, and every block, and a
+    combination with arbitrary weights, the Hessian of the recursion's L by automatic
+    differentiation, to 1e-12."""
+    path = tmp_path / "mixed_tree.urdf"
+    path.write_text(MIXED_TREE_URDF)
+    system, (model, data) = dmoc.RobotSystem(path), pinocchio_model(path)
+    free = pin.buildModelFromUrdf(str(path))
+    free.gravity.linear[:] = 0.0
+    free_data = free.createData()
+    order = [list(model.names).index(name) - 1 for name in system.names]   # ours -> theirs
+    blocks = second_variation_blocks(system)
+    q, v = ca.SX.sym("q", system.n), ca.SX.sym("v", system.n)
+    H = ca.Function("H", [q, v], [ca.hessian(system.lagrangian(q, v), ca.vertcat(q, v))[0]])
+    weights = ((0.3, -1.7), (2.1, 0.4))
+    combined = ca.Function("W", [q, v], [system.second_variation(q, v, *weights)])
+    n, rng = system.n, np.random.default_rng(12)
+    for _ in range(10):
+        q0, v0 = rng.uniform(-1, 1, n), rng.uniform(-2, 2, n)
+        q_pin, v_pin = np.empty(n), np.empty(n)
+        q_pin[order], v_pin[order] = q0, v0
+        L_qq, L_qv, M = (np.array(b) for b in blocks(q0, v0))
+        mixed = order, order
+        assert close(M, symmetric(pin.crba(model, data, q_pin))[np.ix_(*mixed)])
+        dtau_dq = pin.computeRNEADerivatives(free, free_data, q_pin, np.zeros(n), v_pin)[0]
+        assert close(L_qv.T, np.array(dtau_dq)[np.ix_(*mixed)])
+        gravity = pin.computeGeneralizedGravityDerivatives(model, data, q_pin)
+        at_rest = np.array(blocks(q0, np.zeros(n))[0])
+        assert close(-at_rest, np.array(gravity)[np.ix_(*mixed)])
+        hessian = np.array(H(q0, v0))
+        assert close(L_qq, hessian[:n, :n]) and close(L_qv, hessian[:n, n:]) and close(M, hessian[n:, n:])
+        (a_q, a_v), (b_q, b_v) = weights
+        expected = (a_q * b_q * hessian[:n, :n] + a_q * b_v * hessian[:n, n:]
+                    + a_v * b_q * hessian[n:, :n] + a_v * b_v * hessian[n:, n:])
+        assert close(np.array(combined(q0, v0)), expected)
+
+
+@pytest.mark.parametrize("name, variant", [("arm6", "+"), ("arm6", "-"), ("mixed_tree", "+")])
+def test_the_step_jacobian_from_the_second_variation_equals_automatic_differentiation(name, variant,
+                                                                                      tmp_path):
+    """The chord's Jacobian of the midpoint step (h/4 L_qq + (L_qv - L_qv^T)/2 - M/h and the
+    friction's term) equals CasADi's Jacobian of the step equations of either formulation to
+    1e-12 at random states, increments, torques and steps h; a wheeled robot falls back to it."""
+    from dmoc.principle.residual import step_residual
+    from dmoc.simulation.step_jacobian import step_jacobian
+    from dmoc.simulation.stepper import DiracStepper
+    if name == "mixed_tree":
+        path = tmp_path / "mixed_tree.urdf"
+        path.write_text(MIXED_TREE_URDF)
+    else:
+        path = example_urdf(name)
+    system = dmoc.RobotSystem(path, friction=0.4)
+    stepper = DiracStepper(step_residual(dmoc.discretize(system, 0.01), variant), 1e-12, 50)
+    params = stepper.symbols(ca.SX)[3]
+    y = ca.SX.sym("y", system.n)
+    g = stepper.equations(y, params)[0]
+    ours = ca.Function("J", [y, params], [step_jacobian(stepper, g, y, params)])
+    automatic = ca.Function("J", [y, params], [ca.jacobian(g, y)])
+    assert ours.n_instructions() != automatic.n_instructions()      # not the fallback
+    rng = np.random.default_rng(13)
+    for h in (0.003, 0.01, 0.05):
+        for _ in range(5):
+            state = np.concatenate([rng.uniform(-2, 2, system.n), rng.uniform(-3, 3, system.n),
+                                    rng.uniform(-10, 10, system.n_u), [h]])
+            increment = rng.uniform(-0.1, 0.1, system.n)
+            assert close(np.array(ours(increment, state)), np.array(automatic(increment, state)))
+    wheeled = dmoc.RobotSystem(example_urdf("mobile_arm"), wheels=("left_wheel", "right_wheel"))
+    assert wheeled.second_variation(ca.SX.sym("q", 8), ca.SX.sym("v", 8), (1, 0), (1, 0)) is None

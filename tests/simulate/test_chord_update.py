@@ -81,6 +81,8 @@ def test_remaining_error_is_the_geometric_tail():
     assert value(1e-9, 1e-7) == pytest.approx(1e-9 * 0.01 / 0.99, rel=1e-6)   # rate 0.01
     assert value(1e-6, 1e-7) == 1e-6                   # diverging (or stalled): the update
     assert value(1e-10, 2e-10) > CHORD_UPDATE_TOL      # rate 1/2: 1e-10 left
+    cycle = 2.546994955081901e-18                      # arm6 at rest: two points at round-off
+    assert value(cycle, cycle * (1 + 2e-16)) == cycle   # a stall, not a tail of 1e16 updates
 
 
 def test_a_chord_step_stalled_at_round_off_is_accepted_by_its_residual():

@@ -13,11 +13,12 @@ import casadi as ca
 import numpy as np
 
 from ..._util import checks
-from ...errors import InputError, InputTypeError
+from ...errors import InputError
 from ..system import MechanicalSystem
 from .link_recursion import Link, energies, placement, rpy_rotation
+from .spatial_hessian import second_variation
 from .step_failure import step_failure_hint
-from .urdf_file import read_urdf
+from .urdf_file import chosen_joints, joint_friction, read_urdf
 from .wheeled_base import (BASE_NAMES, BASE_UNITS, base_velocity, read_wheels, rolling_constraints,
                            rolling_rows, world_position)
 
@@ -66,6 +67,8 @@ class RobotSystem(MechanicalSystem):
     velocity_limits : ndarray, shape (n,)
     friction : ndarray, shape (n_u,)
         The joints' friction coefficients.
+    gravity : float
+        g (m/s^2), along -z of the base's frame.
     links : tuple of dmoc.mechanics.robots.link_recursion.Link
         The kinematic tree, parents before children, the base first.
     wheels : tuple of dmoc.mechanics.robots.wheeled_base.Wheel
@@ -115,6 +118,7 @@ class RobotSystem(MechanicalSystem):
 
     def __init__(self, path, joints=None, *, wheels=None, friction=None, gravity=9.81):
         text, g = read_model(self, path, joints, friction, gravity)
+        self.gravity = g
         self.wheels = () if wheels is None else read_wheels(wheels, self.joints, self.links,
                                                             text, self.path)
         self.wheel_rows, constraints = (), None
@@ -173,6 +177,25 @@ class RobotSystem(MechanicalSystem):
         _, p = placement(self.links, names.index(name), q[k:])
         return ca.Function(name, [q], [world_position(q, p) if k else p], ["q"], ["position"])
 
+    def second_variation(self, q, v, a, b):
+        """The second variation of L along the directions a and b, W[i, j] = (a_q d/dq_i +
+        a_v d/dv_i)(b_q d/dq_j + b_v d/dv_j) L at (q, v), (n, n) SX, by the spatial
+        formulas of `dmoc.mechanics.robots.spatial_hessian` (O(1) operations per entry;
+        the step's Jacobian takes it, `dmoc.simulation.step_jacobian`); None on wheels,
+        whose base's pose those formulas do not cover.
+
+        Parameters
+        ----------
+        q, v : casadi.SX, shape (n, 1)
+        a, b : pair of float or casadi.SX
+            (a_q, a_v) and (b_q, b_v).
+
+        Returns
+        -------
+        casadi.SX of shape (n, n), or None
+        """
+        return None if self.wheels else second_variation(self.links, q, v, self.gravity, a, b)
+
     @functools.cached_property
     def stiffness(self):
         """``K(q) = d^2V/dq^2`` (n, n), the stiffness of gravity, a casadi.Function built on
@@ -207,41 +230,11 @@ def read_model(robot, path, joints, friction, gravity):
     text, the checked `gravity`)."""
     robot.path = checks.file_path("path", path)
     movable, text = read_urdf(robot.path)
-    robot.joints = _chosen_joints(movable, joints)
+    robot.joints = chosen_joints(movable, joints)
     g = checks.finite_float("gravity", gravity)
-    robot.friction = _friction(friction, robot.joints)
+    robot.friction = joint_friction(friction, robot.joints)
     robot.links = _tree(text, robot.joints)
     return text, g
-
-
-def _chosen_joints(movable, joints):
-    """The Joints named in `joints` (all of `movable` when None), in that order."""
-    if joints is None:
-        return movable
-    by_name = {j.name: j for j in movable}
-    if isinstance(joints, str) or not hasattr(joints, "__iter__"):
-        raise InputTypeError(f"`joints` must be a sequence of joint names; got "
-                             f"{type(joints).__name__}.")
-    chosen = tuple(joints)
-    unknown = [s for s in chosen if s not in by_name]
-    if unknown or not chosen or len(set(chosen)) < len(chosen):
-        raise InputError(f"`joints` must be distinct names of movable joints of the file, "
-                         f"among {list(by_name)}; got {list(chosen)}"
-                         + (f" ({unknown} not among them)." if unknown else "."))
-    return tuple(by_name[s] for s in chosen)
-
-
-def _friction(friction, joints):
-    """The friction coefficients, shape (n,): the file's damping when `friction` is None."""
-    n = len(joints)
-    if friction is None:
-        return np.array([j.damping for j in joints])
-    if np.ndim(friction) == 0:
-        return np.full(n, checks.nonnegative_float("friction", friction))
-    d = checks.vector("friction", friction, n)
-    if (d < 0).any():
-        raise InputError(f"`friction` must be >= 0 at every joint; got {d}.")
-    return d
 
 
 def _tree(text, joints):

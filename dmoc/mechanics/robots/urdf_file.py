@@ -2,7 +2,8 @@
 in the file's order, their limits (position, velocity, effort) and their viscous damping,
 read with the standard library's XML parser; and the file's text with the elements the URDF
 specification lets a file omit written out (a joint's or an inertial's <origin>, a joint's
-<axis>), which adam 0.5 requires. The inertial data are read by adam
+<axis>), which adam 0.5 requires; the joints a robot moves and their friction, chosen among
+them. The inertial data are read by adam
 (`dmoc.mechanics.robots.robot_system`), not here.
 """
 
@@ -10,8 +11,11 @@ import math
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 
+import numpy as np
+
+from ..._util import checks
 from ..._util.files import readable_file
-from ...errors import InputError
+from ...errors import InputError, InputTypeError
 
 # joint types of a fixed-base robot that move (URDF specification, <joint type=...>) and the
 # unit of their coordinate and of their actuator's effort
@@ -154,3 +158,33 @@ def _joint(element, kind, path):
         raise InputError(f"joint {name!r} of {str(path)!r}: damping must be >= 0; got {damping}.")
     return Joint(name, kind, lower, upper, number(limit, "velocity", math.inf),
                  number(limit, "effort", math.inf), damping)
+
+
+def chosen_joints(movable, joints):
+    """The Joints named in `joints` (all of `movable` when None), in that order."""
+    if joints is None:
+        return movable
+    by_name = {j.name: j for j in movable}
+    if isinstance(joints, str) or not hasattr(joints, "__iter__"):
+        raise InputTypeError(f"`joints` must be a sequence of joint names; got "
+                             f"{type(joints).__name__}.")
+    chosen = tuple(joints)
+    unknown = [s for s in chosen if s not in by_name]
+    if unknown or not chosen or len(set(chosen)) < len(chosen):
+        raise InputError(f"`joints` must be distinct names of movable joints of the file, "
+                         f"among {list(by_name)}; got {list(chosen)}"
+                         + (f" ({unknown} not among them)." if unknown else "."))
+    return tuple(by_name[s] for s in chosen)
+
+
+def joint_friction(friction, joints):
+    """The friction coefficients, shape (n,): the file's damping when `friction` is None."""
+    n = len(joints)
+    if friction is None:
+        return np.array([j.damping for j in joints])
+    if np.ndim(friction) == 0:
+        return np.full(n, checks.nonnegative_float("friction", friction))
+    d = checks.vector("friction", friction, n)
+    if (d < 0).any():
+        raise InputError(f"`friction` must be >= 0 at every joint; got {d}.")
+    return d
