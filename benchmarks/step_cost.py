@@ -373,7 +373,8 @@ def sphere_roll(form, steps=20, estimate=False):
     Embedded: the goal's entries R_11, R_20, R_21 given and the other six free, those
     `OptimalControlProblem` names (with R^T R = I at q_N the nine would be imposed twice);
     "embedded" from its default guess, "embedded-geo" from the group form's default guess
-    written entry by entry (R_k = exp(k/N pi/2 e3^), x_k linear). After `dmoc.clear_caches`:
+    written entry by entry (R_k = exp(s_k pi/2 e3^), x_k = s_k x_goal, s_k the quintic shares of
+    a rest-to-rest motion, `group_solving.timing`). After `dmoc.clear_caches`:
     (wall s, CPU s of this process and its children, both of build + solve; cost; IPOPT
     iterations; success; the verdict's status; max |R_N - R_goal|; with `estimate`, for the
     group form the result of ``optimize(problem, estimate=True)`` solved again, else None)."""
