@@ -373,7 +373,8 @@ def sphere_roll(form, steps=20, estimate=False):
     Embedded: the goal's entries R_11, R_20, R_21 given and the other six free, those
     `OptimalControlProblem` names (with R^T R = I at q_N the nine would be imposed twice);
     "embedded" from its default guess, "embedded-geo" from the group form's default guess
-    written entry by entry (R_k = exp(k/N pi/2 e3^), x_k linear). After `dmoc.clear_caches`:
+    written entry by entry (R_k = exp(s_k pi/2 e3^), x_k = s_k x_goal, s_k the quintic shares of
+    a rest-to-rest motion, `group_solving.timing`). After `dmoc.clear_caches`:
     (wall s, CPU s of this process and its children, both of build + solve; cost; IPOPT
     iterations; success; the verdict's status; max |R_N - R_goal|; with `estimate`, for the
     group form the result of ``optimize(problem, estimate=True)`` solved again, else None)."""
@@ -392,9 +393,10 @@ def sphere_roll(form, steps=20, estimate=False):
         problem = dmoc.OptimalControlProblem(
             disc, steps, q_start=np.concatenate([np.eye(3).ravel(), [0.0, 0.0]]),
             q_goal=[None] * 4 + [goal[1, 1], None, goal[2, 0], goal[2, 1], None, 1.0, 0.5])
-        c, s = np.cos(np.pi / 2 * share), np.sin(np.pi / 2 * share)
+        way = share ** 3 * (10 - 15 * share + 6 * share ** 2)     # the group guess's `timing`
+        c, s = np.cos(np.pi / 2 * way), np.sin(np.pi / 2 * way)
         zero, one = np.zeros_like(c), np.ones_like(c)
-        q = np.stack([c, -s, zero, s, c, zero, zero, zero, one, share, 0.5 * share], axis=1)
+        q = np.stack([c, -s, zero, s, c, zero, zero, zero, one, way, 0.5 * way], axis=1)
         guess = (dmoc.Trajectory(4 * share, q, np.zeros_like(q), np.zeros((steps, disc.system.m)),
                                  np.zeros((steps, 3)), 4 / steps, "+") if form == "embedded-geo" else None)
     result = dmoc.optimize(problem, guess=guess, throw=False)

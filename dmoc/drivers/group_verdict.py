@@ -17,6 +17,7 @@ from ..optimal_control.statement.parameters import expression_texts
 from ..principle.rotation_trajectory import RotationTrajectory
 from ..results.knot_velocities import relative_changes
 from ..simulation.time_stepping import simulate
+from .group_replay import nlp_replay
 from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE, REPLAY_TOLERANCE,
                              largest_change, path_violation, replay_departure, scale, worst_status)
 
@@ -39,8 +40,11 @@ def judge_on_group(problem, result):
 
     Notes
     -----
-    The replay runs `dmoc.simulate` from (R_0, x_0, p_0) with the optimum's controls, held
-    on each step, in CasADi's virtual machine (``jit=False``, as on R^n,
+    The replay solves the step rows from (R_0, x_0, p_0) with the optimum's controls, held
+    on each step, in CasADi's virtual machine: Newton's method on the NLP's own step term
+    with the Jacobian its solve built (`group_replay.nlp_replay`: the group step residual
+    the simulator solves, the same warm starts, converged to its tolerance), or, when a
+    step does not converge there, `dmoc.simulate` (``jit=False``, as on R^n,
     `dmoc.diagnostics.replay`: preparing the compiled step costs more than the N steps of
     an optimum), and compares every q_k (the entries of R_k, then x_k) and p_k = (Pi_k,
     p_x,k) (the end momentum included: the end impulse enters no step). The goal error is
@@ -62,9 +66,11 @@ def judge_on_group(problem, result):
     if traj.steps != problem.steps:
         raise InputError(f"`result` must be an optimum of `problem` ({problem.steps} steps); "
                          f"got one on {traj.steps} steps.")
-    q0 = (traj.R[0], traj.x[0]) if problem.disc.system.n_x else traj.R[0]
-    replay = simulate(problem.disc, q0=q0, p0=traj.p[0], steps=problem.steps, controls=traj.u,
-                      throw=False, jit=False).trajectory
+    replay = nlp_replay(problem, traj)
+    if replay is None:              # a step Newton did not converge: the simulator's replay
+        q0 = (traj.R[0], traj.x[0]) if problem.disc.system.n_x else traj.R[0]
+        replay = simulate(problem.disc, q0=q0, p0=traj.p[0], steps=problem.steps, controls=traj.u,
+                          throw=False, jit=False).trajectory
     replay_q, replay_p, replay_step = replay_departure(traj, replay, traj.steps + 1)
     goal = goal_error(problem, traj)
     path, path_step, row, limit = path_violation(

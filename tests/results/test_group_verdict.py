@@ -121,3 +121,25 @@ def test_the_verdict_refuses_a_result_of_other_steps(optimum):
     problem, result = optimum
     with pytest.raises(dmoc.InputError, match="`result` must be an optimum of `problem` \\(12 steps\\)"):
         judge_on_group(problem.with_steps(12), result)
+
+
+@pytest.mark.parametrize("factor", [1.01, 300.0])
+def test_the_replay_on_the_nlp_rows_is_the_simulators_or_hands_over_to_it(optimum, factor):
+    """Changed controls replayed by Newton on the NLP's step rows: the simulator's steps to
+    the simulator's tolerance; torques so large that 4 Newton updates do not converge: no replay there
+    (None), and the verdict takes the simulator's replay: not replayable."""
+    from dmoc.drivers.group_replay import nlp_replay
+    problem, result = optimum
+    traj = dataclasses.replace(result.trajectory, u=factor * result.trajectory.u)
+    simulated = dmoc.simulate(problem.disc, q0=traj.R[0], p0=traj.p[0], steps=N, controls=traj.u,
+                              throw=False, jit=False).trajectory
+    replay = nlp_replay(problem, traj)
+    if factor < 2:
+        assert replay.steps == N
+        # each step of both converged to the simulator's tol 1e-12 (which also re-orthogonalizes R)
+        assert np.abs(replay.q - simulated.q).max() <= 1e-11
+        assert np.abs(replay.p - simulated.p).max() <= 1e-11
+    else:
+        assert replay is None
+        verdict = judge_on_group(problem, dataclasses.replace(result, trajectory=traj))
+        assert verdict.status == "not_replayable"

@@ -145,13 +145,13 @@ class GroupOptimalControlProblem:
         new.residual = group_step_residual(new.disc)
         return new
 
-    def geodesic(self):
-        """The rotations R_start exp(s log(R_start^T R_goal)), s = k/N, along the shortest
-        rotation between the ends, shape (N+1, 3, 3): the default guess (R_start at every
-        knot when the goal's rotation is free)."""
+    def geodesic(self, shares=None):
+        """The rotations R_start exp(s_k log(R_start^T R_goal)) along the shortest rotation
+        between the ends, shape (N+1, 3, 3), at the `shares` s_k of the way (N+1,), default
+        k/N: the default guess (R_start at every knot when the goal's rotation is free)."""
         phi = np.zeros(3) if self.R_goal is None else rotation_vector(self.R_start.T @ self.R_goal)
-        return np.array([self.R_start @ rotation_matrix(s * phi)
-                         for s in np.linspace(0.0, 1.0, self.steps + 1)])
+        shares = np.linspace(0.0, 1.0, self.steps + 1) if shares is None else shares
+        return np.array([self.R_start @ rotation_matrix(s * phi) for s in shares])
 
     def __repr__(self):
         return f"GroupOptimalControlProblem({self.disc!r}, steps={self.steps})"
