@@ -58,7 +58,11 @@ def cayley_half(f):
 def orthogonalized(R):
     """R (3 I - R^T R) / 2, one Newton step of the polar decomposition toward the nearest
     rotation (Bjorck & Bowie [2]): the identity on SO(3), it removes the round-off of a
-    product of rotations (of order |R^T R - I|^2 left) without moving R by more than it."""
+    product of rotations, or an optimizer's violation of the rows that make R_k a
+    rotation (of order |R^T R - I|^2 left), without moving R by more than it. `R` is a
+    CasADi 3 x 3 matrix or a numpy stack of shape (..., 3, 3), each matrix stepped."""
+    if isinstance(R, np.ndarray):
+        return 0.5 * R @ (3 * np.eye(3) - np.swapaxes(R, -1, -2) @ R)
     return 0.5 * ca.mtimes(R, 3 * ca.DM.eye(3) - ca.mtimes(R.T, R))
 
 

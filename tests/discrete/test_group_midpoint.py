@@ -11,7 +11,7 @@ import pytest
 
 import dmoc
 from dmoc.discrete.group_discretization import midpoint_kinetic_term
-from dmoc.mechanics.rotations import cayley, cayley_half
+from dmoc.mechanics.rotations import cayley, cayley_half, orthogonalized
 
 
 def random_rotation(rng, size=1.0):
@@ -54,3 +54,19 @@ def test_cayley_half_is_the_square_root_of_the_increment():
         f = size * rng.normal(size=3)
         G = np.array(cayley(cayley_half(ca.DM(f))))
         assert np.abs(G @ G - np.array(cayley(ca.DM(f)))).max() <= 1e-15 * 4
+
+
+def test_orthogonalized_takes_a_rotation_off_by_1e_10_to_round_off_and_a_stack_as_each_matrix():
+    """One Bjorck-Bowie step leaves |R^T R - I| of order its square (1e-20, so round-off),
+    moves R by no more than the defect, and a numpy stack (K, 3, 3) gets what each matrix
+    gets through CasADi."""
+    rng = np.random.default_rng(14)
+    rotations = np.stack([np.array(cayley(ca.DM(rng.normal(size=3)))) for _ in range(4)])
+    off = rotations + 1e-10 * rng.normal(size=rotations.shape)
+    stepped = orthogonalized(off)
+    eye = np.eye(3)
+    assert np.abs(np.swapaxes(off, 1, 2) @ off - eye).max() >= 1e-11
+    assert np.abs(np.swapaxes(stepped, 1, 2) @ stepped - eye).max() <= 1e-15
+    assert np.abs(stepped - off).max() <= 1e-9
+    for R, S in zip(off, stepped):
+        assert np.abs(np.array(orthogonalized(ca.DM(R))) - S).max() <= 1e-15

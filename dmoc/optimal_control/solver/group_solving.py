@@ -10,6 +10,7 @@ import numpy as np
 
 from ..._util import checks
 from ...errors import failure
+from ...mechanics.rotations import orthogonalized
 from ...principle.rotation_trajectory import RotationTrajectory
 from ..nlp.evaluation import compiled_when_ready, spent
 from ..nlp.group_transcription import group_transcription
@@ -154,8 +155,10 @@ def bump(M, motion):
 
 
 def trajectory_of(problem, T, x):
-    """The RotationTrajectory of the NLP vector x."""
+    """The RotationTrajectory of the NLP vector x, its R_k made orthogonal to round-off
+    (`rotations.orthogonalized`: the NLP holds R_{k+1} = R_k cay(f_k) to IPOPT's final
+    violation, up to 1e-13, and each R_k moves by no more than that)."""
     q, p, f, lam, u = (T.x_layout.unpack(x, name).T for name in ("q", "p", "f", "lam", "u"))
     h = problem.disc.h
-    return RotationTrajectory.unchecked(h * np.arange(problem.steps + 1), q[:, :9].reshape(-1, 3, 3),
+    return RotationTrajectory.unchecked(h * np.arange(problem.steps + 1), orthogonalized(q[:, :9].reshape(-1, 3, 3)),
                                         p[:, :3], f, u, h, q[:, 9:], p[:, 3:], lam)
