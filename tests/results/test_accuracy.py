@@ -119,6 +119,9 @@ def test_the_target_is_met_by_the_true_error(rule, accuracy):
     end = knife_edge_end(traj, traj.control_nodes)
     assert np.max(np.abs(traj.q[-1] - end) / np.ptp(traj.q, axis=0)) <= accuracy
     assert result.stats["error_estimate"]["cost"] <= accuracy
+    # the bound multipliers of the fixed entries are made when first read, not by the loop
+    assert isinstance(vars(result)["lam_x"], Pending)
+    assert np.isfinite(result.lam_x).all() and not isinstance(vars(result)["lam_x"], Pending)
 
 
 def parking(steps, rule, constant=0.0):
