@@ -64,8 +64,7 @@ class DiracStepper:
         self.residual, self.tol = residual, tol
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
-        rows = step_rows(self)
-        self.chord = uses_chord(self, rows)
+        self.chord = uses_chord(self, rows := step_rows(self))     # the rows and dg/dy built once
         self.fast = fast_step(self, native is not False, rows)
         self.max_iter, self._robust = max_iter, None
         self._use({})
