@@ -179,7 +179,7 @@ def versus_newton(system, steps, repeat, compile_):
         fast_path.step_jacobian = lambda stepper, g, y, params: ca.jacobian(g, y)
         steppers["chord, AD"] = DiracStepper(residual, 1e-12, 50, native=compile_)
         fast_path.step_jacobian = jacobian
-        stepper_module.uses_chord = lambda stepper: False
+        stepper_module.uses_chord = lambda stepper, rows: False
         steppers["Newton"] = DiracStepper(residual, 1e-12, 50, native=compile_)
     finally:
         stepper_module.uses_chord, fast_path.step_jacobian = chord, jacobian

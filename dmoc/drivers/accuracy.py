@@ -7,9 +7,9 @@ is below a target (docs/stages/drivers.md,
 
 import math
 import time
-from dataclasses import replace
 
 from .._util import checks
+from .._util.deferred import replace
 from ..errors import InputError, SolverError, Status, failure
 from ..optimal_control import OptimalControlProblem
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem

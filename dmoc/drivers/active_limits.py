@@ -7,6 +7,7 @@ of the interior point's distance from the bounds it holds (`barrier_offset`)."""
 import numpy as np
 
 from ..discrete.knot_states import interior_points
+from ..optimal_control.solver.fixed_multipliers import returned_lam_x
 from .interpolant_path import interpolant_path_values
 from .verdict import PATH_TOLERANCE, knot_path_values, knot_velocity_bound_values
 
@@ -43,6 +44,8 @@ def switches(problem, result):
     not seen.
     """
     lower, upper = problem.control_bounds
+    if not (np.isfinite(lower).any() or np.isfinite(upper).any()):
+        return False
     traj, layout = result.trajectory, problem.transcription.x_layout
     u = np.asarray(traj.u, dtype=float).reshape(-1, len(lower))         # (N k, n_u), in time
     lam = np.zeros_like(u) if result.lam_x is None else \
@@ -123,11 +126,16 @@ def barrier_offset(problem, result):
     1.15e-5 of T* when IPOPT's tol goes from 1e-10 to 1e-13 (offset 7.7e-9); with a cost of
     1 per second, 7.7e-10. Bounds fixed to a value (lbx = ubx, the boundary data) hold
     nothing here. 0 for a result without `x` or `lam_x` (a file written without them).
+    Where IPOPT fixed exactly the entries with lbx = ubx, their multipliers are not
+    evaluated (`returned_lam_x`): they count for nothing here.
     """
-    if result.lam_x is None or result.x is None:
-        return 0.0
     T = problem.transcription
-    lam, x = np.asarray(result.lam_x, dtype=float), np.asarray(result.x, dtype=float)
+    lam, fixed = returned_lam_x(result)
+    if fixed.size and not np.array_equal(T.lbx[fixed], T.ubx[fixed]):
+        lam = result.lam_x
+    if lam is None or result.x is None:
+        return 0.0
+    lam, x = np.asarray(lam, dtype=float), np.asarray(result.x, dtype=float)
     distance = np.where(lam > 0, T.ubx - x, x - T.lbx)
     held = (T.lbx < T.ubx) & (lam != 0) & np.isfinite(distance)
     return float(np.sum(np.abs(lam[held]) * distance[held]) / (abs(result.cost) or 1.0))

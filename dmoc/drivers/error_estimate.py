@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from .._util import checks
+from .._util import checks, deferred
 from ..discrete.group_discretization import GroupDiscretization
 from ..discrete.rules import lagrange_basis
 from ..errors import InputError, Status
@@ -278,7 +278,7 @@ def with_estimate(result, estimate):
                                                 "state_error": estimate.state_error.tolist()}}
     verdict = result.verdict if result.verdict is None else \
         replace(result.verdict, discretization_error=estimate.largest)
-    result = replace(result, stats=stats, verdict=verdict)
+    result = deferred.replace(result, stats=stats, verdict=verdict)
     if verdict is None or not (verdict.passed and result.success) or not estimate.final_state > UNRESOLVED_END:
         return result
     message = (f"IPOPT converged ({result.stats['return_status']}, cost {result.cost:.10g}), but the "
@@ -287,5 +287,5 @@ def with_estimate(result, estimate):
                f"{estimate.final_state:.2g} of the coordinates' excursion away from its end (limit "
                f"{UNRESOLVED_END:g}; `stats[\"error_estimate\"]`). Use more steps; "
                f"docs/stages/drivers.md, \"Verdicts\".")
-    return replace(result, success=False, status=Status.UNDER_RESOLVED, message=message,
+    return deferred.replace(result, success=False, status=Status.UNDER_RESOLVED, message=message,
                    verdict=replace(verdict, status=Status.UNDER_RESOLVED))

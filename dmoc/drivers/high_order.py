@@ -15,10 +15,9 @@ same root. With inequalities the start also chooses the active set (the bounded 
 lobatto3 at N = 60 from the default guess passes its verdict on a worse optimum); without
 them the verdict catches the other root, so the midpoint solve is spent only then."""
 
-import dataclasses
 import time
 
-from .._util import checks
+from .._util import checks, deferred
 from ..errors import Status, failure
 from ..optimal_control import OptimalControlProblem
 from ..optimal_control.solver.newton_kkt import applies
@@ -88,7 +87,7 @@ def started_solve(problem, *, guess=None, throw=True, options=None, **keywords):
                               options={**STARTED_OPTIONS, **(options or {})}, **keywords)
     else:
         result = judged_solve(problem, throw=False, options=options, **keywords)
-    return _thrown(dataclasses.replace(result, stats={**result.stats, "start": record}), throw)
+    return _thrown(deferred.replace(result, stats={**result.stats, "start": record}), throw)
 
 
 def _thrown(result, throw):

@@ -10,6 +10,8 @@ from .._util.numeric import mapped
 from ..discrete.knot_states import knot_velocities
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..principle.rotation_trajectory import RotationTrajectory
+from ..results import figure_rules
+from ..results.figure_rules import NUMPY
 from ..results.knot_velocities import end_velocities
 from .group_verdict import group_knot_path_values
 from .judged_inputs import check_judged
@@ -66,11 +68,8 @@ def knot_velocity_bound_values(problem, traj, ends=None):
     InputTypeError on SO(3), as `judge`."""
     check_judged(problem, traj)
     v = knot_velocities(*(end_velocities(problem.disc, traj) if ends is None else ends))
-    columns = [sign * (v[:, i] - bound[i])
-               for bound, sign in zip(problem.velocity_bounds, (-1.0, 1.0))
-               for i in np.flatnonzero(np.isfinite(bound))]
-    values = np.column_stack(columns) if columns else np.zeros((v.shape[0], 0))
-    return values, velocity_bound_names(problem)
+    lower, upper = ((np.flatnonzero(np.isfinite(b)), b[np.isfinite(b)]) for b in problem.velocity_bounds)
+    return figure_rules.bound_rows(NUMPY, v, lower, upper), velocity_bound_names(problem)
 
 
 def velocity_bound_names(problem):

@@ -20,6 +20,7 @@ from .._util.cache import BoundedCache
 from .._util.compiled import Background, compiler
 from .._util.numeric import Evaluator
 from ..principle.formulations import LagrangianPlus, as_formulation
+from ..results.figure_rules import NUMPY, departures
 from ..simulation.preparation import prepare_runs
 from ..simulation.stepper import DiracStepper
 from .verdict_checks import q_scale, scale
@@ -72,9 +73,9 @@ def step_departure(problem, traj):
     following, out = mapped(state.T, traj.u.T, np.full(N, traj.h))
     if not step.stepper.accepted(out.T).all():
         return None
-    dq = np.abs(following[layout.slice("q")].T - traj.q[1:]).max(axis=1) / q_scale(traj)
-    dp = np.abs(following[layout.slice("p")].T - traj.p[1:]).max(axis=1) / scale(np.abs(traj.p).max())
-    return float(dq.max()), float(dp.max()), np.maximum(dq, dp)
+    dq = departures(NUMPY, following[layout.slice("q")].T, traj.q[1:], q_scale(traj))
+    dp = departures(NUMPY, following[layout.slice("p")].T, traj.p[1:], scale(np.abs(traj.p).max()))
+    return float(dq.max()), float(dp.max()), NUMPY.maximum(dq, dp)
 
 
 def replay_stepper(problem, traj):

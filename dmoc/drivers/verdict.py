@@ -18,6 +18,8 @@ from ..optimal_control.solver.verdict_record import Verdict
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from ..optimal_control.statement.parameters import row_texts
 from ..principle.rotation_trajectory import RotationTrajectory
+from ..results import figure_rules
+from ..results.figure_rules import NUMPY
 from ..results.diagnostics import compared_momenta, replays
 from ..results.knot_velocities import end_velocities, end_velocities_of, velocity_changes
 from .group_verdict import judge_on_group
@@ -90,10 +92,9 @@ def _verdict(problem, traj, departure, ends, knot_values):
     first step beyond REPLAY_TOLERANCE: `replay_departure`'s or `light_judge`'s), its
     interpolant's end velocities `ends` and its path values at the knots (None without
     path constraints), which are read between the knots too (`interpolant_path_values`)."""
-    changes = velocity_changes(problem.disc, traj, ends=ends)
     T = problem.transcription
-    resting = np.ptp(traj.q, axis=0) <= REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0]
-    changes[:, resting] = 0.0
+    changes = figure_rules.still(NUMPY, velocity_changes(problem.disc, traj, ends=ends), traj.q,
+                                 REST_TOLERANCE * T.x_layout.unpack(T.x_scale, "q")[:, 0])
     jump, jump_step, i = largest_change(changes, range(traj.q.shape[1]))
     bounds, _ = knot_velocity_bound_values(problem, traj, ends)
     rows = 0 if knot_values is None else knot_values.shape[1]

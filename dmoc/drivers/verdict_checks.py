@@ -8,6 +8,8 @@ import numpy as np
 
 from ..errors import Status
 from ..optimal_control.solver.verdict_record import STATUSES
+from ..results import figure_rules
+from ..results.figure_rules import NO_SCALE, NUMPY  # noqa: F401 (NO_SCALE re-exported)
 
 # A replay on the root IPOPT converged to stays at the solvers' tolerances (1e-16 .. 1e-13
 # of the scale on the built-in problems); one on a spurious root by O(1).
@@ -17,8 +19,6 @@ REPLAY_TOLERANCE = 1e-6
 # resolved; 2 is a reversal every step (aliasing). The built-in problems measure 0.10 to
 # 0.55 from 20 steps on, knife-edge parking 1.18 at 10 steps (docs/stages/drivers.md).
 JUMP_LIMIT = 1.0
-# Below this size an optimum's q or p gives no scale (it does not move from the origin).
-NO_SCALE = 1e-12
 # A knot violates a path constraint when g_k exceeds this part of the row's scale,
 # max(1, max_k |g_k|): the NLP imposes the path rows unscaled (`dmoc.optimal_control.nlp.
 # scaling`), so 1 in the row's own units is the size IPOPT holds it to; a row whose values
@@ -48,23 +48,23 @@ def replay_departure(traj, simulated, last):
     when the replay stopped before step N."""
     if simulated.steps < traj.steps:
         return np.inf, np.inf, simulated.steps + 1
-    dq = np.abs(simulated.q - traj.q).max(axis=1) / q_scale(traj)
-    dp = np.abs(simulated.p[:last] - traj.p[:last]).max(axis=1) / scale(np.abs(traj.p).max())
-    beyond = np.flatnonzero((dq[:last] > REPLAY_TOLERANCE) | (dp > REPLAY_TOLERANCE))
-    return float(dq.max()), float(dp.max()), int(beyond[0]) if beyond.size else -1
+    dq = figure_rules.departures(NUMPY, simulated.q, traj.q, q_scale(traj))
+    dp = figure_rules.departures(NUMPY, simulated.p[:last], traj.p[:last], scale(np.abs(traj.p).max()))
+    beyond = NUMPY.first((dq[:last] > REPLAY_TOLERANCE) | (dp > REPLAY_TOLERANCE))
+    return float(dq.max()), float(dp.max()), beyond
 
 
 def q_scale(traj):
     """The unit of a departure in q: the span of the optimum's configurations (the largest
-    max_k q - min_k q), or their size where they do not move."""
-    return scale(np.ptp(traj.q, axis=0).max(), np.abs(traj.q).max())
+    max_k q - min_k q), or their size where they do not move (`figure_rules.q_scale`)."""
+    return float(figure_rules.q_scale(NUMPY, traj.q))
 
 
 def scale(*sizes):
     """The first of `sizes` above NO_SCALE, as the unit of a relative departure; 1 (the
     system's units) for an optimum that neither moves nor leaves the origin: there the
-    data give no scale."""
-    return next((float(size) for size in sizes if size > NO_SCALE), 1.0)
+    data give no scale (`figure_rules.scale`)."""
+    return float(figure_rules.scale(NUMPY, *sizes))
 
 
 def path_violation(g, name_of, first=0):
@@ -74,21 +74,16 @@ def path_violation(g, name_of, first=0):
     there: the rows between the knots, `dmoc.drivers.interpolant_path`) against the scale
     of all of them; (0, -1, -1, "") without rows or violations. The 1 keeps a row that is
     held at zero everywhere (an equality written as the pair g, -g) from being measured
-    against its own round-off."""
-    if g[first:].size == 0:
-        return 0.0, -1, -1, ""
-    relative = g[first:] / np.maximum(np.abs(g).max(axis=0), 1.0)
-    k, row = np.unravel_index(np.argmax(relative), relative.shape)
-    if relative[k, row] <= 0:
-        return 0.0, -1, -1, ""
-    return float(relative[k, row]), int(k), int(row), name_of(int(row))
+    against its own round-off (`figure_rules.violation`)."""
+    value, k, row = figure_rules.violation(NUMPY, g, first)
+    return (value, k, row, name_of(row)) if row >= 0 else (0.0, -1, -1, "")
 
 
 def largest_change(changes, names):
     """(the largest entry of `changes` (K, n), its knot k + 1, the name of its column
     ``names[i]``) of the relative velocity changes at the interior knots; (0, 0, names[0])
-    without interior knots."""
+    without interior knots (`figure_rules.largest_entry`)."""
     if not changes.size:
         return 0.0, 0, names[0]
-    k, i = np.unravel_index(np.argmax(changes), changes.shape)
-    return float(changes[k, i]), int(k) + 1, names[i]
+    value, k, i = figure_rules.largest_entry(NUMPY, changes)
+    return value, k + 1, names[i]

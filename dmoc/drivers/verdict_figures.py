@@ -6,11 +6,13 @@ arrays per structure and N, compiled to C in the background (`dmoc._util.compile
 returning every figure `dmoc.drivers.verdict.light_judge` reads, with the knot and the
 row of each maximum (docs/verification.md, "The light verdict of a re-solve").
 
-It computes the numbers the NumPy path computes (`step_replay.step_departure`,
-`dmoc.results.knot_velocities.velocity_changes`, `dmoc.drivers.knot_checks`,
-`dmoc.drivers.interpolant_path`, `dmoc.drivers.verdict_checks`) with the same operations
-in the same order, so the Verdict is the same; while the library is not loaded, or where a
-value it reads is not finite, the NumPy path judges.
+Its figures are those of `dmoc.results.figure_rules`, which the NumPy path evaluates on
+arrays (`step_replay.step_departure`, `dmoc.results.knot_velocities.velocity_changes`,
+`dmoc.drivers.knot_checks`, `dmoc.drivers.verdict_checks`) and this Function on SX: one
+statement, the same operations, so the Verdict is the same; the arguments (the steps'
+start states, the knot velocities, the path rows between the knots,
+`dmoc.drivers.interpolant_path`) are assembled here. While the library is not loaded, or
+where a value it reads is not finite, the NumPy path judges.
 """
 
 import casadi as ca
@@ -22,8 +24,10 @@ from .._util.numeric import Evaluator
 from ..discrete.knot_states import end_velocity_function
 from ..discrete.rules import lagrange_basis
 from ..simulation.stepper import DiracStepper
+from ..results import figure_rules
+from ..results.figure_rules import SYMBOLIC
 from .interpolant_path import BETWEEN_KNOTS
-from .verdict_checks import NO_SCALE, REPLAY_TOLERANCE, REST_TOLERANCE
+from .verdict_checks import REPLAY_TOLERANCE, REST_TOLERANCE
 
 # keyed by the structure and N (`_key`): its `_Figures`, which keeps the objects whose ids
 # are in the key
@@ -124,12 +128,8 @@ def _function(fast, stepper, rule, paths, at, size, finite, *, N, n, m, ns, nu, 
     following, out = fast.map(N)(_states(stepper, Q, P, L, S, n, N), U, ca.repmat(h, 1, N))
     start, end = end_velocity_function(rule, n, ns).map(N)(Q[:, :N], Q[:, 1:], S, ca.repmat(h, 1, N))
     V = ca.horzcat(start[:, 0], (end[:, :N - 1] + start[:, 1:]) / 2, end[:, N - 1])
-    bounds = []
     lower, upper, rest, w = ca.vertsplit(data, np.cumsum([0, *nb, n, data.numel() - sum(nb) - n]).tolist())
-    for b, f, sign in ((lower, finite[0], -1.0), (upper, finite[1], 1.0)):
-        for j, i in enumerate(np.flatnonzero(f)):
-            bounds.append(sign * (V[i, :] - b[j]))
-    knots = ca.vertcat(*bounds) if bounds else ca.MX(0, N + 1)
+    knots = figure_rules.bound_rows(SYMBOLIC, V.T, *((np.flatnonzero(f), b) for f, b in zip(finite, (lower, upper)))).T
     cut = ca.MX(0, N * len(BETWEEN_KNOTS))
     if paths is not None:
         W = ca.reshape(w, size, N + 1)
@@ -196,7 +196,8 @@ def _combination(basis, U, blocks):
 def _figure_function(stepper, n, N, rows, cut_rows, out_rows, paths):
     """The SX Function of the figures from the arrays of `_function` (one column per knot,
     step or point): ``accepted``, ``finite`` (of every value the figures are read from)
-    and the figures of `FIELDS` after them."""
+    and the figures of `FIELDS` after them, each as `dmoc.results.figure_rules` states it
+    (time-major: the columns transposed)."""
     sym = ca.SX.sym
     Q, P, Fq, Fp = sym("Q", n, N + 1), sym("P", n, N + 1), sym("Fq", n, N), sym("Fp", n, N)
     out, start, end, rest = sym("out", out_rows, N), sym("start", n, N), sym("end", n, N), sym("rest", n)
@@ -207,94 +208,27 @@ def _figure_function(stepper, n, N, rows, cut_rows, out_rows, paths):
         accepted = ca.logic_and(accepted, ca.logic_and(ca.logic_and(
             out[at["nonfinite"], k] == 0, out[at["update"], k] <= 1e-6),
             out[at["rnorm"], k] <= 1e3 * stepper.tol * out[at["scale"], k]))
-    ptp = [_max(Q[i, :]) - _min(Q[i, :]) for i in range(n)]
-    each, replay = _replay(Q, P, Fq, Fp, ptp)
-    changes, jump = _jump(start, end, ptp, rest)
-    path, cut_value = (0.0, -1.0, -1.0), (0.0, -1.0, -1.0)
-    if rows:
-        unit = [ca.fmax(_max(ca.fabs(knots[r, :])), 1.0) for r in range(rows)]
-        path = _violation([knots[r, k] / unit[r] for k in range(N + 1) for r in range(rows)], rows)
-    if paths and cut_rows:      # the rows between the knots against the scale of all points
-        unit = [ca.fmax(_max(ca.fabs(ca.horzcat(knots[r, :], cut[r, :]))), 1.0) for r in range(cut_rows)]
-        cut_value = _violation([cut[r, j] / unit[r] for j in range(cut.shape[1]) for r in range(cut_rows)],
-                               cut_rows)
+    each, replay = _replay(Q.T, P.T, Fq.T, Fp.T)
+    changes = figure_rules.still(SYMBOLIC, figure_rules.relative_changes(SYMBOLIC, start.T, end.T), Q.T, rest.T)
+    largest, k, i = figure_rules.largest_entry(SYMBOLIC, changes)
+    jump = (largest, k + 1, i) if changes.shape[0] else (largest, k, i)
+    path = figure_rules.violation(SYMBOLIC, knots.T)
+    # the path rows between the knots against the scale of all points (`interpolant_path_values`)
+    cut_value = figure_rules.violation(SYMBOLIC, ca.vertcat(knots[:cut_rows, :].T, cut.T), N + 1) \
+        if paths and cut_rows else (0.0, -1.0, -1.0)
     figures = [*replay, *jump, *path, *cut_value]
-    read = ca.vertcat(*figures, *each, *changes, ca.vec(knots), ca.vec(cut))
+    read = ca.vertcat(*figures, each, ca.vec(changes), ca.vec(knots), ca.vec(cut))
     finite = ca.sum1(1 - (ca.fabs(read) < ca.inf)) == 0
     return ca.Function("figures", [Q, P, Fq, Fp, out, start, end, rest, knots, cut],
                        [ca.vertcat(accepted, finite, *figures)])
 
 
-def _replay(Q, P, Fq, Fp, ptp):
+def _replay(Q, P, Fq, Fp):
     """(each step's departure, (replay_q, replay_p, replay_step)) of the steps landing at
-    `Fq`, `Fp` from the optimum's knots `Q`, `P` (`step_replay.step_departure`), `ptp` the
-    span of each coordinate."""
-    N = Fq.shape[1]
-    q_unit = _scale(_max(ptp), _max(ca.fabs(Q)))        # `verdict_checks.q_scale`
-    p_unit = _scale(_max(ca.fabs(P)))
-    dq = [_max(ca.fabs(Fq[:, k] - Q[:, k + 1])) / q_unit for k in range(N)]
-    dp = [_max(ca.fabs(Fp[:, k] - P[:, k + 1])) / p_unit for k in range(N)]
-    each = [ca.fmax(a, b) for a, b in zip(dq, dp)]
-    first = _first([e > REPLAY_TOLERANCE for e in each])
-    return each, (_max(dq), _max(dp), ca.if_else(first < 0, -1, first + 1))
-
-
-def _jump(start, end, ptp, rest):
-    """(the relative velocity changes at the interior knots, knot by knot, (the largest, its
-    knot, its coordinate)) of the interpolants' end velocities `start`, `end` (n, N)
-    (`dmoc.results.knot_velocities.relative_changes`), 0 for a coordinate whose span `ptp`
-    is at most its `rest` threshold, (0, 0, 0) for N < 2 (`verdict_checks.largest_change`)."""
-    n, N = start.shape
-    peak = [ca.fmax(_max(ca.fabs(start[i, :])), _max(ca.fabs(end[i, :]))) for i in range(n)]
-    top = _max([ca.SX(0.0), *peak])
-    moving = [peak[i] > 1e-9 * top for i in range(n)]
-    changes = [ca.if_else(ptp[i] <= rest[i], 0.0, ca.if_else(
-        moving[i], ca.fabs(start[i, k + 1] - end[i, k]) / ca.if_else(moving[i], peak[i], 1.0), 0.0))
-        for k in range(N - 1) for i in range(n)]
-    if not changes:
-        return changes, (0.0, 0.0, 0.0)
-    largest, k, i = _largest(changes, n)
-    return changes, (largest, k + 1, i)
-
-
-def _max(x):
-    """The largest entry of `x` (an SX matrix or a list of SX scalars)."""
-    return ca.mmax(ca.densify(ca.vertcat(*x) if isinstance(x, list) else x))
-
-
-def _min(x):
-    """The smallest entry of `x` (an SX matrix)."""
-    return ca.mmin(ca.densify(x))
-
-
-def _scale(*sizes):
-    """`verdict_checks.scale`: the first of `sizes` above NO_SCALE, else 1."""
-    unit = 1.0
-    for size in reversed(sizes):
-        unit = ca.if_else(size > NO_SCALE, size, unit)
-    return unit
-
-
-def _first(conditions):
-    """The index of the first true entry of `conditions`, -1 if none."""
-    index = -1
-    for j in reversed(range(len(conditions))):
-        index = ca.if_else(conditions[j], j, index)
-    return index
-
-
-def _largest(values, columns):
-    """(the largest of `values`, the row and the column of its first occurrence, NumPy's
-    argmax, in the matrix of `columns` columns whose rows `values` holds one after
-    another)."""
-    top = _max(values)
-    index = _first([v == top for v in values])
-    row = ca.floor(index / columns)
-    return top, row, index - row * columns
-
-
-def _violation(relative, columns):
-    """(the largest of `relative`, its row, its column: `_largest`) where it exceeds 0,
-    else (0, -1, -1): `verdict_checks.path_violation`."""
-    top, row, column = _largest(relative, columns)
-    return tuple(ca.if_else(top > 0, x, fallback) for x, fallback in ((top, 0.0), (row, -1), (column, -1)))
+    `Fq`, `Fp` (N, n) from the optimum's knots `Q`, `P` (N + 1, n)
+    (`step_replay.step_departure`)."""
+    dq = figure_rules.departures(SYMBOLIC, Fq, Q[1:, :], figure_rules.q_scale(SYMBOLIC, Q))
+    dp = figure_rules.departures(SYMBOLIC, Fp, P[1:, :], figure_rules.scale(SYMBOLIC, SYMBOLIC.largest(abs(P))))
+    each = SYMBOLIC.maximum(dq, dp)
+    first = figure_rules.first_beyond(SYMBOLIC, each, REPLAY_TOLERANCE)
+    return each, (SYMBOLIC.largest(dq), SYMBOLIC.largest(dp), ca.if_else(first < 0, -1, first + 1))

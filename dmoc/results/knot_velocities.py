@@ -12,6 +12,8 @@ from .._util.cache import BoundedCache
 from .._util.numeric import Evaluator
 from ..discrete.knot_states import end_velocity_function
 from ..principle.trajectory import Trajectory, check_trajectory
+from . import figure_rules
+from .figure_rules import NUMPY
 
 # the end velocities' Function mapped over a number of steps, evaluated through its buffer:
 # keyed by (rule, n, stage rows, steps), so a verdict per re-solve builds nothing
@@ -79,10 +81,9 @@ def relative_changes(start, end):
     interpolant at its two ends, the peak max |start|, |end| of each coordinate; 0 for a
     coordinate at rest (peak below 1e-9 of the largest coordinate's). The figure of
     `velocity_changes`, and of the verdict on SO(3), whose velocities are the body angular
-    velocity and x' (`dmoc.drivers.group_verdict`)."""
-    peak = np.maximum(np.abs(start).max(axis=0), np.abs(end).max(axis=0))
-    moving = peak > 1e-9 * peak.max(initial=0.0)
-    return np.where(moving, np.abs(start[1:] - end[:-1]) / np.where(moving, peak, 1.0), 0.0)
+    velocity and x' (`dmoc.drivers.group_verdict`). Stated in `figure_rules`, which the
+    light verdict's compiled figures evaluate too."""
+    return figure_rules.relative_changes(NUMPY, start, end)
 
 
 def velocity_jumps(traj):

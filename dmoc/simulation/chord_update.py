@@ -23,8 +23,7 @@ def chord_suited(pattern, unknowns):
     Layout of dq, nu and ds): no multipliers and no stage values (the rows are the "left"
     rows of a two-point rule), more than DENSE_MINOR unknowns (where Newton's update goes
     through QR) and a dense Jacobian dg/dy, as a robot's. `pattern` () -> the Sparsity of
-    dg/dy, called only when the rest holds (a rolling ball's multipliers settle it: 0.5 ms
-    of a 3.5 ms stepper built for nothing)."""
+    dg/dy, called only when the rest holds."""
     if unknowns.numel("nu") or unknowns.numel("ds") or unknowns.size <= DENSE_MINOR:
         return False
     J = pattern()

@@ -20,9 +20,10 @@ from .step_jacobian import step_jacobian
 FAST_ITERATIONS = 3
 
 
-def fast_step(stepper, eliminate):
+def fast_step(stepper, eliminate, rows=None):
     """The fast path's Function ``(state, u, h) -> (next, out)`` of `stepper` (a
-    `DiracStepper`: its `equations`, `unknowns`, `symbols` and `wrap`), outputs dense
+    `DiracStepper`: its `equations`, `unknowns`, `symbols` and `wrap`) from its symbolic
+    `rows` (`step_rows`, built here when None), outputs dense
     (the horizons write through buffers that receive the nonzeros only: a structural zero
     would shift the columns).
 
@@ -36,7 +37,7 @@ def fast_step(stepper, eliminate):
     more to build there than it saves over a run (benchmarks/step_cost.py, "dirac-vm").
     """
     state, u, h, params, guess = stepper.symbols(ca.SX)
-    updates = _updates(stepper, params)
+    updates = _updates(stepper, step_rows(stepper) if rows is None else rows)
     if eliminate:
         solved = stepper.wrap(state, params, *updates(guess, params))
         outputs = [ca.densify(o) for o in ca.cse(list(solved))]
@@ -52,24 +53,30 @@ def fast_step(stepper, eliminate):
     return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
 
-def uses_chord(stepper):
-    """Whether the fast path of `stepper` (a `DiracStepper`) is to take chord updates
-    (`dmoc.simulation.chord_update.chord_suited` of its step Jacobian)."""
+def step_rows(stepper):
+    """(y, params, g, J) of `stepper` (a `DiracStepper`): SX symbols of the unknowns and of
+    the parameters, the step equations g(y, params) and J = dg/dy, built once for both
+    `uses_chord` and the updates of `fast_step`."""
     ys, params = ca.SX.sym("y", stepper.unknowns.size), stepper.symbols(ca.SX)[3]
-    return chord_suited(lambda: ca.jacobian_sparsity(stepper.equations(ys, params)[0], ys),
-                        stepper.unknowns)
+    g = stepper.equations(ys, params)[0]
+    return ys, params, g, ca.jacobian(g, ys)
 
 
-def _updates(stepper, params):
+def uses_chord(stepper, rows):
+    """Whether the fast path of `stepper` (a `DiracStepper`) is to take chord updates
+    (`dmoc.simulation.chord_update.chord_suited` of its step Jacobian, of `step_rows`)."""
+    return chord_suited(rows[3].sparsity, stepper.unknowns)
+
+
+def _updates(stepper, rows):
     """``(y, params) -> (y after the fast path's updates from y, the size of the last
     update relative to y, |delta|_inf / (1 + |y|_inf), or for the chord the error it
     leaves, `chord_update.remaining_error`)``, through SX Functions of one update (and
-    of the chord's factorization, when `stepper.chord`), which take SX and MX arguments
-    alike."""
-    ys = ca.SX.sym("y", stepper.unknowns.size)
-    g = stepper.equations(ys, params)[0]
+    of the chord's factorization, when `stepper.chord`) of the step equations `rows`
+    (`step_rows`), which take SX and MX arguments alike."""
+    ys, params, g, J = rows
     if not stepper.chord:
-        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns)])
+        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns, J)])
         return lambda y, p: _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
     factors = ca.Function("chord_factors", [ys, params],
                           list(chord_factors(step_jacobian(stepper, g, ys, params))))

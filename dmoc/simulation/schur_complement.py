@@ -10,7 +10,7 @@ MINOR_UNKNOWNS = 6  # blocks up to this size are inverted by cofactors: fewer op
 DENSE_MINOR = 4     # a dense Jacobian without multipliers larger than this takes QR (`_inverse_times`)
 
 
-def newton_update(g, y, unknowns):
+def newton_update(g, y, unknowns, J=None):
     """J^{-1} g, J = dg/dy, in few operations: the equations are (left, stage) rows and
     constraint rows, the unknowns positions x = (dq, ds) and multipliers nu, and J =
     [H G; C 0] (omega_d does not involve nu), so nu follows from the m x m Schur
@@ -28,12 +28,14 @@ def newton_update(g, y, unknowns):
         The unknowns' symbols.
     unknowns : Layout
         The blocks of `y`: dq, nu and ds (`DiracStepper.unknowns`).
+    J : casadi.SX, shape (unknowns.size, unknowns.size), optional
+        dg/dy where the caller has it already (`dmoc.simulation.fast_path.step_rows`).
 
     Returns
     -------
     casadi.SX, shape (unknowns.size, 1)
     """
-    J = ca.jacobian(g, y)
+    J = ca.jacobian(g, y) if J is None else J
     x = [i for name in ("dq", "ds") for i in range(unknowns.slice(name).start,
                                                    unknowns.slice(name).stop)]
     nu, k = list(range(unknowns.slice("nu").start, unknowns.slice("nu").stop)), len(x)

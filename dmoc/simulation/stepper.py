@@ -26,7 +26,7 @@ from .._util.layout import Layout
 from .step_blocks import CHUNK, chunk_length, chunk_sizes
 from .chord_update import updates_converged
 from .continuation import continued_step
-from .fast_path import fast_step, uses_chord
+from .fast_path import fast_step, step_rows, uses_chord
 
 NATIVE_AFTER_SECONDS = 0.5
 
@@ -64,8 +64,8 @@ class DiracStepper:
         self.residual, self.tol = residual, tol
         self.unknowns, self.state, self.out = self._layouts()
         self.equations = self._equations()
-        self.chord = uses_chord(self)
-        self.fast = fast_step(self, eliminate=native is not False)
+        self.chord = uses_chord(self, rows := step_rows(self))     # the rows and dg/dy built once
+        self.fast = fast_step(self, native is not False, rows)
         self.max_iter, self._robust = max_iter, None
         self._use({})
         self.library = (compiled.Library([self._horizon(c) for c in chunk_sizes()], "dirac_step")

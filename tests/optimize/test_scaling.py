@@ -417,3 +417,21 @@ def test_an_infinite_force_direction_at_q_ref_does_not_poison_the_factors():
         state_bounds=([0.5, None], [2, None]), running_cost=lambda q, v, u: ca.sumsqr(u) + (q[0] - 1) ** 2)
     assert np.isfinite(problem.x_scale).all() and np.isfinite(problem.g_scale).all()
     assert dmoc.optimize(problem).success
+
+
+
+def test_a_problems_mechanical_data_are_evaluated_once_at_its_q_ref(monkeypatch):
+    """The scales, the lengths and the default guess of one problem read M, dF/du, A and
+    dA/dq at its q_ref: evaluated once (the rolling disk, N = 4), kept read-only, and the
+    same numbers as an evaluation of their own."""
+    from dmoc.optimal_control.nlp import scaling
+    dmoc.clear_caches()
+    evaluate, made = scaling._evaluated, []
+    monkeypatch.setattr(scaling, "_evaluated", lambda *a: made.append(a) or evaluate(*a))
+    problem = dmoc.problems.rolling_disk_steering(4)
+    dmoc.optimal_control.solve(problem, options={"print_level": 0, "max_iter": 1}, throw=False)
+    assert len(made) == 1
+    q_ref = np.asarray(problem.transcription.q_ref, dtype=float)
+    values = scaling._mechanical_data(problem.disc.system, q_ref)
+    assert len(made) == 1 and not any(a.flags.writeable for a in values)
+    assert all(np.array_equal(a, b) for a, b in zip(values, evaluate(problem.disc.system, q_ref)))

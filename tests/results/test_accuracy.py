@@ -24,11 +24,13 @@ from scipy.integrate import solve_ivp
 
 import dmoc
 import dmoc.problems
+from dmoc._util.deferred import Pending
 from dmoc.drivers import error_estimate
 from dmoc.drivers.active_limits import barrier_offset, switches
 from dmoc.drivers.accuracy import GROWTH, _predicted_offset, optimize_to_accuracy
 from dmoc.drivers.high_order import started_solve
 from dmoc.drivers.error_estimate import estimate_error
+from dmoc.optimal_control import solve
 
 J_STAR = 8.72240586430
 QUIET = {"print_level": 0, "sb": "yes"}
@@ -117,6 +119,9 @@ def test_the_target_is_met_by_the_true_error(rule, accuracy):
     end = knife_edge_end(traj, traj.control_nodes)
     assert np.max(np.abs(traj.q[-1] - end) / np.ptp(traj.q, axis=0)) <= accuracy
     assert result.stats["error_estimate"]["cost"] <= accuracy
+    # the bound multipliers of the fixed entries are made when first read, not by the loop
+    assert isinstance(vars(result)["lam_x"], Pending)
+    assert np.isfinite(result.lam_x).all() and not isinstance(vars(result)["lam_x"], Pending)
 
 
 def parking(steps, rule, constant=0.0):
@@ -423,6 +428,22 @@ def test_a_switch_is_seen_however_far_the_interior_point_stays_off_the_bound():
     # without its multipliers (a file written without them) the distance alone misses it
     without = dataclasses.replace(result, lam_x=None)
     assert not switches(problem, without) and barrier_offset(problem, without) == 0.0
+
+
+def test_the_offset_reads_ipopts_multipliers_without_completing_the_fixed_ones():
+    """The offset sums |lam_i| s_i over the bounds that are not fixed (lbx < ubx): on a
+    fresh result it reads IPOPT's multipliers as returned, leaving the fixed entries'
+    (the boundary data's, `FixedMultipliers`) unevaluated, and gives the sum that the
+    completed lam_x gives, written out here, bit for bit."""
+    problem = minimum_time(6)
+    result = solve(problem, options=QUIET)
+    offset = barrier_offset(problem, result)
+    assert isinstance(vars(result)["lam_x"], Pending)           # not completed by the offset
+    T, lam, x = problem.transcription, result.lam_x, result.x
+    distance = np.where(lam > 0, T.ubx - x, x - T.lbx)
+    held = (T.lbx < T.ubx) & (lam != 0) & np.isfinite(distance)
+    assert np.count_nonzero(held) and np.count_nonzero(lam[T.lbx == T.ubx])
+    assert offset == float(np.sum(np.abs(lam[held]) * distance[held]) / abs(result.cost)) > 0
 
 
 def test_ipopts_own_offset_from_the_bounds_is_part_of_the_target():

@@ -18,6 +18,9 @@ from ..._util.cache import BoundedCache
 
 
 _DATA = BoundedCache(64, "scaling_data")     # per system key: q -> (inertia, dF/du, A, dA/dq) at (q, 0, 0)
+# per (system key, q): those values, read-only (a problem's scales, lengths and guess read them
+# at its q_ref 3 times, an accuracy loop 7)
+_VALUES = BoundedCache(64, "scaling_values")
 
 
 def inertia(system, q):
@@ -182,7 +185,14 @@ def power_of_two(scale):
 
 def _mechanical_data(system, q):
     """(system.inertia (n,), dF/du (n, n_u), A (m, n), dA/dq (m, n, n) with [r, j, i] =
-    dA_rj/dq_i) at (q, 0, u = 0), from one Function per system key."""
+    dA_rj/dq_i) at (q, 0, u = 0), from one Function per system key; evaluated once per
+    system key and q, the arrays read-only."""
+    q = np.asarray(q, dtype=float)
+    return _VALUES.get((system.key, q.tobytes()), lambda: _evaluated(system, q))
+
+
+def _evaluated(system, q):
+    """`_mechanical_data` evaluated, its arrays flagged read-only."""
     def build():
         qs, u = ca.SX.sym("q", system.n), ca.SX.sym("u", system.n_u)
         B = ca.jacobian(system.force(qs, ca.SX.zeros(system.n), u), u)
@@ -191,5 +201,8 @@ def _mechanical_data(system, q):
                            [system.inertia(qs), B, A, ca.jacobian(ca.vec(A.T), qs)])
     M, B, A, dA = _DATA.get(system.key, build)(q, np.zeros(system.n_u))
     n, m = system.n, system.m
-    return (np.array(M).ravel(), np.array(B).reshape(n, system.n_u),
-            np.array(A).reshape(m, n), np.array(dA).reshape(m, n, n))
+    values = (np.array(M).ravel(), np.array(B).reshape(n, system.n_u),
+              np.array(A).reshape(m, n), np.array(dA).reshape(m, n, n))
+    for a in values:
+        a.flags.writeable = False
+    return values

@@ -87,6 +87,18 @@ def _completed(multipliers, lam_x, fixed, scaled):
     return lam_x
 
 
+def returned_lam_x(result):
+    """(lam_x, fixed) of `result` for a reader of the entries of x that IPOPT did not fix:
+    while its ``lam_x`` is not completed, IPOPT's as returned (zero at the fixed entries)
+    and those entries (an int array); else ``result.lam_x`` and no entries. The entries
+    not fixed are the completed ``lam_x``'s bit for bit, without the evaluation of the
+    fixed ones (`FixedMultipliers`)."""
+    value = vars(result).get("lam_x")
+    if isinstance(value, Pending) and value.make is _completed:
+        return value.args[1], value.args[2]
+    return result.lam_x, np.zeros(0, dtype=int)
+
+
 def ipopt_start(result, fixed):
     """The result's ``lam_x`` as the start of a solve whose fixed entries are `fixed`:
     while it is not completed and leaves exactly those entries to be computed, as IPOPT
