@@ -19,7 +19,7 @@ import pytest
 import dmoc
 from dmoc.optimal_control.nlp.gather_scatter import INDICES_PER_OPERATION
 from dmoc.optimal_control.nlp.gather_scatter import window as separable_window
-from dmoc.optimal_control.nlp.separable import SeparableNLP, Term, function_key, local_derivatives, term_parts
+from dmoc.optimal_control.nlp.separable import SeparableNLP, Term, function_key, local_derivatives, term_cost
 from dmoc.systems import knife_edge, lc_circuit, rolling_disk, spherical_pendulum
 
 N = 4                                   # steps of every DMOC case
@@ -468,7 +468,7 @@ def test_local_patterns_hold_only_the_entries_that_depend_on_z():
     np.testing.assert_array_equal(grad_rows, [0])
     local = local_derivatives(rows_only, function_key(rows_only))
     assert local["grad_pattern"][0].size == 0
-    assert local["grad"] is None and term_parts(rows_only, function_key(rows_only))["cost"] is None
+    assert local["grad"] is None and term_cost(rows_only, function_key(rows_only)) is None
     hess_rows, hess_cols = local["hess_pattern"]          # lam_0 z1 z2: one upper entry
     np.testing.assert_array_equal(np.c_[hess_rows, hess_cols], [[1, 2]])
 
@@ -479,12 +479,12 @@ def _called(function):
             if function.instruction_id(i) == ca.OP_CALL]
 
 
-def test_f_calls_the_costs_alone_and_g_the_rows_alone():
+def test_f_calls_the_costs_alone():
     """A term Function computes its cost and its rows together; f calls each term's cost
-    alone and g its rows alone (a step term's rows are most of its operations, which f
-    evaluated before at every call), nlp_grad_f and nlp_jac_g one Function per term for
-    the value and its derivative, and a term without cost is not called by f. f and g
-    are the closed forms: sum_k w z0_k^2 and the rows (z1 z2, z0) per instance."""
+    alone (a step term's rows are most of its operations, which f evaluated before at
+    every call), nlp_grad_f and nlp_jac_g one Function per term for the value and its
+    derivative, and a term without cost is not called by f. f and g are the closed
+    forms: sum_k w z0_k^2 and the rows (z1 z2, z0) per instance."""
     z, w = ca.SX.sym("z", 3), ca.SX.sym("w", 1)
     cost = ca.Function("cost", [z, w], [w * z[0] ** 2, z[1] - z[2]])
     rows_only = ca.Function("rows_only", [z, w], [ca.SX(0), ca.vertcat(z[1] * z[2], z[0])])
@@ -496,7 +496,7 @@ def test_f_calls_the_costs_alone_and_g_the_rows_alone():
     f, g = (ca.Function("fg", [nlp.x, nlp.p], [e]) for e in (nlp.f, nlp.g))
     calls = {name: [c.n_out() for c in _called(fun)] for name, fun in
              [("f", f), ("g", g), *[(k, nlp.derivatives()[k]) for k in ("nlp_grad_f", "nlp_jac_g")]]}
-    assert calls == {"f": [1], "g": [1, 1], "nlp_grad_f": [2], "nlp_jac_g": [2, 2]}
+    assert calls == {"f": [1], "g": [2, 2], "nlp_grad_f": [2], "nlp_jac_g": [2, 2]}
     x, p = np.random.default_rng(3).normal(size=3 * M), np.array([0.7])
     Z = x.reshape(M, 3)
     np.testing.assert_allclose(float(f(x, p)), 0.7 * (Z[:, 0] ** 2).sum(), rtol=1e-15)

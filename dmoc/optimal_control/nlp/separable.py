@@ -9,7 +9,11 @@ computed once in numpy (`dmoc.optimal_control.nlp.gather_scatter`), instead of b
 (graph coloring and derivative graphs whose construction grows with N). They are exact and
 keep the banded sparsity; `derivatives` hands them to ``casadi.nlpsol`` through its
 function cache, so the solver evaluates f and g from the terms and their derivatives from
-the terms' derivatives: one set of Functions for both.
+the terms' derivatives: one set of Functions for both. Each Function evaluates only what
+it returns: f each term's cost alone (a step term's rows are most of its operations), the
+gradient and the Jacobian a term's value and derivative in one mapped call (at the least N
+of benchmarks/peers.py nlp, IPOPT's calls of the five Functions take 0.6-0.7 of the time
+they took when f evaluated every row and the values were called apart).
 """
 
 import hashlib
@@ -22,7 +26,7 @@ from ..._util.cache import BoundedCache
 from ...errors import InputError
 from .gather_scatter import assembled, gather, window
 
-_LOCAL = BoundedCache(256, "term_derivatives")      # a term Function's derivative Functions, keyed by its value
+_LOCAL = BoundedCache(768, "term_derivatives")      # per term Function (its value): its SX evaluation, cost and derivative Functions
 
 
 @dataclass(frozen=True)
@@ -125,15 +129,14 @@ class SeparableNLP:
         return window(self.x, t.x_index), window(self.p, t.p_index[:, :1] if shared else t.p_index)
 
     def _objective_and_constraints(self):
-        """(f, g) from each term's cost and rows apart (`term_parts`): f evaluates no
-        constraint row and g no cost (a term's Function computes both; the step term's
-        rows are most of its operations)."""
+        """(f, g): f from each term's cost alone (`term_cost`; a term's Function computes
+        its rows too, most of a step term's operations), g from the terms' Functions."""
         costs, rows = [], []
         for t, (z, w) in zip(self.terms, self._term_windows):
-            parts = term_parts(t.function, t.function_key)
-            if parts["cost"] is not None:
-                costs.append(_mapped(parts["cost"], t.instances)(z, w))
-            rows.append(_mapped(parts["rows"], t.instances)(z, w))
+            cost = term_cost(t.function, t.function_key)
+            if cost is not None:
+                costs.append(_mapped(cost, t.instances)(z, w))
+            rows.append(_mapped(t.function, t.instances)(z, w)[1])
         return self._summed(costs), self._stacked(rows)
 
     def _summed(self, costs):
@@ -210,18 +213,25 @@ def function_key(function):
     return hashlib.sha256(function.serialize().encode()).hexdigest()
 
 
-def term_parts(function, key):
-    """A term Function's cost and rows apart, built once per `key` (its value): ``cost
-    (z, w) -> f``, None when f is zero whatever z and w (nothing to add to the objective),
-    and ``rows (z, w) -> g``; each the term's own operations for that output alone."""
-    return _LOCAL.get((key, "parts"), lambda: _parts(function))
+def term_cost(function, key):
+    """A term Function's cost alone, ``(z, w) -> f`` with the term's own operations for
+    f, built once per `key` (its value); None when f is zero whatever z and w (nothing to
+    add to the objective)."""
+    return _LOCAL.get((key, "cost"), lambda: _cost(*_symbolic(function, key)))
 
 
-def _parts(function):
-    z, w = function.sx_in()
-    f, g = function(z, w)
-    return {"cost": None if f.is_zero() else ca.Function("local_cost", [z, w], [f]),
-            "rows": ca.Function("local_rows", [z, w], [g])}
+def _cost(z, w, f, g):
+    return None if f.is_zero() else ca.Function("local_cost", [z, w], [f])
+
+
+def _symbolic(function, key):
+    """(z, w, f, g): a term Function's inputs as SX symbols and its outputs at them, made
+    once per `key` for its cost and its derivatives (the evaluation is most of building
+    the cost Function)."""
+    def evaluated():
+        z, w = function.sx_in()
+        return (z, w, *function(z, w))
+    return _LOCAL.get((key, "symbolic"), evaluated)
 
 
 def local_derivatives(function, key):
@@ -231,7 +241,7 @@ def local_derivatives(function, key):
     -------
     dict
         ``grad (z, w) -> (f, nonzeros of df/dz)``, None when f is zero whatever z and w (as
-        `term_parts`' cost), and ``grad_pattern`` (their rows, columns); ``jac (z, w) ->
+        `term_cost`), and ``grad_pattern`` (their rows, columns); ``jac (z, w) ->
         (g, nonzeros of dg/dz)`` and ``jac_pattern``; ``hess (z, w, sigma, lam) ->
         nonzeros of the upper triangle of d2(sigma f + lam^T g)/dz2`` and
         ``hess_pattern``. The value and its derivative in one Function: one evaluation of
@@ -239,12 +249,10 @@ def local_derivatives(function, key):
         entries that are zero whatever z and w (a cost that does not depend on them) are
         not in it.
     """
-    return _LOCAL.get(key, lambda: _local(function))
+    return _LOCAL.get(key, lambda: _local(*_symbolic(function, key)))
 
 
-def _local(function):
-    z, w = function.sx_in()
-    f, g = function(z, w)
+def _local(z, w, f, g):
     sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", g.numel())
     grad = ca.jacobian(f, z).T          # structurally sparse (ca.gradient is dense)
     jac = ca.jacobian(g, z)
