@@ -19,7 +19,7 @@ import pytest
 import dmoc
 from dmoc.optimal_control.nlp.gather_scatter import INDICES_PER_OPERATION
 from dmoc.optimal_control.nlp.gather_scatter import window as separable_window
-from dmoc.optimal_control.nlp.separable import SeparableNLP, Term, function_key, local_derivatives
+from dmoc.optimal_control.nlp.separable import SeparableNLP, Term, function_key, local_derivatives, term_cost
 from dmoc.systems import knife_edge, lc_circuit, rolling_disk, spherical_pendulum
 
 N = 4                                   # steps of every DMOC case
@@ -468,9 +468,40 @@ def test_local_patterns_hold_only_the_entries_that_depend_on_z():
     np.testing.assert_array_equal(grad_rows, [0])
     local = local_derivatives(rows_only, function_key(rows_only))
     assert local["grad_pattern"][0].size == 0
-    assert local["grad"](np.ones(3), 1.0).numel() == 0
+    assert local["grad"] is None and term_cost(rows_only, function_key(rows_only)) is None
     hess_rows, hess_cols = local["hess_pattern"]          # lam_0 z1 z2: one upper entry
     np.testing.assert_array_equal(np.c_[hess_rows, hess_cols], [[1, 2]])
+
+
+def _called(function):
+    """The Functions that `function`'s MX graph calls (its OP_CALL instructions)."""
+    return [function.instruction_MX(i).which_function() for i in range(function.n_instructions())
+            if function.instruction_id(i) == ca.OP_CALL]
+
+
+def test_f_calls_the_costs_alone():
+    """A term Function computes its cost and its rows together; f calls each term's cost
+    alone (a step term's rows are most of its operations, which f evaluated before at
+    every call), nlp_grad_f and nlp_jac_g one Function per term for the value and its
+    derivative, and a term without cost is not called by f. f and g are the closed
+    forms: sum_k w z0_k^2 and the rows (z1 z2, z0) per instance."""
+    z, w = ca.SX.sym("z", 3), ca.SX.sym("w", 1)
+    cost = ca.Function("cost", [z, w], [w * z[0] ** 2, z[1] - z[2]])
+    rows_only = ca.Function("rows_only", [z, w], [ca.SX(0), ca.vertcat(z[1] * z[2], z[0])])
+    M = 4
+    index = np.arange(3 * M).reshape(M, 3).T
+    terms = [Term(cost, index, np.zeros((1, M), int), np.arange(M)[None, :]),
+             Term(rows_only, index, np.zeros((1, M), int), M + np.arange(2 * M).reshape(M, 2).T)]
+    nlp = SeparableNLP(3 * M, 1, 3 * M, terms)
+    f, g = (ca.Function("fg", [nlp.x, nlp.p], [e]) for e in (nlp.f, nlp.g))
+    calls = {name: [c.n_out() for c in _called(fun)] for name, fun in
+             [("f", f), ("g", g), *[(k, nlp.derivatives()[k]) for k in ("nlp_grad_f", "nlp_jac_g")]]}
+    assert calls == {"f": [1], "g": [2, 2], "nlp_grad_f": [2], "nlp_jac_g": [2, 2]}
+    x, p = np.random.default_rng(3).normal(size=3 * M), np.array([0.7])
+    Z = x.reshape(M, 3)
+    np.testing.assert_allclose(float(f(x, p)), 0.7 * (Z[:, 0] ** 2).sum(), rtol=1e-15)
+    expected = np.r_[Z[:, 1] - Z[:, 2], np.c_[Z[:, 1] * Z[:, 2], Z[:, 0]].ravel()]
+    np.testing.assert_array_equal(np.array(g(x, p)).ravel(), expected)
 
 
 @pytest.mark.parametrize("case", ["no rows", "rows without x"])

@@ -9,7 +9,11 @@ computed once in numpy (`dmoc.optimal_control.nlp.gather_scatter`), instead of b
 (graph coloring and derivative graphs whose construction grows with N). They are exact and
 keep the banded sparsity; `derivatives` hands them to ``casadi.nlpsol`` through its
 function cache, so the solver evaluates f and g from the terms and their derivatives from
-the terms' derivatives: one set of Functions for both.
+the terms' derivatives: one set of Functions for both. Each Function evaluates only what
+it returns: f each term's cost alone (a step term's rows are most of its operations), the
+gradient and the Jacobian a term's value and derivative in one mapped call (at the least N
+of benchmarks/peers.py nlp, IPOPT's calls of the five Functions take 0.6-0.7 of the time
+they took when f evaluated every row and the values were called apart).
 """
 
 import hashlib
@@ -22,7 +26,7 @@ from ..._util.cache import BoundedCache
 from ...errors import InputError
 from .gather_scatter import assembled, gather, window
 
-_LOCAL = BoundedCache(256, "term_derivatives")      # a term Function's derivative Functions, keyed by its value
+_LOCAL = BoundedCache(768, "term_derivatives")      # per term Function (its value): its SX evaluation, cost and derivative Functions
 
 
 @dataclass(frozen=True)
@@ -125,16 +129,28 @@ class SeparableNLP:
         return window(self.x, t.x_index), window(self.p, t.p_index[:, :1] if shared else t.p_index)
 
     def _objective_and_constraints(self):
-        f, g = [], []
+        """(f, g): f from each term's cost alone (`term_cost`; a term's Function computes
+        its rows too, most of a step term's operations), g from the terms' Functions."""
+        costs, rows = [], []
         for t, (z, w) in zip(self.terms, self._term_windows):
-            out = _mapped(t.function, t.instances)(z, w)
-            f.append(ca.sum2(out[0]) if t.instances > 1 else out[0])
-            g.append(ca.vec(out[1]) if t.instances > 1 else out[1])
-        if not g:
-            return ca.MX(0), ca.MX(0, 1)
-        g = ca.vertcat(*g)
-        in_order = np.array_equal(self._g_order, np.arange(self.n_g))
-        return ca.sum1(ca.vertcat(*f)), g if in_order else gather(g, self._g_order)
+            cost = term_cost(t.function, t.function_key)
+            if cost is not None:
+                costs.append(_mapped(cost, t.instances)(z, w))
+            rows.append(_mapped(t.function, t.instances)(z, w)[1])
+        return self._summed(costs), self._stacked(rows)
+
+    def _summed(self, costs):
+        """f: the sum of the terms' mapped costs, each (1, M)."""
+        if not costs:
+            return ca.MX(0)
+        return ca.sum1(ca.vertcat(*[ca.sum2(c) if c.size2() > 1 else c for c in costs]))
+
+    def _stacked(self, rows):
+        """g: the terms' mapped rows, each (r, M), in the order of the rows of g."""
+        if not rows:
+            return ca.MX(0, 1)
+        g = ca.vertcat(*[ca.vec(r) if r.size2() > 1 else r for r in rows])
+        return g if np.array_equal(self._g_order, np.arange(self.n_g)) else gather(g, self._g_order)
 
     def derivatives(self):
         """``{name: Function}`` for the ``cache`` option of ``casadi.nlpsol``: nlp_grad_f
@@ -155,18 +171,25 @@ class SeparableNLP:
                 **self.derivatives()}
 
     def _assemble(self):
+        """The three Functions of `derivatives`; f and g evaluated with the gradient and
+        the Jacobian, each term's value and derivative by one mapped call (`_local`)."""
         x, p, sigma, lam = self.x, self.p, ca.MX.sym("lam_f"), ca.MX.sym("lam_g", self.n_g)
-        parts = {"grad": [], "jac": [], "hess": []}
+        parts = {"cost": [], "rows": [], "grad": [], "jac": [], "hess": []}
         where = {"grad": [], "jac": [], "hess": []}
         for t, (z, w) in zip(self.terms, self._term_windows):
             local = local_derivatives(t.function, t.function_key)
             M = t.instances
             rows, cols = local["grad_pattern"]
-            if rows.size:               # a term without cost (boundary rows) adds no gradient
-                parts["grad"].append(_mapped(local["grad"], M)(z, w))
-                where["grad"].append((t.x_index[rows], np.zeros((rows.size, M), int)))
+            if local["grad"] is not None:     # a term without cost (boundary rows): no f, no gradient
+                cost, grad = _mapped(local["grad"], M)(z, w)
+                parts["cost"].append(cost)
+                if rows.size:
+                    parts["grad"].append(grad)
+                    where["grad"].append((t.x_index[rows], np.zeros((rows.size, M), int)))
             rows, cols = local["jac_pattern"]
-            parts["jac"].append(_mapped(local["jac"], M)(z, w))
+            g, jac = _mapped(local["jac"], M)(z, w)
+            parts["rows"].append(g)
+            parts["jac"].append(jac)
             where["jac"].append((t.g_index[rows], t.x_index[cols]))
             rows, cols = local["hess_pattern"]
             if rows.size:               # rows linear in x, no cost: no Hessian entries
@@ -176,9 +199,10 @@ class SeparableNLP:
         grad = assembled(parts["grad"], where["grad"], (self.n_x, 1))
         jac = assembled(parts["jac"], where["jac"], (self.n_g, self.n_x))
         hess = assembled(parts["hess"], where["hess"], (self.n_x, self.n_x))
-        return {"nlp_grad_f": ca.Function("nlp_grad_f", [x, p], [self.f, ca.densify(grad)],
+        f, g = self._summed(parts["cost"]), self._stacked(parts["rows"])
+        return {"nlp_grad_f": ca.Function("nlp_grad_f", [x, p], [f, ca.densify(grad)],
                                           ["x", "p"], ["f", "grad_f_x"]),
-                "nlp_jac_g": ca.Function("nlp_jac_g", [x, p], [self.g, jac], ["x", "p"],
+                "nlp_jac_g": ca.Function("nlp_jac_g", [x, p], [g, jac], ["x", "p"],
                                          ["g", "jac_g_x"]),
                 "nlp_hess_l": ca.Function("nlp_hess_l", [x, p, sigma, lam], [hess],
                                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])}
@@ -189,31 +213,53 @@ def function_key(function):
     return hashlib.sha256(function.serialize().encode()).hexdigest()
 
 
+def term_cost(function, key):
+    """A term Function's cost alone, ``(z, w) -> f`` with the term's own operations for
+    f, built once per `key` (its value); None when f is zero whatever z and w (nothing to
+    add to the objective)."""
+    return _LOCAL.get((key, "cost"), lambda: _cost(*_symbolic(function, key)))
+
+
+def _cost(z, w, f, g):
+    return None if f.is_zero() else ca.Function("local_cost", [z, w], [f])
+
+
+def _symbolic(function, key):
+    """(z, w, f, g): a term Function's inputs as SX symbols and its outputs at them, made
+    once per `key` for its cost and its derivatives (the evaluation is most of building
+    the cost Function)."""
+    def evaluated():
+        z, w = function.sx_in()
+        return (z, w, *function(z, w))
+    return _LOCAL.get((key, "symbolic"), evaluated)
+
+
 def local_derivatives(function, key):
     """A term Function's own derivatives, built once per `key` (the Function's value).
 
     Returns
     -------
     dict
-        ``grad (z, w) -> nonzeros of df/dz`` and ``grad_pattern`` (their rows, columns);
-        ``jac (z, w) -> nonzeros of dg/dz`` and ``jac_pattern``; ``hess (z, w, sigma,
-        lam) -> nonzeros of the upper triangle of d2(sigma f + lam^T g)/dz2`` and
-        ``hess_pattern``. A pattern is structural: entries that are zero whatever z and w
-        (a cost that does not depend on them) are not in it.
+        ``grad (z, w) -> (f, nonzeros of df/dz)``, None when f is zero whatever z and w (as
+        `term_cost`), and ``grad_pattern`` (their rows, columns); ``jac (z, w) ->
+        (g, nonzeros of dg/dz)`` and ``jac_pattern``; ``hess (z, w, sigma, lam) ->
+        nonzeros of the upper triangle of d2(sigma f + lam^T g)/dz2`` and
+        ``hess_pattern``. The value and its derivative in one Function: one evaluation of
+        their shared operations and one call per mapped term. A pattern is structural:
+        entries that are zero whatever z and w (a cost that does not depend on them) are
+        not in it.
     """
-    return _LOCAL.get(key, lambda: _local(function))
+    return _LOCAL.get(key, lambda: _local(*_symbolic(function, key)))
 
 
-def _local(function):
-    z, w = function.sx_in()
-    f, g = function(z, w)
+def _local(z, w, f, g):
     sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", g.numel())
     grad = ca.jacobian(f, z).T          # structurally sparse (ca.gradient is dense)
     jac = ca.jacobian(g, z)
     hess = ca.triu(ca.hessian(sigma * f + ca.dot(lam, g), z)[0])
-    return {"grad": ca.Function("local_grad", [z, w], [_nonzeros(grad)]),
+    return {"grad": None if f.is_zero() else ca.Function("local_grad", [z, w], [f, _nonzeros(grad)]),
             "grad_pattern": _pattern(grad),
-            "jac": ca.Function("local_jac", [z, w], [_nonzeros(jac)]),
+            "jac": ca.Function("local_jac", [z, w], [g, _nonzeros(jac)]),
             "jac_pattern": _pattern(jac),
             "hess": ca.Function("local_hess", [z, w, sigma, lam], [_nonzeros(hess)]),
             "hess_pattern": _pattern(hess)}
