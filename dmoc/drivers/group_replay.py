@@ -94,9 +94,10 @@ def _rows_and_jacobian(step, local, columns):
     columns `columns` of its local Jacobian (the unknowns' entries of z, in their order)."""
     z, w = step.function.sx_in()
     rows, cols = local["jac_pattern"]
+    g, values = local["jac"](z, w)          # the rows and their Jacobian's nonzeros, one call
     jacobian = ca.SX(ca.Sparsity.triplet(step.function.size1_out(1), z.numel(), rows.tolist(),
-                                         cols.tolist()), local["jac"](z, w))
-    return ca.Function("replay_rows", [z, w], [step.function(z, w)[1], jacobian[:, columns.tolist()]])
+                                         cols.tolist()), values)
+    return ca.Function("replay_rows", [z, w], [g, jacobian[:, columns.tolist()]])
 
 
 def _labels(layout):
