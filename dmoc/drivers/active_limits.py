@@ -85,12 +85,17 @@ def touches(problem, traj):
     are read on the rule's interpolant (`Trajectory.sample`: q, q' and u there), with the
     parameters at c as the NLP reads them (`interpolant_path_values`). An
     interior point holds the limit where a keep-out disc is touched between knots (the
-    rolling disk of `ErrorEstimate.path_active`: no knot on the disc).
+    rolling disk of `ErrorEstimate.path_active`: no knot on the disc). Without path
+    constraints and finite velocity bounds there are no rows: False, nothing evaluated
+    (the knots' end velocities and the interpolant at the interior points were a sixth of
+    the accuracy loop's estimate on the rolling disk, lobatto4; callgrind, issue 41).
     """
+    lower, upper = problem.velocity_bounds
+    if problem.path_constraints is None and not (np.isfinite(lower).any() or np.isfinite(upper).any()):
+        return False
     nodes = np.asarray(interior_points(problem.disc.rule))
     inside = traj.sample((traj.t[:-1, None] + traj.h * nodes[None, :]).ravel())
     knot_bounds, _ = knot_velocity_bound_values(problem, traj)
-    lower, upper = problem.velocity_bounds
     rows = [np.vstack([knot_bounds, np.hstack([(lower - inside.v)[:, np.isfinite(lower)],
                                                (inside.v - upper)[:, np.isfinite(upper)]])])]
     if problem.path_constraints is not None:
