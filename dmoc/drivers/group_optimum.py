@@ -8,6 +8,7 @@ import time
 
 from .._util import checks
 from ..errors import InputError
+from ..optimal_control.nlp.group_transcription import group_transcription
 from ..optimal_control.solver.group_solving import solve_on_group
 from ..optimal_control.statement.group_problem import GroupOptimalControlProblem
 from .group_verdict import judge_on_group
@@ -36,11 +37,12 @@ def judged_solve_on_group(problem, *, options=None, throw=True, check=True):
     verdict's status and its message when a check fails (`dmoc.drivers.verdict.judged`;
     SolverError with `throw`)."""
     check = checks.boolean("check", check)
-    result = solve_on_group(problem, options=options, throw=throw)
+    transcription = group_transcription(problem)         # the solve's, again the replay's
+    result = solve_on_group(problem, options=options, throw=throw, transcription=transcription)
     if not (check and result.success):
         return result
     tic = time.perf_counter()
-    verdict = judge_on_group(problem, result)
+    verdict = judge_on_group(problem, result, transcription)
     result.stats["replay_deviation"] = max(verdict.replay_q, verdict.replay_p)
     return judged(result, verdict, throw=throw, seconds=time.perf_counter() - tic)
 

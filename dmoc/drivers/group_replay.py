@@ -19,7 +19,7 @@ Replay = namedtuple("Replay", "q p steps")
 _HORIZONS = BoundedCache(8, "group_replays")     # keyed by (step term's key, N)
 
 
-def nlp_replay(problem, traj, tol=1e-12):
+def nlp_replay(problem, traj, tol=1e-12, transcription=None):
     """The replay of the optimum `traj` of `problem` (a GroupOptimalControlProblem) by the
     NLP's step rows, or None when a step did not converge.
 
@@ -30,7 +30,8 @@ def nlp_replay(problem, traj, tol=1e-12):
     q_{k+1} and p_{k+1}, which the first update makes exact for its f). Converged: every
     entry finite and the rows' max-norm at most `tol` (1 + max(|p_k|, |p_{k+1}|)), the
     simulator's test of a step (`DiracStepper.accepted`). Not converged also when the
-    virtual machine's linear solver refuses an update (entries not finite).
+    virtual machine's linear solver refuses an update (entries not finite). `transcription`
+    is `problem`'s `group_transcription` when the caller holds it (the solve's), else built.
 
     Returns
     -------
@@ -38,7 +39,7 @@ def nlp_replay(problem, traj, tol=1e-12):
         ``q`` (N + 1, 9 + n_x), ``p`` (N + 1, n), ``steps`` N: what
         `verdict_checks.replay_departure` compares.
     """
-    T = group_transcription(problem)
+    T = group_transcription(problem) if transcription is None else transcription
     step = T.separable.terms[0]             # group_transcription's first term: the step
     N, h = problem.steps, problem.disc.h
     horizon = _HORIZONS.get((step.function_key, N), lambda: _horizon(T, step, N))

@@ -22,7 +22,7 @@ from .verdict_checks import (GOAL_TOLERANCE, JUMP_LIMIT, PATH_TOLERANCE, REPLAY_
                              largest_change, path_violation, replay_departure, scale, worst_status)
 
 
-def judge_on_group(problem, result):
+def judge_on_group(problem, result, transcription=None):
     """The Verdict on an optimum of a problem on SO(3) x R^n_x.
 
     Parameters
@@ -30,6 +30,8 @@ def judge_on_group(problem, result):
     problem : GroupOptimalControlProblem
     result : OptimizationResult
         An optimum of `problem`: its trajectory a RotationTrajectory on ``problem.steps``.
+    transcription : GroupTranscription, optional
+        `problem`'s, when the caller has it (the solve's); else built for the replay.
 
     Returns
     -------
@@ -66,7 +68,7 @@ def judge_on_group(problem, result):
     if traj.steps != problem.steps:
         raise InputError(f"`result` must be an optimum of `problem` ({problem.steps} steps); "
                          f"got one on {traj.steps} steps.")
-    replay = nlp_replay(problem, traj)
+    replay = nlp_replay(problem, traj, transcription=transcription)
     if replay is None:              # a step Newton did not converge: the simulator's replay
         q0 = (traj.R[0], traj.x[0]) if problem.disc.system.n_x else traj.R[0]
         replay = simulate(problem.disc, q0=q0, p0=traj.p[0], steps=problem.steps, controls=traj.u,

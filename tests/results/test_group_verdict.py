@@ -12,7 +12,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import dmoc
+from dmoc.drivers import group_replay
 from dmoc.drivers.group_verdict import judge_on_group
+from dmoc.optimal_control.nlp.group_transcription import group_transcription
+from dmoc.optimal_control.solver import group_solving
 from dmoc.drivers.verdict import judge, judged, knot_path_values
 
 I, THETA, T, N = 2.0, 1.2, 2.0, 6
@@ -143,3 +146,22 @@ def test_the_replay_on_the_nlp_rows_is_the_simulators_or_hands_over_to_it(optimu
         assert replay is None
         verdict = judge_on_group(problem, dataclasses.replace(result, trajectory=traj))
         assert verdict.status == "not_replayable"
+
+
+def test_a_judged_solve_builds_its_transcription_once(monkeypatch):
+    """The verdict's replay takes the transcription the solve built (`judged_solve_on_group`
+    passes it on): one `group_transcription` per judged solve, and the verdict the one a
+    replay with its own transcription gives."""
+    from dmoc.drivers import group_optimum
+    built = []
+
+    def counted(problem):
+        built.append(problem)
+        return group_transcription(problem)
+    monkeypatch.setattr(group_optimum, "group_transcription", counted)
+    monkeypatch.setattr(group_replay, "group_transcription", counted)
+    monkeypatch.setattr(group_solving, "group_transcription", counted)
+    problem = slew(THETA)
+    result = dmoc.optimize(problem)
+    assert result.verdict.passed and len(built) == 1
+    assert judge_on_group(problem, result) == result.verdict and len(built) == 2

@@ -22,7 +22,7 @@ from .optimization_result import OptimizationResult
 from .solving import values_at_x
 
 
-def solve_on_group(problem, *, options=None, throw=True):
+def solve_on_group(problem, *, options=None, throw=True, transcription=None):
     """Solve `problem` with IPOPT (exact Hessian), unjudged.
 
     Parameters
@@ -33,6 +33,9 @@ def solve_on_group(problem, *, options=None, throw=True):
     throw : bool
         Raise SolverError when IPOPT fails, Interrupted when a Ctrl-C stopped it (its
         ``.result`` the last iterate, status ``"interrupted"``).
+    transcription : GroupTranscription, optional
+        `problem`'s (`group_transcription(problem)`, built here when None): given by a
+        caller that uses it again (the verdict's replay, `judged_solve_on_group`).
 
     Returns
     -------
@@ -46,7 +49,7 @@ def solve_on_group(problem, *, options=None, throw=True):
     """
     checks.instance("problem", problem, GroupOptimalControlProblem, "a GroupOptimalControlProblem")
     throw = checks.boolean("throw", throw)
-    T = group_transcription(problem)
+    T = group_transcription(problem) if transcription is None else transcription
     start = {"x0": geodesic_guess(problem, T), "lbx": T.lbx, "ubx": T.ubx}
     return solve_with(problem, T, options or {}, start, throw=throw)
 
