@@ -79,7 +79,7 @@ def _updates(stepper, rows):
         newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns, J)])
         return lambda y, p: _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
     factors = ca.Function("chord_factors", [ys, params],
-                          list(chord_factors(step_jacobian(stepper, g, ys, params))))
+                          list(chord_factors(step_jacobian(stepper, g, ys, params, J))))
     Q, R = (ca.SX.sym(name, ys.numel(), ys.numel()) for name in "QR")
     chord = ca.Function("chord_update", [ys, params, Q, R], [chord_delta(Q, R, g)])
 

@@ -11,7 +11,7 @@ from ..discrete.quadrature_rules import Midpoint
 from ..principle.formulations.lagrangian import LagrangianForm
 
 
-def step_jacobian(stepper, g, y, params):
+def step_jacobian(stepper, g, y, params, automatic=None):
     """dg/dy of the step equations g(y, params) of `stepper` (a `DiracStepper`), SX.
 
     For the left rows of the midpoint rule, g = p_k + D1 L_d(q_k, q_k + dq) + f_d^-, L_d =
@@ -32,6 +32,9 @@ def step_jacobian(stepper, g, y, params):
         The step equations (``stepper.equations(y, params)[0]``) and the unknowns' symbols.
     params : casadi.SX, shape (2 n + n_controls + 1, 1)
         (q_k, p_k', u, h), as ``stepper.symbols`` gives them.
+    automatic : casadi.SX, optional
+        ``ca.jacobian(g, y)`` when the caller has built it (`fast_path.step_rows`), what
+        the steps without a second variation take; built here when None.
 
     Returns
     -------
@@ -46,5 +49,5 @@ def step_jacobian(stepper, g, y, params):
         (_, q_bar, v_bar, _), = R.rule.samples(q0, q0 + y, ca.SX(0, 1), h)   # L_d's own midpoint
         W = variation(q_bar, v_bar, (h / 2, -1.0), (0.5, 1 / h))
     if W is None:
-        return ca.jacobian(g, y)
+        return ca.jacobian(g, y) if automatic is None else automatic
     return W + ca.jacobian(R.discrete_force(q0, q0 + y, ca.SX(0, 1), u, h)[0], y)
