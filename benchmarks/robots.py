@@ -68,6 +68,7 @@ baseline's, and the largest difference from it.
 """
 
 import argparse
+import contextlib
 import os
 import pathlib
 import tempfile
@@ -161,9 +162,53 @@ def newton_parts(system):
     parts = {"g": count(g), "dg/dy": count(ca.jacobian(g, y)),
              "dg/dy spatial": count(ca.cse(ca.densify(step_jacobian(stepper, g, y, params)))),
              "update": count(newton_update(g, y, stepper.unknowns)),
-             "fast step": fast_step(stepper, eliminate=True).n_instructions()}
+             "fast step": fast_instructions(stepper)}
+    with chord_before():           # the same as "fast step" for Newton's updates
+        parts["chord before"] = fast_instructions(stepper)
+    if stepper.chord:
+        parts["further update"] = fast_instructions(stepper, "chord_further")
     stepper.chord = False          # the fast path's updates are read from the stepper
-    return {**parts, "Newton fast step": fast_step(stepper, eliminate=True).n_instructions()}
+    return {**parts, "Newton fast step": fast_instructions(stepper)}
+
+
+def fast_instructions(stepper, part=None):
+    """Instructions of the compiled fast step of `stepper`: of the SX Function itself
+    (Newton's updates), or for the chord the sum of its step's start (factorization and
+    FIRST_CHORD_UPDATES updates) and end, i.e. a step whose updates converge in those; of
+    its SX Function `part` alone when given ("chord_further": one more update)."""
+    fast = fast_step(stepper, eliminate=True)
+    if not stepper.chord:
+        return fast.n_instructions()
+    names = [part] if part else ["chord_start", "step_ends"]
+    return sum(fast.find_function(name).n_instructions() for name in names)
+
+
+@contextlib.contextmanager
+def chord_before():
+    """The chord before its updates stopped once converged and before J's elimination: all
+    CHORD_ITERATIONS updates in the step's start, J = Q R by CasADi's QR, each update
+    R^{-1} Q^T g (the baseline of `--versus-newton` and `--breakdown`)."""
+    saved = fast_path.FIRST_CHORD_UPDATES, fast_path.chord_factors, fast_path.chord_delta
+    fast_path.FIRST_CHORD_UPDATES = fast_path.CHORD_ITERATIONS
+    fast_path.chord_factors, fast_path.chord_delta = qr_factors, qr_delta
+    try:
+        yield
+    finally:
+        fast_path.FIRST_CHORD_UPDATES, fast_path.chord_factors, fast_path.chord_delta = saved
+
+
+def qr_factors(J):
+    """(Q, R) of J = Q R, dense SX (the chord's factors before `chord_factors`)."""
+    return tuple(ca.densify(F) for F in ca.qr(J))
+
+
+def qr_delta(Q, R, g):
+    """J^{-1} g = R^{-1} Q^T g by back substitution (the chord's update before `chord_delta`)."""
+    b, n = ca.mtimes(Q.T, g), R.size1()
+    x = [None] * n
+    for i in reversed(range(n)):
+        x[i] = (b[i] - sum((R[i, j] * x[j] for j in range(i + 1, n)), ca.SX(0))) / R[i, i]
+    return ca.vertcat(*x)
 
 
 def versus_newton(system, steps, repeat, compile_):
@@ -175,6 +220,8 @@ def versus_newton(system, steps, repeat, compile_):
     disc = dmoc.discretize(system, H)
     residual, chord, jacobian = step_residual(disc), stepper_module.uses_chord, fast_path.step_jacobian
     steppers = {"chord": DiracStepper(residual, 1e-12, 50, native=compile_)}
+    with chord_before():
+        steppers["chord before"] = DiracStepper(residual, 1e-12, 50, native=compile_)
     try:
         fast_path.step_jacobian = lambda stepper, g, y, params, automatic: automatic
         steppers["chord, AD"] = DiracStepper(residual, 1e-12, 50, native=compile_)
@@ -199,18 +246,19 @@ def versus_newton(system, steps, repeat, compile_):
 
 def report_versus_newton(rows, compiled):
     print(f"Fast step, {'compiled' if compiled else 'virtual machine'}, CPU (best of interleaved runs):")
-    print("| model | n | chord | chord, AD Jacobian | Newton (3 updates) | ratios | final states differ by |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+    print("| model | n | chord | chord before | chord, AD Jacobian | Newton (3 updates) | ratios | "
+          "final states differ by |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         v = r["versus"]
-        print(f"| {r['model']} | {r['n']} | {v['chord'] * 1e6:.3f} us | {v['chord, AD'] * 1e6:.3f} us | "
-              f"{v['Newton'] * 1e6:.3f} us | {v['chord'] / v['chord, AD']:.2f}, {v['chord'] / v['Newton']:.2f} | "
-              f"{v['difference']:.1e} |")
+        ratios = ", ".join(f"{v['chord'] / v[k]:.2f}" for k in ("chord before", "chord, AD", "Newton"))
+        print(f"| {r['model']} | {r['n']} | {v['chord'] * 1e6:.3f} us | {v['chord before'] * 1e6:.3f} us | "
+              f"{v['chord, AD'] * 1e6:.3f} us | {v['Newton'] * 1e6:.3f} us | {ratios} | {v['difference']:.1e} |")
     for label, chosen in (("", rows), (" over 6+ joints", [r for r in rows if r["n"] >= 6])):
         if len(chosen) >= 2:
             print(f"log-log slopes{label}: " + ", ".join(
                 f"{k} {slope([{'n': r['n'], k: r['versus'][k]} for r in chosen], k):.2f}"
-                for k in ("chord", "chord, AD", "Newton")))
+                for k in ("chord", "chord before", "chord, AD", "Newton")))
 
 
 def measure(name, path, args, wheels=None):
@@ -429,7 +477,7 @@ def report_parts(rows, chains):
     """The DMOC's iterations and the step's instructions (`--dmoc`, `--breakdown`), and their
     slopes over the chains and over those of 6 joints or more."""
     keys = [k for k in ("iterations", "per iteration", "g", "dg/dy", "dg/dy spatial", "update", "fast step",
-                        "Newton fast step") if k in rows[0]]
+                        "further update", "chord before", "Newton fast step") if any(k in r for r in rows)]
     if not keys:
         return
     print("| model | n | " + " | ".join(keys) + " |")
@@ -443,7 +491,8 @@ def report_parts(rows, chains):
     for label, chosen in (("the chains", chains), ("the chains of 6+ joints", large)):
         if len(chosen) >= 2:
             print(f"log-log slopes over {label}: " + ", ".join(
-                f"{k} {slope(chosen, k):.2f}" for k in keys))
+                f"{k} {slope([r for r in chosen if k in r], k):.2f}" for k in keys
+                if sum(k in r for r in chosen) >= 2))
 
 
 if __name__ == "__main__":

@@ -13,8 +13,10 @@ import casadi as ca
 from .schur_complement import DENSE_MINOR
 
 NEWTON_UPDATE_TOL = 1e-6  # Newton's last relative update in an accepted step (its error ~ its square)
-CHORD_ITERATIONS = 8      # from the previous step's solution: as few steps left unconverged as Newton's three updates
+CHORD_ITERATIONS = 8      # at most, from the previous step's solution: as few steps left unconverged as Newton's three updates
+FIRST_CHORD_UPDATES = 2   # at least: the fewest whose sizes give the observed rate; more only while not converged
 CHORD_UPDATE_TOL = 1e-12  # the error an accepted chord step leaves, relative (`remaining_error`)
+CHORD_STOP_TOL = 1e-18    # the error left at which the updates stop: below round-off of |y| ~ h |v|, as after all 8
 STALLED_RATE = 1 - 1e-6   # a rate this close to 1 is a stall: iterates cycling at round-off
 
 
@@ -31,18 +33,40 @@ def chord_suited(pattern, unknowns):
 
 
 def chord_factors(J):
-    """(Q, R) of J = Q R, Q orthogonal and R upper triangular (n, n), dense SX."""
-    Q, R = ca.qr(J)
-    return ca.densify(Q), ca.densify(R)
+    """(L, U) of J = (I + L) U by Gaussian elimination without pivoting (Golub and Van Loan,
+    Matrix Computations, 4th ed., Alg. 3.2.1), dense SX of shape (n, n): L strictly lower
+    triangular (the multipliers), U upper triangular with its diagonal's reciprocals on the
+    diagonal. 2/3 n^3 operations where CasADi's QR (Gram-Schmidt) takes about 2.3 n^3. No
+    pivoting is needed for the step Jacobians the chord takes: J = -M/h + O(h) + O(|v|) (see
+    `dmoc.simulation.step_jacobian`), a definite mass matrix over h and small terms, whose
+    elimination is as stable as Cholesky's (ibid., Sec. 4.2); a pivot that vanishes
+    anyway makes the step non-finite, and the line-search Newton redoes it."""
+    n = J.size1()
+    A = [[J[i, j] for j in range(n)] for i in range(n)]
+    for k in range(n):
+        A[k][k] = 1 / A[k][k]
+        for i in range(k + 1, n):
+            A[i][k] = A[i][k] * A[k][k]
+            for j in range(k + 1, n):
+                A[i][j] = A[i][j] - A[i][k] * A[k][j]
+    L = ca.SX(n, n)
+    U = ca.SX(n, n)
+    for i in range(n):
+        for j in range(n):
+            (L if j < i else U)[i, j] = A[i][j]
+    return ca.densify(L), ca.densify(U)
 
 
-def chord_delta(Q, R, g):
-    """J_0^{-1} g = R^{-1} Q^T g by back substitution over the rows of R, shape (n, 1)."""
-    b, n = ca.mtimes(Q.T, g), R.size1()
+def chord_delta(L, U, g):
+    """J_0^{-1} g = U^{-1} (I + L)^{-1} g for the factors of `chord_factors`, by forward and
+    back substitution, 2 n^2 operations, shape (n, 1)."""
+    n = U.size1()
+    z = [None] * n
+    for i in range(n):
+        z[i] = g[i] - sum((L[i, j] * z[j] for j in range(i)), ca.SX(0))
     x = [None] * n
     for i in reversed(range(n)):
-        known = sum((R[i, j] * x[j] for j in range(i + 1, n)), ca.SX(0))
-        x[i] = (b[i] - known) / R[i, i]
+        x[i] = (z[i] - sum((U[i, j] * x[j] for j in range(i + 1, n)), ca.SX(0))) * U[i, i]
     return ca.vertcat(*x)
 
 

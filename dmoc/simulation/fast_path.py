@@ -12,8 +12,8 @@ built in a fraction of the time for the same numbers.
 import casadi as ca
 
 from .._util import typed_ops
-from .chord_update import (CHORD_ITERATIONS, chord_delta, chord_factors, chord_suited,
-                           remaining_error)
+from .chord_update import (CHORD_ITERATIONS, CHORD_STOP_TOL, FIRST_CHORD_UPDATES, chord_delta,
+                           chord_factors, chord_suited, remaining_error)
 from .schur_complement import newton_update
 from .step_jacobian import step_jacobian
 
@@ -22,34 +22,40 @@ FAST_ITERATIONS = 3
 
 def fast_step(stepper, eliminate, rows=None):
     """The fast path's Function ``(state, u, h) -> (next, out)`` of `stepper` (a
-    `DiracStepper`: its `equations`, `unknowns`, `symbols` and `wrap`) from its symbolic
-    `rows` (`step_rows`, built here when None), outputs dense
+    `DiracStepper`: its `equations`, `unknowns`, `symbols`, `wrap` and `chord`) from its
+    symbolic `rows` (`step_rows`, built here when None), outputs dense
     (the horizons write through buffers that receive the nonzeros only: a structural zero
     would shift the columns).
 
-    With `eliminate`, one SX Function after ``ca.cse`` (sin(q_k) once, not per
-    iteration), which the compiled library is generated from. Without (a stepper that never
-    compiles, native=False: the verdict's replay), an MX Function calling the SX Functions
-    of the Newton update FAST_ITERATIONS times and of the step's start and end once: the
-    same operations on the same numbers as one SX Function holding every copy of the
-    update, built in a fraction of its time (rolling disk, lobatto4: 9 against 21 ms), at
-    1-2 us more per step in the virtual machine (benchmarks/verdict.py). Elimination costs
-    more to build there than it saves over a run (benchmarks/step_cost.py, "dirac-vm").
+    Newton's FAST_ITERATIONS updates: with `eliminate`, one SX Function after ``ca.cse``
+    (sin(q_k) once, not per iteration), which the compiled library is generated from.
+    Without (a stepper that never compiles, native=False: the verdict's replay), an MX
+    Function calling the SX Functions of the Newton update FAST_ITERATIONS times and of the
+    step's start and end once: the same operations on the same numbers as one SX Function
+    holding every copy of the update, built in a fraction of its time (rolling disk,
+    lobatto4: 9 against 21 ms), at 1-2 us more per step in the virtual machine
+    (benchmarks/verdict.py). Elimination costs more to build there than it saves over a run
+    (benchmarks/step_cost.py, "dirac-vm"). The chord's updates stop once converged: an MX
+    Function in either case (`_chord_step`).
     """
+    rows = step_rows(stepper) if rows is None else rows
+    if stepper.chord:
+        return _chord_step(stepper, rows, eliminate)
     state, u, h, params, guess = stepper.symbols(ca.SX)
-    updates = _updates(stepper, step_rows(stepper) if rows is None else rows)
+    ys, ps, g, J = rows
+    newton = ca.Function("newton_update", [ys, ps], [newton_update(g, ys, stepper.unknowns, J)])
+
+    def updates(y, p):
+        return _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
     if eliminate:
         solved = stepper.wrap(state, params, *updates(guess, params))
         outputs = [ca.densify(o) for o in ca.cse(list(solved))]
         return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"],
                            ["next", "out"])
-    solved, update = ca.SX.sym("y", guess.numel()), ca.SX.sym("update")
     start = ca.Function("step_start", [state, u, h], [params, guess])
-    ends = ca.Function("step_ends", [state, u, h, solved, update],
-                       [ca.densify(o) for o in stepper.wrap(state, params, solved, update)])
     state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
     params, guess = start(state, u, h)
-    outputs = ends(state, u, h, *updates(guess, params))
+    outputs = _ends(stepper, False)(state, u, h, *updates(guess, params))
     return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
 
@@ -68,28 +74,48 @@ def uses_chord(stepper, rows):
     return chord_suited(rows[3].sparsity, stepper.unknowns)
 
 
-def _updates(stepper, rows):
-    """``(y, params) -> (y after the fast path's updates from y, the size of the last
-    update relative to y, |delta|_inf / (1 + |y|_inf), or for the chord the error it
-    leaves, `chord_update.remaining_error`)``, through SX Functions of one update (and
-    of the chord's factorization, when `stepper.chord`) of the step equations `rows`
-    (`step_rows`), which take SX and MX arguments alike."""
-    ys, params, g, J = rows
-    if not stepper.chord:
-        newton = ca.Function("newton_update", [ys, params], [newton_update(g, ys, stepper.unknowns, J)])
-        return lambda y, p: _iterated(lambda y: newton(y, p), y, FAST_ITERATIONS)
-    factors = ca.Function("chord_factors", [ys, params],
-                          list(chord_factors(step_jacobian(stepper, g, ys, params, J))))
+def _chord_step(stepper, rows, eliminate):
+    """The fast path of chord updates (`dmoc.simulation.chord_update`) of the step equations
+    `rows` (`step_rows`) as an MX Function ``(state, u, h) -> (next, out)``: an SX Function
+    of the step's start (dg/dy factorized at the warm start, FIRST_CHORD_UPDATES updates),
+    then up to CHORD_ITERATIONS - FIRST_CHORD_UPDATES more, each through a conditional
+    (CasADi's Switch: C's ``if`` when compiled) that takes it only while the error the
+    updates leave (`remaining_error`) exceeds CHORD_STOP_TOL (round-off), and an SX Function of the
+    step's end; the SX ones after ``ca.cse`` with `eliminate`. A step whose updates converge
+    in two pays for two, not CHORD_ITERATIONS."""
+    state, u, h, params, guess = stepper.symbols(ca.SX)
+    ys, ps, g, J = rows
+    factors = ca.Function("chord_factors", [ys, ps],
+                          list(chord_factors(step_jacobian(stepper, g, ys, ps, J))))
     Q, R = (ca.SX.sym(name, ys.numel(), ys.numel()) for name in "QR")
-    chord = ca.Function("chord_update", [ys, params, Q, R], [chord_delta(Q, R, g)])
+    chord = ca.Function("chord_update", [ys, ps, Q, R], [chord_delta(Q, R, g)])
+    factorized = factors(guess, params)          # J at the warm start, factorized once a step
+    y, before = _iterated(lambda y: chord(y, params, *factorized), guess, FIRST_CHORD_UPDATES - 1)
+    y, last = _iterated(lambda y: chord(y, params, *factorized), y, 1)
+    begun = [params, y, last, remaining_error(last, before), *factorized]
+    start = ca.Function("chord_start", [state, u, h], ca.cse(begun) if eliminate else begun)
+    last, error = ca.SX.sym("last"), ca.SX.sym("error")
+    y, relative = _iterated(lambda y: chord(y, ps, Q, R), ys, 1)
+    carried = [ys, last, error, ps, Q, R]
+    further = ca.Function("chord_further", carried, [y, relative, remaining_error(relative, last)])
+    kept = ca.Function("chord_kept", carried, carried[:3])
+    if_needed = ca.Function.conditional("chord_if_needed", [kept], further)
+    state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
+    params, y, last, error, Q, R = start(state, u, h)
+    for _ in range(CHORD_ITERATIONS - FIRST_CHORD_UPDATES):
+        y, last, error = if_needed(error > CHORD_STOP_TOL, y, last, error, params, Q, R)
+    outputs = _ends(stepper, eliminate)(state, u, h, y, error)
+    return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
-    def chord_iterated(y, p):
-        QR = factors(y, p)        # J at the warm start, factorized once
-        y, before = _iterated(lambda y: chord(y, p, *QR), y, CHORD_ITERATIONS - 1)
-        delta = chord(y, p, *QR)
-        y = y - delta
-        return y, remaining_error(ca.norm_inf(delta) / (1 + ca.norm_inf(y)), before)
-    return chord_iterated
+
+def _ends(stepper, eliminate):
+    """The step's end ``(state, u, h, y, update) -> (next, out)`` from its solution y
+    (`DiracStepper.wrap`) as an SX Function, after ``ca.cse`` with `eliminate`."""
+    state, u, h, params, guess = stepper.symbols(ca.SX)
+    solved, update = ca.SX.sym("y", guess.numel()), ca.SX.sym("update")
+    outputs = list(stepper.wrap(state, params, solved, update))
+    outputs = [ca.densify(o) for o in (ca.cse(outputs) if eliminate else outputs)]
+    return ca.Function("step_ends", [state, u, h, solved, update], outputs)
 
 
 def _iterated(update, y, iterations):
