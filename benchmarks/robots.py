@@ -28,12 +28,19 @@ seconds of one (IPOPT's time over its iterations). `--hessian limited-memory` so
 DMOC with IPOPT's quasi-Newton Hessian instead of the exact one.
 
 With `--versus-newton`, the compiled fast step's CPU time with the chord, with the chord
-whose Jacobian is CasADi's automatic one (the baseline: the chord before the spatial
-Jacobian) and with Newton's 3 updates (the fast path before the chord, its stepper built
-with the chord switched off), interleaved, the best of `--repeat` runs of `--steps` steps
+before its updates stopped once converged (all 8, J factorized by CasADi's QR: the
+baseline, `chord_before`), with the chord whose Jacobian is CasADi's automatic one (the
+chord before the spatial Jacobian) and with Newton's 3 updates (the fast path before the
+chord, its stepper built with the chord switched off), interleaved, the best of `--repeat` runs of `--steps` steps
 each from the same state as the timed runs, as ratios, with the largest difference of the
 runs' final states and the log-log slope of each over the chains (and over 6+ joints) (`--no-compile`: in the virtual
 machine; `--smallest` also runs it so, at --repeat 1).
+
+With `--kept-jacobian` (in `--smallest` for 6 joints), how many chord updates a step takes
+(until the error they leave is at most CHORD_UPDATE_TOL) with J fresh at the warm start
+(the baseline, as the fast path has it), with J kept across steps and refactorized after
+a step of more than 6 updates or a rate above 0.01 (as stiff ODE codes keep it), and fresh
+at the warm start extrapolated from the two previous steps, 2 dq_{k-1} - dq_{k-2}.
 
 With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
 file as a fixed-base robot (the baseline: the wheels spin in the air) and on its wheels
@@ -61,10 +68,12 @@ baseline's, and the largest difference from it.
     python benchmarks/robots.py --floating --dmoc --joints 2     # the floating satellite
     python benchmarks/robots.py --breakdown --dmoc --no-compile --steps 2000   # where the cost goes
     python benchmarks/robots.py --versus-newton --steps 20000   # the chord against Newton, CPU
+    python benchmarks/robots.py --kept-jacobian --joints 6 8 12 --steps 2000   # J across steps
     python benchmarks/robots.py --smallest      # = --joints 2 --steps 20 --no-compile
                                                 #   --alternatives --mobile --floating
                                                 #   --breakdown, then --versus-newton
-                                                #   --no-compile --joints 2 6 --steps 20
+                                                #   --no-compile --joints 2 6 --steps 20,
+                                                #   --kept-jacobian --joints 6 --steps 20
 """
 
 import argparse
@@ -84,7 +93,7 @@ import numpy as np  # noqa: E402
 import dmoc  # noqa: E402
 from dmoc.mechanics.robots import example_urdf  # noqa: E402
 from dmoc.principle.residual import step_residual  # noqa: E402
-from dmoc.simulation import fast_path  # noqa: E402
+from dmoc.simulation import chord_update, fast_path  # noqa: E402
 from dmoc.simulation.fast_path import fast_step  # noqa: E402
 from dmoc.simulation.step_jacobian import step_jacobian  # noqa: E402
 from dmoc.simulation.schur_complement import newton_update  # noqa: E402
@@ -173,42 +182,53 @@ def newton_parts(system):
 
 def fast_instructions(stepper, part=None):
     """Instructions of the compiled fast step of `stepper`: of the SX Function itself
-    (Newton's updates), or for the chord the sum of its step's start (factorization and
-    FIRST_CHORD_UPDATES updates) and end, i.e. a step whose updates converge in those; of
-    its SX Function `part` alone when given ("chord_further": one more update)."""
+    (Newton's updates, the chord before), or for the chord the sum of its step's start
+    (factorization and an update), one further update and its end, i.e. a step whose
+    updates converge in FIRST_CHORD_UPDATES = 2; of its SX Function `part` alone when given
+    ("chord_further": one more update)."""
     fast = fast_step(stepper, eliminate=True)
     if not stepper.chord:
         return fast.n_instructions()
-    names = [part] if part else ["chord_start", "step_ends"]
+    if fast.is_a("SXFunction"):                 # `chord_before_step`
+        return fast.n_instructions()
+    names = [part] if part else ["chord_start", "chord_further", "step_ends"]
     return sum(fast.find_function(name).n_instructions() for name in names)
 
 
 @contextlib.contextmanager
 def chord_before():
-    """The chord before its updates stopped once converged and before J's elimination: all
-    CHORD_ITERATIONS updates in the step's start, J = Q R by CasADi's QR, each update
-    R^{-1} Q^T g (the baseline of `--versus-newton` and `--breakdown`)."""
-    saved = fast_path.FIRST_CHORD_UPDATES, fast_path.chord_factors, fast_path.chord_delta
-    fast_path.FIRST_CHORD_UPDATES = fast_path.CHORD_ITERATIONS
-    fast_path.chord_factors, fast_path.chord_delta = qr_factors, qr_delta
+    """The chord's fast step before its updates stopped once converged (the baseline of
+    `--versus-newton` and `--breakdown`): `chord_before_step` in place of the fast path's."""
+    saved = fast_path._chord_step
+    fast_path._chord_step = chord_before_step
     try:
         yield
     finally:
-        fast_path.FIRST_CHORD_UPDATES, fast_path.chord_factors, fast_path.chord_delta = saved
+        fast_path._chord_step = saved
 
 
-def qr_factors(J):
-    """(Q, R) of J = Q R, dense SX (the chord's factors before `chord_factors`)."""
-    return tuple(ca.densify(F) for F in ca.qr(J))
-
-
-def qr_delta(Q, R, g):
-    """J^{-1} g = R^{-1} Q^T g by back substitution (the chord's update before `chord_delta`)."""
-    b, n = ca.mtimes(Q.T, g), R.size1()
-    x = [None] * n
+def chord_before_step(stepper, rows, eliminate):
+    """The chord's fast step as it was: one SX Function after ``ca.cse`` (also without
+    `eliminate`) of J = Q R by CasADi's QR at the warm start, all CHORD_ITERATIONS updates
+    R^{-1} Q^T g by back substitution, and the step's end."""
+    state, u, h, params, guess = stepper.symbols(ca.SX)
+    ys, ps, g, J = rows
+    n = ys.numel()
+    factors = ca.Function("QR", [ys, ps], [ca.densify(F) for F in ca.qr(step_jacobian(stepper, g, ys, ps, J))])
+    Q, R = ca.SX.sym("Q", n, n), ca.SX.sym("R", n, n)
+    b, x = ca.mtimes(Q.T, g), [None] * n
     for i in reversed(range(n)):
         x[i] = (b[i] - sum((R[i, j] * x[j] for j in range(i + 1, n)), ca.SX(0))) / R[i, i]
-    return ca.vertcat(*x)
+    chord = ca.Function("chord_update", [ys, ps, Q, R], [ca.vertcat(*x)])
+    QR = factors(guess, params)
+    y, sizes = guess, []
+    for _ in range(fast_path.CHORD_ITERATIONS):
+        delta = chord(y, params, *QR)
+        y = y - delta
+        sizes.append(ca.norm_inf(delta) / (1 + ca.norm_inf(y)))
+    solved = stepper.wrap(state, params, y, chord_update.remaining_error(sizes[-1], sizes[-2]))
+    return ca.Function("dirac_step_fast", [state, u, h], [ca.densify(o) for o in ca.cse(list(solved))],
+                       ["state", "u", "h"], ["next", "out"])
 
 
 def versus_newton(system, steps, repeat, compile_):
@@ -244,6 +264,60 @@ def versus_newton(system, steps, repeat, compile_):
     return {**best, "difference": max(np.abs(final["chord"] - final[k]).max() for k in final)}
 
 
+def kept_jacobian(system, steps):
+    """{way: (mean, largest) chord updates a step, "refreshed": the fraction of steps that
+    refactorized} of the chord (`--kept-jacobian`) along `steps` midpoint steps from q = 0.1
+    at rest, in numpy with the step's rows g and Jacobian (`step_jacobian`) as Functions:
+    until the error the updates leave (`remaining_error`) is at most CHORD_UPDATE_TOL, or
+    40 updates; J^{-1} by numpy."""
+    disc = dmoc.discretize(system, H)
+    stepper = DiracStepper(step_residual(disc), 1e-12, 50)
+    ys, params, g, J = fast_path.step_rows(stepper)
+    rows = ca.Function("g", [ys, params], [g])
+    jacobian = ca.Function("J", [ys, params], [step_jacobian(stepper, g, ys, params, J)])
+    n = system.n
+    traj = dmoc.simulate(disc, q0=np.full(n, 0.1), v0=np.zeros(n), steps=steps, jit=False).trajectory
+
+    def updates(y, p, inverse):
+        before = None
+        for k in range(1, 41):
+            delta = inverse @ np.array(rows(y, p)).ravel()
+            y = y - delta
+            last = np.abs(delta).max() / (1 + np.abs(y).max())
+            if before is not None:
+                rate = last / before
+                if float(chord_update.remaining_error(last, before)) <= chord_update.CHORD_UPDATE_TOL:
+                    return k, rate
+            before = last
+        return k, rate
+
+    counts, kept, refreshed = {"fresh": [], "kept": [], "extrapolated": []}, None, 0
+    for k in range(2, steps):
+        p = np.concatenate([traj.q[k], traj.p[k], np.zeros(system.n_u), [H]])
+        last, earlier = traj.q[k] - traj.q[k - 1], traj.q[k - 1] - traj.q[k - 2]
+        for way, y in (("fresh", last), ("extrapolated", 2 * last - earlier)):
+            counts[way].append(updates(y, p, np.linalg.inv(np.array(jacobian(y, p))))[0])
+        if kept is None:
+            kept = np.linalg.inv(np.array(jacobian(last, p)))
+        taken, rate = updates(last, p, kept)
+        counts["kept"].append(taken)
+        if taken > 6 or rate > 0.01:            # refactorize for the next step
+            kept, refreshed = np.linalg.inv(np.array(jacobian(last, p))), refreshed + 1
+    return {**{way: (np.mean(c), max(c)) for way, c in counts.items()}, "refreshed": refreshed / (steps - 2)}
+
+
+def report_kept_jacobian(rows):
+    print("Chord updates a step to leave CHORD_UPDATE_TOL (mean, largest):")
+    print("| model | n | J fresh at the warm start | J kept across steps | refactorized | "
+          "fresh at the extrapolated warm start |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for r in rows:
+        v = r["kept"]
+        print(f"| {r['model']} | {r['n']} | " + " | ".join(
+            f"{v[way][0]:.2f}, {v[way][1]}" for way in ("fresh", "kept")) + f" | {v['refreshed']:.0%} | "
+            f"{v['extrapolated'][0]:.2f}, {v['extrapolated'][1]} |")
+
+
 def report_versus_newton(rows, compiled):
     print(f"Fast step, {'compiled' if compiled else 'virtual machine'}, CPU (best of interleaved runs):")
     print("| model | n | chord | chord before | chord, AD Jacobian | Newton (3 updates) | ratios | "
@@ -269,6 +343,8 @@ def measure(name, path, args, wheels=None):
            "L nodes": system.lagrangian.n_instructions()}
     if args.versus_newton:
         return {**row, "versus": versus_newton(system, steps, args.repeat, compile_)}
+    if args.kept_jacobian:
+        return {**row, "kept": kept_jacobian(system, steps)}
     row["first vm"], _ = simulated(system, 10, False)
     wall, result = simulated(system, steps, False)
     row["vm step"] = wall / steps
@@ -409,20 +485,25 @@ def main(argv=None):
     parser.add_argument("--versus-newton", action="store_true",
                         help="only the fast step's CPU time with the chord and with Newton's 3 "
                              "updates, over the chains (compiled unless --no-compile)")
+    parser.add_argument("--kept-jacobian", action="store_true",
+                        help="only the chord's updates a step with J fresh, kept across steps "
+                             "and at an extrapolated warm start, over the chains")
     parser.add_argument("--repeat", type=int, default=7,
                         help="interleaved runs of --versus-newton (default 7; the best counts)")
     parser.add_argument("--hessian", choices=("exact", "limited-memory"), default="exact",
                         help="IPOPT's Hessian in the DMOC (default exact)")
     parser.add_argument("--smallest", action="store_true",
                         help="the smallest run: --joints 2 --steps 20 --no-compile "
-                             "--alternatives --mobile --floating --breakdown")
+                             "--alternatives --mobile --floating --breakdown, then --versus-newton "
+                             "and --kept-jacobian at their smallest")
     args = parser.parse_args(argv)
     if args.smallest:
         args.joints, args.steps, args.compile = [2], 20, False
         args.alternatives = args.mobile = args.floating = args.breakdown = True
         main(["--versus-newton", "--no-compile", "--joints", "2", "6", "--steps", "20", "--repeat", "1"])
+        main(["--kept-jacobian", "--joints", "6", "--steps", "20"])
     import adam.casadi  # noqa: F401  (its import, ~1 s, is not the build's)
-    if args.versus_newton:
+    if args.versus_newton or args.kept_jacobian:
         args.shipped = args.mobile = args.floating = args.alternatives = False
 
     with tempfile.TemporaryDirectory(prefix="dmoc-robots-") as folder:
@@ -447,6 +528,8 @@ def main(argv=None):
             if args.alternatives else []
     if args.versus_newton:
         return report_versus_newton(rows, args.compile)
+    if args.kept_jacobian:
+        return report_kept_jacobian(rows)
     report(rows, rows[:len(args.joints)], args)
     report_parts(rows, rows[:len(args.joints)])
     if ways:

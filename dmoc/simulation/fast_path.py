@@ -77,33 +77,37 @@ def uses_chord(stepper, rows):
 def _chord_step(stepper, rows, eliminate):
     """The fast path of chord updates (`dmoc.simulation.chord_update`) of the step equations
     `rows` (`step_rows`) as an MX Function ``(state, u, h) -> (next, out)``: an SX Function
-    of the step's start (dg/dy factorized at the warm start, FIRST_CHORD_UPDATES updates),
-    then up to CHORD_ITERATIONS - FIRST_CHORD_UPDATES more, each through a conditional
-    (CasADi's Switch: C's ``if`` when compiled) that takes it only while the error the
-    updates leave (`remaining_error`) exceeds CHORD_STOP_TOL (round-off), and an SX Function of the
-    step's end; the SX ones after ``ca.cse`` with `eliminate`. A step whose updates converge
-    in two pays for two, not CHORD_ITERATIONS."""
+    of the step's start (dg/dy factorized at the warm start and the first update, which
+    shares the rows' pass at the warm start with dg/dy), then the SX Function of one update
+    FIRST_CHORD_UPDATES - 1 times and up to CHORD_ITERATIONS - FIRST_CHORD_UPDATES times
+    more, each of these through a conditional (CasADi's Switch: C's ``if`` when compiled)
+    that takes it only while the error the updates leave (`remaining_error`) exceeds
+    CHORD_STOP_TOL, and an SX Function of the step's end; the SX ones after ``ca.cse`` with
+    `eliminate`. A step pays for the updates it needs, and the compiled code holds one
+    update's instructions, not CHORD_ITERATIONS copies."""
     state, u, h, params, guess = stepper.symbols(ca.SX)
     ys, ps, g, J = rows
     factors = ca.Function("chord_factors", [ys, ps],
                           list(chord_factors(step_jacobian(stepper, g, ys, ps, J))))
-    Q, R = (ca.SX.sym(name, ys.numel(), ys.numel()) for name in "QR")
-    chord = ca.Function("chord_update", [ys, ps, Q, R], [chord_delta(Q, R, g)])
+    L, U = (ca.SX.sym(name, ys.numel(), ys.numel()) for name in "LU")
+    chord = ca.Function("chord_update", [ys, ps, L, U], [chord_delta(L, U, g)])
     factorized = factors(guess, params)          # J at the warm start, factorized once a step
-    y, before = _iterated(lambda y: chord(y, params, *factorized), guess, FIRST_CHORD_UPDATES - 1)
-    y, last = _iterated(lambda y: chord(y, params, *factorized), y, 1)
-    begun = [params, y, last, remaining_error(last, before), *factorized]
+    y, last = _iterated(lambda y: chord(y, params, *factorized), guess, 1)
+    begun = [params, y, last, *factorized]
     start = ca.Function("chord_start", [state, u, h], ca.cse(begun) if eliminate else begun)
     last, error = ca.SX.sym("last"), ca.SX.sym("error")
-    y, relative = _iterated(lambda y: chord(y, ps, Q, R), ys, 1)
-    carried = [ys, last, error, ps, Q, R]
+    y, relative = _iterated(lambda y: chord(y, ps, L, U), ys, 1)
+    carried = [ys, last, error, ps, L, U]
     further = ca.Function("chord_further", carried, [y, relative, remaining_error(relative, last)])
-    kept = ca.Function("chord_kept", carried, carried[:3])
-    if_needed = ca.Function.conditional("chord_if_needed", [kept], further)
+    if_needed = ca.Function.conditional(
+        "chord_if_needed", [ca.Function("chord_kept", carried, carried[:3])], further)
     state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
-    params, y, last, error, Q, R = start(state, u, h)
+    params, y, last, L, U = start(state, u, h)
+    error = ca.MX(ca.inf)
+    for _ in range(FIRST_CHORD_UPDATES - 1):
+        y, last, error = further(y, last, error, params, L, U)
     for _ in range(CHORD_ITERATIONS - FIRST_CHORD_UPDATES):
-        y, last, error = if_needed(error > CHORD_STOP_TOL, y, last, error, params, Q, R)
+        y, last, error = if_needed(error > CHORD_STOP_TOL, y, last, error, params, L, U)
     outputs = _ends(stepper, eliminate)(state, u, h, y, error)
     return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
