@@ -1,11 +1,15 @@
 """The chord (simplified Newton) updates of a step with many unknowns and a dense Jacobian
 (`dmoc.simulation.fast_path`), and when the fast path's updates count as converged. J =
-dg/dy is evaluated and factorized once, at the warm start y_0, as J_0 = Q R (`ca.qr`), and
-every update is J_0^{-1} g(y) = R^{-1} Q^T g(y), a product and a back substitution, O(n^2)
-on top of the rows g, O(n) for a robot's link recursion. Newton's method evaluates J,
-O(n^2), and solves with it, O(n^3), at every update; the chord does both once a step, and
-spends the difference on more updates, which converge linearly at the rate
-|J_0^{-1} (J(y*) - J_0)| = O(|y_0 - y*|) (the warm start is the previous step's solution).
+dg/dy is evaluated and factorized once, at the warm start y_0, as J_0 = (I + L) U by
+Gaussian elimination (`chord_factors`), and every update is J_0^{-1} g(y), a forward and a
+back substitution, O(n^2) on top of the rows g, O(n) for a robot's link recursion.
+Newton's method evaluates J, O(n^2), and solves with it, O(n^3), at every update; the
+chord does both once a step, and its updates converge linearly at the rate
+|J_0^{-1} (J(y*) - J_0)| = O(|y_0 - y*|) (the warm start is the previous step's solution):
+FIRST_CHORD_UPDATES of them, then more, up to CHORD_ITERATIONS, only while the error they
+leave (`remaining_error`) exceeds CHORD_STOP_TOL. Keeping J_0 across steps (as stiff ODE
+codes do) does not pay for a robot's chain: J changes by O(h |v| |M^{-1} dM/dq|) a step,
+large against J where cond M is large (benchmarks/robots.py, `--kept-jacobian`).
 """
 
 import casadi as ca

@@ -1,12 +1,13 @@
 """The fast path of the simulator's step (`dmoc.simulation.stepper`): FAST_ITERATIONS
 Newton updates unrolled from the warm start (each through the Schur complement of the
 multipliers, `dmoc.simulation.schur_complement`), or for many unknowns and a dense Jacobian
-CHORD_ITERATIONS chord updates with the Jacobian (`dmoc.simulation.step_jacobian`) factorized
-once (`dmoc.simulation.chord_update`),
-then the step's end: the next state and the outputs that decide whether the step is accepted. As one SX Function after
-common-subexpression elimination, which the compiled library is generated from; or, for a
+chord updates with the Jacobian (`dmoc.simulation.step_jacobian`) factorized once, as many
+as the step needs (`dmoc.simulation.chord_update`), then the step's end: the next state and
+the outputs that decide whether the step is accepted. Newton's as one SX Function after
+common-subexpression elimination, which the compiled library is generated from, or, for a
 stepper that never compiles, as an MX Function calling the update's SX Function, which is
-built in a fraction of the time for the same numbers.
+built in a fraction of the time for the same numbers; the chord's as an MX Function whose
+conditionals call the SX Function of an update while the updates have not converged.
 """
 
 import casadi as ca

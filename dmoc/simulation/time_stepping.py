@@ -65,7 +65,7 @@ def simulate(disc, *, q0, v0=None, p0=None, steps, controls=None, feedback=None,
         alone keeps the residual above that, and the failure message says so.
     max_iter : int
         Iterations of the line-search Newton that redoes a step the fast path (three
-        unrolled Newton iterations, or eight chord updates for a dense step of more than
+        unrolled Newton iterations, or two to eight chord updates for a dense step of more than
         four unknowns without multipliers, as a robot's) did not converge.
     jit : bool or None
         Run the fast path as C code, compiled once per step Function with the system's C
