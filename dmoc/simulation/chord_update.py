@@ -41,10 +41,12 @@ def chord_factors(J):
     Matrix Computations, 4th ed., Alg. 3.2.1), dense SX of shape (n, n): L strictly lower
     triangular (the multipliers), U upper triangular with its diagonal's reciprocals on the
     diagonal. 2/3 n^3 operations where CasADi's QR (Gram-Schmidt) takes about 2.3 n^3. No
-    pivoting is needed for the step Jacobians the chord takes: J = -M/h + O(h) + O(|v|) (see
-    `dmoc.simulation.step_jacobian`), a definite mass matrix over h and small terms, whose
-    elimination is as stable as Cholesky's (ibid., Sec. 4.2); a pivot that vanishes
-    anyway makes the step non-finite, and the line-search Newton redoes it."""
+    pivoting is needed for the step Jacobians the chord takes: J = -M/h + h/4 L_qq + a skew
+    part + O(h) forces (`dmoc.simulation.step_jacobian`), whose symmetric part is definite
+    while the mass term dominates (h omega_max < 2), so that every leading block is
+    nonsingular and the elimination stable (ibid., Sec. 4.2, nonsymmetric positive definite
+    systems); a pivot that vanishes all the same makes the step non-finite, and the
+    line-search Newton redoes it."""
     n = J.size1()
     A = [[J[i, j] for j in range(n)] for i in range(n)]
     for k in range(n):

@@ -104,7 +104,7 @@ def _chord_step(stepper, rows, eliminate):
         "chord_if_needed", [ca.Function("chord_kept", carried, carried[:3])], further)
     state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
     params, y, last, L, U = start(state, u, h)
-    error = ca.MX(ca.inf)
+    error = ca.MX(ca.inf)                         # not read by `further`, which takes `last`
     for _ in range(FIRST_CHORD_UPDATES - 1):
         y, last, error = further(y, last, error, params, L, U)
     for _ in range(CHORD_ITERATIONS - FIRST_CHORD_UPDATES):
