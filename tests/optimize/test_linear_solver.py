@@ -34,12 +34,16 @@ def test_report_counts_the_lines_of_one_solve(tmp_path):
              "Iterative refinement failed with residual_ratio = 2.0e-07\n"
              "Iterative refinement failed with residual_ratio = 3.0e-07\n"
              "Increasing pivot tolerance for MUMPS from 1.00e-03 to 1.00e-02.\n"
-             "Number of trial factorizations performed: 1\n")
+             "Number of trial factorizations performed: 1\n"
+             "MUMPS returned INFO(1) = -9 and requires more memory, reallocating.  Attempt 1\n"
+             "  Increasing icntl[13] from 1 to 2.\n"
+             "MUMPS returned INFO(1) = -9 and requires more memory, reallocating.  Attempt 2\n"
+             "  Increasing icntl[13] from 2 to 4.\n")
     path = tmp_path / "journal.txt"
     path.write_text(earlier + later)
     assert linear_solver_report(str(path), len(earlier.encode())) == {
         "factorizations": 5, "pivot_tolerance_increases": 2, "pivot_tolerance": 1e-2,
-        "refinement_failures": 3}
+        "refinement_failures": 3, "reallocations": 2}
     assert linear_solver_report(str(path), 0)["factorizations"] == 9
 
 
@@ -57,6 +61,20 @@ def test_report_leaves_the_solve_unchanged_and_counts_each_solve(make):
         assert report["factorizations"] == first.stats["iterations"]
     assert again.stats["linear_solver"] == report
     assert "linear_solver" not in plain.stats
+
+
+def test_default_workspace_needs_no_reallocation():
+    """MUMPS's workspace at `DEFAULT_IPOPT_OPTIONS`' mumps_mem_percent 100 (twice its
+    estimate) suffices; at 1 % MUMPS stops twice for more (IPOPT doubles 1 to 2 to 4) and
+    the solve is the same. The knife edge with lobatto3 at N = 50, whose pivots need more
+    than the estimate."""
+    problem = dmoc.problems.knife_edge_parking(50, rule="lobatto3")
+    default = dmoc.optimize(problem, check=False, **REPORT)
+    scarce = dmoc.optimize(problem, check=False, options={"mumps_mem_percent": 1}, **REPORT)
+    assert default.stats["linear_solver"]["reallocations"] == 0
+    assert scarce.stats["linear_solver"]["reallocations"] == 2
+    assert scarce.cost == default.cost and scarce.stats["iterations"] == default.stats["iterations"]
+    assert (scarce.x == default.x).all()
 
 
 def test_report_refuses_an_output_file_of_the_users(tmp_path):

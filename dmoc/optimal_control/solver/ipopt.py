@@ -34,8 +34,8 @@ from .violation import largest_violation, on_bound
 # iterations.
 # mumps_pivtol 1e-4 (IPOPT's 1e-6): pivots of at least 1e-4 of their column's largest entry,
 # accurate for IPOPT's residual ratio without iterative refinement at every N (with 1e-6 the
-# rolling disk, lobatto4, took 11, 16, 25, 60 back-solves for 6 factorizations at N = 100 ...
-# 800, at 800 9 factorizations; IPOPT's time grew as N^1.41, now N^1.15: peers.py nlp).
+# disk, lobatto4, grew as N^1.41: 11 ... 60 back-solves at N = 100 ... 800; peers.py nlp);
+# mumps_mem_percent 100 (IPOPT's 1000: page-faulted anew at each factorization, docs/stages/optimize.md).
 # fixed_variable_treatment make_parameter_nodual: IPOPT takes the fixed entries of x (the
 # given boundary data) out of its problem, as with its default make_parameter, but does not
 # compute their bound multipliers at every iteration (a gradient of f each); they are
@@ -43,7 +43,7 @@ from .violation import largest_violation, on_bound
 DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 0, "sb": "yes",
                          "max_iter": 1000, "bound_relax_factor": 0.0, "honor_original_bounds": "yes",
                          "mumps_permuting_scaling": 0, "mumps_pivot_order": 0, "mumps_pivtol": 1e-4,
-                         "fixed_variable_treatment": "make_parameter_nodual"}
+                         "mumps_mem_percent": 100, "fixed_variable_treatment": "make_parameter_nodual"}
 # per start (`start_options`): warm_start_init_point as above; and for a warm start
 # fast_step_computation "yes": IPOPT takes the solution of each KKT system as MUMPS returns
 # it, without computing its residual (nor refining it). On warm re-solves and MPC steps of

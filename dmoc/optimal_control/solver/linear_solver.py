@@ -1,8 +1,9 @@
 """What IPOPT's linear solver did in a solve (consumer 2, solver half): the factorizations of
-the KKT matrices, the increases of the pivot tolerance and the failed iterative
-refinements, which CasADi's `stats` do not carry. IPOPT writes them only to its detailed
-journal (print level 6); `dmoc.optimize` with ``options={"linear_solver_report": True}``
-has the solver append that journal to a file of its own and reads each solve's part back.
+the KKT matrices, the increases of the pivot tolerance, the failed iterative refinements
+and MUMPS's workspace reallocations, which CasADi's `stats` do not carry. IPOPT writes
+them only to its detailed journal (print level 6); `dmoc.optimize` with
+``options={"linear_solver_report": True}`` has the solver append that journal to a file of
+its own and reads each solve's part back.
 """
 
 import atexit
@@ -40,7 +41,9 @@ def linear_solver_report(path, start):
         ``factorizations`` (of the KKT matrix for the search directions, retries for
         the inertia included), ``pivot_tolerance_increases`` (each a refactorization
         after the iterative refinement failed), ``pivot_tolerance`` (the last value it was
-        raised to, or None), ``refinement_failures``.
+        raised to, or None), ``refinement_failures``, ``reallocations`` (factorizations
+        MUMPS stopped for want of workspace, IPOPT doubling ``mumps_mem_percent`` and
+        factorizing again).
     """
     with open(path, encoding="utf-8", errors="replace") as file:
         file.seek(start)
@@ -49,7 +52,8 @@ def linear_solver_report(path, start):
     return {"factorizations": sum(int(k) for k in _TRIALS.findall(text)),
             "pivot_tolerance_increases": len(increases),
             "pivot_tolerance": float(increases[-1][1]) if increases else None,
-            "refinement_failures": text.count("Iterative refinement failed")}
+            "refinement_failures": text.count("Iterative refinement failed"),
+            "reallocations": text.count("requires more memory, reallocating")}
 
 
 def remove_journal(path):
