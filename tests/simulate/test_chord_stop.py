@@ -79,7 +79,7 @@ def _eighth_updates(residual, stepper, monkeypatch):
 
 def test_steps_at_the_round_off_floor_stop_before_the_eighth_update(arm, monkeypatch):
     """Over these 60 steps no update is needed beyond the 7th: a step whose updates reach
-    their floor (up to 0.3 eps relative here, above CHORD_STOP_TOL) stops there. The stop
+    their floor (0.01-1 eps relative here, above CHORD_STOP_TOL) stops there. The stop
     at the geometric tail alone, as before, takes all 8 on 10 of them."""
     residual = step_residual(dmoc.discretize(arm[0], H))
     assert _eighth_updates(residual, DiracStepper(residual, 1e-12, 50), monkeypatch) == 0
