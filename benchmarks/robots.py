@@ -79,12 +79,12 @@ baseline's, and the largest difference from it.
 """
 
 import argparse
-import contextlib
 import os
 import pathlib
 import tempfile
 import time
 import timeit
+from unittest import mock
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -197,18 +197,12 @@ def fast_instructions(stepper, part=None):
     return sum(fast.find_function(name).n_instructions() for name in names)
 
 
-@contextlib.contextmanager
 def tail_stop():
     """The chord's stop before updates at the round-off floor counted (the baseline of
     `--versus-newton` and `--kept-jacobian`): a further update while the geometric tail at
     the last rate (`remaining_error`) exceeds CHORD_STOP_TOL, `tail_stopped` in place of
-    `chord_update.more_updates`."""
-    saved = fast_path.more_updates
-    fast_path.more_updates = tail_stopped
-    try:
-        yield
-    finally:
-        fast_path.more_updates = saved
+    `chord_update.more_updates` while the block runs."""
+    return mock.patch.object(fast_path, "more_updates", tail_stopped)
 
 
 def tail_stopped(last, before, rate_before):
@@ -216,16 +210,11 @@ def tail_stopped(last, before, rate_before):
     return chord_update.remaining_error(last, before) > chord_update.CHORD_STOP_TOL
 
 
-@contextlib.contextmanager
 def chord_before():
     """The chord's fast step before its updates stopped once converged (the baseline of
-    `--versus-newton` and `--breakdown`): `chord_before_step` in place of the fast path's."""
-    saved = fast_path._chord_step
-    fast_path._chord_step = chord_before_step
-    try:
-        yield
-    finally:
-        fast_path._chord_step = saved
+    `--versus-newton` and `--breakdown`): `chord_before_step` in place of the fast path's
+    while the block runs."""
+    return mock.patch.object(fast_path, "_chord_step", chord_before_step)
 
 
 def chord_before_step(stepper, rows, eliminate):
