@@ -28,21 +28,23 @@ seconds of one (IPOPT's time over its iterations). `--hessian limited-memory` so
 DMOC with IPOPT's quasi-Newton Hessian instead of the exact one.
 
 With `--versus-newton`, the compiled fast step's CPU time with the chord, with the chord
-stopping at the tail alone (`tail_stop`: a step whose updates reach the round-off floor above
-CHORD_STOP_TOL takes all 8), with the chord
-before its updates stopped once converged (all 8, J factorized by CasADi's QR: the
-baseline, `chord_before`), with the chord whose Jacobian is CasADi's automatic one (the
-chord before the spatial Jacobian) and with Newton's 3 updates (the fast path before the
-chord, its stepper built with the chord switched off), interleaved, the best of `--repeat` runs of `--steps` steps
-each from the same state as the timed runs, as ratios, with the largest difference of the
-runs' final states from the chord's and the log-log slope of each over the chains (and over 6+ joints) (`--no-compile`: in the virtual
-machine; `--smallest` also runs it so, at --repeat 1).
+stopping at the tail alone (`tail_stop`: a step whose updates reach their round-off floor
+above CHORD_STOP_TOL takes all 8), with the chord before its updates stopped once converged
+(all 8, J factorized by CasADi's QR: the baseline, `chord_before`), with the chord whose
+Jacobian is CasADi's automatic one (the chord before the spatial Jacobian) and with
+Newton's 3 updates (the fast path before the chord, its stepper built with the chord
+switched off), interleaved, the best of `--repeat` runs of `--steps` steps each from the
+same state as the timed runs, as ratios, with the largest difference of the runs' final
+states from the chord's and the log-log slope of each over the chains (and over 6+ joints)
+(`--no-compile`: in the virtual machine; `--smallest` also runs it so, at --repeat 1).
 
 With `--kept-jacobian` (in `--smallest` for 6 joints), how many chord updates a step takes
 (until the error they leave is at most CHORD_UPDATE_TOL) with J fresh at the warm start
 (the baseline, as the fast path has it), with J kept across steps and refactorized after
 a step of more than 6 updates or a rate above 0.01 (as stiff ODE codes keep it), and fresh
-at the warm start extrapolated from the two previous steps, 2 dq_{k-1} - dq_{k-2}.
+at the warm start extrapolated from the two previous steps, 2 dq_{k-1} - dq_{k-2}; and how
+many the fast path takes (J fresh, at most 8: `chord_update.more_updates`), and took
+stopping at the tail alone (`tail_stopped`).
 
 With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
 file as a fixed-base robot (the baseline: the wheels spin in the air) and on its wheels
@@ -275,7 +277,8 @@ def versus_newton(system, steps, repeat, compile_):
             best[k] = min(best[k], (time.process_time() - tic) / steps)
             assert failed is None and len(acc) == steps + 1
             final[k] = acc[-1, :2 * n]
-    return {**best, "differences": {k: np.abs(final["chord"] - final[k]).max() for k in final if k != "chord"}}
+    others = [k for k in final if k != "chord"]
+    return {**best, "differences": {k: np.abs(final["chord"] - final[k]).max() for k in others}}
 
 
 def kept_jacobian(system, steps):
@@ -306,7 +309,8 @@ def kept_jacobian(system, steps):
                 if error <= chord_update.CHORD_UPDATE_TOL:
                     found.setdefault("tol", (k, rate))
                 for way, more in (("stop", chord_update.more_updates), ("tail stop", tail_stopped)):
-                    if not float(more(*map(ca.DM, (last, before, rate_before)))) or k == chord_update.CHORD_ITERATIONS:
+                    stopped = not float(more(*map(ca.DM, (last, before, rate_before))))
+                    if stopped or k == chord_update.CHORD_ITERATIONS:
                         found.setdefault(way, k)
                 if len(found) == 3:
                     break
@@ -314,7 +318,8 @@ def kept_jacobian(system, steps):
             before = last
         return (*found.get("tol", (k, rate)), found["stop"], found["tail stop"])
 
-    counts, kept, refreshed = {way: [] for way in ("fresh", "kept", "extrapolated", "stop", "tail stop")}, None, 0
+    ways = ("fresh", "kept", "extrapolated", "stop", "tail stop")
+    counts, kept, refreshed = {way: [] for way in ways}, None, 0
     for k in range(2, steps):
         p = np.concatenate([traj.q[k], traj.p[k], np.zeros(system.n_u), [H]])
         last, earlier = traj.q[k] - traj.q[k - 1], traj.q[k - 1] - traj.q[k - 2]

@@ -84,9 +84,9 @@ def _chord_step(stepper, rows, eliminate):
     more, each of these through a conditional (CasADi's Switch: C's ``if`` when compiled)
     that takes it only while the error the updates leave exceeds CHORD_STOP_TOL
     (`more_updates`, from the last update's size and rate and the rate before), and an SX
-    Function of the step's end; the SX ones after ``ca.cse`` with
-    `eliminate`. A step pays for the updates it needs, and the compiled code holds one
-    update's instructions, not CHORD_ITERATIONS copies."""
+    Function of the step's end; the SX ones after ``ca.cse`` with `eliminate`. A step pays
+    for the updates it needs, and the compiled code holds one update's instructions, not
+    CHORD_ITERATIONS copies."""
     state, u, h, params, guess = stepper.symbols(ca.SX)
     ys, ps, g, J = rows
     factors = ca.Function("chord_factors", [ys, ps],
@@ -107,7 +107,7 @@ def _chord_step(stepper, rows, eliminate):
         "chord_if_needed", [ca.Function("chord_kept", carried, carried[:5])], further)
     state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
     params, y, last, L, U = start(state, u, h)
-    rate, error, more = ca.MX(ca.inf), ca.MX(ca.inf), ca.MX(1)  # error, more: not read by `further`
+    rate, error, more = ca.MX(ca.inf), ca.MX(ca.inf), ca.MX(1)   # no rate yet; error, more unread
     for _ in range(FIRST_CHORD_UPDATES - 1):
         y, last, rate, error, more = further(y, last, rate, error, more, params, L, U)
     for _ in range(CHORD_ITERATIONS - FIRST_CHORD_UPDATES):
