@@ -28,19 +28,23 @@ seconds of one (IPOPT's time over its iterations). `--hessian limited-memory` so
 DMOC with IPOPT's quasi-Newton Hessian instead of the exact one.
 
 With `--versus-newton`, the compiled fast step's CPU time with the chord, with the chord
-before its updates stopped once converged (all 8, J factorized by CasADi's QR: the
-baseline, `chord_before`), with the chord whose Jacobian is CasADi's automatic one (the
-chord before the spatial Jacobian) and with Newton's 3 updates (the fast path before the
-chord, its stepper built with the chord switched off), interleaved, the best of `--repeat` runs of `--steps` steps
-each from the same state as the timed runs, as ratios, with the largest difference of the
-runs' final states and the log-log slope of each over the chains (and over 6+ joints) (`--no-compile`: in the virtual
-machine; `--smallest` also runs it so, at --repeat 1).
+stopping at the tail alone (`tail_stop`: a step whose updates reach their round-off floor
+above CHORD_STOP_TOL takes all 8), with the chord before its updates stopped once converged
+(all 8, J factorized by CasADi's QR: the baseline, `chord_before`), with the chord whose
+Jacobian is CasADi's automatic one (the chord before the spatial Jacobian) and with
+Newton's 3 updates (the fast path before the chord, its stepper built with the chord
+switched off), interleaved, the best of `--repeat` runs of `--steps` steps each from the
+same state as the timed runs, as ratios, with the largest difference of the runs' final
+states from the chord's and the log-log slope of each over the chains (and over 6+ joints)
+(`--no-compile`: in the virtual machine; `--smallest` also runs it so, at --repeat 1).
 
 With `--kept-jacobian` (in `--smallest` for 6 joints), how many chord updates a step takes
 (until the error they leave is at most CHORD_UPDATE_TOL) with J fresh at the warm start
 (the baseline, as the fast path has it), with J kept across steps and refactorized after
 a step of more than 6 updates or a rate above 0.01 (as stiff ODE codes keep it), and fresh
-at the warm start extrapolated from the two previous steps, 2 dq_{k-1} - dq_{k-2}.
+at the warm start extrapolated from the two previous steps, 2 dq_{k-1} - dq_{k-2}; and how
+many the fast path takes (J fresh, at most 8: `chord_update.more_updates`), and took
+stopping at the tail alone (`tail_stopped`).
 
 With `--mobile` (and in `--smallest`), the shipped mobile manipulator `mobile_arm` twice: its
 file as a fixed-base robot (the baseline: the wheels spin in the air) and on its wheels
@@ -77,12 +81,12 @@ baseline's, and the largest difference from it.
 """
 
 import argparse
-import contextlib
 import os
 import pathlib
 import tempfile
 import time
 import timeit
+from unittest import mock
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -195,16 +199,24 @@ def fast_instructions(stepper, part=None):
     return sum(fast.find_function(name).n_instructions() for name in names)
 
 
-@contextlib.contextmanager
+def tail_stop():
+    """The chord's stop before updates at the round-off floor counted (the baseline of
+    `--versus-newton` and `--kept-jacobian`): a further update while the geometric tail at
+    the last rate (`remaining_error`) exceeds CHORD_STOP_TOL, `tail_stopped` in place of
+    `chord_update.more_updates` while the block runs."""
+    return mock.patch.object(fast_path, "more_updates", tail_stopped)
+
+
+def tail_stopped(last, before, rate_before):
+    """`chord_update.more_updates` before the round-off floor: the tail at the last rate."""
+    return chord_update.remaining_error(last, before) > chord_update.CHORD_STOP_TOL
+
+
 def chord_before():
     """The chord's fast step before its updates stopped once converged (the baseline of
-    `--versus-newton` and `--breakdown`): `chord_before_step` in place of the fast path's."""
-    saved = fast_path._chord_step
-    fast_path._chord_step = chord_before_step
-    try:
-        yield
-    finally:
-        fast_path._chord_step = saved
+    `--versus-newton` and `--breakdown`): `chord_before_step` in place of the fast path's
+    while the block runs."""
+    return mock.patch.object(fast_path, "_chord_step", chord_before_step)
 
 
 def chord_before_step(stepper, rows, eliminate):
@@ -234,12 +246,16 @@ def chord_before_step(stepper, rows, eliminate):
 def versus_newton(system, steps, repeat, compile_):
     """{"chord", "chord, AD", "Newton": the best CPU seconds of one fast step (compiled with
     `compile_`, else in the virtual machine) over `repeat` interleaved runs of `steps` steps
-    from q = 0.1 at rest, "difference": the largest of the final states' from the chord's},
+    from q = 0.1 at rest, "differences": {each other one: its final state's largest
+    difference from the chord's}}, "chord, tail stop" the chord stopped at the tail alone
+    (`tail_stop`),
     the "chord, AD" stepper's Jacobian by ``ca.jacobian`` instead of the spatial second
     variation (`step_jacobian`), the Newton stepper built with `uses_chord` switched off."""
     disc = dmoc.discretize(system, H)
     residual, chord, jacobian = step_residual(disc), stepper_module.uses_chord, fast_path.step_jacobian
     steppers = {"chord": DiracStepper(residual, 1e-12, 50, native=compile_)}
+    with tail_stop():
+        steppers["chord, tail stop"] = DiracStepper(residual, 1e-12, 50, native=compile_)
     with chord_before():
         steppers["chord before"] = DiracStepper(residual, 1e-12, 50, native=compile_)
     try:
@@ -261,7 +277,8 @@ def versus_newton(system, steps, repeat, compile_):
             best[k] = min(best[k], (time.process_time() - tic) / steps)
             assert failed is None and len(acc) == steps + 1
             final[k] = acc[-1, :2 * n]
-    return {**best, "difference": max(np.abs(final["chord"] - final[k]).max() for k in final)}
+    others = [k for k in final if k != "chord"]
+    return {**best, "differences": {k: np.abs(final["chord"] - final[k]).max() for k in others}}
 
 
 def kept_jacobian(system, steps):
@@ -280,8 +297,9 @@ def kept_jacobian(system, steps):
 
     def updates(y, p, inverse):
         """(updates until the error they leave is at most CHORD_UPDATE_TOL, the rate then,
-        the updates the fast path takes: until CHORD_STOP_TOL, at most CHORD_ITERATIONS)."""
-        before, found = None, {}
+        the updates the fast path takes, `chord_update.more_updates`, and those it took
+        stopping at the tail alone, `tail_stopped`: at most CHORD_ITERATIONS)."""
+        before, rate_before, found = None, np.inf, {}
         for k in range(1, 41):
             delta = inverse @ np.array(rows(y, p)).ravel()
             y = y - delta
@@ -290,25 +308,30 @@ def kept_jacobian(system, steps):
                 rate, error = last / before, float(chord_update.remaining_error(last, before))
                 if error <= chord_update.CHORD_UPDATE_TOL:
                     found.setdefault("tol", (k, rate))
-                if error <= chord_update.CHORD_STOP_TOL or k == chord_update.CHORD_ITERATIONS:
-                    found.setdefault("stop", k)
-                if len(found) == 2:
+                for way, more in (("stop", chord_update.more_updates), ("tail stop", tail_stopped)):
+                    stopped = not float(more(*map(ca.DM, (last, before, rate_before))))
+                    if stopped or k == chord_update.CHORD_ITERATIONS:
+                        found.setdefault(way, k)
+                if len(found) == 3:
                     break
+                rate_before = rate
             before = last
-        return (*found.get("tol", (k, rate)), found["stop"])
+        return (*found.get("tol", (k, rate)), found["stop"], found["tail stop"])
 
-    counts, kept, refreshed = {"fresh": [], "kept": [], "extrapolated": [], "stop": []}, None, 0
+    ways = ("fresh", "kept", "extrapolated", "stop", "tail stop")
+    counts, kept, refreshed = {way: [] for way in ways}, None, 0
     for k in range(2, steps):
         p = np.concatenate([traj.q[k], traj.p[k], np.zeros(system.n_u), [H]])
         last, earlier = traj.q[k] - traj.q[k - 1], traj.q[k - 1] - traj.q[k - 2]
         for way, y in (("fresh", last), ("extrapolated", 2 * last - earlier)):
-            counted, _, taken = updates(y, p, np.linalg.inv(np.array(jacobian(y, p))))
+            counted, _, taken, tail_taken = updates(y, p, np.linalg.inv(np.array(jacobian(y, p))))
             counts[way].append(counted)
             if way == "fresh":
                 counts["stop"].append(taken)
+                counts["tail stop"].append(tail_taken)
         if kept is None:
             kept = np.linalg.inv(np.array(jacobian(last, p)))
-        taken, rate, _ = updates(last, p, kept)
+        taken, rate, *_ = updates(last, p, kept)
         counts["kept"].append(taken)
         if taken > 6 or rate > 0.01:            # refactorize for the next step
             kept, refreshed = np.linalg.inv(np.array(jacobian(last, p))), refreshed + 1
@@ -318,30 +341,34 @@ def kept_jacobian(system, steps):
 def report_kept_jacobian(rows):
     print("Chord updates a step to leave CHORD_UPDATE_TOL (mean, largest):")
     print("| model | n | J fresh at the warm start | J kept across steps | refactorized | "
-          "fresh at the extrapolated warm start | the fast path's (fresh, to CHORD_STOP_TOL) |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+          "fresh at the extrapolated warm start | the fast path's (fresh, `more_updates`) | "
+          "stopped at the tail alone |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         v = r["kept"]
         print(f"| {r['model']} | {r['n']} | " + " | ".join(
             f"{v[way][0]:.2f}, {v[way][1]}" for way in ("fresh", "kept")) + f" | {v['refreshed']:.0%} | "
-            f"{v['extrapolated'][0]:.2f}, {v['extrapolated'][1]} | {v['stop'][0]:.2f}, {v['stop'][1]} |")
+            f"{v['extrapolated'][0]:.2f}, {v['extrapolated'][1]} | {v['stop'][0]:.2f}, {v['stop'][1]} | "
+            f"{v['tail stop'][0]:.2f}, {v['tail stop'][1]} |")
 
 
 def report_versus_newton(rows, compiled):
+    others = ("chord, tail stop", "chord before", "chord, AD", "Newton")
     print(f"Fast step, {'compiled' if compiled else 'virtual machine'}, CPU (best of interleaved runs):")
-    print("| model | n | chord | chord before | chord, AD Jacobian | Newton (3 updates) | ratios | "
-          "final states differ by |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| model | n | chord | chord, tail stop | chord before | chord, AD Jacobian | Newton (3 updates) "
+          "| ratios | final states differ by |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         v = r["versus"]
-        ratios = ", ".join(f"{v['chord'] / v[k]:.2f}" for k in ("chord before", "chord, AD", "Newton"))
-        print(f"| {r['model']} | {r['n']} | {v['chord'] * 1e6:.3f} us | {v['chord before'] * 1e6:.3f} us | "
-              f"{v['chord, AD'] * 1e6:.3f} us | {v['Newton'] * 1e6:.3f} us | {ratios} | {v['difference']:.1e} |")
+        ratios = ", ".join(f"{v['chord'] / v[k]:.2f}" for k in others)
+        differences = ", ".join(f"{v['differences'][k]:.1e}" for k in others)
+        print(f"| {r['model']} | {r['n']} | " + " | ".join(f"{v[k] * 1e6:.3f} us" for k in ("chord", *others))
+              + f" | {ratios} | {differences} |")
     for label, chosen in (("", rows), (" over 6+ joints", [r for r in rows if r["n"] >= 6])):
         if len(chosen) >= 2:
             print(f"log-log slopes{label}: " + ", ".join(
                 f"{k} {slope([{'n': r['n'], k: r['versus'][k]} for r in chosen], k):.2f}"
-                for k in ("chord", "chord before", "chord, AD", "Newton")))
+                for k in ("chord", *others)))
 
 
 def measure(name, path, args, wheels=None):

@@ -13,8 +13,8 @@ conditionals call the SX Function of an update while the updates have not conver
 import casadi as ca
 
 from .._util import typed_ops
-from .chord_update import (CHORD_ITERATIONS, CHORD_STOP_TOL, FIRST_CHORD_UPDATES, chord_delta,
-                           chord_factors, chord_suited, remaining_error)
+from .chord_update import (CHORD_ITERATIONS, FIRST_CHORD_UPDATES, chord_delta, chord_factors,
+                           chord_suited, more_updates, remaining_error)
 from .schur_complement import newton_update
 from .step_jacobian import step_jacobian
 
@@ -82,10 +82,11 @@ def _chord_step(stepper, rows, eliminate):
     shares the rows' pass at the warm start with dg/dy), then the SX Function of one update
     FIRST_CHORD_UPDATES - 1 times and up to CHORD_ITERATIONS - FIRST_CHORD_UPDATES times
     more, each of these through a conditional (CasADi's Switch: C's ``if`` when compiled)
-    that takes it only while the error the updates leave (`remaining_error`) exceeds
-    CHORD_STOP_TOL, and an SX Function of the step's end; the SX ones after ``ca.cse`` with
-    `eliminate`. A step pays for the updates it needs, and the compiled code holds one
-    update's instructions, not CHORD_ITERATIONS copies."""
+    that takes it only while the error the updates leave exceeds CHORD_STOP_TOL
+    (`more_updates`, from the last update's size and rate and the rate before), and an SX
+    Function of the step's end; the SX ones after ``ca.cse`` with `eliminate`. A step pays
+    for the updates it needs, and the compiled code holds one update's instructions, not
+    CHORD_ITERATIONS copies."""
     state, u, h, params, guess = stepper.symbols(ca.SX)
     ys, ps, g, J = rows
     factors = ca.Function("chord_factors", [ys, ps],
@@ -96,19 +97,21 @@ def _chord_step(stepper, rows, eliminate):
     y, last = _iterated(lambda y: chord(y, params, *factorized), guess, 1)
     begun = [params, y, last, *factorized]
     start = ca.Function("chord_start", [state, u, h], ca.cse(begun) if eliminate else begun)
-    last, error = ca.SX.sym("last"), ca.SX.sym("error")
+    last, rate, error, more = (ca.SX.sym(name) for name in ("last", "rate", "error", "more"))
     y, relative = _iterated(lambda y: chord(y, ps, L, U), ys, 1)
-    carried = [ys, last, error, ps, L, U]
-    further = ca.Function("chord_further", carried, [y, relative, remaining_error(relative, last)])
+    carried = [ys, last, rate, error, more, ps, L, U]
+    further = ca.Function("chord_further", carried, [
+        y, relative, relative / last, remaining_error(relative, last),
+        more_updates(relative, last, rate)])
     if_needed = ca.Function.conditional(
-        "chord_if_needed", [ca.Function("chord_kept", carried, carried[:3])], further)
+        "chord_if_needed", [ca.Function("chord_kept", carried, carried[:5])], further)
     state, u, h = ca.MX.sym("state", state.numel()), ca.MX.sym("u", u.numel()), ca.MX.sym("h")
     params, y, last, L, U = start(state, u, h)
-    error = ca.MX(ca.inf)                         # not read by `further`, which takes `last`
+    rate, error, more = ca.MX(ca.inf), ca.MX(ca.inf), ca.MX(1)   # no rate yet; error, more unread
     for _ in range(FIRST_CHORD_UPDATES - 1):
-        y, last, error = further(y, last, error, params, L, U)
+        y, last, rate, error, more = further(y, last, rate, error, more, params, L, U)
     for _ in range(CHORD_ITERATIONS - FIRST_CHORD_UPDATES):
-        y, last, error = if_needed(error > CHORD_STOP_TOL, y, last, error, params, L, U)
+        y, last, rate, error, more = if_needed(more, y, last, rate, error, more, params, L, U)
     outputs = _ends(stepper, eliminate)(state, u, h, y, error)
     return ca.Function("dirac_step_fast", [state, u, h], outputs, ["state", "u", "h"], ["next", "out"])
 
