@@ -179,8 +179,8 @@ class FloatingBaseRobot:
 
     def step_failure_hint(self, q, p, h):
         """What a failed step at the state (q, p) with step h suggests: the base's and the
-        joints' velocities (Omega, p', s') = M(q)^-1 p, the fastest turning among them and
-        the joints' friction against h, and the conditioning of M(q) (`generalized_mass`);
+        joints' velocities (Omega, p', s') = M(q)^-1 p, the fastest turning among them
+        against h, and the conditioning of M(q) (`generalized_mass`);
         no gravity mode (the robot falls as a whole in a uniform field).
 
         Parameters
@@ -196,10 +196,9 @@ class FloatingBaseRobot:
         str
         """
         M = np.array(self.generalized_mass(np.asarray(q, float)))
-        D = np.diag(np.concatenate([np.zeros(6), self.friction]))
         units = ("rad",) * 3 + ("m",) * 3 + tuple(j.units[0] for j in self.joints)
         turning = np.array([True] * 3 + [False] * 3 + [True] * len(self.joints))
-        return explained(M, np.asarray(p, float), float(h), BASE_VELOCITY + self.names, units, D,
+        return explained(M, np.asarray(p, float), float(h), BASE_VELOCITY + self.names, units,
                          turning=turning)
 
     def __repr__(self):
