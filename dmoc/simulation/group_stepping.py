@@ -88,7 +88,9 @@ def simulate_on_group(disc, *, q0, v0=None, p0=None, steps, controls=None, varia
                       time.perf_counter() - tic)
     if stopped:
         return interrupted_result(traj, stats, throw)
-    return finished_result(traj, stats, failed_rnorm, tol, throw)
+    explain = getattr(body, "step_failure_hint", None)     # a FloatingBaseRobot's reading
+    hint = explain(q[k], p[k], disc.h) if explain and k < steps else None
+    return finished_result(traj, stats, failed_rnorm, tol, throw, hint)
 
 
 def _start(disc, q0, v0, p0):

@@ -268,3 +268,22 @@ def test_free_floating_arm_turns_its_base_at_zero_momentum():
     # measured: 0.021 rad from R_goal, joints 0.037 rad from the start (h = 0.3 s)
     assert np.linalg.norm(pin.log3(R_goal.T @ R_end)) < 0.03, R_end
     assert np.abs(x_end[3:]).max() < 0.05, x_end
+
+
+def test_a_step_too_large_for_the_motion_is_explained():
+    """A failed step on the floating base names the base's and the joints' velocities and
+    the likely cause: h against the fastest turning speed (here the base's |Omega_3| = 9.2
+    rad/s, not its 9.7 m/s along x, a translation), not a gravity mode (the robot falls as
+    a whole); at the h it advises the same second of motion converges."""
+    robot = dmoc.FloatingBaseRobot(PATH)
+    start = dict(q0=(np.eye(3), np.array([0.1, 0.2, -0.3, 0.4, -0.6])),
+                 v0=np.array([2.74, -4.6, -9.18, -9.67, 6.27, 8.26, 2.13, 4.59]))
+    with pytest.raises(dmoc.SolverError) as failure:
+        dmoc.simulate(dmoc.discretize(robot, 0.1), steps=10, **start)
+    message = str(failure.value)
+    assert ("joint velocities at the last accepted step: Omega_1 2.74 rad/s, Omega_2 -4.6 rad/s, "
+            "Omega_3 -9.18 rad/s, x -9.67 m/s") in message and "elbow 4.59 rad/s" in message
+    assert "likely cause: h = 0.1 is too large for the fastest motion (h times its rate 9.18/s" in message
+    assert "gravity mode" not in message
+    advised = float(message.split("take h <= ")[1].split(",")[0])
+    assert dmoc.simulate(dmoc.discretize(robot, advised), steps=int(1 / advised), **start).success

@@ -310,6 +310,33 @@ def test_a_step_too_large_for_the_motion_is_explained():
     assert failure.value.result.status == "newton_failed"
 
 
+def test_joint_friction_is_not_taken_for_the_fastest_motion():
+    """arm6's damping (0.05 N m s on the wrists, whose inertia about the axis is 2.3e-4
+    kg m^2: a friction rate of 218/s) pushed by torques past what h = 0.05 resolves: the
+    hint names the rate of the motion, the largest joint speed or gravity mode read from
+    Pinocchio at the last accepted state (friction, linear in v, adds -D/2 to the step's
+    Jacobian, the sign of -M/h, and never makes a step harder), and at the h it advises
+    the same 1.2 s converges. Before, it named the friction rate and advised h <= 0.0011."""
+    path = example_urdf("arm6")
+    arm, (model, data) = dmoc.RobotSystem(path), pinocchio_model(path)
+    start = dict(q0=[0.1, -0.6, 1.0, -0.4, 0.3, 0.0], v0=[0.5, 0.0, -0.5, 0.3, 0.0, 1.0])
+    u = [2.0, 10.0, 5.0, 0.5, 0.1, 0.01]
+    failed = dmoc.simulate(dmoc.discretize(arm, 0.05), steps=24, controls=np.tile(u, (24, 1)),
+                           throw=False, jit=False, **start)
+    assert failed.status == "newton_failed"
+    q, p = failed.trajectory.q[-1], failed.trajectory.p[-1]
+    M = symmetric(pin.crba(model, data, q))
+    K = pin.computeGeneralizedGravityDerivatives(model, data, q)
+    rate = max(np.abs(np.linalg.solve(M, p)).max(),
+               np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(M, K))).max()))
+    assert np.abs(np.linalg.eigvals(np.linalg.solve(M, np.diag(model.damping)))).max() > 2 * rate
+    assert f"(h times its rate {rate:.3g}/s is {0.05 * rate:.2g})" in failed.message
+    advised = float(failed.message.split("take h <= ")[1].split(",")[0])
+    steps = int(round(1.2 / advised))
+    assert dmoc.simulate(dmoc.discretize(arm, advised), steps=steps, jit=False,
+                         controls=np.tile(u, (steps, 1)), **start).success
+
+
 NEAR_SINGULAR_URDF = """<?xml version="1.0"?>
 <robot name="weightless_forearm">
   <link name="base"/>

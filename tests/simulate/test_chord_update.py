@@ -79,6 +79,27 @@ def test_a_kick_the_chord_does_not_converge_is_redone_by_newton():
         assert np.abs(traj.p[k + 1] - p[1]).max() < 1e-12
 
 
+def test_a_vanishing_leading_pivot_is_redone_by_newton():
+    """Pendulum 0 inverted (its unstable rate lambda, lambda^2 = -V''_00) and h = 2/lambda:
+    the step's leading pivot J_00 = -1/h - h/4 V''_00 at the warm start (at rest, dq = 0)
+    is zero, elimination without pivoting divides by it and the fast step turns
+    non-finite, while J is nonsingular through the coupling -h/4 V''_0j. The line-search
+    Newton redoes such steps: the trajectory is scipy's."""
+    q0, v0 = np.array([np.pi - 0.3, 0.2, -0.1, 0.3, 0.0]), np.zeros(N)
+    V00 = np.cos(q0[0]) + KAPPA * np.cos(q0[0] - q0[1:]).sum()      # d^2V/dq_0^2 < 0
+    h = 2 / np.sqrt(-V00)
+    assert abs(-1 / h - h / 4 * V00) <= 1e-15 / h
+    disc = dmoc.discretize(_coupled_pendulums(), h)
+    stepper = DiracStepper(step_residual(disc), 1e-12, 50)
+    _, out = stepper.fast(np.concatenate([q0, v0, np.zeros(N)]), np.zeros(N), h)
+    assert float(out[stepper.out.slice("nonfinite").start]) > 0       # the chord's step 0
+    res = dmoc.simulate(disc, q0=q0, v0=v0, steps=6, jit=False)
+    assert res.success
+    q, p = _by_hand(q0, v0, np.zeros((6, N)), h)
+    assert np.abs(res.trajectory.q - q).max() < 1e-12
+    assert np.abs(res.trajectory.p - p).max() < 1e-12
+
+
 def test_chord_factors_solve_like_numpy():
     """J = (I + L) U without pivoting and its substitutions give numpy's J^{-1} g for a
     step-like J: a definite mass matrix over -h, a skew part and a small symmetric one."""

@@ -15,6 +15,10 @@ from ..rotations import matrix_of
 from ..system import _fingerprint
 from .link_recursion import energies, placement
 from .robot_system import read_model
+from .step_failure import explained
+
+# the names of the step velocity's base entries: the body angular velocity Omega, then p'
+BASE_VELOCITY = ("Omega_1", "Omega_2", "Omega_3", "x", "y", "z")
 
 
 class FloatingBaseRobot:
@@ -172,6 +176,30 @@ class FloatingBaseRobot:
                 R_i, o_i = placement(self.links, i, x[3:])
                 moment += link.mass * (o_i + ca.mtimes(R_i, ca.SX(link.center)))
         return x[:3] + ca.mtimes(R, moment) / self.mass
+
+    def step_failure_hint(self, q, p, h):
+        """What a failed step at the state (q, p) with step h suggests: the base's and the
+        joints' velocities (Omega, p', s') = M(q)^-1 p, the fastest turning among them
+        against h, and the conditioning of M(q) (`generalized_mass`);
+        no gravity mode (the robot falls as a whole in a uniform field).
+
+        Parameters
+        ----------
+        q : array_like, shape (9 + n_x,)
+            The last accepted configuration: the rows of R, then x = (p, s).
+        p : array_like, shape (n,)
+            Its momentum (Pi, p_x).
+        h : float
+
+        Returns
+        -------
+        str
+        """
+        M = np.array(self.generalized_mass(np.asarray(q, float)))
+        units = ("rad",) * 3 + ("m",) * 3 + tuple(j.units[0] for j in self.joints)
+        turning = np.array([True] * 3 + [False] * 3 + [True] * len(self.joints))
+        return explained(M, np.asarray(p, float), float(h), BASE_VELOCITY + self.names, units,
+                         turning=turning)
 
     def __repr__(self):
         return f"FloatingBaseRobot({str(self.path)!r}, n_x={self.n_x}, names={self.names})"

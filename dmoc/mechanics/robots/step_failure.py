@@ -1,7 +1,7 @@
 """Why a step of a robot's simulation may have failed, for the mechanics stage: from the
 last accepted state (q, p) and the step h, the joint velocities v = M(q)^-1 p, the fastest
 time scales of the motion against h, and the conditioning of the mass matrix M(q) of
-`RobotSystem` (L = 1/2 v^T M(q) v - V(q)).
+`RobotSystem` (L = 1/2 v^T M(q) v - V(q)) or of `FloatingBaseRobot`.
 """
 
 import numpy as np
@@ -35,25 +35,37 @@ def step_failure_hint(system, q, p, h):
     The rates compared with 1/h are the largest joint speed |v_i| (rad/s: the rotation of a
     step is h |v_i|) and the largest frequency omega of the linearized free motion about q,
     omega^2 the largest |eigenvalue| of M(q)^-1 K(q) with K = d^2V/dq^2 the stiffness of
-    gravity, and the largest friction rate, eigenvalue of M(q)^-1 D (D the joints' friction,
-    zero on a wheeled base's pose).
+    gravity. Not the joints' friction rates (eigenvalues of M(q)^-1 D): viscous friction is
+    linear in v and adds -D/2 to the step's Jacobian, the sign of its -M/h, so it never
+    makes a step harder to solve (the arm6 model's damping on its light wrist, a rate of
+    218/s, would have advised h <= 0.0011 where h = 0.01 converges).
     """
     M = np.array(system.mass_matrix(q))
+    return explained(M, p, h, system.names, system.units["q"], np.array(system.stiffness(q)))
+
+
+def explained(M, p, h, names, units, K=None, turning=None):
+    """The sentence of `step_failure_hint` from the mass matrix M (n, n) of the velocity
+    v = M^-1 p, p (n,) the momentum, the step h, the velocity's `names` and the `units` of
+    its coordinates (n,) and the stiffness of gravity K (n, n), None where gravity has none
+    (a floating base: in a uniform field it falls as a whole); `turning`, a boolean mask
+    (n,), picks the speeds that turn a body, whose h |v_i| is an angle (a floating base's
+    rotation and its joints, not its translation): then every speed is given with its unit.
+    Default: all."""
     v = np.linalg.solve(M, p)
     inertia = np.linalg.eigvalsh(M)
     condition = inertia[-1] / inertia[0] if inertia[0] > 0 else np.inf
-    K = np.array(system.stiffness(q))
-    omega = np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(M, K))).max())
-    D = np.zeros_like(M)                # friction acts on the joints, the last coordinates
-    D[len(M) - len(system.friction):, len(M) - len(system.friction):] = np.diag(system.friction)
-    damping = np.abs(np.linalg.eigvals(np.linalg.solve(M, D))).max()
-    fastest = int(np.argmax(np.abs(v)))
-    speeds = ", ".join(f"{name} {x:.3g}" for name, x in zip(system.names, v))
-    state = (f"joint velocities at the last accepted step: {speeds} "
-             f"({system.units['q'][fastest]}/s); M(q) has condition number {condition:.2g} "
-             f"(eigenvalues {inertia[0]:.2g} to {inertia[-1]:.2g}), the fastest gravity mode "
-             f"omega = {omega:.3g} rad/s")
-    rate = max(abs(v[fastest]), omega, damping)
+    omega = 0.0 if K is None else np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(M, K))).max())
+    speed = np.abs(v) if turning is None else np.where(turning, np.abs(v), 0.0)
+    fastest = int(np.argmax(speed))
+    speeds = ", ".join(f"{name} {x:.3g}" + ("" if turning is None else f" {unit}/s")
+                       for name, x, unit in zip(names, v, units))
+    state = (f"joint velocities at the last accepted step: {speeds}"
+             + (f" ({units[fastest]}/s)" if turning is None else "")
+             + f"; M(q) has condition number {condition:.2g} (eigenvalues {inertia[0]:.2g} to "
+             f"{inertia[-1]:.2g})" + ("" if K is None else f", the fastest gravity mode "
+                                                           f"omega = {omega:.3g} rad/s"))
+    rate = max(speed[fastest], omega)
     if condition > NEAR_SINGULAR:
         cause = ("likely cause: near-singular inertia, a link with (almost) no inertia about "
                  "a joint axis, whose joint speeds up without bound; give the links realistic "
