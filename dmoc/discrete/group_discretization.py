@@ -12,6 +12,7 @@ import numpy as np
 
 from .._util import checks
 from .._util.cache import BoundedCache
+from .._util.typed_ops import divide, minus, plus, times
 from ..mechanics.rigid_body import RigidBody
 from ..mechanics.robots.floating_base import FloatingBaseRobot
 from ..mechanics.rotations import cayley, cayley_half, cayley_inverse, matrix_of, split_configuration
@@ -100,13 +101,14 @@ class GroupDiscretization:
         q0, q1, F9 = ca.SX.sym("q0", n_q), ca.SX.sym("q1", n_q), ca.SX.sym("F", 9)
         u, h = ca.SX.sym("u", body.n_u), ca.SX.sym("h")
         (R0, x0), (R1, x1), F = split_configuration(q0), split_configuration(q1), matrix_of(F9)
-        dx = x1 - x0
+        dx = minus(x1, x0)        # SX arithmetic through typed_ops: the operators' nodes
         kinetic = (_chord_kinetic_term(body, dx, F, h) if isinstance(body, RigidBody)
                    else midpoint_kinetic_term(body.kinetic_energy, R0, x0, x1, F, h))
-        L_d = kinetic - h / 2 * (body.potential(R0, x0) + body.potential(R1, x1))
-        xi, v = cayley_inverse(F) / h, dx / h
-        f_minus, f_plus = (h / 2 * body.torque(R, xi, x, v, u) for R, x in ((R0, x0), (R1, x1)))
-        A = 0.5 * (body.constraint_matrix(q0) + body.constraint_matrix(q1))
+        half_h = divide(h, 2.0)
+        L_d = minus(kinetic, times(half_h, plus(body.potential(R0, x0), body.potential(R1, x1))))
+        xi, v = divide(cayley_inverse(F), h), divide(dx, h)
+        f_minus, f_plus = (times(half_h, body.torque(R, xi, x, v, u)) for R, x in ((R0, x0), (R1, x1)))
+        A = times(0.5, plus(body.constraint_matrix(q0), body.constraint_matrix(q1)))
         omega_d = ca.mtimes(A, ca.vertcat(xi, v))
         return (ca.Function("L_d", [q0, q1, F9, h], [L_d], ["q0", "q1", "F", "h"], ["L_d"]),
                 ca.Function("f_d", [q0, q1, F9, u, h], [f_minus, f_plus],

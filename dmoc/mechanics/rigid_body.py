@@ -7,6 +7,8 @@ Its Lagrangian is L = 1/2 Omega^T J Omega + 1/2 x'^T M x' - U(R, x) with R' = R 
 the discretization on the group is `dmoc.discrete.GroupDiscretization`.
 """
 
+import functools
+
 import casadi as ca
 import numpy as np
 
@@ -108,7 +110,7 @@ class RigidBody:
                                        problems, label=label)
         if problems:
             raise InputError(" ".join(problems))
-        q, p = ca.SX.sym("q", 9 + self.n_x), ca.SX.sym("p", self.n)
+        q = ca.SX.sym("q", 9 + self.n_x)
         on_q = {"R": matrix_of(q[:9]), "x": q[9:]}
         self.potential = self._full(user["potential"], ("R", "x"), sym)
         self.torque = self._full(user["torque"], ("R", "omega", "x", "v", "u"), sym)
@@ -118,23 +120,38 @@ class RigidBody:
         _check_rank(self.constraint_matrix, 9 + self.n_x, 0, problems)    # at random q, as on R^n
         if problems:
             raise InputError(" ".join(problems))
-        mass = ca.DM(np.asarray(block_diagonal(self.inertia, self.mass_matrix)))
-        velocity = ca.vertcat(sym["omega"], sym["v"])
-        self.kinetic_energy = ca.Function("T", [sym[k] for k in ("R", "x", "omega", "v")],
-                                          [0.5 * ca.bilin(mass, velocity, velocity)],
-                                          ["R", "x", "omega", "v"], ["T"])
-        self.generalized_mass = ca.Function("M", [q], [mass], ["q"], ["M"])
-        kinetic = 0.5 * ca.dot(p, ca.solve(mass, p))
-        self.energy = ca.Function("energy", [q, p], [kinetic + self.potential(on_q["R"], on_q["x"])],
-                                  ["q", "p"], ["E"])
-        self.key = _fingerprint(self.potential, self.torque, self.constraint_matrix, self.energy)
+        self._mass = ca.DM(np.asarray(block_diagonal(self.inertia, self.mass_matrix)))
+        self.generalized_mass = ca.Function("M", [q], [self._mass], ["q"], ["M"])
+        # the mass matrix (J and M as its constants) stands for the energy's data
+        self.key = _fingerprint(self.potential, self.torque, self.constraint_matrix, self.generalized_mass)
+
+    @functools.cached_property
+    def kinetic_energy(self):
+        """``T(R, x, omega, v)`` (made on first use: the body's discretization writes its
+        chord term from J and M, `GroupDiscretization`)."""
+        R, x, omega, v = (ca.SX.sym("R", 3, 3), ca.SX.sym("x", self.n_x), ca.SX.sym("omega", 3),
+                          ca.SX.sym("v", self.n_x))
+        velocity = ca.vertcat(omega, v)
+        return ca.Function("T", [R, x, omega, v], [0.5 * ca.bilin(self._mass, velocity, velocity)],
+                           ["R", "x", "omega", "v"], ["T"])
+
+    @functools.cached_property
+    def energy(self):
+        """``energy(q, p) -> E`` (made on first use: a solve neither reads)."""
+        q, p = ca.SX.sym("q", 9 + self.n_x), ca.SX.sym("p", self.n)
+        kinetic = 0.5 * ca.dot(p, ca.solve(self._mass, p))
+        return ca.Function("energy", [q, p], [kinetic + self.potential(matrix_of(q[:9]), q[9:])],
+                           ["q", "p"], ["E"])
 
     def _passed(self, names):
         """The arguments of a user callable: x and v only when the body has coordinates."""
         return tuple(k for k in names if self.n_x or k not in ("x", "v"))
 
     def _full(self, function, names, sym):
-        """`function` of the passed arguments as a Function of all of `names`."""
+        """`function` of the passed arguments as a Function of all of `names` (itself when
+        it takes them all)."""
+        if self._passed(names) == tuple(names):
+            return function
         out = function(*[sym[k] for k in self._passed(names)])
         label = function.name_out(0)
         return ca.Function(label, [sym[k] for k in names], [out], list(names), [label])
@@ -154,6 +171,8 @@ def check_allowed_velocity(body, q, v, given):
     """InputError unless the velocity v = (Omega, x') (3 + n_x,) satisfies the body's
     constraints at q (9 + n_x,), A(q) v = 0 to ALLOWED_VELOCITY; `given` names the
     arguments v came from."""
+    if not np.any(v):               # at rest: allowed whatever A (no evaluation)
+        return
     defect = np.abs(np.array(body.constraint_matrix(q)) @ v).max(initial=0.0)
     if defect > ALLOWED_VELOCITY * (1 + np.abs(v).max()):
         raise InputError(f"the velocity of {given} must satisfy the constraints A(q) v = 0 of "

@@ -289,9 +289,12 @@ def _check_rank(constraint_matrix, n, n_holonomic, problems):
     at random configurations (the step equations would then be singular)."""
     rng = np.random.default_rng(0)
     m = constraint_matrix.size1_out(0)
-    ranks = [np.linalg.matrix_rank(np.array(constraint_matrix(rng.normal(size=n)))) for _ in range(3)]
-    if m and max(ranks) < m:
+    # the 3 points in one call of the mapped Function, one rank of the stack
+    points = rng.normal(size=(3, n)).T
+    ranks = np.linalg.matrix_rank(np.stack(np.hsplit(np.array(constraint_matrix.map(3)(points)), 3))) \
+        if m else np.zeros(3, int)
+    if m and ranks.max() < m:
         rows = "`constraints` must have linearly independent rows" if not n_holonomic else \
             "the rows of `constraints` and of dg/dq of `holonomic` must be linearly independent"
-        problems.append(f"{rows}: A(q) has rank {max(ranks)} < m = {m} at random q; drop the "
+        problems.append(f"{rows}: A(q) has rank {ranks.max()} < m = {m} at random q; drop the "
                         f"redundant rows.")

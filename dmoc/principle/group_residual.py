@@ -8,13 +8,16 @@ the vector increment and the multipliers of each step; the optimizer imposes it 
 step (`dmoc.GroupOptimalControlProblem`) (docs/theory.md, "Rotations as group elements").
 """
 
+import functools
+
 import casadi as ca
 
 from .._util import checks
 from .._util.cache import BoundedCache
 from .._util.layout import Layout
+from .._util.typed_ops import minus, plus
 from ..discrete.group_discretization import GroupDiscretization
-from ..mechanics.rotations import cayley, hat, joined_configuration, split_configuration, vector_of
+from ..mechanics.rotations import cayley, hat, matrix_of, vector_of
 
 
 class GroupStepResidual:
@@ -30,7 +33,11 @@ class GroupStepResidual:
     increment dx_k = x_{k+1} - x_k, lam (m) the multipliers, u (n_u), h; r has 2n + m
     rows in the order of `row_layout`, ``"left"`` (n), ``"right"`` (n) and
     ``"constraint"`` (m). ``reconstruction(q0, f) -> q1`` gives q_{k+1} = (the rows of
-    R_k cay(f_{1:3}), x_k + dx_k).
+    R_k cay(f_{1:3}), x_k + dx_k), and ``stepped(q0, p0, f, p1, lam, u, h) -> (r, q1)``
+    both from one expression graph: the rows read R_{k+1} = R_k cay(f_{1:3}) too, so a
+    consumer that needs both (the NLP's step term, the simulator's step) inlines them once
+    (the rolling ball's step term: 318 operations instead of 397 with the two Functions
+    called apart, and its derivatives smaller alike).
 
     Attributes
     ----------
@@ -39,7 +46,9 @@ class GroupStepResidual:
         3 + n_x (momenta and increments), constraint rows, controls per step.
     inputs, row_layout : Layout
     rows : dict of slice
+    stepped : casadi.Function
     function, reconstruction : casadi.Function
+        Made from `stepped` on first use.
     key : tuple
 
     Notes
@@ -84,10 +93,24 @@ class GroupStepResidual:
                               ("lam", self.m), ("u", self.n_controls), ("h", 1)])
         self.row_layout = Layout([("left", self.n), ("right", self.n), ("constraint", self.m)])
         self.rows = self.row_layout.slices()
-        self.function, self.reconstruction = self._build(disc)
+        self.stepped = self._build(disc)
+
+    @functools.cached_property
+    def function(self):
+        """``(q0, p0, f, p1, lam, u, h) -> r``, the rows of `stepped` (made on first use: the
+        NLP and the simulator call `stepped`)."""
+        x = self.stepped.sx_in()
+        names = list(self.inputs.blocks)
+        return ca.Function("group_step_residual", x, [self.stepped(*x)[0]], names, ["r"])
+
+    @functools.cached_property
+    def reconstruction(self):
+        """``(q0, f) -> q1``, the q_{k+1} of `stepped` (made on first use)."""
+        x = self.stepped.sx_in()
+        return ca.Function("reconstruction", [x[0], x[2]], [self.stepped(*x)[1]], ["q0", "f"], ["q1"])
 
     def _build(self, disc):
-        x = {name: ca.SX.sym(name, self.inputs.numel(name)) for name in self.inputs.blocks}
+        x = self.inputs.split(ca.SX.sym("x", self.inputs.size))     # one symbol, split
         q0, h = x["q0"], x["h"]
         q1, F9, D1, D2 = trivialized_derivatives(disc, q0, x["f"], h)
         f_minus, f_plus = disc.discrete_force(q0, q1, F9, x["u"], h)
@@ -95,14 +118,11 @@ class GroupStepResidual:
         # no common-subexpression pass (0.5 ms of a 1.4 ms build): the NLP's derivatives of
         # r cost as much without it (16 more instructions of 256) and the compiled step
         # makes its own (`dmoc.simulation.fast_path`)
-        r = ca.vertcat(x["p0"] + D1 + f_minus - ca.mtimes(A0.T, x["lam"]),
-                       D2 + f_plus - x["p1"],
+        r = ca.vertcat(minus(plus(plus(x["p0"], D1), f_minus), ca.mtimes(A0.T, x["lam"])),
+                       minus(plus(D2, f_plus), x["p1"]),
                        disc.discrete_constraint(q0, q1, F9, h))
         names = list(self.inputs.blocks)
-        function = ca.Function("group_step_residual", [x[k] for k in names], [r], names, ["r"])
-        reconstruction = ca.Function("reconstruction", [x["q0"], x["f"]], [q1],
-                                     ["q0", "f"], ["q1"])
-        return function, reconstruction
+        return ca.Function("stepped_residual", [x[k] for k in names], [r, q1], names, ["r", "q1"])
 
     def __call__(self, *args, **blocks):
         """Evaluate R positionally in the order of `inputs` or by block name; returns r."""
@@ -127,16 +147,32 @@ def trivialized_derivatives(disc, q0, f, h):
     eps eta^ + O(eps^2)), F as (I - eps eta_0^) F (I + eps eta_1^): the same D_i from
     fewer operations."""
     n = disc.system.n
-    (R0, x0), F = split_configuration(q0), cayley(f[:3])
-    R1, x1 = ca.mtimes(R0, F), x0 + f[3:]
+    x0 = q0[9:]
+    x1 = plus(x0, f[3:])
     eta0, eta1 = ca.SX.sym("eta0", n), ca.SX.sym("eta1", n)
-    C0, C1 = (ca.DM.eye(3) + hat(eta[:3]) for eta in (eta0, eta1))
-    varied = disc.discrete_lagrangian(joined_configuration(ca.mtimes(R0, C0), x0 + eta0[3:]),
-                                      joined_configuration(ca.mtimes(R1, C1), x1 + eta1[3:]),
-                                      vector_of(ca.mtimes([C0.T, F, C1])), h)
+    R1, F9, start, end, increment = _varied_rotations()(q0[:9], f[:3], eta0[:3], eta1[:3])
+    varied = disc.discrete_lagrangian(ca.vertcat(start, plus(x0, eta0[3:])),
+                                      ca.vertcat(end, plus(x1, eta1[3:])), increment, h)
     eta = ca.vertcat(eta0, eta1)
     D = ca.substitute(ca.gradient(varied, eta), eta, ca.SX.zeros(2 * n))
-    return joined_configuration(R1, x1), vector_of(F), D[:n], D[n:]
+    return ca.vertcat(R1, x1), F9, D[:n], D[n:]
+
+
+@functools.cache
+def _varied_rotations():
+    """The Function (R_0, f, eta_0, eta_1) -> (R_1, F, R_0 C_0, R_1 C_1, C_0^T F C_1), each
+    matrix as its 9 entries row after row (`vector_of`): F = cay(f), R_1 = R_0 F and
+    C_i = I + eta_i^ (`trivialized_derivatives`). Fixed (no body's data), made once for
+    the process: its call inlines the same nodes as the products made op by op from
+    Python, at a fraction of their cost."""
+    R0, f = ca.SX.sym("R0", 9), ca.SX.sym("f", 3)
+    eta0, eta1 = ca.SX.sym("eta0", 3), ca.SX.sym("eta1", 3)
+    F, R = cayley(f), matrix_of(R0)
+    R1 = ca.mtimes(R, F)
+    C0, C1 = (ca.DM.eye(3) + hat(eta) for eta in (eta0, eta1))
+    return ca.Function("varied_rotations", [R0, f, eta0, eta1],
+                       [vector_of(R1), vector_of(F), vector_of(ca.mtimes(R, C0)),
+                        vector_of(ca.mtimes(R1, C1)), vector_of(ca.mtimes([C0.T, F, C1]))])
 
 
 _RESIDUALS = BoundedCache(16, "group_residuals")

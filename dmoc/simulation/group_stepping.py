@@ -42,8 +42,8 @@ class GroupStepper(DiracStepper):
         q0 = ca.SX.sym("q0", R.inputs.numel("q0"))
         u, h = ca.SX.sym("u", R.n_controls), ca.SX.sym("h")
         Y = self.unknowns.split(y)
-        r = R.function(q0, p0, Y["dq"], ca.SX.zeros(R.n), Y["nu"], u, h)
-        R1, x1 = split_configuration(R.reconstruction(q0, Y["dq"]))
+        r, q1 = R.stepped(q0, p0, Y["dq"], ca.SX.zeros(R.n), Y["nu"], u, h)
+        R1, x1 = split_configuration(q1)
         q1 = joined_configuration(orthogonalized(R1), x1)
         return ca.Function("step_equations", [y, ca.vertcat(q0, p0, u, h)],
                            [ca.vertcat(r[R.rows["left"]], r[R.rows["constraint"]]), p0, q1,

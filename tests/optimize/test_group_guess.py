@@ -52,3 +52,16 @@ def test_a_moving_end_keeps_the_constant_speed_there():
     up = Rotation.from_rotvec(TURN).as_matrix().T @ [0.0, 0.0, 1.0]       # e3 in the goal's body frame
     both = problem(omega_start=[0.0, 0.0, 0.5], omega_goal=-0.2 * up)
     assert np.abs(timing(both) - t).max() <= 1e-15
+
+
+def test_rotation_matrices_of_a_stack_are_each_rodrigues():
+    """`rotation_matrix` on a stack of rotation vectors (the geodesic's knots at once) gives
+    exp(phi^) of each (scipy's), the zero vector and one below 1e-12 included."""
+    from dmoc.optimal_control.statement.group_problem import rotation_matrix
+    phi = np.random.default_rng(3).normal(size=(4, 2, 3))
+    phi[0, 0], phi[0, 1] = 0.0, 1e-13
+    stacked = rotation_matrix(phi)
+    assert stacked.shape == (4, 2, 3, 3)
+    expected = Rotation.from_rotvec(phi.reshape(-1, 3)).as_matrix().reshape(4, 2, 3, 3)
+    assert np.abs(stacked - expected).max() <= 1e-15 * 4
+    assert np.array_equal(rotation_matrix(phi[2, 1]), stacked[2, 1])

@@ -46,3 +46,37 @@ def test_dmoc_refuses_missing_coordinates_and_velocities_that_slip():
     with pytest.raises(ValueError, match="constraints"):
         dmoc.GroupOptimalControlProblem(disc, 10, R_start=np.eye(3), R_goal=np.eye(3), x_start=[0, 0],
                                         x_goal=[1, 0], omega_start=[0.0, 1.0, 0.0])
+
+
+def test_the_geodesic_guess_starts_from_zero_multipliers_without_their_estimate(monkeypatch):
+    """From the geodesic guess (zero controls, so the cost h sum |u|^2 has zero gradient)
+    the least-squares multipliers of the equality rows are zero: the solve skips IPOPT's
+    estimate (`group_solving.GUESS_OPTIONS`) for the same iterates and optimum bit for bit
+    as IPOPT's default estimate gives. A problem with path constraints (inequality rows,
+    whose slacks' bound multipliers enter the estimate) keeps it. Both take the KKT
+    solutions without IPOPT's iterative refinement (`GUESS_OPTIONS`): the same iterations
+    and optimum to round-off as with it."""
+    from dmoc.optimal_control.solver import group_solving
+    body = dmoc.systems.chaplygin_sphere(INERTIA, MASS, RADIUS, torques=True)
+    goal = Rotation.from_rotvec([0.0, 0.0, np.pi / 2]).as_matrix()
+    ends = dict(R_start=np.eye(3), R_goal=goal, x_start=[0.0, 0.0], x_goal=[1.0, 0.5])
+    problem = dmoc.GroupOptimalControlProblem(dmoc.discretize(body, 0.4), 10, **ends)
+    given, real = [], group_solving.solve_with
+
+    def recorded(problem, T, options, start, **keywords):
+        given.append(options)
+        return real(problem, T, options, start, **keywords)
+    monkeypatch.setattr(group_solving, "solve_with", recorded)
+    skipped = group_solving.solve_on_group(problem)
+    estimated = group_solving.solve_on_group(problem, options={"constr_mult_init_max": 1e3})
+    assert given[0]["constr_mult_init_max"] == 0.0 and given[1]["constr_mult_init_max"] == 1e3
+    assert skipped.stats["iterations"] == estimated.stats["iterations"]
+    assert np.array_equal(skipped.x, estimated.x) and np.array_equal(skipped.lam_g, estimated.lam_g)
+    refined = group_solving.solve_on_group(problem, options={"fast_step_computation": "no"})
+    assert given[0]["fast_step_computation"] == "yes"
+    assert refined.stats["iterations"] == skipped.stats["iterations"]
+    assert np.abs(refined.x - skipped.x).max() <= 1e-12 and abs(refined.cost - skipped.cost) <= 1e-12
+    fenced = dmoc.GroupOptimalControlProblem(dmoc.discretize(body, 0.4), 10, **ends,
+                                             path_constraints=lambda R, x, u: x[1] - 2.0)
+    group_solving.solve_on_group(fenced)
+    assert "constr_mult_init_max" not in given[3] and given[3]["fast_step_computation"] == "yes"

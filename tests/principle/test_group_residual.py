@@ -76,6 +76,27 @@ def test_reconstruction_is_the_group_product():
     assert np.abs(R1 - R0 @ cayley(f)).max() <= 1e-15 * 8
 
 
+def test_stepped_gives_the_rows_and_the_group_product_from_one_graph():
+    """`stepped` returns the residual's rows and R_{k+1} = R_k cay(f) (the closed forms
+    above), and the NLP's step term that calls it inlines R_k cay(f) once: fewer
+    operations than its rows and a separate reconstruction (the term computed both apart
+    before)."""
+    residual = dmoc.group_step_residual(dmoc.discretize(forced_top(), H))
+    rng = np.random.default_rng(7)
+    R0 = Rotation.random(random_state=7).as_matrix()
+    p0, f, p1, u = rng.normal(size=3), 0.3 * rng.normal(size=3), rng.normal(size=3), rng.normal(size=3)
+    r, q1 = (np.array(v).ravel() for v in residual.stepped(R0.ravel(), p0, f, p1, [], u, H))
+    expected = closed_form(R0, p0, f, p1, u)
+    assert np.abs(r - expected).max() <= 1e-12 * (1 + np.abs(expected).max())
+    assert np.abs(q1.reshape(3, 3) - R0 @ cayley(f)).max() <= 1e-14
+    problem = dmoc.GroupOptimalControlProblem(dmoc.discretize(forced_top(), H), 3, R_start=np.eye(3),
+                                              R_goal=Rotation.from_rotvec([0.0, 0.0, 0.3]).as_matrix())
+    from dmoc.optimal_control.nlp.group_transcription import group_transcription
+    step = group_transcription(problem).separable.terms[0].function
+    apart = residual.function.n_instructions() + residual.reconstruction.n_instructions()
+    assert step.n_instructions() < apart        # apart: both, plus the cost and the differences
+
+
 def test_free_body_momentum_update_is_coadjoint():
     """On a solution of the left rows of the free body, Pi_{k+1} = F_k^T Pi_k (Moser-Veselov)."""
     from scipy.optimize import fsolve

@@ -120,11 +120,11 @@ def _step_term(problem, layouts, scales):
              "p1": ("x", X["p"][:, 1:]), "f": ("x", X["f"]), "lam": ("x", X["lam"]),
              "u": ("x", X["u"]), "h": ("p", P["h"])}
 
-    def body(s):
-        rows = R.function(s["q0"], s["p0"], s["f"], s["p1"], s["lam"], s["u"], s["h"])
-        return s["h"] * ca.sumsqr(s["u"]), ca.vertcat(rows, s["q1"] - R.reconstruction(s["q0"], s["f"]))
+    def body(s):        # the residual and R_k cay(f_k) from one graph (`GroupStepResidual.stepped`)
+        rows, q1 = R.stepped(s["q0"], s["p0"], s["f"], s["p1"], s["lam"], s["u"], s["h"])
+        return s["h"] * ca.sumsqr(s["u"]), ca.vertcat(rows, s["q1"] - q1)
     return slot_term("group_step", slots, body, np.vstack([G["dynamics"], G["group"]]),
-                     ("group_step", R.key), scales)
+                     ("group_step", R.key), scales, plain=True)
 
 
 def _goal_term(problem, layouts, scales):
@@ -144,7 +144,8 @@ def _goal_term(problem, layouts, scales):
         end = s["p"] - ca.mtimes(A(s["q"]).T, s["nu"])
         return 0, ca.vertcat(goal, x_N[given] - s["x_goal"], end[ends] - s["p_goal"])
     return slot_term("group_goal", slots, body, np.vstack([G["goal"], G["end"]]),
-                     ("group_goal", problem.residual.key, turned, tuple(given), tuple(ends)), scales)
+                     ("group_goal", problem.residual.key, turned, tuple(given), tuple(ends)), scales,
+                     plain=True)
 
 
 def _path_term(problem, layouts, scales):

@@ -54,7 +54,7 @@ DEFAULT_IPOPT_OPTIONS = {"tol": 1e-10, "constr_viol_tol": 1e-10, "print_level": 
 # MUMPS keeps its scaling of the KKT matrices (mumps_scaling 77): without it
 # (warm_options.py --arm '{"mumps_scaling": 0}') the LC circuit's re-solves at N = 100
 # took 24 iterations instead of 17 and ended 5e-10 from a cold solve's optimum. A first
-# solve keeps IPOPT's default.
+# solve keeps IPOPT's default (on the group: `group_solving.GUESS_OPTIONS`).
 # The barrier starts at mu_init 1e-6 and the warm start moves x, the slacks and the bound
 # multipliers off their bounds by at most 1e-8 (IPOPT's defaults 0.1 and 1e-3): with those
 # defaults IPOPT first leaves the active bounds and rows of the optimum it starts from, and
@@ -248,17 +248,17 @@ def packed_outputs(transcription, sol, inputs):
     x_norm1; `inputs` gives lbx, ubx, lbg and ubg (MX)."""
     sol = dict(sol)
     sol["on_bound"] = on_bound(sol["x"], inputs["lbx"], inputs["ubx"])
-    # the result's vectors unscaled: the products and quotients NumPy formed of the
-    # outputs before, the same bits; and the 1-norm of x, finite when x is
-    # (as MX constants, each product through `typed_ops`: the nodes of D * x)
-    D, R = ca.MX(ca.DM(transcription.x_scale)), ca.MX(ca.DM(transcription.g_scale))
-    sol["result_x"], sol["result_lam_x"] = typed_ops.times(D, sol["x"]), typed_ops.divide(sol["lam_x"], D)
-    sol["result_lam_g"] = typed_ops.times(R, sol["lam_g"])
+    # the result's vectors unscaled (as MX constants, each product through `typed_ops`: the
+    # bits of D * x; none for unit scales, the group's), and the 1-norm of x, finite when x is
+    D, R = (None if (v == 1).all() else ca.MX(ca.DM(v)) for v in (transcription.x_scale, transcription.g_scale))
+    sol["result_x"], sol["result_lam_x"] = ((sol["x"], sol["lam_x"]) if D is None else
+                                            (typed_ops.times(D, sol["x"]), typed_ops.divide(sol["lam_x"], D)))
+    sol["result_lam_g"] = sol["lam_g"] if R is None else typed_ops.times(R, sol["lam_g"])
     sol["x_norm1"] = ca.sum1(typed_ops.fabs(sol["result_x"]))
     n_g = transcription.g_layout.size
     if n_g:         # the rows unscaled: g / g_scale, the bounds likewise (powers of 2: exact)
-        sol["largest"], sol["row"] = largest_violation(n_g)(*(typed_ops.divide(v, R) for v in (
-            sol["g"], inputs["lbg"], inputs["ubg"])))
+        sol["largest"], sol["row"] = largest_violation(n_g)(*(
+            v if R is None else typed_ops.divide(v, R) for v in (sol["g"], inputs["lbg"], inputs["ubg"])))
     else:
         sol["largest"] = sol["row"] = ca.MX(0)
     return sol

@@ -22,12 +22,21 @@ def largest_violation(n_g):
     integer."""
     g, lbg, ubg = (ca.MX.sym(name, n_g) for name in ("g", "lbg", "ubg"))
     below, above = typed_ops.minus(lbg, g), typed_ops.minus(g, ubg)
-    violation = ca.if_else(typed_ops.plus(_is_nan(below), _is_nan(above)), ca.inf, ca.fmax(below, above))
+    violation = _if_else(typed_ops.plus(_is_nan(below), _is_nan(above)), ca.MX(ca.inf),
+                         ca.MX.binary(ca.OP_FMAX, below, above))
     worst = ca.mmax(violation)
-    violated = worst > 0
+    violated, zero = typed_ops.less(0.0, worst), ca.MX(0.0)
     return ca.Function("largest_violation", [g, lbg, ubg],
-                       [ca.if_else(violated, worst, 0), ca.if_else(violated, ca.find(violation == worst), 0)],
+                       [_if_else(violated, worst, zero),
+                        _if_else(violated, ca.find(typed_ops.equal(violation, worst)), zero)],
                        ["g", "lbg", "ubg"], ["largest", "row"])
+
+
+def _if_else(condition, if_true, if_false):
+    """MX: ``ca.if_else(condition, if_true, if_false)``, its nodes if_else_zero(c, a) +
+    if_else_zero(!c, b) made through the typed entry points (`typed_ops`)."""
+    return typed_ops.plus(ca.MX.binary(ca.OP_IF_ELSE_ZERO, condition, if_true),
+                          ca.MX.binary(ca.OP_IF_ELSE_ZERO, typed_ops.logic_not(condition), if_false))
 
 
 def _is_nan(v):

@@ -43,6 +43,8 @@ def free_goal_momentum(body, q_goal, v_goal, filled):
             raise InputError(f"{free_entries(which)} free (None) but the goal's velocity is not "
                              f"zero, and the body's mass matrix or constraint rows depend on "
                              f"them: give them, or bring the goal to rest.")
+    if not np.any(v_goal):          # at rest: zero whatever M (no evaluation)
+        return np.zeros(v_goal.size)
     return np.array(body.generalized_mass(filled)) @ v_goal
 
 

@@ -151,7 +151,7 @@ class GroupOptimalControlProblem:
         k/N: the default guess (R_start at every knot when the goal's rotation is free)."""
         phi = np.zeros(3) if self.R_goal is None else rotation_vector(self.R_start.T @ self.R_goal)
         shares = np.linspace(0.0, 1.0, self.steps + 1) if shares is None else shares
-        return np.array([self.R_start @ rotation_matrix(s * phi) for s in shares])
+        return self.R_start @ rotation_matrix(np.outer(shares, phi))
 
     def __repr__(self):
         return f"GroupOptimalControlProblem({self.disc!r}, steps={self.steps})"
@@ -198,12 +198,17 @@ def _refuse_violated_end(path, end, R, x):
 
 
 def rotation_matrix(phi):
-    """exp(phi^) by Rodrigues' formula, shape (3,) -> (3, 3)."""
-    angle = np.linalg.norm(phi)
-    K = np.array([[0, -phi[2], phi[1]], [phi[2], 0, -phi[0]], [-phi[1], phi[0], 0]])
-    if angle < 1e-12:
-        return np.eye(3) + K
-    return np.eye(3) + np.sin(angle) / angle * K + (1 - np.cos(angle)) / angle ** 2 * K @ K
+    """exp(phi^) by Rodrigues' formula, shape (3,) -> (3, 3), or a stack (..., 3) -> (...,
+    3, 3) at once (the geodesic's knots)."""
+    phi = np.asarray(phi, dtype=float)
+    angle = np.sqrt(np.sum(phi * phi, axis=-1))[..., None, None]
+    K = np.zeros(phi.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -phi[..., 2], phi[..., 1], -phi[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = phi[..., 2], -phi[..., 1], phi[..., 0]
+    small = angle < 1e-12                    # exp(phi^) = I + phi^ to round-off
+    turned = np.where(small, 1.0, angle)
+    return (np.eye(3) + np.where(small, 1.0, np.sin(turned) / turned) * K
+            + np.where(small, 0.0, (1 - np.cos(turned)) / turned ** 2) * (K @ K))
 
 
 def rotation_vector(R):
