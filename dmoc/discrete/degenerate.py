@@ -15,6 +15,12 @@ from ..errors import OrderReductionWarning
 
 SAMPLE_SEED = 20231
 SAMPLE_COUNT = 2
+# the rank's tolerance on the equilibrated d^2L/dv^2 (every row's largest entry about 1):
+# sqrt(eps), far from both a singular H (a singular value at round-off, eps times the
+# growth of the errors along the expression graph) and an H singular only because of the
+# units of its coordinates, which equilibration removes
+RANK_TOLERANCE = np.sqrt(np.finfo(float).eps)
+EQUILIBRATION_SWEEPS = 64
 
 _DEGENERATE = BoundedCache(32, "degenerate_lagrangians")
 
@@ -33,7 +39,21 @@ def is_degenerate(system):
     state of `sample_states` where it is finite (a Lagrangian singular on a thin set only,
     as L = v^4, counts as regular, and so does one not finite at any of them; a coordinate
     without inertia that the constraints tie to others, as a massless wheel's angle, does
-    not make L degenerate). A HamiltonianSystem never is."""
+    not make L degenerate). A HamiltonianSystem never is.
+
+    Notes
+    -----
+    Singularity does not depend on the units of the coordinates: changing them scales
+    v -> D v (D diagonal, positive) and the Hessian H -> D H D, which is singular exactly
+    when H is. The test is made as invariant: the rank is taken of H equilibrated
+    (`_equilibrated`: every nonzero row's largest entry 1), at the tolerance RANK_TOLERANCE.
+    A relative tolerance on H itself is not: the mass matrix M(q) of a regular robot is
+    positive definite, but a light, thin link makes its condition number 1e12 (its
+    inertia about its joint axis against the base's), and at a tolerance of 1e-10 the robot
+    was called degenerate; equilibrated, that M has condition number about 60, while the
+    degenerate Lagrangians of `dmoc.systems` (the LC circuit, point vortices) keep a
+    singular value at round-off, 2e-17 of the largest.
+    """
     if not hasattr(system, "lagrangian"):
         return False
     return _DEGENERATE.get(system.key, lambda: _rank_deficient(system))
@@ -48,9 +68,25 @@ def _rank_deficient(system):
         H, A = (np.array(a) for a in hessian(q0, v0))
         if np.all(np.isfinite(H)) and np.all(np.isfinite(A)):
             N = _kernel(A, system.n)
-            H = N.T @ H @ N
-            deficient.append(np.linalg.matrix_rank(H, tol=1e-10 * max(1.0, np.abs(H).max())) < N.shape[1])
+            H = _equilibrated(N.T @ H @ N)
+            deficient.append(np.linalg.matrix_rank(H, tol=RANK_TOLERANCE) < N.shape[1])
     return bool(deficient) and all(deficient)
+
+
+def _equilibrated(H):
+    """D H D for the symmetric H (k, k), D = diag(d) > 0 chosen by Ruiz's iteration
+    d_i <- d_i / sqrt(max_j |(D H D)_ij|) (D. Ruiz, A scaling algorithm to equilibrate both
+    rows and columns norms in matrices, RAL-TR-2001-034) until every nonzero row's largest
+    entry lies in [1/2, 2] (at most EQUILIBRATION_SWEEPS sweeps; each halves the logarithm
+    of a row's distance from 1). Zero rows stay zero. D H D is singular exactly when H is."""
+    d = np.ones(len(H))
+    for _ in range(EQUILIBRATION_SWEEPS):
+        row = np.abs(d[:, None] * H * d[None, :]).max(axis=1, initial=0.0)
+        row[row == 0.0] = 1.0
+        if np.all((row >= 0.5) & (row <= 2.0)):
+            break
+        d /= np.sqrt(row)
+    return d[:, None] * H * d[None, :]
 
 
 def _kernel(A, n):

@@ -19,8 +19,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import dmoc
+from dmoc._util.cache import BoundedCache
 from dmoc.discrete import QuadratureRule
 from dmoc.errors import OrderReductionWarning, ParasiticModeWarning
+from dmoc.principle import parasitic
 from dmoc.systems import knife_edge, lc_circuit, point_vortices
 
 PAIR = (1.0, 2.0)
@@ -146,6 +148,29 @@ def test_a_massless_coordinate_tied_by_a_constraint_keeps_the_order(rule, steps)
     assert abs(slope - disc.order) < 0.35, (errors, slope)
 
 
+@pytest.mark.parametrize("unit", [1e-7, 1.0, 1e7])
+def test_degeneracy_does_not_depend_on_the_units_of_a_coordinate(unit):
+    """Measuring q_1 in another unit (q_1 -> unit q_1) scales row and column 1 of
+    d^2L/dv^2 by `unit`, which keeps it singular or not. L = v_0^2/2 + unit^2 v_1^2/2
+    + cos q_0 has d^2L/dv^2 = diag(1, unit^2), positive definite: regular, the order of the
+    rule kept and no warning, at unit = 1e-7 and 1e7 too (a relative tolerance of 1e-10
+    on d^2L/dv^2 called both degenerate). The LC circuit with its capacitor charges in that
+    unit, L = L_0/2 v_L^2 - (unit q_1)^2/(2 C_1) - (unit q_2)^2/(2 C_2), A = [1, -unit,
+    -unit], has d^2L/dv^2 = diag(L_0, 0, 0), of rank 1 on the 2-dimensional ker A:
+    degenerate at every unit (lobatto3 keeps order 2, with the warning)."""
+    regular = dmoc.MechanicalSystem(lambda q, v: v[0] ** 2 / 2 + (unit * v[1]) ** 2 / 2 + ca.cos(q[0]), 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        disc = dmoc.discretize(regular, 0.1, "lobatto3")
+        dmoc.step_residual(disc)
+    assert disc.order == disc.rule.order == 4
+    circuit = dmoc.MechanicalSystem(
+        lambda q, v: 0.8 / 2 * v[0] ** 2 - (unit * q[1]) ** 2 / (2 * 0.5) - (unit * q[2]) ** 2 / (2 * 1.5),
+        3, constraints=lambda q: ca.horzcat(1, -unit, -unit))
+    with pytest.warns(OrderReductionWarning, match="has order 2, not 4"):
+        assert dmoc.discretize(circuit, 0.1, "lobatto3").order == 2
+
+
 def test_a_hamiltonian_discretization_declares_its_rule_order():
     system = dmoc.HamiltonianSystem(lambda q, p: p[0] ** 2 / 2 - ca.cos(q[0]), 1)
     assert dmoc.discretize(system, 0.1, "symplectic-euler").order == 1
@@ -212,6 +237,35 @@ def test_bounded_alternating_modes_do_not_warn(make, rule):
         warnings.simplefilter("ignore", OrderReductionWarning)
         warnings.simplefilter("error", ParasiticModeWarning)
         dmoc.step_residual(dmoc.discretize(make(), 0.1, rule))
+
+
+@pytest.mark.parametrize("rule", ["midpoint", "trapezoid", "lobatto3", "lobatto4"])
+def test_the_advice_of_the_warning_is_never_the_rule_in_use(monkeypatch, rule):
+    """With the growth made 19 (the measurement replaced: the advice is under test), the
+    warning under each rule names another rule to use, never the one in use."""
+    monkeypatch.setattr(parasitic, "_GROWTH", BoundedCache(4, "test_alternating_growth"))
+    monkeypatch.setattr(parasitic, "alternating_growth", lambda R, system, h: 19.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("ignore", OrderReductionWarning)
+        warnings.simplefilter("always", ParasiticModeWarning)
+        dmoc.step_residual(dmoc.discretize(one_form_system(), 0.1, rule))
+    message, = (str(w.message) for w in caught if w.category is ParasiticModeWarning)
+    assert f"`rule` {rule!r}" in message and "grew 19-fold" in message, message
+    advised = {name for name in dmoc.discrete.RULES if f"rule={name!r}" in message}
+    assert advised and rule not in advised, message
+
+
+def test_the_growth_is_measured_at_each_step_h(monkeypatch):
+    """The test's motion depends on h (its rate is measured at h, its step is at most
+    40 h): a discretization at another h is measured again, the same h is not."""
+    measured = []
+    monkeypatch.setattr(parasitic, "_GROWTH", BoundedCache(4, "test_alternating_growth"))
+    monkeypatch.setattr(parasitic, "alternating_growth", lambda R, system, h: measured.append(h) or 1.0)
+    for h in (0.1, 0.05, 0.1):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OrderReductionWarning)
+            dmoc.step_residual(dmoc.discretize(one_form_system(), h, "midpoint"))
+    assert measured == [0.1, 0.05]
 
 
 def test_lobatto4_on_a_nonlinear_one_form_stays_bounded():

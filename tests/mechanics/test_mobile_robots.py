@@ -238,6 +238,42 @@ def test_a_failed_step_reads_the_base_and_the_joints(robot):
     assert "arm_elbow 0.8" in hint
 
 
+def test_a_step_too_large_is_explained_in_the_units_of_each_speed(robot):
+    """At h = 0.2 the first step fails from wheel rates 20 and 30 rad/s: the hint gives the
+    base's x, y speeds in m/s and its heading's and the joints' in rad/s (at step 0 the last
+    accepted state is the start, whose velocity the wheel geometry gives), and it compares
+    h with the fastest turning speed, the right wheel's 30 rad/s, never with a speed in m/s;
+    at the h it advises the same second of motion converges."""
+    v0 = start_velocity(20.0, 30.0)
+    v0[5:] = (2.0, -3.0, 4.0)
+    start = dict(q0=START_Q, v0=v0)
+    with pytest.raises(dmoc.SolverError) as failure:
+        dmoc.simulate(dmoc.discretize(robot, 0.2), steps=5, **start)
+    message = str(failure.value)
+    speeds = ", ".join(f"{name} {x:.3g} {unit}/s" for name, x, unit in zip(
+        ("x", "y", "theta", "left_wheel", "right_wheel", "arm_yaw", "arm_shoulder", "arm_elbow"),
+        v0, ("m", "m") + ("rad",) * 6))
+    assert f"joint velocities at the last accepted step: {speeds};" in message, message
+    assert "h = 0.2 is too large for the fastest motion (h times its rate 30/s" in message, message
+    advised = float(message.split("take h <= ")[1].split(",")[0])
+    assert dmoc.simulate(dmoc.discretize(robot, advised), steps=int(np.ceil(1 / advised)), **start).success
+
+
+def test_the_base_driving_faster_than_anything_turns_is_not_a_rate():
+    """Wheels declared 2 m in radius, turning at 6 rad/s, drive the base straight at 12 m/s
+    (v in ker A, checked): 12 m/s is the largest speed but no rate (h times it is no angle);
+    the hint compares h with a turning speed or the gravity mode, at least the wheels'
+    6 rad/s."""
+    robot = dmoc.RobotSystem(PATH, wheels={"left_wheel": 2.0, "right_wheel": 2.0})
+    q = np.array([0.3, -0.2, 0.0, 0.0, 0.0, 0.2, 0.5, -0.8])
+    v = np.array([12.0, 0.0, 0.0, 6.0, 6.0, 0.0, 0.0, 0.0])
+    assert np.abs(np.array(robot.constraint_matrix(q)) @ v).max() < 1e-12
+    hint = robot.step_failure_hint(q, np.array(robot.mass_matrix(q)) @ v, 0.2)
+    assert hint.startswith("joint velocities at the last accepted step: x 12 m/s, "), hint
+    rate = float(hint.split("h times its rate ")[1].split("/s")[0])
+    assert 6.0 <= rate < 12.0, hint
+
+
 # ---------------------------------------------------------------------------------------
 # What the convention does not cover, refused with the reason
 

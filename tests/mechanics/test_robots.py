@@ -6,6 +6,8 @@ pendulum and arm converge at the rule's order to DOP853 on Pinocchio's forward d
 (`aba`); a rest-to-rest DMOC of the arm passes its verdict and its controls, integrated by
 DOP853 on Pinocchio's dynamics, reach the goal."""
 
+import warnings
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -373,6 +375,39 @@ def test_a_near_singular_inertia_is_named(tmp_path):
     assert result.status == "newton_failed"
     assert "M(q) has condition number 5e+08" in result.message
     assert "likely cause: near-singular inertia" in result.message
+
+
+THIN_TIP_URDF = """<?xml version="1.0"?>
+<robot name="thin_tip"><link name="base"/>
+<joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/>
+  <axis xyz="0 1 0"/><limit lower="-3" upper="3" velocity="3" effort="100"/></joint>
+<link name="arm"><inertial><origin xyz="0 0 -0.15"/><mass value="3"/>
+  <inertia ixx="0.0237" ixy="0" ixz="0" iyy="0.0237" iyz="0" izz="0.0024"/></inertial></link>
+<joint name="tip_roll" type="revolute"><parent link="arm"/><child link="tip"/>
+  <origin xyz="0 0 -0.3"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="3" effort="1"/></joint>
+<link name="tip"><inertial><origin xyz="0 0 -0.15"/><mass value="1e-3"/>
+  <inertia ixx="7.5e-6" ixy="0" ixz="0" iyy="7.5e-6" iyz="0" izz="5e-12"/></inertial></link>
+</robot>"""
+
+
+def test_a_light_thin_tip_leaves_the_robot_regular(tmp_path):
+    """A 3 kg arm carrying a 1 g tip of radius 0.1 mm that rolls about its own axis:
+    M(q) = diag(0.0237 + 3 0.15^2 + 7.5e-6 + 1e-3 0.45^2, 5e-12) (the roll's axis is the
+    tip's symmetry axis, so nothing couples it to the shoulder), positive definite with
+    condition number 1.8e10. The Lagrangian is regular: lobatto3 keeps its order 4, and
+    neither `discretize` nor a midpoint run warns (a relative rank tolerance of 1e-10 on
+    M called it degenerate, and a 6-joint chain with such a tip got a ParasiticModeWarning
+    advising the midpoint rule it was run with)."""
+    path = tmp_path / "thin_tip.urdf"
+    path.write_text(THIN_TIP_URDF)
+    robot = dmoc.RobotSystem(path)
+    M = np.diag([0.0237 + 3 * 0.15 ** 2 + 7.5e-6 + 1e-3 * 0.45 ** 2, 5e-12])
+    for q in ([0.1, 0.1], [-0.7, 2.0]):
+        np.testing.assert_allclose(np.array(robot.mass_matrix(q)), M, rtol=1e-12, atol=1e-22)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert dmoc.discretize(robot, 0.005, "lobatto3").order == 4
+        assert dmoc.simulate(dmoc.discretize(robot, 0.005), q0=[0.1, 0.1], v0=[0.0, 0.0], steps=5).success
 
 
 @pytest.mark.parametrize("call, match", [

@@ -197,9 +197,7 @@ class FloatingBaseRobot:
         """
         M = np.array(self.generalized_mass(np.asarray(q, float)))
         units = ("rad",) * 3 + ("m",) * 3 + tuple(j.units[0] for j in self.joints)
-        turning = np.array([True] * 3 + [False] * 3 + [True] * len(self.joints))
-        return explained(M, np.asarray(p, float), float(h), BASE_VELOCITY + self.names, units,
-                         turning=turning)
+        return explained(M, np.asarray(p, float), float(h), BASE_VELOCITY + self.names, units)
 
     def __repr__(self):
         return f"FloatingBaseRobot({str(self.path)!r}, n_x={self.n_x}, names={self.names})"

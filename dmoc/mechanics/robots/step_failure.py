@@ -32,8 +32,10 @@ def step_failure_hint(system, q, p, h):
 
     Notes
     -----
-    The rates compared with 1/h are the largest joint speed |v_i| (rad/s: the rotation of a
-    step is h |v_i|) and the largest frequency omega of the linearized free motion about q,
+    The rates compared with 1/h are the largest turning speed |v_i| (rad/s: the rotation of
+    a step is h |v_i|; a revolute or continuous joint's or a wheeled base's heading, not a
+    prismatic joint's or the base's x, y, in m/s, whose h |v_i| is no angle) and the largest
+    frequency omega of the linearized free motion about q,
     omega^2 the largest |eigenvalue| of M(q)^-1 K(q) with K = d^2V/dq^2 the stiffness of
     gravity. Not the joints' friction rates (eigenvalues of M(q)^-1 D): viscous friction is
     linear in v and adds -D/2 to the step's Jacobian, the sign of its -M/h, so it never
@@ -44,28 +46,24 @@ def step_failure_hint(system, q, p, h):
     return explained(M, p, h, system.names, system.units["q"], np.array(system.stiffness(q)))
 
 
-def explained(M, p, h, names, units, K=None, turning=None):
+def explained(M, p, h, names, units, K=None):
     """The sentence of `step_failure_hint` from the mass matrix M (n, n) of the velocity
     v = M^-1 p, p (n,) the momentum, the step h, the velocity's `names` and the `units` of
     its coordinates (n,) and the stiffness of gravity K (n, n), None where gravity has none
-    (a floating base: in a uniform field it falls as a whole); `turning`, a boolean mask
-    (n,), picks the speeds that turn a body, whose h |v_i| is an angle (a floating base's
-    rotation and its joints, not its translation): then every speed is given with its unit.
-    Default: all."""
+    (a floating base: in a uniform field it falls as a whole). Every speed is given with its
+    unit; only the turning speeds, those of coordinates in rad (joints and headings, not a
+    base's translation nor a prismatic joint), are rates whose h |v_i| is an angle."""
     v = np.linalg.solve(M, p)
     inertia = np.linalg.eigvalsh(M)
     condition = inertia[-1] / inertia[0] if inertia[0] > 0 else np.inf
     omega = 0.0 if K is None else np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(M, K))).max())
-    speed = np.abs(v) if turning is None else np.where(turning, np.abs(v), 0.0)
-    fastest = int(np.argmax(speed))
-    speeds = ", ".join(f"{name} {x:.3g}" + ("" if turning is None else f" {unit}/s")
-                       for name, x, unit in zip(names, v, units))
+    turning = np.where([unit == "rad" for unit in units], np.abs(v), 0.0)
+    speeds = ", ".join(f"{name} {x:.3g} {unit}/s" for name, x, unit in zip(names, v, units))
     state = (f"joint velocities at the last accepted step: {speeds}"
-             + (f" ({units[fastest]}/s)" if turning is None else "")
              + f"; M(q) has condition number {condition:.2g} (eigenvalues {inertia[0]:.2g} to "
              f"{inertia[-1]:.2g})" + ("" if K is None else f", the fastest gravity mode "
                                                            f"omega = {omega:.3g} rad/s"))
-    rate = max(speed[fastest], omega)
+    rate = max(turning.max(initial=0.0), omega)
     if condition > NEAR_SINGULAR:
         cause = ("likely cause: near-singular inertia, a link with (almost) no inertia about "
                  "a joint axis, whose joint speeds up without bound; give the links realistic "
