@@ -69,11 +69,12 @@ def _horizon(T, step, N):
     Newton's updates of (f, lam) are those of the whole square system, solved on the
     (n + m) square block of the left and constraint rows (7 x 7 on the rolling ball, by
     a QR Linsol; the simulator's cofactors, `schur_complement.newton_update`, take longer
-    to build), and q_{k+1}, p_{k+1} follow from the rows at q_{k+1} = p_{k+1} = 0. An
-    update and the last rows are MX Functions calling the local Jacobian's Function (rows
-    and nonzeros in one call) and the term's, not inlining them (the SX Functions that
-    inline them took 0.5 ms more to build, 0.08 ms less to run 20 steps); the Newton loop
-    calls the update, mapaccum'ed in the virtual machine. The group transcription has
+    to build), and q_{k+1}, p_{k+1} follow from the rows at q_{k+1} = p_{k+1} = 0. The
+    update is an MX Function calling the local Jacobian's Function (rows and nonzeros in
+    one call), not inlining it (the SX Functions that inline it took 0.5 ms more to
+    build, 0.08 ms less to run 20 steps); the step, mapaccum'ed in the virtual machine,
+    calls the update NEWTON_ITERATIONS times and the term's Function for the last rows
+    (two MX Functions to build, no third one for the end). The group transcription has
     unit scales, so z holds x's entries as they are."""
     local = local_derivatives(step.function, step.function_key)
     layout, R = T.x_layout, T.dynamics_rows
@@ -101,14 +102,14 @@ def _horizon(T, step, N):
     solve = ca.Linsol("replay_solve", "qr", block_jacobian.sparsity())
     update = ca.Function("replay_update", [S, Y, U, W],
                          [Y - solve.solve(block_jacobian, g[rows.tolist()])])
-    g = step.function(z_of, W)[1]
-    p1 = g[R.slice("right")]
-    finish = ca.Function("replay_end", [S, Y, U, W],
-                         [ca.vertcat(-g[R.size:], p1, Y), ca.norm_inf(g[rows.tolist()]),
-                          1 + ca.fmax(ca.norm_inf(S[n_q:]), ca.norm_inf(p1))])
-    state = ca.MX.sym("state", n_q + 2 * n + m)
-    start, y = state[:n_q + n], state[n_q + n:]
+    y = Y
     for _ in range(NEWTON_ITERATIONS):
-        y = update(start, y, U, W)
-    one = ca.Function("replay_step", [state, U, W], finish(start, y, U, W))
+        y = update(S, y, U, W)
+    # the step's end at the last y, in the step's Function itself (no Function of its own)
+    g = step.function(ca.vertcat(S, y, U, ca.MX(1, 1))[source], W)[1]
+    p1 = g[R.slice("right")]
+    state = ca.vertcat(S, Y)
+    one = ca.Function("replay_step", [state, U, W],
+                      [ca.vertcat(-g[R.size:], p1, y), ca.norm_inf(g[rows.tolist()]),
+                       1 + ca.fmax(ca.norm_inf(S[n_q:]), ca.norm_inf(p1))])
     return one.mapaccum("replay", N)

@@ -165,3 +165,20 @@ def test_a_judged_solve_builds_its_transcription_once(monkeypatch):
     result = dmoc.optimize(problem)
     assert result.verdict.passed and len(built) == 1
     assert judge_on_group(problem, result) == result.verdict and len(built) == 2
+
+
+def test_the_replay_builds_the_newton_update_and_the_step_only(monkeypatch, optimum):
+    """The replay's horizon makes two MX Functions, the Newton update and the step that
+    calls it NEWTON_ITERATIONS times and ends with the term's rows itself (no Function of
+    its own for the end), and replays the optimum onto itself."""
+    problem, result = optimum
+    made, real = [], ca.Function
+
+    def counted(*args, **keywords):
+        made.append(args[0])
+        return real(*args, **keywords)
+    monkeypatch.setattr(group_replay.ca, "Function", counted)
+    group_replay._HORIZONS.clear()
+    replay = group_replay.nlp_replay(problem, result.trajectory)
+    assert made == ["replay_update", "replay_step"]
+    assert np.abs(replay.q - result.trajectory.q).max() <= 1e-10
