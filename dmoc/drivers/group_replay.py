@@ -27,10 +27,10 @@ def nlp_replay(problem, traj, tol=1e-12, transcription=None):
     Step k solves the 2n + m rows of the residual and the 9 + n_x rows q_{k+1} - (R_k
     cay(f_k), x_k + dx_k) for (q_{k+1}, p_{k+1}, f_k, lam_k) at the replayed (q_k, p_k) and
     the optimum's u_k: NEWTON_ITERATIONS Newton updates of (f_k, lam_k) on the left and
-    constraint rows from the simulator's warm start (f_0 = h M(q_0)^{-1} p_0, then the
-    previous step's f and lam), q_{k+1} and p_{k+1} then explicit (the rows are linear in
-    them with identity coefficients: the updates are those of Newton on the whole square
-    system). Converged: every entry finite and the left and constraint rows' max-norm at
+    constraint rows from the simulator's warm start (f_0 = h M(q_0)^{-1} p_0, 0 from rest
+    without evaluating M, then the previous step's f and lam), q_{k+1} and p_{k+1} then
+    explicit (the rows are linear in them with identity coefficients: the updates are
+    those of Newton on the whole square system). Converged: every entry finite and the left and constraint rows' max-norm at
     most `tol` (1 + max(|p_k|, |p_{k+1}|)), the simulator's test of a step
     (`DiracStepper.accepted`; the other rows hold exactly). Not converged also when the
     virtual machine's linear solver refuses an update (entries not finite). `transcription`
@@ -47,8 +47,9 @@ def nlp_replay(problem, traj, tol=1e-12, transcription=None):
     N, h = problem.steps, problem.disc.h
     horizon = _HORIZONS.get((step.function_key, N), lambda: _horizon(T, step, N))
     q0, p0 = traj.q[0], traj.p[0]
-    mass = np.array(problem.disc.system.generalized_mass(q0))
-    y0 = np.concatenate([h * np.linalg.solve(mass, p0), np.zeros(problem.disc.system.m)])
+    y0 = np.zeros(p0.size + problem.disc.system.m)
+    if p0.any():                    # at rest f_0 = 0, without M(q_0)
+        y0[:p0.size] = h * np.linalg.solve(np.array(problem.disc.system.generalized_mass(q0)), p0)
     w = np.tile(T.p[step.p_index[:, 0]][:, None], (1, N))
     try:
         states, rows, scale = (np.array(v) for v in horizon(np.concatenate([q0, p0, y0]), traj.u.T, w))
