@@ -27,10 +27,10 @@ def nlp_replay(problem, traj, tol=1e-12, transcription=None):
     Step k solves the 2n + m rows of the residual and the 9 + n_x rows q_{k+1} - (R_k
     cay(f_k), x_k + dx_k) for (q_{k+1}, p_{k+1}, f_k, lam_k) at the replayed (q_k, p_k) and
     the optimum's u_k: NEWTON_ITERATIONS Newton updates of (f_k, lam_k) on the left and
-    constraint rows from the simulator's warm start (f_0 = h M(q_0)^{-1} p_0, then the
-    previous step's f and lam), q_{k+1} and p_{k+1} then explicit (the rows are linear in
-    them with identity coefficients: the updates are those of Newton on the whole square
-    system). Converged: every entry finite and the left and constraint rows' max-norm at
+    constraint rows from the simulator's warm start (f_0 = h M(q_0)^{-1} p_0, 0 from rest
+    without evaluating M, then the previous step's f and lam), q_{k+1} and p_{k+1} then
+    explicit (the rows are linear in them with identity coefficients: the updates are
+    those of Newton on the whole square system). Converged: every entry finite and the left and constraint rows' max-norm at
     most `tol` (1 + max(|p_k|, |p_{k+1}|)), the simulator's test of a step
     (`DiracStepper.accepted`; the other rows hold exactly). Not converged also when the
     virtual machine's linear solver refuses an update (entries not finite). `transcription`
@@ -47,8 +47,9 @@ def nlp_replay(problem, traj, tol=1e-12, transcription=None):
     N, h = problem.steps, problem.disc.h
     horizon = _HORIZONS.get((step.function_key, N), lambda: _horizon(T, step, N))
     q0, p0 = traj.q[0], traj.p[0]
-    mass = np.array(problem.disc.system.generalized_mass(q0))
-    y0 = np.concatenate([h * np.linalg.solve(mass, p0), np.zeros(problem.disc.system.m)])
+    y0 = np.zeros(p0.size + problem.disc.system.m)
+    if p0.any():                    # at rest f_0 = 0, without M(q_0)
+        y0[:p0.size] = h * np.linalg.solve(np.array(problem.disc.system.generalized_mass(q0)), p0)
     w = np.tile(T.p[step.p_index[:, 0]][:, None], (1, N))
     try:
         states, rows, scale = (np.array(v) for v in horizon(np.concatenate([q0, p0, y0]), traj.u.T, w))
@@ -69,11 +70,12 @@ def _horizon(T, step, N):
     Newton's updates of (f, lam) are those of the whole square system, solved on the
     (n + m) square block of the left and constraint rows (7 x 7 on the rolling ball, by
     a QR Linsol; the simulator's cofactors, `schur_complement.newton_update`, take longer
-    to build), and q_{k+1}, p_{k+1} follow from the rows at q_{k+1} = p_{k+1} = 0. An
-    update and the last rows are MX Functions calling the local Jacobian's Function (rows
-    and nonzeros in one call) and the term's, not inlining them (the SX Functions that
-    inline them took 0.5 ms more to build, 0.08 ms less to run 20 steps); the Newton loop
-    calls the update, mapaccum'ed in the virtual machine. The group transcription has
+    to build), and q_{k+1}, p_{k+1} follow from the rows at q_{k+1} = p_{k+1} = 0. The
+    update is an MX Function calling the local Jacobian's Function (rows and nonzeros in
+    one call), not inlining it (the SX Functions that inline it took 0.5 ms more to
+    build, 0.08 ms less to run 20 steps); the step, mapaccum'ed in the virtual machine,
+    calls the update NEWTON_ITERATIONS times and the term's Function for the last rows
+    (two MX Functions to build, no third one for the end). The group transcription has
     unit scales, so z holds x's entries as they are."""
     local = local_derivatives(step.function, step.function_key)
     layout, R = T.x_layout, T.dynamics_rows
@@ -101,14 +103,14 @@ def _horizon(T, step, N):
     solve = ca.Linsol("replay_solve", "qr", block_jacobian.sparsity())
     update = ca.Function("replay_update", [S, Y, U, W],
                          [Y - solve.solve(block_jacobian, g[rows.tolist()])])
-    g = step.function(z_of, W)[1]
-    p1 = g[R.slice("right")]
-    finish = ca.Function("replay_end", [S, Y, U, W],
-                         [ca.vertcat(-g[R.size:], p1, Y), ca.norm_inf(g[rows.tolist()]),
-                          1 + ca.fmax(ca.norm_inf(S[n_q:]), ca.norm_inf(p1))])
-    state = ca.MX.sym("state", n_q + 2 * n + m)
-    start, y = state[:n_q + n], state[n_q + n:]
+    y = Y
     for _ in range(NEWTON_ITERATIONS):
-        y = update(start, y, U, W)
-    one = ca.Function("replay_step", [state, U, W], finish(start, y, U, W))
+        y = update(S, y, U, W)
+    # the step's end at the last y, in the step's Function itself (no Function of its own)
+    g = step.function(ca.vertcat(S, y, U, ca.MX(1, 1))[source], W)[1]
+    p1 = g[R.slice("right")]
+    state = ca.vertcat(S, Y)
+    one = ca.Function("replay_step", [state, U, W],
+                      [ca.vertcat(-g[R.size:], p1, y), ca.norm_inf(g[rows.tolist()]),
+                       1 + ca.fmax(ca.norm_inf(S[n_q:]), ca.norm_inf(p1))])
     return one.mapaccum("replay", N)

@@ -165,3 +165,35 @@ def test_a_judged_solve_builds_its_transcription_once(monkeypatch):
     result = dmoc.optimize(problem)
     assert result.verdict.passed and len(built) == 1
     assert judge_on_group(problem, result) == result.verdict and len(built) == 2
+
+
+def test_the_replay_builds_the_newton_update_and_the_step_only(monkeypatch, optimum):
+    """The replay's horizon makes two MX Functions, the Newton update and the step that
+    calls it NEWTON_ITERATIONS times and ends with the term's rows itself (no Function of
+    its own for the end), and replays the optimum onto itself."""
+    problem, result = optimum
+    made, real = [], ca.Function
+
+    def counted(*args, **keywords):
+        made.append(args[0])
+        return real(*args, **keywords)
+    monkeypatch.setattr(group_replay.ca, "Function", counted)
+    group_replay._HORIZONS.clear()
+    replay = group_replay.nlp_replay(problem, result.trajectory)
+    assert made == ["replay_update", "replay_step"]
+    assert np.abs(replay.q - result.trajectory.q).max() <= 1e-10
+
+
+@pytest.mark.parametrize("omega_start, masses", [(None, 0), ([0.3, -0.2, 0.1], 1)])
+def test_the_replay_from_rest_starts_at_zero_without_the_mass_matrix(monkeypatch, omega_start, masses):
+    """The replay's first warm start f_0 = h M(q_0)^{-1} p_0: 0 from rest without evaluating
+    M; from a moving start M once. Either way the optimum replays onto itself."""
+    problem = slew(THETA, **({} if omega_start is None else {"omega_start": omega_start}))
+    result = dmoc.optimize(problem, options=QUIET)
+    system, calls = problem.disc.system, []
+    real = system.generalized_mass
+    monkeypatch.setattr(system, "generalized_mass", lambda q: calls.append(q) or real(q))
+    replay = group_replay.nlp_replay(problem, result.trajectory)
+    assert len(calls) == masses and (np.abs(result.trajectory.p[0]).max() > 0) == bool(masses)
+    assert np.abs(replay.q - result.trajectory.q).max() <= 1e-10
+    assert np.abs(replay.p - result.trajectory.p).max() <= 1e-10
