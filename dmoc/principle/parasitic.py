@@ -37,8 +37,8 @@ def check_alternating_mode(disc, plus_residual):
     ----------
     disc : Discretization
     plus_residual : callable
-        Returns the (+) StepResidual of `disc`; called only when the growth for this system
-        and rule is not known yet.
+        Returns the (+) StepResidual of `disc`; called only when the growth for this system,
+        rule and h is not known yet.
 
     Notes
     -----

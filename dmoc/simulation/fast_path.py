@@ -84,7 +84,8 @@ def _chord_step(stepper, rows, eliminate):
     more, each of these through a conditional (CasADi's Switch: C's ``if`` when compiled)
     that takes it only while the error the updates leave exceeds CHORD_STOP_TOL
     (`more_updates`, from the last update's size and rate and the rate before), and an SX
-    Function of the step's end; the SX ones after ``ca.cse`` with `eliminate`. A step pays
+    Function of the step's end; the start and the end after ``ca.cse`` with `eliminate` (the
+    update as it is). A step pays
     for the updates it needs, and the compiled code holds one update's instructions, not
     CHORD_ITERATIONS copies."""
     state, u, h, params, guess = stepper.symbols(ca.SX)

@@ -307,7 +307,7 @@ def test_a_step_too_large_for_the_motion_is_explained():
     with pytest.raises(dmoc.SolverError) as failure:
         dmoc.simulate(dmoc.discretize(pendulum, 0.1), q0=[2.0, 1.0], v0=[20.0, -30.0], steps=200)
     message = str(failure.value)
-    assert "joint velocities at the last accepted step: shoulder" in message
+    assert "velocities at the last accepted step: shoulder" in message
     assert "h = 0.1 is too large for the fastest motion" in message
     assert failure.value.result.status == "newton_failed"
 

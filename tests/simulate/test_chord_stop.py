@@ -94,10 +94,11 @@ def test_an_update_at_the_floor_is_judged_at_the_rate_before_it():
     """At the floor (at most 8 eps relative) the rate over the update before is noise: 4e-16
     after 3e-16 stops when the rate before was 1e-3 (tail 4e-19), not when it was 1.5e-2
     (tail 6e-18, as a 12-joint chain's step) or unknown (the first rate); above the floor
-    (1e-14) the rate of the last two updates tells the tail, 0.75 here, whatever came before."""
+    (1e-14) the rate of the last two updates tells the tail, 0.75 here, whatever came before
+    (a rate before of 1e-5 would give a tail of 1e-19, below the stop)."""
     def more(last, before, rate_before):
         return bool(chord_update.more_updates(ca.DM(last), ca.DM(before), ca.DM(rate_before)))
     assert not more(4e-16, 3e-16, 1e-3)
     assert more(4e-16, 3e-16, 1.5e-2) and more(4e-16, 3e-16, np.inf)
-    assert more(1e-14, 1.33e-14, 1e-3)
+    assert more(1e-14, 1.33e-14, 1e-5)
     assert not more(1e-17, 1e-14, 0.5)        # the tail itself: 1e-20

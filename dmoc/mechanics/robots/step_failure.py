@@ -15,7 +15,7 @@ NEAR_SINGULAR = 1e8
 
 
 def step_failure_hint(system, q, p, h):
-    """A sentence for a SolverError: the joint velocities at the last accepted state, the
+    """A sentence for a SolverError: the velocities at the last accepted state, the
     likely cause of a failed step and what to do.
 
     Parameters
@@ -59,7 +59,7 @@ def explained(M, p, h, names, units, K=None):
     omega = 0.0 if K is None else np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(M, K))).max())
     turning = np.where([unit == "rad" for unit in units], np.abs(v), 0.0)
     speeds = ", ".join(f"{name} {x:.3g} {unit}/s" for name, x, unit in zip(names, v, units))
-    state = (f"joint velocities at the last accepted step: {speeds}"
+    state = (f"velocities at the last accepted step: {speeds}"
              + f"; M(q) has condition number {condition:.2g} (eigenvalues {inertia[0]:.2g} to "
              f"{inertia[-1]:.2g})" + ("" if K is None else f", the fastest gravity mode "
                                                            f"omega = {omega:.3g} rad/s"))
