@@ -44,3 +44,13 @@ def test_other_arguments_take_the_operators():
     assert typed_ops.plus(1, 2) == 3
     assert np.array_equal(np.array(typed_ops.fabs(np.array([-1.0, 2.0]))).ravel(), [1.0, 2.0])
     assert np.array_equal(np.array(typed_ops.column(np.eye(2))), np.array([[1.0], [0.0], [0.0], [1.0]]))
+
+
+def test_sx_keeps_an_sx_and_converts_the_rest():
+    x = ca.SX.sym("x", 3)
+    assert typed_ops.sx(x) is x
+    assert _same([x], typed_ops.sx(2.0 * x), ca.SX(2.0 * x))
+    for value in (2.5, np.array([1.0, 2.0]), ca.DM([[1.0, 2.0]])):
+        converted = typed_ops.sx(value)
+        assert type(converted) is ca.SX
+        np.testing.assert_array_equal(np.array(ca.DM(converted)), np.array(ca.DM(ca.SX(value))))

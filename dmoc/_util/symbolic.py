@@ -9,6 +9,7 @@ import math
 
 import casadi as ca
 
+from . import typed_ops
 from ..errors import InputError, InputTypeError
 
 
@@ -45,7 +46,7 @@ def user_function(name, fun, symbols, arg_names, shape, problems, *, label=None)
                         f"{type(err).__name__}: {err}{_numeric_hint(err)}")
         return None
     try:
-        raw = value if type(value) is ca.SX else ca.SX(value)    # (SX(SX) converts anew)
+        raw = typed_ops.sx(value)
     except Exception:  # a list of expressions, or an object CasADi cannot convert
         problems.append(f"`{name}` must return a CasADi expression; got a "
                         f"{type(value).__name__} it cannot convert{_container_hint(value)}.")

@@ -82,6 +82,12 @@ def column(x):
     return x if type(x) in _SYMBOLIC and x.size2() == 1 else ca.vec(x)
 
 
+def sx(x):
+    """``ca.SX(x)``: an SX itself (the constructor on an SX converts it anew, through SWIG's
+    overload resolution), anything else converted."""
+    return x if type(x) is ca.SX else ca.SX(x)
+
+
 def fabs(x):
     """|x| entrywise."""
     return type(x).unary(ca.OP_FABS, x) if type(x) in _SYMBOLIC else ca.fabs(x)

@@ -171,8 +171,7 @@ def slot_term(name, slots, body, g_index, key, scales, *, plain=False):
         values = {k: _scaled(symbols[owner[k]], scale[k]) for k in slots}
         f, g = body({k: typed_ops.plus(values[k], values["q_ref"]) if src == "q" else values[k]
                      for k, (src, _) in slots.items()})
-        f, g = (x if type(x) is ca.SX else ca.SX(x) for x in (f, g))   # (SX(SX) converts anew)
-        g = _scaled(g, row_scale)
+        f, g = typed_ops.sx(f), _scaled(typed_ops.sx(g), row_scale)
         function = ca.Function(name, [z, w], [f, g], ["z", "w"], ["f", "g"])
         by_value = (hashlib.sha256(repr((name, key, aliases, scaling)).encode()).hexdigest() if plain
                     else function_key(function))
